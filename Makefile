@@ -1,0 +1,38 @@
+# accelcal: every target creates the virtual environment when it is missing.
+PYTHON ?= python3.11
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed
+DEMO_DIR ?= demo-output
+
+.PHONY: venv test demo gui bench lint clean
+
+venv: $(STAMP)
+
+$(STAMP): pyproject.toml
+	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e '.[test]'
+	@touch $(STAMP)
+
+test: $(STAMP)
+	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest -q
+
+demo: $(STAMP)
+	$(BIN)/python -m tests.synthetic $(DEMO_DIR)/recording.h5
+	$(BIN)/accelcal plan --preset piezo
+	$(BIN)/accelcal analyze $(DEMO_DIR)/recording.h5
+
+gui: $(STAMP)
+	$(BIN)/accelcal gui --sim
+
+bench: $(STAMP)
+	$(BIN)/python bench/crest_factor.py
+	$(BIN)/python bench/analysis_speed.py
+
+lint: $(STAMP)
+	$(BIN)/ruff check dsp hardware sim app tests bench
+	$(BIN)/ruff format --check dsp hardware sim app tests bench
+
+clean:
+	rm -rf $(VENV) $(DEMO_DIR) .pytest_cache

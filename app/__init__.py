@@ -1,0 +1,1 @@
+"""accelcal: accelerometer calibration by comparison with multisine excitation."""

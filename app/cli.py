@@ -1,0 +1,350 @@
+"""The `accelcal` command line: thin, it calls the same code as the GUI and prints results.
+
+Exit codes: 0 success, 2 bad input (options, plan, file), 1 any other failure.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import tomllib
+from collections.abc import Sequence
+from pathlib import Path
+
+from app import formatting as fmt
+from app.analysis import analyze
+from app.recording import RecordingError, read_csv, read_recording
+from dsp import iso266
+from dsp.calibration import AnalysisError, ReferenceChain, Results
+from dsp.multisine import PRESETS, Plan, PlanError, make_plan
+from dsp.segments import SegmentError
+from dsp.uncertainty import Budget
+
+EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
+
+
+class UsageError(ValueError):
+    """Bad command-line input; the message names the option."""
+
+
+def parse_frequencies(text: str) -> list[float]:
+    """'10,12.5,...,2500' -> ISO 266 values; plain lists are taken as given (Hz)."""
+    items = [item.strip() for item in text.split(",") if item.strip()]
+    values: list[float | None] = []
+    for item in items:
+        if item in ("...", "…"):
+            values.append(None)
+            continue
+        try:
+            values.append(float(item))
+        except ValueError:
+            raise UsageError(f"--frequencies: {item!r} is not a number of Hz") from None
+    out: list[float] = []
+    for i, value in enumerate(values):
+        if value is not None:
+            if out and value <= out[-1]:
+                raise UsageError("--frequencies: values must increase")
+            out.append(value)
+            continue
+        if i == 0 or i == len(values) - 1 or values[i - 1] is None or values[i + 1] is None:
+            raise UsageError("--frequencies: '...' must stand between two frequencies")
+        low, high = values[i - 1], values[i + 1]
+        out += [f for f in iso266.nominal_frequencies(low, high) if low < f < high]
+    if not out:
+        raise UsageError("--frequencies: no frequency given")
+    return out
+
+
+def _positive(name: str, value: float | None) -> None:
+    if value is not None and not (math.isfinite(value) and value > 0):
+        raise UsageError(f"{name}: must be > 0, got {value:g}")
+
+
+def _plan_from_options(args: argparse.Namespace, *, optimise: bool) -> Plan:
+    """The plan the options describe: a preset, with any of its fields overridden."""
+    preset = PRESETS[args.preset or "piezo"]
+    freqs = (
+        parse_frequencies(args.frequencies)
+        if args.frequencies is not None
+        else list(preset.nominal_frequencies_hz)
+    )
+    for name in ("sample_rate", "level", "reference_frequency", "mains"):
+        _positive("--" + name.replace("_", "-"), getattr(args, name))
+    if args.period is not None and args.period < 4:
+        raise UsageError(f"--period: must be >= 4 samples, got {args.period}")
+    return make_plan(
+        freqs,
+        args.sample_rate or preset.sample_rate_hz,
+        args.period or preset.period_samples,
+        args.level or preset.level_ms2,
+        args.reference_frequency or preset.reference_frequency_hz,
+        mains_frequency_hz=args.mains,
+        shift_mains_lines=getattr(args, "shift_mains", False),
+        phases_rad=None if optimise else [0.0] * len(freqs),
+    )
+
+
+def _add_plan_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--preset", choices=sorted(PRESETS), help="named plan (default piezo)")
+    p.add_argument("--frequencies", help="line list in Hz, e.g. 10,12.5,...,2500 (ISO 266 fill)")
+    p.add_argument("--sample-rate", type=float, help="sample rate in Hz")
+    p.add_argument("--period", type=int, help="period length in samples")
+    p.add_argument("--level", type=float, help="target peak acceleration per line, m/s^2")
+    p.add_argument("--reference-frequency", type=float, help="reference frequency in Hz")
+    p.add_argument("--mains", type=float, default=50.0, help="mains frequency in Hz (50)")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="accelcal",
+        description="Accelerometer calibration by comparison, multisine excitation.",
+    )
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    p = sub.add_parser("plan", help="show a frequency plan, its checks and predicted peaks")
+    _add_plan_options(p)
+    p.add_argument("--shift-mains", action="store_true", help="move lines off mains harmonics")
+    p.add_argument("--json", action="store_true", help="machine-readable output")
+
+    a = sub.add_parser("analyze", help="re-analyse a recording (HDF5 of this program or CSV)")
+    a.add_argument("file", type=Path, help="recording.h5 or recording.csv")
+    a.add_argument("--estimator", choices=("periodic", "h1", "seed"), default="periodic")
+    a.add_argument("--segments", type=int, help="the seed's protocol: L equal segments")
+    a.add_argument("--coverage", type=float, default=0.9545, help="coverage probability")
+    a.add_argument("--seed-rule", action="store_true", help="the seed's coverage factor rule")
+    a.add_argument("--tolerance", type=float, help="DUT tolerance of the characteristic, %%")
+    a.add_argument("--json", action="store_true", help="results as JSON")
+    a.add_argument("--csv", type=Path, help="also write the per-line results as CSV here")
+    csv_group = a.add_argument_group("CSV recordings (an HDF5 recording carries these)")
+    _add_plan_options(csv_group)
+    csv_group.add_argument("--reference-sensitivity", type=float, help="mV/(m/s^2)")
+    csv_group.add_argument("--reference-gain", type=float, default=None, help="V/V")
+    csv_group.add_argument("--dut-gain", type=float, default=None, help="V/V")
+    csv_group.add_argument("--skew", type=float, default=None, help="DUT channel delay, s")
+    csv_group.add_argument("--settle-periods", type=int, default=0, help="periods to skip")
+    csv_group.add_argument("--range", type=float, dest="range_v", help="channel range, V")
+    csv_group.add_argument("--budget", type=Path, help="type B budget, TOML [[component]]")
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        if args.command == "plan":
+            return cmd_plan(args)
+        if args.command == "analyze":
+            return cmd_analyze(args)
+    except (UsageError, PlanError, RecordingError, SegmentError, AnalysisError) as exc:
+        print(f"accelcal {args.command}: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print(f"accelcal {args.command}: interrupted", file=sys.stderr)
+        return EXIT_FAILURE
+    except Exception as exc:
+        print(f"accelcal {args.command}: failed: {type(exc).__name__}: {exc}", file=sys.stderr)
+        return EXIT_FAILURE
+    return EXIT_FAILURE
+
+
+def plan_report(plan: Plan) -> dict:
+    peaks = plan.predicted_peaks()
+    data = plan.to_dict()
+    data.update(
+        period_s=plan.period_s,
+        resolution_hz=plan.resolution_hz,
+        crest_factor=plan.crest_factor(),
+        continuous_crest_factor=plan.continuous_crest_factor(),
+        peak_acceleration_ms2=peaks.acceleration_ms2,
+        peak_velocity_m_per_s=peaks.velocity_m_per_s,
+        peak_displacement_m=peaks.displacement_m,
+        peak_to_peak_displacement_m=peaks.displacement_peak_to_peak_m,
+    )
+    return data
+
+
+def cmd_plan(args: argparse.Namespace) -> int:
+    plan = _plan_from_options(args, optimise=True)
+    report = plan_report(plan)
+    if args.json:
+        print(json.dumps(report, indent=2))
+        return EXIT_OK
+    print(
+        f"Plan: {len(plan.lines)} lines, fs {plan.sample_rate_hz:g} Hz, period "
+        f"{plan.period_samples} samples ({plan.period_s:g} s, bins {plan.resolution_hz:g} Hz), "
+        f"reference {plan.reference_frequency_hz:g} Hz"
+    )
+    rows = [
+        [
+            f"{ln.nominal_frequency_hz:g}",
+            f"{ln.frequency_hz:g}",
+            str(ln.bin),
+            f"{ln.amplitude_ms2:g}",
+            f"{ln.phase_rad:.3f}",
+        ]
+        for ln in plan.lines
+    ]
+    print(fmt.table(["nominal Hz", "actual Hz", "bin", "peak m/s^2", "phase rad"], rows))
+    print(
+        f"Crest factor (acceleration): {report['crest_factor']:.2f} on the samples, "
+        f"{report['continuous_crest_factor']:.2f} between them"
+    )
+    print(
+        f"Predicted peaks: acceleration {report['peak_acceleration_ms2']:.1f} m/s^2, velocity "
+        f"{1e3 * report['peak_velocity_m_per_s']:.1f} mm/s, displacement "
+        f"{1e3 * report['peak_displacement_m']:.3f} mm "
+        f"({1e3 * report['peak_to_peak_displacement_m']:.3f} mm p-p)"
+    )
+    for warning in plan.warnings:
+        print(f"warning: {warning}")
+    return EXIT_OK
+
+
+def _load(args: argparse.Namespace):
+    suffix = args.file.suffix.lower()
+    if suffix in (".h5", ".hdf5"):
+        given = [
+            name
+            for name in (
+                "preset",
+                "frequencies",
+                "sample_rate",
+                "period",
+                "reference_sensitivity",
+                "reference_gain",
+                "dut_gain",
+                "skew",
+                "budget",
+                "range_v",
+            )
+            if getattr(args, name) not in (None, False)
+        ]
+        if given:
+            opts = ", ".join("--" + g.replace("_", "-").replace("range-v", "range") for g in given)
+            raise UsageError(f"{opts}: not allowed with an HDF5 recording, which stores them")
+        return read_recording(args.file)
+    if suffix not in (".csv", ".txt"):
+        raise UsageError(f"{args.file}: unknown recording type (use .h5/.hdf5 or .csv)")
+    if args.preset is None and (
+        args.frequencies is None or args.sample_rate is None or args.period is None
+    ):
+        raise UsageError(
+            "--preset, or --frequencies with --sample-rate and --period: a CSV recording "
+            "needs its plan"
+        )
+    if args.reference_sensitivity is None:
+        raise UsageError("--reference-sensitivity: a CSV recording needs it (mV/(m/s^2))")
+    for name in ("reference_sensitivity", "reference_gain", "dut_gain", "sample_rate", "range_v"):
+        _positive("--" + name.replace("_", "-"), getattr(args, name))
+    plan = _plan_from_options(args, optimise=False)
+    chain = ReferenceChain.flat(
+        args.reference_sensitivity,
+        reference_gain=args.reference_gain or 1.0,
+        dut_gain=args.dut_gain or 1.0,
+        skew_s=args.skew or 0.0,
+    )
+    budget = _read_budget(args.budget) if args.budget else Budget(())
+    return read_csv(
+        args.file, plan, chain, budget, settle_periods=args.settle_periods, range_v=args.range_v
+    )
+
+
+def _read_budget(path: Path) -> Budget:
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise UsageError(f"--budget: {path}: no such file") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise UsageError(f"--budget: {path}: {exc}") from None
+    entries = data.get("component")
+    if not isinstance(entries, list):
+        raise UsageError(f"--budget: {path}: expected [[component]] tables")
+    try:
+        return Budget.from_list(entries)
+    except ValueError as exc:
+        raise UsageError(f"--budget: {path}: {exc}") from None
+
+
+def cmd_analyze(args: argparse.Namespace) -> int:
+    if not 0 < args.coverage < 1:
+        raise UsageError(f"--coverage: must be between 0 and 1, got {args.coverage:g}")
+    if args.segments is not None and args.segments < 1:
+        raise UsageError(f"--segments: must be >= 1, got {args.segments}")
+    recording = _load(args)
+    analysis = analyze(
+        recording,
+        estimator=args.estimator,
+        segments=args.segments,
+        probability=args.coverage,
+        rule="seed" if args.seed_rule else "gum",
+        tolerance_percent=args.tolerance,
+    )
+    results = analysis.results
+    if args.csv:
+        args.csv.write_text(results.to_csv(), encoding="utf-8")
+    if args.json:
+        print(json.dumps(results.to_dict(), indent=2))
+    else:
+        print_results(results, recording.source)
+    return EXIT_OK
+
+
+def print_results(results: Results, source: str = "") -> None:
+    """Human-readable results: reference sensitivity, per-line table, warnings."""
+    r = results.reference
+    value, u = fmt.round_gum(r.sensitivity_mv_per_ms2, r.expanded_uncertainty_mv_per_ms2)
+    print(
+        f"{source}: {results.periods} {'periods' if results.periods != 1 else 'period'}, "
+        f"estimator {results.estimator}"
+    )
+    print(
+        f"Reference sensitivity at {r.frequency_hz:g} Hz: {value} mV/(m/s^2) "
+        f"({r.sensitivity_db:.2f} dB re 1 mV/(m/s^2)), U = {u} mV/(m/s^2) "
+        f"(k = {r.coverage_factor:.2f}, p = {100 * r.coverage_probability:.2f} %)"
+    )
+    rows = []
+    for ln in results.lines:
+        s, us = fmt.round_gum(ln.sensitivity_mv_per_ms2, ln.expanded_uncertainty_mv_per_ms2)
+        rows.append(
+            [
+                f"{ln.nominal_frequency_hz:g}",
+                f"{ln.frequency_hz:g}",
+                s,
+                us,
+                f"{ln.deviation_percent:+.2f}",
+                f"{ln.phase_deg:.2f}",
+                f"{ln.phase_expanded_uncertainty_deg:.2f}",
+                fmt.percent(ln.relative_expanded_uncertainty),
+                f"{ln.coverage_factor:.2f}",
+                f"{ln.coherence:.4f}",
+                f"{ln.dut_snr_db:.0f}",
+                ln.iso_verdict,
+            ]
+        )
+    print(
+        fmt.table(
+            [
+                "nominal Hz",
+                "actual Hz",
+                "S mV/(m/s^2)",
+                "U",
+                "dev %",
+                "phase deg",
+                "U deg",
+                "U rel",
+                "k",
+                "coherence",
+                "SNR dB",
+                "ISO 16063-21",
+            ],
+            rows,
+        )
+    )
+    for warning in results.warnings:
+        print(f"warning: {warning}")
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

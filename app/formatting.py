@@ -1,0 +1,34 @@
+"""Presentation helpers shared by the CLI, the GUI and the certificate."""
+
+from __future__ import annotations
+
+import math
+
+
+def round_gum(value: float, uncertainty: float, digits: int = 2) -> tuple[str, str]:
+    """Round per GUM 7.2.6: uncertainty to `digits` significant digits, value to the same place."""
+    if not (math.isfinite(value) and math.isfinite(uncertainty)) or uncertainty <= 0:
+        return (f"{value:.4g}" if math.isfinite(value) else "n/a", "n/a")
+    exponent = math.floor(math.log10(uncertainty)) - (digits - 1)
+    rounded_u = round(uncertainty, -exponent)
+    if rounded_u >= 10 ** (exponent + digits):  # e.g. 0.0996 -> 0.10: one digit more
+        exponent += 1
+        rounded_u = round(uncertainty, -exponent)
+    decimals = max(0, -exponent)
+    return f"{round(value, -exponent):.{decimals}f}", f"{rounded_u:.{decimals}f}"
+
+
+def percent(ratio: float, decimals: int = 2) -> str:
+    """A ratio (0.01) as a percentage string ('1.00 %'), 'n/a' when not finite."""
+    return f"{100 * ratio:.{decimals}f} %" if math.isfinite(ratio) else "n/a"
+
+
+def table(headers: list[str], rows: list[list[str]]) -> str:
+    """A plain text table with right-aligned columns."""
+    widths = [
+        max(len(h), *(len(r[i]) for r in rows)) if rows else len(h) for i, h in enumerate(headers)
+    ]
+    lines = ["  ".join(h.rjust(w) for h, w in zip(headers, widths, strict=True))]
+    lines.append("  ".join("-" * w for w in widths))
+    lines += ["  ".join(c.rjust(w) for c, w in zip(r, widths, strict=True)) for r in rows]
+    return "\n".join(lines)

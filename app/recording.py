@@ -1,0 +1,412 @@
+"""The recording format: raw channels in volts plus everything needed to re-analyse them.
+
+HDF5 layout (format "accelcal-recording", version 1):
+
+    /                 attrs: format, format_version, sample_rate_hz, period_samples,
+                             settle_periods, created_utc, software_version
+    /signals/reference  float64 V, chunked one period, resizable; attrs unit, range_v (0 = unknown)
+    /signals/dut        idem
+    /signals/drive      idem, optional (the DAQ output)
+    /config           attrs (JSON text): plan, reference_chain, budget
+
+CSV import: two columns (reference, DUT) or three (plus drive) in volts, one optional header
+line; the plan comes from options. Files that are malformed (missing dataset, wrong length,
+NaN/inf, a flat dead channel, samples at a channel's range limit) are refused with a
+RecordingError that names the file, the channel and the problem.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+
+from dsp.calibration import ReferenceChain
+from dsp.multisine import Plan, PlanError
+from dsp.uncertainty import Budget
+
+FORMAT_NAME = "accelcal-recording"
+FORMAT_VERSION = 1
+CHANNELS = ("reference", "dut")
+OVERLOAD_FRACTION = 0.995  # a sample within 0.5 % of the range is at its limit (SPEC s.11)
+FLAT_TOP_RUN = 5  # without a known range: this many equal samples at the extreme = clipped
+
+
+class RecordingError(ValueError):
+    """A recording that cannot be analysed; the message names the file and the problem."""
+
+
+def software_version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("accelcal")
+    except PackageNotFoundError:
+        return "unknown"
+
+
+@dataclass(frozen=True)
+class Recording:
+    """A two-channel recording held in memory (volts), with its analysis context."""
+
+    sample_rate_hz: float
+    period_samples: int
+    reference_v: np.ndarray
+    dut_v: np.ndarray
+    plan: Plan
+    chain: ReferenceChain
+    budget: Budget
+    settle_periods: int = 0
+    drive_v: np.ndarray | None = None
+    ranges_v: dict[str, float] = field(default_factory=dict)
+    source: str = ""
+
+    @property
+    def periods(self) -> int:
+        """Whole periods in the recording, settle periods included."""
+        return self.reference_v.size // self.period_samples
+
+    def analysis_periods(self) -> tuple[np.ndarray, np.ndarray]:
+        """Reference and DUT as (periods, N) arrays, settle periods skipped (views)."""
+        n = self.period_samples
+        start = self.settle_periods * n
+        ref = self.reference_v[start:].reshape(-1, n)
+        dut = self.dut_v[start:].reshape(-1, n)
+        return ref, dut
+
+
+class RecordingWriter:
+    """Appends periods to an HDF5 recording and flushes after each, so a cut run stays readable."""
+
+    def __init__(
+        self,
+        path: str | Path,
+        plan: Plan,
+        chain: ReferenceChain,
+        budget: Budget,
+        *,
+        settle_periods: int = 0,
+        with_drive: bool = False,
+        ranges_v: dict[str, float] | None = None,
+        created_utc: str | None = None,
+    ):
+        self.path = Path(path)
+        self._file = h5py.File(self.path, "w")
+        f = self._file
+        f.attrs["format"] = FORMAT_NAME
+        f.attrs["format_version"] = FORMAT_VERSION
+        f.attrs["sample_rate_hz"] = plan.sample_rate_hz
+        f.attrs["period_samples"] = plan.period_samples
+        f.attrs["settle_periods"] = int(settle_periods)
+        f.attrs["created_utc"] = created_utc or datetime.now(UTC).isoformat(timespec="seconds")
+        f.attrs["software_version"] = software_version()
+        config = f.create_group("config")
+        config.attrs["plan"] = json.dumps(plan.to_dict())
+        config.attrs["reference_chain"] = json.dumps(chain.to_dict())
+        config.attrs["budget"] = json.dumps(budget.to_list())
+        signals = f.create_group("signals")
+        names = (*CHANNELS, "drive") if with_drive else CHANNELS
+        ranges_v = ranges_v or {}
+        self._datasets = {}
+        for name in names:
+            ds = signals.create_dataset(
+                name,
+                shape=(0,),
+                maxshape=(None,),
+                dtype="f8",
+                chunks=(plan.period_samples,),
+            )
+            ds.attrs["unit"] = "V"
+            ds.attrs["range_v"] = float(ranges_v.get(name, 0.0))
+            self._datasets[name] = ds
+
+    def append(self, reference_v: np.ndarray, dut_v: np.ndarray, drive_v=None) -> None:
+        """Append samples (volts) of every channel and flush to disk."""
+        blocks = {"reference": reference_v, "dut": dut_v}
+        if "drive" in self._datasets:
+            if drive_v is None:
+                raise ValueError("recording: this file has a drive channel; give drive_v")
+            blocks["drive"] = drive_v
+        lengths = {np.asarray(b).size for b in blocks.values()}
+        if len(lengths) != 1:
+            raise ValueError("recording: every channel needs the same number of samples")
+        for name, block in blocks.items():
+            ds = self._datasets[name]
+            start = ds.shape[0]
+            ds.resize((start + np.asarray(block).size,))
+            ds[start:] = block
+        self._file.flush()
+
+    def close(self) -> None:
+        if self._file.id.valid:
+            self._file.close()
+
+    def __enter__(self) -> RecordingWriter:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def write_recording(path: str | Path, recording: Recording) -> None:
+    """Write a whole in-memory recording to HDF5."""
+    with RecordingWriter(
+        path,
+        recording.plan,
+        recording.chain,
+        recording.budget,
+        settle_periods=recording.settle_periods,
+        with_drive=recording.drive_v is not None,
+        ranges_v=recording.ranges_v,
+    ) as writer:
+        writer.append(recording.reference_v, recording.dut_v, recording.drive_v)
+
+
+def read_recording(path: str | Path) -> Recording:
+    """Read and validate an HDF5 recording of this program."""
+    path = Path(path)
+    name = path.name
+    try:
+        handle = h5py.File(path, "r")
+    except FileNotFoundError:
+        raise RecordingError(f"{path}: no such file") from None
+    except OSError as exc:
+        raise RecordingError(f"{name}: not a readable HDF5 file ({exc})") from None
+    with handle as f:
+        if f.attrs.get("format") != FORMAT_NAME:
+            raise RecordingError(f"{name}: not an {FORMAT_NAME} file (attribute 'format')")
+        version = int(f.attrs.get("format_version", -1))
+        if version > FORMAT_VERSION:
+            raise RecordingError(
+                f"{name}: format_version {version} is newer than this program's {FORMAT_VERSION}"
+            )
+        attrs = {}
+        for key in ("sample_rate_hz", "period_samples"):
+            if key not in f.attrs:
+                raise RecordingError(f"{name}: missing attribute '{key}'")
+            attrs[key] = f.attrs[key]
+        config = f.get("config")
+        if config is None:
+            raise RecordingError(f"{name}: missing group /config")
+        parsed = {}
+        for key in ("plan", "reference_chain", "budget"):
+            if key not in config.attrs:
+                raise RecordingError(f"{name}: missing /config attribute '{key}'")
+            try:
+                parsed[key] = json.loads(config.attrs[key])
+            except json.JSONDecodeError as exc:
+                raise RecordingError(f"{name}: /config '{key}' is not valid JSON ({exc})") from None
+        signals: dict[str, np.ndarray] = {}
+        ranges: dict[str, float] = {}
+        for channel in (*CHANNELS, "drive"):
+            ds = f.get(f"signals/{channel}")
+            if ds is None:
+                if channel == "drive":
+                    continue
+                raise RecordingError(f"{name}: missing dataset /signals/{channel}")
+            if not isinstance(ds, h5py.Dataset) or ds.ndim != 1:
+                raise RecordingError(f"{name}: /signals/{channel} must be a 1-D dataset")
+            signals[channel] = np.asarray(ds[()], dtype=float)
+            ranges[channel] = float(ds.attrs.get("range_v", 0.0))
+        settle = int(f.attrs.get("settle_periods", 0))
+    try:
+        plan = Plan.from_dict(parsed["plan"])
+    except PlanError as exc:
+        raise RecordingError(f"{name}: {exc}") from None
+    try:
+        chain = ReferenceChain.from_dict(parsed["reference_chain"])
+        budget = Budget.from_list(parsed["budget"])
+    except ValueError as exc:
+        raise RecordingError(f"{name}: {exc}") from None
+    if plan.sample_rate_hz != float(attrs["sample_rate_hz"]) or plan.period_samples != int(
+        attrs["period_samples"]
+    ):
+        raise RecordingError(
+            f"{name}: the stored plan disagrees with the file's sample rate/period"
+        )
+    recording = Recording(
+        sample_rate_hz=float(attrs["sample_rate_hz"]),
+        period_samples=int(attrs["period_samples"]),
+        reference_v=signals["reference"],
+        dut_v=signals["dut"],
+        drive_v=signals.get("drive"),
+        plan=plan,
+        chain=chain,
+        budget=budget,
+        settle_periods=settle,
+        ranges_v=ranges,
+        source=str(path),
+    )
+    validate(recording, name)
+    return recording
+
+
+def read_csv(
+    path: str | Path,
+    plan: Plan,
+    chain: ReferenceChain,
+    budget: Budget,
+    *,
+    settle_periods: int = 0,
+    range_v: float | None = None,
+) -> Recording:
+    """Read a CSV of two (reference, DUT) or three (+ drive) columns in volts and validate it."""
+    path = Path(path)
+    name = path.name
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise RecordingError(f"{path}: no such file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise RecordingError(f"{name}: cannot be read as text ({exc})") from None
+    data = _parse_csv(text, name)
+    drive = data[:, 2].copy() if data.shape[1] == 3 else None
+    ranges = {} if range_v is None else {c: float(range_v) for c in CHANNELS}
+    recording = Recording(
+        sample_rate_hz=plan.sample_rate_hz,
+        period_samples=plan.period_samples,
+        reference_v=data[:, 0].copy(),
+        dut_v=data[:, 1].copy(),
+        drive_v=drive,
+        plan=plan,
+        chain=chain,
+        budget=budget,
+        settle_periods=settle_periods,
+        ranges_v=ranges,
+        source=str(path),
+    )
+    validate(recording, name)
+    return recording
+
+
+def _parse_csv(text: str, name: str) -> np.ndarray:
+    lines = text.splitlines()
+    start = 0
+    if lines and not _is_numeric_row(lines[0]):
+        start = 1  # one header line allowed
+    rows: list[list[float]] = []
+    width = None
+    for number, raw in enumerate(lines[start:], start=start + 1):
+        if not raw.strip():
+            continue
+        cells = [c.strip() for c in raw.replace(";", ",").split(",")]
+        if width is None:
+            width = len(cells)
+            if width not in (2, 3):
+                raise RecordingError(
+                    f"{name}: line {number}: {width} columns; expected 2 (reference, DUT) "
+                    "or 3 (reference, DUT, drive) in volts"
+                )
+        elif len(cells) != width:
+            raise RecordingError(
+                f"{name}: line {number}: {len(cells)} columns where earlier lines have {width}"
+            )
+        try:
+            rows.append([float(c) for c in cells])
+        except ValueError:
+            raise RecordingError(
+                f"{name}: line {number}: not a number in {raw.strip()!r}"
+            ) from None
+    if not rows:
+        raise RecordingError(f"{name}: no data rows")
+    return np.asarray(rows, dtype=float)
+
+
+def _is_numeric_row(line: str) -> bool:
+    try:
+        [float(c) for c in line.replace(";", ",").split(",")]
+    except ValueError:
+        return False
+    return True
+
+
+def validate(recording: Recording, name: str) -> None:
+    """Refuse a malformed recording with a message naming the channel and the problem."""
+    n = recording.period_samples
+    channels = {"reference": recording.reference_v, "dut": recording.dut_v}
+    if recording.drive_v is not None:
+        channels["drive"] = recording.drive_v
+    lengths = {channel: x.size for channel, x in channels.items()}
+    if len(set(lengths.values())) != 1:
+        detail = ", ".join(f"{c} {v}" for c, v in lengths.items())
+        raise RecordingError(f"{name}: channels have different lengths ({detail} samples)")
+    length = lengths["reference"]
+    if length % n:
+        raise RecordingError(
+            f"{name}: {length} samples is not a whole number of periods of {n} samples "
+            f"({length / n:.3f} periods)"
+        )
+    if length // n <= recording.settle_periods:
+        raise RecordingError(
+            f"{name}: {length // n} period(s) recorded, none left after "
+            f"{recording.settle_periods} settle period(s)"
+        )
+    for channel, x in channels.items():
+        bad = np.flatnonzero(~np.isfinite(x))
+        if bad.size:
+            kind = "NaN" if np.isnan(x[bad[0]]) else "inf"
+            raise RecordingError(
+                f"{name}: channel {channel}: {bad.size} non-finite sample(s), first {kind} at "
+                f"sample {bad[0]}"
+            )
+        if channel == "drive":
+            continue
+        if np.ptp(x) == 0.0:
+            raise RecordingError(
+                f"{name}: channel {channel}: flat at {x[0]:g} V: dead channel or not connected"
+            )
+        _check_range(x, recording.ranges_v.get(channel, 0.0), channel, name)
+
+
+def _check_range(x: np.ndarray, range_v: float, channel: str, name: str) -> None:
+    if range_v and math.isfinite(range_v) and range_v > 0:
+        at_limit = np.flatnonzero(np.abs(x) >= OVERLOAD_FRACTION * range_v)
+        if at_limit.size:
+            raise RecordingError(
+                f"{name}: channel {channel}: {at_limit.size} sample(s) at the +-{range_v:g} V "
+                f"range limit, first at sample {at_limit[0]}: overload; lower the level or "
+                "raise the channel range"
+            )
+        return
+    for extreme in (x.max(), x.min()):
+        run = _longest_run(x == extreme)
+        if run >= FLAT_TOP_RUN:
+            raise RecordingError(
+                f"{name}: channel {channel}: {run} consecutive samples at {extreme:g} V: "
+                "clipped at its range limit (overload); lower the level or raise the range"
+            )
+
+
+def _longest_run(mask: np.ndarray) -> int:
+    if not mask.any():
+        return 0
+    padded = np.concatenate(([0], mask.astype(np.int8), [0]))
+    edges = np.flatnonzero(np.diff(padded))
+    return int((edges[1::2] - edges[::2]).max())
+
+
+def iter_batches(
+    recording: Recording, periods_per_batch: int = 16
+) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+    """(reference, DUT) batches of whole analysis periods, shape (periods, N)."""
+    ref, dut = recording.analysis_periods()
+    for start in range(0, ref.shape[0], periods_per_batch):
+        yield ref[start : start + periods_per_batch], dut[start : start + periods_per_batch]
+
+
+def config_summary(recording: Recording) -> dict[str, Any]:
+    """What the recording says about itself, for reports."""
+    return {
+        "source": recording.source,
+        "sample_rate_hz": recording.sample_rate_hz,
+        "period_samples": recording.period_samples,
+        "periods": recording.periods,
+        "settle_periods": recording.settle_periods,
+    }

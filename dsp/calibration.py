@@ -1,0 +1,403 @@
+"""From per-line estimates to the one results object (SPEC.md sections 2, 6, 7 and 8).
+
+S_dut(f) = H(f) S_ref(f) G_ref / G_dut (SPEC s.2), in mV/(m/s^2), with S_ref(f) the reference
+chain's complex sensitivity interpolated from its certificate; phase
+phi_dut = arg H + phi_ref - 2 pi f tau (SPEC s.6), tau the DUT channel's sampling delay after
+the reference channel. Uncertainty per line: type A from the estimator, type B from the budget,
+combined, Welch-Satterthwaite and k per SPEC s.7 (dsp.uncertainty). The results object is plain
+data: JSON-ready dicts and CSV text; files are written by the application.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+
+from dsp import uncertainty as unc
+from dsp.multisine import Plan
+from dsp.spectral import Estimate
+
+RESULTS_FORMAT_VERSION = 1
+LOW_COHERENCE = 0.99  # warn below this magnitude-squared coherence
+LOW_SNR_DB = 20.0  # warn when a channel's per-period SNR at a line is lower
+DEAD_SNR_DB = 6.0  # a channel with no line above this is dead / not connected
+DUT_DISTORTION_LIMIT = 0.01  # warn when the DUT adds more than 1 % harmonic distortion
+
+
+class AnalysisError(ValueError):
+    """The data cannot give a calibration result (dead channel, no periods, ...)."""
+
+
+@dataclass(frozen=True)
+class ReferenceChain:
+    """The reference accelerometer's certificate data and the gains of both chains.
+
+    Sensitivity magnitude in mV/(m/s^2) and phase in degrees at certificate frequencies in Hz,
+    interpolated linearly over log frequency and held constant beyond the end points. Gains are
+    the conditioning amplifiers' V/V; `skew_s` is the DUT channel's sampling delay after the
+    reference channel in s (multiplexed boards).
+    """
+
+    frequencies_hz: tuple[float, ...] = (160.0,)
+    sensitivity_mv_per_ms2: tuple[float, ...] = (1.0,)
+    phase_deg: tuple[float, ...] = (0.0,)
+    reference_gain: float = 1.0
+    dut_gain: float = 1.0
+    skew_s: float = 0.0
+
+    def __post_init__(self) -> None:
+        n = len(self.frequencies_hz)
+        if n == 0 or len(self.sensitivity_mv_per_ms2) != n or len(self.phase_deg) != n:
+            raise ValueError(
+                "reference chain: frequencies_hz, sensitivity_mv_per_ms2 and phase_deg need "
+                "the same, non-zero number of values"
+            )
+        f = np.asarray(self.frequencies_hz, dtype=float)
+        if not np.all(np.isfinite(f) & (f > 0)) or np.any(np.diff(f) <= 0):
+            raise ValueError("reference chain: frequencies_hz must be positive and increasing")
+        s = np.asarray(self.sensitivity_mv_per_ms2, dtype=float)
+        if not np.all(np.isfinite(s) & (s > 0)):
+            raise ValueError("reference chain: sensitivity_mv_per_ms2 must be positive")
+        if not np.all(np.isfinite(self.phase_deg)):
+            raise ValueError("reference chain: phase_deg must be finite")
+        for name in ("reference_gain", "dut_gain"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"reference chain: {name} must be > 0, got {value!r}")
+        if not math.isfinite(self.skew_s):
+            raise ValueError("reference chain: skew_s must be finite")
+
+    @classmethod
+    def flat(cls, sensitivity_mv_per_ms2: float, **kwargs: float) -> ReferenceChain:
+        """A reference with one frequency-independent sensitivity and zero phase."""
+        return cls((160.0,), (float(sensitivity_mv_per_ms2),), (0.0,), **kwargs)
+
+    def sensitivity_at(self, frequency_hz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Reference sensitivity (mV/(m/s^2)) and phase (deg) at frequencies in Hz."""
+        log_f = np.log(np.asarray(self.frequencies_hz, dtype=float))
+        x = np.log(np.asarray(frequency_hz, dtype=float))
+        magnitude = np.interp(x, log_f, np.asarray(self.sensitivity_mv_per_ms2, dtype=float))
+        phase = np.interp(x, log_f, np.asarray(self.phase_deg, dtype=float))
+        return magnitude, phase
+
+    def covers(self, frequency_hz: float) -> bool:
+        """True when `frequency_hz` lies within the certificate's frequency range."""
+        return self.frequencies_hz[0] <= frequency_hz <= self.frequencies_hz[-1] or (
+            len(self.frequencies_hz) == 1
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> ReferenceChain:
+        """Rebuild from `to_dict`; ValueError naming the field on bad input."""
+        known = {f for f in cls.__dataclass_fields__}
+        unknown = set(data) - known
+        if unknown:
+            raise ValueError(f"reference chain: unknown field(s) {', '.join(sorted(unknown))}")
+        kwargs: dict[str, Any] = {}
+        for key, value in data.items():
+            try:
+                if key in ("frequencies_hz", "sensitivity_mv_per_ms2", "phase_deg"):
+                    kwargs[key] = tuple(float(v) for v in value)
+                else:
+                    kwargs[key] = float(value)
+            except (TypeError, ValueError):
+                raise ValueError(f"reference chain: field {key!r} is malformed") from None
+        return cls(**kwargs)
+
+
+@dataclass(frozen=True)
+class LineResult:
+    """Result at one line. Relative values are fractions (0.01 = 1 %), dB re 1 mV/(m/s^2)."""
+
+    nominal_frequency_hz: float
+    frequency_hz: float
+    sensitivity_mv_per_ms2: float
+    sensitivity_db: float
+    deviation_percent: float
+    deviation_db: float
+    phase_deg: float
+    relative_type_a: float
+    relative_type_b: float
+    relative_standard_uncertainty: float
+    relative_expanded_uncertainty: float
+    expanded_uncertainty_mv_per_ms2: float
+    coverage_factor: float
+    effective_dof: float
+    phase_expanded_uncertainty_deg: float
+    phase_coverage_factor: float
+    coherence: float
+    reference_snr_db: float
+    dut_snr_db: float
+    dut_distortion_percent: float
+    iso_limit: float | None
+    iso_verdict: str
+    tolerance_verdict: str | None = None
+
+
+@dataclass(frozen=True)
+class ReferenceResult:
+    """Sensitivity at the reference frequency with its expanded uncertainty."""
+
+    frequency_hz: float
+    actual_frequency_hz: float
+    sensitivity_mv_per_ms2: float
+    sensitivity_db: float
+    expanded_uncertainty_mv_per_ms2: float
+    relative_expanded_uncertainty: float
+    coverage_factor: float
+    coverage_probability: float
+    phase_deg: float
+    phase_expanded_uncertainty_deg: float
+
+
+@dataclass(frozen=True)
+class Results:
+    """The one results object: feeds the CLI, the GUI, the records and the certificate."""
+
+    estimator: str
+    periods: int
+    sample_rate_hz: float
+    period_samples: int
+    coverage_probability: float
+    uncertainty_rule: str
+    reference: ReferenceResult
+    lines: tuple[LineResult, ...]
+    tolerance_percent: float | None = None
+    warnings: tuple[str, ...] = field(default=())
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready nested dict (NaN and inf become None)."""
+        data = asdict(self)
+        data["format_version"] = RESULTS_FORMAT_VERSION
+        data["lines"] = [asdict(line) for line in self.lines]
+        data["warnings"] = list(self.warnings)
+        return _json_safe(data)
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> Results:
+        """Rebuild stored results (None back to NaN for numbers)."""
+        try:
+            reference = ReferenceResult(**_nan(data["reference"]))
+            lines = tuple(LineResult(**_nan(item)) for item in data["lines"])
+            return cls(
+                estimator=data["estimator"],
+                periods=int(data["periods"]),
+                sample_rate_hz=float(data["sample_rate_hz"]),
+                period_samples=int(data["period_samples"]),
+                coverage_probability=float(data["coverage_probability"]),
+                uncertainty_rule=data["uncertainty_rule"],
+                reference=reference,
+                lines=lines,
+                tolerance_percent=data.get("tolerance_percent"),
+                warnings=tuple(data.get("warnings", ())),
+            )
+        except (KeyError, TypeError) as exc:
+            raise ValueError(f"results: missing or malformed field ({exc})") from None
+
+    def to_csv(self) -> str:
+        """One row per line, columns named with their units."""
+        out = io.StringIO()
+        names = list(LineResult.__dataclass_fields__)
+        writer = csv.writer(out, lineterminator="\n")
+        writer.writerow(names)
+        for line in self.lines:
+            writer.writerow(["" if v is None else _fmt(v) for v in asdict(line).values()])
+        return out.getvalue()
+
+
+def _fmt(value: Any) -> str:
+    if isinstance(value, float):
+        return repr(value) if math.isfinite(value) else ""
+    return str(value)
+
+
+def _json_safe(value: Any) -> Any:
+    if isinstance(value, dict):
+        return {k: _json_safe(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_json_safe(v) for v in value]
+    if isinstance(value, float | np.floating):
+        return float(value) if math.isfinite(value) else None
+    if isinstance(value, np.integer):
+        return int(value)
+    return value
+
+
+def _nan(item: dict[str, Any]) -> dict[str, Any]:
+    optional = {"iso_limit", "tolerance_verdict"}
+    return {k: (float("nan") if v is None and k not in optional else v) for k, v in item.items()}
+
+
+def _db(sensitivity_mv_per_ms2: float) -> float:
+    """Level in dB re 1 mV/(m/s^2)."""
+    return 20.0 * math.log10(sensitivity_mv_per_ms2) if sensitivity_mv_per_ms2 > 0 else math.nan
+
+
+def _wrap_deg(phase_deg: np.ndarray) -> np.ndarray:
+    """Wrap to (-180, 180] degrees."""
+    wrapped = -((-np.asarray(phase_deg) + 180.0) % 360.0 - 180.0)
+    return wrapped
+
+
+def _tolerance_verdict(deviation: float, expanded: float, tolerance: float) -> str:
+    """Guarded acceptance (ILAC-G8): pass if |dev| + U <= T, fail if |dev| - U > T."""
+    if not (math.isfinite(deviation) and math.isfinite(expanded)):
+        return "inconclusive"
+    if abs(deviation) + expanded <= tolerance:
+        return "pass"
+    if abs(deviation) - expanded > tolerance:
+        return "fail"
+    return "inconclusive"
+
+
+def compute_results(
+    estimate: Estimate,
+    plan: Plan,
+    chain: ReferenceChain,
+    budget: unc.Budget,
+    *,
+    probability: float = 0.9545,
+    rule: str = "gum",
+    tolerance_percent: float | None = None,
+    extra_warnings: Sequence[str] = (),
+) -> Results:
+    """Sensitivity, characteristic, phase and uncertainty per line from an estimate.
+
+    `tolerance_percent` is the DUT's permitted deviation of its characteristic from the
+    reference sensitivity (e.g. the manufacturer's 5 %); verdicts use guarded acceptance.
+    Raises AnalysisError for a dead channel.
+    """
+    warnings = list(extra_warnings)
+    labels = [f"{f:g} Hz" for f in plan.nominal_frequencies_hz]
+    for channel, snr in (("reference", estimate.reference_snr_db), ("DUT", estimate.dut_snr_db)):
+        if not np.any(snr > DEAD_SNR_DB):
+            raise AnalysisError(
+                f"{channel} channel: no signal at any line (SNR <= {DEAD_SNR_DB:g} dB); "
+                "check the cable, the IEPE supply and the channel assignment"
+            )
+    frequencies = plan.frequencies_hz
+    s_ref, phi_ref = chain.sensitivity_at(frequencies)
+    response = estimate.response
+    sensitivity = np.abs(response) * s_ref * chain.reference_gain / chain.dut_gain
+    phase = _wrap_deg(np.degrees(np.angle(response)) + phi_ref - 360.0 * frequencies * chain.skew_s)
+    ref_index = plan.reference_index
+    s0 = sensitivity[ref_index]
+
+    if estimate.periods < 2:
+        warnings.append("one period only: no type A uncertainty; acquire at least 2 periods")
+    lines = []
+    for k, label in enumerate(labels):
+        f = float(frequencies[k])
+        mag = unc.combine(
+            float(estimate.relative_type_a[k]),
+            estimate.dof,
+            budget,
+            f,
+            unc.Quantity.MAGNITUDE,
+            probability=probability,
+            rule=rule,
+            periods=estimate.periods,
+        )
+        ph = unc.combine(
+            math.degrees(float(estimate.phase_type_a_rad[k])),
+            estimate.dof,
+            budget,
+            f,
+            unc.Quantity.PHASE,
+            probability=probability,
+            rule=rule,
+            periods=estimate.periods,
+        )
+        deviation = sensitivity[k] / s0 - 1.0
+        verdict = unc.iso_verdict(f, mag.expanded)
+        tolerance = (
+            None
+            if tolerance_percent is None
+            else _tolerance_verdict(100 * deviation, 100 * mag.expanded, tolerance_percent)
+        )
+        lines.append(
+            LineResult(
+                nominal_frequency_hz=float(plan.nominal_frequencies_hz[k]),
+                frequency_hz=f,
+                sensitivity_mv_per_ms2=float(sensitivity[k]),
+                sensitivity_db=_db(float(sensitivity[k])),
+                deviation_percent=100.0 * float(deviation),
+                deviation_db=20.0 * math.log10(sensitivity[k] / s0),
+                phase_deg=float(phase[k]),
+                relative_type_a=float(estimate.relative_type_a[k]),
+                relative_type_b=mag.type_b,
+                relative_standard_uncertainty=mag.standard,
+                relative_expanded_uncertainty=mag.expanded,
+                expanded_uncertainty_mv_per_ms2=float(mag.expanded * sensitivity[k]),
+                coverage_factor=mag.coverage_factor,
+                effective_dof=mag.dof,
+                phase_expanded_uncertainty_deg=ph.expanded,
+                phase_coverage_factor=ph.coverage_factor,
+                coherence=float(estimate.coherence[k]),
+                reference_snr_db=float(estimate.reference_snr_db[k]),
+                dut_snr_db=float(estimate.dut_snr_db[k]),
+                dut_distortion_percent=100.0 * float(estimate.dut_distortion[k]),
+                iso_limit=unc.iso_16063_21_limit(f),
+                iso_verdict=str(verdict),
+                tolerance_verdict=tolerance,
+            )
+        )
+        warnings.extend(_line_warnings(label, estimate, k, chain, f))
+    r = lines[ref_index]
+    reference = ReferenceResult(
+        frequency_hz=r.nominal_frequency_hz,
+        actual_frequency_hz=r.frequency_hz,
+        sensitivity_mv_per_ms2=r.sensitivity_mv_per_ms2,
+        sensitivity_db=r.sensitivity_db,
+        expanded_uncertainty_mv_per_ms2=r.expanded_uncertainty_mv_per_ms2,
+        relative_expanded_uncertainty=r.relative_expanded_uncertainty,
+        coverage_factor=r.coverage_factor,
+        coverage_probability=0.95 if rule == "seed" else probability,
+        phase_deg=r.phase_deg,
+        phase_expanded_uncertainty_deg=r.phase_expanded_uncertainty_deg,
+    )
+    return Results(
+        estimator=estimate.estimator,
+        periods=estimate.periods,
+        sample_rate_hz=plan.sample_rate_hz,
+        period_samples=plan.period_samples,
+        coverage_probability=reference.coverage_probability,
+        uncertainty_rule=rule,
+        reference=reference,
+        lines=tuple(lines),
+        tolerance_percent=tolerance_percent,
+        warnings=tuple(warnings),
+    )
+
+
+def _line_warnings(
+    label: str, estimate: Estimate, k: int, chain: ReferenceChain, frequency_hz: float
+) -> list[str]:
+    out = []
+    if estimate.periods >= 2 and estimate.coherence[k] < LOW_COHERENCE:
+        out.append(f"line {label}: low coherence {estimate.coherence[k]:.3f}")
+    for channel, snr in (
+        ("reference", estimate.reference_snr_db[k]),
+        ("DUT", estimate.dut_snr_db[k]),
+    ):
+        if snr < LOW_SNR_DB:
+            out.append(f"line {label}: {channel} SNR {snr:.1f} dB is below {LOW_SNR_DB:g} dB")
+    dut_d = estimate.dut_distortion[k]
+    ref_d = estimate.reference_distortion[k]
+    if np.isfinite(dut_d) and dut_d > DUT_DISTORTION_LIMIT and dut_d > 3 * np.nan_to_num(ref_d):
+        out.append(
+            f"line {label}: the DUT adds {100 * dut_d:.1f} % harmonic distortion "
+            f"(reference {100 * ref_d:.1f} %)"
+        )
+    if not chain.covers(frequency_hz):
+        out.append(f"line {label}: outside the reference certificate's range; extrapolated")
+    return out

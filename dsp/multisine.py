@@ -1,0 +1,516 @@
+"""Frequency plan and multisine excitation (SPEC.md sections 3 and 4; seed eq. 13).
+
+A plan puts every line exactly on a DFT bin of the period, f_k = m_k fs / N_p, and is checked
+before anything moves: errors (a line at or above 0.45 fs, two lines on one bin, the reference
+frequency missing, ...) refuse the plan; warnings (harmonics or aliases of a line landing on
+another line, a line on a low mains harmonic, a line snapped off its nominal value) are kept
+with it. Every message names the line.
+
+Amplitudes are target peak table accelerations in m/s^2 per line; phases in rad minimise the
+crest factor of the acceleration waveform (dsp.crestfactor).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from dsp import crestfactor, iso266
+
+MAX_FREQUENCY_FRACTION = 0.45  # of fs: multiplexed boards have no anti-alias filter (SPEC s.3)
+HARMONICS_CHECKED = (2, 3, 4, 5)  # SPEC s.3: 2nd..5th harmonic of a line
+PEAK_OVERSAMPLING = 8  # predicted peaks are taken on an 8x oversampled waveform
+PLAN_FORMAT_VERSION = 1
+
+
+class PlanError(ValueError):
+    """A plan that must not be run; `problems` lists every reason, each naming its line/field."""
+
+    def __init__(self, problems: Sequence[str]):
+        self.problems = tuple(problems)
+        super().__init__("; ".join(self.problems))
+
+
+@dataclass(frozen=True)
+class Line:
+    """One excited frequency: nominal (ISO 266) and actual bin frequency in Hz, target peak
+    table acceleration in m/s^2 and the phase of its sine in rad."""
+
+    nominal_frequency_hz: float
+    frequency_hz: float
+    bin: int
+    amplitude_ms2: float
+    phase_rad: float
+
+    @property
+    def label(self) -> str:
+        """How messages name the line, e.g. '12.5 Hz'."""
+        return f"{self.nominal_frequency_hz:g} Hz"
+
+
+@dataclass(frozen=True)
+class PlanCheck:
+    """Result of checking plan inputs: errors refuse the plan, warnings are shown with it."""
+
+    errors: tuple[str, ...] = ()
+    warnings: tuple[str, ...] = ()
+
+    @property
+    def ok(self) -> bool:
+        return not self.errors
+
+
+@dataclass(frozen=True)
+class PredictedPeaks:
+    """Predicted peaks of the table motion for one period (continuous-time, oversampled)."""
+
+    acceleration_ms2: float
+    velocity_m_per_s: float
+    displacement_m: float
+    displacement_peak_to_peak_m: float
+
+
+@dataclass(frozen=True)
+class Plan:
+    """Sample rate (Hz), period length (samples) and lines of a multisine calibration."""
+
+    sample_rate_hz: float
+    period_samples: int
+    lines: tuple[Line, ...]
+    reference_frequency_hz: float
+    mains_frequency_hz: float = 50.0
+    mains_harmonics: int = 5
+    warnings: tuple[str, ...] = field(default=(), compare=False)
+
+    @property
+    def period_s(self) -> float:
+        return self.period_samples / self.sample_rate_hz
+
+    @property
+    def resolution_hz(self) -> float:
+        """Bin spacing fs / N_p in Hz."""
+        return self.sample_rate_hz / self.period_samples
+
+    @property
+    def bins(self) -> np.ndarray:
+        return np.array([line.bin for line in self.lines], dtype=np.int64)
+
+    @property
+    def frequencies_hz(self) -> np.ndarray:
+        return np.array([line.frequency_hz for line in self.lines])
+
+    @property
+    def nominal_frequencies_hz(self) -> np.ndarray:
+        return np.array([line.nominal_frequency_hz for line in self.lines])
+
+    @property
+    def amplitudes_ms2(self) -> np.ndarray:
+        return np.array([line.amplitude_ms2 for line in self.lines])
+
+    @property
+    def phases_rad(self) -> np.ndarray:
+        return np.array([line.phase_rad for line in self.lines])
+
+    @property
+    def reference_index(self) -> int:
+        """Index of the line at the reference frequency."""
+        return _reference_index(self.nominal_frequencies_hz, self.reference_frequency_hz)
+
+    def acceleration_period(self) -> np.ndarray:
+        """One period of the target table acceleration in m/s^2 (seed eq. 13)."""
+        return crestfactor.synthesize(
+            self.bins, self.amplitudes_ms2, self.phases_rad, self.period_samples
+        )
+
+    def crest_factor(self) -> float:
+        """Crest factor max|x|/rms of the period's samples x(i) (seed eq. 13; SPEC s.4)."""
+        return crestfactor.crest_factor(self.acceleration_period())
+
+    def continuous_crest_factor(self) -> float:
+        """Crest factor of the continuous-time acceleration (8x oversampled): peaks between
+        samples included, so it is >= `crest_factor()`."""
+        return crestfactor.crest_factor(self._oversampled(0))
+
+    def predicted_peaks(self) -> PredictedPeaks:
+        """Peak acceleration, velocity and displacement of the table (SPEC s.4).
+
+        Integrated per line, v_k = A_k/w_k and d_k = A_k/w_k^2, then synthesised on an
+        oversampled grid so that peaks between samples are not missed.
+        """
+        displacement = self._oversampled(2)
+        return PredictedPeaks(
+            acceleration_ms2=float(np.max(np.abs(self._oversampled(0)))),
+            velocity_m_per_s=float(np.max(np.abs(self._oversampled(1)))),
+            displacement_m=float(np.max(np.abs(displacement))),
+            displacement_peak_to_peak_m=float(np.ptp(displacement)),
+        )
+
+    def _oversampled(self, integrations: int) -> np.ndarray:
+        omega = 2 * np.pi * self.frequencies_hz
+        amplitudes = self.amplitudes_ms2 / omega**integrations
+        phases = self.phases_rad - integrations * np.pi / 2
+        return crestfactor.synthesize(
+            self.bins, amplitudes, phases, self.period_samples * PEAK_OVERSAMPLING
+        )
+
+    def with_amplitudes(self, amplitudes_ms2: Sequence[float] | float) -> Plan:
+        """The same plan with new per-line target amplitudes (phases kept)."""
+        values = np.broadcast_to(np.asarray(amplitudes_ms2, dtype=float), (len(self.lines),))
+        lines = tuple(
+            Line(ln.nominal_frequency_hz, ln.frequency_hz, ln.bin, float(a), ln.phase_rad)
+            for ln, a in zip(self.lines, values, strict=True)
+        )
+        return Plan(
+            self.sample_rate_hz,
+            self.period_samples,
+            lines,
+            self.reference_frequency_hz,
+            self.mains_frequency_hz,
+            self.mains_harmonics,
+            self.warnings,
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready description (all numbers in the units their names carry)."""
+        return {
+            "format_version": PLAN_FORMAT_VERSION,
+            "sample_rate_hz": self.sample_rate_hz,
+            "period_samples": self.period_samples,
+            "reference_frequency_hz": self.reference_frequency_hz,
+            "mains_frequency_hz": self.mains_frequency_hz,
+            "mains_harmonics": self.mains_harmonics,
+            "lines": [
+                {
+                    "nominal_frequency_hz": ln.nominal_frequency_hz,
+                    "frequency_hz": ln.frequency_hz,
+                    "bin": ln.bin,
+                    "amplitude_ms2": ln.amplitude_ms2,
+                    "phase_rad": ln.phase_rad,
+                }
+                for ln in self.lines
+            ],
+            "warnings": list(self.warnings),
+        }
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> Plan:
+        """Rebuild a stored plan; PlanError naming the field when something is missing/wrong."""
+        try:
+            lines = tuple(
+                Line(
+                    float(item["nominal_frequency_hz"]),
+                    float(item["frequency_hz"]),
+                    int(item["bin"]),
+                    float(item["amplitude_ms2"]),
+                    float(item["phase_rad"]),
+                )
+                for item in data["lines"]
+            )
+            plan = cls(
+                sample_rate_hz=float(data["sample_rate_hz"]),
+                period_samples=int(data["period_samples"]),
+                lines=lines,
+                reference_frequency_hz=float(data["reference_frequency_hz"]),
+                mains_frequency_hz=float(data.get("mains_frequency_hz", 50.0)),
+                mains_harmonics=int(data.get("mains_harmonics", 5)),
+            )
+        except KeyError as exc:
+            raise PlanError([f"plan: missing field {exc.args[0]!r}"]) from None
+        except (TypeError, ValueError) as exc:
+            raise PlanError([f"plan: malformed field ({exc})"]) from None
+        check = check_lines(
+            plan.nominal_frequencies_hz,
+            plan.sample_rate_hz,
+            plan.period_samples,
+            plan.reference_frequency_hz,
+            mains_frequency_hz=plan.mains_frequency_hz,
+            mains_harmonics=plan.mains_harmonics,
+            bins=plan.bins,
+        )
+        if check.errors:
+            raise PlanError(check.errors)
+        for ln in lines:
+            expected = ln.bin * plan.resolution_hz
+            if not math.isclose(ln.frequency_hz, expected, rel_tol=1e-9):
+                raise PlanError(
+                    [f"plan: line {ln.label}: frequency {ln.frequency_hz} Hz is not bin {ln.bin}"]
+                )
+        return Plan(**{**plan.__dict__, "warnings": check.warnings})
+
+
+def snap_to_bin(frequency_hz: float, sample_rate_hz: float, period_samples: int) -> int:
+    """Nearest DFT bin m of the period for a frequency in Hz (f = m fs / N_p)."""
+    return round(frequency_hz * period_samples / sample_rate_hz)
+
+
+def _reference_index(nominal_hz: np.ndarray, reference_frequency_hz: float) -> int:
+    hits = np.flatnonzero(np.isclose(nominal_hz, reference_frequency_hz, rtol=1e-9))
+    if hits.size == 0:
+        raise PlanError([f"reference frequency {reference_frequency_hz:g} Hz is not a line"])
+    return int(hits[0])
+
+
+def _folded_bin(bin_index: int, period_samples: int) -> int:
+    """Bin where content at `bin_index` appears after sampling (aliasing about fs)."""
+    folded = bin_index % period_samples
+    return period_samples - folded if folded > period_samples // 2 else folded
+
+
+def _ordinal(n: int) -> str:
+    return {1: "1st", 2: "2nd", 3: "3rd"}.get(n, f"{n}th")
+
+
+def check_lines(
+    nominal_frequencies_hz: Sequence[float],
+    sample_rate_hz: float,
+    period_samples: int,
+    reference_frequency_hz: float,
+    *,
+    mains_frequency_hz: float = 50.0,
+    mains_harmonics: int = 5,
+    bins: Sequence[int] | None = None,
+) -> PlanCheck:
+    """Check plan inputs before anything moves (SPEC s.3); every message names its line.
+
+    `bins` overrides the nearest-bin snapping (for stored plans or shifted lines).
+    """
+    errors: list[str] = []
+    warnings: list[str] = []
+    if not (math.isfinite(sample_rate_hz) and sample_rate_hz > 0):
+        errors.append(f"sample rate: must be a positive number of Hz, got {sample_rate_hz!r}")
+    if int(period_samples) != period_samples or period_samples < 4:
+        errors.append(f"period: must be an integer >= 4 samples, got {period_samples!r}")
+    if mains_frequency_hz <= 0 or mains_harmonics < 0:
+        errors.append("mains: frequency must be > 0 Hz and harmonics >= 0")
+    nominal = [float(f) for f in nominal_frequencies_hz]
+    if not nominal:
+        errors.append("lines: the plan has no lines")
+    if errors:
+        return PlanCheck(tuple(errors), ())
+
+    resolution = sample_rate_hz / period_samples
+    labels = [f"{f:g} Hz" for f in nominal]
+    if bins is None:
+        bins = [snap_to_bin(f, sample_rate_hz, period_samples) if f > 0 else 0 for f in nominal]
+    bins = [int(b) for b in bins]
+
+    for label, f, m in zip(labels, nominal, bins, strict=True):
+        if not (math.isfinite(f) and f > 0):
+            errors.append(f"line {label}: frequency must be a positive number of Hz")
+        elif m <= 0:
+            errors.append(
+                f"line {label}: below the bin spacing {resolution:g} Hz (lands on DC); "
+                "use a longer period"
+            )
+        elif m * resolution >= MAX_FREQUENCY_FRACTION * sample_rate_hz:
+            errors.append(
+                f"line {label}: at or above 0.45 fs = {MAX_FREQUENCY_FRACTION * sample_rate_hz:g}"
+                " Hz (no anti-alias filter on multiplexed boards); raise the sample rate"
+            )
+        elif not math.isclose(m * resolution, f, rel_tol=1e-9, abs_tol=1e-9):
+            warnings.append(
+                f"line {label}: snapped to {m * resolution:g} Hz (bin {m}); "
+                f"bin spacing {resolution:g} Hz (a 2 s period gives the 0.5 Hz ISO 266 grid)"
+            )
+
+    owner: dict[int, str] = {}
+    for label, m in zip(labels, bins, strict=True):
+        if m in owner:
+            errors.append(f"line {label}: on the same bin ({m}) as line {owner[m]}")
+        else:
+            owner[m] = label
+
+    if not any(math.isclose(f, reference_frequency_hz, rel_tol=1e-9) for f in nominal):
+        errors.append(
+            f"reference frequency {reference_frequency_hz:g} Hz: not among the lines; add it"
+        )
+    if errors:
+        return PlanCheck(tuple(errors), tuple(warnings))
+
+    for label, m in zip(labels, bins, strict=True):
+        for harmonic in HARMONICS_CHECKED:
+            folded = _folded_bin(harmonic * m, period_samples)
+            aliased = harmonic * m > period_samples // 2
+            if folded in owner and folded != m:
+                how = "alias about fs" if aliased else "harmonic"
+                warnings.append(
+                    f"line {owner[folded]}: the {_ordinal(harmonic)} {how} of line {label} "
+                    "lands on its bin (distortion adds to it)"
+                )
+    for label, m in zip(labels, bins, strict=True):
+        for harmonic in range(1, mains_harmonics + 1):
+            mains_bin = harmonic * mains_frequency_hz / resolution
+            if abs(mains_bin - m) < 0.5:
+                warnings.append(
+                    f"line {label}: on the {_ordinal(harmonic)} mains harmonic "
+                    f"({harmonic * mains_frequency_hz:g} Hz); a periodic average does not "
+                    f"remove hum; shift it one bin to {(m + 1) * resolution:g} Hz"
+                )
+    return PlanCheck(tuple(errors), tuple(warnings))
+
+
+def make_plan(
+    nominal_frequencies_hz: Sequence[float],
+    sample_rate_hz: float,
+    period_samples: int,
+    amplitude_ms2: float | Sequence[float],
+    reference_frequency_hz: float,
+    *,
+    mains_frequency_hz: float = 50.0,
+    mains_harmonics: int = 5,
+    shift_mains_lines: bool = False,
+    phases_rad: Sequence[float] | None = None,
+    seed: int = 0,
+) -> Plan:
+    """Build a checked plan; PlanError lists every failing line.
+
+    Amplitudes are target peak table accelerations (m/s^2), one value for all lines or one per
+    line. Without `phases_rad`, phases minimise the crest factor (deterministic for `seed`).
+    `shift_mains_lines` moves a line sitting on a mains harmonic up by one bin.
+    """
+    nominal = [float(f) for f in nominal_frequencies_hz]
+    amplitudes = np.asarray(amplitude_ms2, dtype=float)
+    if amplitudes.ndim == 0:
+        amplitudes = np.full(len(nominal), float(amplitudes))
+    problems = []
+    if amplitudes.shape != (len(nominal),):
+        problems.append(
+            f"amplitudes: {amplitudes.size} values for {len(nominal)} lines; "
+            "give one or one per line"
+        )
+    elif not np.all(np.isfinite(amplitudes) & (amplitudes > 0)):
+        bad = [f"{f:g} Hz" for f, a in zip(nominal, amplitudes, strict=True) if not a > 0]
+        problems.append(f"amplitude: must be > 0 m/s^2 (lines {', '.join(bad)})")
+    if phases_rad is not None and len(phases_rad) != len(nominal):
+        problems.append(f"phases: {len(phases_rad)} values for {len(nominal)} lines")
+    if problems:
+        raise PlanError(problems)
+
+    check = check_lines(
+        nominal,
+        sample_rate_hz,
+        period_samples,
+        reference_frequency_hz,
+        mains_frequency_hz=mains_frequency_hz,
+        mains_harmonics=mains_harmonics,
+    )
+    if check.errors:
+        raise PlanError(check.errors)
+    resolution = sample_rate_hz / period_samples
+    bins = [snap_to_bin(f, sample_rate_hz, period_samples) for f in nominal]
+    if shift_mains_lines:
+        mains_bins = {h * mains_frequency_hz / resolution for h in range(1, mains_harmonics + 1)}
+        bins = [m + 1 if any(abs(mb - m) < 0.5 for mb in mains_bins) else m for m in bins]
+        check = check_lines(
+            nominal,
+            sample_rate_hz,
+            period_samples,
+            reference_frequency_hz,
+            mains_frequency_hz=mains_frequency_hz,
+            mains_harmonics=mains_harmonics,
+            bins=bins,
+        )
+        if check.errors:
+            raise PlanError(check.errors)
+
+    if phases_rad is None:
+        phases = crestfactor.optimise_phases(
+            np.asarray(bins), amplitudes, int(period_samples), seed=seed
+        )
+    else:
+        phases = np.asarray(phases_rad, dtype=float)
+    lines = tuple(
+        Line(f, m * resolution, m, float(a), float(p) % (2 * np.pi))
+        for f, m, a, p in zip(nominal, bins, amplitudes, phases, strict=True)
+    )
+    return Plan(
+        float(sample_rate_hz),
+        int(period_samples),
+        lines,
+        float(reference_frequency_hz),
+        float(mains_frequency_hz),
+        int(mains_harmonics),
+        check.warnings,
+    )
+
+
+@dataclass(frozen=True)
+class Preset:
+    """A named plan: ISO 266 lines between two frequencies at a sample rate and period."""
+
+    name: str
+    description: str
+    min_frequency_hz: float
+    max_frequency_hz: float
+    sample_rate_hz: float
+    period_samples: int
+    reference_frequency_hz: float = 160.0
+    level_ms2: float = 5.0
+
+    @property
+    def nominal_frequencies_hz(self) -> tuple[float, ...]:
+        return iso266.nominal_frequencies(self.min_frequency_hz, self.max_frequency_hz)
+
+
+PRESETS: dict[str, Preset] = {
+    "piezo": Preset(
+        "piezo",
+        "piezoelectric DUT, seed plan: ISO 266 10-2500 Hz (25 lines), fs 6 kHz, 2 s period",
+        10.0,
+        2500.0,
+        6000.0,
+        12000,
+    ),
+    "capacitive": Preset(
+        "capacitive",
+        "capacitive DUT, seed plan: ISO 266 10-4000 Hz (27 lines), fs 12 kHz, 2 s period",
+        10.0,
+        4000.0,
+        12000.0,
+        24000,
+    ),
+}
+
+
+def preset_plan(
+    name: str,
+    *,
+    level_ms2: float | None = None,
+    reference_frequency_hz: float | None = None,
+    mains_frequency_hz: float = 50.0,
+) -> Plan:
+    """The plan of a named preset (`piezo`, `capacitive`) at a per-line level in m/s^2 peak."""
+    try:
+        preset = PRESETS[name]
+    except KeyError:
+        raise PlanError(
+            [f"preset: unknown {name!r}; choose one of {', '.join(sorted(PRESETS))}"]
+        ) from None
+    return make_plan(
+        preset.nominal_frequencies_hz,
+        preset.sample_rate_hz,
+        preset.period_samples,
+        preset.level_ms2 if level_ms2 is None else level_ms2,
+        preset.reference_frequency_hz if reference_frequency_hz is None else reference_frequency_hz,
+        mains_frequency_hz=mains_frequency_hz,
+    )
+
+
+def fade_envelope(period_samples: int, periods: int, direction: str) -> np.ndarray:
+    """Raised-cosine gain over whole periods (SPEC s.4): 'in' rises 0 -> 1, 'out' falls 1 -> 0.
+
+    The fade-out's last sample is exactly 0.0, so the output ends at exactly 0 V.
+    """
+    if periods < 1 or period_samples < 2:
+        raise ValueError("fade: needs at least one period of at least 2 samples")
+    n = period_samples * periods
+    ramp = 0.5 * (1.0 - np.cos(np.pi * np.arange(n) / (n - 1)))
+    if direction == "in":
+        return ramp
+    if direction == "out":
+        return ramp[::-1].copy()
+    raise ValueError(f"fade: direction must be 'in' or 'out', got {direction!r}")

@@ -1,0 +1,201 @@
+"""The `accelcal plan` and `accelcal analyze` commands: output, exit codes, messages."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from app.cli import main, parse_frequencies
+from app.recording import write_recording
+from dsp import iso266
+from dsp.multisine import preset_plan
+from dsp.uncertainty import Budget, Component, Distribution
+from tests.synthetic import lowpass_response, make_recording
+
+
+def run(capsys, *argv):
+    code = main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_plan_json_has_the_documented_keys(capsys):
+    code, out, _ = run(capsys, "plan", "--preset", "piezo", "--json")
+    assert code == 0
+    data = json.loads(out)
+    for key in (
+        "sample_rate_hz",
+        "period_samples",
+        "crest_factor",
+        "peak_displacement_m",
+        "peak_velocity_m_per_s",
+        "peak_acceleration_ms2",
+    ):
+        assert key in data
+    assert data["crest_factor"] <= 2.5
+    assert len(data["lines"]) == 25
+    line = data["lines"][1]
+    assert (line["nominal_frequency_hz"], line["frequency_hz"], line["bin"]) == (12.5, 12.5, 25)
+
+
+def test_plan_human_output_lists_lines_and_warnings(capsys):
+    code, out, _ = run(capsys, "plan", "--preset", "capacitive")
+    assert code == 0
+    assert "27 lines" in out and "Crest factor" in out and "4000" in out
+    assert "warning: line 50 Hz: on the 1st mains harmonic" in out
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--frequencies", "10,160,2700"], "line 2700 Hz: at or above 0.45 fs"),
+        (["--frequencies", "10,20,40"], "reference frequency 160 Hz: not among the lines"),
+        (["--frequencies", "10,abc"], "--frequencies: 'abc' is not a number"),
+        (["--frequencies", "...,160"], "'...' must stand between two frequencies"),
+        (["--level", "-1"], "--level: must be > 0"),
+    ],
+)
+def test_plan_bad_input_exits_2_with_the_reason(capsys, argv, message):
+    code, _, err = run(capsys, "plan", *argv)
+    assert code == 2
+    assert message in err
+
+
+def test_frequency_ellipsis_fills_iso_266_values():
+    assert parse_frequencies("10,12.5,...,2500") == list(iso266.nominal_frequencies(10, 2500))
+    assert parse_frequencies("10, 20 ,160") == [10.0, 20.0, 160.0]
+
+
+@pytest.fixture(scope="module")
+def recorded(tmp_path_factory):
+    """A piezo-plan recording of a known low-pass DUT with noise and a type B budget."""
+    plan = preset_plan("piezo")
+    budget = Budget((Component("reference calibration", 0.01, Distribution.NORMAL),))
+    rec = make_recording(
+        plan,
+        lowpass_response(),
+        periods=8,
+        reference_noise_v=2e-4,
+        dut_noise_v=2e-3,
+        budget=budget,
+        seed=4,
+    )
+    path = tmp_path_factory.mktemp("rec") / "recording.h5"
+    write_recording(path, rec)
+    return path, rec
+
+
+def test_analyze_recovers_the_known_response_within_its_uncertainty(capsys, recorded):
+    path, rec = recorded
+    code, out, _ = run(capsys, "analyze", str(path), "--json")
+    assert code == 0
+    data = json.loads(out)
+    truth = np.abs(lowpass_response()(rec.plan.frequencies_hz))
+    got = np.array([ln["sensitivity_mv_per_ms2"] for ln in data["lines"]])
+    u = np.array([ln["expanded_uncertainty_mv_per_ms2"] for ln in data["lines"]])
+    assert np.all(np.abs(got - truth) <= u)
+    assert data["reference"]["coverage_factor"] == pytest.approx(2.0, abs=0.05)
+
+
+def test_analyze_human_output(capsys, recorded):
+    code, out, _ = run(capsys, "analyze", str(recorded[0]))
+    assert code == 0
+    assert "Reference sensitivity at 160 Hz:" in out and "k = " in out and "p = 95.45 %" in out
+
+
+def test_analyze_csv_with_options_and_seed_segments(capsys, recorded, tmp_path):
+    _, rec = recorded
+    path = tmp_path / "rec.csv"
+    n = 12000  # the seed's protocol: one 2 s record
+    np.savetxt(
+        path,
+        np.column_stack([rec.reference_v[:n], rec.dut_v[:n]]),
+        delimiter=",",
+        header="reference,dut",
+        comments="",
+    )
+    common = [
+        "analyze",
+        str(path),
+        "--sample-rate",
+        "6000",
+        "--period",
+        "12000",
+        "--frequencies",
+        "10,12.5,...,2500",
+        "--reference-sensitivity",
+        "1.0",
+        "--reference-frequency",
+        "160",
+        "--json",
+    ]
+    code, out, err = run(capsys, *common, "--segments", "8", "--estimator", "seed")
+    assert code == 0, err
+    data = json.loads(out)
+    assert data["periods"] == 8 and data["estimator"] == "seed"
+    assert any("off the 4 Hz segment grid" in w and "12.5 Hz" in w for w in data["warnings"])
+    ref = data["reference"]["sensitivity_mv_per_ms2"]
+    assert ref == pytest.approx(abs(lowpass_response()(np.array([160.0]))[0]), rel=0.02)
+    code, _, err = run(capsys, *common, "--segments", "32")
+    assert code == 2
+    assert "line 12.5 Hz: shares the 16 Hz bin of line 10 Hz at 32 segments" in err
+
+
+def test_analyze_refuses_bad_files_and_options(capsys, recorded, tmp_path):
+    code, _, err = run(capsys, "analyze", str(tmp_path / "missing.h5"))
+    assert code == 2 and "no such file" in err
+    code, _, err = run(capsys, "analyze", str(recorded[0]), "--frequencies", "10,160")
+    assert code == 2 and "--frequencies: not allowed with an HDF5 recording" in err
+    csv = tmp_path / "x.csv"
+    csv.write_text("1,2\n")
+    code, _, err = run(capsys, "analyze", str(csv), "--reference-sensitivity", "1")
+    assert code == 2 and "needs its plan" in err
+    code, _, err = run(capsys, "analyze", str(csv), "--preset", "piezo")
+    assert code == 2 and "--reference-sensitivity" in err
+
+
+def test_budget_file_for_csv(capsys, recorded, tmp_path):
+    _, rec = recorded
+    path = tmp_path / "rec.csv"
+    np.savetxt(path, np.column_stack([rec.reference_v, rec.dut_v]), delimiter=",")
+    budget = tmp_path / "budget.toml"
+    budget.write_text(
+        '[[component]]\nname = "DAQ gain"\nvalue = 0.003\ndistribution = "rectangular"\n'
+    )
+    code, out, err = run(
+        capsys,
+        "analyze",
+        str(path),
+        "--preset",
+        "piezo",
+        "--reference-sensitivity",
+        "1",
+        "--budget",
+        str(budget),
+        "--json",
+    )
+    assert code == 0, err
+    assert json.loads(out)["lines"][0]["relative_type_b"] == pytest.approx(0.003 / 3**0.5)
+    budget.write_text('[[component]]\nname = "DAQ gain"\nvalue = -1\n')
+    code, _, err = run(
+        capsys,
+        "analyze",
+        str(path),
+        "--preset",
+        "piezo",
+        "--reference-sensitivity",
+        "1",
+        "--budget",
+        str(budget),
+    )
+    assert code == 2 and "DAQ gain" in err and "value" in err
+
+
+def test_console_script_and_module_entry_point_help():
+    for argv in (["-m", "app", "--help"], ["-m", "app", "analyze", "--help"]):
+        done = subprocess.run([sys.executable, *argv], capture_output=True, text=True)
+        assert done.returncode == 0 and "usage:" in done.stdout
