@@ -16,11 +16,15 @@ from pathlib import Path
 from app import formatting as fmt
 from app.analysis import analyze
 from app.recording import RecordingError, read_csv, read_recording
+from app.simulate import SimulationError, simulate
 from dsp import iso266
 from dsp.calibration import AnalysisError, ReferenceChain, Results
 from dsp.multisine import PRESETS, Plan, PlanError, make_plan
 from dsp.segments import SegmentError
 from dsp.uncertainty import Budget
+from hardware.errors import HardwareError
+from sim.models import DUT_CATALOGUE, StandModel
+from sim.stand import Fault
 
 EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
 
@@ -126,6 +130,17 @@ def build_parser() -> argparse.ArgumentParser:
     csv_group.add_argument("--settle-periods", type=int, default=0, help="periods to skip")
     csv_group.add_argument("--range", type=float, dest="range_v", help="channel range, V")
     csv_group.add_argument("--budget", type=Path, help="type B budget, TOML [[component]]")
+
+    s = sub.add_parser("simulate", help="record a calibration on the simulated stand")
+    s.add_argument("--list", action="store_true", help="print the simulated catalogue")
+    s.add_argument("--dut", default="piezo", help="catalogue DUT (see --list)")
+    s.add_argument("--level", type=float, default=5.0, help="peak acceleration per line, m/s^2")
+    s.add_argument("--periods", type=int, default=8, help="periods to record after settling")
+    s.add_argument("--settle", type=int, default=2, help="settling periods after the fade-in")
+    s.add_argument("--seed", type=int, default=0, help="random seed (noise, stand deviations)")
+    s.add_argument("--fault", action="append", default=[], help="inject KIND@SECONDS")
+    s.add_argument("--out", type=Path, help="recording to write (.h5)")
+    s.add_argument("--json", action="store_true", help="machine-readable output")
     return parser
 
 
@@ -137,9 +152,21 @@ def main(argv: Sequence[str] | None = None) -> int:
             return cmd_plan(args)
         if args.command == "analyze":
             return cmd_analyze(args)
-    except (UsageError, PlanError, RecordingError, SegmentError, AnalysisError) as exc:
+        if args.command == "simulate":
+            return cmd_simulate(args)
+    except (
+        UsageError,
+        PlanError,
+        RecordingError,
+        SegmentError,
+        AnalysisError,
+        SimulationError,
+    ) as exc:
         print(f"accelcal {args.command}: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except HardwareError as exc:
+        print(f"accelcal {args.command}: {type(exc).__name__}: {exc}", file=sys.stderr)
+        return EXIT_FAILURE
     except KeyboardInterrupt:
         print(f"accelcal {args.command}: interrupted", file=sys.stderr)
         return EXIT_FAILURE
@@ -344,6 +371,94 @@ def print_results(results: Results, source: str = "") -> None:
     )
     for warning in results.warnings:
         print(f"warning: {warning}")
+
+
+def cmd_simulate(args: argparse.Namespace) -> int:
+    if args.list:
+        return print_catalogue(args.json)
+    if args.out is None:
+        raise UsageError("--out: the recording to write is required (or --list)")
+    if args.out.suffix.lower() not in (".h5", ".hdf5"):
+        raise UsageError(f"--out: {args.out} must end in .h5 or .hdf5")
+    _positive("--level", args.level)
+    if args.settle < 0:
+        raise UsageError(f"--settle: must be >= 0, got {args.settle}")
+    try:
+        faults = tuple(Fault.parse(text) for text in args.fault)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    run = simulate(
+        args.out,
+        dut=args.dut,
+        level_ms2=args.level,
+        periods=args.periods,
+        seed=args.seed,
+        settle=args.settle,
+        faults=faults,
+    )
+    summary = {
+        "recording": str(run.path),
+        "dut": args.dut,
+        "level_ms2": args.level,
+        "periods": run.periods,
+        "settle_periods": run.settle_periods,
+        "sample_rate_hz": run.plan.sample_rate_hz,
+        "period_samples": run.plan.period_samples,
+        "drive_peak_v": run.drive_peak_v,
+        "ranges_v": run.ranges_v,
+        "seed": args.seed,
+    }
+    if args.json:
+        print(json.dumps(summary, indent=2))
+    else:
+        print(
+            f"wrote {run.path}: {args.dut} at {args.level:g} m/s^2 per line, "
+            f"{run.settle_periods} settling + {run.periods} periods of {run.plan.period_s:g} s "
+            f"at {run.plan.sample_rate_hz:g} Hz; drive peak {run.drive_peak_v:.2f} V; "
+            f"ranges reference +-{run.ranges_v['reference']:g} V, dut +-{run.ranges_v['dut']:g} V"
+        )
+    return EXIT_OK
+
+
+def print_catalogue(as_json: bool) -> int:
+    """The simulated stand's exciter, reference and DUTs."""
+    stand = StandModel()
+    entries = {
+        "exciter": {
+            "name": stand.exciter.name,
+            "suspension_resonance_hz": stand.exciter.suspension_hz,
+            "axial_resonance_hz": stand.exciter.axial_resonance_hz,
+            "stroke_peak_to_peak_mm": 1e3 * stand.exciter.stroke_peak_to_peak_m,
+            "midband_ms2_per_v": stand.exciter.midband_ms2_per_v,
+        },
+        "reference": {
+            "description": stand.reference.description,
+            "sensitivity_mv_per_ms2": stand.reference.sensitivity_mv_per_ms2,
+            "conditioning_gain": stand.reference_gain,
+        },
+        "duts": {
+            name: {
+                "description": model.description,
+                "kind": model.kind,
+                "sensitivity_mv_per_ms2": 0.0 if model.dead else model.sensitivity_mv_per_ms2,
+            }
+            for name, model in DUT_CATALOGUE.items()
+        },
+    }
+    if as_json:
+        print(json.dumps(entries, indent=2))
+        return EXIT_OK
+    ex = entries["exciter"]
+    print(
+        f"exciter: {ex['name']}: suspension resonance {ex['suspension_resonance_hz']:g} Hz, "
+        f"axial resonance {ex['axial_resonance_hz']:g} Hz, stroke "
+        f"{ex['stroke_peak_to_peak_mm']:g} mm p-p"
+    )
+    print(f"reference: {stand.reference.description}")
+    print("DUTs (--dut NAME):")
+    for name, entry in entries["duts"].items():
+        print(f"  {name:<11} {entry['description']}")
+    return EXIT_OK
 
 
 if __name__ == "__main__":

@@ -8,6 +8,9 @@ HDF5 layout (format "accelcal-recording", version 1):
     /signals/dut        idem
     /signals/drive      idem, optional (the DAQ output)
     /config           attrs (JSON text): plan, reference_chain, budget
+    /truth            optional (simulated recordings): datasets frequency_hz,
+                      sensitivity_mv_per_ms2, phase_deg at the line frequencies; attrs describe
+                      the simulated DUT and level
 
 CSV import: two columns (reference, DUT) or three (plus drive) in volts, one optional header
 line; the plan comes from options. Files that are malformed (missing dataset, wrong length,
@@ -53,6 +56,16 @@ def software_version() -> str:
 
 
 @dataclass(frozen=True)
+class Truth:
+    """The true DUT sensitivity at the line frequencies (simulated recordings only)."""
+
+    frequency_hz: np.ndarray
+    sensitivity_mv_per_ms2: np.ndarray
+    phase_deg: np.ndarray
+    attrs: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
 class Recording:
     """A two-channel recording held in memory (volts), with its analysis context."""
 
@@ -67,6 +80,7 @@ class Recording:
     drive_v: np.ndarray | None = None
     ranges_v: dict[str, float] = field(default_factory=dict)
     source: str = ""
+    truth: Truth | None = None
 
     @property
     def periods(self) -> int:
@@ -144,6 +158,17 @@ class RecordingWriter:
             ds[start:] = block
         self._file.flush()
 
+    def write_truth(self, truth: Truth) -> None:
+        """Store the simulated truth (group /truth)."""
+        group = self._file.require_group("truth")
+        for name in ("frequency_hz", "sensitivity_mv_per_ms2", "phase_deg"):
+            if name in group:
+                del group[name]
+            group.create_dataset(name, data=np.asarray(getattr(truth, name), dtype=float))
+        for key, value in truth.attrs.items():
+            group.attrs[key] = value
+        self._file.flush()
+
     def close(self) -> None:
         if self._file.id.valid:
             self._file.close()
@@ -167,6 +192,8 @@ def write_recording(path: str | Path, recording: Recording) -> None:
         ranges_v=recording.ranges_v,
     ) as writer:
         writer.append(recording.reference_v, recording.dut_v, recording.drive_v)
+        if recording.truth is not None:
+            writer.write_truth(recording.truth)
 
 
 def read_recording(path: str | Path) -> Recording:
@@ -216,6 +243,7 @@ def read_recording(path: str | Path) -> Recording:
             signals[channel] = np.asarray(ds[()], dtype=float)
             ranges[channel] = float(ds.attrs.get("range_v", 0.0))
         settle = int(f.attrs.get("settle_periods", 0))
+        truth = _read_truth(f, name)
     try:
         plan = Plan.from_dict(parsed["plan"])
     except PlanError as exc:
@@ -243,9 +271,25 @@ def read_recording(path: str | Path) -> Recording:
         settle_periods=settle,
         ranges_v=ranges,
         source=str(path),
+        truth=truth,
     )
     validate(recording, name)
     return recording
+
+
+def _read_truth(f: h5py.File, name: str) -> Truth | None:
+    group = f.get("truth")
+    if group is None:
+        return None
+    try:
+        values = {
+            key: np.asarray(group[key][()], dtype=float)
+            for key in ("frequency_hz", "sensitivity_mv_per_ms2", "phase_deg")
+        }
+    except KeyError as exc:
+        raise RecordingError(f"{name}: /truth lacks dataset {exc.args[0]!r}") from None
+    attrs = {k: (v.item() if hasattr(v, "item") else v) for k, v in group.attrs.items()}
+    return Truth(**values, attrs=attrs)
 
 
 def read_csv(

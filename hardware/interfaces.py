@@ -1,0 +1,162 @@
+"""What the calibration procedure needs from a stand: small Protocols, one per capability.
+
+Real drivers (hardware/nidaq.py, hardware/visa_amplifiers.py) and the simulated stand (sim/)
+implement these; the procedure imports nothing else from either.
+
+Units: volts, hertz, seconds, mV/(m/s^2) for transducer sensitivities.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal, Protocol, runtime_checkable
+
+import numpy as np
+
+ChannelName = Literal["reference", "dut", "drive"]
+
+
+@dataclass(frozen=True)
+class InputChannel:
+    """An analog input: logical name, physical channel, +-range in V, coupling, IEPE current."""
+
+    name: ChannelName
+    physical: str
+    range_v: float
+    coupling: Literal["dc", "ac"] = "dc"
+    iepe_current_a: float = 0.0
+    terminal: Literal["default", "differential", "pseudodifferential", "rse", "nrse"] = "default"
+
+    def __post_init__(self) -> None:
+        if not self.range_v > 0:
+            raise ValueError(f"input channel {self.name}: range_v must be > 0 V")
+        if self.iepe_current_a < 0 or self.iepe_current_a > 0.02:
+            raise ValueError(f"input channel {self.name}: iepe_current_a must be 0..0.02 A")
+
+
+@dataclass(frozen=True)
+class OutputChannel:
+    """The analog output driving the power amplifier: physical channel and +-range in V."""
+
+    physical: str
+    range_v: float
+
+    def __post_init__(self) -> None:
+        if not self.range_v > 0:
+            raise ValueError("output channel: range_v must be > 0 V")
+
+
+@dataclass(frozen=True)
+class DaqConfig:
+    """Sample rate (Hz), period length (samples), the output and the input channels."""
+
+    sample_rate_hz: float
+    period_samples: int
+    output: OutputChannel
+    inputs: tuple[InputChannel, ...]
+
+    def __post_init__(self) -> None:
+        names = [c.name for c in self.inputs]
+        if "reference" not in names or "dut" not in names:
+            raise ValueError("DAQ configuration: needs a 'reference' and a 'dut' input channel")
+        if len(set(names)) != len(names):
+            raise ValueError("DAQ configuration: input channel names must be unique")
+        if not self.sample_rate_hz > 0 or self.period_samples < 4:
+            raise ValueError("DAQ configuration: sample rate > 0 Hz and period >= 4 samples")
+
+
+@dataclass(frozen=True)
+class DaqStatus:
+    """What a configured DAQ reports back: actual sample rate (Hz) and the DUT channel's sampling
+    delay after the reference channel (s; non-zero on multiplexed boards)."""
+
+    actual_sample_rate_hz: float
+    skew_s: float
+
+
+@runtime_checkable
+class Daq(Protocol):
+    """One AO channel and its AI channels on one sample clock and start trigger.
+
+    The output is one period, regenerated; `write_period` replaces it from the next period
+    boundary on (fades, equalisation). `read_period` returns the next whole period of every
+    input channel in volts, in the order of `DaqConfig.inputs`, shape (channels, N).
+    `stop` brings the output to 0 V and stops; it is safe to call at any time, twice, or after
+    an error. `output_v` is the output voltage now, as the device knows it (None if unknown).
+    """
+
+    def configure(self, config: DaqConfig) -> DaqStatus: ...
+
+    def start(self, period_v: np.ndarray) -> None: ...
+
+    def write_period(self, period_v: np.ndarray) -> None: ...
+
+    def read_period(self, timeout_s: float) -> np.ndarray: ...
+
+    def stop(self) -> None: ...
+
+    def close(self) -> None: ...
+
+    @property
+    def output_v(self) -> float | None: ...
+
+
+@dataclass(frozen=True)
+class ConditioningSettings:
+    """A measuring amplifier channel's settings as read back (for the run record).
+
+    `sensitivity_mv_per_ms2` is the transducer sensitivity set on the amplifier, `gain` the
+    overall V/V from transducer output to amplifier output, `output_mv_per_ms2` the resulting
+    output scaling, filters in Hz (None = off).
+    """
+
+    channel: int
+    measurement_mode: str
+    sensitivity_mv_per_ms2: float
+    gain: float
+    output_mv_per_ms2: float
+    high_pass_hz: float | None
+    low_pass_hz: float | None
+    identity: str = ""
+
+
+@runtime_checkable
+class MeasuringAmplifier(Protocol):
+    """A conditioning amplifier (e.g. B&K 2525) between an accelerometer and the DAQ."""
+
+    def identify(self) -> str: ...
+
+    def configure(
+        self,
+        channel: int,
+        *,
+        sensitivity_mv_per_ms2: float,
+        gain: float,
+        high_pass_hz: float | None = None,
+        low_pass_hz: float | None = None,
+    ) -> ConditioningSettings: ...
+
+    def read_settings(self, channel: int) -> ConditioningSettings: ...
+
+    def overloaded(self, channel: int) -> bool: ...
+
+    def close(self) -> None: ...
+
+
+@runtime_checkable
+class PowerAmplifier(Protocol):
+    """An optional remotely controlled power amplifier driving the exciter."""
+
+    def identify(self) -> str: ...
+
+    def set_output_enabled(self, enabled: bool) -> None: ...
+
+    def set_gain(self, gain: float) -> None: ...
+
+    def gain(self) -> float: ...
+
+    def fault(self) -> str | None: ...
+
+    def interlock_closed(self) -> bool: ...
+
+    def close(self) -> None: ...

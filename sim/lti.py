@@ -1,0 +1,238 @@
+"""Exact discrete-time equivalents of continuous LTI models driven by a zero-order hold.
+
+The DAQ's analog output holds each sample for one sample period, so discretising a continuous
+model (A, B, C, D) with a ZOH is exact at the sample instants, resonances above Nyquist
+included (they alias, as they do on a board without anti-alias filter). An output sampled
+`delay_s` after the input sample instant (multiplexed ADC) is exact too:
+x(t_k + tau) = e^{A tau} x_k + Gamma(tau) B u_k, with Gamma(tau) = int_0^tau e^{A s} ds.
+
+Models are built as a series of low-order stages (well conditioned, no high-order
+polynomials) and run in modal form: each discrete pole is a first-order complex recursion
+filtered by `scipy.signal.lfilter` with carried state, so cutting a signal into blocks of any
+size gives the same output.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+import scipy.signal
+
+Stage = tuple[np.ndarray, np.ndarray]  # (num, den) polynomials in s, highest power first
+
+
+def resonance(frequency_hz: float, q: float) -> Stage:
+    """Unity-DC-gain second-order low-pass w0^2 / (s^2 + w0/Q s + w0^2)."""
+    w0 = 2 * np.pi * frequency_hz
+    return np.array([w0**2]), np.array([1.0, w0 / q, w0**2])
+
+
+def highpass2(frequency_hz: float, q: float) -> Stage:
+    """Second-order high-pass s^2 / (s^2 + w0/Q s + w0^2) (unity gain above w0)."""
+    w0 = 2 * np.pi * frequency_hz
+    return np.array([1.0, 0.0, 0.0]), np.array([1.0, w0 / q, w0**2])
+
+
+def highpass1(frequency_hz: float) -> Stage:
+    """First-order high-pass s / (s + wc)."""
+    wc = 2 * np.pi * frequency_hz
+    return np.array([1.0, 0.0]), np.array([1.0, wc])
+
+
+def lowpass1(frequency_hz: float) -> Stage:
+    """First-order low-pass wc / (s + wc)."""
+    wc = 2 * np.pi * frequency_hz
+    return np.array([wc]), np.array([1.0, wc])
+
+
+def integrator() -> Stage:
+    """1/s."""
+    return np.array([1.0]), np.array([1.0, 0.0])
+
+
+@dataclass(frozen=True)
+class Model:
+    """A continuous SISO model: a gain times a series of stages."""
+
+    stages: tuple[Stage, ...]
+    gain: float = 1.0
+
+    def then(self, *stages: Stage, gain: float = 1.0) -> Model:
+        """This model followed by more stages and a gain."""
+        return Model(self.stages + tuple(stages), self.gain * gain)
+
+    def response(self, frequency_hz: np.ndarray) -> np.ndarray:
+        """Complex frequency response at frequencies in Hz (continuous, no ZOH, no delay)."""
+        s = 2j * np.pi * np.asarray(frequency_hz, dtype=float)
+        out = np.full(s.shape, self.gain, dtype=complex)
+        for num, den in self.stages:
+            out *= np.polyval(num, s) / np.polyval(den, s)
+        return out
+
+    def state_space(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(A, B, C, D) of the series connection."""
+        a = np.zeros((0, 0))
+        b = np.zeros((0, 1))
+        c = np.zeros((1, 0))
+        d = np.array([[self.gain]])
+        for num, den in self.stages:
+            a2, b2, c2, d2 = scipy.signal.tf2ss(num, den)
+            n1, n2 = a.shape[0], a2.shape[0]
+            a_new = np.zeros((n1 + n2, n1 + n2))
+            a_new[:n1, :n1] = a
+            a_new[n1:, :n1] = b2 @ c
+            a_new[n1:, n1:] = a2
+            b = np.vstack([b, b2 @ d])
+            c = np.hstack([d2 @ c, c2])
+            d = d2 @ d
+            a = a_new
+        return a, b, c, d
+
+
+def _zoh(a: np.ndarray, b: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
+    """(e^{A t}, Gamma(t) B) via one block-matrix exponential (Van Loan)."""
+    n, m = a.shape[0], b.shape[1]
+    block = np.zeros((n + m, n + m))
+    block[:n, :n] = a * t
+    block[:n, n:] = b * t
+    expm = scipy.linalg.expm(block)
+    return expm[:n, :n], expm[:n, n:]
+
+
+class Network:
+    """A single-input network of continuous models; every signal is C x + D u.
+
+    `add(name, model, source)` feeds a model from an existing signal (or the input);
+    `combine(name, terms)` makes a weighted sum of signals. Shared parts are simulated once.
+    """
+
+    INPUT = "input"
+
+    def __init__(self) -> None:
+        self.a = np.zeros((0, 0))
+        self.b = np.zeros((0, 1))
+        self.signals: dict[str, tuple[np.ndarray, float]] = {self.INPUT: (np.zeros(0), 1.0)}
+
+    def add(self, name: str, model: Model, source: str = INPUT) -> Network:
+        c_src, d_src = self._padded(source)
+        a2, b2, c2, d2 = model.state_space()
+        n1, n2 = self.a.shape[0], a2.shape[0]
+        a = np.zeros((n1 + n2, n1 + n2))
+        a[:n1, :n1] = self.a
+        a[n1:, :n1] = b2 @ c_src[None, :]
+        a[n1:, n1:] = a2
+        self.a = a
+        self.b = np.vstack([self.b, b2 * d_src])
+        c_new = np.concatenate([float(d2[0, 0]) * c_src, c2[0]])
+        self.signals[name] = (c_new, float(d2[0, 0]) * d_src)
+        return self
+
+    def combine(self, name: str, terms: dict[str, float]) -> Network:
+        n = self.a.shape[0]
+        c, d = np.zeros(n), 0.0
+        for signal, weight in terms.items():
+            c_s, d_s = self._padded(signal)
+            c, d = c + weight * c_s, d + weight * d_s
+        self.signals[name] = (c, d)
+        return self
+
+    def _padded(self, name: str) -> tuple[np.ndarray, float]:
+        try:
+            c, d = self.signals[name]
+        except KeyError:
+            raise ValueError(f"network: no signal {name!r}") from None
+        padded = np.zeros(self.a.shape[0])
+        padded[: c.size] = c
+        return padded, d
+
+
+class MultiZoh:
+    """A `Network` run at `sample_rate_hz` behind a ZOH; outputs are named signals, each
+    optionally sampled a delay after the input instant (< 1/fs). Modal form, one recursion per
+    real pole or conjugate pole pair; state carries across blocks."""
+
+    def __init__(
+        self,
+        network: Network,
+        outputs: dict[str, tuple[str, float]],
+        sample_rate_hz: float,
+    ):
+        period = 1.0 / sample_rate_hz
+        a, b = network.a, network.b
+        n = a.shape[0]
+        self.names = tuple(outputs)
+        c_rows, d_vals = [], []
+        for signal, delay in outputs.values():
+            c, d = network._padded(signal)
+            if not 0.0 <= delay < period:
+                raise ValueError(f"output {signal!r}: delay must be within one sample period")
+            if delay > 0.0 and n:
+                e_tau, gamma_b = _zoh(a, b, delay)
+                c, d = c @ e_tau, d + float(c @ gamma_b[:, 0])
+            c_rows.append(c)
+            d_vals.append(d)
+        self._direct = np.array(d_vals)
+        if n == 0:
+            self._poles = np.zeros(0, complex)
+            self._inputs = np.zeros(0, complex)
+            self._outputs = np.zeros((len(self.names), 0), complex)
+        else:
+            ad, bd = _zoh(a, b, period)
+            poles, vectors = np.linalg.eig(ad)
+            inputs = np.linalg.solve(vectors, bd[:, 0])
+            out = np.array(c_rows) @ vectors
+            scale = np.maximum(np.abs(poles), 1e-300)
+            upper = poles.imag > 1e-12 * scale
+            real = np.abs(poles.imag) <= 1e-12 * scale
+            keep = upper | real
+            weight = np.where(upper, 2.0, 1.0)[keep]
+            self._poles = poles[keep]
+            self._inputs = inputs[keep]
+            self._outputs = out[:, keep] * weight
+        self._state = np.zeros(self._poles.size, complex)
+
+    def process(self, u: np.ndarray) -> dict[str, np.ndarray]:
+        """Outputs for the next block of input samples; the state carries to the next call."""
+        u = np.asarray(u, dtype=float)
+        modes = np.empty((self._poles.size, u.size), complex)
+        for i, pole in enumerate(self._poles):
+            modes[i], zf = scipy.signal.lfilter(
+                [0.0, self._inputs[i]], [1.0, -pole], u, zi=[self._state[i]]
+            )
+            self._state[i] = zf[0]
+        y = (self._outputs @ modes).real + self._direct[:, None] * u
+        return dict(zip(self.names, y, strict=True))
+
+    def reset(self) -> None:
+        """Back to rest (zero state)."""
+        self._state[:] = 0.0
+
+    def discrete_response(self, name: str, frequency_hz: np.ndarray, sample_rate_hz: float) -> np.ndarray:
+        """Steady-state response of output `name` to a sampled sine (ZOH and delay included)."""
+        row = self.names.index(name)
+        z = np.exp(2j * np.pi * np.asarray(frequency_hz, dtype=float) / sample_rate_hz)
+        out = np.full(z.shape, self._direct[row], dtype=complex)
+        for k, pole in enumerate(self._poles):
+            h, g = self._outputs[row, k], self._inputs[k]
+            if abs(pole.imag) > 1e-12 * max(abs(pole), 1e-300):  # a conjugate pair, weight 2
+                half = h / 2 * g
+                out += half / (z - pole) + np.conj(half) / (z - np.conj(pole))
+            else:
+                out += h * g / (z - pole)
+        return out
+
+
+class ZohFilter(MultiZoh):
+    """One model behind a ZOH at `sample_rate_hz`, output sampled `delay_s` late."""
+
+    def __init__(self, model: Model, sample_rate_hz: float, delay_s: float = 0.0):
+        super().__init__(Network().add("y", model), {"y": ("y", delay_s)}, sample_rate_hz)
+        self.model = model
+
+    def process(self, u: np.ndarray) -> np.ndarray:  # type: ignore[override]
+        return super().process(u)["y"]
+
+    def discrete_response(self, frequency_hz: np.ndarray, sample_rate_hz: float) -> np.ndarray:  # type: ignore[override]
+        return super().discrete_response("y", frequency_hz, sample_rate_hz)

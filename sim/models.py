@@ -1,0 +1,269 @@
+"""Physical models of the simulated stand (SPEC.md section 13); parameters in SI units.
+
+Signal chain, all at the DAQ sample rate and exact at the sample instants (sim.lti):
+
+    drive (DAQ AO, V, zero-order hold)
+      -> power amplifier: anti-imaging input filter, gain, noise, output clipping
+      -> exciter nonlinearity (Hammerstein: compression and 2nd harmonic growing with level)
+      -> voltage-driven moving-coil exciter: damped suspension resonance, flat mid band,
+         L/R roll-off, axial resonance; transverse rocking; stroke (over-travel) limit
+      -> table acceleration a(t) -> reference accelerometer (+ conditioning amplifier)
+                                 -> DUT (its own dynamics, transverse sensitivity, noise,
+                                    nonlinearity)
+      -> ADC per channel: gain error, white noise, mains hum, 16-bit quantisation, clipping;
+         the DUT channel sampled `skew_s` after the reference channel (multiplexed board).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.signal
+
+from sim.lti import Model, Stage, highpass1, highpass2, lowpass1, resonance
+
+G_N = 9.80665  # standard gravity, m/s^2, for noise densities given in g/sqrt(Hz)
+
+
+def zpk_stages(zeros: np.ndarray, poles: np.ndarray, gain: float) -> tuple[tuple[Stage, ...], float]:
+    """Analog zeros/poles/gain as second-order stages (conjugate pairs matched in order of
+    frequency) and the overall gain."""
+    upper_poles = sorted((p for p in poles if p.imag > 1e-9 * abs(p)), key=abs)
+    real_poles = [p.real for p in poles if abs(p.imag) <= 1e-9 * abs(p)]
+    upper_zeros = sorted((z for z in zeros if z.imag > 1e-9 * abs(z)), key=abs)
+    stages: list[Stage] = []
+    for i, p in enumerate(upper_poles):
+        den = np.array([1.0, -2.0 * p.real, abs(p) ** 2])
+        if i < len(upper_zeros):
+            z = upper_zeros[i]
+            num = np.array([1.0, -2.0 * z.real, abs(z) ** 2])
+        else:
+            num = np.array([1.0])
+        stages.append((num, den))
+    for p in real_poles:
+        stages.append((np.array([1.0]), np.array([1.0, -p])))
+    return tuple(stages), float(gain)
+
+
+def elliptic_lowpass(order: int, edge_hz: float, ripple_db: float, stop_db: float) -> Model:
+    """Analog elliptic (Cauer) low-pass: passband to `edge_hz` within `ripple_db`, at least
+    `stop_db` down in the stopband."""
+    z, p, k = scipy.signal.ellip(
+        order, ripple_db, stop_db, 2 * np.pi * edge_hz, analog=True, output="zpk"
+    )
+    stages, gain = zpk_stages(z, p, k)
+    return Model(stages, gain)
+
+
+@dataclass(frozen=True)
+class PowerAmplifierModel:
+    """Gain (V/V), output limit (V peak), output noise (V rms per sample), and an input
+    anti-imaging (reconstruction) filter: elliptic, passband to `anti_imaging_edge` x fs,
+    `anti_imaging_stop_db` down from fs - 0.45 fs. With AO and AI on one clock, the zero-order
+    hold's images at fs - f would otherwise move the table and alias back onto the lines; on a
+    multiplexed board the DUT channel samples them `skew` later than the reference, so the skew
+    correction, right at f, is wrong for them (about 1.5 % at 2.5 kHz with a Butterworth)."""
+
+    gain: float = 20.0
+    output_limit_v: float = 60.0
+    noise_v: float = 2e-3
+    anti_imaging_order: int = 10
+    anti_imaging_edge: float = 0.45
+    anti_imaging_ripple_db: float = 0.1
+    anti_imaging_stop_db: float = 80.0
+
+    def anti_imaging(self, sample_rate_hz: float) -> Model:
+        if self.anti_imaging_order == 0:
+            return Model(())
+        return elliptic_lowpass(
+            self.anti_imaging_order,
+            self.anti_imaging_edge * sample_rate_hz,
+            self.anti_imaging_ripple_db,
+            self.anti_imaging_stop_db,
+        )
+
+
+@dataclass(frozen=True)
+class ExciterModel:
+    """Voltage-driven moving-coil exciter: table acceleration per amplifier volt.
+
+    a/V = K s^2/(s^2 + w_s/Q_s s + w_s^2) * 1/(1 + s/w_e) * w_a^2/(s^2 + w_a/Q_a s + w_a^2):
+    suspension resonance (voltage drive: rising 40 dB/decade below it), flat mid band of
+    `midband_ms2_per_v`, electrical L/R corner, axial resonance. The nonlinearity acts on the
+    amplifier voltage v (Hammerstein): v + c2 v^2/V0 - c3 v^3/V0^2 with V0 = 10 V.
+    """
+
+    name: str = "small exciter (4809-like)"
+    midband_ms2_per_v: float = 100.0
+    suspension_hz: float = 150.0
+    suspension_q: float = 1.5
+    electrical_corner_hz: float = 6000.0
+    axial_resonance_hz: float = 16000.0
+    axial_q: float = 25.0
+    stroke_peak_to_peak_m: float = 8e-3
+    quadratic: float = 0.004
+    cubic: float = 0.003
+    transverse_ratio: float = 0.01
+    rocking_hz: float = 1800.0
+    rocking_q: float = 8.0
+
+    def acceleration_model(self) -> Model:
+        return Model(
+            (
+                highpass2(self.suspension_hz, self.suspension_q),
+                lowpass1(self.electrical_corner_hz),
+                resonance(self.axial_resonance_hz, self.axial_q),
+            ),
+            self.midband_ms2_per_v,
+        )
+
+    def transverse_stage(self) -> Model:
+        """Transverse per axial table acceleration (small, with a rocking mode)."""
+        return Model((resonance(self.rocking_hz, self.rocking_q),), self.transverse_ratio)
+
+    def displacement_stage(self) -> Model:
+        """Table displacement (m) per m/s^2 of table acceleration: a double integrator made
+        slightly leaky (poles at 0.2 and 0.3 Hz, far below any line) so that it has no
+        defective pole; within 0.1 % of 1/(j w)^2 from 10 Hz up."""
+        return Model((lowpass1(0.2), lowpass1(0.3)), 1.0 / ((2 * np.pi) ** 2 * 0.2 * 0.3))
+
+    def nonlinearity(self, v: np.ndarray) -> np.ndarray:
+        x = v / 10.0
+        return v + 10.0 * (self.quadratic * x**2 - self.cubic * x**3)
+
+
+@dataclass(frozen=True)
+class SensorModel:
+    """An accelerometer with its conditioning, output in V per m/s^2 of table acceleration.
+
+    `sensitivity_mv_per_ms2` mid band; a first-order high-pass (IEPE/charge discharge time
+    constant), a resonance (mounted), an optional second-order low-pass (capacitive sensor
+    bandwidth), an optional mount resonance (loose mount), transverse sensitivity (fraction),
+    noise density in g/sqrt(Hz), a cubic nonlinearity coefficient per (m/s^2)^2.
+    """
+
+    name: str
+    description: str
+    kind: str
+    sensitivity_mv_per_ms2: float
+    highpass_hz: float | None = None
+    resonance_hz: float | None = None
+    resonance_q: float = 30.0
+    lowpass_hz: float | None = None
+    lowpass_q: float = 0.707
+    mount_resonance_hz: float | None = None
+    mount_q: float = 10.0
+    transverse_sensitivity: float = 0.01
+    noise_g_per_rthz: float = 0.0
+    cubic_per_ms2_sq: float = 0.0
+    dead: bool = False
+
+    def model(self) -> Model:
+        """Linear output (V) per m/s^2."""
+        stages: list[Stage] = []
+        if self.highpass_hz:
+            stages.append(highpass1(self.highpass_hz))
+        if self.resonance_hz:
+            stages.append(resonance(self.resonance_hz, self.resonance_q))
+        if self.lowpass_hz:
+            stages.append(resonance(self.lowpass_hz, self.lowpass_q))
+        if self.mount_resonance_hz:
+            stages.append(resonance(self.mount_resonance_hz, self.mount_q))
+        gain = 0.0 if self.dead else self.sensitivity_mv_per_ms2 * 1e-3
+        return Model(tuple(stages), gain)
+
+    def sensitivity(self, frequency_hz: np.ndarray, rms_ms2: float = 0.0) -> np.ndarray:
+        """True complex sensitivity in mV/(m/s^2) at frequencies, at an excitation with total
+        rms acceleration `rms_ms2`: the cubic term's Bussgang gain 1 + 3 c3 rms^2."""
+        compression = 1.0 + 3.0 * self.cubic_per_ms2_sq * rms_ms2**2
+        return 1e3 * self.model().response(frequency_hz) * compression
+
+
+@dataclass(frozen=True)
+class AdcModel:
+    """One analog input: white noise (V rms), hum at the mains frequency and harmonics
+    (V peak each), 16-bit quantisation of its +-range, clipping at the range."""
+
+    noise_v: float = 20e-6
+    hum_v: tuple[float, ...] = (40e-6, 12e-6, 8e-6, 5e-6, 3e-6)
+    bits: int = 16
+
+    def quantise(self, x: np.ndarray, range_v: float) -> np.ndarray:
+        """Round to the ADC step (2 range / 2^bits) and clip to the code range."""
+        step = 2.0 * range_v / 2**self.bits
+        codes = np.clip(np.round(x / step), -(2 ** (self.bits - 1)), 2 ** (self.bits - 1) - 1)
+        return codes * step
+
+
+REFERENCE = SensorModel(
+    name="reference",
+    description="back-to-back reference standard (8305-like) with its conditioning amplifier",
+    kind="reference",
+    sensitivity_mv_per_ms2=1.0,
+    highpass_hz=0.1,
+    resonance_hz=30000.0,
+    resonance_q=40.0,
+    transverse_sensitivity=0.0,
+    noise_g_per_rthz=2e-7,
+)
+
+DUT_CATALOGUE: dict[str, SensorModel] = {
+    "piezo": SensorModel(
+        name="piezo",
+        description="IEPE piezoelectric accelerometer (338B35-like), ~10 mV/(m/s^2), "
+        "0.5 Hz high-pass, resonance 25 kHz",
+        kind="piezoelectric",
+        sensitivity_mv_per_ms2=10.2,
+        highpass_hz=0.5,
+        resonance_hz=25000.0,
+        resonance_q=35.0,
+        transverse_sensitivity=0.02,
+        noise_g_per_rthz=1e-6,
+    ),
+    "capacitive": SensorModel(
+        name="capacitive",
+        description="capacitive MEMS accelerometer (ADXL202-based), ~35 mV/(m/s^2), "
+        "2nd-order low-pass at 200 Hz, 200 ug/sqrt(Hz), slight nonlinearity",
+        kind="capacitive",
+        sensitivity_mv_per_ms2=35.0,
+        lowpass_hz=200.0,
+        lowpass_q=0.707,
+        transverse_sensitivity=0.01,
+        noise_g_per_rthz=200e-6,
+        cubic_per_ms2_sq=-5e-6,
+    ),
+    "loose": SensorModel(
+        name="loose",
+        description="faulty: piezoelectric accelerometer on a loose mount (resonance 1.2 kHz)",
+        kind="piezoelectric",
+        sensitivity_mv_per_ms2=10.2,
+        highpass_hz=0.5,
+        resonance_hz=25000.0,
+        mount_resonance_hz=1200.0,
+        mount_q=6.0,
+        transverse_sensitivity=0.05,
+        noise_g_per_rthz=1e-6,
+    ),
+    "dead": SensorModel(
+        name="dead",
+        description="faulty: dead channel (broken cable): noise only",
+        kind="piezoelectric",
+        sensitivity_mv_per_ms2=10.2,
+        dead=True,
+    ),
+}
+
+
+@dataclass(frozen=True)
+class StandModel:
+    """Everything physical about a simulated stand (nominal values; systematic deviations are
+    drawn per seed from the budget by sim.stand)."""
+
+    exciter: ExciterModel = field(default_factory=ExciterModel)
+    amplifier: PowerAmplifierModel = field(default_factory=PowerAmplifierModel)
+    reference: SensorModel = REFERENCE
+    reference_gain: float = 10.0
+    adc: AdcModel = field(default_factory=AdcModel)
+    skew_s: float = 4e-6
+    mains_hz: float = 50.0

@@ -1,0 +1,455 @@
+"""The simulated stand: the `hardware.interfaces.Daq` protocol over the physical models.
+
+Deterministic for a seed; block size does not change its output. It draws its systematic
+deviations (reference certificate error, gains, mounting) per seed from its own budget
+(sim/stand.toml), so the analysis, which sees only the certificate and nominal values, is
+tested on its whole uncertainty statement. Faults are injected at chosen simulated times and
+surface as the interface's exceptions. It records its own output, so tests can prove the drive
+ended at 0 V.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import tomllib
+from dataclasses import dataclass, field
+from importlib import resources
+from typing import Any
+
+import numpy as np
+
+from dsp import iso266
+from dsp.calibration import ReferenceChain
+from dsp.uncertainty import Budget, Component, Distribution, Quantity
+from hardware.errors import (
+    AmplifierFaultError,
+    DaqTimeoutError,
+    DeviceLostError,
+    HardwareError,
+    OverloadError,
+)
+from hardware.interfaces import DaqConfig, DaqStatus
+from sim.lti import MultiZoh, Network, ZohFilter
+from sim.models import DUT_CATALOGUE, G_N, SensorModel, StandModel
+
+FAULT_KINDS = ("daq-timeout", "device-lost", "visa-timeout", "amplifier-fault", "overload")
+TARGETS = (
+    "reference_certificate",
+    "reference_gain",
+    "daq_gain_reference",
+    "daq_gain_dut",
+    "dut_motion",
+    "reference_phase",
+)
+
+
+@dataclass(frozen=True)
+class Fault:
+    """A fault of kind FAULT_KINDS at a simulated time in s after start."""
+
+    kind: str
+    at_s: float
+
+    def __post_init__(self) -> None:
+        if self.kind not in FAULT_KINDS:
+            raise ValueError(f"fault: unknown kind {self.kind!r}; one of {', '.join(FAULT_KINDS)}")
+        if not (math.isfinite(self.at_s) and self.at_s >= 0):
+            raise ValueError(f"fault: time must be >= 0 s, got {self.at_s!r}")
+
+    @classmethod
+    def parse(cls, text: str) -> Fault:
+        """'device-lost@3.5' -> Fault('device-lost', 3.5)."""
+        kind, _, at = text.partition("@")
+        try:
+            return cls(kind.strip(), float(at))
+        except ValueError as exc:
+            raise ValueError(f"--fault {text!r}: expected KIND@SECONDS ({exc})") from None
+
+
+@dataclass(frozen=True)
+class SimBudget:
+    """The simulated stand's budget and which components it draws its deviations from."""
+
+    budget: Budget
+    targets: dict[str, str]
+
+    @classmethod
+    def load(cls, text: str | None = None, source: str = "sim/stand.toml") -> SimBudget:
+        """Parse the stand TOML (default: the shipped sim/stand.toml)."""
+        if text is None:
+            text = resources.files("sim").joinpath("stand.toml").read_text(encoding="utf-8")
+        try:
+            data = tomllib.loads(text)
+        except tomllib.TOMLDecodeError as exc:
+            raise ValueError(f"{source}: {exc}") from None
+        budget = Budget.from_list(data.get("component", []))
+        names = {c.name for c in budget.components}
+        targets = dict(data.get("simulation", {}))
+        for name, target in targets.items():
+            if name not in names:
+                raise ValueError(f"{source}: [simulation] names no component {name!r}")
+            if target not in TARGETS:
+                raise ValueError(
+                    f"{source}: [simulation] {name!r}: unknown target {target!r}; "
+                    f"one of {', '.join(TARGETS)}"
+                )
+        return cls(budget, targets)
+
+
+def draw(component: Component, rng: np.random.Generator) -> float:
+    """One draw of a component's error from its distribution (relative or degrees)."""
+    a = component.value
+    match component.distribution:
+        case Distribution.RECTANGULAR:
+            return float(rng.uniform(-a, a))
+        case Distribution.TRIANGULAR:
+            return float(rng.triangular(-a, 0.0, a))
+        case Distribution.U_SHAPED:
+            return float(a * math.sin(rng.uniform(0, 2 * math.pi)))
+        case _:  # normal or standard
+            return float(rng.normal(0.0, component.standard_uncertainty))
+
+
+@dataclass(frozen=True)
+class Deviations:
+    """The stand's true deviations from nominal for one seed."""
+
+    reference_gain: float = 1.0
+    daq_gain_reference: float = 1.0
+    daq_gain_dut: float = 1.0
+    dut_motion: float = 1.0
+    reference_phase_deg: float = 0.0
+    certificate: tuple[tuple[float, float | None, float | None], ...] = ()  # (e, fmin, fmax)
+    transverse_cos: float = 0.0
+
+    def certificate_factor(self, frequency_hz: np.ndarray) -> np.ndarray:
+        """Certificate value / true value of the reference sensitivity, per frequency."""
+        f = np.asarray(frequency_hz, dtype=float)
+        factor = np.ones_like(f)
+        for e, lo, hi in self.certificate:
+            inside = np.ones(f.shape, bool)
+            if lo is not None:
+                inside &= f >= lo
+            if hi is not None:
+                inside &= f <= hi
+            factor = np.where(inside, factor * (1.0 + e), factor)
+        return factor
+
+
+def draw_deviations(sim_budget: SimBudget, rng: np.random.Generator) -> Deviations:
+    """Draw every mapped component once (relative factors, phase in degrees)."""
+    values: dict[str, Any] = {"certificate": []}
+    for component in sim_budget.budget.components:
+        target = sim_budget.targets.get(component.name)
+        e = draw(component, rng)
+        if target is None:
+            continue
+        if target == "reference_certificate":
+            values["certificate"].append((e, component.min_frequency_hz, component.max_frequency_hz))
+        elif target == "reference_phase":
+            values["reference_phase_deg"] = values.get("reference_phase_deg", 0.0) + e
+        else:
+            values[target] = values.get(target, 1.0) * (1.0 + e)
+    values["certificate"] = tuple(values["certificate"])
+    values["transverse_cos"] = float(math.cos(rng.uniform(0, 2 * math.pi)))
+    return Deviations(**values)
+
+
+@dataclass
+class OutputRecord:
+    """What the simulated DAQ output did: per period (start time s, peak |V|, last V)."""
+
+    periods: list[tuple[float, float, float]] = field(default_factory=list)
+    final_v: float = 0.0
+    stopped: bool = False
+
+
+class SimulatedStand:
+    """A DAQ plus exciter, reference and DUT behind the `Daq` protocol."""
+
+    def __init__(
+        self,
+        dut: str | SensorModel = "piezo",
+        *,
+        model: StandModel | None = None,
+        sim_budget: SimBudget | None = None,
+        seed: int = 0,
+        paced: bool = False,
+        faults: tuple[Fault, ...] = (),
+        systematic: bool = True,
+    ):
+        if isinstance(dut, str):
+            try:
+                dut = DUT_CATALOGUE[dut]
+            except KeyError:
+                raise ValueError(
+                    f"dut: unknown {dut!r}; the catalogue has {', '.join(DUT_CATALOGUE)}"
+                ) from None
+        self.dut = dut
+        self.model = model or StandModel()
+        self.sim_budget = sim_budget or SimBudget.load()
+        self.seed = seed
+        self.paced = paced
+        self.faults = tuple(sorted(faults, key=lambda f: f.at_s))
+        seeds = np.random.SeedSequence(seed).spawn(8)
+        self.deviations = (
+            draw_deviations(self.sim_budget, np.random.default_rng(seeds[0]))
+            if systematic
+            else Deviations()
+        )
+        self._noise = {
+            name: np.random.default_rng(s)
+            for name, s in zip(("amp", "ref_sensor", "dut_sensor", "adc_ref", "adc_dut"), seeds[1:6], strict=True)
+        }
+        self._hum_phases = np.random.default_rng(seeds[6]).uniform(0, 2 * np.pi, (2, 8))
+        self.output = OutputRecord()
+        self._config: DaqConfig | None = None
+        self._buffer: np.ndarray | None = None
+        self._running = False
+        self._lost = False
+        self._amp_tripped = False
+        self._sample_index = 0
+        self._wall_start = 0.0
+
+    # --- what the analysis is told (nominal values and the certificate) ---------------------
+
+    def reference_chain(self, dut_gain: float = 1.0) -> ReferenceChain:
+        """The reference certificate (with its drawn error) and nominal gains and skew."""
+        freqs = np.array(iso266.nominal_frequencies(1.0, 20000.0))
+        true = self.model.reference.sensitivity(freqs)
+        certificate = np.abs(true) * self.deviations.certificate_factor(freqs)
+        phase = np.degrees(np.angle(true)) + self.deviations.reference_phase_deg
+        return ReferenceChain(
+            tuple(freqs.tolist()),
+            tuple(certificate.tolist()),
+            tuple(phase.tolist()),
+            reference_gain=self.model.reference_gain,
+            dut_gain=dut_gain,
+            skew_s=self.model.skew_s,
+        )
+
+    def truth(self, frequency_hz: np.ndarray, rms_ms2: float = 0.0) -> np.ndarray:
+        """The DUT's true complex sensitivity in mV/(m/s^2) (at a total rms excitation)."""
+        return self.dut.sensitivity(frequency_hz, rms_ms2)
+
+    def table_response(self, frequency_hz: np.ndarray) -> np.ndarray:
+        """Nominal table acceleration (m/s^2) per DAQ output volt for a sampled line (ZOH,
+        anti-imaging filter, amplifier gain, exciter); for open-loop pre-equalisation."""
+        if self._config is None:
+            raise HardwareError("simulated DAQ: configure() first")
+        return self._chain.discrete_response(
+            "acceleration", frequency_hz, self._config.sample_rate_hz
+        ) * self.model.amplifier.gain
+
+    # --- the Daq protocol -------------------------------------------------------------------
+
+    def configure(self, config: DaqConfig) -> DaqStatus:
+        """Build the exact sampled models for this sample rate and channel set."""
+        self._config = config
+        fs = config.sample_rate_hz
+        m, d = self.model, self.deviations
+        dut_model = self.dut.model()
+        network = (
+            Network()
+            .add("acceleration", m.amplifier.anti_imaging(fs).then(*m.exciter.acceleration_model().stages, gain=m.exciter.midband_ms2_per_v))
+            .add("displacement", m.exciter.displacement_stage(), "acceleration")
+            .add("reference", m.reference.model(), "acceleration")
+            .add("transverse", m.exciter.transverse_stage(), "acceleration")
+            .combine(
+                "dut_input",
+                {
+                    "acceleration": d.dut_motion,
+                    "transverse": self.dut.transverse_sensitivity * d.transverse_cos,
+                },
+            )
+            .add("dut", dut_model, "dut_input")
+        )
+        skew = m.skew_s
+        self._chain = MultiZoh(
+            network,
+            {
+                "acceleration": ("acceleration", 0.0),
+                "displacement": ("displacement", 0.0),
+                "reference": ("reference", 0.0),
+                "dut": ("dut", skew),
+            },
+            fs,
+        )
+        self._cubic = ZohFilter(dut_model, fs, skew) if self.dut.cubic_per_ms2_sq else None
+        return DaqStatus(actual_sample_rate_hz=fs, skew_s=skew)
+
+    def start(self, period_v: np.ndarray) -> None:
+        self._require_config()
+        if self._lost:
+            raise DeviceLostError("simulated DAQ: device lost")
+        self._buffer = self._checked(period_v)
+        self._running = True
+        self.output.stopped = False
+        self._wall_start = time.monotonic()
+
+    def write_period(self, period_v: np.ndarray) -> None:
+        """Replace the output from the next period boundary on."""
+        if self._lost:
+            raise DeviceLostError("simulated DAQ: device lost")
+        self._buffer = self._checked(period_v)
+
+    def read_period(self, timeout_s: float = 10.0) -> np.ndarray:
+        """Simulate the next period; (channels, N) volts in the configured input order."""
+        config = self._require_config()
+        if self._lost:
+            raise DeviceLostError("simulated DAQ: device lost")
+        if not self._running or self._buffer is None:
+            raise HardwareError("simulated DAQ: read before start()")
+        n = config.period_samples
+        t0 = self._sample_index / config.sample_rate_hz
+        period_s = n / config.sample_rate_hz
+        fault = next((f for f in self.faults if t0 <= f.at_s < t0 + period_s), None)
+        if fault is not None:
+            self._inject(fault)
+        if self.paced:
+            wait = self._wall_start + t0 + period_s - time.monotonic()
+            if wait > timeout_s:
+                raise DaqTimeoutError(f"simulated DAQ: no period within {timeout_s:g} s")
+            if wait > 0:
+                time.sleep(wait)
+        drive = self._buffer
+        blocks = self._simulate(drive)
+        self._sample_index += n
+        self.output.periods.append((t0, float(np.max(np.abs(drive))), float(drive[-1])))
+        self.output.final_v = float(drive[-1])
+        return np.vstack([blocks[c.name] for c in config.inputs])
+
+    def stop(self) -> None:
+        """Play 0 V and stop. Safe at any time, twice, after an error or a lost device."""
+        if self._config is not None and self._buffer is not None and not self._lost:
+            self._buffer = np.zeros_like(self._buffer)
+        self._running = False
+        self.output.final_v = 0.0
+        self.output.stopped = True
+
+    def close(self) -> None:
+        self.stop()
+
+    @property
+    def output_v(self) -> float | None:
+        """The DAQ output voltage now (0 V when stopped, lost or never started)."""
+        return self.output.final_v if self._running else 0.0
+
+    @property
+    def sim_time_s(self) -> float:
+        if self._config is None:
+            return 0.0
+        return self._sample_index / self._config.sample_rate_hz
+
+    # --- internals --------------------------------------------------------------------------
+
+    def _require_config(self) -> DaqConfig:
+        if self._config is None:
+            raise HardwareError("simulated DAQ: configure() first")
+        return self._config
+
+    def _checked(self, period_v: np.ndarray) -> np.ndarray:
+        config = self._require_config()
+        x = np.asarray(period_v, dtype=float)
+        if x.shape != (config.period_samples,):
+            raise ValueError(
+                f"simulated DAQ: output period must have {config.period_samples} samples, "
+                f"got {x.shape}"
+            )
+        if not np.all(np.isfinite(x)):
+            raise ValueError("simulated DAQ: output contains NaN or inf")
+        if np.max(np.abs(x)) > config.output.range_v:
+            raise ValueError(
+                f"simulated DAQ: output peak {np.max(np.abs(x)):.3g} V exceeds the AO range "
+                f"+-{config.output.range_v:g} V"
+            )
+        return x.copy()
+
+    def _inject(self, fault: Fault) -> None:
+        at = f"at {fault.at_s:g} s"
+        if fault.kind == "daq-timeout":
+            raise DaqTimeoutError(f"simulated DAQ: read timed out {at}")
+        if fault.kind == "device-lost":
+            self._lost = True
+            self._running = False
+            self.output.final_v = 0.0  # a lost device resets its output
+            raise DeviceLostError(f"simulated DAQ: device lost {at}")
+        if fault.kind == "amplifier-fault":
+            self._amp_tripped = True
+            raise AmplifierFaultError(f"simulated power amplifier: fault (over-temperature) {at}")
+        if fault.kind == "overload":
+            raise OverloadError(f"simulated measuring amplifier: overload {at}", channel="dut")
+        # visa-timeout surfaces through the simulated measuring amplifier's queries
+
+    def _simulate(self, drive: np.ndarray) -> dict[str, np.ndarray]:
+        config = self._require_config()
+        m, d = self.model, self.deviations
+        n = drive.size
+        amp = m.amplifier
+        v = drive * amp.gain + amp.noise_v * self._noise["amp"].standard_normal(n)
+        v = np.clip(v, -amp.output_limit_v, amp.output_limit_v)
+        if self._amp_tripped:
+            v = np.zeros(n)
+        u = m.exciter.nonlinearity(v)
+        chain = self._chain.process(u)
+        displacement = chain["displacement"]
+        limit = m.exciter.stroke_peak_to_peak_m / 2
+        if np.max(np.abs(displacement)) > limit:
+            self._amp_tripped = True
+            raise AmplifierFaultError(
+                f"simulated power amplifier: exciter over-travel interlock (displacement "
+                f"{1e3 * np.max(np.abs(displacement)):.2f} mm > {1e3 * limit:g} mm) at "
+                f"{self.sim_time_s:g} s; lower the level at low frequencies"
+            )
+        fs = config.sample_rate_hz
+        sensor_noise = math.sqrt(fs / 2) * G_N
+        reference = chain["reference"] * m.reference_gain * d.reference_gain
+        reference += (
+            m.reference.noise_g_per_rthz * sensor_noise * m.reference.sensitivity_mv_per_ms2 * 1e-3
+            * m.reference_gain * self._noise["ref_sensor"].standard_normal(n)
+        )
+        dut = chain["dut"]
+        if self._cubic is not None:
+            dut += self._cubic.process(self.dut.cubic_per_ms2_sq * chain["acceleration"] ** 3)
+        dut += (
+            self.dut.noise_g_per_rthz * sensor_noise * self.dut.sensitivity_mv_per_ms2 * 1e-3
+            * self._noise["dut_sensor"].standard_normal(n)
+        )
+        hum_reference, hum_dut = self._hum(n, fs)
+        adc = m.adc
+        out = {
+            "reference": reference * d.daq_gain_reference + hum_reference
+            + adc.noise_v * self._noise["adc_ref"].standard_normal(n),
+            "dut": dut * d.daq_gain_dut + hum_dut
+            + adc.noise_v * self._noise["adc_dut"].standard_normal(n),
+            "drive": drive.copy(),
+        }
+        ranges = {c.name: c.range_v for c in config.inputs}
+        for name in ("reference", "dut", "drive"):
+            if name in ranges:
+                out[name] = m.adc.quantise(out[name], ranges[name])
+        return out
+
+    def _hum(self, n: int, fs: float) -> tuple[np.ndarray, np.ndarray]:
+        """Mains hum (V) on the reference and DUT channels for the next n samples; the DUT
+        channel is sampled `skew_s` later. One complex exponential, harmonics by products."""
+        m = self.model
+        time_s = (self._sample_index + np.arange(n)) / fs
+        base = np.exp(2j * np.pi * m.mains_hz * time_s)
+        rotor = np.ones(n, complex)
+        reference, dut = np.zeros(n), np.zeros(n)
+        for h, amplitude in enumerate(m.adc.hum_v, start=1):
+            rotor *= base
+            skew = np.exp(2j * np.pi * h * m.mains_hz * m.skew_s)
+            reference += amplitude * (rotor * np.exp(1j * self._hum_phases[0, h])).imag
+            dut += amplitude * (rotor * (skew * np.exp(1j * self._hum_phases[1, h]))).imag
+        return reference, dut
+
+
+def catalogue() -> dict[str, SensorModel]:
+    """The DUTs the simulated stand offers."""
+    return dict(DUT_CATALOGUE)
+
+
+__all__ = ["Fault", "SimBudget", "SimulatedStand", "catalogue", "FAULT_KINDS", "Quantity"]

@@ -1,0 +1,306 @@
+"""The VISA amplifier drivers against the shipped pyvisa-sim definitions (sim/amplifiers.yaml)."""
+
+from __future__ import annotations
+
+import pytest
+
+from hardware.errors import (
+    AmplifierFaultError,
+    DeviceLostError,
+    InstrumentError,
+    VisaTimeoutError,
+)
+from hardware.interfaces import MeasuringAmplifier, PowerAmplifier
+from hardware.visa_amplifiers import (
+    BK2525_GAINS,
+    BK2525_HIGH_PASS_HZ,
+    BK2525_LOW_PASS_HZ,
+    BK2525Amplifier,
+    ScpiPowerAmplifier,
+)
+from sim.visa import (
+    SIM_MEASURING_AMPLIFIER,
+    SIM_MEASURING_AMPLIFIER_CHANNELS,
+    SIM_POWER_AMPLIFIER,
+    simulated_resource_manager,
+)
+
+
+@pytest.fixture
+def rm():
+    manager = simulated_resource_manager(fresh=True)  # instruments in their default state
+    yield manager
+    manager.close()
+
+
+@pytest.fixture
+def amp(rm):
+    with BK2525Amplifier(
+        SIM_MEASURING_AMPLIFIER, rm, channels=SIM_MEASURING_AMPLIFIER_CHANNELS
+    ) as driver:
+        yield driver
+
+
+@pytest.fixture
+def pa(rm):
+    with ScpiPowerAmplifier(SIM_POWER_AMPLIFIER, rm) as driver:
+        yield driver
+
+
+def raw(rm, name: str):
+    """The simulated instrument without a driver, for writing what no driver would send."""
+    return rm.open_resource(name, read_termination="\n", write_termination="\n", timeout=200)
+
+
+def test_both_instruments_are_listed_and_identify(rm, amp, pa):
+    assert set(rm.list_resources()) == {SIM_MEASURING_AMPLIFIER, SIM_POWER_AMPLIFIER}
+    assert isinstance(amp, MeasuringAmplifier)
+    assert isinstance(pa, PowerAmplifier)
+    assert amp.identify().startswith("Bruel&Kjaer,2525,")
+    assert "power amplifier" in pa.identify()
+
+
+def test_shared_manager_is_reused_and_fresh_one_starts_from_defaults():
+    shared = simulated_resource_manager()
+    assert simulated_resource_manager() is shared
+    amp = BK2525Amplifier(SIM_MEASURING_AMPLIFIER, shared, channels=2)
+    amp.configure(1, sensitivity_mv_per_ms2=2.0, gain=50, low_pass_hz=1000)
+    other = BK2525Amplifier(SIM_MEASURING_AMPLIFIER, simulated_resource_manager(), channels=2)
+    assert other.read_settings(1).gain == 50.0  # same simulated instrument
+    fresh_rm = simulated_resource_manager(fresh=True)
+    try:
+        fresh = BK2525Amplifier(SIM_MEASURING_AMPLIFIER, fresh_rm, channels=2)
+        assert fresh.read_settings(1).gain == 1.0
+    finally:
+        fresh_rm.close()
+    amp.configure(1, sensitivity_mv_per_ms2=1.0, gain=1, high_pass_hz=1, low_pass_hz=22400)
+    amp.close()
+    other.close()
+
+
+def test_defaults_read_back(amp):
+    settings = amp.read_settings(1)
+    assert settings.measurement_mode == "Acceleration"
+    assert (settings.sensitivity_mv_per_ms2, settings.gain) == (1.0, 1.0)
+    assert (settings.high_pass_hz, settings.low_pass_hz) == (1.0, 22400.0)
+    assert settings.identity == amp.identify()
+
+
+@pytest.mark.parametrize(
+    ("channel", "sensitivity", "gain", "high_pass", "low_pass"),
+    [
+        (1, 9.21, 20, 0.1, None),
+        (2, 35.0, 0.5, None, 3000),
+        (2, 0.0123456, 10000, 10, 22400),
+    ],
+)
+def test_configure_then_read_settings_round_trip(
+    amp, channel, sensitivity, gain, high_pass, low_pass
+):
+    other = 3 - channel
+    before_other = amp.read_settings(other)
+    configured = amp.configure(
+        channel,
+        sensitivity_mv_per_ms2=sensitivity,
+        gain=gain,
+        high_pass_hz=high_pass,
+        low_pass_hz=low_pass,
+    )
+    again = amp.read_settings(channel)
+    assert configured == again
+    assert again.channel == channel
+    assert again.sensitivity_mv_per_ms2 == pytest.approx(sensitivity, rel=1e-6)
+    assert again.gain == gain
+    assert again.output_mv_per_ms2 == pytest.approx(sensitivity * gain, rel=1e-6)
+    assert again.high_pass_hz == high_pass
+    assert again.low_pass_hz == low_pass
+    assert amp.read_settings(other) == before_other  # the other channel is untouched
+
+
+def test_every_gain_and_filter_of_the_driver_is_accepted_by_the_simulation(amp):
+    for gain in BK2525_GAINS:
+        assert amp.configure(1, sensitivity_mv_per_ms2=1.0, gain=gain).gain == gain
+    for high_pass in BK2525_HIGH_PASS_HZ:
+        for low_pass in BK2525_LOW_PASS_HZ:
+            settings = amp.configure(
+                2,
+                sensitivity_mv_per_ms2=1.0,
+                gain=1,
+                high_pass_hz=high_pass,
+                low_pass_hz=low_pass,
+            )
+            assert (settings.high_pass_hz, settings.low_pass_hz) == (high_pass, low_pass)
+
+
+@pytest.mark.parametrize(
+    "change",
+    [
+        {"gain": 3},
+        {"gain": 1e5},
+        {"sensitivity_mv_per_ms2": 0.0},
+        {"high_pass_hz": 5},
+        {"low_pass_hz": 20000},
+    ],
+)
+def test_driver_refuses_out_of_range_and_the_instrument_keeps_its_settings(amp, change):
+    before = amp.read_settings(1)
+    kwargs = {"sensitivity_mv_per_ms2": 5.0, "gain": 10, "high_pass_hz": 10, **change}
+    with pytest.raises(InstrumentError, match="refused: allowed"):
+        amp.configure(1, **kwargs)
+    assert amp.read_settings(1) == before
+
+
+@pytest.mark.parametrize(
+    ("command", "answer", "query", "unchanged"),
+    [
+        (":Channel_1:Output_Gain 3", "ERROR -222 Data out of range", "Output_Gain?", "1"),
+        (":Channel_1:Output_Gain 20000", "ERROR -222 Data out of range", "Output_Gain?", "1"),
+        (
+            ":Channel_2:Transducer_Sensitivity 0",
+            "ERROR -222 Data out of range",
+            "Transducer_Sensitivity?",
+            "1",
+        ),
+        (
+            ":Channel_1:High_Pass_Filter 5",
+            "ERROR -224 Illegal parameter value",
+            "High_Pass_Filter?",
+            "1",
+        ),
+        (
+            ":Channel_1:Low_Pass_Filter 2000",
+            "ERROR -224 Illegal parameter value",
+            "Low_Pass_Filter?",
+            "22400",
+        ),
+        (
+            ":Channel_1:Measurement_Mode Charge",
+            "ERROR -224 Illegal parameter value",
+            "Measurement_Mode?",
+            "Acceleration",
+        ),
+        (":Channel_1:No_Such_Thing 1", "ERROR -100 Command error", "Output_Gain?", "1"),
+    ],
+)
+def test_simulated_measuring_amplifier_answers_errors_to_raw_bad_writes(
+    rm, command, answer, query, unchanged
+):
+    instrument = raw(rm, SIM_MEASURING_AMPLIFIER)
+    instrument.write(command)
+    assert instrument.read() == answer
+    channel = command.split(":")[1]
+    assert instrument.query(f":{channel}:{query}") == unchanged
+    instrument.close()
+
+
+def test_simulated_measuring_amplifier_accepts_a_raw_good_compound_write(rm, amp):
+    instrument = raw(rm, SIM_MEASURING_AMPLIFIER)
+    instrument.write(":Channel_2:Output_Gain 200;:Channel_2:Low_Pass_Filter 10000")
+    settings = amp.read_settings(2)
+    assert (settings.gain, settings.low_pass_hz) == (200.0, 10000.0)
+    instrument.close()
+
+
+def test_an_error_answer_reaches_the_driver_as_an_instrument_error(rm, amp):
+    instrument = raw(rm, SIM_MEASURING_AMPLIFIER)
+    instrument.write(":Channel_1:Output_Gain 3")  # its error answer waits in the output queue
+    with pytest.raises(InstrumentError, match="'ERROR -222 Data out of range'"):
+        amp.overloaded(1)
+    instrument.close()
+
+
+def test_overload_and_recall_work(rm, amp):
+    assert amp.overloaded(1) is False
+    assert amp.overloaded(2) is False
+    instrument = raw(rm, SIM_MEASURING_AMPLIFIER)
+    instrument.write("SIM:Channel_2:Overload 1")
+    assert amp.overloaded(1) is False
+    assert amp.overloaded(2) is True
+    instrument.close()
+    work = amp.recall_work()
+    assert work.startswith(":Channel_1:Measurement_Mode Acceleration;")
+    assert ":Channel_2:" in work
+
+
+def test_wrong_instrument_at_the_address_is_an_instrument_error(rm):
+    with BK2525Amplifier(SIM_POWER_AMPLIFIER, rm) as wrong:
+        with pytest.raises(InstrumentError, match="Command error"):
+            wrong.overloaded(1)
+
+
+def test_power_amplifier_on_off(pa):
+    pa.set_output_enabled(True)
+    pa.set_output_enabled(True)
+    pa.set_output_enabled(False)
+    pa.set_output_enabled(False)
+
+
+def test_power_amplifier_state_is_what_was_set(rm, pa):
+    instrument = raw(rm, SIM_POWER_AMPLIFIER)
+    pa.set_output_enabled(True)
+    assert instrument.query("OUTP?") == "ON"
+    pa.set_output_enabled(False)
+    assert instrument.query("OUTP?") == "OFF"
+    instrument.close()
+
+
+def test_power_amplifier_gain(rm, pa):
+    assert pa.gain() == 0.0
+    for gain in (0.25, 1.0, 0.0, 0.123457):
+        pa.set_gain(gain)
+        assert pa.gain() == gain
+    with pytest.raises(InstrumentError, match=r"gain 1\.5 refused: allowed 0 to 1"):
+        pa.set_gain(1.5)
+    assert pa.gain() == 0.123457
+    instrument = raw(rm, SIM_POWER_AMPLIFIER)
+    instrument.write("GAIN 1.5")
+    assert instrument.read() == '-222,"Data out of range"'
+    instrument.write("OUTP MAYBE")
+    assert instrument.read() == '-224,"Illegal parameter value"'
+    assert pa.gain() == 0.123457
+    instrument.close()
+
+
+def test_power_amplifier_fault_blocks_enable(rm, pa):
+    assert pa.fault() is None
+    instrument = raw(rm, SIM_POWER_AMPLIFIER)
+    instrument.write('SIM:FAULT 12,"Over temperature"')
+    assert pa.fault() == "Over temperature (fault code 12)"
+    with pytest.raises(AmplifierFaultError, match="Over temperature"):
+        pa.set_output_enabled(True)
+    assert instrument.query("OUTP?") == "OFF"
+    pa.set_output_enabled(False)  # always allowed
+    instrument.close()
+
+
+def test_power_amplifier_open_interlock_blocks_enable(rm, pa):
+    assert pa.interlock_closed() is True
+    instrument = raw(rm, SIM_POWER_AMPLIFIER)
+    instrument.write("SIM:INTERLOCK 0")
+    assert pa.interlock_closed() is False
+    with pytest.raises(AmplifierFaultError, match="interlock open"):
+        pa.set_output_enabled(True)
+    assert instrument.query("OUTP?") == "OFF"
+    instrument.write("SIM:INTERLOCK 1")
+    pa.set_output_enabled(True)
+    assert instrument.query("OUTP?") == "ON"
+    pa.set_output_enabled(False)
+    instrument.close()
+
+
+def test_real_pyvisa_timeout_is_a_visa_timeout_error(rm):
+    instrument = raw(rm, SIM_POWER_AMPLIFIER)
+    instrument.timeout = 30
+    pa = ScpiPowerAmplifier(instrument)
+    with pytest.raises(VisaTimeoutError, match=r"'\*RST'"):
+        pa._query("*RST")  # the simulated instrument never answers *RST
+    pa.close()
+
+
+def test_closed_session_is_device_lost(rm):
+    instrument = raw(rm, SIM_POWER_AMPLIFIER)
+    pa = ScpiPowerAmplifier(instrument)
+    assert pa.interlock_closed() is True
+    instrument.close()  # as if the driver's session were closed behind its back
+    with pytest.raises(DeviceLostError, match="power amplifier at ASRL1::INSTR"):
+        pa.set_output_enabled(False)
