@@ -19,8 +19,8 @@ test: $(STAMP)
 	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest -q
 
 demo: $(STAMP)
-	$(BIN)/python -m tests.synthetic $(DEMO_DIR)/recording.h5
 	$(BIN)/accelcal plan --preset piezo
+	$(BIN)/accelcal simulate --dut piezo --level 5 --periods 8 --seed 1 --out $(DEMO_DIR)/recording.h5
 	$(BIN)/accelcal analyze $(DEMO_DIR)/recording.h5
 
 gui: $(STAMP)
@@ -29,6 +29,8 @@ gui: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python bench/crest_factor.py
 	$(BIN)/python bench/analysis_speed.py
+	$(BIN)/python bench/sim_speed.py
+	$(BIN)/python bench/coverage.py 600 piezo
 
 lint: $(STAMP)
 	$(BIN)/ruff check dsp hardware sim app tests bench

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from app.recording import Recording, iter_batches
+from app.recording import Recording, RecordingError, iter_batches
 from dsp.calibration import Results, compute_results
 from dsp.segments import segment_line_spectra, segment_plan
 from dsp.spectral import Estimate, SpectralAccumulator
@@ -30,6 +30,11 @@ def analyze(
     """Analyse whole periods (default) or, with `segments`, the seed's L equal segments."""
     plan = recording.plan
     warnings: list[str] = []
+    if recording.periods <= recording.settle_periods:
+        raise RecordingError(
+            f"{recording.source}: {recording.periods} period(s) recorded, none left after "
+            f"{recording.settle_periods} settle period(s)"
+        )
     if segments is None:
         accumulator = SpectralAccumulator(plan.period_samples, plan.bins)
         for reference, dut in iter_batches(recording):

@@ -387,11 +387,6 @@ def validate(recording: Recording, name: str) -> None:
             f"{name}: {length} samples is not a whole number of periods of {n} samples "
             f"({length / n:.3f} periods)"
         )
-    if length // n <= recording.settle_periods:
-        raise RecordingError(
-            f"{name}: {length // n} period(s) recorded, none left after "
-            f"{recording.settle_periods} settle period(s)"
-        )
     for channel, x in channels.items():
         bad = np.flatnonzero(~np.isfinite(x))
         if bad.size:

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from app.recording import Recording, RecordingWriter, Truth
+from app.recording import RecordingWriter, Truth
 from dsp.crestfactor import synthesize
 from dsp.multisine import Plan, fade_envelope, preset_plan
 from hardware.interfaces import DaqConfig, InputChannel, OutputChannel
@@ -43,14 +43,14 @@ class SimulatedRun:
     ranges_v: dict[str, float]
 
 
-def pick_range(peak_v: float) -> float:
+def pick_range(peak_v: float, channel: str) -> float:
     """Smallest input range with 50 % headroom over a predicted peak, in V."""
     for range_v in AI_RANGES_V:
         if 1.5 * peak_v <= range_v:
             return range_v
     raise SimulationError(
-        f"predicted signal peak {peak_v:.3g} V exceeds the largest input range "
-        f"{AI_RANGES_V[-1]:g} V; lower the level"
+        f"--level: the predicted {channel} signal peak {peak_v:.3g} V exceeds the largest "
+        f"input range {AI_RANGES_V[-1]:g} V; lower the level"
     )
 
 
@@ -76,21 +76,39 @@ def simulate(
     settle: int = 2,
     faults: tuple[Fault, ...] = (),
     paced: bool = False,
+    systematic: bool = True,
 ) -> SimulatedRun:
-    """Simulate a calibration recording of a catalogue DUT and write it to `out` (HDF5)."""
+    """Simulate a calibration recording of a catalogue DUT and write it to `out` (HDF5).
+
+    `systematic=False` leaves the stand exactly at its nominal values (no drawn deviations)."""
     if dut not in DUT_CATALOGUE:
-        raise SimulationError(f"--dut: unknown {dut!r}; the catalogue has {', '.join(DUT_CATALOGUE)}")
+        raise SimulationError(
+            f"--dut: unknown {dut!r}; the catalogue has {', '.join(DUT_CATALOGUE)}"
+        )
     if periods < 1:
         raise SimulationError(f"--periods: must be >= 1, got {periods}")
     if plan is None:
         plan = preset_plan(DEFAULT_PRESET.get(dut, "piezo"), level_ms2=level_ms2)
-    stand = SimulatedStand(dut, seed=seed, faults=faults, paced=paced)
+    stand = SimulatedStand(dut, seed=seed, faults=faults, paced=paced, systematic=systematic)
     sensor = stand.dut
     peaks = plan.predicted_peaks()
     reference_peak = peaks.acceleration_ms2 * stand.model.reference.sensitivity_mv_per_ms2 * 1e-3
     reference_peak *= stand.model.reference_gain
-    dut_peak = peaks.acceleration_ms2 * float(np.max(np.abs(sensor.sensitivity(plan.frequencies_hz)))) * 1e-3
-    ranges = {"reference": pick_range(reference_peak), "dut": pick_range(max(dut_peak, 1e-3))}
+    dut_peak = (
+        peaks.acceleration_ms2
+        * float(np.max(np.abs(sensor.sensitivity(plan.frequencies_hz))))
+        * 1e-3
+    )
+    stroke = stand.model.exciter.stroke_peak_to_peak_m
+    if peaks.displacement_peak_to_peak_m > stroke:
+        raise SimulationError(
+            f"--level: {level_ms2:g} m/s^2 needs {1e3 * peaks.displacement_peak_to_peak_m:.1f} mm "
+            f"p-p of table travel, beyond the exciter's {1e3 * stroke:g} mm stroke"
+        )
+    ranges = {
+        "reference": pick_range(reference_peak, "reference"),
+        "dut": pick_range(max(dut_peak, 1e-3), "DUT"),
+    }
     config = DaqConfig(
         plan.sample_rate_hz,
         plan.period_samples,
@@ -108,7 +126,9 @@ def simulate(
         raise SimulationError(
             f"--level: needs a {drive_peak:.3g} V drive peak, beyond the +-{AO_RANGE_V:g} V output"
         )
-    truth_values = stand.truth(plan.frequencies_hz, rms_ms2=float(np.sqrt(np.sum(plan.amplitudes_ms2**2) / 2)))
+    truth_values = stand.truth(
+        plan.frequencies_hz, rms_ms2=float(np.sqrt(np.sum(plan.amplitudes_ms2**2) / 2))
+    )
     truth = Truth(
         plan.frequencies_hz,
         np.abs(truth_values),
@@ -140,4 +160,3 @@ def simulate(
         finally:
             stand.stop()
     return SimulatedRun(path, plan, periods, settle_periods, truth, drive_peak, ranges)
-

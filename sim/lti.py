@@ -209,7 +209,9 @@ class MultiZoh:
         """Back to rest (zero state)."""
         self._state[:] = 0.0
 
-    def discrete_response(self, name: str, frequency_hz: np.ndarray, sample_rate_hz: float) -> np.ndarray:
+    def discrete_response(
+        self, name: str, frequency_hz: np.ndarray, sample_rate_hz: float
+    ) -> np.ndarray:
         """Steady-state response of output `name` to a sampled sine (ZOH and delay included)."""
         row = self.names.index(name)
         z = np.exp(2j * np.pi * np.asarray(frequency_hz, dtype=float) / sample_rate_hz)

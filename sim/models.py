@@ -26,7 +26,9 @@ from sim.lti import Model, Stage, highpass1, highpass2, lowpass1, resonance
 G_N = 9.80665  # standard gravity, m/s^2, for noise densities given in g/sqrt(Hz)
 
 
-def zpk_stages(zeros: np.ndarray, poles: np.ndarray, gain: float) -> tuple[tuple[Stage, ...], float]:
+def zpk_stages(
+    zeros: np.ndarray, poles: np.ndarray, gain: float
+) -> tuple[tuple[Stage, ...], float]:
     """Analog zeros/poles/gain as second-order stages (conjugate pairs matched in order of
     frequency) and the overall gain."""
     upper_poles = sorted((p for p in poles if p.imag > 1e-9 * abs(p)), key=abs)
@@ -67,7 +69,7 @@ class PowerAmplifierModel:
 
     gain: float = 20.0
     output_limit_v: float = 60.0
-    noise_v: float = 2e-3
+    noise_v: float = 50e-6
     anti_imaging_order: int = 10
     anti_imaging_edge: float = 0.45
     anti_imaging_ripple_db: float = 0.1
@@ -231,7 +233,7 @@ DUT_CATALOGUE: dict[str, SensorModel] = {
         lowpass_q=0.707,
         transverse_sensitivity=0.01,
         noise_g_per_rthz=200e-6,
-        cubic_per_ms2_sq=-5e-6,
+        cubic_per_ms2_sq=-1e-6,
     ),
     "loose": SensorModel(
         name="loose",

@@ -18,6 +18,9 @@ from importlib import resources
 from typing import Any
 
 import numpy as np
+import pyvisa
+import pyvisa.constants
+import pyvisa.errors
 
 from dsp import iso266
 from dsp.calibration import ReferenceChain
@@ -30,8 +33,14 @@ from hardware.errors import (
     OverloadError,
 )
 from hardware.interfaces import DaqConfig, DaqStatus
+from hardware.visa_amplifiers import BK2525Amplifier
 from sim.lti import MultiZoh, Network, ZohFilter
 from sim.models import DUT_CATALOGUE, G_N, SensorModel, StandModel
+from sim.visa import (
+    SIM_MEASURING_AMPLIFIER,
+    SIM_MEASURING_AMPLIFIER_CHANNELS,
+    simulated_resource_manager,
+)
 
 FAULT_KINDS = ("daq-timeout", "device-lost", "visa-timeout", "amplifier-fault", "overload")
 TARGETS = (
@@ -146,7 +155,9 @@ def draw_deviations(sim_budget: SimBudget, rng: np.random.Generator) -> Deviatio
         if target is None:
             continue
         if target == "reference_certificate":
-            values["certificate"].append((e, component.min_frequency_hz, component.max_frequency_hz))
+            values["certificate"].append(
+                (e, component.min_frequency_hz, component.max_frequency_hz)
+            )
         elif target == "reference_phase":
             values["reference_phase_deg"] = values.get("reference_phase_deg", 0.0) + e
         else:
@@ -200,7 +211,9 @@ class SimulatedStand:
         )
         self._noise = {
             name: np.random.default_rng(s)
-            for name, s in zip(("amp", "ref_sensor", "dut_sensor", "adc_ref", "adc_dut"), seeds[1:6], strict=True)
+            for name, s in zip(
+                ("amp", "ref_sensor", "dut_sensor", "adc_ref", "adc_dut"), seeds[1:6], strict=True
+            )
         }
         self._hum_phases = np.random.default_rng(seeds[6]).uniform(0, 2 * np.pi, (2, 8))
         self.output = OutputRecord()
@@ -238,9 +251,23 @@ class SimulatedStand:
         anti-imaging filter, amplifier gain, exciter); for open-loop pre-equalisation."""
         if self._config is None:
             raise HardwareError("simulated DAQ: configure() first")
-        return self._chain.discrete_response(
-            "acceleration", frequency_hz, self._config.sample_rate_hz
-        ) * self.model.amplifier.gain
+        return (
+            self._chain.discrete_response("acceleration", frequency_hz, self._config.sample_rate_hz)
+            * self.model.amplifier.gain
+        )
+
+    def measuring_amplifier(self) -> BK2525Amplifier:
+        """The stand's measuring amplifier: the real VISA driver over pyvisa-sim, whose
+        resource stops answering (a VISA timeout) once a `visa-timeout` fault's time passes."""
+        manager = simulated_resource_manager(fresh=True)
+        resource = manager.open_resource(
+            SIM_MEASURING_AMPLIFIER, read_termination="\n", write_termination="\n"
+        )
+        at = next((f.at_s for f in self.faults if f.kind == "visa-timeout"), None)
+        return BK2525Amplifier(
+            _TimedOutResource(resource, lambda: at is not None and self.sim_time_s >= at),
+            channels=SIM_MEASURING_AMPLIFIER_CHANNELS,
+        )
 
     # --- the Daq protocol -------------------------------------------------------------------
 
@@ -252,7 +279,12 @@ class SimulatedStand:
         dut_model = self.dut.model()
         network = (
             Network()
-            .add("acceleration", m.amplifier.anti_imaging(fs).then(*m.exciter.acceleration_model().stages, gain=m.exciter.midband_ms2_per_v))
+            .add(
+                "acceleration",
+                m.amplifier.anti_imaging(fs).then(
+                    *m.exciter.acceleration_model().stages, gain=m.exciter.midband_ms2_per_v
+                ),
+            )
             .add("displacement", m.exciter.displacement_stage(), "acceleration")
             .add("reference", m.reference.model(), "acceleration")
             .add("transverse", m.exciter.transverse_stage(), "acceleration")
@@ -406,22 +438,31 @@ class SimulatedStand:
         sensor_noise = math.sqrt(fs / 2) * G_N
         reference = chain["reference"] * m.reference_gain * d.reference_gain
         reference += (
-            m.reference.noise_g_per_rthz * sensor_noise * m.reference.sensitivity_mv_per_ms2 * 1e-3
-            * m.reference_gain * self._noise["ref_sensor"].standard_normal(n)
+            m.reference.noise_g_per_rthz
+            * sensor_noise
+            * m.reference.sensitivity_mv_per_ms2
+            * 1e-3
+            * m.reference_gain
+            * self._noise["ref_sensor"].standard_normal(n)
         )
         dut = chain["dut"]
         if self._cubic is not None:
             dut += self._cubic.process(self.dut.cubic_per_ms2_sq * chain["acceleration"] ** 3)
         dut += (
-            self.dut.noise_g_per_rthz * sensor_noise * self.dut.sensitivity_mv_per_ms2 * 1e-3
+            self.dut.noise_g_per_rthz
+            * sensor_noise
+            * self.dut.sensitivity_mv_per_ms2
+            * 1e-3
             * self._noise["dut_sensor"].standard_normal(n)
         )
         hum_reference, hum_dut = self._hum(n, fs)
         adc = m.adc
         out = {
-            "reference": reference * d.daq_gain_reference + hum_reference
+            "reference": reference * d.daq_gain_reference
+            + hum_reference
             + adc.noise_v * self._noise["adc_ref"].standard_normal(n),
-            "dut": dut * d.daq_gain_dut + hum_dut
+            "dut": dut * d.daq_gain_dut
+            + hum_dut
             + adc.noise_v * self._noise["adc_dut"].standard_normal(n),
             "drive": drive.copy(),
         }
@@ -447,9 +488,42 @@ class SimulatedStand:
         return reference, dut
 
 
+class _TimedOutResource:
+    """A pyvisa resource that raises a genuine VISA timeout while `timed_out()` is true."""
+
+    def __init__(self, resource: Any, timed_out: Any):
+        self._resource = resource
+        self._timed_out = timed_out
+
+    def _check(self) -> None:
+        if self._timed_out():
+            raise pyvisa.errors.VisaIOError(pyvisa.constants.StatusCode.error_timeout)
+
+    def write(self, message: str) -> Any:
+        self._check()
+        return self._resource.write(message)
+
+    def query(self, message: str) -> str:
+        self._check()
+        return self._resource.query(message)
+
+    def read(self) -> str:
+        self._check()
+        return self._resource.read()
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._resource, name)
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        if name.startswith("_"):
+            object.__setattr__(self, name, value)
+        else:
+            setattr(self._resource, name, value)
+
+
 def catalogue() -> dict[str, SensorModel]:
     """The DUTs the simulated stand offers."""
     return dict(DUT_CATALOGUE)
 
 
-__all__ = ["Fault", "SimBudget", "SimulatedStand", "catalogue", "FAULT_KINDS", "Quantity"]
+__all__ = ["FAULT_KINDS", "Fault", "Quantity", "SimBudget", "SimulatedStand", "catalogue"]

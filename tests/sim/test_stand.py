@@ -1,0 +1,157 @@
+"""The simulated stand behind the Daq interface: hum, determinism, faults, 0 V at the end."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hardware.errors import (
+    AmplifierFaultError,
+    DaqTimeoutError,
+    DeviceLostError,
+    OverloadError,
+    VisaTimeoutError,
+)
+from hardware.interfaces import Daq, DaqConfig, InputChannel, OutputChannel
+from sim.stand import Fault, SimBudget, SimulatedStand
+
+FS, N = 6000.0, 12000
+CONFIG = DaqConfig(
+    FS,
+    N,
+    OutputChannel("sim/ao0", 10.0),
+    (
+        InputChannel("reference", "sim/ai0", 1.0),
+        InputChannel("dut", "sim/ai1", 1.0),
+        InputChannel("drive", "sim/ai2", 10.0),
+    ),
+)
+
+
+def stand(**kwargs) -> SimulatedStand:
+    s = SimulatedStand(kwargs.pop("dut", "piezo"), **kwargs)
+    s.configure(CONFIG)
+    return s
+
+
+def drive_period(seed: int = 0) -> np.ndarray:
+    i = np.arange(N)
+    return 0.05 * np.sin(2 * np.pi * 320 * i / N) + 0.3 * np.sin(2 * np.pi * 40 * i / N)
+
+
+def test_it_is_a_daq():
+    assert isinstance(stand(), Daq)
+
+
+def test_hum_at_mains_frequency_and_harmonics_with_drive_at_zero():
+    s = stand()
+    s.start(np.zeros(N))
+    s.read_period()
+    blocks = np.array([s.read_period() for _ in range(8)])
+    spectrum = np.abs(np.fft.rfft(blocks[:, 0]).mean(axis=0)) * 2 / N  # periodic average
+    mains_bins = [100 * h for h in range(1, 6)]  # 50 Hz harmonics on a 0.5 Hz grid
+    expected = np.array(s.model.adc.hum_v)
+    np.testing.assert_allclose(spectrum[mains_bins], expected, rtol=0.05, atol=1e-6)
+    others = np.delete(spectrum[1:2000], np.array(mains_bins) - 1)
+    assert np.max(others) < expected[-1] / 2
+    assert np.all(blocks[:, 2] == 0.0)  # the drive loopback reads 0 V
+
+
+def test_same_seed_gives_bit_identical_output_and_other_seeds_differ():
+    runs = []
+    for seed in (5, 5, 6):
+        s = stand(seed=seed)
+        s.start(drive_period())
+        runs.append(np.hstack([s.read_period() for _ in range(3)]))
+    assert np.array_equal(runs[0], runs[1])
+    assert not np.array_equal(runs[0], runs[2])
+
+
+def test_systematic_deviations_are_drawn_from_the_budget():
+    budget = SimBudget.load()
+    draws = [SimulatedStand("piezo", seed=k).deviations for k in range(400)]
+    gains = np.array([d.reference_gain for d in draws]) - 1
+    half_width = next(
+        c.value for c in budget.budget.components if c.name == "conditioning amplifier gain"
+    )
+    assert np.all(np.abs(gains) <= half_width)
+    assert np.std(gains) == pytest.approx(half_width / np.sqrt(3), rel=0.15)
+    assert SimulatedStand("piezo", seed=1, systematic=False).deviations.reference_gain == 1.0
+
+
+def test_budget_mapping_errors_name_the_field():
+    with pytest.raises(ValueError, match="names no component 'nope'"):
+        SimBudget.load('[simulation]\nnope = "dut_motion"\n')
+    text = '[[component]]\nname = "a"\nvalue = 0.01\n[simulation]\na = "warp"\n'
+    with pytest.raises(ValueError, match="'a': unknown target 'warp'"):
+        SimBudget.load(text)
+
+
+@pytest.mark.parametrize(
+    ("kind", "error"),
+    [
+        ("daq-timeout", DaqTimeoutError),
+        ("device-lost", DeviceLostError),
+        ("amplifier-fault", AmplifierFaultError),
+        ("overload", OverloadError),
+    ],
+)
+def test_each_daq_fault_raises_at_its_time_and_stop_leaves_0_v(kind, error):
+    s = stand(faults=(Fault(kind, 5.0),))
+    s.start(drive_period())
+    s.read_period()
+    s.read_period()  # 0-4 s: fine
+    with pytest.raises(error):
+        s.read_period()  # the period 4-6 s holds the fault
+    assert s.sim_time_s == pytest.approx(4.0)
+    s.stop()
+    assert s.output_v == 0.0 and s.output.final_v == 0.0 and s.output.stopped
+    s.stop()  # twice is fine
+
+
+def test_visa_timeout_surfaces_through_the_measuring_amplifier():
+    s = stand(faults=(Fault("visa-timeout", 3.0),))
+    amplifier = s.measuring_amplifier()
+    assert amplifier.configure(1, sensitivity_mv_per_ms2=1.0, gain=10).gain == 10
+    s.start(drive_period())
+    s.read_period()
+    amplifier.overloaded(1)  # at 2 s: still answering
+    s.read_period()
+    with pytest.raises(VisaTimeoutError):
+        amplifier.read_settings(1)
+    s.stop()
+    assert s.output_v == 0.0
+
+
+def test_over_travel_trips_the_amplifier_interlock():
+    s = stand()
+    i = np.arange(N)
+    s.start(9.0 * np.sin(2 * np.pi * 2 * i / N))  # 1 Hz at full drive: far over 4 mm
+    with pytest.raises(AmplifierFaultError, match="over-travel"):
+        s.read_period()
+    s.stop()
+    assert s.output_v == 0.0
+
+
+def test_output_is_checked_and_recorded():
+    s = stand()
+    with pytest.raises(ValueError, match="AO range"):
+        s.start(np.full(N, 11.0))
+    with pytest.raises(ValueError, match="12000 samples"):
+        s.start(np.zeros(10))
+    s.start(drive_period())
+    s.read_period()
+    t0, peak, last = s.output.periods[0]
+    assert t0 == 0.0 and peak == pytest.approx(np.max(np.abs(drive_period())))
+    assert last == drive_period()[-1]
+    assert s.output_v == pytest.approx(drive_period()[-1])
+    s.stop()
+    assert s.output_v == 0.0
+
+
+def test_fault_parsing():
+    assert Fault.parse("device-lost@3.5") == Fault("device-lost", 3.5)
+    with pytest.raises(ValueError, match="unknown kind"):
+        Fault.parse("meteor@1")
+    with pytest.raises(ValueError, match="KIND@SECONDS"):
+        Fault.parse("device-lost@soon")
