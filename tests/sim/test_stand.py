@@ -155,3 +155,27 @@ def test_fault_parsing():
         Fault.parse("meteor@1")
     with pytest.raises(ValueError, match="KIND@SECONDS"):
         Fault.parse("device-lost@soon")
+
+
+def test_paced_stand_follows_the_wall_clock_and_unpaced_does_not():
+    import time
+
+    config = DaqConfig(
+        1000.0,
+        50,  # 50 ms periods
+        OutputChannel("sim/ao0", 10.0),
+        (InputChannel("reference", "sim/ai0", 1.0), InputChannel("dut", "sim/ai1", 1.0)),
+    )
+    for paced in (True, False):
+        s = SimulatedStand("piezo", paced=paced)
+        s.configure(config)
+        s.start(np.zeros(50))
+        t0 = time.monotonic()
+        for _ in range(6):
+            s.read_period()
+        elapsed = time.monotonic() - t0
+        if paced:
+            assert elapsed >= 0.29  # six 50 ms periods
+        else:
+            assert elapsed < 0.29
+        s.stop()
