@@ -296,6 +296,11 @@ def compute_results(
 
     if estimate.periods < 2:
         warnings.append("one period only: no type A uncertainty; acquire at least 2 periods")
+    if not budget.components:
+        warnings.append(
+            "no type B budget: the stated uncertainty is type A only (reference calibration, "
+            "gains, mounting... are not included); give the stand's budget"
+        )
     lines = []
     for k, label in enumerate(labels):
         f = float(frequencies[k])

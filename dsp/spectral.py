@@ -19,7 +19,8 @@ grow with the number of periods and batches merge exactly in any order. At any t
 Coherence g2 = |sum conj(U)Y|^2 / (sum|U|^2 sum|Y|^2) per line. The noise floor per line is the
 mean over nearby non-excited bins of the across-period variance (random noise only, since
 periodic content stays in the mean); distortion per line is the periodic content at its 2nd..5th
-harmonic bins (when those are not lines), bias-corrected for noise, relative to the line.
+harmonic bins (when those are not lines), counted where it stands clear of the averaged noise
+and bias-corrected for it, relative to the line.
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ import numpy as np
 ESTIMATORS = ("periodic", "h1", "seed")
 HARMONICS = (2, 3, 4, 5)
 FLOOR_HALF_WIDTH_BINS = 12
+DETECTION_RATIO = 9.0  # harmonic power counts when > 9x the averaged noise power at its bin
 
 
 def period_spectrum(blocks: np.ndarray) -> np.ndarray:
@@ -317,8 +319,16 @@ class SpectralAccumulator:
             else:  # one period: noise and distortion cannot be told apart; conservative
                 noise_power = np.abs(mean) ** 2
             floor = np.array([noise_power[idx].mean() for idx in self._floor_bins])
-            periodic = np.abs(mean) ** 2 - (noise_power / count if count >= 2 else 0.0)
-            periodic = np.maximum(periodic, 0.0)
+            power = np.abs(mean) ** 2
+            if count >= 2:
+                # periodic content only where it stands out of the averaged noise (a pure-noise
+                # bin passes with probability e^-9), then bias-corrected
+                averaged_noise = noise_power / count
+                periodic = np.where(
+                    power > DETECTION_RATIO * averaged_noise, power - averaged_noise, 0.0
+                )
+            else:
+                periodic = power
             line_power = np.abs(mean[self.bins]) ** 2
             harmonic_power = np.array([periodic[idx].sum() for idx in self._harmonic_bins])
             with np.errstate(divide="ignore", invalid="ignore"):

@@ -118,6 +118,7 @@ def test_one_period_states_no_type_a(plan):
     results = analyze(make_recording(plan, lowpass_response(), periods=1)).results
     assert math.isnan(results.reference.expanded_uncertainty_mv_per_ms2)
     assert any("one period only" in w for w in results.warnings)
+    assert any("no type B budget" in w for w in results.warnings)
     assert Results.from_dict(json.loads(json.dumps(results.to_dict()))).periods == 1
 
 
