@@ -30,7 +30,7 @@ def analyze(
     """Analyse whole periods (default) or, with `segments`, the seed's L equal segments."""
     plan = recording.plan
     warnings: list[str] = []
-    if recording.periods <= recording.settle_periods:
+    if recording.periods <= recording.settle_periods or recording.acquired_periods == 0:
         raise RecordingError(
             f"{recording.source}: {recording.periods} period(s) recorded, none left after "
             f"{recording.settle_periods} settle period(s)"

@@ -15,8 +15,11 @@ from pathlib import Path
 
 from app import formatting as fmt
 from app.analysis import analyze
+from app.procedure import PreflightError
 from app.recording import RecordingError, read_csv, read_recording
+from app.run import RunRequest, execute
 from app.simulate import SimulationError, simulate
+from app.stand_config import ConfigError
 from dsp import iso266
 from dsp.calibration import AnalysisError, ReferenceChain, Results
 from dsp.multisine import PRESETS, Plan, PlanError, make_plan
@@ -26,7 +29,7 @@ from hardware.errors import HardwareError
 from sim.models import DUT_CATALOGUE, StandModel
 from sim.stand import Fault
 
-EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
+EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT, EXIT_ABORTED = 0, 1, 2, 3
 
 
 class UsageError(ValueError):
@@ -131,6 +134,29 @@ def build_parser() -> argparse.ArgumentParser:
     csv_group.add_argument("--range", type=float, dest="range_v", help="channel range, V")
     csv_group.add_argument("--budget", type=Path, help="type B budget, TOML [[component]]")
 
+    r = sub.add_parser("run", help="run a calibration (simulated stand unless --stand)")
+    r.add_argument("--sim", action="store_true", help="the built-in simulated stand (default)")
+    r.add_argument("--stand", type=Path, help="stand configuration (stand.toml)")
+    r.add_argument("--dut", default="piezo", help="simulated DUT from the catalogue")
+    r.add_argument("--dut-id", default=None, help="serial number / identification of the DUT")
+    r.add_argument("--nominal-sensitivity", type=float, help="DUT nominal, mV/(m/s^2)")
+    r.add_argument("--preset", choices=sorted(PRESETS), help="plan (default: by DUT kind)")
+    r.add_argument("--level", type=float, default=5.0, help="peak acceleration per line, m/s^2")
+    r.add_argument("--periods", type=int, default=8, help="periods to acquire")
+    r.add_argument("--target-ua", help="stop at this relative type A, e.g. 0.2%%")
+    r.add_argument("--max-time", help="bound on the acquisition time, e.g. 30s")
+    r.add_argument("--estimator", choices=("periodic", "h1", "seed"), default="periodic")
+    r.add_argument("--tolerance", type=float, help="DUT tolerance of the characteristic, %%")
+    r.add_argument("--seed", type=int, default=0, help="simulated stand: random seed")
+    r.add_argument("--paced", action="store_true", help="simulated stand: real time")
+    r.add_argument("--fault", action="append", default=[], help="simulated: KIND@SECONDS")
+    r.add_argument("--out", type=Path, default=Path("runs"), help="folder for run folders")
+    r.add_argument("--json", action="store_true", help="the run record as JSON")
+
+    w = sub.add_parser("show", help="print a stored run")
+    w.add_argument("run", type=Path, help="run folder")
+    w.add_argument("--json", action="store_true", help="the run record as JSON")
+
     s = sub.add_parser("simulate", help="record a calibration on the simulated stand")
     s.add_argument("--list", action="store_true", help="print the simulated catalogue")
     s.add_argument("--dut", default="piezo", help="catalogue DUT (see --list)")
@@ -154,6 +180,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             return cmd_analyze(args)
         if args.command == "simulate":
             return cmd_simulate(args)
+        if args.command == "run":
+            return cmd_run(args)
+        if args.command == "show":
+            return cmd_show(args)
     except (
         UsageError,
         PlanError,
@@ -161,6 +191,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         SegmentError,
         AnalysisError,
         SimulationError,
+        ConfigError,
+        PreflightError,
     ) as exc:
         print(f"accelcal {args.command}: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
@@ -371,6 +403,145 @@ def print_results(results: Results, source: str = "") -> None:
     )
     for warning in results.warnings:
         print(f"warning: {warning}")
+
+
+def parse_percent(text: str, option: str) -> float:
+    """'0.2%' -> 0.002; '0.002' -> 0.002."""
+    try:
+        return float(text[:-1]) / 100 if text.strip().endswith("%") else float(text)
+    except ValueError:
+        raise UsageError(f"{option}: {text!r} is not a number or percentage") from None
+
+
+def parse_seconds(text: str, option: str) -> float:
+    """'30s', '2min', '45' -> seconds."""
+    value = text.strip().lower()
+    scale = 1.0
+    for suffix, factor in (("min", 60.0), ("ms", 1e-3), ("s", 1.0), ("h", 3600.0)):
+        if value.endswith(suffix):
+            value, scale = value[: -len(suffix)], factor
+            break
+    try:
+        seconds = float(value) * scale
+    except ValueError:
+        raise UsageError(f"{option}: {text!r} is not a duration (e.g. 30s)") from None
+    if not seconds > 0:
+        raise UsageError(f"{option}: must be > 0")
+    return seconds
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    if args.sim and args.stand:
+        raise UsageError("--sim and --stand: choose one")
+    _positive("--level", args.level)
+    if args.periods < 2:
+        raise UsageError(f"--periods: at least 2, got {args.periods}")
+    try:
+        faults = tuple(Fault.parse(text) for text in args.fault)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    request = RunRequest(
+        stand_file=args.stand,
+        dut=args.dut,
+        dut_id=args.dut_id,
+        preset=args.preset,
+        level_ms2=args.level,
+        periods=args.periods,
+        target_type_a=parse_percent(args.target_ua, "--target-ua") if args.target_ua else None,
+        max_acquisition_s=parse_seconds(args.max_time, "--max-time") if args.max_time else None,
+        estimator=args.estimator,
+        tolerance_percent=args.tolerance,
+        nominal_mv_per_ms2=args.nominal_sensitivity,
+        seed=args.seed,
+        paced=args.paced,
+        faults=faults,
+        out=args.out,
+    )
+    progress = None if args.json else TerminalProgress()
+    finished = execute(request, listener=progress)
+    if progress is not None:
+        progress.close()
+    record = finished.record
+    if args.json:
+        print(json.dumps(record, indent=2, default=str))
+    else:
+        if finished.results is not None:
+            print_results(finished.results, record.get("run_id") or "")
+        print(f"run folder: {args.out / str(record.get('run_id'))}")
+        print(
+            f"status: {record['status']}"
+            + (f" ({record['abort_reason']})" if record.get("abort_reason") else "")
+            + f"; excitation {record['excitation_time_s']:g} s; output now "
+            + (
+                f"{record['final_output_v']:g} V"
+                if record.get("final_output_v") is not None
+                else "unknown"
+            )
+        )
+    return EXIT_OK if record["status"] == "complete" else EXIT_ABORTED
+
+
+class TerminalProgress:
+    """One line of progress on stderr: state, period, worst type A so far, worst line."""
+
+    def __init__(self) -> None:
+        self._tty = sys.stderr.isatty()
+
+    def __call__(self, event) -> None:
+        from app.procedure import EqualisationStep, PeriodEstimate, StateChanged, WarningRaised
+
+        if isinstance(event, StateChanged):
+            self._line(f"[{event.state}] {event.message}", final=True)
+        elif isinstance(event, EqualisationStep):
+            self._line(
+                f"  equalisation {event.iteration}: worst line {100 * event.worst:.2f} %", True
+            )
+        elif isinstance(event, PeriodEstimate):
+            lines = event.results.lines
+            worst = max(lines, key=lambda ln: ln.relative_type_a)
+            bar = "#" * min(event.periods, 40)
+            self._line(
+                f"  period {event.periods:3d} {bar:<20} type A worst "
+                f"{100 * worst.relative_type_a:.3f} % at {worst.nominal_frequency_hz:g} Hz",
+                final=not self._tty,
+            )
+        elif isinstance(event, WarningRaised):
+            self._line(f"  warning: {event.text}", final=True)
+
+    def _line(self, text: str, final: bool) -> None:
+        if self._tty:
+            sys.stderr.write("\r\033[K" + text + ("\n" if final else ""))
+        else:
+            sys.stderr.write(text + "\n")
+        sys.stderr.flush()
+
+    def close(self) -> None:
+        if self._tty:
+            sys.stderr.write("\n")
+
+
+def cmd_show(args: argparse.Namespace) -> int:
+    from app.records import load_run
+
+    try:
+        record = load_run(args.run)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    if args.json:
+        print(json.dumps(record, indent=2))
+        return EXIT_OK
+    print(
+        f"run {record.get('run_id')}: {record['status']}"
+        + (f" ({record['abort_reason']})" if record.get("abort_reason") else "")
+    )
+    print(
+        f"started {record.get('started_utc')}, finished {record.get('finished_utc')}, "
+        f"excitation {record.get('excitation_time_s')} s, raw data SHA-256 "
+        f"{record.get('raw_data_sha256', 'n/a')}"
+    )
+    if record.get("results"):
+        print_results(Results.from_dict(record["results"]), str(args.run))
+    return EXIT_OK
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:

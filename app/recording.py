@@ -3,7 +3,9 @@
 HDF5 layout (format "accelcal-recording", version 1):
 
     /                 attrs: format, format_version, sample_rate_hz, period_samples,
-                             settle_periods, created_utc, software_version
+                             settle_periods, acquired_periods (optional: periods analysed
+                             after the settle periods; later ones, e.g. a fade-out, are kept
+                             but not analysed), created_utc, software_version
     /signals/reference  float64 V, chunked one period, resizable; attrs unit, range_v (0 = unknown)
     /signals/dut        idem
     /signals/drive      idem, optional (the DAQ output)
@@ -81,6 +83,7 @@ class Recording:
     ranges_v: dict[str, float] = field(default_factory=dict)
     source: str = ""
     truth: Truth | None = None
+    acquired_periods: int | None = None
 
     @property
     def periods(self) -> int:
@@ -91,8 +94,9 @@ class Recording:
         """Reference and DUT as (periods, N) arrays, settle periods skipped (views)."""
         n = self.period_samples
         start = self.settle_periods * n
-        ref = self.reference_v[start:].reshape(-1, n)
-        dut = self.dut_v[start:].reshape(-1, n)
+        stop = None if self.acquired_periods is None else start + self.acquired_periods * n
+        ref = self.reference_v[start:stop].reshape(-1, n)
+        dut = self.dut_v[start:stop].reshape(-1, n)
         return ref, dut
 
 
@@ -156,6 +160,21 @@ class RecordingWriter:
             start = ds.shape[0]
             ds.resize((start + np.asarray(block).size,))
             ds[start:] = block
+        self._file.flush()
+
+    def set_settle_periods(self, periods: int) -> None:
+        """Mark how many leading periods the analysis skips (background, fades, settling)."""
+        self._file.attrs["settle_periods"] = int(periods)
+        self._file.flush()
+
+    def set_acquired_periods(self, periods: int) -> None:
+        """Mark how many periods after the settle periods the analysis uses."""
+        self._file.attrs["acquired_periods"] = int(periods)
+        self._file.flush()
+
+    def set_budget(self, budget: Budget) -> None:
+        """Store the budget as used (e.g. with the background measured at the start)."""
+        self._file["config"].attrs["budget"] = json.dumps(budget.to_list())
         self._file.flush()
 
     def write_truth(self, truth: Truth) -> None:
@@ -243,6 +262,7 @@ def read_recording(path: str | Path) -> Recording:
             signals[channel] = np.asarray(ds[()], dtype=float)
             ranges[channel] = float(ds.attrs.get("range_v", 0.0))
         settle = int(f.attrs.get("settle_periods", 0))
+        acquired = int(f.attrs["acquired_periods"]) if "acquired_periods" in f.attrs else None
         truth = _read_truth(f, name)
     try:
         plan = Plan.from_dict(parsed["plan"])
@@ -272,6 +292,7 @@ def read_recording(path: str | Path) -> Recording:
         ranges_v=ranges,
         source=str(path),
         truth=truth,
+        acquired_periods=acquired,
     )
     validate(recording, name)
     return recording

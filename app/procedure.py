@@ -1,0 +1,731 @@
+"""The calibration procedure (SPEC.md section 5), UI-agnostic.
+
+preflight -> background (drive at 0 V) -> fade-in at a gentle identification level -> settle ->
+closed-loop equalisation (crossfades between drives, settle, measure the table acceleration per
+line on the reference channel, D_k <- D_k A_target/A_measured) -> acquisition of L periods or
+until a type A target or a time bound, with live estimates -> fade-out -> 0 V.
+
+It drives any `hardware.interfaces.Daq` (and amplifiers), emits typed events to a listener,
+writes the run folder as it goes, imports nothing from a UI and prints nothing. The drive ends at
+0 V on every path out of `run()`: success, abort, exception, lost hardware, Ctrl-C, SIGTERM.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from enum import StrEnum
+from typing import Any
+
+import numpy as np
+
+from app.recording import RecordingWriter, software_version
+from app.records import STATUS_ABORTED, STATUS_COMPLETE, RunFolder
+from app.stands import Stand
+from dsp.calibration import AnalysisError, Results, compute_results
+from dsp.crestfactor import synthesize
+from dsp.multisine import Plan, fade_envelope
+from dsp.spectral import Estimate, SpectralAccumulator, period_spectrum
+from dsp.uncertainty import Budget, Component, Distribution
+from hardware.errors import (
+    AmplifierFaultError,
+    DeviceLostError,
+    HardwareError,
+    HardwareTimeoutError,
+    OverloadError,
+)
+from hardware.interfaces import DaqConfig
+
+OVERLOAD_FRACTION = 0.995  # SPEC s.11: a sample within 0.5 % of a channel's range
+
+
+class State(StrEnum):
+    PREFLIGHT = "preflight"
+    BACKGROUND = "background"
+    IDENTIFYING = "identifying"
+    EQUALISING = "equalising"
+    ACQUIRING = "acquiring"
+    FADING_OUT = "fading out"
+    FINISHED = "finished"
+    ABORTED = "aborted"
+
+
+class ProcedureError(RuntimeError):
+    """The run cannot go on; the message says what and what to do."""
+
+
+class PreflightError(ProcedureError):
+    """The plan or level asks for more than the stand may do: refused before anything moves."""
+
+
+class Aborted(ProcedureError):
+    """The run was stopped on request (operator, SIGTERM)."""
+
+
+# --- events ---------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class StateChanged:
+    state: State
+    message: str = ""
+
+
+@dataclass(frozen=True)
+class Progress:
+    """Overall progress 0..1, the excitation time so far and an estimate of what remains (s)."""
+
+    fraction: float
+    elapsed_s: float
+    remaining_s: float | None
+    message: str = ""
+
+
+@dataclass(frozen=True)
+class PeriodBlock:
+    """One period as read (volts, channels in DaqConfig order) and what was played."""
+
+    index: int
+    state: State
+    channels: tuple[str, ...]
+    samples: np.ndarray
+    drive: np.ndarray
+
+
+@dataclass(frozen=True)
+class EqualisationStep:
+    """Per-line relative amplitude error of the table acceleration after an iteration."""
+
+    iteration: int
+    errors: np.ndarray
+    worst: float
+
+
+@dataclass(frozen=True)
+class PeriodEstimate:
+    """The live estimate after another acquired period."""
+
+    periods: int
+    estimate: Estimate
+    results: Results
+
+
+@dataclass(frozen=True)
+class WarningRaised:
+    text: str
+
+
+@dataclass(frozen=True)
+class Finished:
+    status: str
+    abort_reason: str | None
+    results: Results | None
+    record: dict[str, Any]
+
+
+Event = (
+    StateChanged
+    | Progress
+    | PeriodBlock
+    | EqualisationStep
+    | PeriodEstimate
+    | WarningRaised
+    | Finished
+)
+Listener = Callable[[Event], None]
+
+
+@dataclass(frozen=True)
+class RunSettings:
+    """How to run: periods, targets, tolerances and bounds (units in the names)."""
+
+    periods: int = 8
+    target_type_a: float | None = None
+    max_acquisition_s: float | None = None
+    background_periods: int = 2
+    fade_periods: int = 1
+    settle_tolerance: float = 0.002
+    max_settle_periods: int = 12
+    equalisation_tolerance: float = 0.01
+    max_equalisation_iterations: int = 8
+    identification_drive_v: float = 1e-3
+    estimator: str = "periodic"
+    probability: float = 0.9545
+    rule: str = "gum"
+    tolerance_percent: float | None = None
+    dut_nominal_mv_per_ms2: float | None = None
+    plausible_ratio: float = 2.0
+
+    def __post_init__(self) -> None:
+        if self.periods < 2 and self.target_type_a is None:
+            raise ValueError("periods: at least 2 (type A needs them)")
+        if self.target_type_a is not None and not 0 < self.target_type_a < 1:
+            raise ValueError("target type A: must be a fraction between 0 and 1 (0.002 = 0.2 %)")
+        if self.max_acquisition_s is not None and not self.max_acquisition_s > 0:
+            raise ValueError("max time: must be > 0 s")
+        if not 0 < self.equalisation_tolerance < 0.5:
+            raise ValueError("equalisation tolerance: must be between 0 and 0.5")
+
+
+@dataclass
+class _Run:
+    """Mutable bookkeeping of one run."""
+
+    periods_read: int = 0
+    excited_periods: int = 0
+    warnings: list[str] = field(default_factory=list)
+    equalisation: list[float] = field(default_factory=list)
+    background: dict[str, list[float]] = field(default_factory=dict)
+    results: Results | None = None
+    estimate: Estimate | None = None
+
+
+class Procedure:
+    """One calibration run of `plan` on `stand`; call `run()` once."""
+
+    def __init__(
+        self,
+        stand: Stand,
+        plan: Plan,
+        settings: RunSettings,
+        folder: RunFolder | None = None,
+        listener: Listener | None = None,
+        *,
+        identity: dict[str, Any] | None = None,
+    ):
+        self.stand = stand
+        self.plan = plan
+        self.settings = settings
+        self.folder = folder
+        self.listener = listener
+        self.identity = identity or {}
+        self._abort_reason: str | None = None
+        self._abort_lock = threading.Lock()
+        self._writer: RecordingWriter | None = None
+        self._drive = np.zeros(plan.period_samples)
+        self._run = _Run()
+        config = stand.config
+        self._inputs = config.inputs
+        self._channel_index = {c.name: i for i, c in enumerate(self._inputs)}
+        self._ranges = {c.name: c.range_v for c in self._inputs}
+
+    # --- control (thread-safe) ------------------------------------------------------------
+
+    def abort(self, reason: str = "stopped by the operator") -> None:
+        """Ask the run to fade out and stop at the next period boundary."""
+        with self._abort_lock:
+            if self._abort_reason is None:
+                self._abort_reason = reason
+
+    # --- the run ---------------------------------------------------------------------------
+
+    def run(self) -> Finished:
+        started = datetime.now(UTC)
+        status, reason = STATUS_COMPLETE, None
+        if self.folder is not None:
+            self.folder.write_json(
+                "config.json",
+                {
+                    "stand": self.stand.config.raw,
+                    "stand_source": self.stand.config.source,
+                    "plan": self.plan.to_dict(),
+                    "settings": self.settings.__dict__,
+                    "identity": self.identity,
+                },
+            )
+        try:
+            self._state(State.PREFLIGHT)
+            self._preflight()
+            self._configure()
+            self._background()
+            self._identify()
+            self._equalise()
+            self._acquire()
+            self._fade_out()
+        except Aborted as exc:
+            status, reason = STATUS_ABORTED, str(exc)
+            self._try_fade_out()
+        except PreflightError as exc:
+            status, reason = STATUS_ABORTED, f"refused before anything moved: {exc}"
+        except (ProcedureError, AnalysisError) as exc:
+            status, reason = STATUS_ABORTED, str(exc)
+            self._try_fade_out()
+        except HardwareError as exc:
+            status, reason = STATUS_ABORTED, f"{type(exc).__name__}: {exc}. {_advice(exc)}"
+        except KeyboardInterrupt:
+            status, reason = STATUS_ABORTED, "interrupted (Ctrl-C)"
+        except Exception as exc:
+            status, reason = STATUS_ABORTED, f"internal error: {type(exc).__name__}: {exc}"
+        finally:
+            final_output = self._stop_drive()
+            if self._writer is not None:
+                self._writer.close()
+        if status == STATUS_ABORTED:
+            self._state(State.ABORTED, reason or "")
+        else:
+            self._state(State.FINISHED)
+        results = self._run.results if status == STATUS_COMPLETE else None
+        record = self._record(started, status, reason, final_output)
+        if self.folder is not None:
+            self.folder.log(f"{status}{': ' + reason if reason else ''}")
+            record = self.folder.finish(record, results)
+        finished = Finished(status, reason, results, record)
+        self._emit(finished)
+        return finished
+
+    # --- steps -----------------------------------------------------------------------------
+
+    def preflight(self) -> None:
+        """The checks made before anything moves; PreflightError says what is refused."""
+        self._preflight()
+
+    def _preflight(self) -> None:
+        plan, limits = self.plan, self.stand.config.limits
+        peaks = plan.predicted_peaks()
+        problems = []
+        if peaks.displacement_peak_to_peak_m > limits.displacement_peak_to_peak_m:
+            problems.append(
+                f"displacement {1e3 * peaks.displacement_peak_to_peak_m:.2f} mm p-p exceeds the "
+                f"exciter's {1e3 * limits.displacement_peak_to_peak_m:g} mm (lower the level at "
+                "low frequencies)"
+            )
+        if peaks.velocity_m_per_s > limits.velocity_peak_m_per_s:
+            problems.append(
+                f"velocity {peaks.velocity_m_per_s:.3g} m/s exceeds "
+                f"{limits.velocity_peak_m_per_s:g} m/s"
+            )
+        if peaks.acceleration_ms2 > limits.acceleration_peak_ms2:
+            problems.append(
+                f"acceleration {peaks.acceleration_ms2:.1f} m/s^2 exceeds "
+                f"{limits.acceleration_peak_ms2:g} m/s^2"
+            )
+        ref_s, _ = self.stand.chain.sensitivity_at(plan.frequencies_hz)
+        reference_peak = (
+            peaks.acceleration_ms2 * float(ref_s.max()) * 1e-3 * self.stand.chain.reference_gain
+        )
+        if reference_peak > OVERLOAD_FRACTION * self._ranges["reference"] / 1.2:
+            problems.append(
+                f"reference channel: predicted peak {reference_peak:.3g} V is too close to its "
+                f"+-{self._ranges['reference']:g} V range (raise the range or lower the level)"
+            )
+        if problems:
+            raise PreflightError("; ".join(problems))
+        self._log(
+            f"preflight: peaks {peaks.acceleration_ms2:.1f} m/s^2, "
+            f"{1e3 * peaks.velocity_m_per_s:.1f} mm/s, "
+            f"{1e3 * peaks.displacement_peak_to_peak_m:.3f} mm p-p; crest factor "
+            f"{plan.crest_factor():.2f}"
+        )
+
+    def _configure(self) -> None:
+        plan = self.plan
+        config = DaqConfig(
+            plan.sample_rate_hz, plan.period_samples, self.stand.config.output, self._inputs
+        )
+        status = self.stand.daq.configure(config)
+        if not math.isclose(status.actual_sample_rate_hz, plan.sample_rate_hz, rel_tol=1e-9):
+            raise ProcedureError(
+                f"the DAQ runs at {status.actual_sample_rate_hz:g} Hz instead of "
+                f"{plan.sample_rate_hz:g} Hz: choose a sample rate the board can divide exactly"
+            )
+        amplifier = self.stand.measuring_amplifier
+        if amplifier is not None:
+            ref = self.stand.config.reference
+            settings = amplifier.configure(
+                self.stand.config.reference_amplifier_channel,
+                sensitivity_mv_per_ms2=1.0,
+                gain=ref.gain,
+            )
+            self.identity["measuring_amplifier"] = {
+                **settings.__dict__,
+            }
+            if not math.isclose(settings.gain, self.stand.chain.reference_gain, rel_tol=1e-6):
+                raise ProcedureError(
+                    f"measuring amplifier reads back gain {settings.gain:g}, the chain assumes "
+                    f"{self.stand.chain.reference_gain:g}"
+                )
+        if self.folder is not None:
+            self._writer = RecordingWriter(
+                self.folder.recording,
+                plan,
+                self.stand.chain,
+                self.stand.budget,
+                with_drive=True,
+                ranges_v=self._ranges,
+            )
+
+    def _background(self) -> None:
+        self._state(State.BACKGROUND, "drive at 0 V: noise and hum at every line")
+        zeros = np.zeros(self.plan.period_samples)
+        self.stand.daq.start(zeros)
+        self._drive = zeros
+        spectra = [
+            self._period(State.BACKGROUND) for _ in range(max(1, self.settings.background_periods))
+        ]
+        ref = np.array([s[0] for s in spectra])
+        dut = np.array([s[1] for s in spectra])
+        self._background_v = {
+            "reference": np.abs(ref.mean(axis=0)),
+            "dut": np.abs(dut.mean(axis=0)),
+            "reference_noise": np.sqrt(np.mean(np.abs(ref - ref.mean(axis=0)) ** 2, axis=0))
+            if len(spectra) > 1
+            else np.abs(ref[0]),
+        }
+        self._run.background = {k: v.tolist() for k, v in self._background_v.items()}
+
+    def _identify(self) -> None:
+        """Fade in at a gentle level, settle, and measure the table's response per line."""
+        self._state(State.IDENTIFYING, "gentle drive: measuring the stand's response per line")
+        plan = self.plan
+        amplitude = np.full(len(plan.lines), self.settings.identification_drive_v)
+        drive = synthesize(plan.bins, amplitude, plan.phases_rad, plan.period_samples)
+        self._crossfade(drive)
+        measured = self._settled_acceleration()
+        drive_line = amplitude * np.exp(1j * (plan.phases_rad - np.pi / 2))
+        self._response = measured / drive_line  # m/s^2 per drive volt, complex, per line
+        if np.any(np.abs(self._response) == 0) or not np.all(np.isfinite(self._response)):
+            raise ProcedureError(
+                "no motion on the reference channel at some lines during identification: check "
+                "the power amplifier (enabled, gain) and the reference accelerometer"
+            )
+
+    def _equalise(self) -> None:
+        self._state(
+            State.EQUALISING,
+            f"closed loop, tolerance {100 * self.settings.equalisation_tolerance:g} %",
+        )
+        plan = self.plan
+        target = plan.amplitudes_ms2 * np.exp(1j * (plan.phases_rad - np.pi / 2))
+        drive_lines = target / self._response
+        limit = min(self.stand.config.limits.drive_peak_v, self.stand.config.output.range_v)
+        worst = math.inf
+        for iteration in range(1, self.settings.max_equalisation_iterations + 1):
+            drive = synthesize(
+                plan.bins,
+                np.abs(drive_lines),
+                np.angle(drive_lines) + np.pi / 2,
+                plan.period_samples,
+            )
+            peak = float(np.max(np.abs(drive)))
+            if peak > limit:
+                raise PreflightError(
+                    f"the level needs a {peak:.2f} V drive peak, over the stand's {limit:g} V "
+                    "limit: lower the level or raise the power amplifier's gain"
+                )
+            self._crossfade(drive)
+            measured = self._settled_acceleration()
+            errors = np.abs(measured / target) - 1.0
+            worst = float(np.max(np.abs(errors)))
+            self._run.equalisation.append(worst)
+            self._emit(EqualisationStep(iteration, errors, worst))
+            self._log(f"equalisation {iteration}: worst line {100 * worst:.2f} %")
+            if worst <= self.settings.equalisation_tolerance:
+                return
+            drive_lines = drive_lines * target / measured
+        self._warn(
+            f"equalisation: worst line still {100 * worst:.2f} % off its target after "
+            f"{self.settings.max_equalisation_iterations} iterations (the calibration is a ratio "
+            "and stays valid; the level is less exact)"
+        )
+
+    def _acquire(self) -> None:
+        s, plan = self.settings, self.plan
+        self._state(State.ACQUIRING)
+        accumulator = SpectralAccumulator(plan.period_samples, plan.bins)
+        budget = self._budget_with_background()
+        if self._writer is not None:
+            self._writer.set_settle_periods(self._run.periods_read)
+            self._writer.set_budget(budget)
+        period_s = plan.period_s
+        limit_periods = s.periods if s.target_type_a is None else 10**6
+        started = self._run.excited_periods
+        while True:
+            _, block = self._period(State.ACQUIRING, return_block=True)
+            ref, dut = block[self._channel_index["reference"]], block[self._channel_index["dut"]]
+            accumulator.add_period(ref, dut)
+            count = accumulator.periods
+            if self._writer is not None:
+                self._writer.set_acquired_periods(count)
+            if count < 2:
+                continue
+            estimate = accumulator.estimate(s.estimator)
+            results = compute_results(
+                estimate,
+                plan,
+                self.stand.chain,
+                budget,
+                probability=s.probability,
+                rule=s.rule,
+                tolerance_percent=s.tolerance_percent,
+                extra_warnings=tuple(self._run.warnings),
+            )
+            self._check_plausible(results)
+            self._run.results, self._run.estimate = results, estimate
+            self._emit(PeriodEstimate(count, estimate, results))
+            acquired_s = (self._run.excited_periods - started) * period_s
+            worst_a = float(np.nanmax(estimate.relative_type_a))
+            remaining = None if s.target_type_a is not None else (limit_periods - count) * period_s
+            self._emit(
+                Progress(
+                    min(1.0, count / limit_periods)
+                    if s.target_type_a is None
+                    else min(1.0, (s.target_type_a / worst_a) ** 2),
+                    acquired_s,
+                    remaining,
+                    f"period {count}, worst type A {100 * worst_a:.3f} %",
+                )
+            )
+            if count >= limit_periods:
+                return
+            if s.target_type_a is not None and worst_a <= s.target_type_a and count >= 3:
+                self._log(
+                    f"type A target {100 * s.target_type_a:g} % reached after {count} periods"
+                )
+                return
+            if s.max_acquisition_s is not None and acquired_s + period_s > s.max_acquisition_s:
+                if s.target_type_a is not None:
+                    text = (
+                        f"time bound {s.max_acquisition_s:g} s reached before the type A target: "
+                        f"worst line {100 * worst_a:.3f} % > {100 * s.target_type_a:g} %"
+                    )
+                    self._warn(text)
+                    self._run.results = dataclasses.replace(
+                        results, warnings=(*results.warnings, text)
+                    )
+                return
+
+    def _fade_out(self) -> None:
+        self._state(State.FADING_OUT)
+        envelope = fade_envelope(self.plan.period_samples, self.settings.fade_periods, "out")
+        n = self.plan.period_samples
+        for k in range(self.settings.fade_periods):
+            self._write(self._drive * envelope[k * n : (k + 1) * n])
+            self._period(State.FADING_OUT)
+        self._drive = np.zeros(n)
+        self._write(self._drive)
+
+    # --- helpers ---------------------------------------------------------------------------
+
+    def _crossfade(self, new_drive: np.ndarray) -> None:
+        """One period moving smoothly from the current drive to `new_drive`, which then plays."""
+        ramp = fade_envelope(self.plan.period_samples, 1, "in")
+        self._write(self._drive * (1.0 - ramp) + new_drive * ramp)
+        self._period(State.EQUALISING)
+        self._drive = new_drive
+        self._write(new_drive)
+
+    def _settled_acceleration(self) -> np.ndarray:
+        """Read periods until two consecutive ones agree at every line; the table acceleration
+        per line (complex, m/s^2) from the reference channel, averaged over those two."""
+        previous = None
+        s = self.settings
+        noise = self._background_v["reference_noise"]
+        for _ in range(s.max_settle_periods):
+            ref, dut = self._period(State.EQUALISING)
+            if previous is not None:
+                difference = np.abs(ref - previous)
+                allowed = np.maximum(s.settle_tolerance * np.abs(ref), 6.0 * noise)
+                if np.all(difference <= allowed):
+                    self._settled_lines = (ref, dut)
+                    return self._to_acceleration((ref + previous) / 2)
+            previous = ref
+        raise ProcedureError(
+            f"the table did not settle within {s.max_settle_periods} periods (consecutive "
+            "periods still differ): check for a loose mount, a resonance or an unstable amplifier"
+        )
+
+    def _to_acceleration(self, reference_lines: np.ndarray) -> np.ndarray:
+        chain = self.stand.chain
+        magnitude, phase = chain.sensitivity_at(self.plan.frequencies_hz)
+        volts_per_ms2 = magnitude * 1e-3 * chain.reference_gain * np.exp(1j * np.radians(phase))
+        return reference_lines / volts_per_ms2
+
+    def _write(self, drive: np.ndarray) -> None:
+        self.stand.daq.write_period(drive)
+
+    def _period(self, state: State, *, return_block: bool = False) -> Any:
+        """Read one period, check it, record it; line spectra of (reference, DUT)."""
+        with self._abort_lock:
+            reason = self._abort_reason
+        if reason is not None:
+            raise Aborted(reason)
+        block = self.stand.daq.read_period(timeout_s=self.plan.period_s * 2 + 5.0)
+        played = self._drive
+        self._run.periods_read += 1
+        if np.any(played != 0):
+            self._run.excited_periods += 1
+        self._check_block(block)
+        if self._writer is not None:
+            drive = (
+                block[self._channel_index["drive"]] if "drive" in self._channel_index else played
+            )
+            self._writer.append(
+                block[self._channel_index["reference"]], block[self._channel_index["dut"]], drive
+            )
+        amplifier = self.stand.measuring_amplifier
+        if amplifier is not None and amplifier.overloaded(
+            self.stand.config.reference_amplifier_channel
+        ):
+            raise OverloadError(
+                "measuring amplifier reports an overload on the reference channel",
+                channel="reference",
+            )
+        self._emit(
+            PeriodBlock(self._run.periods_read, state, tuple(self._channel_index), block, played)
+        )
+        spectrum = period_spectrum(
+            block[[self._channel_index["reference"], self._channel_index["dut"]]]
+        )
+        lines = spectrum[:, self.plan.bins]
+        if return_block:
+            return (lines[0], lines[1]), block
+        return lines[0], lines[1]
+
+    def _check_block(self, block: np.ndarray) -> None:
+        for name, index in self._channel_index.items():
+            x = block[index]
+            if not np.all(np.isfinite(x)):
+                raise ProcedureError(
+                    f"{name} channel: NaN or inf samples from the DAQ; check the driver and cabling"
+                )
+            if name == "drive":
+                continue
+            limit = OVERLOAD_FRACTION * self._ranges[name]
+            over = int(np.count_nonzero(np.abs(x) >= limit))
+            if over:
+                raise OverloadError(
+                    f"{name} channel: {over} sample(s) at its +-{self._ranges[name]:g} V range "
+                    "limit",
+                    channel=name,
+                )
+
+    def _check_plausible(self, results: Results) -> None:
+        nominal = self.settings.dut_nominal_mv_per_ms2
+        if nominal is None:
+            return
+        measured = results.reference.sensitivity_mv_per_ms2
+        ratio = measured / nominal
+        if not 1 / self.settings.plausible_ratio <= ratio <= self.settings.plausible_ratio:
+            raise ProcedureError(
+                f"implausible DUT sensitivity {measured:.4g} mV/(m/s^2) against its nominal "
+                f"{nominal:g}: channels swapped, wrong DUT channel gain, or wrong DUT"
+            )
+
+    def _budget_with_background(self) -> Budget:
+        """The stand's budget plus, per line, the background found with the drive at 0 V (hum,
+        which a periodic average does not remove) relative to the settled line, as a
+        rectangular bound on its bias (SPEC s.5 step 2); negligible ones (< 1e-4) are left out."""
+        components = list(self.stand.budget.components)
+        ref_lines, dut_lines = self._settled_lines
+        with np.errstate(divide="ignore", invalid="ignore"):
+            bound = self._background_v["reference"] / np.abs(ref_lines) + self._background_v[
+                "dut"
+            ] / np.abs(dut_lines)
+        for f, b in zip(self.plan.frequencies_hz, bound, strict=True):
+            if np.isfinite(b) and b >= 1e-4:
+                components.append(
+                    Component(
+                        f"background (hum, noise) at {f:g} Hz",
+                        float(b),
+                        Distribution.RECTANGULAR,
+                        min_frequency_hz=float(f),
+                        max_frequency_hz=float(f),
+                        note="measured with the drive at 0 V",
+                    )
+                )
+        return Budget(tuple(components))
+
+    def _try_fade_out(self) -> None:
+        try:
+            if np.any(self._drive != 0):
+                self._fade_out()
+        except Exception:
+            pass
+
+    def _stop_drive(self) -> float | None:
+        """Stop with the output at 0 V, whatever happened; the output voltage as reported."""
+        try:
+            self.stand.daq.stop()
+        except DeviceLostError:
+            pass  # a lost device has reset its output
+        return self.stand.daq.output_v
+
+    def _record(
+        self, started: datetime, status: str, reason: str | None, final_output: float | None
+    ) -> dict[str, Any]:
+        return {
+            "run_id": self.folder.run_id if self.folder else None,
+            "status": status,
+            "abort_reason": reason,
+            "mode": "multisine",
+            "started_utc": started.isoformat(timespec="seconds"),
+            "finished_utc": datetime.now(UTC).isoformat(timespec="seconds"),
+            "excitation_time_s": self._run.excited_periods * self.plan.period_s,
+            "periods_read": self._run.periods_read,
+            "final_output_v": final_output,
+            "equalisation_worst": self._run.equalisation,
+            "background_v": self._run.background,
+            "software_version": software_version(),
+            "settings": self.settings.__dict__,
+            "plan": self.plan.to_dict(),
+            "stand": {
+                "description": self.stand.description,
+                "source": self.stand.config.source,
+                "laboratory": self.stand.config.laboratory,
+                "reference": self.stand.config.reference.__dict__,
+            },
+            **self.identity,
+        }
+
+    def _state(self, state: State, message: str = "") -> None:
+        self._log(f"state: {state}{' - ' + message if message else ''}")
+        self._emit(StateChanged(state, message))
+
+    def _warn(self, text: str) -> None:
+        self._run.warnings.append(text)
+        self._log(f"warning: {text}")
+        self._emit(WarningRaised(text))
+
+    def _log(self, line: str) -> None:
+        if self.folder is not None:
+            self.folder.log(line)
+
+    def _emit(self, event: Event) -> None:
+        if self.listener is not None:
+            self.listener(event)
+
+
+def _advice(exc: HardwareError) -> str:
+    """What the operator should do about a hardware error."""
+    if isinstance(exc, OverloadError):
+        return "Lower the level or raise the channel's range, then run again"
+    if isinstance(exc, AmplifierFaultError):
+        return (
+            "Check the power amplifier (interlock, temperature, over-travel), reset it, run again"
+        )
+    if isinstance(exc, DeviceLostError):
+        return "Reconnect the device (cable, power), then run again; the data so far is kept"
+    if isinstance(exc, HardwareTimeoutError):
+        return "Check that the instrument is on, connected and configured; then run again"
+    return "Check the hardware, then run again"
+
+
+__all__ = [
+    "Aborted",
+    "EqualisationStep",
+    "Finished",
+    "PeriodBlock",
+    "PeriodEstimate",
+    "PreflightError",
+    "Procedure",
+    "ProcedureError",
+    "Progress",
+    "RunSettings",
+    "State",
+    "StateChanged",
+    "WarningRaised",
+]

@@ -1,0 +1,124 @@
+"""One calibration run from a request: the code path shared by the CLI and the GUI."""
+
+from __future__ import annotations
+
+import signal
+import threading
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from app import stand_config
+from app.procedure import Finished, Listener, Procedure, RunSettings
+from app.records import RunFolder
+from app.stands import open_stand
+from dsp.multisine import Plan, preset_plan
+from sim.stand import Fault
+
+PRESET_BY_DUT = {"capacitive": "capacitive"}  # every other catalogue DUT: the piezo plan
+
+
+@dataclass(frozen=True)
+class RunRequest:
+    """What the operator asked for (units in the names)."""
+
+    stand_file: Path | None = None
+    dut: str = "piezo"
+    dut_id: str | None = None
+    preset: str | None = None
+    level_ms2: float = 5.0
+    periods: int = 8
+    target_type_a: float | None = None
+    max_acquisition_s: float | None = None
+    estimator: str = "periodic"
+    tolerance_percent: float | None = None
+    nominal_mv_per_ms2: float | None = None
+    seed: int = 0
+    paced: bool = False
+    faults: tuple[Fault, ...] = ()
+    out: Path = Path("runs")
+
+    def plan(self) -> Plan:
+        return preset_plan(
+            self.preset or PRESET_BY_DUT.get(self.dut, "piezo"), level_ms2=self.level_ms2
+        )
+
+    def settings(self) -> RunSettings:
+        return RunSettings(
+            periods=self.periods,
+            target_type_a=self.target_type_a,
+            max_acquisition_s=self.max_acquisition_s,
+            estimator=self.estimator,
+            tolerance_percent=self.tolerance_percent,
+            dut_nominal_mv_per_ms2=self.nominal_mv_per_ms2,
+        )
+
+
+def prepare(request: RunRequest, listener: Listener | None = None) -> tuple[Procedure, Any]:
+    """Load the stand, build the plan and check it before anything moves (PreflightError,
+    ConfigError, PlanError on refusal; nothing is created then). Returns the procedure and the
+    stand (to close)."""
+    config = stand_config.load(request.stand_file)
+    stand = open_stand(
+        config, dut=request.dut, seed=request.seed, paced=request.paced, faults=request.faults
+    )
+    try:
+        plan = request.plan()
+        identity = {
+            "dut": {
+                "catalogue": request.dut if config.backend == "sim" else None,
+                "id": request.dut_id,
+                "nominal_sensitivity_mv_per_ms2": request.nominal_mv_per_ms2,
+            },
+            "level_ms2": request.level_ms2,
+        }
+        procedure = Procedure(stand, plan, request.settings(), None, listener, identity=identity)
+        procedure.preflight()
+    except BaseException:
+        stand.close()
+        raise
+    return procedure, stand
+
+
+def execute(request: RunRequest, listener: Listener | None = None) -> Finished:
+    """Run a calibration to its end (complete or aborted) in a new run folder.
+
+    SIGTERM and a first Ctrl-C ask for a fade-out; a second Ctrl-C stops at once. The drive ends
+    at 0 V in every case (the procedure's own `finally`).
+    """
+    procedure, stand = prepare(request, listener)
+    try:
+        procedure.folder = RunFolder.create(request.out, request.dut_id or request.dut)
+        with _graceful_signals(procedure):
+            return procedure.run()
+    finally:
+        stand.close()
+
+
+class _graceful_signals:
+    """Route SIGTERM and SIGINT to `procedure.abort` while a run is going (main thread only)."""
+
+    def __init__(self, procedure: Procedure):
+        self.procedure = procedure
+        self.previous: dict[int, Any] = {}
+
+    def __enter__(self) -> None:
+        if threading.current_thread() is not threading.main_thread():
+            return
+        interrupted = {"count": 0}
+
+        def on_term(signum: int, frame: Any) -> None:
+            self.procedure.abort("terminated (SIGTERM)")
+
+        def on_int(signum: int, frame: Any) -> None:
+            interrupted["count"] += 1
+            if interrupted["count"] > 1:
+                raise KeyboardInterrupt
+            self.procedure.abort("interrupted (Ctrl-C)")
+
+        for signum, handler in ((signal.SIGTERM, on_term), (signal.SIGINT, on_int)):
+            self.previous[signum] = signal.signal(signum, handler)
+
+    def __exit__(self, *exc: object) -> None:
+        for signum, handler in self.previous.items():
+            signal.signal(signum, handler)

@@ -1,0 +1,82 @@
+"""Open the stand a configuration names: the simulated stand or real hardware, never a silent
+fallback from one to the other."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from app.stand_config import ConfigError, StandConfig
+from dsp.calibration import ReferenceChain
+from dsp.uncertainty import Budget
+from hardware.interfaces import Daq, MeasuringAmplifier, PowerAmplifier
+from sim.models import StandModel
+from sim.stand import Fault, SimBudget, SimulatedStand
+
+
+@dataclass
+class Stand:
+    """What the procedure drives and what the analysis may know about it."""
+
+    config: StandConfig
+    daq: Daq
+    chain: ReferenceChain
+    budget: Budget
+    measuring_amplifier: MeasuringAmplifier | None = None
+    power_amplifier: PowerAmplifier | None = None
+    truth: Callable[[np.ndarray, float], np.ndarray] | None = field(default=None, repr=False)
+    table_response: Callable[[np.ndarray], np.ndarray] | None = field(default=None, repr=False)
+    description: str = ""
+
+    def close(self) -> None:
+        """Stop the drive and release every device (safe to call twice)."""
+        try:
+            self.daq.stop()
+        finally:
+            for device in (self.measuring_amplifier, self.power_amplifier):
+                if device is not None:
+                    device.close()
+            self.daq.close()
+
+
+def open_stand(
+    config: StandConfig,
+    *,
+    dut: str = "piezo",
+    seed: int = 0,
+    paced: bool = False,
+    faults: tuple[Fault, ...] = (),
+    systematic: bool = True,
+    model: StandModel | None = None,
+) -> Stand:
+    """The stand of `config`; the simulated one needs a catalogue DUT (`dut`)."""
+    if config.backend == "sim":
+        if model is None:
+            model = StandModel(reference_gain=config.reference.gain, skew_s=config.skew_s)
+        sim = SimulatedStand(
+            dut,
+            model=model,
+            sim_budget=SimBudget(config.budget, config.simulation),
+            seed=seed,
+            paced=paced,
+            faults=faults,
+            systematic=systematic,
+        )
+        chain = sim.reference_chain(dut_gain=config.dut_gain)
+        return Stand(
+            config=config,
+            daq=sim,
+            chain=chain,
+            budget=config.budget,
+            measuring_amplifier=sim.measuring_amplifier() if config.measuring_amplifier else None,
+            truth=sim.truth,
+            description=f"simulated stand, DUT {dut!r}, seed {seed}",
+        )
+    if faults:
+        raise ConfigError("--fault: faults can only be injected into the simulated stand")
+    raise ConfigError(
+        f"{config.source}: daq.backend = {config.backend!r}: the NI-DAQmx driver is not part of "
+        "this version yet; use the simulated stand (no --stand) meanwhile"
+    )

@@ -1,0 +1,230 @@
+"""The calibration procedure on the simulated stand: truth, equalisation, safety, records."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from app import stand_config
+from app.analysis import analyze
+from app.procedure import (
+    EqualisationStep,
+    PeriodEstimate,
+    PreflightError,
+    Procedure,
+    RunSettings,
+    State,
+    StateChanged,
+)
+from app.recording import read_recording
+from app.records import RunFolder, load_run
+from app.run import RunRequest, execute
+from app.stands import open_stand
+from dsp.multisine import preset_plan
+from sim.models import ExciterModel, StandModel
+from sim.stand import Fault
+
+CONFIG = stand_config.load()
+
+
+def run(tmp_path, dut="piezo", *, level=5.0, settings=None, events=None, **stand_kw):
+    stand = open_stand(CONFIG, dut=dut, **stand_kw)
+    plan = preset_plan("capacitive" if dut == "capacitive" else "piezo", level_ms2=level)
+    folder = RunFolder.create(tmp_path, dut)
+    listener = events.append if events is not None else None
+    try:
+        finished = Procedure(stand, plan, settings or RunSettings(), folder, listener).run()
+    finally:
+        stand.close()
+    return finished, stand, plan, folder
+
+
+def within(finished, stand, plan):
+    rms = float(np.sqrt(np.sum(plan.amplitudes_ms2**2) / 2))
+    truth = stand.truth(plan.frequencies_hz, rms)
+    s = np.array([ln.sensitivity_mv_per_ms2 for ln in finished.results.lines])
+    u = np.array([ln.expanded_uncertainty_mv_per_ms2 for ln in finished.results.lines])
+    phase = np.array([ln.phase_deg for ln in finished.results.lines])
+    u_phase = np.array([ln.phase_expanded_uncertainty_deg for ln in finished.results.lines])
+    phase_error = (phase - np.degrees(np.angle(truth)) + 180) % 360 - 180
+    return np.abs(s - np.abs(truth)) <= u, np.abs(phase_error) <= u_phase
+
+
+@pytest.mark.parametrize(("dut", "level", "seed"), [("piezo", 5.0, 1), ("capacitive", 7.0, 2)])
+def test_simulated_runs_recover_the_truth(tmp_path, dut, level, seed):
+    events = []
+    finished, stand, plan, folder = run(
+        tmp_path, dut, level=level, events=events, seed=seed, systematic=False
+    )
+    assert finished.status == "complete", finished.abort_reason
+    magnitude_ok, phase_ok = within(finished, stand, plan)
+    assert magnitude_ok.mean() >= 0.95 and phase_ok.mean() >= 0.95
+    states = [e.state for e in events if isinstance(e, StateChanged)]
+    assert states == [
+        State.PREFLIGHT,
+        State.BACKGROUND,
+        State.IDENTIFYING,
+        State.EQUALISING,
+        State.ACQUIRING,
+        State.FADING_OUT,
+        State.FINISHED,
+    ]
+    assert [e.periods for e in events if isinstance(e, PeriodEstimate)] == list(range(2, 9))
+    record = load_run(folder.path)
+    assert record["status"] == "complete" and record["final_output_v"] == 0.0
+    assert stand.daq.output.final_v == 0.0 and stand.daq.output.periods[-1][2] == 0.0
+    recording = read_recording(folder.recording)  # the raw data, analysable again
+    assert recording.acquired_periods == 8
+    again = analyze(recording).results  # re-analysis of the stored run gives the same
+    for a, b in zip(again.lines, finished.results.lines, strict=True):
+        for key, value in a.__dict__.items():
+            if isinstance(value, float):
+                assert value == pytest.approx(getattr(b, key), rel=1e-9, nan_ok=True), key
+            else:
+                assert value == getattr(b, key), key
+    assert len(record["raw_data_sha256"]) == 64
+    assert not os.access(folder.recording, os.W_OK) or os.geteuid() == 0
+    assert oct(folder.recording.stat().st_mode)[-3:] == "444"
+
+
+def test_equalisation_converges_on_a_strongly_resonant_nonlinear_exciter(tmp_path):
+    exciter = ExciterModel(suspension_q=8.0, cubic=0.02, quadratic=0.02)  # ~10 % off open loop
+    model = StandModel(exciter=exciter, reference_gain=10.0)
+    config = dataclasses.replace(
+        CONFIG,
+        inputs=tuple(
+            dataclasses.replace(c, range_v=2.0) if c.name == "reference" else c
+            for c in CONFIG.inputs
+        ),
+    )
+    stand = open_stand(config, dut="piezo", model=model, systematic=False)
+    events = []
+    folder = RunFolder.create(tmp_path, "harsh")
+    finished = Procedure(stand, preset_plan("piezo"), RunSettings(), folder, events.append).run()
+    stand.close()
+    assert finished.status == "complete", finished.abort_reason
+    steps = [e for e in events if isinstance(e, EqualisationStep)]
+    assert steps[0].worst > 0.01  # the open-loop guess is off ...
+    assert steps[-1].worst <= 0.01 and len(steps) <= 8  # ... and the loop corrects it
+
+
+@pytest.mark.parametrize(
+    ("kind", "message"),
+    [
+        ("daq-timeout", "DaqTimeoutError"),
+        ("device-lost", "DeviceLostError"),
+        ("visa-timeout", "VisaTimeoutError"),
+        ("amplifier-fault", "AmplifierFaultError"),
+        ("overload", "OverloadError"),
+    ],
+)
+def test_every_fault_ends_at_0_v_with_an_aborted_readable_run(tmp_path, kind, message):
+    finished, stand, _, folder = run(tmp_path, faults=(Fault(kind, 21.0),))
+    assert finished.status == "aborted" and message in finished.abort_reason
+    assert finished.results is None
+    assert stand.daq.output_v == 0.0 and stand.daq.output.stopped
+    record = json.loads((folder.path / "results.json").read_text())
+    assert record["status"] == "aborted" and record["results"] is None
+    assert record["final_output_v"] == 0.0
+    partial = read_recording(folder.recording)
+    assert partial.periods >= 8  # background, identification, equalisation: kept
+    assert (folder.path / "run.log").read_text().strip().endswith(finished.abort_reason)
+
+
+def test_dead_dut_and_implausible_sensitivity_abort(tmp_path):
+    finished, *_ = run(tmp_path, dut="dead")
+    assert finished.status == "aborted" and "DUT channel: no signal" in finished.abort_reason
+    finished, *_ = run(tmp_path, settings=RunSettings(dut_nominal_mv_per_ms2=1.0))
+    assert finished.status == "aborted" and "implausible DUT sensitivity" in finished.abort_reason
+
+
+def test_natural_overload_stops_the_run(tmp_path):
+    config = dataclasses.replace(
+        CONFIG,
+        inputs=tuple(
+            dataclasses.replace(c, range_v=0.1) if c.name == "dut" else c for c in CONFIG.inputs
+        ),
+    )
+    stand = open_stand(config, dut="piezo")
+    folder = RunFolder.create(tmp_path, "x")
+    finished = Procedure(stand, preset_plan("piezo"), RunSettings(), folder).run()
+    stand.close()
+    assert finished.status == "aborted"
+    assert "dut channel" in finished.abort_reason and "range limit" in finished.abort_reason
+    assert "Lower the level" in finished.abort_reason
+    assert stand.daq.output_v == 0.0
+
+
+def test_preflight_refuses_before_anything_moves(tmp_path):
+    stand = open_stand(CONFIG, dut="piezo")
+    procedure = Procedure(stand, preset_plan("piezo", level_ms2=50.0), RunSettings())
+    with pytest.raises(PreflightError, match=r"displacement .* exceeds the exciter's 8 mm"):
+        procedure.preflight()
+    assert stand.daq.output.periods == []  # nothing was played
+    with pytest.raises(PreflightError):
+        execute(RunRequest(level_ms2=50.0, out=tmp_path / "runs"))
+    assert not (tmp_path / "runs").exists()  # and no run folder was made
+
+
+def test_type_a_target_and_time_bound(tmp_path):
+    settings = RunSettings(target_type_a=0.0005, max_acquisition_s=60.0)
+    finished, *_ = run(tmp_path, dut="capacitive", settings=settings, systematic=False)
+    assert finished.status == "complete"
+    worst = max(ln.relative_type_a for ln in finished.results.lines)
+    assert worst > 0.0005  # the 4 kHz line cannot get there within 60 s ...
+    assert finished.results.periods <= 30  # ... so the time bound stopped it
+    assert any("time bound" in w for w in finished.results.warnings)
+    settings = RunSettings(target_type_a=0.002)
+    finished, *_ = run(tmp_path, dut="piezo", settings=settings, systematic=False)
+    assert max(ln.relative_type_a for ln in finished.results.lines) <= 0.002
+    assert finished.results.periods == 3  # the piezo reaches 0.2 % at once
+
+
+def test_sigterm_fades_out_and_leaves_an_aborted_readable_run(tmp_path):
+    out = tmp_path / "runs"
+    process = subprocess.Popen(
+        [sys.executable, "-m", "app", "run", "--sim", "--paced", "--out", str(out), "--json"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and not list(out.glob("*/recording.h5")):
+        time.sleep(0.2)
+    time.sleep(3.0)  # into the run: the shaker is moving
+    process.send_signal(signal.SIGTERM)
+    stdout, stderr = process.communicate(timeout=60)
+    assert process.returncode == 3, stderr
+    record = json.loads(stdout)
+    assert record["status"] == "aborted" and record["abort_reason"] == "terminated (SIGTERM)"
+    assert record["final_output_v"] == 0.0
+    folder = next(out.iterdir())
+    assert read_recording(folder / "recording.h5").periods >= 2
+    assert load_run(folder)["status"] == "aborted"
+
+
+def test_cli_run_and_show(tmp_path, capsys):
+    from app.cli import main
+
+    assert main(["run", "--sim", "--dut", "piezo", "--periods", "4", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "Reference sensitivity at 160 Hz" in out and "status: complete" in out
+    folder = next(Path(tmp_path).iterdir())
+    assert main(["show", str(folder)]) == 0
+    assert "complete" in capsys.readouterr().out
+    assert main(["run", "--fault", "device-lost@15", "--out", str(tmp_path), "--json"]) == 3
+    record = json.loads(capsys.readouterr().out)
+    assert record["status"] == "aborted" and record["final_output_v"] == 0.0
+    assert main(["run", "--level", "50", "--out", str(tmp_path)]) == 2
+    assert "exceeds the exciter's 8 mm" in capsys.readouterr().err
+    assert main(["run", "--target-ua", "abc", "--out", str(tmp_path)]) == 2
+    assert main(["show", str(tmp_path / "nope")]) == 2
