@@ -20,8 +20,7 @@ test: $(STAMP)
 
 demo: $(STAMP)
 	$(BIN)/accelcal plan --preset piezo
-	$(BIN)/accelcal simulate --dut piezo --level 5 --periods 8 --seed 1 --out $(DEMO_DIR)/recording.h5
-	$(BIN)/accelcal analyze $(DEMO_DIR)/recording.h5
+	$(BIN)/accelcal run --sim --dut piezo --level 5 --periods 8 --seed 1 --out $(DEMO_DIR)/runs
 
 gui: $(STAMP)
 	$(BIN)/accelcal gui --sim

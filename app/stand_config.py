@@ -197,8 +197,10 @@ def parse(text: str, source: str) -> StandConfig:
     laboratory = {
         "name": r.value(lab, "laboratory", "name", str),
         "address": r.value(lab, "laboratory", "address", str),
-        "accreditation": r.value(lab, "laboratory", "accreditation", str, "") or "",
+        "accreditation": lab.get("accreditation", ""),
     }
+    if not isinstance(laboratory["accreditation"], str):
+        raise r.fail("laboratory.accreditation", "must be a string (may be empty)")
     daq = r.table("daq")
     backend = r.value(daq, "daq", "backend", str)
     if backend not in BACKENDS:

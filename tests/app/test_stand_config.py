@@ -1,0 +1,92 @@
+"""Stand configuration: the shipped files load; every error names its field."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from app import stand_config
+from app.stand_config import ConfigError, parse
+from app.stands import open_stand
+
+EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "stand-pxi6251.toml"
+
+
+def test_built_in_simulated_stand_and_the_example_load():
+    sim = stand_config.load()
+    assert sim.backend == "sim" and sim.limits.displacement_peak_to_peak_m == 8e-3
+    assert [c.name for c in sim.inputs] == ["reference", "dut", "drive"]
+    real = stand_config.load(EXAMPLE)
+    assert real.backend == "nidaqmx" and real.measuring_amplifier == "GPIB0::12::INSTR"
+    chain = real.reference_chain()
+    assert chain.reference_gain == 10.0 and chain.skew_s == 4e-6
+    assert real.reference.certificate_date == "2026-03-15"
+    assert len(real.budget.components) == 6
+
+
+def test_real_backend_is_never_replaced_by_the_simulator():
+    with pytest.raises(ConfigError, match="NI-DAQmx driver is not part of this version"):
+        open_stand(stand_config.load(EXAMPLE))
+
+
+def mutate(old: str, new: str) -> str:
+    text = EXAMPLE.read_text()
+    assert old in text, old
+    return text.replace(old, new, 1)
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "message"),
+    [
+        ('backend = "nidaqmx"', 'backend = "labview"', "daq.backend: must be one of sim, nidaqmx"),
+        ("[limits]\n", "[limitz]\n", "limits: missing section"),
+        (
+            "displacement_peak_to_peak_m = 8e-3",
+            "displacement_peak_to_peak_m = -1",
+            "limits.displacement_peak_to_peak_m: must be > 0",
+        ),
+        ("drive_peak_v = 5.0", "drive_peak_v = 12.0", "limits.drive_peak_v: exceeds the output"),
+        (
+            'physical = "PXI1Slot2/ai1"\nrange_v = 5.0',
+            'physical = "PXI1Slot2/ai1"\nrange_v = "5"',
+            "daq.dut.range_v: must be a number",
+        ),
+        (
+            'terminal = "rse"',
+            'terminal = "rse"\ncoupling = "magnetic"',
+            "daq.drive.coupling: must be 'dc' or 'ac'",
+        ),
+        ("skew_s = 4e-6", "skew_s = 0.5", "daq.skew_s: must be between 0 and 1 ms"),
+        ('certificate_number = "PTB-2026-0815"\n', "", "reference.certificate_number: missing"),
+        (
+            "frequencies_hz = [10.0, 20.0,",
+            "frequencies_hz = [20.0, 10.0,",
+            "reference: frequencies_hz must be positive and increasing",
+        ),
+        ('distribution = "rectangular"', 'distribution = "gaussian-ish"', "component:"),
+        ("[dut_channel]\ngain = 1.0", "[dut_channel]\ngain = 0", "dut_channel.gain: must be > 0"),
+        (
+            "[laboratory]",
+            '[simulation]\nx = "dut_motion"\n[laboratory]',
+            "simulation: only for the simulated stand",
+        ),
+        (
+            "reference_channel = 1",
+            "reference_channel = 1.5",
+            "amplifiers.reference_channel: must be an integer",
+        ),
+    ],
+)
+def test_errors_name_the_field(old, new, message):
+    with pytest.raises(ConfigError) as info:
+        parse(mutate(old, new), "stand.toml")
+    assert str(info.value).startswith("stand.toml: ")
+    assert message in str(info.value)
+
+
+def test_not_toml_and_missing_file(tmp_path):
+    with pytest.raises(ConfigError, match="not valid TOML"):
+        parse("[daq\n", "x.toml")
+    with pytest.raises(ConfigError, match="no such file"):
+        stand_config.load(tmp_path / "none.toml")
