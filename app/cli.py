@@ -146,6 +146,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--target-ua", help="stop at this relative type A, e.g. 0.2%%")
     r.add_argument("--max-time", help="bound on the acquisition time, e.g. 30s")
     r.add_argument("--estimator", choices=("periodic", "h1", "seed"), default="periodic")
+    r.add_argument("--mode", choices=("multisine", "stepped-sine"), default="multisine")
     r.add_argument("--tolerance", type=float, help="DUT tolerance of the characteristic, %%")
     r.add_argument("--seed", type=int, default=0, help="simulated stand: random seed")
     r.add_argument("--paced", action="store_true", help="simulated stand: real time")
@@ -450,6 +451,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         target_type_a=parse_percent(args.target_ua, "--target-ua") if args.target_ua else None,
         max_acquisition_s=parse_seconds(args.max_time, "--max-time") if args.max_time else None,
         estimator=args.estimator,
+        mode=args.mode,
         tolerance_percent=args.tolerance,
         nominal_mv_per_ms2=args.nominal_sensitivity,
         seed=args.seed,

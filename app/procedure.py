@@ -28,7 +28,8 @@ from app.records import STATUS_ABORTED, STATUS_COMPLETE, RunFolder
 from app.stands import Stand
 from dsp.calibration import AnalysisError, Results, compute_results
 from dsp.crestfactor import synthesize
-from dsp.multisine import Plan, fade_envelope
+from dsp.multisine import Line, Plan, fade_envelope
+from dsp.sinefit import integer_cycle_block, sine_fit
 from dsp.spectral import Estimate, SpectralAccumulator, period_spectrum
 from dsp.uncertainty import Budget, Component, Distribution
 from hardware.errors import (
@@ -41,6 +42,7 @@ from hardware.errors import (
 from hardware.interfaces import DaqConfig
 
 OVERLOAD_FRACTION = 0.995  # SPEC s.11: a sample within 0.5 % of a channel's range
+MODES = ("multisine", "stepped-sine")
 
 
 class State(StrEnum):
@@ -159,6 +161,8 @@ class RunSettings:
     tolerance_percent: float | None = None
     dut_nominal_mv_per_ms2: float | None = None
     plausible_ratio: float = 2.0
+    mode: str = "multisine"
+    stepped_block_s: float = 0.25
 
     def __post_init__(self) -> None:
         if self.periods < 2 and self.target_type_a is None:
@@ -169,6 +173,8 @@ class RunSettings:
             raise ValueError("max time: must be > 0 s")
         if not 0 < self.equalisation_tolerance < 0.5:
             raise ValueError("equalisation tolerance: must be between 0 and 0.5")
+        if self.mode not in MODES:
+            raise ValueError(f"mode: one of {', '.join(MODES)}, got {self.mode!r}")
 
 
 @dataclass
@@ -177,6 +183,7 @@ class _Run:
 
     periods_read: int = 0
     excited_periods: int = 0
+    excited_s: float = 0.0
     warnings: list[str] = field(default_factory=list)
     equalisation: list[float] = field(default_factory=list)
     background: dict[str, list[float]] = field(default_factory=dict)
@@ -199,6 +206,8 @@ class Procedure:
     ):
         self.stand = stand
         self.plan = plan
+        self._active = plan  # what is being played: the plan, or one stepped-sine line
+        self._line_index: int | None = None
         self.settings = settings
         self.folder = folder
         self.listener = listener
@@ -242,10 +251,13 @@ class Procedure:
             self._preflight()
             self._configure()
             self._background()
-            self._identify()
-            self._equalise()
-            self._acquire()
-            self._fade_out()
+            if self.settings.mode == "stepped-sine":
+                self._stepped()
+            else:
+                self._identify()
+                self._equalise()
+                self._acquire()
+                self._fade_out()
         except Aborted as exc:
             status, reason = STATUS_ABORTED, str(exc)
             self._try_fade_out()
@@ -380,7 +392,7 @@ class Procedure:
     def _identify(self) -> None:
         """Fade in at a gentle level, settle, and measure the table's response per line."""
         self._state(State.IDENTIFYING, "gentle drive: measuring the stand's response per line")
-        plan = self.plan
+        plan = self._active
         amplitude = np.full(len(plan.lines), self.settings.identification_drive_v)
         drive = synthesize(plan.bins, amplitude, plan.phases_rad, plan.period_samples)
         self._crossfade(drive)
@@ -398,7 +410,7 @@ class Procedure:
             State.EQUALISING,
             f"closed loop, tolerance {100 * self.settings.equalisation_tolerance:g} %",
         )
-        plan = self.plan
+        plan = self._active
         target = plan.amplitudes_ms2 * np.exp(1j * (plan.phases_rad - np.pi / 2))
         drive_lines = target / self._response
         limit = min(self.stand.config.limits.drive_peak_v, self.stand.config.output.range_v)
@@ -418,6 +430,7 @@ class Procedure:
                 )
             self._crossfade(drive)
             measured = self._settled_acceleration()
+            self._response = measured / drive_lines  # the stand's response at this level
             errors = np.abs(measured / target) - 1.0
             worst = float(np.max(np.abs(errors)))
             self._run.equalisation.append(worst)
@@ -442,7 +455,7 @@ class Procedure:
             self._writer.set_budget(budget)
         period_s = plan.period_s
         limit_periods = s.periods if s.target_type_a is None else 10**6
-        started = self._run.excited_periods
+        started = self._run.excited_s
         while True:
             _, block = self._period(State.ACQUIRING, return_block=True)
             ref, dut = block[self._channel_index["reference"]], block[self._channel_index["dut"]]
@@ -466,7 +479,7 @@ class Procedure:
             self._check_plausible(results)
             self._run.results, self._run.estimate = results, estimate
             self._emit(PeriodEstimate(count, estimate, results))
-            acquired_s = (self._run.excited_periods - started) * period_s
+            acquired_s = self._run.excited_s - started
             worst_a = float(np.nanmax(estimate.relative_type_a))
             remaining = None if s.target_type_a is not None else (limit_periods - count) * period_s
             self._emit(
@@ -498,10 +511,81 @@ class Procedure:
                     )
                 return
 
+    def _stepped(self) -> None:
+        """Classic ISO 16063-21 stepped sine: one line at a time in blocks of a whole number of
+        cycles (>= `stepped_block_s`), gentle identification, closed-loop level, settle,
+        acquisition, fade-out; both channels by three-parameter sine fit. Same estimators and
+        results object as the multisine."""
+        plan, s = self.plan, self.settings
+        fs = plan.sample_rate_hz
+        if self._writer is not None:
+            self._writer.set_mode("stepped-sine")
+        estimates, settled_ref, settled_dut = [], [], []
+        per_line_bound = (
+            None if s.max_acquisition_s is None else s.max_acquisition_s / len(plan.lines)
+        )
+        for k, line in enumerate(plan.lines):
+            n = integer_cycle_block(
+                line.frequency_hz, fs, s.stepped_block_s, (plan.mains_frequency_hz,)
+            )
+            m = round(line.frequency_hz * n / fs)
+            one = Line(line.nominal_frequency_hz, line.frequency_hz, m, line.amplitude_ms2, 0.0)
+            active = Plan(fs, n, (one,), line.nominal_frequency_hz, plan.mains_frequency_hz, 0)
+            self.stand.daq.stop()
+            self.stand.daq.configure(DaqConfig(fs, n, self.stand.config.output, self._inputs))
+            self._active, self._line_index = active, k
+            self._drive = np.zeros(n)
+            self.stand.daq.start(self._drive)
+            self._log(f"stepped sine: line {line.label}, blocks of {n} samples")
+            if k == 0:
+                self._identify()
+            else:  # start from the previous line's response at half the predicted drive
+                self._response = 2.0 * self._response
+            self._equalise()
+            settled_ref.append(self._settled_lines[0][0])
+            settled_dut.append(self._settled_lines[1][0])
+            accumulator = SpectralAccumulator(n, [m], track_floor=False)
+            started = self._run.excited_s
+            while True:
+                ref, dut = self._period(State.ACQUIRING)
+                accumulator.add_line_spectra(ref[None, :], dut[None, :])
+                count = accumulator.periods
+                if count < 2:
+                    continue
+                estimate = accumulator.estimate(s.estimator)
+                type_a = float(estimate.relative_type_a[0])
+                if s.target_type_a is None and count >= s.periods:
+                    break
+                if s.target_type_a is not None and type_a <= s.target_type_a and count >= 3:
+                    break
+                elapsed = self._run.excited_s - started
+                if per_line_bound is not None and elapsed + active.period_s > per_line_bound:
+                    break
+            estimates.append(estimate)
+            self._fade_out()
+            done = (k + 1) / len(plan.lines)
+            self._emit(Progress(done, self._run.excited_s, None, f"line {line.label} done"))
+        self._active, self._line_index = plan, None
+        combined = _combine(estimates)
+        self._settled_lines = (np.array(settled_ref), np.array(settled_dut))
+        results = compute_results(
+            combined,
+            plan,
+            self.stand.chain,
+            self._budget_with_background(),
+            probability=s.probability,
+            rule=s.rule,
+            tolerance_percent=s.tolerance_percent,
+            extra_warnings=tuple(self._run.warnings),
+        )
+        self._check_plausible(results)
+        self._run.results, self._run.estimate = results, combined
+        self._emit(PeriodEstimate(combined.periods, combined, results))
+
     def _fade_out(self) -> None:
         self._state(State.FADING_OUT)
-        envelope = fade_envelope(self.plan.period_samples, self.settings.fade_periods, "out")
-        n = self.plan.period_samples
+        envelope = fade_envelope(self._active.period_samples, self.settings.fade_periods, "out")
+        n = self._active.period_samples
         for k in range(self.settings.fade_periods):
             self._write(self._drive * envelope[k * n : (k + 1) * n])
             self._period(State.FADING_OUT)
@@ -512,7 +596,7 @@ class Procedure:
 
     def _crossfade(self, new_drive: np.ndarray) -> None:
         """One period moving smoothly from the current drive to `new_drive`, which then plays."""
-        ramp = fade_envelope(self.plan.period_samples, 1, "in")
+        ramp = fade_envelope(self._active.period_samples, 1, "in")
         self._write(self._drive * (1.0 - ramp) + new_drive * ramp)
         self._period(State.EQUALISING)
         self._drive = new_drive
@@ -524,6 +608,9 @@ class Procedure:
         previous = None
         s = self.settings
         noise = self._background_v["reference_noise"]
+        if self._line_index is not None:  # one line, a shorter block: more noise per bin
+            scale = np.sqrt(self.plan.period_samples / self._active.period_samples)
+            noise = noise[[self._line_index]] * scale
         for _ in range(s.max_settle_periods):
             ref, dut = self._period(State.EQUALISING)
             if previous is not None:
@@ -540,7 +627,7 @@ class Procedure:
 
     def _to_acceleration(self, reference_lines: np.ndarray) -> np.ndarray:
         chain = self.stand.chain
-        magnitude, phase = chain.sensitivity_at(self.plan.frequencies_hz)
+        magnitude, phase = chain.sensitivity_at(self._active.frequencies_hz)
         volts_per_ms2 = magnitude * 1e-3 * chain.reference_gain * np.exp(1j * np.radians(phase))
         return reference_lines / volts_per_ms2
 
@@ -553,11 +640,13 @@ class Procedure:
             reason = self._abort_reason
         if reason is not None:
             raise Aborted(reason)
-        block = self.stand.daq.read_period(timeout_s=self.plan.period_s * 2 + 5.0)
+        active = self._active
+        block = self.stand.daq.read_period(timeout_s=active.period_s * 2 + 5.0)
         played = self._drive
         self._run.periods_read += 1
         if np.any(played != 0):
             self._run.excited_periods += 1
+            self._run.excited_s += active.period_s
         self._check_block(block)
         if self._writer is not None:
             drive = (
@@ -577,10 +666,11 @@ class Procedure:
         self._emit(
             PeriodBlock(self._run.periods_read, state, tuple(self._channel_index), block, played)
         )
-        spectrum = period_spectrum(
-            block[[self._channel_index["reference"], self._channel_index["dut"]]]
-        )
-        lines = spectrum[:, self.plan.bins]
+        pair = block[[self._channel_index["reference"], self._channel_index["dut"]]]
+        if self._line_index is None:
+            lines = period_spectrum(pair)[:, active.bins]
+        else:  # stepped sine: IEEE 1057 three-parameter fit of both channels
+            lines = sine_fit(pair, active.frequencies_hz[0], active.sample_rate_hz)[:, None]
         if return_block:
             return (lines[0], lines[1]), block
         return lines[0], lines[1]
@@ -661,10 +751,10 @@ class Procedure:
             "run_id": self.folder.run_id if self.folder else None,
             "status": status,
             "abort_reason": reason,
-            "mode": "multisine",
+            "mode": self.settings.mode,
             "started_utc": started.isoformat(timespec="seconds"),
             "finished_utc": datetime.now(UTC).isoformat(timespec="seconds"),
-            "excitation_time_s": self._run.excited_periods * self.plan.period_s,
+            "excitation_time_s": self._run.excited_s,
             "periods_read": self._run.periods_read,
             "final_output_v": final_output,
             "equalisation_worst": self._run.equalisation,
@@ -697,6 +787,29 @@ class Procedure:
     def _emit(self, event: Event) -> None:
         if self.listener is not None:
             self.listener(event)
+
+
+def _combine(estimates: list[Estimate]) -> Estimate:
+    """One estimate from per-line ones (stepped sine): arrays concatenated, dof per line."""
+
+    def cat(name: str) -> np.ndarray:
+        return np.concatenate([np.atleast_1d(getattr(e, name)) for e in estimates])
+
+    return Estimate(
+        estimator=estimates[0].estimator,
+        periods=min(e.periods for e in estimates),
+        response=cat("response"),
+        relative_type_a=cat("relative_type_a"),
+        phase_type_a_rad=cat("phase_type_a_rad"),
+        dof=np.array([e.dof for e in estimates]),
+        coherence=cat("coherence"),
+        reference_amplitude_v=cat("reference_amplitude_v"),
+        dut_amplitude_v=cat("dut_amplitude_v"),
+        reference_noise_v=cat("reference_noise_v"),
+        dut_noise_v=cat("dut_noise_v"),
+        reference_distortion=cat("reference_distortion"),
+        dut_distortion=cat("dut_distortion"),
+    )
 
 
 def _advice(exc: HardwareError) -> str:

@@ -167,6 +167,11 @@ class RecordingWriter:
         self._file.attrs["settle_periods"] = int(periods)
         self._file.flush()
 
+    def set_mode(self, mode: str) -> None:
+        """Mark the excitation ("multisine" by default; "stepped-sine" blocks vary in length)."""
+        self._file.attrs["mode"] = mode
+        self._file.flush()
+
     def set_acquired_periods(self, periods: int) -> None:
         """Mark how many periods after the settle periods the analysis uses."""
         self._file.attrs["acquired_periods"] = int(periods)
@@ -228,6 +233,11 @@ def read_recording(path: str | Path) -> Recording:
     with handle as f:
         if f.attrs.get("format") != FORMAT_NAME:
             raise RecordingError(f"{name}: not an {FORMAT_NAME} file (attribute 'format')")
+        if f.attrs.get("mode", "multisine") == "stepped-sine":
+            raise RecordingError(
+                f"{name}: a stepped-sine recording (blocks of different lengths per line); its "
+                "results are in the run's results.json, re-analysis is for multisine recordings"
+            )
         version = int(f.attrs.get("format_version", -1))
         if version > FORMAT_VERSION:
             raise RecordingError(

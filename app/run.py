@@ -31,6 +31,7 @@ class RunRequest:
     target_type_a: float | None = None
     max_acquisition_s: float | None = None
     estimator: str = "periodic"
+    mode: str = "multisine"
     tolerance_percent: float | None = None
     nominal_mv_per_ms2: float | None = None
     seed: int = 0
@@ -49,6 +50,7 @@ class RunRequest:
             target_type_a=self.target_type_a,
             max_acquisition_s=self.max_acquisition_s,
             estimator=self.estimator,
+            mode=self.mode,
             tolerance_percent=self.tolerance_percent,
             dut_nominal_mv_per_ms2=self.nominal_mv_per_ms2,
         )

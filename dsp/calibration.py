@@ -304,9 +304,10 @@ def compute_results(
     lines = []
     for k, label in enumerate(labels):
         f = float(frequencies[k])
+        dof = float(np.atleast_1d(estimate.dof)[k] if np.ndim(estimate.dof) else estimate.dof)
         mag = unc.combine(
             float(estimate.relative_type_a[k]),
-            estimate.dof,
+            dof,
             budget,
             f,
             unc.Quantity.MAGNITUDE,
@@ -316,7 +317,7 @@ def compute_results(
         )
         ph = unc.combine(
             math.degrees(float(estimate.phase_type_a_rad[k])),
-            estimate.dof,
+            dof,
             budget,
             f,
             unc.Quantity.PHASE,

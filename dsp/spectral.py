@@ -71,7 +71,7 @@ class Estimate:
     response: np.ndarray
     relative_type_a: np.ndarray
     phase_type_a_rad: np.ndarray
-    dof: float
+    dof: float | np.ndarray  # one value, or one per line (stepped sine)
     coherence: np.ndarray
     reference_amplitude_v: np.ndarray
     dut_amplitude_v: np.ndarray

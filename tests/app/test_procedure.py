@@ -25,7 +25,7 @@ from app.procedure import (
     State,
     StateChanged,
 )
-from app.recording import read_recording
+from app.recording import RecordingError, read_recording
 from app.records import RunFolder, load_run
 from app.run import RunRequest, execute
 from app.stands import open_stand
@@ -228,3 +228,30 @@ def test_cli_run_and_show(tmp_path, capsys):
     assert "exceeds the exciter's 8 mm" in capsys.readouterr().err
     assert main(["run", "--target-ua", "abc", "--out", str(tmp_path)]) == 2
     assert main(["show", str(tmp_path / "nope")]) == 2
+
+
+def test_stepped_sine_and_multisine_agree_within_their_uncertainties(tmp_path):
+    runs = {}
+    for mode in ("multisine", "stepped-sine"):
+        finished, stand, plan, folder = run(
+            tmp_path, settings=RunSettings(mode=mode, periods=4), seed=3, systematic=False
+        )
+        assert finished.status == "complete", finished.abort_reason
+        magnitude_ok, _ = within(finished, stand, plan)
+        assert magnitude_ok.all()
+        runs[mode] = finished
+    multi, stepped = runs["multisine"], runs["stepped-sine"]
+    assert stepped.record["mode"] == "stepped-sine"
+    for a, b in zip(multi.results.lines, stepped.results.lines, strict=True):
+        difference = abs(a.sensitivity_mv_per_ms2 - b.sensitivity_mv_per_ms2)
+        assert difference <= np.hypot(
+            a.expanded_uncertainty_mv_per_ms2, b.expanded_uncertainty_mv_per_ms2
+        )
+        # and closer still than their type A alone allows, the stand being the same
+        type_a = np.hypot(a.relative_type_a, b.relative_type_a) * a.sensitivity_mv_per_ms2
+        assert difference <= 4 * type_a + 5e-4 * a.sensitivity_mv_per_ms2
+    # the stepped sine ran longer: one line at a time
+    assert stepped.record["excitation_time_s"] > 2 * multi.record["excitation_time_s"]
+    stepped_folder = tmp_path / stepped.record["run_id"]
+    with pytest.raises(RecordingError, match="a stepped-sine recording"):
+        read_recording(stepped_folder / "recording.h5")
