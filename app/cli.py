@@ -142,6 +142,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--nominal-sensitivity", type=float, help="DUT nominal, mV/(m/s^2)")
     r.add_argument("--preset", choices=sorted(PRESETS), help="plan (default: by DUT kind)")
     r.add_argument("--level", type=float, default=5.0, help="peak acceleration per line, m/s^2")
+    r.add_argument("--levels", help="amplitude sweep: levels in m/s^2, e.g. 4,5,6,7,8")
     r.add_argument("--periods", type=int, default=8, help="periods to acquire")
     r.add_argument("--target-ua", help="stop at this relative type A, e.g. 0.2%%")
     r.add_argument("--max-time", help="bound on the acquisition time, e.g. 30s")
@@ -460,6 +461,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         out=args.out,
     )
     progress = None if args.json else TerminalProgress()
+    if args.levels:
+        return run_levels(request, args, progress)
     finished = execute(request, listener=progress)
     if progress is not None:
         progress.close()
@@ -481,6 +484,48 @@ def cmd_run(args: argparse.Namespace) -> int:
             )
         )
     return EXIT_OK if record["status"] == "complete" else EXIT_ABORTED
+
+
+def run_levels(request: RunRequest, args: argparse.Namespace, progress) -> int:
+    """`accelcal run --levels ...`: one run per level and the sweep summary."""
+    from app.sweep import run_sweep
+
+    try:
+        levels = [float(x) for x in args.levels.split(",") if x.strip()]
+    except ValueError:
+        raise UsageError(f"--levels: {args.levels!r} is not a list of numbers") from None
+    try:
+        sweep = run_sweep(request, levels, progress)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    if progress is not None:
+        progress.close()
+    summary = sweep.summary
+    if args.json:
+        print(json.dumps(summary, indent=2))
+    elif "sensitivity_mv_per_ms2" in summary:
+        done = summary["levels_ms2"][: len(summary["sensitivity_mv_per_ms2"])]
+        rows = [
+            [
+                f"{f:g}",
+                *(f"{row[k]:.4f}" for row in summary["sensitivity_mv_per_ms2"]),
+                f"{summary['linearity_percent'][k]:.3f}",
+            ]
+            for k, f in enumerate(summary["frequencies_hz"])
+        ]
+        print("Sensitivity in mV/(m/s^2) against frequency and level (m/s^2 per line)")
+        print(fmt.table(["Hz", *(f"{lv:g}" for lv in done), "linearity %"], rows))
+        print(
+            f"Linearity: {summary['reference_linearity_percent']:.3f} % at "
+            f"{summary['reference_frequency_hz']:g} Hz, worst "
+            f"{summary['worst_linearity_percent']:.3f} % at "
+            f"{summary['worst_linearity_frequency_hz']:g} Hz"
+        )
+    if not args.json:
+        print(f"sweep summary: {summary['path']}; runs: {', '.join(map(str, summary['run_ids']))}")
+        if summary["abort_reason"]:
+            print(f"status: aborted ({summary['abort_reason']})")
+    return EXIT_OK if sweep.complete else EXIT_ABORTED
 
 
 class TerminalProgress:

@@ -208,6 +208,8 @@ class Procedure:
         self.plan = plan
         self._active = plan  # what is being played: the plan, or one stepped-sine line
         self._line_index: int | None = None
+        self._reusable_blocks: list[np.ndarray] = []
+        self._settled_blocks: list[np.ndarray] = []
         self.settings = settings
         self.folder = folder
         self.listener = listener
@@ -437,6 +439,8 @@ class Procedure:
             self._emit(EqualisationStep(iteration, errors, worst))
             self._log(f"equalisation {iteration}: worst line {100 * worst:.2f} %")
             if worst <= self.settings.equalisation_tolerance:
+                # settled at the final drive: these two periods are the first acquired ones
+                self._reusable_blocks = list(self._settled_blocks)
                 return
             drive_lines = drive_lines * target / measured
         self._warn(
@@ -450,14 +454,18 @@ class Procedure:
         self._state(State.ACQUIRING)
         accumulator = SpectralAccumulator(plan.period_samples, plan.bins)
         budget = self._budget_with_background()
+        pending = list(self._reusable_blocks)
         if self._writer is not None:
-            self._writer.set_settle_periods(self._run.periods_read)
+            self._writer.set_settle_periods(self._run.periods_read - len(pending))
             self._writer.set_budget(budget)
         period_s = plan.period_s
         limit_periods = s.periods if s.target_type_a is None else 10**6
         started = self._run.excited_s
         while True:
-            _, block = self._period(State.ACQUIRING, return_block=True)
+            if pending:
+                block = pending.pop(0)
+            else:
+                _, block = self._period(State.ACQUIRING, return_block=True)
             ref, dut = block[self._channel_index["reference"]], block[self._channel_index["dut"]]
             accumulator.add_period(ref, dut)
             count = accumulator.periods
@@ -537,6 +545,7 @@ class Procedure:
             self._drive = np.zeros(n)
             self.stand.daq.start(self._drive)
             self._log(f"stepped sine: line {line.label}, blocks of {n} samples")
+            self._reusable_blocks = []
             if k == 0:
                 self._identify()
             else:  # start from the previous line's response at half the predicted drive
@@ -546,8 +555,14 @@ class Procedure:
             settled_dut.append(self._settled_lines[1][0])
             accumulator = SpectralAccumulator(n, [m], track_floor=False)
             started = self._run.excited_s
+            pending = list(self._reusable_blocks)  # settled at the final drive: reused
             while True:
-                ref, dut = self._period(State.ACQUIRING)
+                if pending:
+                    block = pending.pop(0)
+                    pair = block[[self._channel_index["reference"], self._channel_index["dut"]]]
+                    ref, dut = sine_fit(pair, line.frequency_hz, fs)[:, None]
+                else:
+                    ref, dut = self._period(State.ACQUIRING)
                 accumulator.add_line_spectra(ref[None, :], dut[None, :])
                 count = accumulator.periods
                 if count < 2:
@@ -611,15 +626,17 @@ class Procedure:
         if self._line_index is not None:  # one line, a shorter block: more noise per bin
             scale = np.sqrt(self.plan.period_samples / self._active.period_samples)
             noise = noise[[self._line_index]] * scale
+        previous_block = None
         for _ in range(s.max_settle_periods):
-            ref, dut = self._period(State.EQUALISING)
+            (ref, dut), block = self._period(State.EQUALISING, return_block=True)
             if previous is not None:
                 difference = np.abs(ref - previous)
                 allowed = np.maximum(s.settle_tolerance * np.abs(ref), 6.0 * noise)
                 if np.all(difference <= allowed):
                     self._settled_lines = (ref, dut)
+                    self._settled_blocks = [previous_block, block]
                     return self._to_acceleration((ref + previous) / 2)
-            previous = ref
+            previous, previous_block = ref, block
         raise ProcedureError(
             f"the table did not settle within {s.max_settle_periods} periods (consecutive "
             "periods still differ): check for a loose mount, a resonance or an unstable amplifier"

@@ -20,10 +20,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from app.procedure import Procedure, RunSettings  # noqa: E402
-from app.stand_config import load  # noqa: E402
-from app.stands import open_stand  # noqa: E402
-from dsp.multisine import preset_plan  # noqa: E402
+from app.procedure import Procedure, RunSettings
+from app.stand_config import load
+from app.stands import open_stand
+from dsp.multisine import preset_plan
 
 CASES = (("piezo", "piezo", 0.002), ("capacitive", "capacitive", 0.01))
 

@@ -181,12 +181,14 @@ def test_type_a_target_and_time_bound(tmp_path):
     assert finished.status == "complete"
     worst = max(ln.relative_type_a for ln in finished.results.lines)
     assert worst > 0.0005  # the 4 kHz line cannot get there within 60 s ...
-    assert finished.results.periods <= 30  # ... so the time bound stopped it
+    # ... so the time bound stopped it: 30 new periods, plus the 2 settled at the end of the
+    # equalisation, which are reused
+    assert finished.results.periods <= 32
     assert any("time bound" in w for w in finished.results.warnings)
     settings = RunSettings(target_type_a=0.002)
     finished, *_ = run(tmp_path, dut="piezo", settings=settings, systematic=False)
     assert max(ln.relative_type_a for ln in finished.results.lines) <= 0.002
-    assert finished.results.periods == 3  # the piezo reaches 0.2 % at once
+    assert finished.results.periods == 3  # the piezo reaches 0.2 % at once (2 reused + 1)
 
 
 def test_sigterm_fades_out_and_leaves_an_aborted_readable_run(tmp_path):
@@ -233,7 +235,7 @@ def test_cli_run_and_show(tmp_path, capsys):
 def test_stepped_sine_and_multisine_agree_within_their_uncertainties(tmp_path):
     runs = {}
     for mode in ("multisine", "stepped-sine"):
-        finished, stand, plan, folder = run(
+        finished, stand, plan, _ = run(
             tmp_path, settings=RunSettings(mode=mode, periods=4), seed=3, systematic=False
         )
         assert finished.status == "complete", finished.abort_reason
@@ -255,3 +257,32 @@ def test_stepped_sine_and_multisine_agree_within_their_uncertainties(tmp_path):
     stepped_folder = tmp_path / stepped.record["run_id"]
     with pytest.raises(RecordingError, match="a stepped-sine recording"):
         read_recording(stepped_folder / "recording.h5")
+
+
+def test_amplitude_sweep_resolves_the_mems_compression(tmp_path):
+    from app.sweep import run_sweep
+    from sim.models import DUT_CATALOGUE
+
+    request = RunRequest(dut="capacitive", periods=3, seed=2, out=tmp_path)
+    sweep = run_sweep(request, [3.0, 5.0, 7.0])
+    summary = sweep.summary
+    assert sweep.complete and len(summary["run_ids"]) == 3
+    assert all((tmp_path / run_id / "results.json").exists() for run_id in summary["run_ids"])
+    k = summary["frequencies_hz"].index(160.0)
+    s = np.array(summary["sensitivity_mv_per_ms2"])[:, k]
+    assert s[0] > s[1] > s[2]  # the cubic term compresses with level
+    mems = DUT_CATALOGUE["capacitive"]
+    lines = 27
+    truth = [abs(mems.sensitivity(np.array([160.0]), a * np.sqrt(lines / 2))[0]) for a in (3, 7)]
+    # same stand (seed), so the drawn deviations cancel in the ratio
+    assert s[2] / s[0] - 1 == pytest.approx(truth[1] / truth[0] - 1, abs=6e-4)
+    assert summary["reference_linearity_percent"] < 0.2
+    assert Path(summary["path"]).exists()
+
+
+def test_sweep_checks_every_level_before_anything_moves(tmp_path):
+    from app.sweep import run_sweep
+
+    with pytest.raises(PreflightError, match="level 8 m/s\\^2: displacement"):
+        run_sweep(RunRequest(dut="capacitive", out=tmp_path / "runs"), [4.0, 8.0])
+    assert not (tmp_path / "runs").exists()
