@@ -20,7 +20,11 @@ test: $(STAMP)
 
 demo: $(STAMP)
 	$(BIN)/accelcal plan --preset piezo
-	$(BIN)/accelcal run --sim --dut piezo --level 5 --periods 8 --seed 1 --out $(DEMO_DIR)/runs
+	$(BIN)/accelcal run --sim --dut piezo --dut-id SN-DEMO-0001 --level 5 --periods 8 --seed 1 \
+	    --tolerance 5 --out $(DEMO_DIR)/runs
+	$(BIN)/accelcal certificate $$(ls -d $(DEMO_DIR)/runs/*/ | tail -n 1) --customer "ACME Ltd" \
+	    --authorised-by "J. Smith, head of laboratory" --temperature 23 \
+	    --mounting "stud-mounted back-to-back on the reference, 2 N m"
 
 gui: $(STAMP)
 	$(BIN)/accelcal gui --sim

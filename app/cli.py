@@ -15,6 +15,7 @@ from pathlib import Path
 
 from app import formatting as fmt
 from app.analysis import analyze
+from app.certificate import CertificateError, CertificateInfo, build
 from app.procedure import PreflightError
 from app.recording import RecordingError, read_csv, read_recording
 from app.run import RunRequest, execute
@@ -159,6 +160,21 @@ def build_parser() -> argparse.ArgumentParser:
     w.add_argument("run", type=Path, help="run folder")
     w.add_argument("--json", action="store_true", help="the run record as JSON")
 
+    c = sub.add_parser("certificate", help="the PDF certificate of a stored complete run")
+    c.add_argument("run", type=Path, help="run folder")
+    c.add_argument("--out", type=Path, help="PDF to write (default: <run>/certificate.pdf)")
+    c.add_argument("--customer", help="customer name (mandatory)")
+    c.add_argument("--customer-address", default="", help="customer address")
+    c.add_argument("--authorised-by", help="name and function of the signatory (mandatory)")
+    c.add_argument("--dut-model", help="DUT manufacturer and model")
+    c.add_argument("--dut-serial", help="DUT serial number (default: the run's --dut-id)")
+    c.add_argument("--dut-type", help="DUT type, e.g. 'piezoelectric accelerometer'")
+    c.add_argument("--temperature", type=float, help="ambient temperature, deg C")
+    c.add_argument("--mounting", help="how the DUT was mounted")
+    c.add_argument("--certificate-number", help="default: AC-<run id>")
+    c.add_argument("--issue-date", help="YYYY-MM-DD (default: the run's date)")
+    c.add_argument("--notes", default="", help="free text printed under Notes")
+
     s = sub.add_parser("simulate", help="record a calibration on the simulated stand")
     s.add_argument("--list", action="store_true", help="print the simulated catalogue")
     s.add_argument("--dut", default="piezo", help="catalogue DUT (see --list)")
@@ -186,6 +202,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return cmd_run(args)
         if args.command == "show":
             return cmd_show(args)
+        if args.command == "certificate":
+            return cmd_certificate(args)
     except (
         UsageError,
         PlanError,
@@ -195,6 +213,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         SimulationError,
         ConfigError,
         PreflightError,
+        CertificateError,
     ) as exc:
         print(f"accelcal {args.command}: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
@@ -565,6 +584,26 @@ class TerminalProgress:
     def close(self) -> None:
         if self._tty:
             sys.stderr.write("\n")
+
+
+def cmd_certificate(args: argparse.Namespace) -> int:
+    info = CertificateInfo(
+        customer=args.customer,
+        customer_address=args.customer_address,
+        authorised_by=args.authorised_by,
+        dut_model=args.dut_model,
+        dut_serial=args.dut_serial,
+        dut_type=args.dut_type,
+        temperature_c=args.temperature,
+        mounting=args.mounting,
+        certificate_number=args.certificate_number,
+        issue_date=args.issue_date,
+        notes=args.notes,
+    )
+    out = args.out or (args.run / "certificate.pdf")
+    path = build(args.run, info, out)
+    print(f"certificate: {path}")
+    return EXIT_OK
 
 
 def cmd_show(args: argparse.Namespace) -> int:

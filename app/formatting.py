@@ -15,7 +15,18 @@ def round_gum(value: float, uncertainty: float, digits: int = 2) -> tuple[str, s
         exponent += 1
         rounded_u = round(uncertainty, -exponent)
     decimals = max(0, -exponent)
-    return f"{round(value, -exponent):.{decimals}f}", f"{rounded_u:.{decimals}f}"
+    text = f"{round(value, -exponent):.{decimals}f}"
+    if float(text) == 0:
+        text = text.lstrip("-")
+    return text, f"{rounded_u:.{decimals}f}"
+
+
+def significant(value: float, digits: int = 2) -> str:
+    """`value` to `digits` significant digits, trailing zeros kept (0.80, 1.2, 12)."""
+    if not math.isfinite(value) or value == 0:
+        return "n/a" if not math.isfinite(value) else "0"
+    decimals = max(0, digits - 1 - math.floor(math.log10(abs(value))))
+    return f"{round(value, decimals):.{decimals}f}"
 
 
 def percent(ratio: float, decimals: int = 2) -> str:

@@ -209,6 +209,7 @@ class Procedure:
         self._active = plan  # what is being played: the plan, or one stepped-sine line
         self._line_index: int | None = None
         self._reusable_blocks: list[np.ndarray] = []
+        self._budget_used: Budget = stand.budget
         self._settled_blocks: list[np.ndarray] = []
         self.settings = settings
         self.folder = folder
@@ -454,6 +455,7 @@ class Procedure:
         self._state(State.ACQUIRING)
         accumulator = SpectralAccumulator(plan.period_samples, plan.bins)
         budget = self._budget_with_background()
+        self._budget_used = budget
         pending = list(self._reusable_blocks)
         if self._writer is not None:
             self._writer.set_settle_periods(self._run.periods_read - len(pending))
@@ -583,11 +585,12 @@ class Procedure:
         self._active, self._line_index = plan, None
         combined = _combine(estimates)
         self._settled_lines = (np.array(settled_ref), np.array(settled_dut))
+        self._budget_used = self._budget_with_background()
         results = compute_results(
             combined,
             plan,
             self.stand.chain,
-            self._budget_with_background(),
+            self._budget_used,
             probability=s.probability,
             rule=s.rule,
             tolerance_percent=s.tolerance_percent,
@@ -776,6 +779,8 @@ class Procedure:
             "final_output_v": final_output,
             "equalisation_worst": self._run.equalisation,
             "background_v": self._run.background,
+            "budget": self._budget_used.to_list(),
+            "reference_chain": self.stand.chain.to_dict(),
             "software_version": software_version(),
             "settings": self.settings.__dict__,
             "plan": self.plan.to_dict(),

@@ -1,0 +1,640 @@
+"""The PDF calibration certificate (SPEC.md section 10; ISO/IEC 17025 clause 7.8).
+
+Made from a stored, complete run folder only (results.json, config.json), never from live
+state. Numbers are the stored results rounded per GUM 7.2.6 (uncertainty to two significant
+digits, value to the same decimal place); nothing is recomputed. Items not in the run
+(customer, authorising person, conditions) come from options or the stand configuration's
+[certificate] table; missing mandatory items are refused by name. The PDF is reproducible:
+reportlab's invariant mode and dates taken from the run make the same run and options give the
+same bytes.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any
+
+from reportlab.graphics.shapes import Drawing, Group, Line, Polygon, PolyLine, Rect, String
+from reportlab.lib import colors
+from reportlab.lib.enums import TA_CENTER
+from reportlab.lib.pagesizes import A4
+from reportlab.lib.styles import ParagraphStyle, getSampleStyleSheet
+from reportlab.lib.units import mm
+from reportlab.pdfgen import canvas as pdf_canvas
+from reportlab.platypus import (
+    KeepTogether,
+    Paragraph,
+    SimpleDocTemplate,
+    Spacer,
+    Table,
+    TableStyle,
+)
+
+from app import formatting as fmt
+from app.records import STATUS_COMPLETE, load_run
+from dsp.calibration import Results
+from dsp.uncertainty import Budget, Quantity
+
+MANDATORY = (
+    ("customer", "--customer"),
+    ("authorised_by", "--authorised-by"),
+    ("dut_model", "--dut-model"),
+    ("dut_serial", "--dut-serial (or --dut-id when running)"),
+    ("dut_type", "--dut-type"),
+    ("temperature_c", "--temperature"),
+    ("mounting", "--mounting"),
+)
+
+
+class CertificateError(ValueError):
+    """A certificate that must not be issued; the message says why (missing items by name)."""
+
+
+@dataclass(frozen=True)
+class CertificateInfo:
+    """What the certificate needs beyond the run."""
+
+    customer: str | None = None
+    customer_address: str = ""
+    authorised_by: str | None = None
+    dut_model: str | None = None
+    dut_serial: str | None = None
+    dut_type: str | None = None
+    temperature_c: float | None = None
+    mounting: str | None = None
+    certificate_number: str | None = None
+    issue_date: str | None = None
+    notes: str = ""
+
+    def merged(self, defaults: dict[str, Any]) -> CertificateInfo:
+        """Options win; empty ones take the default."""
+        values = {}
+        for f in fields(self):
+            mine = getattr(self, f.name)
+            values[f.name] = mine if mine not in (None, "") else defaults.get(f.name, mine)
+        return CertificateInfo(**values)
+
+
+@dataclass(frozen=True)
+class StoredRun:
+    """What the certificate reads from a run folder."""
+
+    path: Path
+    record: dict[str, Any]
+    config: dict[str, Any]
+    results: Results
+    budget: Budget = field(default_factory=Budget)
+
+
+def load_stored_run(path: str | Path) -> StoredRun:
+    """A complete run, or CertificateError saying why not."""
+    path = Path(path)
+    try:
+        record = load_run(path)
+    except ValueError as exc:
+        raise CertificateError(str(exc)) from None
+    if record.get("status") != STATUS_COMPLETE or not record.get("results"):
+        reason = record.get("abort_reason") or "no results"
+        raise CertificateError(
+            f"{path}: the run is {record.get('status')} ({reason}); no certificate is issued for "
+            "an incomplete run"
+        )
+    config_path = path / "config.json"
+    config = json.loads(config_path.read_text(encoding="utf-8")) if config_path.exists() else {}
+    budget = Budget.from_list(record.get("budget", []))
+    return StoredRun(path, record, config, Results.from_dict(record["results"]), budget)
+
+
+def default_info(run: StoredRun) -> dict[str, Any]:
+    """Defaults from the run and the stand's [certificate] table."""
+    defaults: dict[str, Any] = dict(run.config.get("stand", {}).get("certificate", {}))
+    dut = run.record.get("dut", {}) or {}
+    if dut.get("id"):
+        defaults.setdefault("dut_serial", dut["id"])
+    catalogue = dut.get("catalogue")
+    if catalogue:
+        from sim.models import DUT_CATALOGUE
+
+        model = DUT_CATALOGUE.get(catalogue)
+        if model is not None:
+            defaults.setdefault("dut_model", f"simulated {model.name} ({model.description})")
+            defaults.setdefault("dut_type", f"{model.kind} accelerometer")
+    run_id = run.record.get("run_id") or run.path.name
+    defaults.setdefault("certificate_number", f"AC-{run_id}")
+    defaults.setdefault("issue_date", (run.record.get("finished_utc") or "")[:10])
+    return defaults
+
+
+def missing_items(info: CertificateInfo) -> list[str]:
+    return [f"{name} ({option})" for name, option in MANDATORY if getattr(info, name) in (None, "")]
+
+
+# --- drawing --------------------------------------------------------------------------------
+
+STYLES = getSampleStyleSheet()
+BODY = ParagraphStyle("body", parent=STYLES["BodyText"], fontSize=9, leading=11.5)
+SMALL = ParagraphStyle("small", parent=BODY, fontSize=7.5, leading=9.5)
+HEAD = ParagraphStyle("head", parent=STYLES["Heading2"], fontSize=11.5, spaceBefore=8, spaceAfter=3)
+TITLE = ParagraphStyle("title", parent=STYLES["Title"], fontSize=17, alignment=TA_CENTER)
+GRID = colors.Color(0.75, 0.75, 0.75)
+BAND = colors.Color(0.78, 0.86, 0.97)
+INK = colors.Color(0.1, 0.25, 0.55)
+
+
+def _numbered_canvas(number: str, laboratory: str):
+    """A canvas class that writes the header and 'page x of y' once all pages are known."""
+
+    class NumberedCanvas(pdf_canvas.Canvas):
+        def __init__(self, *args: Any, **kwargs: Any):
+            kwargs["invariant"] = True
+            super().__init__(*args, **kwargs)
+            self._pages: list[dict[str, Any]] = []
+
+        def showPage(self) -> None:
+            self._pages.append(dict(self.__dict__))
+            self._startPage()
+
+        def save(self) -> None:
+            total = len(self._pages)
+            for page in self._pages:
+                self.__dict__.update(page)
+                self._furniture(total)
+                super().showPage()
+            super().save()
+
+        def _furniture(self, total: int) -> None:
+            width, height = A4
+            self.setFont("Helvetica-Bold", 8.5)
+            self.drawString(18 * mm, height - 12 * mm, laboratory)
+            self.setFont("Helvetica", 8.5)
+            self.drawRightString(
+                width - 18 * mm, height - 12 * mm, f"Calibration certificate {number}"
+            )
+            self.setStrokeColor(GRID)
+            self.line(18 * mm, height - 14 * mm, width - 18 * mm, height - 14 * mm)
+            self.line(18 * mm, 16 * mm, width - 18 * mm, 16 * mm)
+            self.setFont("Helvetica", 7.5)
+            self.drawString(
+                18 * mm,
+                11.5 * mm,
+                "The results relate only to the item calibrated. This certificate shall not be "
+                "reproduced except in full without the laboratory's written approval.",
+            )
+            self.drawRightString(
+                width - 18 * mm,
+                7.5 * mm,
+                f"Certificate {number}   page {self._pageNumber} of {total}",
+            )
+
+    return NumberedCanvas
+
+
+def _nice_ticks(low: float, high: float, count: int = 5) -> list[float]:
+    span = max(high - low, 1e-12)
+    raw = span / count
+    magnitude = 10 ** math.floor(math.log10(raw))
+    step = min((m * magnitude for m in (1, 2, 2.5, 5, 10) if m * magnitude >= raw), default=raw)
+    start = math.floor(low / step) * step
+    stop = math.ceil(high / step) * step  # the ticks enclose [low, high]
+    count = round((stop - start) / step)
+    return [round(start + i * step, 10) for i in range(count + 1)]
+
+
+def chart(
+    frequencies: list[float],
+    values: list[float],
+    half_widths: list[float],
+    y_label: str,
+    width: float = 170 * mm,
+    height: float = 58 * mm,
+) -> Drawing:
+    """Vector chart on a log frequency axis: the values and their uncertainty band."""
+    left, bottom, right, top = 16 * mm, 10 * mm, 4 * mm, 4 * mm
+    d = Drawing(width, height)
+    pw, ph = width - left - right, height - bottom - top
+    f_lo, f_hi = min(frequencies) / 1.25, max(frequencies) * 1.25
+    lower = [v - u for v, u in zip(values, half_widths, strict=True)]
+    upper = [v + u for v, u in zip(values, half_widths, strict=True)]
+    finite = [x for x in lower + upper if math.isfinite(x)] or [-1.0, 1.0]
+    ticks = _nice_ticks(min(finite), max(finite))
+    y_lo, y_hi = ticks[0], ticks[-1] if ticks[-1] > ticks[0] else ticks[0] + 1
+
+    def x(f: float) -> float:
+        return left + pw * (math.log10(f) - math.log10(f_lo)) / (
+            math.log10(f_hi) - math.log10(f_lo)
+        )
+
+    def y(v: float) -> float:
+        return bottom + ph * (v - y_lo) / (y_hi - y_lo)
+
+    d.add(Rect(left, bottom, pw, ph, strokeColor=colors.black, fillColor=None, strokeWidth=0.6))
+    for t in ticks:
+        d.add(Line(left, y(t), left + pw, y(t), strokeColor=GRID, strokeWidth=0.3))
+        d.add(String(left - 2, y(t) - 2.5, f"{t:g}", fontSize=6.5, textAnchor="end"))
+    decade = 10 ** math.floor(math.log10(f_lo))
+    while decade <= f_hi:
+        for m in (1, 2, 5):
+            f = m * decade
+            if f_lo <= f <= f_hi:
+                d.add(Line(x(f), bottom, x(f), bottom + ph, strokeColor=GRID, strokeWidth=0.3))
+                d.add(String(x(f), bottom - 8, f"{f:g}", fontSize=6.5, textAnchor="middle"))
+        decade *= 10
+    d.add(String(left + pw / 2, 1, "frequency in Hz (log scale)", fontSize=7, textAnchor="middle"))
+    label = Group(String(0, 0, y_label, fontSize=7, textAnchor="middle"))
+    label.transform = (0, 1, -1, 0, 5, bottom + ph / 2)  # rotated 90 degrees
+    d.add(label)
+    band = [(x(f), y(v)) for f, v in zip(frequencies, upper, strict=True)]
+    band += [(x(f), y(v)) for f, v in reversed(list(zip(frequencies, lower, strict=True)))]
+    if all(math.isfinite(p[1]) for p in band):
+        d.add(Polygon([c for p in band for c in p], fillColor=BAND, strokeColor=None))
+    d.add(
+        PolyLine(
+            [c for f, v in zip(frequencies, values, strict=True) for c in (x(f), y(v))],
+            strokeColor=INK,
+            strokeWidth=1,
+        )
+    )
+    for f, v in zip(frequencies, values, strict=True):
+        d.add(Rect(x(f) - 1.2, y(v) - 1.2, 2.4, 2.4, fillColor=INK, strokeColor=None))
+    return d
+
+
+def _table(
+    rows: list[list[Any]], widths: list[float], header: bool = True, size: float = 8
+) -> Table:
+    table = Table(rows, colWidths=widths, repeatRows=1 if header else 0, hAlign="LEFT")
+    style = [
+        ("FONTSIZE", (0, 0), (-1, -1), size),
+        ("LEADING", (0, 0), (-1, -1), size + 2),
+        ("VALIGN", (0, 0), (-1, -1), "TOP"),
+        ("LINEBELOW", (0, 0), (-1, 0 if header else -1), 0.5, colors.black if header else GRID),
+        ("BOTTOMPADDING", (0, 0), (-1, -1), 1.5),
+        ("TOPPADDING", (0, 0), (-1, -1), 1.5),
+    ]
+    if header:
+        style += [
+            ("FONTNAME", (0, 0), (-1, 0), "Helvetica-Bold"),
+            ("ALIGN", (1, 1), (-1, -1), "RIGHT"),
+        ]
+    table.setStyle(TableStyle(style))
+    return table
+
+
+def _kv(rows: list[tuple[str, str]]) -> Table:
+    data = [[Paragraph(f"<b>{k}</b>", BODY), Paragraph(v, BODY)] for k, v in rows]
+    table = Table(data, colWidths=[48 * mm, 126 * mm], hAlign="LEFT")
+    table.setStyle(
+        TableStyle(
+            [
+                ("VALIGN", (0, 0), (-1, -1), "TOP"),
+                ("BOTTOMPADDING", (0, 0), (-1, -1), 1),
+                ("TOPPADDING", (0, 0), (-1, -1), 1),
+            ]
+        )
+    )
+    return table
+
+
+def _signed(value: float, decimals: int) -> str:
+    """'+0.12', '-0.05', and '0.00' rather than '-0.00'."""
+    text = f"{value:+.{decimals}f}"
+    return text[1:] if float(text) == 0 else text
+
+
+def _dof(value: float) -> str:
+    return "∞" if not math.isfinite(value) or value > 1e4 else f"{value:.0f}"
+
+
+def _esc(text: Any) -> str:
+    return str(text).replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
+
+
+# --- the certificate ------------------------------------------------------------------------
+
+
+def build(run_path: str | Path, info: CertificateInfo, out: str | Path) -> Path:
+    """Write the certificate of a stored complete run to `out`; returns the path."""
+    run = load_stored_run(run_path)
+    info = info.merged(default_info(run))
+    missing = missing_items(info)
+    if missing:
+        raise CertificateError(f"missing mandatory item(s): {', '.join(missing)}")
+    record, results = run.record, run.results
+    stand = record.get("stand", {})
+    lab = stand.get("laboratory", {})
+    reference = stand.get("reference", {})
+    plan = record.get("plan", {})
+    number = info.certificate_number
+    out = Path(out)
+    if out.exists():
+        raise CertificateError(f"{out}: exists; a certificate is never overwritten (use --out)")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    story: list[Any] = []
+    r = results.reference
+    value, u_value = fmt.round_gum(r.sensitivity_mv_per_ms2, r.expanded_uncertainty_mv_per_ms2)
+    phase, u_phase = fmt.round_gum(r.phase_deg, r.phase_expanded_uncertainty_deg)
+    p_percent = f"{100 * results.coverage_probability:.2f} %"
+
+    story += [
+        Paragraph("CALIBRATION CERTIFICATE", TITLE),
+        Paragraph(
+            f"<b>{_esc(lab.get('name', ''))}</b><br/>{_esc(lab.get('address', ''))}"
+            + (f"<br/>{_esc(lab['accreditation'])}" if lab.get("accreditation") else ""),
+            ParagraphStyle("lab", parent=BODY, alignment=TA_CENTER),
+        ),
+        Spacer(1, 4 * mm),
+        _kv(
+            [
+                ("Certificate number", _esc(number)),
+                (
+                    "Customer",
+                    _esc(info.customer)
+                    + (f", {_esc(info.customer_address)}" if info.customer_address else ""),
+                ),
+                ("Item calibrated", f"{_esc(info.dut_type)}: {_esc(info.dut_model)}"),
+                ("Serial number", _esc(info.dut_serial)),
+                ("Date of calibration", _esc((record.get("started_utc") or "")[:10])),
+                ("Date of issue", _esc(info.issue_date)),
+                ("Calibration run", _esc(record.get("run_id"))),
+            ]
+        ),
+        Paragraph("Method", HEAD),
+        Paragraph(_method_text(record, results, plan), BODY),
+        Paragraph("Conditions", HEAD),
+        _kv(
+            [
+                ("Ambient temperature", f"{float(info.temperature_c):.1f} °C"),
+                ("Mounting", _esc(info.mounting)),
+                ("Excitation level", f"{record.get('level_ms2', 0):g} m/s² peak per frequency"),
+            ]
+        ),
+        Paragraph("Reference standard and traceability", HEAD),
+        _kv(
+            [
+                (
+                    "Reference standard",
+                    f"{_esc(reference.get('model', ''))}, "
+                    f"serial {_esc(reference.get('serial', ''))} "
+                    f"(id {_esc(reference.get('id', ''))})",
+                ),
+                (
+                    "Its calibration",
+                    f"certificate {_esc(reference.get('certificate_number', ''))} of "
+                    f"{_esc(reference.get('certificate_date', ''))}, traceable to national "
+                    "standards",
+                ),
+            ]
+        ),
+        Paragraph("Result at the reference frequency", HEAD),
+        _kv(
+            [
+                ("Reference frequency", f"{r.frequency_hz:g} Hz"),
+                (
+                    "Sensitivity",
+                    f"<b>({value} ± {u_value}) mV/(m/s²)</b>, i.e. "
+                    f"{r.sensitivity_db:.2f} dB re 1 mV/(m/s²)",
+                ),
+                ("Phase", f"({phase} ± {u_phase})°"),
+                ("Coverage", f"k = {r.coverage_factor:.2f}, coverage probability {p_percent}"),
+            ]
+        ),
+    ]
+    story += _line_table(results)
+    story += _charts(results)
+    story += _budget_section(run, results)
+    story += _statements(results, info, p_percent)
+    story += _sign_off(info, record)
+    document = SimpleDocTemplate(
+        str(out),
+        pagesize=A4,
+        leftMargin=18 * mm,
+        rightMargin=18 * mm,
+        topMargin=20 * mm,
+        bottomMargin=22 * mm,
+        title=f"Calibration certificate {number}",
+        author=lab.get("name", ""),
+        subject=f"{info.dut_model} serial {info.dut_serial}",
+        creator=f"accelcal {record.get('software_version', '')}",
+    )
+    document.build(story, canvasmaker=_numbered_canvas(number, lab.get("name", "")))
+    out.chmod(0o444)
+    return out
+
+
+def _method_text(record: dict[str, Any], results: Results, plan: dict[str, Any]) -> str:
+    lines = plan.get("lines", [])
+    freqs = [ln["nominal_frequency_hz"] for ln in lines]
+    span = f"{min(freqs):g} Hz to {max(freqs):g} Hz" if freqs else ""
+    period_s = plan.get("period_samples", 0) / plan.get("sample_rate_hz", 1)
+    excitation = (
+        f"multisine excitation: {len(freqs)} frequencies at once (ISO 266 one-third-octave "
+        f"values, {span}), each on a DFT bin of a {period_s:g} s "
+        f"period sampled at {plan.get('sample_rate_hz', 0):g} Hz, phases optimised for a low "
+        "crest factor, table acceleration equalised per frequency in closed loop"
+        if record.get("mode") == "multisine"
+        else f"stepped-sine excitation: {len(freqs)} frequencies one at a time ({span}), "
+        "three-parameter sine fits (IEEE 1057)"
+    )
+    return (
+        "Calibration by comparison with a reference transducer according to ISO 16063-21, "
+        f"{excitation}. The sensitivity is the ratio of the DUT's and the reference's spectra "
+        f"({results.estimator} estimator, {results.periods} periods averaged) times the reference "
+        "chain's certified sensitivity, corrected for the conditioning gains and the DAQ's "
+        f"inter-channel delay. Excitation time {record.get('excitation_time_s', 0):.0f} s."
+    )
+
+
+def _line_table(results: Results) -> list[Any]:
+    header = [
+        "Nominal\nfrequency\nHz",
+        "Actual\nfrequency\nHz",
+        "Sensitivity\nmV/(m/s²)",
+        "U\nmV/(m/s²)",
+        "Deviation\n%",
+        "Deviation\ndB",
+        "Phase\n°",
+        "U phase\n°",
+        "U rel.\n%",
+        "k",
+        "ISO\n16063-21",
+    ]
+    rows = [header]
+    for ln in results.lines:
+        s, u = fmt.round_gum(ln.sensitivity_mv_per_ms2, ln.expanded_uncertainty_mv_per_ms2)
+        ph, u_ph = fmt.round_gum(ln.phase_deg, ln.phase_expanded_uncertainty_deg)
+        rel = 100 * ln.relative_expanded_uncertainty
+        dev_decimals = (
+            max(0, -math.floor(math.log10(rel)) + 1) if rel > 0 and math.isfinite(rel) else 2
+        )
+        rows.append(
+            [
+                f"{ln.nominal_frequency_hz:g}",
+                f"{ln.frequency_hz:g}",
+                s,
+                u,
+                _signed(ln.deviation_percent, dev_decimals),
+                _signed(ln.deviation_db, 3),
+                ph,
+                u_ph,
+                fmt.significant(rel),
+                f"{ln.coverage_factor:.2f}",
+                {"within": "within", "over": "over", "n/a": "n/a"}[ln.iso_verdict],
+            ]
+        )
+    widths = [w * mm for w in (15, 15, 19, 16, 16, 16, 15, 14, 13, 11, 16)]
+    table = _table(rows, widths, size=7.3)
+    note = Paragraph(
+        "Deviation: sensitivity relative to the sensitivity at the reference frequency. "
+        "U: expanded "
+        "uncertainty with the coverage factor k of its line. ISO 16063-21: relative expanded "
+        "uncertainty within the standard's suggested limits (2 % to 1 kHz, 4 % to 2 kHz, 6 % "
+        "to 10 kHz) or over them.",
+        SMALL,
+    )
+    return [Paragraph("Results per frequency", HEAD), table, Spacer(1, 1.5 * mm), note]
+
+
+def _charts(results: Results) -> list[Any]:
+    f = [ln.frequency_hz for ln in results.lines]
+    deviation = [ln.deviation_percent for ln in results.lines]
+    u_dev = [
+        100 * ln.relative_expanded_uncertainty * (1 + ln.deviation_percent / 100)
+        for ln in results.lines
+    ]
+    phase = [ln.phase_deg for ln in results.lines]
+    u_phase = [ln.phase_expanded_uncertainty_deg for ln in results.lines]
+    return [
+        KeepTogether(
+            [
+                Paragraph("Amplitude-frequency characteristic", HEAD),
+                chart(f, deviation, u_dev, "deviation in %"),
+                Paragraph("Phase-frequency characteristic", HEAD),
+                chart(f, phase, u_phase, "phase in degrees"),
+                Paragraph("Shaded: the expanded uncertainty (k as in the table).", SMALL),
+            ]
+        )
+    ]
+
+
+def _budget_section(run: StoredRun, results: Results) -> list[Any]:
+    r = results.reference
+    line = next(ln for ln in results.lines if ln.nominal_frequency_hz == r.frequency_hz)
+    rows = [["Component", "Value", "Distribution", "Standard\nuncertainty", "Degrees of\nfreedom"]]
+    rows.append(
+        [
+            "Repeatability (type A, this calibration)",
+            "",
+            "normal (t)",
+            f"{100 * line.relative_type_a:.3g} %",
+            f"{2 * (results.periods - 1)}",
+        ]
+    )
+    for c in run.budget.at(line.frequency_hz, Quantity.MAGNITUDE):
+        rows.append(
+            [
+                Paragraph(_esc(c.name), SMALL),
+                f"{100 * c.value:.3g} %",
+                str(c.distribution),
+                f"{100 * c.standard_uncertainty:.3g} %",
+                _dof(c.dof),
+            ]
+        )
+    rows.append(
+        [
+            "Combined standard uncertainty",
+            "",
+            "",
+            f"{100 * line.relative_standard_uncertainty:.3g} %",
+            _dof(line.effective_dof),
+        ]
+    )
+    rows.append(
+        [
+            f"Expanded uncertainty (k = {line.coverage_factor:.2f})",
+            "",
+            "",
+            f"{fmt.significant(100 * line.relative_expanded_uncertainty)} %",
+            "",
+        ]
+    )
+    table = _table(rows, [w * mm for w in (78, 18, 24, 26, 22)], size=7.5)
+    return [
+        KeepTogether(
+            [
+                Paragraph(f"Uncertainty budget of the sensitivity at {r.frequency_hz:g} Hz", HEAD),
+                table,
+            ]
+        )
+    ]
+
+
+def _statements(results: Results, info: CertificateInfo, p_percent: str) -> list[Any]:
+    out = [
+        Paragraph("Uncertainty statement", HEAD),
+        Paragraph(
+            "The reported expanded uncertainty of measurement is stated as the standard "
+            "uncertainty of measurement multiplied by the coverage factor k, which for a "
+            f"t-distribution with the effective degrees of freedom (Welch-Satterthwaite) "
+            f"corresponds to a coverage probability of {p_percent}. It has been determined in "
+            "accordance with JCGM 100:2008 (GUM) and ISO 16063-21."
+            if results.uncertainty_rule == "gum"
+            else "The expanded uncertainty uses the coverage factor rule of the method's source: "
+            "Student's t at 95 % with L - 1 degrees of freedom for fewer than 10 periods, "
+            "otherwise k = 2.",
+            BODY,
+        ),
+    ]
+    if results.tolerance_percent is not None:
+        verdicts = [ln.tolerance_verdict for ln in results.lines]
+        summary = (
+            "conforms"
+            if all(v == "pass" for v in verdicts)
+            else "does not conform"
+            if any(v == "fail" for v in verdicts)
+            else "no statement of conformity can be made at every frequency"
+        )
+        out += [
+            Paragraph("Statement of conformity", HEAD),
+            Paragraph(
+                f"Specification: deviation of the sensitivity from its value at the reference "
+                f"frequency within ±{results.tolerance_percent:g} %. Decision rule: guarded "
+                "acceptance (ILAC-G8): pass where |deviation| + U ≤ tolerance, fail where "
+                "|deviation| − U > tolerance, otherwise inconclusive. Result: the item "
+                f"<b>{summary}</b> ({verdicts.count('pass')} pass, {verdicts.count('fail')} "
+                f"fail, {verdicts.count('inconclusive')} inconclusive of {len(verdicts)}).",
+                BODY,
+            ),
+        ]
+    if info.notes:
+        out += [Paragraph("Notes", HEAD), Paragraph(_esc(info.notes), BODY)]
+    return out
+
+
+def _sign_off(info: CertificateInfo, record: dict[str, Any]) -> list[Any]:
+    return [
+        Spacer(1, 6 * mm),
+        KeepTogether(
+            [
+                _kv(
+                    [
+                        (
+                            "Authorised by",
+                            f"{_esc(info.authorised_by)}<br/><br/>"
+                            "signature: ______________________",
+                        ),
+                        ("Date of issue", _esc(info.issue_date)),
+                        ("Software", f"accelcal {_esc(record.get('software_version', ''))}"),
+                        (
+                            "Raw data SHA-256",
+                            f"<font size=7>{_esc(record.get('raw_data_sha256', ''))}</font>",
+                        ),
+                    ]
+                ),
+                Spacer(1, 2 * mm),
+                Paragraph("The results relate only to the item calibrated.", BODY),
+            ]
+        ),
+    ]

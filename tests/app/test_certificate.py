@@ -1,0 +1,145 @@
+"""The PDF certificate: every ISO/IEC 17025 item, numbers as stored, refusals, reproducibility."""
+
+from __future__ import annotations
+
+import hashlib
+import shutil
+import subprocess
+
+import pytest
+from pypdf import PdfReader
+
+from app import formatting as fmt
+from app.certificate import CertificateError, CertificateInfo, build
+from app.records import load_run
+from app.run import RunRequest, execute
+from dsp.calibration import Results
+
+INFO = CertificateInfo(
+    customer="ACME Ltd",
+    authorised_by="J. Smith, head of laboratory",
+    temperature_c=23.0,
+    mounting="stud-mounted back-to-back, 2 N m",
+)
+
+
+@pytest.fixture(scope="module")
+def complete_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("runs")
+    finished = execute(
+        RunRequest(dut="piezo", dut_id="SN-42", periods=4, tolerance_percent=5.0, out=out)
+    )
+    assert finished.status == "complete"
+    return out / finished.record["run_id"]
+
+
+def text_of(path) -> str:
+    return "\n".join(page.extract_text() for page in PdfReader(path).pages)
+
+
+def test_every_mandatory_item_and_the_stored_numbers(complete_run, tmp_path):
+    pdf = build(complete_run, INFO, tmp_path / "c.pdf")
+    text = text_of(pdf)
+    record = load_run(complete_run)
+    results = Results.from_dict(record["results"])
+    value, u = fmt.round_gum(
+        results.reference.sensitivity_mv_per_ms2, results.reference.expanded_uncertainty_mv_per_ms2
+    )
+    number = f"AC-{record['run_id']}"
+    for item in [
+        "CALIBRATION CERTIFICATE",
+        "accelcal demonstration laboratory",
+        "Gliwice",
+        number,
+        "ACME Ltd",
+        "SN-42",
+        "piezoelectric accelerometer",
+        "Date of calibration",
+        "Date of issue",
+        "ISO 16063-21",
+        "multisine",
+        "Ambient temperature",
+        "23.0",
+        "stud-mounted",
+        "Excitation level",
+        "REF-8305-SIM",
+        "SIM-CAL-2026-001",
+        "2026-06-01",
+        "Reference frequency",
+        f"({value} ± {u}) mV/(m/s²)",
+        "k = 2.00",
+        "95.45 %",
+        "Uncertainty statement",
+        "Statement of conformity",
+        "guarded",
+        "J. Smith",
+        "results relate only to the item",
+        record["software_version"],
+        record["raw_data_sha256"],
+        record["run_id"],
+        "Uncertainty budget",
+        "reference standard calibration",
+    ]:
+        assert item in text, item
+    pages = len(PdfReader(pdf).pages)
+    for page in range(1, pages + 1):
+        assert f"page {page} of {pages}" in text
+    assert text.count(number) >= pages + 1  # the number on every page
+
+
+def test_reproducible_bytes_and_never_overwritten(complete_run, tmp_path):
+    first = build(complete_run, INFO, tmp_path / "a.pdf").read_bytes()
+    second = build(complete_run, INFO, tmp_path / "b.pdf").read_bytes()
+    assert hashlib.sha256(first).digest() == hashlib.sha256(second).digest()
+    with pytest.raises(CertificateError, match="never overwritten"):
+        build(complete_run, INFO, tmp_path / "a.pdf")
+
+
+def test_missing_items_are_refused_by_name(complete_run, tmp_path):
+    with pytest.raises(CertificateError) as info:
+        build(complete_run, CertificateInfo(customer="ACME Ltd"), tmp_path / "x.pdf")
+    message = str(info.value)
+    for name in ("authorised_by", "temperature_c", "mounting"):
+        assert name in message
+    assert "customer (--customer)" not in message  # given
+    assert not (tmp_path / "x.pdf").exists()
+
+
+def test_aborted_run_is_refused(tmp_path):
+    from sim.stand import Fault
+
+    finished = execute(RunRequest(faults=(Fault("device-lost", 15.0),), out=tmp_path))
+    assert finished.status == "aborted"
+    with pytest.raises(CertificateError, match="the run is aborted"):
+        build(tmp_path / finished.record["run_id"], INFO, tmp_path / "x.pdf")
+
+
+def test_cli_certificate_default_place_and_exit_codes(complete_run, capsys):
+    from app.cli import main
+
+    argv = [
+        "certificate",
+        str(complete_run),
+        "--customer",
+        "ACME Ltd",
+        "--authorised-by",
+        "J. Smith",
+        "--temperature",
+        "23",
+        "--mounting",
+        "stud",
+    ]
+    assert main(argv) == 0
+    assert (complete_run / "certificate.pdf").exists()
+    capsys.readouterr()
+    assert main(argv) == 2  # not overwritten
+    assert main(["certificate", str(complete_run), "--out", "/tmp/never.pdf"]) == 2
+    assert "missing mandatory item(s)" in capsys.readouterr().err
+
+
+@pytest.mark.skipif(shutil.which("pdftoppm") is None, reason="poppler-utils not installed")
+def test_the_pdf_renders(complete_run, tmp_path):
+    pdf = build(complete_run, INFO, tmp_path / "r.pdf")
+    subprocess.run(["pdftoppm", "-r", "40", "-png", str(pdf), str(tmp_path / "p")], check=True)
+    pages = sorted(tmp_path.glob("p-*.png"))
+    assert len(pages) == len(PdfReader(pdf).pages) and all(p.stat().st_size > 5000 for p in pages)
