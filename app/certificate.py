@@ -315,9 +315,30 @@ def _esc(text: Any) -> str:
 # --- the certificate ------------------------------------------------------------------------
 
 
-def build(run_path: str | Path, info: CertificateInfo, out: str | Path) -> Path:
-    """Write the certificate of a stored complete run to `out`; returns the path."""
+def load_sweep(path: str | Path, run: StoredRun) -> dict[str, Any]:
+    """A complete sweep summary that includes `run`; CertificateError otherwise."""
+    path = Path(path)
+    try:
+        sweep = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, json.JSONDecodeError) as exc:
+        raise CertificateError(f"--sweep {path}: cannot be read ({exc})") from None
+    if sweep.get("status") != "complete" or "sensitivity_mv_per_ms2" not in sweep:
+        raise CertificateError(f"--sweep {path}: the sweep is not complete")
+    if run.record.get("run_id") not in sweep.get("run_ids", []):
+        raise CertificateError(f"--sweep {path}: does not include run {run.record.get('run_id')}")
+    return sweep
+
+
+def build(
+    run_path: str | Path,
+    info: CertificateInfo,
+    out: str | Path,
+    sweep_path: str | Path | None = None,
+) -> Path:
+    """Write the certificate of a stored complete run to `out` (with the sweep it belongs to,
+    if given: sensitivity against level and the linearity figure); returns the path."""
     run = load_stored_run(run_path)
+    sweep = load_sweep(sweep_path, run) if sweep_path is not None else None
     info = info.merged(default_info(run))
     missing = missing_items(info)
     if missing:
@@ -404,6 +425,8 @@ def build(run_path: str | Path, info: CertificateInfo, out: str | Path) -> Path:
     ]
     story += _line_table(results)
     story += _charts(results)
+    if sweep is not None:
+        story += _sweep_section(sweep)
     story += _budget_section(run, results)
     story += _statements(results, info, p_percent)
     story += _sign_off(info, record)
@@ -516,6 +539,37 @@ def _charts(results: Results) -> list[Any]:
                 Paragraph("Shaded: the expanded uncertainty (k as in the table).", SMALL),
             ]
         )
+    ]
+
+
+def _sweep_section(sweep: dict[str, Any]) -> list[Any]:
+    """Sensitivity against frequency and level (mV/(m/s^2)) and linearity per frequency."""
+    levels = sweep["levels_ms2"]
+    table = sweep["sensitivity_mv_per_ms2"]
+    header = ["Frequency\nHz", *(f"{lv:g} m/s²" for lv in levels), "Linearity\n%"]
+    rows = [header]
+    for k, f in enumerate(sweep["frequencies_hz"]):
+        rows.append(
+            [
+                f"{f:g}",
+                *(f"{row[k]:.4g}" for row in table),
+                fmt.significant(sweep["linearity_percent"][k]),
+            ]
+        )
+    width = 150 / (len(levels) + 2)
+    return [
+        Paragraph("Sensitivity against excitation level (mV/(m/s²))", HEAD),
+        _table(rows, [width * mm] * (len(levels) + 2), size=7.3),
+        Spacer(1, 1.5 * mm),
+        Paragraph(
+            f"Linearity: largest deviation of the sensitivity at any level from its mean over "
+            f"the levels: {fmt.significant(sweep['reference_linearity_percent'])} % at "
+            f"{sweep['reference_frequency_hz']:g} Hz, at most "
+            f"{fmt.significant(sweep['worst_linearity_percent'])} % (at "
+            f"{sweep['worst_linearity_frequency_hz']:g} Hz). Levels are peak accelerations per "
+            f"frequency; runs {', '.join(sweep['run_ids'])}.",
+            SMALL,
+        ),
     ]
 
 

@@ -174,6 +174,7 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--certificate-number", help="default: AC-<run id>")
     c.add_argument("--issue-date", help="YYYY-MM-DD (default: the run's date)")
     c.add_argument("--notes", default="", help="free text printed under Notes")
+    c.add_argument("--sweep", type=Path, help="sweep summary (sweep-*.json) the run belongs to")
 
     s = sub.add_parser("simulate", help="record a calibration on the simulated stand")
     s.add_argument("--list", action="store_true", help="print the simulated catalogue")
@@ -601,7 +602,7 @@ def cmd_certificate(args: argparse.Namespace) -> int:
         notes=args.notes,
     )
     out = args.out or (args.run / "certificate.pdf")
-    path = build(args.run, info, out)
+    path = build(args.run, info, out, args.sweep)
     print(f"certificate: {path}")
     return EXIT_OK
 

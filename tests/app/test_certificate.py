@@ -143,3 +143,26 @@ def test_the_pdf_renders(complete_run, tmp_path):
     subprocess.run(["pdftoppm", "-r", "40", "-png", str(pdf), str(tmp_path / "p")], check=True)
     pages = sorted(tmp_path.glob("p-*.png"))
     assert len(pages) == len(PdfReader(pdf).pages) and all(p.stat().st_size > 5000 for p in pages)
+
+
+def test_sweep_section_with_sensitivity_against_level_and_linearity(tmp_path):
+    from pathlib import Path
+
+    from app.sweep import run_sweep
+
+    sweep = run_sweep(
+        RunRequest(dut="capacitive", dut_id="SN-7", periods=3, out=tmp_path), [3.0, 6.0]
+    )
+    run = tmp_path / sweep.summary["run_ids"][0]
+    pdf = build(run, INFO, tmp_path / "s.pdf", Path(sweep.summary["path"]))
+    text = text_of(pdf)
+    assert "Sensitivity against excitation level" in text and "Linearity:" in text
+    assert "3 m/s²" in text and "6 m/s²" in text
+    reference = sweep.summary["sensitivity_mv_per_ms2"][1][
+        sweep.summary["frequencies_hz"].index(160.0)
+    ]
+    assert f"{reference:.4g}" in text
+    other = tmp_path / "other.json"
+    other.write_text('{"status": "complete", "sensitivity_mv_per_ms2": [], "run_ids": []}')
+    with pytest.raises(CertificateError, match="does not include run"):
+        build(run, INFO, tmp_path / "t.pdf", other)
