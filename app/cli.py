@@ -452,16 +452,21 @@ def parse_seconds(text: str, option: str) -> float:
     return seconds
 
 
+def _faults(texts: list[str]) -> tuple[Fault, ...]:
+    """--fault KIND@SECONDS options as faults of the simulated stand."""
+    try:
+        return tuple(Fault.parse(text) for text in texts)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     if args.sim and args.stand:
         raise UsageError("--sim and --stand: choose one")
     _positive("--level", args.level)
     if args.periods < 2:
         raise UsageError(f"--periods: at least 2, got {args.periods}")
-    try:
-        faults = tuple(Fault.parse(text) for text in args.fault)
-    except ValueError as exc:
-        raise UsageError(str(exc)) from None
+    faults = _faults(args.fault)
     request = RunRequest(
         stand_file=args.stand,
         dut=args.dut,
@@ -641,10 +646,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     _positive("--level", args.level)
     if args.settle < 0:
         raise UsageError(f"--settle: must be >= 0, got {args.settle}")
-    try:
-        faults = tuple(Fault.parse(text) for text in args.fault)
-    except ValueError as exc:
-        raise UsageError(str(exc)) from None
+    faults = _faults(args.fault)
     run = simulate(
         args.out,
         dut=args.dut,

@@ -476,19 +476,7 @@ class Procedure:
             if count < 2:
                 continue
             estimate = accumulator.estimate(s.estimator)
-            results = compute_results(
-                estimate,
-                plan,
-                self.stand.chain,
-                budget,
-                probability=s.probability,
-                rule=s.rule,
-                tolerance_percent=s.tolerance_percent,
-                extra_warnings=tuple(self._run.warnings),
-            )
-            self._check_plausible(results)
-            self._run.results, self._run.estimate = results, estimate
-            self._emit(PeriodEstimate(count, estimate, results))
+            results = self._publish(estimate, budget)
             acquired_s = self._run.excited_s - started
             worst_a = float(np.nanmax(estimate.relative_type_a))
             remaining = None if s.target_type_a is not None else (limit_periods - count) * period_s
@@ -586,19 +574,25 @@ class Procedure:
         combined = _combine(estimates)
         self._settled_lines = (np.array(settled_ref), np.array(settled_dut))
         self._budget_used = self._budget_with_background()
+        self._publish(combined, self._budget_used)
+
+    def _publish(self, estimate: Estimate, budget: Budget) -> Results:
+        """Results of an estimate over the whole plan: checked, kept and sent to listeners."""
+        s = self.settings
         results = compute_results(
-            combined,
-            plan,
+            estimate,
+            self.plan,
             self.stand.chain,
-            self._budget_used,
+            budget,
             probability=s.probability,
             rule=s.rule,
             tolerance_percent=s.tolerance_percent,
             extra_warnings=tuple(self._run.warnings),
         )
         self._check_plausible(results)
-        self._run.results, self._run.estimate = results, combined
-        self._emit(PeriodEstimate(combined.periods, combined, results))
+        self._run.results, self._run.estimate = results, estimate
+        self._emit(PeriodEstimate(estimate.periods, estimate, results))
+        return results
 
     def _fade_out(self) -> None:
         self._state(State.FADING_OUT)
