@@ -160,6 +160,19 @@ def build_parser() -> argparse.ArgumentParser:
     w.add_argument("run", type=Path, help="run folder")
     w.add_argument("--json", action="store_true", help="the run record as JSON")
 
+    sub.add_parser("devices", help="NI-DAQmx devices and VISA resources found, or why none")
+
+    g = sub.add_parser("gui", help="the technician's window")
+    g.add_argument("--sim", action="store_true", help="the built-in simulated stand (default)")
+    g.add_argument("--stand", type=Path, help="stand configuration (stand.toml)")
+    g.add_argument("--dut", help="simulated DUT to preselect")
+    g.add_argument("--unpaced", action="store_true", help="simulated stand faster than real time")
+    g.add_argument("--seed", type=int, default=0, help="simulated stand: random seed")
+    g.add_argument("--out", type=Path, default=Path("runs"), help="folder for run folders")
+    g.add_argument("--autorun", action="store_true", help="start a run at once")
+    g.add_argument("--screenshot", type=Path, help="save a PNG of the window (after the run)")
+    g.add_argument("--quit-after-run", action="store_true", help="close when the run ends")
+
     c = sub.add_parser("certificate", help="the PDF certificate of a stored complete run")
     c.add_argument("run", type=Path, help="run folder")
     c.add_argument("--out", type=Path, help="PDF to write (default: <run>/certificate.pdf)")
@@ -205,6 +218,26 @@ def main(argv: Sequence[str] | None = None) -> int:
             return cmd_show(args)
         if args.command == "certificate":
             return cmd_certificate(args)
+        if args.command == "devices":
+            from hardware.discovery import describe
+
+            print(describe())
+            return EXIT_OK
+        if args.command == "gui":
+            from app.gui import run_gui
+
+            if args.sim and args.stand:
+                raise UsageError("--sim and --stand: choose one")
+            return run_gui(
+                stand_file=args.stand,
+                out=args.out,
+                paced=not args.unpaced,
+                seed=args.seed,
+                autorun=args.autorun,
+                screenshot=args.screenshot,
+                quit_after_run=args.quit_after_run,
+                dut=args.dut,
+            )
     except (
         UsageError,
         PlanError,

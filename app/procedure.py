@@ -216,6 +216,7 @@ class Procedure:
         self.listener = listener
         self.identity = identity or {}
         self._abort_reason: str | None = None
+        self._emergency = False
         self._abort_lock = threading.Lock()
         self._writer: RecordingWriter | None = None
         self._drive = np.zeros(plan.period_samples)
@@ -232,6 +233,16 @@ class Procedure:
         with self._abort_lock:
             if self._abort_reason is None:
                 self._abort_reason = reason
+
+    def emergency_stop(self) -> None:
+        """Zero the drive at once (no fade), from any thread; the run then ends aborted."""
+        with self._abort_lock:
+            self._emergency = True
+            self._abort_reason = "emergency stop"
+        try:
+            self.stand.daq.stop()
+        except Exception:  # the run's own `finally` stops again
+            pass
 
     # --- the run ---------------------------------------------------------------------------
 
@@ -270,7 +281,10 @@ class Procedure:
             status, reason = STATUS_ABORTED, str(exc)
             self._try_fade_out()
         except HardwareError as exc:
-            status, reason = STATUS_ABORTED, f"{type(exc).__name__}: {exc}. {_advice(exc)}"
+            if self._emergency:
+                status, reason = STATUS_ABORTED, "emergency stop"
+            else:
+                status, reason = STATUS_ABORTED, f"{type(exc).__name__}: {exc}. {_advice(exc)}"
         except KeyboardInterrupt:
             status, reason = STATUS_ABORTED, "interrupted (Ctrl-C)"
         except Exception as exc:
@@ -744,6 +758,8 @@ class Procedure:
         return Budget(tuple(components))
 
     def _try_fade_out(self) -> None:
+        if self._emergency:
+            return
         try:
             if np.any(self._drive != 0):
                 self._fade_out()

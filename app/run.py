@@ -82,6 +82,18 @@ def prepare(request: RunRequest, listener: Listener | None = None) -> tuple[Proc
     return procedure, stand
 
 
+def start(request: RunRequest, listener: Listener | None = None) -> tuple[Procedure, Any]:
+    """Prepare a run and give it its folder: the procedure (to `run()` on any thread, to
+    `abort()` or `emergency_stop()` from another) and the stand (to close afterwards)."""
+    procedure, stand = prepare(request, listener)
+    try:
+        procedure.folder = RunFolder.create(request.out, request.dut_id or request.dut)
+    except BaseException:
+        stand.close()
+        raise
+    return procedure, stand
+
+
 def execute(request: RunRequest, listener: Listener | None = None) -> Finished:
     """Run a calibration to its end (complete or aborted) in a new run folder.
 

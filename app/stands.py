@@ -76,7 +76,25 @@ def open_stand(
         )
     if faults:
         raise ConfigError("--fault: faults can only be injected into the simulated stand")
-    raise ConfigError(
-        f"{config.source}: daq.backend = {config.backend!r}: the NI-DAQmx driver is not part of "
-        "this version yet; use the simulated stand (no --stand) meanwhile"
+    from hardware.nidaq import NiDaq  # real hardware: errors say what is missing, no fallback
+    from hardware.visa_amplifiers import BK2525Amplifier, ScpiPowerAmplifier
+
+    daq = NiDaq(config.device)
+    measuring = power = None
+    try:
+        if config.measuring_amplifier:
+            measuring = BK2525Amplifier(config.measuring_amplifier)
+        if config.power_amplifier:
+            power = ScpiPowerAmplifier(config.power_amplifier)
+    except BaseException:
+        daq.close()
+        raise
+    return Stand(
+        config=config,
+        daq=daq,
+        chain=config.reference_chain(),
+        budget=config.budget,
+        measuring_amplifier=measuring,
+        power_amplifier=power,
+        description=f"NI-DAQmx device {config.device}",
     )

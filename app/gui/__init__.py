@@ -1,0 +1,63 @@
+"""The Qt GUI (PySide6 + pyqtgraph): `accelcal gui`."""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+
+def run_gui(
+    *,
+    stand_file: Path | None,
+    out: Path,
+    paced: bool,
+    seed: int,
+    autorun: bool,
+    screenshot: Path | None,
+    quit_after_run: bool,
+    dut: str | None = None,
+) -> int:
+    """Open the window; optionally run at once, save a screenshot and quit (headless smoke)."""
+    if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
+        os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
+    from PySide6.QtCore import QTimer
+    from PySide6.QtWidgets import QApplication
+
+    from app.gui.main_window import MainWindow
+
+    app = QApplication.instance() or QApplication(sys.argv[:1])
+    window = MainWindow(stand_file=stand_file, out=out, paced=paced, seed=seed)
+    if dut:
+        window.dut.setCurrentText(dut)
+    window.show()
+    outcome = {"code": 0}
+
+    def after_run(finished) -> None:
+        if screenshot is not None:
+            window.grab().save(str(screenshot))
+        outcome["code"] = 0 if finished.status == "complete" else 3
+        if quit_after_run:
+            QTimer.singleShot(0, app.quit)
+
+    def begin() -> None:
+        window.wait_for_plans()
+        window.run_finished.connect(after_run)
+        window.start_run()
+        if window.worker is None and quit_after_run:
+            outcome["code"] = 2
+            app.quit()
+
+    if autorun:
+        QTimer.singleShot(0, begin)
+    elif screenshot is not None:
+
+        def shot() -> None:
+            window.wait_for_plans()
+            window.grab().save(str(screenshot))
+            if quit_after_run:
+                app.quit()
+
+        QTimer.singleShot(200, shot)
+    app.exec()
+    return outcome["code"]

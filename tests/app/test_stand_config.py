@@ -25,8 +25,15 @@ def test_built_in_simulated_stand_and_the_example_load():
     assert len(real.budget.components) == 6
 
 
-def test_real_backend_is_never_replaced_by_the_simulator():
-    with pytest.raises(ConfigError, match="NI-DAQmx driver is not part of this version"):
+def test_real_backend_is_never_replaced_by_the_simulator(monkeypatch):
+    from hardware.errors import DaqNotFoundError
+    from hardware.nidaq import NiDaq
+
+    def no_driver(self, device, **kwargs):
+        raise DaqNotFoundError("NI-DAQmx is not installed: (test)")
+
+    monkeypatch.setattr(NiDaq, "__init__", no_driver)
+    with pytest.raises(DaqNotFoundError, match="NI-DAQmx is not installed"):
         open_stand(stand_config.load(EXAMPLE))
 
 

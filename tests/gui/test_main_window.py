@@ -1,0 +1,103 @@
+"""The technician's window through pytest-qt (QT_QPA_PLATFORM=offscreen)."""
+
+from __future__ import annotations
+
+import os
+
+import pytest
+
+os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
+
+from PySide6.QtCore import Qt
+
+from app.gui.main_window import MainWindow
+from app.records import load_run
+from app.run import RunRequest, execute
+
+
+@pytest.fixture()
+def window(qtbot, tmp_path):
+    w = MainWindow(out=tmp_path / "runs", paced=False, seed=4)
+    qtbot.addWidget(w)
+    w.wait_for_plans()
+    return w
+
+
+def test_a_run_through_the_gui_equals_the_same_run_through_the_cli(window, qtbot, tmp_path):
+    window.dut.setCurrentText("piezo")
+    window.periods.setValue(4)
+    assert window.start_button.isEnabled()
+    with qtbot.waitSignal(window.run_finished, timeout=60_000) as blocker:
+        qtbot.mouseClick(window.start_button, Qt.MouseButton.LeftButton)
+    finished = blocker.args[0]
+    assert finished.status == "complete"
+    assert (
+        window.tabs.currentIndex() == 2
+        and "Reference sensitivity at 160 Hz" in window.summary.text()
+    )
+    cli = execute(
+        RunRequest(
+            dut="piezo",
+            periods=4,
+            seed=4,
+            tolerance_percent=5.0,
+            preset="piezo",
+            out=tmp_path / "cli",
+        )
+    )
+    for a, b in zip(finished.results.lines, cli.results.lines, strict=True):
+        assert a.sensitivity_mv_per_ms2 == pytest.approx(b.sensitivity_mv_per_ms2, rel=1e-12)
+        assert a.phase_deg == pytest.approx(b.phase_deg, abs=1e-9)
+    assert window.table.rowCount() == 25
+    assert window.table.item(12, 1).text() in window.summary.text()
+    assert window.runs.count() == 1 and "complete" in window.runs.item(0).text()
+
+
+def test_start_is_disabled_for_a_plan_over_the_shakers_limits(window):
+    window.preset.setCurrentText("capacitive")
+    window.level.setValue(8.0)
+    assert not window.start_button.isEnabled()
+    assert "displacement" in window.checks.text() and "exceeds" in window.checks.text()
+    assert "displacement" in window.start_button.toolTip()
+    window.level.setValue(5.0)
+    assert window.start_button.isEnabled()
+    assert "the plan can run" in window.checks.text()
+    window.frequencies.setText("10,20")
+    assert not window.start_button.isEnabled()
+
+
+def test_closing_the_window_during_a_run_fades_out_to_0_v(qtbot, tmp_path):
+    w = MainWindow(out=tmp_path / "runs", paced=True, seed=1)
+    qtbot.addWidget(w)
+    w.wait_for_plans()
+    w.start_run()
+    qtbot.waitUntil(
+        lambda: "acquiring" in w.state.text() or "equalising" in w.state.text(), timeout=30_000
+    )
+    stand = w.worker.stand
+    w.close()
+    assert w.procedure is None or not w.thread.isRunning()
+    assert stand.daq.output_v == 0.0 and stand.daq.output.stopped
+    folder = next((tmp_path / "runs").iterdir())
+    record = load_run(folder)
+    assert record["status"] == "aborted" and record["abort_reason"] == "window closed"
+    assert record["final_output_v"] == 0.0
+
+
+def test_emergency_stop_zeroes_at_once(qtbot, tmp_path):
+    w = MainWindow(out=tmp_path / "runs", paced=True, seed=2)
+    qtbot.addWidget(w)
+    w.show()
+    qtbot.waitExposed(w)
+    w.activateWindow()
+    w.wait_for_plans()
+    w.start_run()
+    qtbot.waitUntil(
+        lambda: "identifying" in w.state.text() or "equalising" in w.state.text(), timeout=30_000
+    )
+    stand = w.worker.stand
+    with qtbot.waitSignal(w.run_finished, timeout=30_000) as blocker:
+        qtbot.keyClick(w, Qt.Key.Key_Escape)
+    assert blocker.args[0].abort_reason == "emergency stop"
+    assert stand.daq.output_v == 0.0
+    assert "ABORTED" in w.state.text()
