@@ -219,10 +219,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.command == "certificate":
             return cmd_certificate(args)
         if args.command == "devices":
-            from hardware.discovery import describe
+            from hardware.discovery import describe, list_ni_devices
 
             print(describe())
-            return EXIT_OK
+            try:
+                return EXIT_OK if list_ni_devices() else EXIT_FAILURE
+            except HardwareError:
+                return EXIT_FAILURE  # no NI-DAQmx driver (said above)
         if args.command == "gui":
             from app.gui import run_gui
 

@@ -199,3 +199,10 @@ def test_console_script_and_module_entry_point_help():
     for argv in (["-m", "app", "--help"], ["-m", "app", "analyze", "--help"]):
         done = subprocess.run([sys.executable, *argv], capture_output=True, text=True)
         assert done.returncode == 0 and "usage:" in done.stdout
+
+
+def test_devices_without_the_ni_driver_says_so_and_exits_non_zero(capsys):
+    code = main(["devices"])
+    out = capsys.readouterr().out
+    assert code == 1
+    assert "NI-DAQmx is not installed" in out
