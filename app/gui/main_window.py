@@ -15,10 +15,12 @@ from typing import Any
 
 import numpy as np
 import pyqtgraph as pg
-from PySide6.QtCore import QObject, QSettings, Qt, QThread, QTimer, Signal, Slot
-from PySide6.QtGui import QKeySequence, QShortcut
+from PySide6.QtCore import QObject, QSettings, Qt, QThread, QTimer, QUrl, Signal, Slot
+from PySide6.QtGui import QDesktopServices, QKeySequence, QShortcut
 from PySide6.QtWidgets import (
     QComboBox,
+    QDialog,
+    QDialogButtonBox,
     QDoubleSpinBox,
     QFormLayout,
     QGroupBox,
@@ -40,6 +42,7 @@ from PySide6.QtWidgets import (
 
 from app import formatting as fmt
 from app import stand_config
+from app.certificate import CertificateError, CertificateInfo, build
 from app.procedure import (
     EqualisationStep,
     Finished,
@@ -94,11 +97,13 @@ class MainWindow(QMainWindow):
         out: Path = Path("runs"),
         paced: bool = True,
         seed: int = 0,
+        faults: tuple = (),
     ):
         super().__init__()
         self.setWindowTitle("accelcal: accelerometer calibration")
         self.config = stand_config.load(stand_file)
         self.stand_file, self.out, self.paced, self.seed = stand_file, Path(out), paced, seed
+        self.faults = faults  # simulated stand only: for demonstrations and tests
         self.settings = QSettings(ORGANISATION, APPLICATION)
         self.procedure: Procedure | None = None
         self.thread: QThread | None = None
@@ -295,6 +300,9 @@ class MainWindow(QMainWindow):
         self.export_button = QPushButton("Export CSV and JSON")
         self.export_button.clicked.connect(self.export_results)
         buttons.addWidget(self.export_button)
+        self.certificate_button = QPushButton("Certificate ...")
+        self.certificate_button.clicked.connect(self.certificate_dialog)
+        buttons.addWidget(self.certificate_button)
         layout.addLayout(buttons)
         return page
 
@@ -329,6 +337,7 @@ class MainWindow(QMainWindow):
             nominal_mv_per_ms2=self.nominal.value() or None,
             seed=self.seed,
             paced=self.paced,
+            faults=self.faults,
             out=self.out,
         )
 
@@ -574,6 +583,29 @@ class MainWindow(QMainWindow):
         self.messages.setText(f"exported {target}.csv and .json")
         return target
 
+    def certificate_dialog(self) -> Path | None:
+        """Ask for what the certificate needs beyond the run, then write and open the PDF."""
+        if self.results is None:
+            QMessageBox.information(self, "Certificate", "Open a complete run first (tab 4).")
+            return None
+        dialog = CertificateDialog(self, self.settings)
+        if dialog.exec() != QDialog.DialogCode.Accepted:
+            return None
+        return self.issue_certificate(dialog.info())
+
+    def issue_certificate(self, info: CertificateInfo) -> Path | None:
+        """Write the certificate of the shown run into its folder; errors shown, not raised."""
+        folder = self.out / str(self._current_record.get("run_id"))
+        try:
+            path = build(folder, info, folder / "certificate.pdf")
+        except CertificateError as exc:
+            QMessageBox.warning(self, "Certificate refused", str(exc))
+            return None
+        self.messages.setText(f"certificate written: {path}")
+        self.summary.setText(self.summary.text() + f"<br/>Certificate: {path}")
+        QDesktopServices.openUrl(QUrl.fromLocalFile(str(path.resolve())))
+        return path
+
     def refresh_runs(self) -> None:
         self.runs.clear()
         if not self.out.exists():
@@ -613,3 +645,53 @@ class MainWindow(QMainWindow):
         for future in self._plans.values():
             future.result()
         self.validate()
+
+
+class CertificateDialog(QDialog):
+    """Customer, signatory and conditions for a certificate (remembered between sessions)."""
+
+    FIELDS = (
+        ("customer", "Customer"),
+        ("customer_address", "Customer address"),
+        ("authorised_by", "Authorised by"),
+        ("mounting", "Mounting"),
+        ("dut_model", "DUT model (empty: from the run)"),
+        ("dut_type", "DUT type (empty: from the run)"),
+        ("notes", "Notes"),
+    )
+
+    def __init__(self, parent: QWidget, settings: QSettings):
+        super().__init__(parent)
+        self.setWindowTitle("Certificate")
+        self.settings = settings
+        form = QFormLayout(self)
+        self.edits: dict[str, QLineEdit] = {}
+        for key, label in self.FIELDS:
+            edit = QLineEdit(str(settings.value(f"certificate/{key}", "")))
+            form.addRow(label, edit)
+            self.edits[key] = edit
+        self.temperature = QDoubleSpinBox(decimals=1, minimum=-50, maximum=100, suffix=" °C")
+        self.temperature.setValue(float(settings.value("certificate/temperature_c", 23.0)))
+        form.addRow("Ambient temperature", self.temperature)
+        buttons = QDialogButtonBox(
+            QDialogButtonBox.StandardButton.Ok | QDialogButtonBox.StandardButton.Cancel
+        )
+        buttons.accepted.connect(self.accept)
+        buttons.rejected.connect(self.reject)
+        form.addRow(buttons)
+
+    def info(self) -> CertificateInfo:
+        values = {key: edit.text().strip() or None for key, edit in self.edits.items()}
+        for key, value in values.items():
+            self.settings.setValue(f"certificate/{key}", value or "")
+        self.settings.setValue("certificate/temperature_c", self.temperature.value())
+        return CertificateInfo(
+            customer=values["customer"],
+            customer_address=values["customer_address"] or "",
+            authorised_by=values["authorised_by"],
+            mounting=values["mounting"],
+            dut_model=values["dut_model"],
+            dut_type=values["dut_type"],
+            notes=values["notes"] or "",
+            temperature_c=self.temperature.value(),
+        )

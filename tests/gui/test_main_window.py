@@ -101,3 +101,47 @@ def test_emergency_stop_zeroes_at_once(qtbot, tmp_path):
     assert blocker.args[0].abort_reason == "emergency stop"
     assert stand.daq.output_v == 0.0
     assert "ABORTED" in w.state.text()
+
+
+def test_from_an_empty_window_to_a_certificate(window, qtbot, monkeypatch):
+    from app.certificate import CertificateInfo
+    from app.gui import main_window
+
+    monkeypatch.setattr(main_window.QDesktopServices, "openUrl", lambda url: True)
+    window.dut_id.setText("SN-GUI-1")
+    window.periods.setValue(3)
+    with qtbot.waitSignal(window.run_finished, timeout=60_000):
+        window.start_run()
+    path = window.issue_certificate(
+        CertificateInfo(
+            customer="ACME Ltd", authorised_by="J. Smith", temperature_c=23.0, mounting="stud"
+        )
+    )
+    assert path is not None and path.exists() and path.name == "certificate.pdf"
+    assert "Certificate:" in window.summary.text()
+    refused = []
+    monkeypatch.setattr(main_window.QMessageBox, "warning", lambda *a: refused.append(a[2]))
+    assert window.issue_certificate(CertificateInfo(customer="ACME Ltd")) is None
+    assert "never overwritten" in refused[0] or "missing" in refused[0]
+
+
+def test_a_fault_shows_its_message_and_the_window_stays_usable(qtbot, tmp_path):
+    from sim.stand import Fault
+
+    w = MainWindow(
+        out=tmp_path / "runs", paced=False, seed=3, faults=(Fault("amplifier-fault", 10.0),)
+    )
+    qtbot.addWidget(w)
+    w.wait_for_plans()
+    with qtbot.waitSignal(w.run_finished, timeout=60_000) as blocker:
+        w.start_run()
+    assert blocker.args[0].status == "aborted"
+    assert (
+        "AmplifierFaultError" in w.messages.text()
+        and "Check the power amplifier" in w.messages.text()
+    )
+    assert "ABORTED" in w.state.text() and w.start_button.isEnabled()
+    w.faults = ()
+    with qtbot.waitSignal(w.run_finished, timeout=60_000) as blocker:
+        w.start_run()
+    assert blocker.args[0].status == "complete"
