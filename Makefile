@@ -34,6 +34,9 @@ bench: $(STAMP)
 	$(BIN)/python bench/analysis_speed.py
 	$(BIN)/python bench/sim_speed.py
 	$(BIN)/python bench/coverage.py 600 piezo
+	$(BIN)/python bench/estimators.py
+	$(BIN)/python bench/excitation_time.py
+	QT_QPA_PLATFORM=offscreen $(BIN)/python bench/gui_responsiveness.py
 
 lint: $(STAMP)
 	$(BIN)/ruff check dsp hardware sim app tests bench
