@@ -298,12 +298,6 @@ def _kv(rows: list[tuple[str, str]]) -> Table:
     return table
 
 
-def _signed(value: float, decimals: int) -> str:
-    """'+0.12', '-0.05', and '0.00' rather than '-0.00'."""
-    text = f"{value:+.{decimals}f}"
-    return text[1:] if float(text) == 0 else text
-
-
 def _dof(value: float) -> str:
     return "∞" if not math.isfinite(value) or value > 1e4 else f"{value:.0f}"
 
@@ -498,8 +492,8 @@ def _line_table(results: Results) -> list[Any]:
                 f"{ln.frequency_hz:g}",
                 s,
                 u,
-                _signed(ln.deviation_percent, dev_decimals),
-                _signed(ln.deviation_db, 3),
+                fmt.signed(ln.deviation_percent, dev_decimals),
+                fmt.signed(ln.deviation_db, 3),
                 ph,
                 u_ph,
                 fmt.significant(rel),

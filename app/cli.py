@@ -14,6 +14,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from app import formatting as fmt
+from app import lines
 from app.analysis import analyze
 from app.certificate import CertificateError, CertificateInfo, build
 from app.procedure import PreflightError
@@ -21,7 +22,6 @@ from app.recording import RecordingError, read_csv, read_recording
 from app.run import RunRequest, execute
 from app.simulate import SimulationError, simulate
 from app.stand_config import ConfigError
-from dsp import iso266
 from dsp.calibration import AnalysisError, ReferenceChain, Results
 from dsp.multisine import PRESETS, Plan, PlanError, make_plan
 from dsp.segments import SegmentError
@@ -38,31 +38,11 @@ class UsageError(ValueError):
 
 
 def parse_frequencies(text: str) -> list[float]:
-    """'10,12.5,...,2500' -> ISO 266 values; plain lists are taken as given (Hz)."""
-    items = [item.strip() for item in text.split(",") if item.strip()]
-    values: list[float | None] = []
-    for item in items:
-        if item in ("...", "…"):
-            values.append(None)
-            continue
-        try:
-            values.append(float(item))
-        except ValueError:
-            raise UsageError(f"--frequencies: {item!r} is not a number of Hz") from None
-    out: list[float] = []
-    for i, value in enumerate(values):
-        if value is not None:
-            if out and value <= out[-1]:
-                raise UsageError("--frequencies: values must increase")
-            out.append(value)
-            continue
-        if i == 0 or i == len(values) - 1 or values[i - 1] is None or values[i + 1] is None:
-            raise UsageError("--frequencies: '...' must stand between two frequencies")
-        low, high = values[i - 1], values[i + 1]
-        out += [f for f in iso266.nominal_frequencies(low, high) if low < f < high]
-    if not out:
-        raise UsageError("--frequencies: no frequency given")
-    return out
+    """--frequencies: a line list (see app.lines.parse_frequencies)."""
+    try:
+        return lines.parse_frequencies(text)
+    except ValueError as exc:
+        raise UsageError(f"--frequencies: {exc}") from None
 
 
 def _positive(name: str, value: float | None) -> None:

@@ -21,6 +21,12 @@ def round_gum(value: float, uncertainty: float, digits: int = 2) -> tuple[str, s
     return text, f"{rounded_u:.{decimals}f}"
 
 
+def signed(value: float, decimals: int) -> str:
+    """'+0.12', '-0.05', and '0.00' rather than '-0.00'."""
+    text = f"{value:+.{decimals}f}"
+    return text[1:] if float(text) == 0 else text
+
+
 def significant(value: float, digits: int = 2) -> str:
     """`value` to `digits` significant digits, trailing zeros kept (0.80, 1.2, 12)."""
     if not math.isfinite(value) or value == 0:

@@ -12,7 +12,7 @@ from app import stand_config
 from app.procedure import Finished, Listener, Procedure, RunSettings
 from app.records import RunFolder
 from app.stands import open_stand
-from dsp.multisine import Plan, preset_plan
+from dsp.multisine import PRESETS, Plan, make_plan, preset_plan
 from sim.stand import Fault
 
 PRESET_BY_DUT = {"capacitive": "capacitive"}  # every other catalogue DUT: the piezo plan
@@ -26,6 +26,7 @@ class RunRequest:
     dut: str = "piezo"
     dut_id: str | None = None
     preset: str | None = None
+    frequencies_hz: tuple[float, ...] | None = None  # custom lines on the preset's fs/period
     level_ms2: float = 5.0
     periods: int = 8
     target_type_a: float | None = None
@@ -40,8 +41,16 @@ class RunRequest:
     out: Path = Path("runs")
 
     def plan(self) -> Plan:
-        return preset_plan(
-            self.preset or PRESET_BY_DUT.get(self.dut, "piezo"), level_ms2=self.level_ms2
+        name = self.preset or PRESET_BY_DUT.get(self.dut, "piezo")
+        if self.frequencies_hz is None:
+            return preset_plan(name, level_ms2=self.level_ms2)
+        preset = PRESETS[name]
+        return make_plan(
+            self.frequencies_hz,
+            preset.sample_rate_hz,
+            preset.period_samples,
+            self.level_ms2,
+            preset.reference_frequency_hz,
         )
 
     def settings(self) -> RunSettings:

@@ -30,6 +30,8 @@ def run_gui(
     window = MainWindow(stand_file=stand_file, out=out, paced=paced, seed=seed)
     if dut:
         window.dut.setCurrentText(dut)
+    if screenshot is not None:
+        window.resize(1400, 900)  # the documented size, whatever the last session left
     window.show()
     outcome = {"code": 0}
 

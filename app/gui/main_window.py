@@ -43,6 +43,7 @@ from PySide6.QtWidgets import (
 from app import formatting as fmt
 from app import stand_config
 from app.certificate import CertificateError, CertificateInfo, build
+from app.lines import parse_frequencies
 from app.procedure import (
     EqualisationStep,
     Finished,
@@ -56,8 +57,9 @@ from app.procedure import (
 from app.records import load_run
 from app.run import RunRequest, start
 from dsp.calibration import Results
-from dsp.multisine import PRESETS, Plan, check_lines, preset_plan
+from dsp.multisine import PRESETS, Plan, check_lines, make_plan, preset_plan
 from dsp.spectral import period_spectrum
+from dsp.uncertainty import Budget, Quantity
 from sim.models import DUT_CATALOGUE
 
 FRAME_HZ = 25
@@ -114,8 +116,9 @@ class MainWindow(QMainWindow):
         self._dirty = False
         self._plans: dict[str, Future] = {}
         self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="plan")
-        for name in PRESETS:  # optimised phases take ~1 s: off the GUI thread
-            self._plans[name] = self._pool.submit(preset_plan, name, level_ms2=1.0)
+        for name, preset in PRESETS.items():  # optimised phases take ~1 s: off the GUI thread
+            key = (name, tuple(preset.nominal_frequencies_hz))
+            self._plans[key] = self._pool.submit(preset_plan, name, level_ms2=1.0)
 
         self.tabs = QTabWidget()
         self.setCentralWidget(self.tabs)
@@ -295,7 +298,29 @@ class MainWindow(QMainWindow):
                 "tolerance",
             ]
         )
-        layout.addWidget(self.table, 1)
+        middle = QHBoxLayout()
+        middle.addWidget(self.table, 3)
+        charts = pg.GraphicsLayoutWidget()
+        self.result_mag = charts.addPlot(
+            title="Deviation from the reference frequency, ± U",
+            labels={"left": "%", "bottom": "Hz"},
+        )
+        charts.nextRow()
+        self.result_phase = charts.addPlot(
+            title="Phase, ± U", labels={"left": "degree", "bottom": "Hz"}
+        )
+        for plot in (self.result_mag, self.result_phase):
+            plot.setLogMode(x=True)
+            plot.showGrid(x=True, y=True, alpha=0.3)
+        middle.addWidget(charts, 2)
+        layout.addLayout(middle, 3)
+        self.budget = QTableWidget(0, 4)
+        self.budget.setHorizontalHeaderLabels(
+            ["Component (at the reference frequency)", "value", "distribution", "standard u"]
+        )
+        self.budget.horizontalHeader().setStretchLastSection(True)
+        self.budget.setColumnWidth(0, 420)
+        layout.addWidget(self.budget, 1)
         buttons = QHBoxLayout()
         self.export_button = QPushButton("Export CSV and JSON")
         self.export_button.clicked.connect(self.export_results)
@@ -329,6 +354,7 @@ class MainWindow(QMainWindow):
             dut=self.dut.currentText(),
             dut_id=self.dut_id.text().strip() or None,
             preset=self.preset.currentText(),
+            frequencies_hz=self._custom_lines(),
             level_ms2=self.level.value(),
             periods=self.periods.value(),
             estimator=self.estimator.currentText(),
@@ -341,26 +367,45 @@ class MainWindow(QMainWindow):
             out=self.out,
         )
 
+    def _custom_lines(self) -> tuple[float, ...] | None:
+        """The typed line list (Hz), None for the preset's; ValueError says what is wrong."""
+        text = self.frequencies.text().strip()
+        return tuple(parse_frequencies(text)) if text else None
+
     @Slot()
     def validate(self) -> list[str]:
         """Plan checks and stand limits beside the fields; Start only when nothing fails."""
         problems: list[str] = []
         warnings: list[str] = []
         preset = PRESETS[self.preset.currentText()]
-        if self.frequencies.text().strip():
-            problems.append("custom line lists: use the CLI for now (presets only here)")
+        try:
+            custom = self._custom_lines()
+        except ValueError as exc:
+            custom = None
+            problems.append(f"lines: {exc}")
+        freqs = tuple(custom if custom is not None else preset.nominal_frequencies_hz)
         check = check_lines(
-            preset.nominal_frequencies_hz,
-            preset.sample_rate_hz,
-            preset.period_samples,
-            preset.reference_frequency_hz,
+            freqs, preset.sample_rate_hz, preset.period_samples, preset.reference_frequency_hz
         )
         problems += list(check.errors)
         warnings += [w for w in check.warnings if "mains" in w]
-        future = self._plans[preset.name]
-        if not future.done():
+        key = (preset.name, freqs)
+        if key not in self._plans and not problems:  # optimise a new line list off this thread
+            self._plans[key] = self._pool.submit(
+                make_plan,
+                freqs,
+                preset.sample_rate_hz,
+                preset.period_samples,
+                1.0,
+                preset.reference_frequency_hz,
+            )
+        future = self._plans.get(key)
+        if future is None:
+            self.peaks.setText("")
+        elif not future.done():
             problems.append("optimising the multisine phases ...")
             self.peaks.setText("")
+            QTimer.singleShot(200, self.validate)  # look again when it may be ready
         else:
             plan: Plan = future.result()
             peaks = plan.predicted_peaks()
@@ -464,6 +509,7 @@ class MainWindow(QMainWindow):
     @Slot(object)
     def _on_done(self, finished: Finished) -> None:
         self.last_finished = finished
+        self._buffer.pop("state", None)  # the final word is below; the renderer must not undo it
         if self.thread is not None:
             self.thread.quit()
             self.thread.wait(5000)
@@ -558,7 +604,7 @@ class MainWindow(QMainWindow):
                 f"{ln.nominal_frequency_hz:g}",
                 s,
                 us,
-                f"{ln.deviation_percent:+.2f}",
+                fmt.signed(ln.deviation_percent, 2),
                 p,
                 up,
                 fmt.significant(100 * ln.relative_expanded_uncertainty),
@@ -569,6 +615,72 @@ class MainWindow(QMainWindow):
             for column, text in enumerate(cells):
                 self.table.setItem(row, column, QTableWidgetItem(text))
         self._draw_characteristic(results)
+        self._draw_result_charts(results)
+        self._fill_budget(results, record)
+
+    def _draw_result_charts(self, results: Results) -> None:
+        """Deviation and phase with their expanded-uncertainty bands (log frequency)."""
+        f = np.array([ln.frequency_hz for ln in results.lines])
+        for plot, values, half in (
+            (
+                self.result_mag,
+                [ln.deviation_percent for ln in results.lines],
+                [100 * ln.relative_expanded_uncertainty for ln in results.lines],
+            ),
+            (
+                self.result_phase,
+                [ln.phase_deg for ln in results.lines],
+                [ln.phase_expanded_uncertainty_deg for ln in results.lines],
+            ),
+        ):
+            plot.clear()
+            v, u = np.array(values), np.nan_to_num(np.array(half))
+            lower = plot.plot(f, v - u, pen=pg.mkPen("#9bb7e0"))
+            upper = plot.plot(f, v + u, pen=pg.mkPen("#9bb7e0"))
+            plot.addItem(pg.FillBetweenItem(lower, upper, brush=pg.mkBrush(155, 183, 224, 110)))
+            plot.plot(f, v, pen=pg.mkPen("#1f3a68", width=2), symbol="o", symbolSize=5)
+
+    def _fill_budget(self, results: Results, record: dict[str, Any]) -> None:
+        """The stored budget at the reference frequency, with this run's type A."""
+        budget = Budget.from_list(record.get("budget", []))
+        line = next(
+            ln for ln in results.lines if ln.nominal_frequency_hz == results.reference.frequency_hz
+        )
+        rows = [
+            (
+                "repeatability (type A, this run)",
+                "",
+                "normal (t)",
+                f"{100 * line.relative_type_a:.3g} %",
+            ),
+        ]
+        rows += [
+            (
+                c.name,
+                f"{100 * c.value:.3g} %",
+                str(c.distribution),
+                f"{100 * c.standard_uncertainty:.3g} %",
+            )
+            for c in budget.at(line.frequency_hz, Quantity.MAGNITUDE)
+        ]
+        rows += [
+            (
+                "combined standard uncertainty",
+                "",
+                "",
+                f"{100 * line.relative_standard_uncertainty:.3g} %",
+            ),
+            (
+                f"expanded (k = {line.coverage_factor:.2f})",
+                "",
+                "",
+                f"{fmt.significant(100 * line.relative_expanded_uncertainty)} %",
+            ),
+        ]
+        self.budget.setRowCount(len(rows))
+        for r, row in enumerate(rows):
+            for c, text in enumerate(row):
+                self.budget.setItem(r, c, QTableWidgetItem(text))
 
     def export_results(self) -> Path | None:
         """Copy the stored results of the shown run (CSV and JSON) beside the run folders."""

@@ -145,3 +145,34 @@ def test_a_fault_shows_its_message_and_the_window_stays_usable(qtbot, tmp_path):
     with qtbot.waitSignal(w.run_finished, timeout=60_000) as blocker:
         w.start_run()
     assert blocker.args[0].status == "complete"
+
+
+def test_custom_lines_are_checked_as_typed_and_run(window, qtbot):
+    window.frequencies.setText("10,abc")
+    assert not window.start_button.isEnabled() and "is not a number" in window.checks.text()
+    window.frequencies.setText("20,40,80")
+    assert "reference frequency 160 Hz: not among the lines" in window.checks.text()
+    window.frequencies.setText("20,25,...,315")
+    qtbot.waitUntil(window.start_button.isEnabled, timeout=20_000)
+    window.periods.setValue(3)
+    with qtbot.waitSignal(window.run_finished, timeout=60_000) as blocker:
+        window.start_run()
+    results = blocker.args[0].results
+    ran = [ln.nominal_frequency_hz for ln in results.lines]
+    assert ran == [
+        20.0,
+        25.0,
+        31.5,
+        40.0,
+        50.0,
+        63.0,
+        80.0,
+        100.0,
+        125.0,
+        160.0,
+        200.0,
+        250.0,
+        315.0,
+    ]
+    assert window.budget.rowCount() >= 4  # type A, the budget, combined, expanded
+    assert window.result_mag.listDataItems()  # the band and the curve are drawn

@@ -1,0 +1,36 @@
+"""Line lists as people type them, shared by the CLI and the GUI."""
+
+from __future__ import annotations
+
+from dsp import iso266
+
+
+def parse_frequencies(text: str) -> list[float]:
+    """'10,12.5,...,2500' -> the ISO 266 values in between; plain lists as given (Hz).
+
+    ValueError says what is wrong (without naming the field: the caller does).
+    """
+    items = [item.strip() for item in text.split(",") if item.strip()]
+    values: list[float | None] = []
+    for item in items:
+        if item in ("...", "…"):
+            values.append(None)
+            continue
+        try:
+            values.append(float(item))
+        except ValueError:
+            raise ValueError(f"{item!r} is not a number of Hz") from None
+    out: list[float] = []
+    for i, value in enumerate(values):
+        if value is not None:
+            if out and value <= out[-1]:
+                raise ValueError("values must increase")
+            out.append(value)
+            continue
+        if i == 0 or i == len(values) - 1 or values[i - 1] is None or values[i + 1] is None:
+            raise ValueError("'...' must stand between two frequencies")
+        low, high = values[i - 1], values[i + 1]
+        out += [f for f in iso266.nominal_frequencies(low, high) if low < f < high]
+    if not out:
+        raise ValueError("no frequency given")
+    return out
