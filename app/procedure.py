@@ -217,6 +217,7 @@ class Procedure:
         self.identity = identity or {}
         self._abort_reason: str | None = None
         self._emergency = False
+        self._fading = False
         self._abort_lock = threading.Lock()
         self._writer: RecordingWriter | None = None
         self._drive = np.zeros(plan.period_samples)
@@ -612,9 +613,13 @@ class Procedure:
         self._state(State.FADING_OUT)
         envelope = fade_envelope(self._active.period_samples, self.settings.fade_periods, "out")
         n = self._active.period_samples
-        for k in range(self.settings.fade_periods):
-            self._write(self._drive * envelope[k * n : (k + 1) * n])
-            self._period(State.FADING_OUT)
+        self._fading = True
+        try:
+            for k in range(self.settings.fade_periods):
+                self._write(self._drive * envelope[k * n : (k + 1) * n])
+                self._period(State.FADING_OUT)
+        finally:
+            self._fading = False
         self._drive = np.zeros(n)
         self._write(self._drive)
 
@@ -666,8 +671,8 @@ class Procedure:
         """Read one period, check it, record it; line spectra of (reference, DUT)."""
         with self._abort_lock:
             reason = self._abort_reason
-        if reason is not None:
-            raise Aborted(reason)
+        if reason is not None and (self._emergency or not self._fading):
+            raise Aborted(reason)  # an abort during the fade-out lets the fade finish
         active = self._active
         block = self.stand.daq.read_period(timeout_s=active.period_s * 2 + 5.0)
         played = self._drive

@@ -185,6 +185,10 @@ class MainWindow(QMainWindow):
             decimals=2, minimum=0.01, maximum=1000.0, value=5.0, suffix=" m/s² peak per line"
         )
         self.periods = QSpinBox(minimum=2, maximum=10000, value=8, suffix=" periods")
+        self.target = QDoubleSpinBox(decimals=3, maximum=10.0, suffix=" % type A target")
+        self.target.setSpecialValueText("off: acquire the periods above")
+        self.max_time = QSpinBox(maximum=100_000, suffix=" s at most")
+        self.max_time.setSpecialValueText("no time bound")
         self.estimator = QComboBox()
         self.estimator.addItems(["periodic", "h1", "seed"])
         self.mode = QComboBox()
@@ -199,6 +203,8 @@ class MainWindow(QMainWindow):
         pform.addRow("Lines", self.frequencies)
         pform.addRow("Level", self.level)
         pform.addRow("Acquire", self.periods)
+        pform.addRow("Or until", self.target)
+        pform.addRow("Time bound", self.max_time)
         pform.addRow("Estimator", self.estimator)
         pform.addRow("Mode", self.mode)
         self.peaks = QLabel()
@@ -357,6 +363,8 @@ class MainWindow(QMainWindow):
             frequencies_hz=self._custom_lines(),
             level_ms2=self.level.value(),
             periods=self.periods.value(),
+            target_type_a=self.target.value() / 100 or None,
+            max_acquisition_s=float(self.max_time.value()) or None,
             estimator=self.estimator.currentText(),
             mode=self.mode.currentText(),
             tolerance_percent=self.tolerance.value() or None,
@@ -501,7 +509,7 @@ class MainWindow(QMainWindow):
                 f"equalisation {event.iteration}: worst line {100 * event.worst:.2f} %"
             )
         elif isinstance(event, Progress):
-            self._buffer["progress"] = event.fraction
+            self._buffer["progress"] = (event.fraction, event.remaining_s)
         elif isinstance(event, WarningRaised):
             self._buffer.setdefault("warnings", []).append(event.text)
         self._dirty = True
@@ -541,7 +549,10 @@ class MainWindow(QMainWindow):
         if "equalisation" in b:
             self.equalisation.setText(b["equalisation"])
         if "progress" in b:
-            self.progress.setValue(int(100 * b["progress"]))
+            fraction, remaining = b["progress"]
+            self.progress.setValue(int(100 * fraction))
+            left = "" if remaining is None else f", about {remaining:.0f} s left"
+            self.progress.setFormat(f"%p %{left}")
         if "warnings" in b:
             self.messages.setText("<br/>".join(f"⚠ {w}" for w in b["warnings"][-4:]))
         block: PeriodBlock | None = b.get("block")
@@ -573,6 +584,11 @@ class MainWindow(QMainWindow):
             self._draw_characteristic(estimate.results)
 
     def _draw_characteristic(self, results: Results) -> None:
+        worst = min(results.lines, key=lambda ln: ln.coherence)
+        self.equalisation.setText(
+            f"{self.equalisation.text().split('  |')[0]}  |  coherence >= {worst.coherence:.4f} "
+            f"(lowest at {worst.nominal_frequency_hz:g} Hz)"
+        )
         f = np.log10([ln.frequency_hz for ln in results.lines])
         dev = np.array([ln.deviation_percent for ln in results.lines])
         u = np.array([100 * ln.relative_expanded_uncertainty for ln in results.lines])

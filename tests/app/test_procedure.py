@@ -286,3 +286,23 @@ def test_sweep_checks_every_level_before_anything_moves(tmp_path):
     with pytest.raises(PreflightError, match="level 8 m/s\\^2: displacement"):
         run_sweep(RunRequest(dut="capacitive", out=tmp_path / "runs"), [4.0, 8.0])
     assert not (tmp_path / "runs").exists()
+
+
+def test_an_abort_fades_out_before_stopping(tmp_path):
+    """abort() (Stop, SIGTERM, closing the window) plays the fade-out to exactly 0 V."""
+    stand = open_stand(CONFIG, dut="piezo", systematic=False)
+    plan = preset_plan("piezo")
+    procedure = Procedure(stand, plan, RunSettings(periods=50))
+
+    def listener(event):
+        if isinstance(event, PeriodEstimate) and event.periods == 3:
+            procedure.abort("stopped by the operator")
+
+    procedure.listener = listener
+    finished = procedure.run()
+    stand.close()
+    assert finished.status == "aborted" and finished.abort_reason == "stopped by the operator"
+    periods = stand.daq.output.periods
+    peaks = [peak for _, peak, _ in periods]
+    assert periods[-1][2] == 0.0  # the fade-out's last sample is exactly 0 V ...
+    assert 0 < peaks[-1] <= max(peaks[:-1])  # ... after a period that still moved (the fade)

@@ -64,6 +64,12 @@ def test_start_is_disabled_for_a_plan_over_the_shakers_limits(window):
     assert "the plan can run" in window.checks.text()
     window.frequencies.setText("10,20")
     assert not window.start_button.isEnabled()
+    window.frequencies.setText("")
+    assert window.request().target_type_a is None and window.request().max_acquisition_s is None
+    window.target.setValue(0.2)
+    window.max_time.setValue(30)
+    assert window.request().target_type_a == pytest.approx(0.002)
+    assert window.request().max_acquisition_s == 30.0
 
 
 def test_closing_the_window_during_a_run_fades_out_to_0_v(qtbot, tmp_path):
@@ -176,3 +182,20 @@ def test_custom_lines_are_checked_as_typed_and_run(window, qtbot):
     ]
     assert window.budget.rowCount() >= 4  # type A, the budget, combined, expanded
     assert window.result_mag.listDataItems()  # the band and the curve are drawn
+
+
+def test_stop_fades_out_to_0_v_and_keeps_an_aborted_run(qtbot, tmp_path):
+    w = MainWindow(out=tmp_path / "runs", paced=True, seed=5)
+    qtbot.addWidget(w)
+    w.wait_for_plans()
+    w.periods.setValue(100)  # a long acquisition: Stop comes first
+    w.start_run()
+    qtbot.waitUntil(lambda: "acquiring" in w.state.text(), timeout=40_000)
+    stand = w.worker.stand
+    with qtbot.waitSignal(w.run_finished, timeout=30_000) as blocker:
+        qtbot.mouseClick(w.stop_button, Qt.MouseButton.LeftButton)
+    finished = blocker.args[0]
+    assert finished.status == "aborted" and finished.abort_reason == "stopped by the operator"
+    assert stand.daq.output_v == 0.0 and finished.record["final_output_v"] == 0.0
+    assert stand.daq.output.periods[-1][2] == 0.0  # the fade-out's last sample
+    assert "coherence" in w.equalisation.text()
