@@ -220,6 +220,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 screenshot=args.screenshot,
                 quit_after_run=args.quit_after_run,
                 dut=args.dut,
+                sim=args.sim,
             )
     except (
         UsageError,

@@ -76,9 +76,17 @@ def open_stand(
         )
     if faults:
         raise ConfigError("--fault: faults can only be injected into the simulated stand")
+    from hardware.discovery import list_ni_devices
+    from hardware.errors import DaqNotFoundError
     from hardware.nidaq import NiDaq  # real hardware: errors say what is missing, no fallback
     from hardware.visa_amplifiers import BK2525Amplifier, ScpiPowerAmplifier
 
+    devices = [d["name"] for d in list_ni_devices()]  # "NI-DAQmx is not installed: ..." first
+    if config.device not in devices:
+        raise DaqNotFoundError(
+            f"{config.source}: daq.device {config.device!r} not found; NI-DAQmx sees "
+            f"{', '.join(devices) or 'no device'}"
+        )
     daq = NiDaq(config.device)
     measuring = power = None
     try:

@@ -17,16 +17,20 @@ def run_gui(
     screenshot: Path | None,
     quit_after_run: bool,
     dut: str | None = None,
+    sim: bool = False,
 ) -> int:
     """Open the window; optionally run at once, save a screenshot and quit (headless smoke)."""
     if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
         os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
-    from PySide6.QtCore import QTimer
+    from PySide6.QtCore import QSettings, QTimer
     from PySide6.QtWidgets import QApplication
 
-    from app.gui.main_window import MainWindow
+    from app.gui.main_window import APPLICATION, ORGANISATION, MainWindow
 
     app = QApplication.instance() or QApplication(sys.argv[:1])
+    if stand_file is None and not sim:  # the stand of the last session, if it is still there
+        last = str(QSettings(ORGANISATION, APPLICATION).value("stand_file", ""))
+        stand_file = Path(last) if last and Path(last).exists() else None
     window = MainWindow(stand_file=stand_file, out=out, paced=paced, seed=seed)
     if dut:
         window.dut.setCurrentText(dut)

@@ -60,6 +60,7 @@ from dsp.calibration import Results
 from dsp.multisine import PRESETS, Plan, check_lines, make_plan, preset_plan
 from dsp.spectral import period_spectrum
 from dsp.uncertainty import Budget, Quantity
+from hardware.errors import HardwareError
 from sim.models import DUT_CATALOGUE
 
 FRAME_HZ = 25
@@ -228,6 +229,7 @@ class MainWindow(QMainWindow):
         self.state = QLabel("idle")
         self.state.setStyleSheet("font-size: 15px; font-weight: bold")
         self.equalisation = QLabel("")
+        self.coherence = QLabel("")
         self.progress = QProgressBar()
         self.stop_button = QPushButton("Stop (fade out)  Ctrl+.")
         self.stop_button.setStyleSheet(
@@ -237,6 +239,7 @@ class MainWindow(QMainWindow):
         self.stop_button.setEnabled(False)
         top.addWidget(self.state, 2)
         top.addWidget(self.equalisation, 2)
+        top.addWidget(self.coherence, 2)
         top.addWidget(self.progress, 2)
         top.addWidget(self.stop_button, 1)
         layout.addLayout(top)
@@ -460,11 +463,13 @@ class MainWindow(QMainWindow):
         if self.procedure is not None or self.validate():
             return
         self.settings.setValue("dut", self.dut.currentText())
+        self.settings.setValue("stand_file", str(self.stand_file or ""))
         self.settings.setValue("dut_id", self.dut_id.text())
         try:
             procedure, stand = start(self.request())
-        except ValueError as exc:
-            QMessageBox.warning(self, "Cannot start", str(exc))
+        except (ValueError, HardwareError) as exc:  # config, plan, missing driver or device
+            QMessageBox.warning(self, "Cannot start", f"{type(exc).__name__}: {exc}")
+            self.messages.setText(f"Cannot start: {exc}")
             return
         self.procedure = procedure
         self.thread = QThread(self)
@@ -585,9 +590,8 @@ class MainWindow(QMainWindow):
 
     def _draw_characteristic(self, results: Results) -> None:
         worst = min(results.lines, key=lambda ln: ln.coherence)
-        self.equalisation.setText(
-            f"{self.equalisation.text().split('  |')[0]}  |  coherence >= {worst.coherence:.4f} "
-            f"(lowest at {worst.nominal_frequency_hz:g} Hz)"
+        self.coherence.setText(
+            f"coherence >= {worst.coherence:.4f} (lowest at {worst.nominal_frequency_hz:g} Hz)"
         )
         f = np.log10([ln.frequency_hz for ln in results.lines])
         dev = np.array([ln.deviation_percent for ln in results.lines])

@@ -25,15 +25,22 @@ def test_built_in_simulated_stand_and_the_example_load():
     assert len(real.budget.components) == 6
 
 
-def test_real_backend_is_never_replaced_by_the_simulator(monkeypatch):
+def test_real_backend_is_never_replaced_by_the_simulator():
+    """This machine has no NI-DAQmx driver: the stand says so first, by name."""
     from hardware.errors import DaqNotFoundError
-    from hardware.nidaq import NiDaq
 
-    def no_driver(self, device, **kwargs):
-        raise DaqNotFoundError("NI-DAQmx is not installed: (test)")
-
-    monkeypatch.setattr(NiDaq, "__init__", no_driver)
     with pytest.raises(DaqNotFoundError, match="NI-DAQmx is not installed"):
+        open_stand(stand_config.load(EXAMPLE))
+
+
+def test_a_missing_device_is_named(monkeypatch):
+    from hardware import discovery
+    from hardware.errors import DaqNotFoundError
+
+    monkeypatch.setattr(discovery, "list_ni_devices", lambda: [{"name": "Dev1"}])
+    with pytest.raises(
+        DaqNotFoundError, match=r"daq\.device 'PXI1Slot2' not found; NI-DAQmx sees Dev1"
+    ):
         open_stand(stand_config.load(EXAMPLE))
 
 
