@@ -22,6 +22,7 @@ from PySide6.QtWidgets import (
     QDialog,
     QDialogButtonBox,
     QDoubleSpinBox,
+    QFileDialog,
     QFormLayout,
     QGroupBox,
     QHBoxLayout,
@@ -153,7 +154,17 @@ class MainWindow(QMainWindow):
         stand = QGroupBox("Stand and DUT")
         form = QFormLayout(stand)
         ref = self.config.reference
-        form.addRow("Stand", QLabel(f"{self.config.source} ({self.config.backend})"))
+        self.stand_label = QLabel(f"{self.config.source} ({self.config.backend})")
+        self.stand_label.setWordWrap(True)
+        choose = QPushButton("Stand file ...")
+        choose.clicked.connect(self.choose_stand)
+        simulated = QPushButton("Simulated stand")
+        simulated.clicked.connect(lambda: self.load_stand(None))
+        stand_row = QHBoxLayout()
+        stand_row.addWidget(self.stand_label, 1)
+        stand_row.addWidget(choose)
+        stand_row.addWidget(simulated)
+        form.addRow("Stand", stand_row)
         form.addRow(
             "Reference standard",
             QLabel(
@@ -377,6 +388,27 @@ class MainWindow(QMainWindow):
             faults=self.faults,
             out=self.out,
         )
+
+    def choose_stand(self) -> None:
+        path, _ = QFileDialog.getOpenFileName(self, "Stand configuration", "", "TOML (*.toml)")
+        if path:
+            self.load_stand(Path(path))
+
+    def load_stand(self, path: Path | None) -> bool:
+        """Switch to the stand of `path` (None: the simulated one); errors name the field."""
+        if self.procedure is not None:
+            return False
+        try:
+            config = stand_config.load(path)
+        except stand_config.ConfigError as exc:
+            QMessageBox.warning(self, "Stand configuration", str(exc))
+            self.messages.setText(str(exc))
+            return False
+        self.config, self.stand_file = config, path
+        self.stand_label.setText(f"{config.source} ({config.backend})")
+        self.settings.setValue("stand_file", str(path or ""))
+        self.validate()
+        return True
 
     def _custom_lines(self) -> tuple[float, ...] | None:
         """The typed line list (Hz), None for the preset's; ValueError says what is wrong."""

@@ -199,3 +199,23 @@ def test_stop_fades_out_to_0_v_and_keeps_an_aborted_run(qtbot, tmp_path):
     assert stand.daq.output_v == 0.0 and finished.record["final_output_v"] == 0.0
     assert stand.daq.output.periods[-1][2] == 0.0  # the fade-out's last sample
     assert "coherence" in w.coherence.text()
+
+
+def test_a_real_stand_file_loads_and_start_says_what_is_missing(window, monkeypatch, tmp_path):
+    from pathlib import Path
+
+    from app.gui import main_window
+
+    example = Path(__file__).resolve().parents[2] / "examples" / "stand-pxi6251.toml"
+    shown = []
+    monkeypatch.setattr(main_window.QMessageBox, "warning", lambda *a: shown.append(a[2]))
+    assert window.load_stand(example)
+    assert "nidaqmx" in window.stand_label.text()
+    window.start_run()
+    assert window.procedure is None  # nothing started, nothing moved
+    assert "NI-DAQmx is not installed" in shown[-1]
+    bad = tmp_path / "bad.toml"
+    bad.write_text(example.read_text().replace('backend = "nidaqmx"', 'backend = "x"'))
+    assert not window.load_stand(bad)
+    assert "daq.backend" in shown[-1]
+    assert window.load_stand(None) and "simulated" in window.stand_label.text()
