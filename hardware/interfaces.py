@@ -74,6 +74,24 @@ class DaqStatus:
     skew_s: float
 
 
+def checked_output_period(period_v: np.ndarray, config: DaqConfig, device: str) -> np.ndarray:
+    """One output period as contiguous float64 volts, or ValueError naming what is wrong: its
+    length, NaN or inf, or a peak beyond the output range."""
+    x = np.asarray(period_v, dtype=float)
+    if x.shape != (config.period_samples,):
+        raise ValueError(
+            f"{device}: output period must have {config.period_samples} samples, got {x.shape}"
+        )
+    if not np.all(np.isfinite(x)):
+        raise ValueError(f"{device}: output period contains NaN or inf")
+    peak = float(np.max(np.abs(x)))
+    if peak > config.output.range_v:
+        raise ValueError(
+            f"{device}: output peak {peak:.3g} V exceeds the AO range +-{config.output.range_v:g} V"
+        )
+    return np.array(x, dtype=float, order="C")  # a copy: the caller's array may change
+
+
 @runtime_checkable
 class Daq(Protocol):
     """One AO channel and its AI channels on one sample clock and start trigger.

@@ -46,7 +46,7 @@ from hardware.errors import (
     DeviceLostError,
     HardwareError,
 )
-from hardware.interfaces import DaqConfig, DaqStatus
+from hardware.interfaces import DaqConfig, DaqStatus, checked_output_period
 
 log = logging.getLogger(__name__)
 
@@ -443,22 +443,7 @@ class NiDaq:
         return self._config
 
     def _checked(self, period_v: np.ndarray) -> np.ndarray:
-        config = self._require_config()
-        x = np.asarray(period_v, dtype=float)
-        if x.shape != (config.period_samples,):
-            raise ValueError(
-                f"{self._context}: output period must have {config.period_samples} samples, "
-                f"got shape {x.shape}"
-            )
-        if not np.all(np.isfinite(x)):
-            raise ValueError(f"{self._context}: output period contains NaN or inf")
-        peak = float(np.max(np.abs(x)))
-        if peak > config.output.range_v:
-            raise ValueError(
-                f"{self._context}: output peak {peak:.3g} V exceeds the AO range "
-                f"+-{config.output.range_v:g} V"
-            )
-        return np.ascontiguousarray(x)
+        return checked_output_period(period_v, self._require_config(), self._context)
 
 
 def _quietly(action: Callable[[], Any], what: str) -> None:

@@ -32,7 +32,7 @@ from hardware.errors import (
     HardwareError,
     OverloadError,
 )
-from hardware.interfaces import DaqConfig, DaqStatus
+from hardware.interfaces import DaqConfig, DaqStatus, checked_output_period
 from hardware.visa_amplifiers import BK2525Amplifier
 from sim.lti import MultiZoh, Network, ZohFilter
 from sim.models import DUT_CATALOGUE, G_N, SensorModel, StandModel
@@ -382,21 +382,7 @@ class SimulatedStand:
         return self._config
 
     def _checked(self, period_v: np.ndarray) -> np.ndarray:
-        config = self._require_config()
-        x = np.asarray(period_v, dtype=float)
-        if x.shape != (config.period_samples,):
-            raise ValueError(
-                f"simulated DAQ: output period must have {config.period_samples} samples, "
-                f"got {x.shape}"
-            )
-        if not np.all(np.isfinite(x)):
-            raise ValueError("simulated DAQ: output contains NaN or inf")
-        if np.max(np.abs(x)) > config.output.range_v:
-            raise ValueError(
-                f"simulated DAQ: output peak {np.max(np.abs(x)):.3g} V exceeds the AO range "
-                f"+-{config.output.range_v:g} V"
-            )
-        return x.copy()
+        return checked_output_period(period_v, self._require_config(), "simulated DAQ")
 
     def _inject(self, fault: Fault) -> None:
         at = f"at {fault.at_s:g} s"
