@@ -186,42 +186,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        if args.command == "plan":
-            return cmd_plan(args)
-        if args.command == "analyze":
-            return cmd_analyze(args)
-        if args.command == "simulate":
-            return cmd_simulate(args)
-        if args.command == "run":
-            return cmd_run(args)
-        if args.command == "show":
-            return cmd_show(args)
-        if args.command == "certificate":
-            return cmd_certificate(args)
-        if args.command == "devices":
-            from hardware.discovery import describe, list_ni_devices
-
-            print(describe())
-            try:
-                return EXIT_OK if list_ni_devices() else EXIT_FAILURE
-            except HardwareError:
-                return EXIT_FAILURE  # no NI-DAQmx driver (said above)
-        if args.command == "gui":
-            from app.gui import run_gui
-
-            if args.sim and args.stand:
-                raise UsageError("--sim and --stand: choose one")
-            return run_gui(
-                stand_file=args.stand,
-                out=args.out,
-                paced=not args.unpaced,
-                seed=args.seed,
-                autorun=args.autorun,
-                screenshot=args.screenshot,
-                quit_after_run=args.quit_after_run,
-                dut=args.dut,
-                sim=args.sim,
-            )
+        return COMMANDS[args.command](args)
     except (
         UsageError,
         PlanError,
@@ -244,7 +209,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     except Exception as exc:
         print(f"accelcal {args.command}: failed: {type(exc).__name__}: {exc}", file=sys.stderr)
         return EXIT_FAILURE
-    return EXIT_FAILURE
 
 
 def plan_report(plan: Plan) -> dict:
@@ -609,6 +573,34 @@ class TerminalProgress:
             sys.stderr.write("\n")
 
 
+def cmd_devices(args: argparse.Namespace) -> int:
+    from hardware.discovery import describe, list_ni_devices
+
+    print(describe())
+    try:
+        return EXIT_OK if list_ni_devices() else EXIT_FAILURE
+    except HardwareError:
+        return EXIT_FAILURE  # no NI-DAQmx driver (said above)
+
+
+def cmd_gui(args: argparse.Namespace) -> int:
+    from app.gui import run_gui
+
+    if args.sim and args.stand:
+        raise UsageError("--sim and --stand: choose one")
+    return run_gui(
+        stand_file=args.stand,
+        out=args.out,
+        paced=not args.unpaced,
+        seed=args.seed,
+        autorun=args.autorun,
+        screenshot=args.screenshot,
+        quit_after_run=args.quit_after_run,
+        dut=args.dut,
+        sim=args.sim,
+    )
+
+
 def cmd_certificate(args: argparse.Namespace) -> int:
     info = CertificateInfo(
         customer=args.customer,
@@ -736,6 +728,18 @@ def print_catalogue(as_json: bool) -> int:
     for name, entry in entries["duts"].items():
         print(f"  {name:<11} {entry['description']}")
     return EXIT_OK
+
+
+COMMANDS = {
+    "plan": cmd_plan,
+    "analyze": cmd_analyze,
+    "simulate": cmd_simulate,
+    "run": cmd_run,
+    "show": cmd_show,
+    "certificate": cmd_certificate,
+    "devices": cmd_devices,
+    "gui": cmd_gui,
+}
 
 
 if __name__ == "__main__":

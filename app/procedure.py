@@ -182,13 +182,11 @@ class _Run:
     """Mutable bookkeeping of one run."""
 
     periods_read: int = 0
-    excited_periods: int = 0
     excited_s: float = 0.0
     warnings: list[str] = field(default_factory=list)
     equalisation: list[float] = field(default_factory=list)
     background: dict[str, list[float]] = field(default_factory=dict)
     results: Results | None = None
-    estimate: Estimate | None = None
 
 
 class Procedure:
@@ -605,7 +603,7 @@ class Procedure:
             extra_warnings=tuple(self._run.warnings),
         )
         self._check_plausible(results)
-        self._run.results, self._run.estimate = results, estimate
+        self._run.results = results
         self._emit(PeriodEstimate(estimate.periods, estimate, results))
         return results
 
@@ -678,7 +676,6 @@ class Procedure:
         played = self._drive
         self._run.periods_read += 1
         if np.any(played != 0):
-            self._run.excited_periods += 1
             self._run.excited_s += active.period_s
         self._check_block(block)
         if self._writer is not None:

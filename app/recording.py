@@ -469,14 +469,3 @@ def iter_batches(
     ref, dut = recording.analysis_periods()
     for start in range(0, ref.shape[0], periods_per_batch):
         yield ref[start : start + periods_per_batch], dut[start : start + periods_per_batch]
-
-
-def config_summary(recording: Recording) -> dict[str, Any]:
-    """What the recording says about itself, for reports."""
-    return {
-        "source": recording.source,
-        "sample_rate_hz": recording.sample_rate_hz,
-        "period_samples": recording.period_samples,
-        "periods": recording.periods,
-        "settle_periods": recording.settle_periods,
-    }

@@ -27,7 +27,6 @@ class Stand:
     measuring_amplifier: MeasuringAmplifier | None = None
     power_amplifier: PowerAmplifier | None = None
     truth: Callable[[np.ndarray, float], np.ndarray] | None = field(default=None, repr=False)
-    table_response: Callable[[np.ndarray], np.ndarray] | None = field(default=None, repr=False)
     description: str = ""
 
     def close(self) -> None:

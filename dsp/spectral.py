@@ -291,12 +291,6 @@ class SpectralAccumulator:
             dut_distortion=dist_y,
         )
 
-    def mean_spectra(self) -> tuple[np.ndarray, np.ndarray]:
-        """Period-averaged peak-scaled spectra (reference, DUT) over all rfft bins, volts."""
-        if self._bins is None:
-            raise ValueError("accumulator: floor tracking is off; no full spectra kept")
-        return self._bins.mean_u.copy(), self._bins.mean_y.copy()
-
     def _floor(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Per-line noise (V, peak-scaled, per period) and harmonic distortion (ratio)."""
         m = self._lines

@@ -24,7 +24,7 @@ import pyvisa.errors
 
 from dsp import iso266
 from dsp.calibration import ReferenceChain
-from dsp.uncertainty import Budget, Component, Distribution, Quantity
+from dsp.uncertainty import Budget, Component, Distribution
 from hardware.errors import (
     AmplifierFaultError,
     DaqTimeoutError,
@@ -505,11 +505,3 @@ class _TimedOutResource:
             object.__setattr__(self, name, value)
         else:
             setattr(self._resource, name, value)
-
-
-def catalogue() -> dict[str, SensorModel]:
-    """The DUTs the simulated stand offers."""
-    return dict(DUT_CATALOGUE)
-
-
-__all__ = ["FAULT_KINDS", "Fault", "Quantity", "SimBudget", "SimulatedStand", "catalogue"]
