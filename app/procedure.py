@@ -1,9 +1,10 @@
 """The calibration procedure (SPEC.md section 5), UI-agnostic.
 
-preflight -> background (drive at 0 V) -> fade-in at a gentle identification level -> settle ->
-closed-loop equalisation (crossfades between drives, settle, measure the table acceleration per
-line on the reference channel, D_k <- D_k A_target/A_measured) -> acquisition of L periods or
-until a type A target or a time bound, with live estimates -> fade-out -> 0 V.
+preflight -> background (drive at 0 V: hum and noise per line) -> fade-in at a gentle
+identification level, the stand's response per line from the period after it -> closed-loop
+equalisation (crossfades between drives, settle on both channels, measure the table acceleration
+per line on the reference channel, D_k <- D_k A_target/A_measured) -> acquisition of L periods
+or until a type A target or a time bound, with live estimates -> fade-out -> 0 V.
 
 It drives any `hardware.interfaces.Daq` (and amplifiers), emits typed events to a listener,
 writes the run folder as it goes, imports nothing from a UI and prints nothing. The drive ends at
@@ -30,7 +31,7 @@ from dsp.calibration import AnalysisError, Results, compute_results
 from dsp.crestfactor import synthesize
 from dsp.multisine import Line, Plan, fade_envelope
 from dsp.sinefit import integer_cycle_block, sine_fit
-from dsp.spectral import Estimate, SpectralAccumulator, period_spectrum
+from dsp.spectral import Estimate, SpectralAccumulator, period_spectrum, periods_agree
 from dsp.uncertainty import Budget, Component, Distribution
 from hardware.errors import (
     AmplifierFaultError,
@@ -391,28 +392,34 @@ class Procedure:
         zeros = np.zeros(self.plan.period_samples)
         self.stand.daq.start(zeros)
         self._drive = zeros
-        spectra = [
-            self._period(State.BACKGROUND) for _ in range(max(1, self.settings.background_periods))
-        ]
-        ref = np.array([s[0] for s in spectra])
-        dut = np.array([s[1] for s in spectra])
+        accumulator = SpectralAccumulator(self.plan.period_samples, self.plan.bins)
+        for _ in range(max(1, self.settings.background_periods)):
+            _, block = self._period(State.BACKGROUND, return_block=True)
+            accumulator.add_period(
+                block[self._channel_index["reference"]], block[self._channel_index["dut"]]
+            )
+        background = accumulator.estimate()
         self._background_v = {
-            "reference": np.abs(ref.mean(axis=0)),
-            "dut": np.abs(dut.mean(axis=0)),
-            "reference_noise": np.sqrt(np.mean(np.abs(ref - ref.mean(axis=0)) ** 2, axis=0))
-            if len(spectra) > 1
-            else np.abs(ref[0]),
+            "reference": background.reference_amplitude_v,
+            "dut": background.dut_amplitude_v,
+            # per-period noise at each line from the many non-excited bins around it: a
+            # well-determined figure even from one or two periods (the settle test's scale)
+            "reference_noise": background.reference_noise_v,
+            "dut_noise": background.dut_noise_v,
         }
         self._run.background = {k: v.tolist() for k, v in self._background_v.items()}
 
     def _identify(self) -> None:
-        """Fade in at a gentle level, settle, and measure the table's response per line."""
+        """Fade in at a gentle level and measure the table's response per line on the period
+        after the fade. No settle test here: the raised-cosine fade ends with zero slope, and the
+        response only seeds the closed loop, whose every step is settle-tested."""
         self._state(State.IDENTIFYING, "gentle drive: measuring the stand's response per line")
         plan = self._active
         amplitude = np.full(len(plan.lines), self.settings.identification_drive_v)
         drive = synthesize(plan.bins, amplitude, plan.phases_rad, plan.period_samples)
-        self._crossfade(drive)
-        measured = self._settled_acceleration()
+        self._crossfade(drive, State.IDENTIFYING)
+        reference_lines, _ = self._period(State.IDENTIFYING)
+        measured = self._to_acceleration(reference_lines)
         drive_line = amplitude * np.exp(1j * (plan.phases_rad - np.pi / 2))
         self._response = measured / drive_line  # m/s^2 per drive volt, complex, per line
         if np.any(np.abs(self._response) == 0) or not np.all(np.isfinite(self._response)):
@@ -623,34 +630,33 @@ class Procedure:
 
     # --- helpers ---------------------------------------------------------------------------
 
-    def _crossfade(self, new_drive: np.ndarray) -> None:
+    def _crossfade(self, new_drive: np.ndarray, state: State = State.EQUALISING) -> None:
         """One period moving smoothly from the current drive to `new_drive`, which then plays."""
         ramp = fade_envelope(self._active.period_samples, 1, "in")
         self._write(self._drive * (1.0 - ramp) + new_drive * ramp)
-        self._period(State.EQUALISING)
+        self._period(state)
         self._drive = new_drive
         self._write(new_drive)
 
     def _settled_acceleration(self) -> np.ndarray:
-        """Read periods until two consecutive ones agree at every line; the table acceleration
-        per line (complex, m/s^2) from the reference channel, averaged over those two."""
-        previous = None
+        """Read periods until two consecutive ones agree at every line on both channels (the
+        DUT can carry a transient of its own, e.g. a piezo's 0.5 Hz high-pass); the table
+        acceleration per line (complex, m/s^2) from the reference channel, averaged over the
+        two. Agreement: within `settle_tolerance` of the line or 6 noise standard deviations."""
         s = self.settings
-        noise = self._background_v["reference_noise"]
+        noise = np.array([self._background_v["reference_noise"], self._background_v["dut_noise"]])
         if self._line_index is not None:  # one line, a shorter block: more noise per bin
             scale = np.sqrt(self.plan.period_samples / self._active.period_samples)
-            noise = noise[[self._line_index]] * scale
-        previous_block = None
+            noise = noise[:, [self._line_index]] * scale
+        previous = previous_block = None
         for _ in range(s.max_settle_periods):
             (ref, dut), block = self._period(State.EQUALISING, return_block=True)
-            if previous is not None:
-                difference = np.abs(ref - previous)
-                allowed = np.maximum(s.settle_tolerance * np.abs(ref), 6.0 * noise)
-                if np.all(difference <= allowed):
-                    self._settled_lines = (ref, dut)
-                    self._settled_blocks = [previous_block, block]
-                    return self._to_acceleration((ref + previous) / 2)
-            previous, previous_block = ref, block
+            lines = np.array([ref, dut])
+            if previous is not None and periods_agree(previous, lines, noise, s.settle_tolerance):
+                self._settled_lines = (ref, dut)
+                self._settled_blocks = [previous_block, block]
+                return self._to_acceleration((ref + previous[0]) / 2)
+            previous, previous_block = lines, block
         raise ProcedureError(
             f"the table did not settle within {s.max_settle_periods} periods (consecutive "
             "periods still differ): check for a loose mount, a resonance or an unstable amplifier"

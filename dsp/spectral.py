@@ -55,6 +55,21 @@ def dft_at(
     return blocks @ kernel.T
 
 
+SETTLE_NOISE_SIGMAS = 6.0  # a noise-only difference exceeds 6 sigma with probability e^-18
+
+
+def periods_agree(
+    previous: np.ndarray, current: np.ndarray, noise: np.ndarray, tolerance: float
+) -> bool:
+    """Settle test (SPEC s.5 step 2): do two consecutive periods' complex line spectra agree
+    at every line of every channel? Agreement: |current - previous| within `tolerance`
+    (relative) of the line or within 6 standard deviations `noise` of one period's noise
+    (same shape, volts); the difference of two noise-only periods has variance 2 noise^2."""
+    current = np.asarray(current)
+    allowed = np.maximum(tolerance * np.abs(current), SETTLE_NOISE_SIGMAS * np.asarray(noise))
+    return bool(np.all(np.abs(current - np.asarray(previous)) <= allowed))
+
+
 @dataclass(frozen=True)
 class Estimate:
     """Per-line estimate after `periods` periods (arrays are per line, in plan order).

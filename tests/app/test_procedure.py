@@ -18,6 +18,7 @@ from app import stand_config
 from app.analysis import analyze
 from app.procedure import (
     EqualisationStep,
+    PeriodBlock,
     PeriodEstimate,
     PreflightError,
     Procedure,
@@ -115,6 +116,18 @@ def test_equalisation_converges_on_a_strongly_resonant_nonlinear_exciter(tmp_pat
     steps = [e for e in events if isinstance(e, EqualisationStep)]
     assert steps[0].worst > 0.01  # the open-loop guess is off ...
     assert steps[-1].worst <= 0.01 and len(steps) <= 8  # ... and the loop corrects it
+
+
+def test_at_a_low_level_every_settle_test_passes_at_its_first_chance(tmp_path):
+    """At 0.05 m/s^2 the lines are only ~60 dB above the noise: the settle test must scale
+    with the measured noise (not chase it), so each equalisation step takes its crossfade and
+    two periods, no more."""
+    events = []
+    finished, *_ = run(tmp_path, level=0.05, events=events, systematic=False)
+    assert finished.status == "complete", finished.abort_reason
+    steps = [e for e in events if isinstance(e, EqualisationStep)]
+    periods = [e for e in events if isinstance(e, PeriodBlock) and e.state == State.EQUALISING]
+    assert steps and len(periods) == 3 * len(steps)
 
 
 @pytest.mark.parametrize(

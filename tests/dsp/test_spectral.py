@@ -9,7 +9,13 @@ import scipy.stats
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from dsp.spectral import ESTIMATORS, SpectralAccumulator, dft_at, period_spectrum
+from dsp.spectral import (
+    ESTIMATORS,
+    SpectralAccumulator,
+    dft_at,
+    period_spectrum,
+    periods_agree,
+)
 
 N = 1200  # 0.5 Hz grid at 600 Hz: small and fast
 FS = 600.0
@@ -228,3 +234,33 @@ def test_type_a_degrees_of_freedom_give_nominal_t_coverage(estimator):
     k = scipy.stats.t.ppf((1 + 0.9545) / 2, est.dof)
     covered = np.abs(np.abs(est.response) / 0.5 - 1) <= k * est.relative_type_a
     assert covered.mean() == pytest.approx(0.9545, abs=0.003)
+
+
+def test_periods_agree_checks_every_channel_against_level_or_noise():
+    previous = np.array([[1.0 + 0j, 0.5j], [0.2 + 0j, 0.1 + 0j]])  # (channel, line), volts
+    noise = np.full((2, 2), 1e-4)
+    assert periods_agree(previous, previous * (1 + 1e-3), noise, 0.002)
+    dut_moved = previous.copy()
+    dut_moved[1, 1] *= 1.01  # only the DUT channel, one line: 1 % > 0.2 % and > 6 sigma
+    assert not periods_agree(previous, dut_moved, noise, 0.002)
+    weak = np.array([[1e-4 + 0j], [1e-4 + 0j]])  # lines in the noise: 6 sigma decides
+    assert periods_agree(weak, weak + 5e-4, np.full((2, 1), 1e-4), 0.002)
+    assert not periods_agree(weak, weak + 7e-4, np.full((2, 1), 1e-4), 0.002)
+
+
+def test_noise_only_periods_agree_with_the_floor_estimated_from_neighbour_bins():
+    """The settle test's noise scale from one background period's non-excited bins is
+    within 5 % on average, so two later noise-only periods agree (a 6 sigma test) in 200 of
+    200 trials."""
+    rng = np.random.default_rng(4)
+    n, bins = 4000, np.arange(20, 1800, 70)
+    sigma_v = 1e-3
+    background = SpectralAccumulator(n, bins)
+    background.add_period(rng.normal(0, sigma_v, n), rng.normal(0, sigma_v, n))
+    noise = background.estimate().reference_noise_v
+    expected = 2 * sigma_v / np.sqrt(n)  # std of one period's peak-scaled complex bin
+    assert np.all(np.abs(noise / expected - 1) < 0.5)
+    assert abs(np.mean(noise) / expected - 1) < 0.05
+    for _ in range(200):
+        a, b = period_spectrum(rng.normal(0, sigma_v, (2, n)))[:, bins]
+        assert periods_agree(a, b, noise, 0.002)
