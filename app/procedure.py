@@ -16,6 +16,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import threading
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
@@ -216,10 +217,12 @@ class Procedure:
         self.identity = identity or {}
         self._abort_reason: str | None = None
         self._emergency = False
-        self._fading = False
+        self._in_transition = False  # a fade or crossfade period is playing: let it finish
         self._abort_lock = threading.Lock()
         self._writer: RecordingWriter | None = None
-        self._drive = np.zeros(plan.period_samples)
+        self._drive = np.zeros(plan.period_samples)  # the steady drive (what a fade-out fades)
+        self._played = self._drive  # the period the output plays now
+        self._queue: deque[np.ndarray] = deque()  # written, not played yet: each plays in turn
         self._run = _Run()
         config = stand.config
         self._inputs = config.inputs
@@ -391,7 +394,8 @@ class Procedure:
         self._state(State.BACKGROUND, "drive at 0 V: noise and hum at every line")
         zeros = np.zeros(self.plan.period_samples)
         self.stand.daq.start(zeros)
-        self._drive = zeros
+        self._drive = self._played = zeros
+        self._queue.clear()
         accumulator = SpectralAccumulator(self.plan.period_samples, self.plan.bins)
         for _ in range(max(1, self.settings.background_periods)):
             _, block = self._period(State.BACKGROUND, return_block=True)
@@ -552,7 +556,8 @@ class Procedure:
             self.stand.daq.stop()
             self.stand.daq.configure(DaqConfig(fs, n, self.stand.config.output, self._inputs))
             self._active, self._line_index = active, k
-            self._drive = np.zeros(n)
+            self._drive = self._played = np.zeros(n)
+            self._queue.clear()
             self.stand.daq.start(self._drive)
             self._log(f"stepped sine: line {line.label}, blocks of {n} samples")
             self._reusable_blocks = []
@@ -615,26 +620,35 @@ class Procedure:
         return results
 
     def _fade_out(self) -> None:
+        """Raised-cosine fade of the steady drive over `fade_periods` periods, then 0 V; reads
+        until every faded period has played (a drive queued before it plays first)."""
         self._state(State.FADING_OUT)
         envelope = fade_envelope(self._active.period_samples, self.settings.fade_periods, "out")
         n = self._active.period_samples
-        self._fading = True
-        try:
-            for k in range(self.settings.fade_periods):
-                self._write(self._drive * envelope[k * n : (k + 1) * n])
-                self._period(State.FADING_OUT)
-        finally:
-            self._fading = False
+        for k in range(self.settings.fade_periods):
+            self._write(self._drive * envelope[k * n : (k + 1) * n])
         self._drive = np.zeros(n)
         self._write(self._drive)
+        self._in_transition = True
+        try:
+            while len(self._queue) > 1:  # the zero period stays queued; stop() plays it
+                self._period(State.FADING_OUT)
+        finally:
+            self._in_transition = False
 
     # --- helpers ---------------------------------------------------------------------------
 
     def _crossfade(self, new_drive: np.ndarray, state: State = State.EQUALISING) -> None:
-        """One period moving smoothly from the current drive to `new_drive`, which then plays."""
+        """One period moving smoothly from the current drive to `new_drive`, which then plays.
+        An abort meanwhile lets the crossfade play, then fades out from `new_drive`: the drive
+        never steps at a period boundary."""
         ramp = fade_envelope(self._active.period_samples, 1, "in")
         self._write(self._drive * (1.0 - ramp) + new_drive * ramp)
-        self._period(state)
+        self._in_transition = True
+        try:
+            self._period(state)
+        finally:
+            self._in_transition = False
         self._drive = new_drive
         self._write(new_drive)
 
@@ -669,17 +683,21 @@ class Procedure:
         return reference_lines / volts_per_ms2
 
     def _write(self, drive: np.ndarray) -> None:
+        """Queue one period of drive: it plays after those written before it (Daq protocol)."""
         self.stand.daq.write_period(drive)
+        self._queue.append(drive)
 
     def _period(self, state: State, *, return_block: bool = False) -> Any:
         """Read one period, check it, record it; line spectra of (reference, DUT)."""
         with self._abort_lock:
             reason = self._abort_reason
-        if reason is not None and (self._emergency or not self._fading):
-            raise Aborted(reason)  # an abort during the fade-out lets the fade finish
+        if reason is not None and (self._emergency or not self._in_transition):
+            raise Aborted(reason)  # a fade or crossfade already written plays to its end
         active = self._active
         block = self.stand.daq.read_period(timeout_s=active.period_s * 2 + 5.0)
-        played = self._drive
+        if self._queue:
+            self._played = self._queue.popleft()
+        played = self._played
         self._run.periods_read += 1
         if np.any(played != 0):
             self._run.excited_s += active.period_s

@@ -96,9 +96,11 @@ def checked_output_period(period_v: np.ndarray, config: DaqConfig, device: str) 
 class Daq(Protocol):
     """One AO channel and its AI channels on one sample clock and start trigger.
 
-    The output is one period, regenerated; `write_period` replaces it from the next period
-    boundary on (fades, equalisation). `read_period` returns the next whole period of every
-    input channel in volts, in the order of `DaqConfig.inputs`, shape (channels, N).
+    The output is one period, regenerated; `write_period` queues a new period (fades,
+    equalisation): periods play in the order written, each from a period boundary and at least
+    once, and the last one repeats until another is written. `read_period` returns the next
+    whole period of every input channel in volts, in the order of `DaqConfig.inputs`, shape
+    (channels, N).
     `stop` brings the output to 0 V and stops; it is safe to call at any time, twice, or after
     an error. `output_v` is the output voltage now, as the device knows it (None if unknown).
     """

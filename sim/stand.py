@@ -13,9 +13,10 @@ from __future__ import annotations
 import math
 import time
 import tomllib
+from collections import deque
 from dataclasses import dataclass, field
 from importlib import resources
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import pyvisa
@@ -167,11 +168,26 @@ def draw_deviations(sim_budget: SimBudget, rng: np.random.Generator) -> Deviatio
     return Deviations(**values)
 
 
+EDGE_S = 0.1  # the output's local level is taken over this long at each end of a period
+
+
+class OutputPeriod(NamedTuple):
+    """One period the simulated DAQ output played (time in s, voltages in V); the RMS over its
+    first and last `EDGE_S` shows a step in level at a period boundary."""
+
+    start_s: float
+    peak_v: float
+    last_v: float
+    first_v: float
+    head_rms_v: float
+    tail_rms_v: float
+
+
 @dataclass
 class OutputRecord:
-    """What the simulated DAQ output did: per period (start time s, peak |V|, last V)."""
+    """What the simulated DAQ output did, period by period."""
 
-    periods: list[tuple[float, float, float]] = field(default_factory=list)
+    periods: list[OutputPeriod] = field(default_factory=list)
     final_v: float = 0.0
     stopped: bool = False
 
@@ -218,7 +234,8 @@ class SimulatedStand:
         self._hum_phases = np.random.default_rng(seeds[6]).uniform(0, 2 * np.pi, (2, 8))
         self.output = OutputRecord()
         self._config: DaqConfig | None = None
-        self._buffer: np.ndarray | None = None
+        self._buffer: np.ndarray | None = None  # the period playing (regenerated)
+        self._pending: deque[np.ndarray] = deque()  # written, not yet played, in order
         self._running = False
         self._lost = False
         self._amp_tripped = False
@@ -316,15 +333,18 @@ class SimulatedStand:
         if self._lost:
             raise DeviceLostError("simulated DAQ: device lost")
         self._buffer = self._checked(period_v)
+        self._pending.clear()
         self._running = True
         self.output.stopped = False
         self._wall_start = time.monotonic()
 
     def write_period(self, period_v: np.ndarray) -> None:
-        """Replace the output from the next period boundary on."""
+        """Queue one period: it plays after the periods written before it, from a period
+        boundary, and repeats until another is written (as on a board with a regenerated
+        one-period buffer, every period written plays)."""
         if self._lost:
             raise DeviceLostError("simulated DAQ: device lost")
-        self._buffer = self._checked(period_v)
+        self._pending.append(self._checked(period_v))
 
     def read_period(self, timeout_s: float = 10.0) -> np.ndarray:
         """Simulate the next period; (channels, N) volts in the configured input order."""
@@ -345,17 +365,41 @@ class SimulatedStand:
                 raise DaqTimeoutError(f"simulated DAQ: no period within {timeout_s:g} s")
             if wait > 0:
                 time.sleep(wait)
+        if self._pending:
+            self._buffer = self._pending.popleft()
         drive = self._buffer
         blocks = self._simulate(drive)
-        self._sample_index += n
-        self.output.periods.append((t0, float(np.max(np.abs(drive))), float(drive[-1])))
-        self.output.final_v = float(drive[-1])
+        self._played(drive)
         return np.vstack([blocks[c.name] for c in config.inputs])
 
+    def _played(self, drive: np.ndarray) -> None:
+        """Record one period of output and advance the clock."""
+        config = self._require_config()
+        t0 = self._sample_index / config.sample_rate_hz
+        self._sample_index += config.period_samples
+        edge = max(1, min(drive.size, round(EDGE_S * config.sample_rate_hz)))
+        self.output.periods.append(
+            OutputPeriod(
+                t0,
+                float(np.max(np.abs(drive))),
+                float(drive[-1]),
+                float(drive[0]),
+                float(np.sqrt(np.mean(drive[:edge] ** 2))),
+                float(np.sqrt(np.mean(drive[-edge:] ** 2))),
+            )
+        )
+        self.output.final_v = float(drive[-1])
+
     def stop(self) -> None:
-        """Play 0 V and stop. Safe at any time, twice, after an error or a lost device."""
+        """Play what is still queued, then 0 V, and stop (as the NI driver's stop does). Safe at
+        any time, twice, after an error or a lost device (whose output has reset: nothing more
+        plays)."""
         if self._config is not None and self._buffer is not None and not self._lost:
+            while self._running and self._pending:
+                self._buffer = self._pending.popleft()
+                self._played(self._buffer)
             self._buffer = np.zeros_like(self._buffer)
+        self._pending.clear()
         self._running = False
         self.output.final_v = 0.0
         self.output.stopped = True

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import json
 import os
 import signal
@@ -82,7 +83,7 @@ def test_simulated_runs_recover_the_truth(tmp_path, dut, level, seed):
     assert [e.periods for e in events if isinstance(e, PeriodEstimate)] == list(range(2, 9))
     record = load_run(folder.path)
     assert record["status"] == "complete" and record["final_output_v"] == 0.0
-    assert stand.daq.output.final_v == 0.0 and stand.daq.output.periods[-1][2] == 0.0
+    assert stand.daq.output.final_v == 0.0 and stand.daq.output.periods[-1].last_v == 0.0
     recording = read_recording(folder.recording)  # the raw data, analysable again
     assert recording.acquired_periods == 8
     again = analyze(recording).results  # re-analysis of the stored run gives the same
@@ -316,6 +317,40 @@ def test_an_abort_fades_out_before_stopping(tmp_path):
     stand.close()
     assert finished.status == "aborted" and finished.abort_reason == "stopped by the operator"
     periods = stand.daq.output.periods
-    peaks = [peak for _, peak, _ in periods]
-    assert periods[-1][2] == 0.0  # the fade-out's last sample is exactly 0 V ...
-    assert 0 < peaks[-1] <= max(peaks[:-1])  # ... after a period that still moved (the fade)
+    peaks = [p.peak_v for p in periods if p.peak_v > 0]
+    assert periods[-1].last_v == 0.0  # the output ends at exactly 0 V ...
+    assert peaks[-1] < max(peaks)  # ... after a last period that moved less: the fade-out
+
+
+@pytest.mark.parametrize("abort_in", [State.IDENTIFYING, State.EQUALISING])
+def test_the_drive_never_jumps_even_when_a_crossfade_is_cut_short(tmp_path, abort_in):
+    """An abort while a crossfade plays (the fade-in, or gentle -> full level) lets it play and
+    fades out from where it ends: the drive's local level never steps at a period boundary
+    (a real board plays every period written). The fade-in counts as excitation, and the
+    recording holds the drive as played."""
+    stand = open_stand(CONFIG, dut="piezo", systematic=False)
+    folder = RunFolder.create(tmp_path, "cut")
+    plan = preset_plan("piezo")
+    procedure = Procedure(stand, plan, RunSettings(), folder)
+
+    def listener(event):
+        if isinstance(event, StateChanged) and event.state == abort_in:
+            procedure.abort("stopped by the operator")
+
+    procedure.listener = listener
+    finished = procedure.run()
+    stand.close()
+    assert finished.status == "aborted"
+    played = stand.daq.output.periods  # every period the output played, to the end
+    assert played[-1].last_v == 0.0
+    for before, after in itertools.pairwise(played):  # a fade may start or end at 0 V
+        tail, head = before.tail_rms_v, after.head_rms_v
+        assert head <= 5 * tail + 0.01 * after.peak_v, (before, after)
+        assert tail <= 5 * head + 0.01 * before.peak_v, (before, after)
+    drive = read_recording(folder.recording).drive_v.reshape(-1, plan.period_samples)
+    loopback = next(c for c in CONFIG.inputs if c.name == "drive")  # recorded by the ADC
+    lsb = 2.0 * loopback.range_v / 2**16
+    read = played[: len(drive)]
+    assert [p.peak_v for p in read] == pytest.approx(np.max(np.abs(drive), axis=1), abs=8 * lsb)
+    moving = sum(1 for p in played if p.peak_v > 0)
+    assert finished.record["excitation_time_s"] == pytest.approx(moving * plan.period_s)

@@ -197,7 +197,7 @@ def test_stop_fades_out_to_0_v_and_keeps_an_aborted_run(qtbot, tmp_path):
     finished = blocker.args[0]
     assert finished.status == "aborted" and finished.abort_reason == "stopped by the operator"
     assert stand.daq.output_v == 0.0 and finished.record["final_output_v"] == 0.0
-    assert stand.daq.output.periods[-1][2] == 0.0  # the fade-out's last sample
+    assert stand.daq.output.periods[-1].last_v == 0.0  # the fade-out's last sample
     assert "coherence" in w.coherence.text()
 
 

@@ -141,9 +141,10 @@ def test_output_is_checked_and_recorded():
         s.start(np.zeros(10))
     s.start(drive_period())
     s.read_period()
-    t0, peak, last = s.output.periods[0]
-    assert t0 == 0.0 and peak == pytest.approx(np.max(np.abs(drive_period())))
-    assert last == drive_period()[-1]
+    played = s.output.periods[0]
+    assert played.start_s == 0.0
+    assert played.peak_v == pytest.approx(np.max(np.abs(drive_period())))
+    assert played.first_v == drive_period()[0] and played.last_v == drive_period()[-1]
     assert s.output_v == pytest.approx(drive_period()[-1])
     s.stop()
     assert s.output_v == 0.0
