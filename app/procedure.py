@@ -1,10 +1,10 @@
 """The calibration procedure (SPEC.md section 5), UI-agnostic.
 
 preflight -> background (drive at 0 V: hum and noise per line) -> fade-in at a gentle
-identification level, the stand's response per line from the period after it -> closed-loop
-equalisation (crossfades between drives, settle on both channels, measure the table acceleration
-per line on the reference channel, D_k <- D_k A_target/A_measured) -> acquisition of L periods
-or until a type A target or a time bound, with live estimates -> fade-out -> 0 V.
+identification level, settle, the stand's response per line -> closed-loop equalisation
+(crossfades between drives, settle on both channels, measure the table acceleration per line on
+the reference channel, D_k <- D_k A_target/A_measured) -> acquisition of L periods or until a
+type A target or a time bound, with live estimates -> fade-out -> 0 V.
 
 It drives any `hardware.interfaces.Daq` (and amplifiers), emits typed events to a listener,
 writes the run folder as it goes, imports nothing from a UI and prints nothing. The drive ends at
@@ -414,16 +414,15 @@ class Procedure:
         self._run.background = {k: v.tolist() for k, v in self._background_v.items()}
 
     def _identify(self) -> None:
-        """Fade in at a gentle level and measure the table's response per line on the period
-        after the fade. No settle test here: the raised-cosine fade ends with zero slope, and the
-        response only seeds the closed loop, whose every step is settle-tested."""
+        """Fade in at a gentle level, settle, and measure the table's response per line. The
+        settle test also guards against a board whose output lags its input by a period: the
+        fade itself is never taken for the response."""
         self._state(State.IDENTIFYING, "gentle drive: measuring the stand's response per line")
         plan = self._active
         amplitude = np.full(len(plan.lines), self.settings.identification_drive_v)
         drive = synthesize(plan.bins, amplitude, plan.phases_rad, plan.period_samples)
         self._crossfade(drive, State.IDENTIFYING)
-        reference_lines, _ = self._period(State.IDENTIFYING)
-        measured = self._to_acceleration(reference_lines)
+        measured = self._settled_acceleration(State.IDENTIFYING)
         drive_line = amplitude * np.exp(1j * (plan.phases_rad - np.pi / 2))
         self._response = measured / drive_line  # m/s^2 per drive volt, complex, per line
         if np.any(np.abs(self._response) == 0) or not np.all(np.isfinite(self._response)):
@@ -652,7 +651,7 @@ class Procedure:
         self._drive = new_drive
         self._write(new_drive)
 
-    def _settled_acceleration(self) -> np.ndarray:
+    def _settled_acceleration(self, state: State = State.EQUALISING) -> np.ndarray:
         """Read periods until two consecutive ones agree at every line on both channels (the
         DUT can carry a transient of its own, e.g. a piezo's 0.5 Hz high-pass); the table
         acceleration per line (complex, m/s^2) from the reference channel, averaged over the
@@ -664,7 +663,7 @@ class Procedure:
             noise = noise[:, [self._line_index]] * scale
         previous = previous_block = None
         for _ in range(s.max_settle_periods):
-            (ref, dut), block = self._period(State.EQUALISING, return_block=True)
+            (ref, dut), block = self._period(state, return_block=True)
             lines = np.array([ref, dut])
             if previous is not None and periods_agree(previous, lines, noise, s.settle_tolerance):
                 self._settled_lines = (ref, dut)

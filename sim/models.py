@@ -269,3 +269,6 @@ class StandModel:
     adc: AdcModel = field(default_factory=AdcModel)
     skew_s: float = 4e-6
     mains_hz: float = 50.0
+    # a period written to the output plays this many periods later than the next one read
+    # (a real board's buffer and FIFO latency; 0: in lockstep)
+    output_latency_periods: int = 0

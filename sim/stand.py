@@ -235,7 +235,9 @@ class SimulatedStand:
         self.output = OutputRecord()
         self._config: DaqConfig | None = None
         self._buffer: np.ndarray | None = None  # the period playing (regenerated)
-        self._pending: deque[np.ndarray] = deque()  # written, not yet played, in order
+        # written, not yet played, in order: (the read from which it may play, period)
+        self._pending: deque[tuple[int, np.ndarray]] = deque()
+        self._reads = 0
         self._running = False
         self._lost = False
         self._amp_tripped = False
@@ -344,7 +346,9 @@ class SimulatedStand:
         one-period buffer, every period written plays)."""
         if self._lost:
             raise DeviceLostError("simulated DAQ: device lost")
-        self._pending.append(self._checked(period_v))
+        self._pending.append(
+            (self._reads + self.model.output_latency_periods, self._checked(period_v))
+        )
 
     def read_period(self, timeout_s: float = 10.0) -> np.ndarray:
         """Simulate the next period; (channels, N) volts in the configured input order."""
@@ -365,8 +369,9 @@ class SimulatedStand:
                 raise DaqTimeoutError(f"simulated DAQ: no period within {timeout_s:g} s")
             if wait > 0:
                 time.sleep(wait)
-        if self._pending:
-            self._buffer = self._pending.popleft()
+        if self._pending and self._pending[0][0] <= self._reads:
+            self._buffer = self._pending.popleft()[1]
+        self._reads += 1
         drive = self._buffer
         blocks = self._simulate(drive)
         self._played(drive)
@@ -396,7 +401,7 @@ class SimulatedStand:
         plays)."""
         if self._config is not None and self._buffer is not None and not self._lost:
             while self._running and self._pending:
-                self._buffer = self._pending.popleft()
+                self._buffer = self._pending.popleft()[1]
                 self._played(self._buffer)
             self._buffer = np.zeros_like(self._buffer)
         self._pending.clear()
