@@ -65,6 +65,26 @@ from hardware.errors import HardwareError
 from sim.models import DUT_CATALOGUE
 
 FRAME_HZ = 25
+# labelled ticks of the logarithmic frequency axes (Hz): decades, then 2 and 5 between them
+DECADE_TICKS_HZ = (1, 10, 100, 1000, 10000)
+MINOR_TICKS_HZ = (2, 5, 20, 50, 200, 500, 2000, 5000, 20000)
+
+
+def _hz_label(frequency_hz: float) -> str:
+    return f"{frequency_hz / 1000:g}k" if frequency_hz >= 1000 else f"{frequency_hz:g}"
+
+
+def _frequency_axis(plot: pg.PlotItem) -> None:
+    """Logarithmic frequency axis with readable labels (pyqtgraph's own crowd together)."""
+    plot.setLogMode(x=True)
+    plot.getAxis("bottom").setTicks(
+        [
+            [(float(np.log10(f)), _hz_label(f)) for f in DECADE_TICKS_HZ],
+            [(float(np.log10(f)), _hz_label(f)) for f in MINOR_TICKS_HZ],
+        ]
+    )
+
+
 ORGANISATION, APPLICATION = "accelcal", "accelcal"
 
 
@@ -271,7 +291,7 @@ class MainWindow(QMainWindow):
         self.spec_plot = self.graphs.addPlot(
             title="Spectra (lines marked)", labels={"left": "dB re 1 V", "bottom": "Hz"}
         )
-        self.spec_plot.setLogMode(x=True)
+        _frequency_axis(self.spec_plot)
         self.spec_ref = self.spec_plot.plot(pen=pg.mkPen("#1f77b4", width=1))
         self.spec_dut = self.spec_plot.plot(pen=pg.mkPen("#d62728", width=1))
         self.spec_lines = self.spec_plot.plot(pen=None, symbol="t", symbolSize=6, symbolBrush="k")
@@ -280,14 +300,14 @@ class MainWindow(QMainWindow):
             title="Sensitivity deviation from reference frequency",
             labels={"left": "%", "bottom": "Hz"},
         )
-        self.sens_plot.setLogMode(x=True)
+        _frequency_axis(self.sens_plot)
         self.sens_curve = self.sens_plot.plot(pen=pg.mkPen("#2c3e50"), symbol="o", symbolSize=5)
         self.sens_err = pg.ErrorBarItem(beam=0.02, pen=pg.mkPen("#7f8c8d"))
         self.sens_plot.addItem(self.sens_err)
         self.phase_plot = self.graphs.addPlot(
             title="Phase", labels={"left": "degree", "bottom": "Hz"}
         )
-        self.phase_plot.setLogMode(x=True)
+        _frequency_axis(self.phase_plot)
         self.phase_curve = self.phase_plot.plot(pen=pg.mkPen("#8e44ad"), symbol="o", symbolSize=5)
         self.phase_err = pg.ErrorBarItem(beam=0.02, pen=pg.mkPen("#7f8c8d"))
         self.phase_plot.addItem(self.phase_err)
@@ -330,7 +350,7 @@ class MainWindow(QMainWindow):
             title="Phase, ± U", labels={"left": "degree", "bottom": "Hz"}
         )
         for plot in (self.result_mag, self.result_phase):
-            plot.setLogMode(x=True)
+            _frequency_axis(plot)
             plot.showGrid(x=True, y=True, alpha=0.3)
         middle.addWidget(charts, 2)
         layout.addLayout(middle, 3)
