@@ -344,6 +344,15 @@ class Procedure:
                 f"reference channel: predicted peak {reference_peak:.3g} V is too close to its "
                 f"+-{self._ranges['reference']:g} V range (raise the range or lower the level)"
             )
+        nominal = self.settings.dut_nominal_mv_per_ms2
+        if nominal is not None:  # the DUT's own response is unknown: its nominal stands in
+            dut_peak = peaks.acceleration_ms2 * nominal * 1e-3 * self.stand.chain.dut_gain
+            if dut_peak > OVERLOAD_FRACTION * self._ranges["dut"] / 1.2:
+                problems.append(
+                    f"DUT channel: predicted peak {dut_peak:.3g} V (nominal {nominal:g} "
+                    f"mV/(m/s^2)) is too close to its +-{self._ranges['dut']:g} V range "
+                    "(raise the range or lower the level)"
+                )
         if problems:
             raise PreflightError("; ".join(problems))
         self._log(

@@ -189,6 +189,17 @@ def test_preflight_refuses_before_anything_moves(tmp_path):
     assert not (tmp_path / "runs").exists()  # and no run folder was made
 
 
+def test_preflight_checks_the_dut_channel_range_from_its_nominal_sensitivity():
+    stand = open_stand(CONFIG, dut="piezo")
+    plan = preset_plan("piezo")
+    Procedure(stand, plan, RunSettings(dut_nominal_mv_per_ms2=10.0)).preflight()  # fits
+    too_sensitive = RunSettings(dut_nominal_mv_per_ms2=100.0)  # ~4.9 V peaks on +-5 V
+    expected = r"DUT channel: predicted peak 4.9. V \(nominal 100 mV"
+    with pytest.raises(PreflightError, match=expected):
+        Procedure(stand, plan, too_sensitive).preflight()
+    assert stand.daq.output.periods == []
+
+
 def test_type_a_target_and_time_bound(tmp_path):
     settings = RunSettings(target_type_a=0.0005, max_acquisition_s=60.0)
     finished, *_ = run(tmp_path, dut="capacitive", settings=settings, systematic=False)
