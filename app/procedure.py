@@ -551,6 +551,7 @@ class Procedure:
         if self._writer is not None:
             self._writer.set_mode("stepped-sine")
         estimates, settled_ref, settled_dut = [], [], []
+        responses: list[tuple[float, complex]] = []  # (Hz, m/s^2 per drive volt) per line done
         per_line_bound = (
             None if s.max_acquisition_s is None else s.max_acquisition_s / len(plan.lines)
         )
@@ -571,9 +572,10 @@ class Procedure:
             self._reusable_blocks = []
             if k == 0:
                 self._identify()
-            else:  # start from the previous line's response at half the predicted drive
-                self._response = 2.0 * self._response
+            else:  # the level loop starts from the response extrapolated from the last lines
+                self._response = np.array([_extrapolated(responses, line.frequency_hz)])
             self._equalise()
+            responses.append((line.frequency_hz, complex(self._response[0])))
             settled_ref.append(self._settled_lines[0][0])
             settled_dut.append(self._settled_lines[1][0])
             accumulator = SpectralAccumulator(n, [m], track_floor=False)
@@ -853,6 +855,28 @@ class Procedure:
     def _emit(self, event: Event) -> None:
         if self.listener is not None:
             self.listener(event)
+
+
+MAX_EXTRAPOLATED_CHANGE = 2.0  # the predicted response stays within x2 of the last line's
+
+
+def _extrapolated(responses: list[tuple[float, complex]], frequency_hz: float) -> complex:
+    """The stand's response (drive to table acceleration) at `frequency_hz`, extrapolated in
+    log-log magnitude and in phase from the last two lines measured (the last one alone if
+    only one), its change bounded to `MAX_EXTRAPOLATED_CHANGE` in magnitude: a guess the
+    closed loop then corrects, so one level step per line is often enough."""
+    f1, r1 = responses[-1]
+    if len(responses) < 2:
+        return r1
+    f2, r2 = responses[-2]
+    exponent = math.log(frequency_hz / f1) / math.log(f1 / f2)
+    ratio = r1 / r2
+    gain = min(max(abs(ratio) ** exponent, 1 / MAX_EXTRAPOLATED_CHANGE), MAX_EXTRAPOLATED_CHANGE)
+    return (
+        r1
+        * gain
+        * complex(math.cos(exponent * np.angle(ratio)), math.sin(exponent * np.angle(ratio)))
+    )
 
 
 def _combine(estimates: list[Estimate]) -> Estimate:

@@ -392,3 +392,16 @@ def test_the_drive_never_jumps_even_when_a_crossfade_is_cut_short(
     assert [p.peak_v for p in read] == pytest.approx(np.max(np.abs(drive), axis=1), abs=8 * lsb)
     moving = sum(1 for p in played if p.peak_v > 0)
     assert finished.record["excitation_time_s"] == pytest.approx(moving * plan.period_s)
+
+
+def test_the_stepped_sine_level_loop_starts_from_an_extrapolated_response():
+    from app.procedure import _extrapolated
+
+    power_law = [(10.0, 100.0 * np.exp(0.2j)), (12.5, 156.25 * np.exp(0.3j))]  # ~ f^2
+    predicted = _extrapolated(power_law, 16.0)
+    assert abs(predicted) == pytest.approx(256.0, rel=1e-9)
+    phase_step = 0.1 * np.log(16.0 / 12.5) / np.log(12.5 / 10.0)  # linear in log f
+    assert np.angle(predicted) == pytest.approx(0.3 + phase_step, rel=1e-9)
+    assert _extrapolated(power_law[:1], 12.5) == power_law[0][1]
+    jump = [(10.0, 1.0 + 0j), (12.5, 10.0 + 0j)]  # a wild change is not extrapolated further
+    assert abs(_extrapolated(jump, 16.0)) == pytest.approx(20.0)
