@@ -13,6 +13,7 @@ writes the run folder as it goes, imports nothing from a UI and prints nothing. 
 
 from __future__ import annotations
 
+import cmath
 import dataclasses
 import math
 import threading
@@ -872,11 +873,7 @@ def _extrapolated(responses: list[tuple[float, complex]], frequency_hz: float) -
     exponent = math.log(frequency_hz / f1) / math.log(f1 / f2)
     ratio = r1 / r2
     gain = min(max(abs(ratio) ** exponent, 1 / MAX_EXTRAPOLATED_CHANGE), MAX_EXTRAPOLATED_CHANGE)
-    return (
-        r1
-        * gain
-        * complex(math.cos(exponent * np.angle(ratio)), math.sin(exponent * np.angle(ratio)))
-    )
+    return r1 * gain * cmath.exp(1j * exponent * cmath.phase(ratio))
 
 
 def _combine(estimates: list[Estimate]) -> Estimate:
