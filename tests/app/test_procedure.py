@@ -405,3 +405,31 @@ def test_the_stepped_sine_level_loop_starts_from_an_extrapolated_response():
     assert _extrapolated(power_law[:1], 12.5) == power_law[0][1]
     jump = [(10.0, 1.0 + 0j), (12.5, 10.0 + 0j)]  # a wild change is not extrapolated further
     assert abs(_extrapolated(jump, 16.0)) == pytest.approx(20.0)
+
+
+def test_without_a_drive_loopback_the_recording_holds_the_drive_as_played(tmp_path):
+    """With no loopback channel the recorded drive is the procedure's own account of what
+    played, period by period: crossfades and the fade-out included (an abort mid-crossfade
+    is the hardest case)."""
+    config = dataclasses.replace(
+        CONFIG, inputs=tuple(c for c in CONFIG.inputs if c.name != "drive")
+    )
+    stand = open_stand(config, dut="piezo", systematic=False)
+    folder = RunFolder.create(tmp_path, "no-loopback")
+    plan = preset_plan("piezo")
+    procedure = Procedure(stand, plan, RunSettings(), folder)
+
+    def listener(event):
+        if isinstance(event, StateChanged) and event.state == State.EQUALISING:
+            procedure.abort("stopped by the operator")
+
+    procedure.listener = listener
+    finished = procedure.run()
+    stand.close()
+    assert finished.status == "aborted"
+    drive = read_recording(folder.recording).drive_v.reshape(-1, plan.period_samples)
+    played = stand.daq.output.periods[: len(drive)]  # the periods that were read
+    assert len(drive) >= 6  # background, identification, crossfade, fade-out
+    assert [p.peak_v for p in played] == list(np.max(np.abs(drive), axis=1))
+    assert [p.first_v for p in played] == list(drive[:, 0])
+    assert [p.last_v for p in played] == list(drive[:, -1])
