@@ -264,6 +264,8 @@ class Procedure:
                     "identity": self.identity,
                 },
             )
+            if self.stand.config.text:
+                self.folder.write_text("stand.toml", self.stand.config.text)
         try:
             self._state(State.PREFLIGHT)
             self._preflight()

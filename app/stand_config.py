@@ -86,6 +86,7 @@ class StandConfig:
     budget: Budget
     simulation: dict[str, str] = field(default_factory=dict)
     raw: dict[str, Any] = field(default_factory=dict, repr=False)
+    text: str = field(default="", repr=False)  # the stand file as read (copied into each run)
 
     def reference_chain(self) -> ReferenceChain:
         """The chain the analysis uses: the certificate, nominal gains and the skew."""
@@ -280,6 +281,7 @@ def parse(text: str, source: str) -> StandConfig:
         budget=budget,
         simulation=dict(simulation),
         raw=data,
+        text=text,
     )
 
 

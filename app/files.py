@@ -1,0 +1,81 @@
+"""Writing files so that no reader ever sees a torn file and nothing stored is overwritten.
+
+Every write goes to a temporary name in the target's own folder, is flushed to disk, and is
+then moved into place in one step: `os.link` when the target must not exist yet (the link
+fails if it does, so two writers can never both win), `os.replace` when overwriting was asked
+for explicitly.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import tempfile
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+
+class FileExistsRefusal(FileExistsError):
+    """The target exists and overwriting was not asked for."""
+
+
+def _fsync_dir(folder: Path) -> None:
+    """Flush a folder's entry table (a rename is durable only then); best effort."""
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+@contextlib.contextmanager
+def staged(target: str | Path, *, overwrite: bool = False) -> Iterator[Path]:
+    """A temporary path beside `target` to write to; on leaving the block without an error it
+    becomes `target` in one step. FileExistsRefusal when `target` exists and not `overwrite`
+    (checked before and, atomically, at the end); the temporary file never outlives the block.
+    """
+    target = Path(target)
+    folder = target.parent if str(target.parent) else Path(".")
+    if not overwrite and target.exists():
+        raise FileExistsRefusal(f"{target}: exists; it is never overwritten")
+    fd, name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=folder)
+    os.close(fd)
+    temporary = Path(name)
+    try:
+        yield temporary
+        with temporary.open("rb+") as handle:
+            os.fsync(handle.fileno())
+        if overwrite:
+            os.replace(temporary, target)
+        else:
+            try:
+                os.link(temporary, target)
+            except FileExistsError:
+                raise FileExistsRefusal(f"{target}: exists; it is never overwritten") from None
+        _fsync_dir(folder)
+    finally:
+        with contextlib.suppress(FileNotFoundError):
+            temporary.unlink()
+
+
+def write_new(target: str | Path, data: bytes | str, *, overwrite: bool = False) -> Path:
+    """Write `data` (str as UTF-8) to `target` atomically; see `staged`."""
+    payload = data.encode("utf-8") if isinstance(data, str) else data
+    with staged(target, overwrite=overwrite) as temporary:
+        temporary.write_bytes(payload)
+    return Path(target)
+
+
+def write_with(
+    target: str | Path, writer: Callable[[Path], None], *, overwrite: bool = False
+) -> Path:
+    """Let `writer(path)` write a file (e.g. a PDF or HDF5 library) at a temporary path, then
+    move it into place atomically; see `staged`."""
+    with staged(target, overwrite=overwrite) as temporary:
+        writer(temporary)
+    return Path(target)
