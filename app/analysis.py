@@ -1,10 +1,31 @@
-"""Offline analysis of a recording: the same accumulator and results code as a live run."""
+"""Offline analysis of a recording: the same accumulator and results code as a live run.
+
+A recording carries how it ended (app.recording): results from an aborted or incomplete one
+say so in their status and warnings and are never certified. A recording inside a run folder
+is analysed only after the folder's manifest verifies (app.records).
+"""
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
+from pathlib import Path
 
-from app.recording import Recording, RecordingError, iter_batches
+from app.recording import (
+    STATUS_ABORTED,
+    STATUS_INCOMPLETE,
+    Recording,
+    RecordingError,
+    iter_batches,
+    read_recording,
+)
+from app.records import (
+    STATUS_INTERRUPTED,
+    STATUS_MODIFIED,
+    STATUS_RUNNING,
+    inspect_run,
+    is_run_folder,
+)
 from dsp.calibration import Results, compute_results
 from dsp.segments import segment_line_spectra, segment_plan
 from dsp.spectral import Estimate, SpectralAccumulator
@@ -16,6 +37,7 @@ class Analysis:
 
     estimate: Estimate
     results: Results
+    status: str | None = None  # the recording's (app.recording.STATUSES); None: CSV, in memory
 
 
 def analyze(
@@ -29,7 +51,8 @@ def analyze(
 ) -> Analysis:
     """Analyse whole periods (default) or, with `segments`, the seed's L equal segments."""
     plan = recording.plan
-    warnings: list[str] = []
+    status_note = status_warning(recording.status)
+    warnings: list[str] = [status_note] if status_note else []
     if recording.periods <= recording.settle_periods or recording.acquired_periods == 0:
         raise RecordingError(
             f"{recording.source}: {recording.periods} period(s) recorded, none left after "
@@ -64,4 +87,54 @@ def analyze(
         tolerance_percent=tolerance_percent,
         extra_warnings=warnings,
     )
-    return Analysis(estimate, results)
+    return Analysis(estimate, results, recording.status)
+
+
+def status_warning(status: str | None) -> str | None:
+    """The warning results of a recording with `status` carry (None for a complete one)."""
+    if status == STATUS_ABORTED:
+        return "recording of an aborted run: results for review only, never certified"
+    if status == STATUS_INCOMPLETE:
+        return (
+            "incomplete recording (its run never finished, or it predates recording statuses): "
+            "results for review only, never certified"
+        )
+    return None
+
+
+RECORDING_NAME = "recording.h5"
+
+
+def read_for_analysis(path: str | Path) -> Recording:
+    """The HDF5 recording at `path`, a recording file or a run folder (its recording.h5). When
+    it belongs to a run folder the folder is verified first (RecordingError naming the file
+    with "hash mismatch" when it was changed) and the run's status joins the recording's."""
+    path = Path(path)
+    folder, file = (path, path / RECORDING_NAME) if path.is_dir() else (path.parent, path)
+    if not is_run_folder(folder):
+        if path.is_dir():
+            raise RecordingError(f"{path}: a folder but not a run folder (no manifest.json)")
+        return read_recording(file)
+    run_status = _run_status(folder)
+    if not file.exists():
+        raise RecordingError(f"{file}: the run folder has no recording")
+    recording = read_recording(file)
+    return dataclasses.replace(recording, status=_joined(run_status, recording.status))
+
+
+def _run_status(folder: Path) -> str:
+    """complete, aborted or incomplete (interrupted); RecordingError when it does not verify."""
+    try:
+        check = inspect_run(folder)
+    except ValueError as exc:  # unreadable manifest, not a run folder
+        raise RecordingError(str(exc)) from None
+    if check.state == STATUS_MODIFIED:
+        raise RecordingError("; ".join(check.problems))
+    if check.state == STATUS_RUNNING:
+        raise RecordingError(f"{folder}: the run is still being written; analyse it once it ends")
+    return STATUS_INCOMPLETE if check.state == STATUS_INTERRUPTED else check.state
+
+
+def _joined(run_status: str, recording_status: str | None) -> str:
+    """The verified run's status, unless the recording's own mark says aborted."""
+    return STATUS_ABORTED if recording_status == STATUS_ABORTED else run_status

@@ -6,11 +6,15 @@ digits, value to the same decimal place); nothing is recomputed. Items not in th
 (customer, authorising person, conditions) come from options or the stand configuration's
 [certificate] table; missing mandatory items are refused by name. The PDF is reproducible:
 reportlab's invariant mode and dates taken from the run make the same run and options give the
-same bytes.
+same bytes. A certificate is issued under the run folder's lock, numbered uniquely under the
+runs root (app.certificate_register) and written atomically, never over a file; the read-only
+run folder is opened only for the moment it is written into.
 """
 
 from __future__ import annotations
 
+import contextlib
+import dataclasses
 import json
 import math
 from dataclasses import dataclass, field, fields
@@ -34,7 +38,18 @@ from reportlab.platypus import (
 )
 
 from app import formatting as fmt
-from app.records import STATUS_COMPLETE, load_run
+from app.certificate_register import Issued, Register, RegisterError, locked_register
+from app.files import FileExistsRefusal, write_with
+from app.records import (
+    STATUS_COMPLETE,
+    is_product_name,
+    is_run_folder,
+    load_run,
+    sha256_of,
+    try_lock,
+    unlock,
+    writable_folder,
+)
 from dsp.calibration import Results
 from dsp.uncertainty import Budget, Quantity
 
@@ -109,7 +124,8 @@ def load_stored_run(path: str | Path) -> StoredRun:
 
 
 def default_info(run: StoredRun) -> dict[str, Any]:
-    """Defaults from the run and the stand's [certificate] table."""
+    """Defaults from the run and the stand's [certificate] table (the number is not one: `issue`
+    takes the next free one from the runs root's register)."""
     defaults: dict[str, Any] = dict(run.config.get("stand", {}).get("certificate", {}))
     dut = run.record.get("dut", {}) or {}
     if dut.get("id"):
@@ -122,8 +138,6 @@ def default_info(run: StoredRun) -> dict[str, Any]:
         if model is not None:
             defaults.setdefault("dut_model", f"simulated {model.name} ({model.description})")
             defaults.setdefault("dut_type", f"{model.kind} accelerometer")
-    run_id = run.record.get("run_id") or run.path.name
-    defaults.setdefault("certificate_number", f"AC-{run_id}")
     defaults.setdefault("issue_date", (run.record.get("finished_utc") or "")[:10])
     return defaults
 
@@ -330,23 +344,116 @@ def build(
     sweep_path: str | Path | None = None,
 ) -> Path:
     """Write the certificate of a stored complete run to `out` (with the sweep it belongs to,
-    if given: sensitivity against level and the linearity figure); returns the path."""
+    if given: sensitivity against level and the linearity figure); returns the path. See
+    `issue`."""
+    issue(run_path, info, out, sweep_path)
+    return Path(out)
+
+
+def issue(
+    run_path: str | Path,
+    info: CertificateInfo,
+    out: str | Path,
+    sweep_path: str | Path | None = None,
+) -> Issued:
+    """Issue the certificate of a stored, verified, complete run: a number unique under the
+    runs root (the run folder's parent; default AC-<run id>, then AC-<run id>-2, ...), the PDF
+    written atomically to `out` and entered in the root's certificate register. Refused
+    (CertificateError, nothing written) when the run does not verify or did not complete, an
+    item is missing, `out` exists or would change a run's record, the number was issued before,
+    or another certificate of the run is being issued."""
     run = load_stored_run(run_path)
     sweep = load_sweep(sweep_path, run) if sweep_path is not None else None
     info = info.merged(default_info(run))
     missing = missing_items(info)
     if missing:
         raise CertificateError(f"missing mandatory item(s): {', '.join(missing)}")
+    out = Path(out)
+    into_run = _check_out(out, run.path)
+    lock = try_lock(run.path)
+    if lock is None:
+        raise CertificateError(
+            f"{run.path}: another certificate is being issued for this run; try again when it "
+            "is done"
+        )
+    try:
+        with locked_register(run.path.resolve().parent) as register:
+            info = _numbered(info, run, register)
+            with writable_folder(run.path) if into_run else contextlib.nullcontext():
+                try:
+                    write_with(out, lambda path: _write_pdf(run, info, sweep, path))
+                except FileExistsRefusal:
+                    raise CertificateError(_exists(out)) from None
+                try:
+                    return register.add(
+                        str(info.certificate_number), _run_id(run), out.resolve(), sha256_of(out)
+                    )
+                except BaseException:
+                    out.unlink(missing_ok=True)  # never a certificate the register lacks
+                    raise
+    except RegisterError as exc:
+        raise CertificateError(str(exc)) from None
+    finally:
+        unlock(lock)
+
+
+def _run_id(run: StoredRun) -> str:
+    return str(run.record.get("run_id") or run.path.name)
+
+
+def _exists(out: Path) -> str:
+    return f"{out}: exists; a certificate is never overwritten (use --out)"
+
+
+def _check_out(out: Path, run_path: Path) -> bool:
+    """Whether `out` goes into the run's own folder (as a certificate*.pdf product); refuses an
+    existing file and any other place in a run folder (that would change a run's record)."""
+    folder = out.resolve().parent
+    if folder == run_path.resolve():
+        if not is_product_name(out.name):
+            raise CertificateError(
+                f"--out: {out}: in the run folder only certificate*.pdf may be added (anything "
+                "else would change the run's record)"
+            )
+    elif is_run_folder(folder):
+        raise CertificateError(
+            f"--out: {out}: inside the folder of another run ({folder}); a run's record is "
+            "never changed"
+        )
+    if out.exists():
+        raise CertificateError(_exists(out))
+    if folder != run_path.resolve():
+        out.parent.mkdir(parents=True, exist_ok=True)
+        return False
+    return True
+
+
+def _numbered(info: CertificateInfo, run: StoredRun, register: Register) -> CertificateInfo:
+    """`info` with its certificate number: the one given if never issued under the register's
+    root, else the run's next default number."""
+    number = info.certificate_number
+    if number in (None, ""):
+        return dataclasses.replace(info, certificate_number=register.next_number(_run_id(run)))
+    issued = register.find(str(number))
+    if issued is not None:
+        raise CertificateError(
+            f"--certificate-number: {number} is already used: it was issued on "
+            f"{issued.issued_utc} for run {issued.run_id} ({issued.file}); a certificate "
+            "number is never reused"
+        )
+    return info
+
+
+def _write_pdf(
+    run: StoredRun, info: CertificateInfo, sweep: dict[str, Any] | None, out: Path
+) -> None:
+    """Draw the certificate PDF of `run` with `info` (numbered) to `out`, read-only."""
     record, results = run.record, run.results
     stand = record.get("stand", {})
     lab = stand.get("laboratory", {})
     reference = stand.get("reference", {})
     plan = record.get("plan", {})
     number = info.certificate_number
-    out = Path(out)
-    if out.exists():
-        raise CertificateError(f"{out}: exists; a certificate is never overwritten (use --out)")
-    out.parent.mkdir(parents=True, exist_ok=True)
     story: list[Any] = []
     r = results.reference
     value, u_value = fmt.round_gum(r.sensitivity_mv_per_ms2, r.expanded_uncertainty_mv_per_ms2)
@@ -438,7 +545,6 @@ def build(
     )
     document.build(story, canvasmaker=_numbered_canvas(number, lab.get("name", "")))
     out.chmod(0o444)
-    return out
 
 
 def _method_text(record: dict[str, Any], results: Results, plan: dict[str, Any]) -> str:

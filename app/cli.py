@@ -6,6 +6,8 @@ Exit codes: 0 success, 2 bad input (options, plan, file), 1 any other failure.
 from __future__ import annotations
 
 import argparse
+import csv
+import io
 import json
 import math
 import sys
@@ -15,10 +17,12 @@ from pathlib import Path
 
 from app import formatting as fmt
 from app import lines
-from app.analysis import analyze
-from app.certificate import CertificateError, CertificateInfo, build
+from app.analysis import analyze, read_for_analysis, status_warning
+from app.certificate import CertificateError, CertificateInfo, issue
+from app.files import FileExistsRefusal, check_target, write_new
 from app.procedure import PreflightError
-from app.recording import RecordingError, read_csv, read_recording
+from app.recording import RecordingError, read_csv
+from app.records import refuse_in_run_folder
 from app.run import RunRequest, execute
 from app.simulate import SimulationError, simulate
 from app.stand_config import ConfigError
@@ -97,7 +101,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="machine-readable output")
 
     a = sub.add_parser("analyze", help="re-analyse a recording (HDF5 of this program or CSV)")
-    a.add_argument("file", type=Path, help="recording.h5 or recording.csv")
+    a.add_argument("file", type=Path, help="recording.h5, recording.csv or a run folder")
     a.add_argument("--estimator", choices=("periodic", "h1", "seed"), default="periodic")
     a.add_argument("--segments", type=int, help="the seed's protocol: L equal segments")
     a.add_argument("--coverage", type=float, default=0.9545, help="coverage probability")
@@ -105,6 +109,7 @@ def build_parser() -> argparse.ArgumentParser:
     a.add_argument("--tolerance", type=float, help="DUT tolerance of the characteristic, %%")
     a.add_argument("--json", action="store_true", help="results as JSON")
     a.add_argument("--csv", type=Path, help="also write the per-line results as CSV here")
+    a.add_argument("--overwrite", action="store_true", help="--csv may replace an existing file")
     csv_group = a.add_argument_group("CSV recordings (an HDF5 recording carries these)")
     _add_plan_options(csv_group)
     csv_group.add_argument("--reference-sensitivity", type=float, help="mV/(m/s^2)")
@@ -178,6 +183,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--seed", type=int, default=0, help="random seed (noise, stand deviations)")
     s.add_argument("--fault", action="append", default=[], help="inject KIND@SECONDS")
     s.add_argument("--out", type=Path, help="recording to write (.h5)")
+    s.add_argument("--overwrite", action="store_true", help="--out may replace an existing file")
     s.add_argument("--json", action="store_true", help="machine-readable output")
     return parser
 
@@ -266,7 +272,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
 
 def _load(args: argparse.Namespace):
     suffix = args.file.suffix.lower()
-    if suffix in (".h5", ".hdf5"):
+    if suffix in (".h5", ".hdf5") or args.file.is_dir():  # a run folder: its recording.h5
         given = [
             name
             for name in (
@@ -286,7 +292,7 @@ def _load(args: argparse.Namespace):
         if given:
             opts = ", ".join("--" + g.replace("_", "-").replace("range-v", "range") for g in given)
             raise UsageError(f"{opts}: not allowed with an HDF5 recording, which stores them")
-        return read_recording(args.file)
+        return read_for_analysis(args.file)
     if suffix not in (".csv", ".txt"):
         raise UsageError(f"{args.file}: unknown recording type (use .h5/.hdf5 or .csv)")
     if args.preset is None and (
@@ -334,6 +340,8 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         raise UsageError(f"--coverage: must be between 0 and 1, got {args.coverage:g}")
     if args.segments is not None and args.segments < 1:
         raise UsageError(f"--segments: must be >= 1, got {args.segments}")
+    if args.csv is not None:  # refused before any work: onto an input, a run, an existing file
+        _output_target(args.csv, "--csv", (args.file, args.budget), args.overwrite)
     recording = _load(args)
     analysis = analyze(
         recording,
@@ -344,21 +352,55 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         tolerance_percent=args.tolerance,
     )
     results = analysis.results
+    status = analysis.status or "unknown"  # a CSV recording carries no status
     if args.csv:
-        args.csv.write_text(results.to_csv(), encoding="utf-8")
+        table = _csv_with_status(results.to_csv(), status)
+        try:
+            write_new(args.csv, table, overwrite=args.overwrite)
+        except FileExistsRefusal as exc:
+            raise UsageError(f"--csv: {exc} (--overwrite replaces it)") from None
     if args.json:
-        print(json.dumps(results.to_dict(), indent=2))
+        note = status_warning(analysis.status)
+        if note:
+            print(f"accelcal analyze: warning: {note}", file=sys.stderr)
+        print(json.dumps({"status": status, **results.to_dict()}, indent=2))
     else:
-        print_results(results, recording.source)
+        print_results(results, recording.source, analysis.status)
     return EXIT_OK
 
 
-def print_results(results: Results, source: str = "") -> None:
-    """Human-readable results: reference sensitivity, per-line table, warnings."""
+def _output_target(
+    target: Path, option: str, inputs: tuple[Path | None, ...], overwrite: bool
+) -> None:
+    """UsageError naming `option` when `target` is an input, inside a run folder, or exists
+    without --overwrite."""
+    try:
+        check_target(target, inputs=inputs, overwrite=overwrite)
+        refuse_in_run_folder(target)
+    except FileExistsRefusal as exc:
+        raise UsageError(f"{option}: {exc} (--overwrite replaces it)") from None
+    except ValueError as exc:
+        raise UsageError(f"{option}: {exc}") from None
+
+
+def _csv_with_status(text: str, status: str) -> str:
+    """Per-line results CSV with a last column: the status of the recording analysed."""
+    rows = list(csv.reader(io.StringIO(text)))
+    out = io.StringIO()
+    writer = csv.writer(out, lineterminator="\n")
+    writer.writerow([*rows[0], "recording_status"])
+    writer.writerows([*row, status] for row in rows[1:])
+    return out.getvalue()
+
+
+def print_results(results: Results, source: str = "", status: str | None = None) -> None:
+    """Human-readable results: reference sensitivity, per-line table, warnings; `status` (of
+    the recording analysed) shown unless complete or unknown."""
     r = results.reference
     value, u = fmt.round_gum(r.sensitivity_mv_per_ms2, r.expanded_uncertainty_mv_per_ms2)
+    shown = f" ({status} recording)" if status not in (None, "complete") else ""
     print(
-        f"{source}: {results.periods} {'periods' if results.periods != 1 else 'period'}, "
+        f"{source}{shown}: {results.periods} {'periods' if results.periods != 1 else 'period'}, "
         f"estimator {results.estimator}"
     )
     print(
@@ -616,8 +658,8 @@ def cmd_certificate(args: argparse.Namespace) -> int:
         notes=args.notes,
     )
     out = args.out or (args.run / "certificate.pdf")
-    path = build(args.run, info, out, args.sweep)
-    print(f"certificate: {path}")
+    issued = issue(args.run, info, out, args.sweep)
+    print(f"certificate {issued.number}: {out}")
     return EXIT_OK
 
 
@@ -656,15 +698,22 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     if args.settle < 0:
         raise UsageError(f"--settle: must be >= 0, got {args.settle}")
     faults = _faults(args.fault)
-    run = simulate(
-        args.out,
-        dut=args.dut,
-        level_ms2=args.level,
-        periods=args.periods,
-        seed=args.seed,
-        settle=args.settle,
-        faults=faults,
-    )
+    try:
+        run = simulate(
+            args.out,
+            dut=args.dut,
+            level_ms2=args.level,
+            periods=args.periods,
+            seed=args.seed,
+            settle=args.settle,
+            faults=faults,
+            overwrite=args.overwrite,
+        )
+    except HardwareError:
+        print(
+            f"accelcal simulate: the recording so far, marked aborted: {args.out}", file=sys.stderr
+        )
+        raise
     summary = {
         "recording": str(run.path),
         "dut": args.dut,

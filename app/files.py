@@ -19,6 +19,31 @@ class FileExistsRefusal(FileExistsError):
     """The target exists and overwriting was not asked for."""
 
 
+class TargetRefusal(ValueError):
+    """A target that must not be written: an input of the same command, or a folder."""
+
+
+def _same(a: Path, b: Path) -> bool:
+    if a.exists() and b.exists():
+        return os.path.samefile(a, b)  # any name of the same file (links included)
+    return a.resolve() == b.resolve()
+
+
+def check_target(
+    target: str | Path, *, inputs: tuple[str | Path | None, ...] = (), overwrite: bool = False
+) -> None:
+    """Refuse, before anything is done, to write `target` when it is one of `inputs` (under any
+    name; even with `overwrite`), a folder, or an existing file without `overwrite`."""
+    target = Path(target)
+    for source in inputs:
+        if source is not None and _same(target, Path(source)):
+            raise TargetRefusal(f"{target}: is an input of this command; it is never overwritten")
+    if target.is_dir():
+        raise TargetRefusal(f"{target}: is a folder; name a file")
+    if target.exists() and not overwrite:
+        raise FileExistsRefusal(f"{target}: exists; it is never overwritten")
+
+
 def _fsync_dir(folder: Path) -> None:
     """Flush a folder's entry table (a rename is durable only then); best effort."""
     try:

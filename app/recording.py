@@ -5,7 +5,10 @@ HDF5 layout (format "accelcal-recording", version 1):
     /                 attrs: format, format_version, sample_rate_hz, period_samples,
                              settle_periods, acquired_periods (optional: periods analysed
                              after the settle periods; later ones, e.g. a fade-out, are kept
-                             but not analysed), created_utc, software_version
+                             but not analysed), created_utc, software_version,
+                             status ("complete" or "aborted", set when the recording ends;
+                             absent: the run never finished, the recording is "incomplete"),
+                             status_reason (why it was aborted)
     /signals/reference  float64 V, chunked one period, resizable; attrs unit, range_v (0 = unknown)
     /signals/dut        idem
     /signals/drive      idem, optional (the DAQ output)
@@ -23,6 +26,7 @@ RecordingError that names the file, the channel and the problem.
 from __future__ import annotations
 
 import json
+import logging
 import math
 from collections.abc import Iterator
 from dataclasses import dataclass, field
@@ -42,6 +46,12 @@ FORMAT_VERSION = 1
 CHANNELS = ("reference", "dut")
 OVERLOAD_FRACTION = 0.995  # a sample within 0.5 % of the range is at its limit (SPEC s.11)
 FLAT_TOP_RUN = 5  # without a known range: this many equal samples at the extreme = clipped
+STATUS_COMPLETE = "complete"
+STATUS_ABORTED = "aborted"
+STATUS_INCOMPLETE = "incomplete"  # no end status: cut off, or written before statuses existed
+STATUSES = (STATUS_COMPLETE, STATUS_ABORTED, STATUS_INCOMPLETE)
+
+log = logging.getLogger(__name__)
 
 
 class RecordingError(ValueError):
@@ -84,6 +94,7 @@ class Recording:
     source: str = ""
     truth: Truth | None = None
     acquired_periods: int | None = None
+    status: str | None = None  # STATUSES; None: not recorded by this program (CSV, in memory)
 
     @property
     def periods(self) -> int:
@@ -182,6 +193,25 @@ class RecordingWriter:
         self._file["config"].attrs["budget"] = json.dumps(budget.to_list())
         self._file.flush()
 
+    def set_status(self, status: str, reason: str | None = None) -> bool:
+        """Mark how the recording ended (STATUSES; "aborted" with its reason). Never raises
+        for the file: False (logged) when it cannot take the mark, which leaves the recording
+        "incomplete", the safe reading."""
+        if status not in STATUSES:
+            raise ValueError(f"recording status: {status!r} is not one of {', '.join(STATUSES)}")
+        problem = None if self._file.id.valid else "the recording is closed"
+        if problem is None:
+            try:
+                self._file.attrs["status"] = status
+                self._file.attrs["status_reason"] = reason or ""
+                self._file.flush()
+            except (OSError, KeyError, ValueError, RuntimeError) as exc:  # the disk refused it
+                problem = str(exc)
+        if problem is not None:
+            log.warning("%s: recording status %r not stored: %s", self.path, status, problem)
+            return False
+        return True
+
     def write_truth(self, truth: Truth) -> None:
         """Store the simulated truth (group /truth)."""
         group = self._file.require_group("truth")
@@ -218,6 +248,7 @@ def write_recording(path: str | Path, recording: Recording) -> None:
         writer.append(recording.reference_v, recording.dut_v, recording.drive_v)
         if recording.truth is not None:
             writer.write_truth(recording.truth)
+        writer.set_status(recording.status or STATUS_COMPLETE)  # written whole
 
 
 def read_recording(path: str | Path) -> Recording:
@@ -273,6 +304,7 @@ def read_recording(path: str | Path) -> Recording:
             ranges[channel] = float(ds.attrs.get("range_v", 0.0))
         settle = int(f.attrs.get("settle_periods", 0))
         acquired = int(f.attrs["acquired_periods"]) if "acquired_periods" in f.attrs else None
+        status = recording_status(f.attrs.get("status"))
         truth = _read_truth(f, name)
     try:
         plan = Plan.from_dict(parsed["plan"])
@@ -303,9 +335,18 @@ def read_recording(path: str | Path) -> Recording:
         source=str(path),
         truth=truth,
         acquired_periods=acquired,
+        status=status,
     )
     validate(recording, name)
     return recording
+
+
+def recording_status(mark: object) -> str:
+    """A recording's status from its "status" attribute: "complete" or "aborted" as marked,
+    anything else (no mark: the run never finished) "incomplete"."""
+    if isinstance(mark, bytes):
+        mark = mark.decode("utf-8", "replace")
+    return str(mark) if mark in (STATUS_COMPLETE, STATUS_ABORTED) else STATUS_INCOMPLETE
 
 
 def _read_truth(f: h5py.File, name: str) -> Truth | None:

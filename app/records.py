@@ -28,6 +28,7 @@ import json
 import os
 import stat
 import uuid
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -72,6 +73,43 @@ def new_run_id(label: str) -> str:
 
 def _is_product(name: str) -> bool:
     return any(fnmatch.fnmatch(name, pattern) for pattern in PRODUCT_PATTERNS)
+
+
+def is_product_name(name: str) -> bool:
+    """Whether a file named `name` may be added to a finished run folder (a certificate)."""
+    return _is_product(name)
+
+
+def is_run_folder(path: str | Path) -> bool:
+    """Whether `path` is a run folder, finished (manifest) or not (run log being written)."""
+    path = Path(path)
+    return (path / MANIFEST_NAME).exists() or (path / "run.log").exists()
+
+
+def refuse_in_run_folder(target: str | Path) -> None:
+    """ValueError when writing `target` would add to or replace a file of a run folder (a run's
+    record is never changed after the run)."""
+    folder = Path(target).resolve().parent
+    if is_run_folder(folder):
+        raise ValueError(
+            f"{target}: inside the run folder {folder}; a run's record is never changed, write "
+            "it elsewhere"
+        )
+
+
+@contextlib.contextmanager
+def writable_folder(path: Path) -> Iterator[None]:
+    """Let the owner add a file to the read-only folder `path` for the block (a certificate),
+    then give the folder its mode back, whatever happens."""
+    mode = stat.S_IMODE(path.stat().st_mode)
+    if mode & stat.S_IWUSR:
+        yield
+        return
+    path.chmod(mode | stat.S_IWUSR)
+    try:
+        yield
+    finally:
+        path.chmod(mode)
 
 
 def _record_files(path: Path) -> list[Path]:

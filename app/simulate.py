@@ -14,9 +14,12 @@ from pathlib import Path
 
 import numpy as np
 
-from app.recording import RecordingWriter, Truth
+from app.files import FileExistsRefusal, check_target, staged
+from app.recording import STATUS_ABORTED, STATUS_COMPLETE, RecordingWriter, Truth
+from app.records import refuse_in_run_folder
 from dsp.crestfactor import synthesize
 from dsp.multisine import Plan, fade_envelope, preset_plan
+from hardware.errors import HardwareError
 from hardware.interfaces import DaqConfig, InputChannel, OutputChannel
 from sim.models import DUT_CATALOGUE
 from sim.stand import Fault, SimulatedStand
@@ -77,16 +80,21 @@ def simulate(
     faults: tuple[Fault, ...] = (),
     paced: bool = False,
     systematic: bool = True,
+    overwrite: bool = False,
 ) -> SimulatedRun:
-    """Simulate a calibration recording of a catalogue DUT and write it to `out` (HDF5).
+    """Simulate a calibration recording of a catalogue DUT and write it to `out` (HDF5), under
+    a temporary name until it is whole; an existing `out` is refused unless `overwrite`.
 
-    `systematic=False` leaves the stand exactly at its nominal values (no drawn deviations)."""
+    `systematic=False` leaves the stand exactly at its nominal values (no drawn deviations).
+    A stand error (an injected fault) is raised after the recording so far is in place, marked
+    aborted."""
     if dut not in DUT_CATALOGUE:
         raise SimulationError(
             f"--dut: unknown {dut!r}; the catalogue has {', '.join(DUT_CATALOGUE)}"
         )
     if periods < 1:
         raise SimulationError(f"--periods: must be >= 1, got {periods}")
+    path = _target(out, overwrite)
     if plan is None:
         plan = preset_plan(DEFAULT_PRESET.get(dut, "piezo"), level_ms2=level_ms2)
     stand = SimulatedStand(dut, seed=seed, faults=faults, paced=paced, systematic=systematic)
@@ -137,26 +145,58 @@ def simulate(
     )
     chain = stand.reference_chain()
     settle_periods = 1 + settle  # the fade-in period, then the settling ones
-    path = Path(out)
     path.parent.mkdir(parents=True, exist_ok=True)
-    with RecordingWriter(
-        path,
-        plan,
-        chain,
-        stand.sim_budget.budget,
-        settle_periods=settle_periods,
-        with_drive=True,
-        ranges_v={**ranges, "drive": AO_RANGE_V},
-    ) as writer:
-        writer.write_truth(truth)
-        fade = fade_envelope(plan.period_samples, 1, "in")
-        try:
-            stand.start(drive * fade)
-            for index in range(settle_periods + periods):
-                block = stand.read_period()
-                writer.append(block[0], block[1], block[2])
-                if index == 0:
-                    stand.write_period(drive)
-        finally:
-            stand.stop()
+    try:
+        with staged(path, overwrite=overwrite) as temporary:  # no reader sees it half-written
+            with RecordingWriter(
+                temporary,
+                plan,
+                chain,
+                stand.sim_budget.budget,
+                settle_periods=settle_periods,
+                with_drive=True,
+                ranges_v={**ranges, "drive": AO_RANGE_V},
+            ) as writer:
+                writer.write_truth(truth)
+                error = _record(stand, writer, drive, plan, settle_periods + periods)
+    except FileExistsRefusal as exc:  # created by someone else meanwhile
+        raise SimulationError(f"--out: {exc} (--overwrite replaces it)") from None
+    if error is not None:
+        raise error  # after the partial recording, marked aborted, is in place
     return SimulatedRun(path, plan, periods, settle_periods, truth, drive_peak, ranges)
+
+
+def _target(out: str | Path, overwrite: bool) -> Path:
+    """The recording to write; SimulationError naming --out when it exists (unless
+    `overwrite`) or lies in a run folder (never, a run's record is not changed)."""
+    path = Path(out)
+    try:
+        check_target(path, overwrite=overwrite)
+        refuse_in_run_folder(path)
+    except FileExistsRefusal as exc:
+        raise SimulationError(f"--out: {exc} (--overwrite replaces it)") from None
+    except ValueError as exc:
+        raise SimulationError(f"--out: {exc}") from None
+    return path
+
+
+def _record(
+    stand: SimulatedStand, writer: RecordingWriter, drive: np.ndarray, plan: Plan, count: int
+) -> HardwareError | None:
+    """Fade in, then record `count` periods; mark the recording complete, or aborted with the
+    stand's error (returned, to be raised once the partial recording is in place)."""
+    fade = fade_envelope(plan.period_samples, 1, "in")
+    try:
+        stand.start(drive * fade)
+        for index in range(count):
+            block = stand.read_period()
+            writer.append(block[0], block[1], block[2])
+            if index == 0:
+                stand.write_period(drive)
+    except HardwareError as exc:
+        writer.set_status(STATUS_ABORTED, f"{type(exc).__name__}: {exc}")
+        return exc
+    finally:
+        stand.stop()
+    writer.set_status(STATUS_COMPLETE)
+    return None

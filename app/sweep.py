@@ -3,7 +3,8 @@ stand; sensitivity against frequency and level, and a linearity figure.
 
 Linearity per line: the largest relative deviation of the sensitivity at any level from its
 mean over the levels, in %. The sweep summary is written beside the run folders as
-sweep-<id>.json; each level is a run folder of its own.
+sweep-<id>.json (atomically, never replacing a file, read-only); each level is a run folder of
+its own.
 """
 
 from __future__ import annotations
@@ -16,8 +17,9 @@ from typing import Any
 
 import numpy as np
 
+from app.files import write_with
 from app.procedure import Finished, Listener, PreflightError
-from app.records import new_run_id
+from app.records import READ_ONLY_FILE, new_run_id
 from app.run import RunRequest, execute, prepare
 
 
@@ -60,9 +62,15 @@ def run_sweep(request: RunRequest, levels: list[float], listener: Listener | Non
     summary = summarise(runs, sorted(levels))
     sweep_id = new_run_id(f"sweep-{request.dut_id or request.dut}")
     path = Path(request.out) / f"{sweep_id}.json"
-    path.write_text(json.dumps(summary, indent=2), encoding="utf-8")
+    write_with(path, lambda temporary: _write_summary(temporary, summary))
     summary["path"] = str(path)
     return Sweep(tuple(runs), summary)
+
+
+def _write_summary(path: Path, summary: dict[str, Any]) -> None:
+    """The sweep summary as JSON, read-only like the run folders it sums up."""
+    path.write_text(json.dumps(summary, indent=2), encoding="utf-8")
+    path.chmod(READ_ONLY_FILE)
 
 
 def summarise(runs: list[Finished], levels: list[float]) -> dict[str, Any]:

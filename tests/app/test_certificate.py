@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import shutil
+import stat
 import subprocess
 
 import pytest
@@ -88,11 +90,18 @@ def test_every_mandatory_item_and_the_stored_numbers(complete_run, tmp_path):
 
 
 def test_reproducible_bytes_and_never_overwritten(complete_run, tmp_path):
-    first = build(complete_run, INFO, tmp_path / "a.pdf").read_bytes()
-    second = build(complete_run, INFO, tmp_path / "b.pdf").read_bytes()
+    """The same run and options give the same bytes: the run copied under another runs root
+    (whose register has not issued the number yet)."""
+    info = dataclasses.replace(INFO, certificate_number="LAB-REPRO-1")
+    copy = tmp_path / "elsewhere" / complete_run.name
+    shutil.copytree(complete_run, copy, ignore=shutil.ignore_patterns("certificate*"))
+    first = build(complete_run, info, tmp_path / "a.pdf").read_bytes()
+    second = build(copy, info, tmp_path / "b.pdf").read_bytes()
     assert hashlib.sha256(first).digest() == hashlib.sha256(second).digest()
     with pytest.raises(CertificateError, match="never overwritten"):
         build(complete_run, INFO, tmp_path / "a.pdf")
+    with pytest.raises(CertificateError, match="--certificate-number: LAB-REPRO-1 is already"):
+        build(copy, info, tmp_path / "c.pdf")
 
 
 def test_missing_items_are_refused_by_name(complete_run, tmp_path):
@@ -154,6 +163,7 @@ def test_sweep_section_with_sensitivity_against_level_and_linearity(tmp_path):
         RunRequest(dut="capacitive", dut_id="SN-7", periods=3, out=tmp_path), [3.0, 6.0]
     )
     run = tmp_path / sweep.summary["run_ids"][0]
+    assert stat.S_IMODE(Path(sweep.summary["path"]).stat().st_mode) == 0o444  # stored, read-only
     pdf = build(run, INFO, tmp_path / "s.pdf", Path(sweep.summary["path"]))
     text = text_of(pdf)
     assert "Sensitivity against excitation level" in text and "Linearity:" in text

@@ -109,4 +109,4 @@ def test_injected_fault_stops_the_simulation_with_its_error(tmp_path, capsys):
     assert code == 1
     assert "DeviceLostError" in capsys.readouterr().err
     partial = read_recording(tmp_path / "f.h5")  # what was acquired is still readable
-    assert partial.periods == 3
+    assert partial.periods == 3 and partial.status == "aborted"
