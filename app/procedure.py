@@ -16,6 +16,7 @@ from __future__ import annotations
 import cmath
 import dataclasses
 import math
+import sys
 import threading
 from collections import deque
 from collections.abc import Callable
@@ -298,6 +299,8 @@ class Procedure:
         finally:
             final_output = self._stop_drive()
             if self._writer is not None:
+                escaping = sys.exc_info()[0] is not None  # e.g. SystemExit: not complete
+                self._writer.set_status(STATUS_ABORTED if escaping else status, reason)
                 self._writer.close()
         if status == STATUS_ABORTED:
             self._state(State.ABORTED, reason or "")

@@ -431,3 +431,20 @@ def test_certificate_numbers_are_never_reused_under_a_runs_root(capsys, root, st
     ]
     assert entries[2]["file"] == str(out_b) and entries[2]["sha256"] == sha256(out_b)
     assert stat.S_IMODE((root / REGISTER_NAME).stat().st_mode) == 0o444
+
+
+def test_the_procedure_marks_its_recording_complete_or_aborted(tmp_path):
+    from app.recording import read_recording
+    from app.run import RunRequest, execute
+    from sim.stand import Fault
+
+    done = execute(RunRequest(dut="piezo", periods=2, out=tmp_path / "ok"))
+    cut = execute(
+        RunRequest(
+            dut="piezo", periods=2, faults=(Fault("daq-timeout", 6.0),), out=tmp_path / "cut"
+        )
+    )
+    assert (done.status, cut.status) == ("complete", "aborted")
+    ok_rec = read_recording(tmp_path / "ok" / done.record["run_id"] / "recording.h5")
+    cut_rec = read_recording(tmp_path / "cut" / cut.record["run_id"] / "recording.h5")
+    assert (ok_rec.status, cut_rec.status) == ("complete", "aborted")
