@@ -7,10 +7,14 @@ from __future__ import annotations
 
 import argparse
 import csv
+import difflib
 import io
 import json
 import math
+import os
+import re
 import sys
+import tempfile
 import tomllib
 from collections.abc import Sequence
 from pathlib import Path
@@ -35,6 +39,7 @@ from sim.models import DUT_CATALOGUE, StandModel
 from sim.stand import Fault
 
 EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT, EXIT_ABORTED = 0, 1, 2, 3
+EXIT_BROKEN_PIPE = 128 + 13  # SIGPIPE: the reader of stdout went away (`| head`)
 
 
 class UsageError(ValueError):
@@ -78,18 +83,117 @@ def _plan_from_options(args: argparse.Namespace, *, optimise: bool) -> Plan:
     )
 
 
-def _add_plan_options(p: argparse.ArgumentParser) -> None:
+class Bounded:
+    """An argparse type: a finite number between `low` and `high` (inclusive unless `open_low`
+    / `open_high`); an int type also takes integral float notation such as 1e3."""
+
+    def __init__(
+        self,
+        kind: type,
+        low: float,
+        high: float,
+        *,
+        open_low: bool = False,
+        open_high: bool = False,
+        unit: str = "",
+    ) -> None:
+        self.kind, self.low, self.high = kind, low, high
+        self.open_low, self.open_high, self.unit = open_low, open_high, unit
+        self.__name__ = kind.__name__  # argparse names the type in its messages
+
+    def describe(self) -> str:
+        """The range as printed in --help, e.g. '(0, 1000] m/s^2'."""
+        unit = f" {self.unit}" if self.unit else ""
+        left, right = "(" if self.open_low else "[", ")" if self.open_high else "]"
+        return f"{left}{self.low:g}, {self.high:g}{right}{unit}"
+
+    def __call__(self, text: str) -> float | int:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+        if not math.isfinite(value):
+            raise argparse.ArgumentTypeError(f"must be a finite number, got {text!r}")
+        if self.kind is int:
+            if value != int(value):
+                raise argparse.ArgumentTypeError(f"must be a whole number, got {text!r}")
+        too_low = value <= self.low if self.open_low else value < self.low
+        too_high = value >= self.high if self.open_high else value > self.high
+        if too_low or too_high:
+            raise argparse.ArgumentTypeError(f"must be in {self.describe()}, got {text}")
+        return int(value) if self.kind is int else value
+
+
+def _numeric(
+    p: argparse.ArgumentParser | argparse._ArgumentGroup,
+    flag: str,
+    bounded: Bounded,
+    help: str,
+    **kwargs: object,
+) -> None:
+    """Add a numeric option whose --help states its bounds."""
+    bounds = bounded.describe().replace("%", "%%")  # argparse %-formats help texts
+    p.add_argument(flag, type=bounded, help=f"{help}; {bounds}", **kwargs)
+
+
+# The bounds of every numeric option (also in docs/reliability.md).
+SAMPLE_RATE = Bounded(float, 1.0, 1e7, unit="Hz")
+PERIOD = Bounded(int, 4, 2**22, unit="samples")
+LEVEL = Bounded(float, 0.0, 1000.0, open_low=True, unit="m/s^2")
+FREQUENCY = Bounded(float, 0.0, 1e6, open_low=True, unit="Hz")
+MAINS = Bounded(float, 1.0, 1000.0, unit="Hz")
+SEGMENTS = Bounded(int, 1, 10_000)
+COVERAGE = Bounded(float, 0.0, 1.0, open_low=True, open_high=True)
+TOLERANCE = Bounded(float, 0.0, 100.0, open_low=True, unit="%")
+SENSITIVITY = Bounded(float, 0.0, 1e6, open_low=True, unit="mV/(m/s^2)")
+GAIN = Bounded(float, 0.0, 1e6, open_low=True, unit="V/V")
+SKEW = Bounded(float, -1e-3, 1e-3, unit="s")
+SETTLE_PERIODS = Bounded(int, 0, 10_000)
+RANGE = Bounded(float, 0.0, 1000.0, open_low=True, unit="V")
+RUN_PERIODS = Bounded(int, 2, 10_000)
+SIM_PERIODS = Bounded(int, 1, 10_000)
+SIM_SETTLE = Bounded(int, 0, 1000)
+SEED = Bounded(int, 0, 2**32 - 1)
+TEMPERATURE = Bounded(float, -50.0, 150.0, unit="deg C")
+TARGET_UA = (0.0, 1.0)  # --target-ua: (0, 100 %]
+MAX_TIME_S = 24 * 3600.0  # --max-time: (0, 24 h]
+
+
+def _dut_name(text: str) -> str:
+    """--dut: a DUT of the simulated stand's catalogue (argparse type)."""
+    if text in DUT_CATALOGUE:
+        return text
+    close = difflib.get_close_matches(text, list(DUT_CATALOGUE), n=1)
+    hint = f"; did you mean {close[0]!r}?" if close else ""
+    raise argparse.ArgumentTypeError(
+        f"{text!r} is not in the DUT catalogue ({', '.join(DUT_CATALOGUE)}){hint}"
+    )
+
+
+class _Parser(argparse.ArgumentParser):
+    """ArgumentParser that takes negative numbers in any float notation (-2e-06, -.5, -1.5E3)
+    as option values; argparse's own rule misses the exponent form."""
+
+    def __init__(self, *args: object, **kwargs: object) -> None:
+        super().__init__(*args, **kwargs)  # type: ignore[arg-type]
+        self._negative_number_matcher = NEGATIVE_NUMBER
+
+
+NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$")
+
+
+def _add_plan_options(p: argparse.ArgumentParser | argparse._ArgumentGroup) -> None:
     p.add_argument("--preset", choices=sorted(PRESETS), help="named plan (default piezo)")
     p.add_argument("--frequencies", help="line list in Hz, e.g. 10,12.5,...,2500 (ISO 266 fill)")
-    p.add_argument("--sample-rate", type=float, help="sample rate in Hz")
-    p.add_argument("--period", type=int, help="period length in samples")
-    p.add_argument("--level", type=float, help="target peak acceleration per line, m/s^2")
-    p.add_argument("--reference-frequency", type=float, help="reference frequency in Hz")
-    p.add_argument("--mains", type=float, default=50.0, help="mains frequency in Hz (50)")
+    _numeric(p, "--sample-rate", SAMPLE_RATE, "sample rate in Hz")
+    _numeric(p, "--period", PERIOD, "period length in samples")
+    _numeric(p, "--level", LEVEL, "target peak acceleration per line, m/s^2")
+    _numeric(p, "--reference-frequency", FREQUENCY, "reference frequency in Hz")
+    _numeric(p, "--mains", MAINS, "mains frequency in Hz (50)", default=50.0)
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="accelcal",
         description="Accelerometer calibration by comparison, multisine excitation.",
     )
@@ -103,39 +207,43 @@ def build_parser() -> argparse.ArgumentParser:
     a = sub.add_parser("analyze", help="re-analyse a recording (HDF5 of this program or CSV)")
     a.add_argument("file", type=Path, help="recording.h5, recording.csv or a run folder")
     a.add_argument("--estimator", choices=("periodic", "h1", "seed"), default="periodic")
-    a.add_argument("--segments", type=int, help="the seed's protocol: L equal segments")
-    a.add_argument("--coverage", type=float, default=0.9545, help="coverage probability")
+    _numeric(a, "--segments", SEGMENTS, "the seed's protocol: L equal segments")
+    _numeric(a, "--coverage", COVERAGE, "coverage probability", default=0.9545)
     a.add_argument("--seed-rule", action="store_true", help="the seed's coverage factor rule")
-    a.add_argument("--tolerance", type=float, help="DUT tolerance of the characteristic, %%")
+    _numeric(a, "--tolerance", TOLERANCE, "DUT tolerance of the characteristic, %%")
     a.add_argument("--json", action="store_true", help="results as JSON")
     a.add_argument("--csv", type=Path, help="also write the per-line results as CSV here")
     a.add_argument("--overwrite", action="store_true", help="--csv may replace an existing file")
     csv_group = a.add_argument_group("CSV recordings (an HDF5 recording carries these)")
     _add_plan_options(csv_group)
-    csv_group.add_argument("--reference-sensitivity", type=float, help="mV/(m/s^2)")
-    csv_group.add_argument("--reference-gain", type=float, default=None, help="V/V")
-    csv_group.add_argument("--dut-gain", type=float, default=None, help="V/V")
-    csv_group.add_argument("--skew", type=float, default=None, help="DUT channel delay, s")
-    csv_group.add_argument("--settle-periods", type=int, default=0, help="periods to skip")
-    csv_group.add_argument("--range", type=float, dest="range_v", help="channel range, V")
+    _numeric(csv_group, "--reference-sensitivity", SENSITIVITY, "mV/(m/s^2)")
+    _numeric(csv_group, "--reference-gain", GAIN, "V/V", default=None)
+    _numeric(csv_group, "--dut-gain", GAIN, "V/V", default=None)
+    _numeric(csv_group, "--skew", SKEW, "DUT channel delay, s (may be negative)", default=None)
+    _numeric(csv_group, "--settle-periods", SETTLE_PERIODS, "periods to skip", default=0)
+    _numeric(csv_group, "--range", RANGE, "channel range, V", dest="range_v")
     csv_group.add_argument("--budget", type=Path, help="type B budget, TOML [[component]]")
 
     r = sub.add_parser("run", help="run a calibration (simulated stand unless --stand)")
     r.add_argument("--sim", action="store_true", help="the built-in simulated stand (default)")
     r.add_argument("--stand", type=Path, help="stand configuration (stand.toml)")
-    r.add_argument("--dut", default="piezo", help="simulated DUT from the catalogue")
+    r.add_argument(
+        "--dut", type=_dut_name, default="piezo", help="simulated DUT from the catalogue"
+    )
     r.add_argument("--dut-id", default=None, help="serial number / identification of the DUT")
-    r.add_argument("--nominal-sensitivity", type=float, help="DUT nominal, mV/(m/s^2)")
+    _numeric(r, "--nominal-sensitivity", SENSITIVITY, "DUT nominal, mV/(m/s^2)")
     r.add_argument("--preset", choices=sorted(PRESETS), help="plan (default: by DUT kind)")
-    r.add_argument("--level", type=float, default=5.0, help="peak acceleration per line, m/s^2")
-    r.add_argument("--levels", help="amplitude sweep: levels in m/s^2, e.g. 4,5,6,7,8")
-    r.add_argument("--periods", type=int, default=8, help="periods to acquire")
-    r.add_argument("--target-ua", help="stop at this relative type A, e.g. 0.2%%")
-    r.add_argument("--max-time", help="bound on the acquisition time, e.g. 30s")
+    _numeric(r, "--level", LEVEL, "peak acceleration per line, m/s^2", default=5.0)
+    r.add_argument(
+        "--levels", help=f"amplitude sweep: levels in m/s^2, e.g. 4,5,6,7,8; {LEVEL.describe()}"
+    )
+    _numeric(r, "--periods", RUN_PERIODS, "periods to acquire", default=8)
+    r.add_argument("--target-ua", help="stop at this relative type A, e.g. 0.2%%; (0, 100 %%]")
+    r.add_argument("--max-time", help="bound on the acquisition time, e.g. 30s; (0, 24 h]")
     r.add_argument("--estimator", choices=("periodic", "h1", "seed"), default="periodic")
     r.add_argument("--mode", choices=("multisine", "stepped-sine"), default="multisine")
-    r.add_argument("--tolerance", type=float, help="DUT tolerance of the characteristic, %%")
-    r.add_argument("--seed", type=int, default=0, help="simulated stand: random seed")
+    _numeric(r, "--tolerance", TOLERANCE, "DUT tolerance of the characteristic, %%")
+    _numeric(r, "--seed", SEED, "simulated stand: random seed", default=0)
     r.add_argument("--paced", action="store_true", help="simulated stand: real time")
     r.add_argument("--fault", action="append", default=[], help="simulated: KIND@SECONDS")
     r.add_argument("--out", type=Path, default=Path("runs"), help="folder for run folders")
@@ -150,9 +258,9 @@ def build_parser() -> argparse.ArgumentParser:
     g = sub.add_parser("gui", help="the technician's window")
     g.add_argument("--sim", action="store_true", help="the built-in simulated stand (default)")
     g.add_argument("--stand", type=Path, help="stand configuration (stand.toml)")
-    g.add_argument("--dut", help="simulated DUT to preselect")
+    g.add_argument("--dut", type=_dut_name, help="simulated DUT to preselect")
     g.add_argument("--unpaced", action="store_true", help="simulated stand faster than real time")
-    g.add_argument("--seed", type=int, default=0, help="simulated stand: random seed")
+    _numeric(g, "--seed", SEED, "simulated stand: random seed", default=0)
     g.add_argument("--out", type=Path, default=Path("runs"), help="folder for run folders")
     g.add_argument("--autorun", action="store_true", help="start a run at once")
     g.add_argument("--screenshot", type=Path, help="save a PNG of the window (after the run)")
@@ -167,7 +275,7 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--dut-model", help="DUT manufacturer and model")
     c.add_argument("--dut-serial", help="DUT serial number (default: the run's --dut-id)")
     c.add_argument("--dut-type", help="DUT type, e.g. 'piezoelectric accelerometer'")
-    c.add_argument("--temperature", type=float, help="ambient temperature, deg C")
+    _numeric(c, "--temperature", TEMPERATURE, "ambient temperature, deg C")
     c.add_argument("--mounting", help="how the DUT was mounted")
     c.add_argument("--certificate-number", help="default: AC-<run id>")
     c.add_argument("--issue-date", help="YYYY-MM-DD (default: the run's date)")
@@ -176,11 +284,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser("simulate", help="record a calibration on the simulated stand")
     s.add_argument("--list", action="store_true", help="print the simulated catalogue")
-    s.add_argument("--dut", default="piezo", help="catalogue DUT (see --list)")
-    s.add_argument("--level", type=float, default=5.0, help="peak acceleration per line, m/s^2")
-    s.add_argument("--periods", type=int, default=8, help="periods to record after settling")
-    s.add_argument("--settle", type=int, default=2, help="settling periods after the fade-in")
-    s.add_argument("--seed", type=int, default=0, help="random seed (noise, stand deviations)")
+    s.add_argument("--dut", type=_dut_name, default="piezo", help="catalogue DUT (see --list)")
+    _numeric(s, "--level", LEVEL, "peak acceleration per line, m/s^2", default=5.0)
+    _numeric(s, "--periods", SIM_PERIODS, "periods to record after settling", default=8)
+    _numeric(s, "--settle", SIM_SETTLE, "settling periods after the fade-in", default=2)
+    _numeric(s, "--seed", SEED, "random seed (noise, stand deviations)", default=0)
     s.add_argument("--fault", action="append", default=[], help="inject KIND@SECONDS")
     s.add_argument("--out", type=Path, help="recording to write (.h5)")
     s.add_argument("--overwrite", action="store_true", help="--out may replace an existing file")
@@ -189,10 +297,37 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run one command; its exit code (EXIT_*, or EXIT_BROKEN_PIPE when the reader of stdout
+    went away, e.g. `accelcal plan | head`)."""
+    try:
+        code = _main(argv)
+        sys.stdout.flush()  # a closed pipe shows here, not at interpreter exit
+        return code
+    except BrokenPipeError:
+        _silence_stdout()
+        return EXIT_BROKEN_PIPE
+
+
+def _silence_stdout() -> None:
+    """Point stdout at /dev/null so the interpreter's final flush raises nothing."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError):
+        pass
+
+
+def _main(argv: Sequence[str] | None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # --help (0) or an option refused by argparse (2, message said)
+        return exc.code if isinstance(exc.code, int) else EXIT_BAD_INPUT
     try:
         return COMMANDS[args.command](args)
+    except BrokenPipeError:
+        raise
     except (
         UsageError,
         PlanError,
@@ -215,6 +350,25 @@ def main(argv: Sequence[str] | None = None) -> int:
     except Exception as exc:
         print(f"accelcal {args.command}: failed: {type(exc).__name__}: {exc}", file=sys.stderr)
         return EXIT_FAILURE
+
+
+def _writable_folder(folder: Path, option: str) -> None:
+    """UsageError naming `option` unless files can be created in `folder` (made if missing):
+    its nearest existing ancestor must be a folder in which a file can really be created (a
+    probe, so that read-only file systems are caught even when running as root)."""
+    probe = folder
+    while not probe.exists():
+        if probe.parent == probe:
+            break
+        probe = probe.parent
+    if not probe.is_dir():
+        raise UsageError(f"{option}: {folder}: cannot be created ({probe} is not a folder)")
+    try:
+        with tempfile.TemporaryFile(dir=probe):
+            pass
+    except OSError as exc:
+        reason = exc.strerror or type(exc).__name__
+        raise UsageError(f"{option}: {folder}: not writable ({reason})") from None
 
 
 def plan_report(plan: Plan) -> dict:
@@ -342,6 +496,7 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         raise UsageError(f"--segments: must be >= 1, got {args.segments}")
     if args.csv is not None:  # refused before any work: onto an input, a run, an existing file
         _output_target(args.csv, "--csv", (args.file, args.budget), args.overwrite)
+        _writable_folder(args.csv.parent, "--csv")
     recording = _load(args)
     analysis = analyze(
         recording,
@@ -453,9 +608,13 @@ def print_results(results: Results, source: str = "", status: str | None = None)
 def parse_percent(text: str, option: str) -> float:
     """'0.2%' -> 0.002; '0.002' -> 0.002."""
     try:
-        return float(text[:-1]) / 100 if text.strip().endswith("%") else float(text)
+        value = float(text[:-1]) / 100 if text.strip().endswith("%") else float(text)
     except ValueError:
         raise UsageError(f"{option}: {text!r} is not a number or percentage") from None
+    low, high = TARGET_UA
+    if not (math.isfinite(value) and low < value <= high):
+        raise UsageError(f"{option}: must be in (0, 100 %], got {text!r}")
+    return value
 
 
 def parse_seconds(text: str, option: str) -> float:
@@ -470,8 +629,8 @@ def parse_seconds(text: str, option: str) -> float:
         seconds = float(value) * scale
     except ValueError:
         raise UsageError(f"{option}: {text!r} is not a duration (e.g. 30s)") from None
-    if not seconds > 0:
-        raise UsageError(f"{option}: must be > 0")
+    if not (math.isfinite(seconds) and 0 < seconds <= MAX_TIME_S):
+        raise UsageError(f"{option}: must be in (0, 24 h], got {text!r}")
     return seconds
 
 
@@ -486,10 +645,11 @@ def _faults(texts: list[str]) -> tuple[Fault, ...]:
 def cmd_run(args: argparse.Namespace) -> int:
     if args.sim and args.stand:
         raise UsageError("--sim and --stand: choose one")
-    _positive("--level", args.level)
-    if args.periods < 2:
-        raise UsageError(f"--periods: at least 2, got {args.periods}")
     faults = _faults(args.fault)
+    levels = _levels(args.levels) if args.levels else None
+    target = parse_percent(args.target_ua, "--target-ua") if args.target_ua else None
+    max_time = parse_seconds(args.max_time, "--max-time") if args.max_time else None
+    _writable_folder(args.out, "--out")
     request = RunRequest(
         stand_file=args.stand,
         dut=args.dut,
@@ -497,8 +657,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         preset=args.preset,
         level_ms2=args.level,
         periods=args.periods,
-        target_type_a=parse_percent(args.target_ua, "--target-ua") if args.target_ua else None,
-        max_acquisition_s=parse_seconds(args.max_time, "--max-time") if args.max_time else None,
+        target_type_a=target,
+        max_acquisition_s=max_time,
         estimator=args.estimator,
         mode=args.mode,
         tolerance_percent=args.tolerance,
@@ -509,8 +669,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         out=args.out,
     )
     progress = None if args.json else TerminalProgress()
-    if args.levels:
-        return run_levels(request, args, progress)
+    if levels is not None:
+        return run_levels(request, levels, args, progress)
     finished = execute(request, listener=progress)
     if progress is not None:
         progress.close()
@@ -534,14 +694,23 @@ def cmd_run(args: argparse.Namespace) -> int:
     return EXIT_OK if record["status"] == "complete" else EXIT_ABORTED
 
 
-def run_levels(request: RunRequest, args: argparse.Namespace, progress) -> int:
+def _levels(text: str) -> list[float]:
+    """--levels: a comma-separated list, every item within the bounds of --level."""
+    levels = []
+    for item in text.split(","):
+        if not item.strip():
+            raise UsageError(f"--levels: {text!r} has an empty item")
+        try:
+            levels.append(LEVEL(item.strip()))
+        except argparse.ArgumentTypeError as exc:
+            raise UsageError(f"--levels: {item.strip()!r}: {exc}") from None
+    return levels
+
+
+def run_levels(request: RunRequest, levels: list[float], args: argparse.Namespace, progress) -> int:
     """`accelcal run --levels ...`: one run per level and the sweep summary."""
     from app.sweep import run_sweep
 
-    try:
-        levels = [float(x) for x in args.levels.split(",") if x.strip()]
-    except ValueError:
-        raise UsageError(f"--levels: {args.levels!r} is not a list of numbers") from None
     try:
         sweep = run_sweep(request, levels, progress)
     except ValueError as exc:
@@ -630,6 +799,7 @@ def cmd_gui(args: argparse.Namespace) -> int:
 
     if args.sim and args.stand:
         raise UsageError("--sim and --stand: choose one")
+    _writable_folder(args.out, "--out")
     return run_gui(
         stand_file=args.stand,
         out=args.out,
@@ -658,6 +828,8 @@ def cmd_certificate(args: argparse.Namespace) -> int:
         notes=args.notes,
     )
     out = args.out or (args.run / "certificate.pdf")
+    if args.out is not None:
+        _writable_folder(args.out.parent, "--out")
     issued = issue(args.run, info, out, args.sweep)
     print(f"certificate {issued.number}: {out}")
     return EXIT_OK
@@ -694,10 +866,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         raise UsageError("--out: the recording to write is required (or --list)")
     if args.out.suffix.lower() not in (".h5", ".hdf5"):
         raise UsageError(f"--out: {args.out} must end in .h5 or .hdf5")
-    _positive("--level", args.level)
-    if args.settle < 0:
-        raise UsageError(f"--settle: must be >= 0, got {args.settle}")
     faults = _faults(args.fault)
+    _writable_folder(args.out.parent, "--out")
     try:
         run = simulate(
             args.out,

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 from dsp import iso266
 
 
@@ -10,16 +12,24 @@ def parse_frequencies(text: str) -> list[float]:
 
     ValueError says what is wrong (without naming the field: the caller does).
     """
-    items = [item.strip() for item in text.split(",") if item.strip()]
+    items = [item.strip() for item in text.split(",")]
+    if not any(items):
+        raise ValueError("no frequency given")
+    for position, item in enumerate(items, start=1):
+        if not item:
+            raise ValueError(f"item {position} of {text.strip()!r} is empty")
     values: list[float | None] = []
     for item in items:
         if item in ("...", "…"):
             values.append(None)
             continue
         try:
-            values.append(float(item))
+            value = float(item)
         except ValueError:
             raise ValueError(f"{item!r} is not a number of Hz") from None
+        if not (math.isfinite(value) and value > 0):
+            raise ValueError(f"{item!r}: a frequency must be a finite number > 0 Hz")
+        values.append(value)
     out: list[float] = []
     for i, value in enumerate(values):
         if value is not None:

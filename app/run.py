@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import signal
 import threading
 from dataclasses import dataclass
@@ -9,10 +10,11 @@ from pathlib import Path
 from typing import Any
 
 from app import stand_config
-from app.procedure import Finished, Listener, Procedure, RunSettings
+from app.procedure import Finished, Listener, PreflightError, Procedure, RunSettings
 from app.records import RunFolder
 from app.stands import open_stand
 from dsp.multisine import PRESETS, Plan, make_plan, preset_plan
+from sim.models import DUT_CATALOGUE
 from sim.stand import Fault
 
 PRESET_BY_DUT = {"capacitive": "capacitive"}  # every other catalogue DUT: the piezo plan
@@ -65,10 +67,28 @@ class RunRequest:
         )
 
 
+def check_request(request: RunRequest) -> None:
+    """Refuse (PreflightError, naming the field) what must never reach a stand: a DUT not in the
+    simulated stand's catalogue, a nominal DUT sensitivity that is not a finite positive
+    number, a level or period count out of range."""
+    if request.dut not in DUT_CATALOGUE:
+        raise PreflightError(
+            f"dut: {request.dut!r} is not in the DUT catalogue ({', '.join(DUT_CATALOGUE)})"
+        )
+    nominal = request.nominal_mv_per_ms2
+    if nominal is not None and not (math.isfinite(nominal) and nominal > 0):
+        raise PreflightError(f"nominal sensitivity: must be > 0 mV/(m/s^2), got {nominal:g}")
+    if not (math.isfinite(request.level_ms2) and request.level_ms2 > 0):
+        raise PreflightError(f"level: must be > 0 m/s^2, got {request.level_ms2:g}")
+    if request.periods < 2:
+        raise PreflightError(f"periods: at least 2, got {request.periods}")
+
+
 def prepare(request: RunRequest, listener: Listener | None = None) -> tuple[Procedure, Any]:
     """Load the stand, build the plan and check it before anything moves (PreflightError,
     ConfigError, PlanError on refusal; nothing is created then). Returns the procedure and the
     stand (to close)."""
+    check_request(request)
     config = stand_config.load(request.stand_file)
     stand = open_stand(
         config, dut=request.dut, seed=request.seed, paced=request.paced, faults=request.faults

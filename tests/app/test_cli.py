@@ -56,7 +56,7 @@ def test_plan_human_output_lists_lines_and_warnings(capsys):
         (["--frequencies", "10,20,40"], "reference frequency 160 Hz: not among the lines"),
         (["--frequencies", "10,abc"], "--frequencies: 'abc' is not a number"),
         (["--frequencies", "...,160"], "'...' must stand between two frequencies"),
-        (["--level", "-1"], "--level: must be > 0"),
+        (["--level", "-1"], "--level: must be in (0, 1000] m/s^2"),
     ],
 )
 def test_plan_bad_input_exits_2_with_the_reason(capsys, argv, message):
