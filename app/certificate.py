@@ -17,7 +17,10 @@ import contextlib
 import dataclasses
 import json
 import math
+import re
 from dataclasses import dataclass, field, fields
+from datetime import date
+from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -27,6 +30,8 @@ from reportlab.lib.enums import TA_CENTER
 from reportlab.lib.pagesizes import A4
 from reportlab.lib.styles import ParagraphStyle, getSampleStyleSheet
 from reportlab.lib.units import mm
+from reportlab.pdfbase import pdfmetrics
+from reportlab.pdfbase.ttfonts import TTFont
 from reportlab.pdfgen import canvas as pdf_canvas
 from reportlab.platypus import (
     KeepTogether,
@@ -40,6 +45,7 @@ from reportlab.platypus import (
 from app import formatting as fmt
 from app.certificate_register import Issued, Register, RegisterError, locked_register
 from app.files import FileExistsRefusal, write_with
+from app.input_files import MAX_TEXT_BYTES, InputFileError, check_input_file
 from app.records import (
     STATUS_COMPLETE,
     is_product_name,
@@ -143,16 +149,80 @@ def default_info(run: StoredRun) -> dict[str, Any]:
 
 
 def missing_items(info: CertificateInfo) -> list[str]:
-    return [f"{name} ({option})" for name, option in MANDATORY if getattr(info, name) in (None, "")]
+    """Mandatory items not given (None, empty or only blanks), each with its option."""
+    return [
+        f"{name} ({option})"
+        for name, option in MANDATORY
+        if getattr(info, name) is None or not str(getattr(info, name)).strip()
+    ]
+
+
+TEMPERATURE_RANGE_C = (-50.0, 150.0)  # ambient of a calibration, incl. climatic chambers
+ISO_DATE = re.compile(r"^\d{4}-\d{2}-\d{2}$")
+
+
+def invalid_items(info: CertificateInfo) -> list[str]:
+    """Items given but unusable, each naming its field and option: a temperature that is not a
+    finite number in TEMPERATURE_RANGE_C, an issue date that is not an ISO date (yyyy-mm-dd)."""
+    problems = []
+    t = info.temperature_c
+    if t is not None:
+        low, high = TEMPERATURE_RANGE_C
+        try:
+            value = float(t)
+        except (TypeError, ValueError):
+            value = math.nan
+        if not (math.isfinite(value) and low <= value <= high):
+            problems.append(
+                f"temperature_c (--temperature): {t!r} is not a temperature in "
+                f"[{low:g}, {high:g}] deg C"
+            )
+    d = info.issue_date
+    if d not in (None, ""):
+        try:
+            ok = bool(ISO_DATE.match(str(d))) and date.fromisoformat(str(d)) is not None
+        except ValueError:
+            ok = False
+        if not ok:
+            problems.append(f"issue_date (--issue-date): {d!r} is not a date as yyyy-mm-dd")
+    return problems
 
 
 # --- drawing --------------------------------------------------------------------------------
 
+# DejaVu Sans (app/data, with its license): Latin Extended-A and more, embedded so that names
+# such as "Łukasz Żółć" print the same on every machine (the PDF base fonts have no glyphs).
+FONT, FONT_BOLD = "DejaVuSans", "DejaVuSans-Bold"
+
+
+def _register_fonts() -> None:
+    """Register the packaged DejaVu Sans (regular, bold) with reportlab, once."""
+    if FONT in pdfmetrics.getRegisteredFontNames():
+        return
+    data = resources.files("app").joinpath("data")
+    for name, file in ((FONT, "DejaVuSans.ttf"), (FONT_BOLD, "DejaVuSans-Bold.ttf")):
+        with resources.as_file(data.joinpath(file)) as path:
+            pdfmetrics.registerFont(TTFont(name, str(path)))
+    pdfmetrics.registerFontFamily(
+        FONT, normal=FONT, bold=FONT_BOLD, italic=FONT, boldItalic=FONT_BOLD
+    )
+
+
+_register_fonts()
 STYLES = getSampleStyleSheet()
-BODY = ParagraphStyle("body", parent=STYLES["BodyText"], fontSize=9, leading=11.5)
+BODY = ParagraphStyle("body", parent=STYLES["BodyText"], fontName=FONT, fontSize=9, leading=11.5)
 SMALL = ParagraphStyle("small", parent=BODY, fontSize=7.5, leading=9.5)
-HEAD = ParagraphStyle("head", parent=STYLES["Heading2"], fontSize=11.5, spaceBefore=8, spaceAfter=3)
-TITLE = ParagraphStyle("title", parent=STYLES["Title"], fontSize=17, alignment=TA_CENTER)
+HEAD = ParagraphStyle(
+    "head",
+    parent=STYLES["Heading2"],
+    fontName=FONT_BOLD,
+    fontSize=11.5,
+    spaceBefore=8,
+    spaceAfter=3,
+)
+TITLE = ParagraphStyle(
+    "title", parent=STYLES["Title"], fontName=FONT_BOLD, fontSize=17, alignment=TA_CENTER
+)
 GRID = colors.Color(0.75, 0.75, 0.75)
 BAND = colors.Color(0.78, 0.86, 0.97)
 INK = colors.Color(0.1, 0.25, 0.55)
@@ -181,16 +251,16 @@ def _numbered_canvas(number: str, laboratory: str):
 
         def _furniture(self, total: int) -> None:
             width, height = A4
-            self.setFont("Helvetica-Bold", 8.5)
+            self.setFont(FONT_BOLD, 8.5)
             self.drawString(18 * mm, height - 12 * mm, laboratory)
-            self.setFont("Helvetica", 8.5)
+            self.setFont(FONT, 8.5)
             self.drawRightString(
                 width - 18 * mm, height - 12 * mm, f"Calibration certificate {number}"
             )
             self.setStrokeColor(GRID)
             self.line(18 * mm, height - 14 * mm, width - 18 * mm, height - 14 * mm)
             self.line(18 * mm, 16 * mm, width - 18 * mm, 16 * mm)
-            self.setFont("Helvetica", 7.5)
+            self.setFont(FONT, 7.5)
             self.drawString(
                 18 * mm,
                 11.5 * mm,
@@ -247,17 +317,30 @@ def chart(
     d.add(Rect(left, bottom, pw, ph, strokeColor=colors.black, fillColor=None, strokeWidth=0.6))
     for t in ticks:
         d.add(Line(left, y(t), left + pw, y(t), strokeColor=GRID, strokeWidth=0.3))
-        d.add(String(left - 2, y(t) - 2.5, f"{t:g}", fontSize=6.5, textAnchor="end"))
+        d.add(String(left - 2, y(t) - 2.5, f"{t:g}", fontName=FONT, fontSize=6.5, textAnchor="end"))
     decade = 10 ** math.floor(math.log10(f_lo))
     while decade <= f_hi:
         for m in (1, 2, 5):
             f = m * decade
             if f_lo <= f <= f_hi:
                 d.add(Line(x(f), bottom, x(f), bottom + ph, strokeColor=GRID, strokeWidth=0.3))
-                d.add(String(x(f), bottom - 8, f"{f:g}", fontSize=6.5, textAnchor="middle"))
+                d.add(
+                    String(
+                        x(f), bottom - 8, f"{f:g}", fontName=FONT, fontSize=6.5, textAnchor="middle"
+                    )
+                )
         decade *= 10
-    d.add(String(left + pw / 2, 1, "frequency in Hz (log scale)", fontSize=7, textAnchor="middle"))
-    label = Group(String(0, 0, y_label, fontSize=7, textAnchor="middle"))
+    d.add(
+        String(
+            left + pw / 2,
+            1,
+            "frequency in Hz (log scale)",
+            fontName=FONT,
+            fontSize=7,
+            textAnchor="middle",
+        )
+    )
+    label = Group(String(0, 0, y_label, fontName=FONT, fontSize=7, textAnchor="middle"))
     label.transform = (0, 1, -1, 0, 5, bottom + ph / 2)  # rotated 90 degrees
     d.add(label)
     band = [(x(f), y(v)) for f, v in zip(frequencies, upper, strict=True)]
@@ -281,6 +364,7 @@ def _table(
 ) -> Table:
     table = Table(rows, colWidths=widths, repeatRows=1 if header else 0, hAlign="LEFT")
     style = [
+        ("FONTNAME", (0, 0), (-1, -1), FONT),
         ("FONTSIZE", (0, 0), (-1, -1), size),
         ("LEADING", (0, 0), (-1, -1), size + 2),
         ("VALIGN", (0, 0), (-1, -1), "TOP"),
@@ -290,7 +374,7 @@ def _table(
     ]
     if header:
         style += [
-            ("FONTNAME", (0, 0), (-1, 0), "Helvetica-Bold"),
+            ("FONTNAME", (0, 0), (-1, 0), FONT_BOLD),
             ("ALIGN", (1, 1), (-1, -1), "RIGHT"),
         ]
     table.setStyle(TableStyle(style))
@@ -326,6 +410,10 @@ def _esc(text: Any) -> str:
 def load_sweep(path: str | Path, run: StoredRun) -> dict[str, Any]:
     """A complete sweep summary that includes `run`; CertificateError otherwise."""
     path = Path(path)
+    try:
+        check_input_file(path, MAX_TEXT_BYTES, "sweep summary")
+    except InputFileError as exc:
+        raise CertificateError(f"--sweep {exc}") from None
     try:
         sweep = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, json.JSONDecodeError) as exc:
@@ -368,6 +456,9 @@ def issue(
     missing = missing_items(info)
     if missing:
         raise CertificateError(f"missing mandatory item(s): {', '.join(missing)}")
+    invalid = invalid_items(info)
+    if invalid:
+        raise CertificateError(f"invalid item(s): {'; '.join(invalid)}")
     out = Path(out)
     into_run = _check_out(out, run.path)
     lock = try_lock(run.path)

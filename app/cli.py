@@ -24,6 +24,7 @@ from app import lines
 from app.analysis import analyze, read_for_analysis, status_warning
 from app.certificate import CertificateError, CertificateInfo, issue
 from app.files import FileExistsRefusal, check_target, write_new
+from app.input_files import MAX_TEXT_BYTES, InputFileError, check_input_file
 from app.procedure import PreflightError
 from app.recording import RecordingError, read_csv
 from app.records import refuse_in_run_folder
@@ -474,6 +475,10 @@ def _load(args: argparse.Namespace):
 
 
 def _read_budget(path: Path) -> Budget:
+    try:
+        check_input_file(path, MAX_TEXT_BYTES, "budget file")
+    except InputFileError as exc:
+        raise UsageError(f"--budget: {exc}") from None
     try:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:

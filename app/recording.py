@@ -37,6 +37,13 @@ from typing import Any
 import h5py
 import numpy as np
 
+from app.input_files import (
+    MAX_CSV_BYTES,
+    MAX_HDF5_BYTES,
+    InputFileError,
+    check_dataset_size,
+    check_input_file,
+)
 from dsp.calibration import ReferenceChain
 from dsp.multisine import Plan, PlanError
 from dsp.uncertainty import Budget
@@ -256,6 +263,10 @@ def read_recording(path: str | Path) -> Recording:
     path = Path(path)
     name = path.name
     try:
+        check_input_file(path, MAX_HDF5_BYTES, "HDF5 recording")
+    except InputFileError as exc:
+        raise RecordingError(str(exc)) from None
+    try:
         handle = h5py.File(path, "r")
     except FileNotFoundError:
         raise RecordingError(f"{path}: no such file") from None
@@ -300,6 +311,7 @@ def read_recording(path: str | Path) -> Recording:
                 raise RecordingError(f"{name}: missing dataset /signals/{channel}")
             if not isinstance(ds, h5py.Dataset) or ds.ndim != 1:
                 raise RecordingError(f"{name}: /signals/{channel} must be a 1-D dataset")
+            _check_float_dataset(ds, f"{name}: /signals/{channel}")
             signals[channel] = np.asarray(ds[()], dtype=float)
             ranges[channel] = float(ds.attrs.get("range_v", 0.0))
         settle = int(f.attrs.get("settle_periods", 0))
@@ -353,15 +365,26 @@ def _read_truth(f: h5py.File, name: str) -> Truth | None:
     group = f.get("truth")
     if group is None:
         return None
-    try:
-        values = {
-            key: np.asarray(group[key][()], dtype=float)
-            for key in ("frequency_hz", "sensitivity_mv_per_ms2", "phase_deg")
-        }
-    except KeyError as exc:
-        raise RecordingError(f"{name}: /truth lacks dataset {exc.args[0]!r}") from None
+    values = {}
+    for key in ("frequency_hz", "sensitivity_mv_per_ms2", "phase_deg"):
+        ds = group.get(key)
+        if not isinstance(ds, h5py.Dataset):
+            raise RecordingError(f"{name}: /truth lacks dataset {key!r}")
+        _check_float_dataset(ds, f"{name}: /truth/{key}")
+        values[key] = np.asarray(ds[()], dtype=float)
     attrs = {k: (v.item() if hasattr(v, "item") else v) for k, v in group.attrs.items()}
     return Truth(**values, attrs=attrs)
+
+
+def _check_float_dataset(ds: h5py.Dataset, where: str) -> None:
+    """Refuse a dataset that is not floating point (integers, strings, compound types: not
+    volts as this program writes them) or larger than a recording may hold, before reading."""
+    if ds.dtype.kind != "f":
+        raise RecordingError(f"{where}: dataset of type {ds.dtype}, expected floating point")
+    try:
+        check_dataset_size(int(ds.size), where)
+    except InputFileError as exc:
+        raise RecordingError(str(exc)) from None
 
 
 def read_csv(
@@ -376,6 +399,10 @@ def read_csv(
     """Read a CSV of two (reference, DUT) or three (+ drive) columns in volts and validate it."""
     path = Path(path)
     name = path.name
+    try:
+        check_input_file(path, MAX_CSV_BYTES, "CSV recording")
+    except InputFileError as exc:
+        raise RecordingError(str(exc)) from None
     try:
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:

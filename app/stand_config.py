@@ -21,6 +21,7 @@ With no file, the built-in simulated stand (`sim/stand.toml`) is used.
 
 from __future__ import annotations
 
+import difflib
 import math
 import tomllib
 from dataclasses import dataclass, field
@@ -29,11 +30,77 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from app.input_files import MAX_TEXT_BYTES, InputFileError, check_input_file
 from dsp.calibration import ReferenceChain
 from dsp.uncertainty import Budget
 from hardware.interfaces import InputChannel, OutputChannel
 
 BACKENDS = ("sim", "nidaqmx")
+
+_INPUT_KEYS = frozenset({"physical", "range_v", "coupling", "iepe_current_a", "terminal"})
+# Every key a stand file may hold, per table ("" is the top level). [[component]] entries are
+# checked by dsp.uncertainty.Component and [simulation] by sim.stand; an unknown key anywhere
+# else is refused, naming the nearest known one (a typo such as skew_seconds would otherwise
+# silently mean the default).
+SCHEMA: dict[str, frozenset[str]] = {
+    "": frozenset(
+        {
+            "laboratory",
+            "daq",
+            "amplifiers",
+            "limits",
+            "reference",
+            "dut_channel",
+            "component",
+            "simulation",
+            "certificate",
+        }
+    ),
+    "laboratory": frozenset({"name", "address", "accreditation"}),
+    "daq": frozenset({"backend", "device", "skew_s", "output", "reference", "dut", "drive"}),
+    "daq.output": frozenset({"physical", "range_v"}),
+    "daq.reference": _INPUT_KEYS,
+    "daq.dut": _INPUT_KEYS,
+    "daq.drive": _INPUT_KEYS,
+    "amplifiers": frozenset({"measuring", "reference_channel", "power"}),
+    "limits": frozenset(
+        {
+            "displacement_peak_to_peak_m",
+            "velocity_peak_m_per_s",
+            "acceleration_peak_ms2",
+            "drive_peak_v",
+        }
+    ),
+    "reference": frozenset(
+        {
+            "id",
+            "model",
+            "serial",
+            "certificate_number",
+            "certificate_date",
+            "gain",
+            "frequencies_hz",
+            "sensitivity_mv_per_ms2",
+            "phase_deg",
+        }
+    ),
+    "dut_channel": frozenset({"gain"}),
+    "certificate": frozenset(  # defaults of app.certificate.CertificateInfo
+        {
+            "customer",
+            "customer_address",
+            "authorised_by",
+            "dut_model",
+            "dut_serial",
+            "dut_type",
+            "temperature_c",
+            "mounting",
+            "certificate_number",
+            "issue_date",
+            "notes",
+        }
+    ),
+}
 
 
 class ConfigError(ValueError):
@@ -187,6 +254,38 @@ def _channel(r: _Reader, name: str, required: bool = True) -> InputChannel | Non
         raise r.fail(path, str(exc)) from None
 
 
+def _unknown_keys(data: dict[str, Any], source: str) -> None:
+    """ConfigError naming the first key not in SCHEMA and the nearest known key."""
+    for path, known in SCHEMA.items():
+        table: Any = data
+        for part in path.split(".") if path else ():
+            table = table.get(part) if isinstance(table, dict) else None
+        if not isinstance(table, dict):
+            continue
+        for key in table:
+            if key in known:
+                continue
+            where = f"{path}.{key}" if path else key
+            close = difflib.get_close_matches(key, sorted(known), n=1, cutoff=0.5)
+            hint = f"; did you mean {close[0]!r}?" if close else ""
+            raise ConfigError(f"{source}: {where}: unknown key{hint}")
+
+
+def _distinct_channels(inputs: tuple[InputChannel, ...], r: _Reader) -> None:
+    """ConfigError when two input channels name the same physical channel (the DUT would be
+    compared with itself, or with the drive)."""
+    seen: dict[str, str] = {}
+    for channel in inputs:
+        physical = channel.physical.strip().lower()
+        if physical in seen:
+            raise r.fail(
+                f"daq.{channel.name}.physical",
+                f"{channel.physical!r} is also daq.{seen[physical]}.physical; each input "
+                "needs its own physical channel",
+            )
+        seen[physical] = channel.name
+
+
 def parse(text: str, source: str) -> StandConfig:
     """Parse and validate a stand configuration given as TOML text."""
     try:
@@ -213,6 +312,7 @@ def parse(text: str, source: str) -> StandConfig:
     inputs = tuple(
         c for c in (_channel(r, "reference"), _channel(r, "dut"), _channel(r, "drive", False)) if c
     )
+    _distinct_channels(inputs, r)
     skew = r.value(daq, "daq", "skew_s", float, 0.0)
     if not 0 <= skew < 1e-3:
         raise r.fail("daq.skew_s", f"must be between 0 and 1 ms, got {skew:g} s")
@@ -264,6 +364,7 @@ def parse(text: str, source: str) -> StandConfig:
     for key, value in (("measuring", measuring), ("power", power)):
         if value is not None and (not isinstance(value, str) or not value.strip()):
             raise r.fail(f"amplifiers.{key}", "must be a VISA resource name")
+    _unknown_keys(data, source)
     return StandConfig(
         source=source,
         laboratory=laboratory,
@@ -291,6 +392,10 @@ def load(path: str | Path | None = None) -> StandConfig:
         text = resources.files("sim").joinpath("stand.toml").read_text(encoding="utf-8")
         return parse(text, "built-in simulated stand")
     path = Path(path)
+    try:
+        check_input_file(path, MAX_TEXT_BYTES, "stand file")
+    except InputFileError as exc:
+        raise ConfigError(str(exc)) from None
     try:
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:
