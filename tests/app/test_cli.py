@@ -206,3 +206,73 @@ def test_devices_without_the_ni_driver_says_so_and_exits_non_zero(capsys):
     out = capsys.readouterr().out
     assert code == 1
     assert "NI-DAQmx is not installed" in out
+
+
+def _numeric_actions():
+    """(command, action) for every option of every command that takes a typed value."""
+    import argparse
+
+    from app.cli import build_parser
+
+    parser = build_parser()
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    for command, p in sub.choices.items():
+        for action in p._actions:
+            if action.option_strings and action.type is not None:
+                yield command, action
+
+
+def test_every_numeric_option_is_bounded_and_its_help_says_so():
+    from app.cli import Bounded
+
+    seen = 0
+    for command, action in _numeric_actions():
+        assert action.type not in (int, float), f"{command} {action.option_strings[0]}: unbounded"
+        if isinstance(action.type, Bounded):
+            seen += 1
+            assert action.type.describe() in action.help.replace("%%", "%"), action.help
+    assert seen >= 30
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [["--skew", "-2e-06"], ["--skew=-2e-06"], ["--skew", "-2E-6"], ["--skew", "-.000002"]],
+)
+def test_negative_numbers_are_option_values(argv):
+    from app.cli import build_parser
+
+    args = build_parser().parse_args(["analyze", "x.csv", *argv])
+    assert args.skew == pytest.approx(-2e-6)
+
+
+def test_help_states_the_bounds(capsys):
+    assert main(["run", "--help"]) == 0
+    out = " ".join(capsys.readouterr().out.split())  # argparse wraps the help lines
+    for text in ("(0, 1000] m/s^2", "[2, 10000]", "(0, 100] %", "(0, 24 h]"):
+        assert text in out
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"nominal_mv_per_ms2": 0.0}, "nominal sensitivity: must be > 0"),
+        ({"nominal_mv_per_ms2": -2.0}, "nominal sensitivity: must be > 0"),
+        ({"nominal_mv_per_ms2": float("nan")}, "nominal sensitivity: must be > 0"),
+        ({"dut": "nosuch"}, "dut: 'nosuch' is not in the DUT catalogue"),
+        ({"level_ms2": float("inf")}, "level: must be > 0"),
+        ({"periods": 0}, "periods: at least 2"),
+    ],
+)
+def test_a_bad_request_never_reaches_the_stand(monkeypatch, tmp_path, change, message):
+    """The GUI builds RunRequests itself: the same refusals, before the stand is loaded."""
+    from app import run as run_module
+    from app.procedure import PreflightError
+    from app.run import RunRequest
+
+    def no_stand(*args, **kwargs):
+        raise AssertionError("the stand was loaded")
+
+    monkeypatch.setattr(run_module.stand_config, "load", no_stand)
+    with pytest.raises(PreflightError, match=message.replace("(", r"\(")):
+        run_module.prepare(RunRequest(out=tmp_path / "runs", **change))
+    assert not (tmp_path / "runs").exists()

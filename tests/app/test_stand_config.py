@@ -104,3 +104,49 @@ def test_not_toml_and_missing_file(tmp_path):
         parse("[daq\n", "x.toml")
     with pytest.raises(ConfigError, match="no such file"):
         stand_config.load(tmp_path / "none.toml")
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "message"),
+    [
+        (
+            "skew_s = 4e-6",
+            "skew_seconds = 4e-6",
+            "daq.skew_seconds: unknown key; did you mean 'skew_s'?",
+        ),
+        ("[dut_channel]", "[dut_chanel]", "dut_chanel: unknown key; did you mean 'dut_channel'?"),
+        (
+            "gain = 1.0",
+            "gain = 1.0\ngian = 2.0",
+            "dut_channel.gian: unknown key; did you mean 'gain'?",
+        ),
+        ("[limits]\n", "[limits]\nstroke_mm = 8\n", "limits.stroke_mm: unknown key"),
+    ],
+)
+def test_an_unknown_key_is_refused_naming_the_nearest_known_one(old, new, message):
+    with pytest.raises(ConfigError) as info:
+        parse(mutate(old, new), "stand.toml")
+    assert message in str(info.value)
+
+
+def test_a_certificate_table_of_known_keys_is_accepted():
+    text = EXAMPLE.read_text() + '\n[certificate]\ncustomer = "ACME"\nauthorised_by = "J. S."\n'
+    assert parse(text, "stand.toml").raw["certificate"]["customer"] == "ACME"
+
+
+@pytest.mark.parametrize(
+    ("channel", "clash"),
+    [("dut", "reference"), ("drive", "reference"), ("drive", "dut")],
+)
+def test_one_physical_channel_for_two_inputs_is_refused(channel, clash):
+    config = stand_config.load(EXAMPLE)
+    physical = {c.name: c.physical for c in config.inputs}
+    text = EXAMPLE.read_text()
+    section = f"[daq.{channel}]"
+    head, tail = text.split(section, 1)
+    tail = tail.replace(f'physical = "{physical[channel]}"', f'physical = "{physical[clash]}"', 1)
+    with pytest.raises(ConfigError) as info:
+        parse(head + section + tail, "stand.toml")
+    assert f"daq.{channel}.physical: '{physical[clash]}' is also daq.{clash}.physical" in str(
+        info.value
+    )
