@@ -234,6 +234,7 @@ def _numbered_canvas(number: str, laboratory: str):
     class NumberedCanvas(pdf_canvas.Canvas):
         def __init__(self, *args: Any, **kwargs: Any):
             kwargs["invariant"] = True
+            kwargs["initialFontName"] = FONT  # else each page's preamble names Helvetica
             super().__init__(*args, **kwargs)
             self._pages: list[dict[str, Any]] = []
 
@@ -297,7 +298,7 @@ def chart(
 ) -> Drawing:
     """Vector chart on a log frequency axis: the values and their uncertainty band."""
     left, bottom, right, top = 16 * mm, 10 * mm, 4 * mm, 4 * mm
-    d = Drawing(width, height)
+    d = Drawing(width, height, initialFontName=FONT)  # the renderer's state starts in it
     pw, ph = width - left - right, height - bottom - top
     f_lo, f_hi = min(frequencies) / 1.25, max(frequencies) * 1.25
     lower = [v - u for v, u in zip(values, half_widths, strict=True)]
@@ -387,6 +388,7 @@ def _kv(rows: list[tuple[str, str]]) -> Table:
     table.setStyle(
         TableStyle(
             [
+                ("FONTNAME", (0, 0), (-1, -1), FONT),
                 ("VALIGN", (0, 0), (-1, -1), "TOP"),
                 ("BOTTOMPADDING", (0, 0), (-1, -1), 1),
                 ("TOPPADDING", (0, 0), (-1, -1), 1),

@@ -176,3 +176,66 @@ def test_sweep_section_with_sensitivity_against_level_and_linearity(tmp_path):
     other.write_text('{"status": "complete", "sensitivity_mv_per_ms2": [], "run_ids": []}')
     with pytest.raises(CertificateError, match="does not include run"):
         build(run, INFO, tmp_path / "t.pdf", other)
+
+
+def test_names_beyond_latin_1_print_as_themselves_in_an_embedded_font(complete_run, tmp_path):
+    """Łukasz Żółć, Jiří Dvořák, Jürgen Weiß: the packaged DejaVu Sans is embedded and used for
+    all text (the PDF base fonts have no Latin Extended-A glyphs; they would print boxes)."""
+    info = dataclasses.replace(
+        INFO,
+        customer="Łukasz Żółć, Gdańsk",
+        authorised_by="Jiří Dvořák, kierownik laboratorium",
+        mounting="Jürgen Weiß: stud, 2 N m",
+    )
+    pdf = build(complete_run, info, tmp_path / "utf.pdf")
+    text = text_of(pdf)
+    for name in ("Łukasz Żółć", "Gdańsk", "Jiří Dvořák", "Jürgen Weiß"):
+        assert name in text
+    reader = PdfReader(pdf)
+    fonts = set()
+    for page in reader.pages:
+        for font in page["/Resources"]["/Font"].values():
+            font = font.get_object()
+            fonts.add(str(font["/BaseFont"]))
+            descendants = font.get("/DescendantFonts")
+            descriptor = (
+                descendants[0].get_object()["/FontDescriptor"]
+                if descendants
+                else font.get("/FontDescriptor")
+            )
+            if "DejaVu" in str(font["/BaseFont"]):
+                assert "/FontFile2" in descriptor.get_object()  # the TrueType program embedded
+    assert fonts and all("DejaVuSans" in f for f in fonts), fonts
+
+
+def test_packaged_font_ships_with_its_license():
+    from importlib import resources
+
+    data = resources.files("app").joinpath("data")
+    for name in ("DejaVuSans.ttf", "DejaVuSans-Bold.ttf"):
+        assert data.joinpath(name).read_bytes()[:4] == b"\x00\x01\x00\x00"  # TrueType
+    assert "Bitstream" in data.joinpath("DejaVu-LICENSE.txt").read_text(encoding="utf-8")
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"customer": "   "}, "customer (--customer)"),
+        ({"authorised_by": "\t"}, "authorised_by (--authorised-by)"),
+        ({"temperature_c": float("nan")}, "temperature_c (--temperature): nan"),
+        ({"temperature_c": -300.0}, "temperature_c (--temperature): -300.0"),
+        ({"temperature_c": float("inf")}, "temperature_c (--temperature)"),
+        ({"issue_date": "banana"}, "issue_date (--issue-date): 'banana'"),
+        ({"issue_date": "2026-13-01"}, "issue_date (--issue-date)"),
+        ({"issue_date": "2026-1-5"}, "issue_date (--issue-date)"),
+    ],
+)
+def test_bad_fields_are_refused_by_name_whatever_the_caller(
+    complete_run, tmp_path, change, message
+):
+    """The GUI's dialog calls the same code as the CLI: the checks are in app.certificate."""
+    out = tmp_path / "bad.pdf"
+    with pytest.raises(CertificateError) as info:
+        build(complete_run, dataclasses.replace(INFO, **change), out)
+    assert message in str(info.value)
+    assert not out.exists()
