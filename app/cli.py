@@ -27,7 +27,7 @@ from app.files import FileExistsRefusal, check_target, write_new
 from app.input_files import MAX_TEXT_BYTES, InputFileError, check_input_file
 from app.procedure import PreflightError
 from app.recording import RecordingError, read_csv
-from app.records import refuse_in_run_folder
+from app.records import is_run_folder, refuse_in_run_folder
 from app.run import RunRequest, execute
 from app.simulate import SimulationError, simulate
 from app.stand_config import ConfigError
@@ -106,7 +106,8 @@ class Bounded:
         """The range as printed in --help, e.g. '(0, 1000] m/s^2'."""
         unit = f" {self.unit}" if self.unit else ""
         left, right = "(" if self.open_low else "[", ")" if self.open_high else "]"
-        return f"{left}{self.low:g}, {self.high:g}{right}{unit}"
+        spec = "d" if self.kind is int else "g"
+        return f"{left}{self.low:{spec}}, {self.high:{spec}}{right}{unit}"
 
     def __call__(self, text: str) -> float | int:
         try:
@@ -172,15 +173,17 @@ def _dut_name(text: str) -> str:
 
 
 class _Parser(argparse.ArgumentParser):
-    """ArgumentParser that takes negative numbers in any float notation (-2e-06, -.5, -1.5E3)
-    as option values; argparse's own rule misses the exponent form."""
+    """ArgumentParser that takes an argument starting with a minus and a digit as a value, never
+    an option: a negative number in any float notation (-2e-06, -.5, -1.5E3) or a list that
+    starts with one (-10,160); argparse's own rule misses the exponent form and lists. No
+    option of this program starts with a digit."""
 
     def __init__(self, *args: object, **kwargs: object) -> None:
         super().__init__(*args, **kwargs)  # type: ignore[arg-type]
         self._negative_number_matcher = NEGATIVE_NUMBER
 
 
-NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$")
+NEGATIVE_NUMBER = re.compile(r"^-\.?\d")
 
 
 def _add_plan_options(p: argparse.ArgumentParser | argparse._ArgumentGroup) -> None:
@@ -426,6 +429,11 @@ def cmd_plan(args: argparse.Namespace) -> int:
 
 
 def _load(args: argparse.Namespace):
+    if args.file.is_dir() and not is_run_folder(args.file):
+        raise UsageError(
+            f"{args.file}: is a folder but not a run folder (no manifest.json); name a "
+            "recording file (.h5, .csv) or a run folder"
+        )
     suffix = args.file.suffix.lower()
     if suffix in (".h5", ".hdf5") or args.file.is_dir():  # a run folder: its recording.h5
         given = [
@@ -800,11 +808,11 @@ def cmd_devices(args: argparse.Namespace) -> int:
 
 
 def cmd_gui(args: argparse.Namespace) -> int:
-    from app.gui import run_gui
-
     if args.sim and args.stand:
         raise UsageError("--sim and --stand: choose one")
     _writable_folder(args.out, "--out")
+    from app.gui import run_gui  # Qt only once the options are good
+
     return run_gui(
         stand_file=args.stand,
         out=args.out,
@@ -833,7 +841,7 @@ def cmd_certificate(args: argparse.Namespace) -> int:
         notes=args.notes,
     )
     out = args.out or (args.run / "certificate.pdf")
-    if args.out is not None:
+    if args.out is not None and not is_run_folder(args.out.parent):  # a run's own: see issue()
         _writable_folder(args.out.parent, "--out")
     issued = issue(args.run, info, out, args.sweep)
     print(f"certificate {issued.number}: {out}")

@@ -94,7 +94,7 @@ def test_cli_simulate_list_json_and_errors(tmp_path, capsys):
     assert main(["analyze", str(tmp_path / "p.h5"), "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["periods"] == 2
     for argv, message in [
-        (["--dut", "nope", "--out", "x.h5"], "--dut: unknown 'nope'"),
+        (["--dut", "nope", "--out", "x.h5"], "--dut: 'nope' is not in the DUT catalogue"),
         (["--dut", "piezo"], "--out: the recording to write is required"),
         (["--out", "x.csv"], "must end in .h5"),
         (["--fault", "meteor@1", "--out", str(tmp_path / "f.h5")], "unknown kind"),
