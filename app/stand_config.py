@@ -254,8 +254,8 @@ def _channel(r: _Reader, name: str, required: bool = True) -> InputChannel | Non
         raise r.fail(path, str(exc)) from None
 
 
-def _unknown_keys(data: dict[str, Any], source: str) -> None:
-    """ConfigError naming the first key not in SCHEMA and the nearest known key."""
+def _unknown_key(data: dict[str, Any]) -> str | None:
+    """The first key not in SCHEMA, named with the nearest known key; None when all are known."""
     for path, known in SCHEMA.items():
         table: Any = data
         for part in path.split(".") if path else ():
@@ -268,7 +268,8 @@ def _unknown_keys(data: dict[str, Any], source: str) -> None:
             where = f"{path}.{key}" if path else key
             close = difflib.get_close_matches(key, sorted(known), n=1, cutoff=0.5)
             hint = f"; did you mean {close[0]!r}?" if close else ""
-            raise ConfigError(f"{source}: {where}: unknown key{hint}")
+            return f"{where}: unknown key{hint}"
+    return None
 
 
 def _distinct_channels(inputs: tuple[InputChannel, ...], r: _Reader) -> None:
@@ -287,11 +288,26 @@ def _distinct_channels(inputs: tuple[InputChannel, ...], r: _Reader) -> None:
 
 
 def parse(text: str, source: str) -> StandConfig:
-    """Parse and validate a stand configuration given as TOML text."""
+    """Parse and validate a stand configuration given as TOML text. An unknown key is refused,
+    and named beside any other error (a misspelt key is usually why one is missing)."""
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{source}: not valid TOML: {exc}") from None
+    try:
+        config = _parse(data, text, source)
+    except ConfigError as exc:
+        unknown = _unknown_key(data)
+        if unknown:
+            raise ConfigError(f"{exc}; and {unknown}") from None
+        raise
+    unknown = _unknown_key(data)
+    if unknown:
+        raise ConfigError(f"{source}: {unknown}")
+    return config
+
+
+def _parse(data: dict[str, Any], text: str, source: str) -> StandConfig:
     r = _Reader(data, source)
     lab = r.table("laboratory")
     laboratory = {
@@ -364,7 +380,6 @@ def parse(text: str, source: str) -> StandConfig:
     for key, value in (("measuring", measuring), ("power", power)):
         if value is not None and (not isinstance(value, str) or not value.strip()):
             raise r.fail(f"amplifiers.{key}", "must be a VISA resource name")
-    _unknown_keys(data, source)
     return StandConfig(
         source=source,
         laboratory=laboratory,
