@@ -29,6 +29,7 @@ from app.stand_config import ConfigError
 from dsp.calibration import AnalysisError, ReferenceChain, Results
 from dsp.multisine import PRESETS, Plan, PlanError, make_plan
 from dsp.segments import SegmentError
+from dsp.spectral import check_periods
 from dsp.uncertainty import Budget
 from hardware.errors import HardwareError
 from sim.models import DUT_CATALOGUE, StandModel
@@ -487,8 +488,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.sim and args.stand:
         raise UsageError("--sim and --stand: choose one")
     _positive("--level", args.level)
-    if args.periods < 2:
-        raise UsageError(f"--periods: at least 2, got {args.periods}")
+    try:
+        check_periods(args.estimator, args.periods)  # issue 13 point 5 (dsp.spectral)
+    except ValueError as exc:
+        raise UsageError(f"--{exc}") from None
     faults = _faults(args.fault)
     request = RunRequest(
         stand_file=args.stand,

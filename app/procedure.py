@@ -34,7 +34,14 @@ from dsp.calibration import AnalysisError, Results, compute_results
 from dsp.crestfactor import synthesize
 from dsp.multisine import Line, Plan, fade_envelope
 from dsp.sinefit import integer_cycle_block, sine_fit
-from dsp.spectral import Estimate, SpectralAccumulator, period_spectrum, periods_agree
+from dsp.spectral import (
+    MIN_PERIODS,
+    Estimate,
+    SpectralAccumulator,
+    check_periods,
+    period_spectrum,
+    periods_agree,
+)
 from dsp.uncertainty import Budget, Component, Distribution
 from hardware.errors import (
     AmplifierFaultError,
@@ -169,8 +176,8 @@ class RunSettings:
     stepped_block_s: float = 0.25
 
     def __post_init__(self) -> None:
-        if self.periods < 2 and self.target_type_a is None:
-            raise ValueError("periods: at least 2 (type A needs them)")
+        if self.target_type_a is None:
+            check_periods(self.estimator, self.periods)  # issue 13 point 5: MIN_PERIODS
         if self.target_type_a is not None and not 0 < self.target_type_a < 1:
             raise ValueError("target type A: must be a fraction between 0 and 1 (0.002 = 0.2 %)")
         if self.max_acquisition_s is not None and not self.max_acquisition_s > 0:
@@ -511,7 +518,7 @@ class Procedure:
             count = accumulator.periods
             if self._writer is not None:
                 self._writer.set_acquired_periods(count)
-            if count < 2:
+            if count < MIN_PERIODS[s.estimator]:  # no honest type A yet (dsp.spectral)
                 continue
             estimate = accumulator.estimate(s.estimator)
             results = self._publish(estimate, budget)

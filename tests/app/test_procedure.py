@@ -80,7 +80,7 @@ def test_simulated_runs_recover_the_truth(tmp_path, dut, level, seed):
         State.FADING_OUT,
         State.FINISHED,
     ]
-    assert [e.periods for e in events if isinstance(e, PeriodEstimate)] == list(range(2, 9))
+    assert [e.periods for e in events if isinstance(e, PeriodEstimate)] == list(range(3, 9))
     record = load_run(folder.path)
     assert record["status"] == "complete" and record["final_output_v"] == 0.0
     assert stand.daq.output.final_v == 0.0 and stand.daq.output.periods[-1].last_v == 0.0
