@@ -11,6 +11,8 @@ import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from app.recording import (
     STATUS_ABORTED,
     STATUS_INCOMPLETE,
@@ -27,8 +29,10 @@ from app.records import (
     is_run_folder,
 )
 from dsp.calibration import Results, compute_results
+from dsp.hum import mains_hum
 from dsp.segments import segment_line_spectra, segment_plan
 from dsp.spectral import Estimate, SpectralAccumulator
+from dsp.uncertainty import Budget
 
 
 @dataclass(frozen=True)
@@ -77,17 +81,52 @@ def analyze(
         ]
         accumulator.add_line_spectra(*spectra)
     estimate = accumulator.estimate(estimator)
+    budget, hum_warnings = _budget_with_hum(recording)
+    warnings.extend(hum_warnings)
     results = compute_results(
         estimate,
         plan,
         recording.chain,
-        recording.budget,
+        budget,
         probability=probability,
         rule=rule,
         tolerance_percent=tolerance_percent,
         extra_warnings=warnings,
     )
     return Analysis(estimate, results, recording.status)
+
+
+def _budget_with_hum(recording: Recording) -> tuple[Budget, list[str]]:
+    """The recording's budget with a "mains hum at X Hz" component (magnitude and phase) at
+    every line on a mains harmonic, replacing any of that name stored with it, and a warning
+    per such line (issue 13 point 3; dsp.hum). The hum comes from the leading drive-off periods
+    (drive exactly 0 V, among the settle periods) when the recording has a drive channel, else
+    from the neighbouring mains harmonics (flagged as not separable from the line)."""
+    hum = mains_hum(recording.plan, recording.analysis_periods(), _drive_off_periods(recording))
+    if not hum.affected.any():
+        return recording.budget, []
+    new = hum.components()
+    names = {c.name for c in new}
+    kept = tuple(c for c in recording.budget.components if c.name not in names)
+    return Budget((*kept, *new)), hum.warnings()
+
+
+def _drive_off_periods(recording: Recording):
+    """(reference, DUT) of the leading settle periods played at 0 V, or None."""
+    if recording.drive_v is None:
+        return None
+    n = recording.period_samples
+    count = 0
+    while count < recording.settle_periods and (count + 1) * n <= recording.drive_v.size:
+        if np.any(recording.drive_v[count * n : (count + 1) * n] != 0.0):
+            break
+        count += 1
+    if count == 0:
+        return None
+    return (
+        recording.reference_v[: count * n].reshape(count, n),
+        recording.dut_v[: count * n].reshape(count, n),
+    )
 
 
 def status_warning(status: str | None) -> str | None:
