@@ -98,17 +98,17 @@ def analyze(
 
 def _budget_with_hum(recording: Recording) -> tuple[Budget, list[str]]:
     """The recording's budget with a "mains hum at X Hz" component (magnitude and phase) at
-    every line on a mains harmonic, replacing any of that name stored with it, and a warning
-    per such line (issue 13 point 3; dsp.hum). The hum comes from the leading drive-off periods
-    (drive exactly 0 V, among the settle periods) when the recording has a drive channel, else
-    from the neighbouring mains harmonics (flagged as not separable from the line)."""
+    every line on a mains harmonic (one already stored with the recording, measured by the
+    procedure at run time, is kept as it is), and a warning per such line (issue 13 point 3;
+    dsp.hum). The hum comes from the leading drive-off periods (drive exactly 0 V, among the
+    settle periods) when the recording has a drive channel, else from the neighbouring mains
+    harmonics (flagged as not separable from the line)."""
     hum = mains_hum(recording.plan, recording.analysis_periods(), _drive_off_periods(recording))
     if not hum.affected.any():
         return recording.budget, []
-    new = hum.components()
-    names = {c.name for c in new}
-    kept = tuple(c for c in recording.budget.components if c.name not in names)
-    return Budget((*kept, *new)), hum.warnings()
+    stored = {c.name for c in recording.budget.components}
+    new = tuple(c for c in hum.components() if c.name not in stored)
+    return Budget((*recording.budget.components, *new)), hum.warnings()
 
 
 def _drive_off_periods(recording: Recording):

@@ -32,6 +32,7 @@ from app.records import STATUS_ABORTED, STATUS_COMPLETE, RunFolder
 from app.stands import Stand
 from dsp.calibration import AnalysisError, Results, compute_results
 from dsp.crestfactor import synthesize
+from dsp.hum import mains_hum_from_lines
 from dsp.multisine import Line, Plan, fade_envelope
 from dsp.sinefit import integer_cycle_block, sine_fit
 from dsp.spectral import (
@@ -784,16 +785,27 @@ class Procedure:
 
     def _budget_with_background(self) -> Budget:
         """The stand's budget plus, per line, the background found with the drive at 0 V (hum,
-        which a periodic average does not remove) relative to the settled line, as a
-        rectangular bound on its bias (SPEC s.5 step 2); negligible ones (< 1e-4) are left out."""
+        which a periodic average does not remove) relative to the settled line (SPEC s.5 step
+        2): at a line on a mains harmonic the "mains hum at X Hz" components of dsp.hum
+        (U-shaped, magnitude and phase; issue 13 point 3), elsewhere a rectangular bound on the
+        background's bias, left out when negligible (< 1e-4)."""
         components = list(self.stand.budget.components)
         ref_lines, dut_lines = self._settled_lines
+        hum = mains_hum_from_lines(
+            self.plan,
+            self._background_v["reference"],
+            self._background_v["dut"],
+            ref_lines,
+            dut_lines,
+            max(1, self.settings.background_periods),
+        )
+        components.extend(hum.components())
         with np.errstate(divide="ignore", invalid="ignore"):
             bound = self._background_v["reference"] / np.abs(ref_lines) + self._background_v[
                 "dut"
             ] / np.abs(dut_lines)
-        for f, b in zip(self.plan.frequencies_hz, bound, strict=True):
-            if np.isfinite(b) and b >= 1e-4:
+        for f, b, on_mains in zip(self.plan.frequencies_hz, bound, hum.affected, strict=True):
+            if not on_mains and np.isfinite(b) and b >= 1e-4:
                 components.append(
                     Component(
                         f"background (hum, noise) at {f:g} Hz",
