@@ -21,7 +21,7 @@ import numpy as np
 
 from dsp import uncertainty as unc
 from dsp.multisine import Plan
-from dsp.spectral import Estimate
+from dsp.spectral import MIN_PERIODS, Estimate
 
 RESULTS_FORMAT_VERSION = 1
 LOW_COHERENCE = 0.99  # warn below this magnitude-squared coherence
@@ -294,8 +294,15 @@ def compute_results(
     ref_index = plan.reference_index
     s0 = sensitivity[ref_index]
 
+    need = MIN_PERIODS.get(estimate.estimator, 2)
     if estimate.periods < 2:
-        warnings.append("one period only: no type A uncertainty; acquire at least 2 periods")
+        warnings.append(f"one period only: no type A uncertainty; acquire at least {need} periods")
+    elif estimate.periods < need:  # issue 13 point 5: no honest type A below the minimum
+        warnings.append(
+            f"{estimate.periods} periods: the {estimate.estimator} estimator states a type A "
+            f"uncertainty from {need} periods on, so no uncertainty is stated; acquire at "
+            f"least {need} periods"
+        )
     if not budget.components:
         warnings.append(
             "no type B budget: the stated uncertainty is type A only (reference calibration, "

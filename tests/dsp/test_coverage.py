@@ -81,3 +81,23 @@ def test_h1_small_sample_type_a_is_not_optimistic_at_l3():
     at least 93 % (the large-L formula (1 - g2)/(2 g2 L) gave 92 %)."""
     magnitude, phase = coverage("h1", 3, 20.0, 20.0, seed=11)
     assert magnitude >= 0.93 and phase >= 0.93, (magnitude, phase)
+
+
+def test_analysis_below_the_minimum_states_no_uncertainty_and_says_why():
+    from app.analysis import analyze
+    from dsp.multisine import make_plan
+    from tests.synthetic import lowpass_response, make_recording
+
+    plan = make_plan([10.0, 40.0, 160.0, 630.0], 6000, 12000, 5.0, 160.0)
+    rec = make_recording(plan, lowpass_response(), periods=2, dut_noise_v=1e-3)
+    results = analyze(rec).results
+    assert np.isnan(results.reference.expanded_uncertainty_mv_per_ms2)
+    assert any(
+        w.startswith("2 periods: the periodic estimator states a type A uncertainty from 3")
+        for w in results.warnings
+    ), results.warnings
+    assert np.isfinite(
+        analyze(
+            make_recording(plan, lowpass_response(), periods=3)
+        ).results.reference.expanded_uncertainty_mv_per_ms2
+    )
