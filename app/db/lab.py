@@ -16,7 +16,7 @@ from datetime import UTC, date, datetime, timedelta
 from pathlib import Path
 from typing import Any
 
-from sqlalchemy import Engine, func, select
+from sqlalchemy import Engine, event, or_, select
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session, joinedload
 
@@ -125,7 +125,8 @@ class Lab:
         """A session whose flushes are audited; committed at the end, rolled back on error."""
         with Session(self.engine, expire_on_commit=False) as session:
             session.info["actor"] = self.actor
-            audit.install(session)
+            event.listen(session, "before_flush", _keep_sensor_due_dates)
+            audit.install(session)  # after: the trail sees the due dates it changed
             try:
                 yield session
                 session.commit()
@@ -350,21 +351,14 @@ class Lab:
         horizon = today + timedelta(days=days)
         items: list[DueItem] = []
         with self.session() as s:
-            last_run = (
-                select(Run.sensor_id, func.max(Run.started_utc).label("last"))
-                .where(Run.status == STATUS_COMPLETE, Run.sensor_id.is_not(None))
-                .group_by(Run.sensor_id)
-                .subquery()
-            )
             rows = s.execute(
-                select(Sensor.serial, Sensor.interval_months, Customer.name, last_run.c.last)
+                select(Sensor.serial, Sensor.due_date, Customer.name)
                 .join(Customer, Sensor.owner_id == Customer.id)
-                .outerjoin(last_run, last_run.c.sensor_id == Sensor.id)
+                .where(or_(Sensor.due_date.is_(None), Sensor.due_date <= horizon))
             ).all()
-            for serial, interval, owner, last in rows:
-                due_day = None if last is None else add_months(last.date(), interval)
-                if due_day is None or due_day <= horizon:
-                    items.append(DueItem("sensor", serial, due_day, owner))
+            items.extend(
+                DueItem("sensor", serial, due_day, owner) for serial, due_day, owner in rows
+            )
             for ref in s.scalars(
                 select(ReferenceStandard).where(ReferenceStandard.due_date <= horizon)
             ):
@@ -423,12 +417,13 @@ class Lab:
                 f"run {existing.run_id}: already indexed with another manifest "
                 f"({existing.folder}); a run id is never reused"
             )
+        started = _utc(datetime.fromisoformat(record["started_utc"]))
         return Run(
             run_id=record["run_id"],
             manifest_sha256=manifest,
             folder=str(folder.resolve()),
             status=record["status"],
-            started_utc=datetime.fromisoformat(record["started_utc"]),
+            started_utc=started,
             dut_id=dut_id,
             stand=stand,
             sensor=sensor,
@@ -638,6 +633,28 @@ def drift_percent_per_year(points: Sequence[HistoryPoint]) -> float | None:
         w * (t - t_mean) * (v - v_mean) for w, t, v in zip(weights, years, values, strict=True)
     )
     return 100.0 * (sxy / sxx) / v_mean
+
+
+def _keep_sensor_due_dates(session: Session, _context: Any, _instances: Any) -> None:
+    """A new complete run of a sensor moves the sensor's last calibration and due date."""
+    for obj in list(session.new):
+        if not isinstance(obj, Run) or obj.status != STATUS_COMPLETE:
+            continue
+        sensor = obj.sensor
+        if sensor is None and obj.sensor_id is not None:
+            sensor = session.get(Sensor, obj.sensor_id)
+        if sensor is None:
+            continue
+        started = _utc(obj.started_utc)
+        last = sensor.last_calibrated_utc
+        if last is None or _utc(last) < started:
+            sensor.last_calibrated_utc = started
+            sensor.due_date = add_months(started.date(), sensor.interval_months)
+
+
+def _utc(moment: datetime) -> datetime:
+    """`moment` as an aware UTC time (SQLite hands back naive UTC)."""
+    return moment.replace(tzinfo=UTC) if moment.tzinfo is None else moment.astimezone(UTC)
 
 
 def _integrity_message(exc: IntegrityError) -> str:

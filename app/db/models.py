@@ -73,6 +73,11 @@ class Sensor(Base):
     owner_id: Mapped[int] = mapped_column(ForeignKey("customers.id"))
     teds_identity: Mapped[str | None] = mapped_column(String(100), nullable=True)
     interval_months: Mapped[int] = mapped_column(Integer, default=12)
+    # derived from the runs, kept by the records in the transaction that indexes a run
+    last_calibrated_utc: Mapped[datetime | None] = mapped_column(
+        DateTime(timezone=True), nullable=True
+    )
+    due_date: Mapped[date | None] = mapped_column(Date, nullable=True)
     model: Mapped[SensorModel] = relationship(back_populates="sensors")
     owner: Mapped[Customer] = relationship(back_populates="sensors")
     runs: Mapped[list[Run]] = relationship(back_populates="sensor")

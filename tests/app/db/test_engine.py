@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from datetime import datetime
 from pathlib import Path
 
 import pytest
@@ -41,7 +42,7 @@ def test_the_default_sqlite_file_is_created_on_first_use_in_wal_mode(
     monkeypatch.delenv("ACCELCAL_DB", raising=False)
     engine = open_engine()
     assert (tmp_path / "accelcal" / "records.sqlite").is_file()
-    assert current_revision(engine) == head_revision(engine) == "0002"
+    assert current_revision(engine) == head_revision(engine) == "0003"
     with engine.connect() as conn:
         assert conn.exec_driver_sql("PRAGMA journal_mode").scalar() == "wal"
         assert conn.exec_driver_sql("PRAGMA busy_timeout").scalar() == 30000
@@ -56,15 +57,37 @@ def test_an_older_schema_is_refused_until_upgraded_and_keeps_its_data(empty_url:
     engine = make_engine(resolve_url(empty_url))
     upgrade(engine, "0001")
     Lab(engine, actor="t").add_customer("ACME Ltd")
-    with pytest.raises(DatabaseError, match="schema revision 0001, this program needs 0002"):
+    with engine.begin() as conn:  # a sensor with two complete runs, written at schema 0001
+        for statement in (
+            "INSERT INTO sensor_models (id, maker, model, nominal_sensitivity, unit, "
+            "tolerance_percent, frequency_min_hz, frequency_max_hz, preset, level_ms2) "
+            "VALUES (1, 'PCB', '352C33', 10, 'mV/(m/s^2)', 5, 1, 10000, 'piezo', 5)",
+            "INSERT INTO sensors (id, serial, model_id, owner_id, interval_months) "
+            "VALUES (1, 'SN-1', 1, 1, 6)",
+            "INSERT INTO stands (id, stand_file_sha256, name) VALUES (1, 'ab', 'stand')",
+        ):
+            conn.execute(text(statement))
+        for k, started in enumerate(("2025-08-31 10:00:00+00:00", "2025-03-01 10:00:00+00:00")):
+            conn.execute(
+                text(
+                    "INSERT INTO runs (run_id, manifest_sha256, folder, status, started_utc, "
+                    "dut_id, stand_id, sensor_id) VALUES "
+                    "(:id, :id, '/r', 'complete', :started, 'SN-1', 1, 1)"
+                ),
+                {"id": f"r{k}", "started": datetime.fromisoformat(started)},
+            )
+    with pytest.raises(DatabaseError, match="schema revision 0001, this program needs 0003"):
         open_engine(empty_url)
-    assert upgrade(engine) == ("0001", "0002")
+    assert upgrade(engine) == ("0001", "0003")
     indexes = {ix["name"] for ix in inspect(engine).get_indexes("runs")}
     assert "ix_runs_sensor_started" in indexes
     reopened = open_engine(empty_url)
     with reopened.connect() as conn:
         assert conn.execute(text("SELECT name FROM customers")).scalars().all() == ["ACME Ltd"]
-    assert upgrade(reopened) == ("0002", "0002")  # a second upgrade changes nothing
+        due = conn.execute(text("SELECT due_date FROM sensors")).scalar()
+    # last complete run 2025-08-31 + 6 months: February has no 31st -> 2026-02-28
+    assert str(due) == "2026-02-28"
+    assert upgrade(reopened) == ("0003", "0003")  # a second upgrade changes nothing
 
 
 def test_an_unreachable_server_is_named(tmp_path: Path) -> None:

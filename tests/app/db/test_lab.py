@@ -44,7 +44,7 @@ def lab(engine: Engine) -> Lab:
 
 def _run(lab: Lab, run_id: str, serial: str, started: datetime, sens: float, status="complete"):
     """Index a run row directly (import from folders is tested in test_import.py)."""
-    with Session(lab.engine) as s:
+    with lab.session() as s:
         stand = s.scalar(select(Stand)) or Stand(stand_file_sha256="0" * 64, name="stand 1")
         sensor = s.scalar(select(Sensor).where(Sensor.serial == serial))
         s.add(
@@ -62,7 +62,6 @@ def _run(lab: Lab, run_id: str, serial: str, started: datetime, sens: float, sta
                 expanded_uncertainty_mv_per_ms2=0.05,
             )
         )
-        s.commit()
 
 
 # ---- units ---------------------------------------------------------------------------------
