@@ -99,6 +99,9 @@ def add_commands(sub: argparse._SubParsersAction) -> dict[str, Handler]:  # type
     sa.add_argument("--owner", required=True, help="customer name")
     sa.add_argument("--interval", type=int, default=12, help="calibration interval, months 1-120")
     sa.add_argument("--teds", help="TEDS identity (manufacturer/model/serial)")
+    sa.add_argument(
+        "--check-standard", action="store_true", help="the lab's check standard (control chart)"
+    )
     _db_option(sa)
     sl = ssub.add_parser("list", help="list sensors")
     sl.add_argument("--search", default="", help="part of the serial")
@@ -134,6 +137,10 @@ def add_commands(sub: argparse._SubParsersAction) -> dict[str, Handler]:  # type
     h.add_argument("--plot", type=Path, help="write a drift chart (PNG) here")
     _db_option(h)
 
+    k = sub.add_parser("control", help="a check standard's control chart on each stand")
+    k.add_argument("serial")
+    _db_option(k)
+
     g = sub.add_parser("register", help="the certificate register: list, issue, withdraw")
     gsub = g.add_subparsers(dest="action", required=True, metavar="ACTION")
     _db_option(gsub.add_parser("list", help="every certificate, issued, replaced, withdrawn"))
@@ -143,6 +150,7 @@ def add_commands(sub: argparse._SubParsersAction) -> dict[str, Handler]:  # type
     gi.add_argument("--approved-by", required=True)
     gi.add_argument("--replaces", help="the number this amendment replaces")
     gi.add_argument("--reason", help="why (required with --replaces)")
+    gi.add_argument("--as-found", metavar="RUN_ID", help="the run before adjustment (as found)")
     _db_option(gi)
     gw = gsub.add_parser("withdraw", help="withdraw a certificate")
     gw.add_argument("number")
@@ -162,6 +170,7 @@ def add_commands(sub: argparse._SubParsersAction) -> dict[str, Handler]:  # type
         "due": cmd_due,
         "history": cmd_history,
         "register": cmd_register,
+        "control": cmd_control,
     }
 
 
@@ -187,6 +196,8 @@ def cmd_db(args: argparse.Namespace) -> int:
         print(f"known     {run_id}")
     for folder, why in report.refused:
         print(f"refused   {folder}: {why}")
+    for warning in report.warnings:
+        print(f"WARNING   {warning}")
     print(
         f"{len(report.imported)} imported, {len(report.known)} already indexed, "
         f"{len(report.refused)} refused"
@@ -252,6 +263,7 @@ def cmd_sensors(args: argparse.Namespace) -> int:
             owner=args.owner,
             interval_months=args.interval,
             teds_identity=args.teds,
+            check_standard=args.check_standard,
         )
         print(f"sensor {row.serial} ({row.model.maker} {row.model.model}) added")
         return 0
@@ -373,6 +385,7 @@ def cmd_register(args: argparse.Namespace) -> int:
             approved_by=args.approved_by,
             replaces=args.replaces,
             reason=args.reason,
+            as_found_run_id=args.as_found,
         )
         print(row.number)
         return 0
@@ -386,9 +399,31 @@ def cmd_register(args: argparse.Namespace) -> int:
         return 0
     for c in lab.register():
         note = f" replaces {c.replaces}" if c.replaces else ""
+        if c.as_found_run is not None:
+            note += f" (as found: run {c.as_found_run.run_id})"
         why = f" ({c.reason})" if c.reason else ""
         print(
             f"{c.number}\t{c.state}{why}\t{c.issued_utc:%Y-%m-%d}\trun {c.run.run_id}\t"
             f"sensor {c.sensor.serial}\tprepared {c.prepared_by}, approved {c.approved_by}{note}"
         )
+    return 0
+
+
+def cmd_control(args: argparse.Namespace) -> int:
+    charts = _lab(args).control_chart(args.serial)
+    if not charts:
+        print(f"{args.serial}: no complete runs on record")
+    for chart in charts:
+        print(f"{chart.stand}: {len(chart.points)} runs")
+        if chart.centre is None:
+            print("  limits: need 5 earlier runs on this stand")
+        else:
+            print(
+                f"  centre {chart.centre:.5g}, limits {chart.lower:.5g} to {chart.upper:.5g} "
+                "mV/(m/s^2)"
+            )
+        for run_id, value in chart.points:
+            print(f"  {run_id}  {value:.5g}")
+        if chart.warning:
+            print(f"WARNING {chart.warning}")
     return 0

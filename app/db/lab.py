@@ -6,6 +6,7 @@ the certificate register. Every write is checked first (a refusal names the fiel
 from __future__ import annotations
 
 import contextlib
+import itertools
 import hashlib
 import json
 import math
@@ -42,6 +43,8 @@ SETTING_PATTERN = "certificate_pattern"
 SETTING_TWO_PERSON = "two_person_rule"
 DAYS_PER_YEAR = 365.2425
 MIN_DRIFT_SPAN_DAYS = 30
+MIN_CONTROL_POINTS = 5  # earlier points before control limits mean anything
+D2_MOVING_RANGE = 1.128  # d2 for moving ranges of two (ISO 7870-2, table 2)
 
 
 class RecordsError(RecordsInputError):
@@ -105,12 +108,28 @@ class History:
 
 
 @dataclass(frozen=True)
+class ControlChart:
+    """A check standard's individuals chart on one stand, in mV/(m/s^2). Limits are None
+    until MIN_CONTROL_POINTS earlier points exist; `warning` names an out-of-limits newest."""
+
+    serial: str
+    stand: str
+    points: tuple[tuple[str, float], ...]
+    centre: float | None
+    lower: float | None
+    upper: float | None
+    warning: str | None
+
+
+@dataclass(frozen=True)
 class ImportReport:
-    """What `import_runs` did: run ids indexed, already known, and folders refused with why."""
+    """What `import_runs` did: run ids indexed, already known, folders refused with why, and
+    check standards whose newest run left their control limits."""
 
     imported: tuple[str, ...]
     known: tuple[str, ...]
     refused: tuple[tuple[str, str], ...]
+    warnings: tuple[str, ...] = ()
 
 
 class Lab:
@@ -203,6 +222,7 @@ class Lab:
         owner: str,
         interval_months: int = 12,
         teds_identity: str | None = None,
+        check_standard: bool = False,
     ) -> Sensor:
         """A new sensor of a known model and customer; a duplicate serial is refused."""
         serial = _text(serial, "serial", max_len=100)
@@ -221,6 +241,7 @@ class Lab:
                 owner=customer,
                 interval_months=interval_months,
                 teds_identity=teds_identity,
+                check_standard=check_standard,
             )
             s.add(sensor)
         return sensor
@@ -377,6 +398,7 @@ class Lab:
         imported: list[str] = []
         known: list[str] = []
         refused: list[tuple[str, str]] = []
+        check_standards: set[str] = set()
         for folder in folders:
             try:
                 check = inspect_run(folder)
@@ -391,9 +413,18 @@ class Lab:
                 if s.scalar(select(Run).where(Run.manifest_sha256 == manifest_hash)):
                     known.append(check.record["run_id"])
                     continue
-                s.add(self._run_row(s, folder, check.record, manifest_hash))
+                row = self._run_row(s, folder, check.record, manifest_hash)
+                s.add(row)
+                if row.sensor is not None and row.sensor.check_standard:
+                    check_standards.add(row.sensor.serial)
             imported.append(check.record["run_id"])
-        return ImportReport(tuple(imported), tuple(known), tuple(refused))
+        warnings = [
+            chart.warning
+            for serial in sorted(check_standards)
+            for chart in self.control_chart(serial)
+            if chart.warning
+        ]
+        return ImportReport(tuple(imported), tuple(known), tuple(refused), tuple(warnings))
 
     def _run_row(self, s: Session, folder: Path, record: dict[str, Any], manifest: str) -> Run:
         stand_file = folder / "stand.toml"
@@ -458,6 +489,30 @@ class Lab:
         )
         return History(sensor.serial, points, drift_percent_per_year(points))
 
+    def control_chart(self, serial: str) -> list[ControlChart]:
+        """The individuals control chart of a check standard on each stand it was measured on
+        (ISO 7870-2): centre line the mean, limits +-3 sigma with sigma from the mean moving
+        range (d2 = 1.128), computed from every point but the newest; the newest outside the
+        limits is a warning on that stand."""
+        sensor = self.sensor(serial)
+        with self.session() as s:
+            rows = s.execute(
+                select(Run, Stand.name)
+                .join(Stand, Run.stand_id == Stand.id)
+                .where(
+                    Run.sensor_id == sensor.id,
+                    Run.status == STATUS_COMPLETE,
+                    Run.sensitivity_mv_per_ms2.is_not(None),
+                )
+                .order_by(Run.stand_id, Run.started_utc)
+            ).all()
+        by_stand: dict[str, list[tuple[str, float]]] = {}
+        for run, stand_name in rows:
+            by_stand.setdefault(stand_name, []).append(
+                (run.run_id, float(run.sensitivity_mv_per_ms2))
+            )
+        return [individuals_chart(serial, stand, points) for stand, points in by_stand.items()]
+
     # ---- lab settings --------------------------------------------------------------------
     def set_setting(self, key: str, value: str) -> None:
         """Set a lab setting (certificate_pattern, two_person_rule), checked first."""
@@ -490,11 +545,14 @@ class Lab:
         when: datetime | None = None,
         replaces: str | None = None,
         reason: str | None = None,
+        as_found_run_id: str | None = None,
     ) -> Certificate:
         """Enter a certificate for a complete, indexed run of a known sensor in the register.
         Its number is the next in the lab's pattern, allocated in the same transaction (no gap,
         no duplicate, whichever stand issues at the same time). With `replaces` it is an
-        amendment: the replaced certificate is marked replaced with the reason."""
+        amendment: the replaced certificate is marked replaced with the reason. With
+        `as_found_run_id` the sensor was adjusted: that earlier complete run of the same sensor
+        is the as-found result and the certified run the as-left one."""
         prepared_by = _text(prepared_by, "prepared by")
         approved_by = _text(approved_by, "approved by")
         if (
@@ -514,6 +572,19 @@ class Lab:
                 raise RecordsError(f"run: {run_id} is {run.status}, not complete")
             if run.sensor_id is None:
                 raise RecordsError(f"run: {run_id}'s DUT {run.dut_id!r} is no sensor on record")
+            as_found = None
+            if as_found_run_id is not None:
+                as_found = s.scalar(select(Run).where(Run.run_id == as_found_run_id))
+                if as_found is None:
+                    raise RecordsError(f"as found: run {as_found_run_id!r} is not indexed")
+                if as_found.sensor_id != run.sensor_id or as_found.status != STATUS_COMPLETE:
+                    raise RecordsError(
+                        f"as found: run {as_found_run_id} is no complete run of {run.dut_id}"
+                    )
+                if _utc(as_found.started_utc) >= _utc(run.started_utc):
+                    raise RecordsError(
+                        f"as found: run {as_found_run_id} is not before the as-left run {run_id}"
+                    )
             old = None
             if replaces is not None:
                 old = s.scalar(
@@ -546,6 +617,7 @@ class Lab:
                 prepared_by=prepared_by,
                 approved_by=approved_by,
                 issued_utc=when,
+                as_found_run=as_found,
             )
             s.add(certificate)
         return certificate
@@ -577,7 +649,11 @@ class Lab:
             return list(
                 s.scalars(
                     select(Certificate)
-                    .options(joinedload(Certificate.run), joinedload(Certificate.sensor))
+                    .options(
+                        joinedload(Certificate.run),
+                        joinedload(Certificate.sensor),
+                        joinedload(Certificate.as_found_run),
+                    )
                     .order_by(Certificate.issued_utc, Certificate.id)
                 ).all()
             )
@@ -633,6 +709,26 @@ def drift_percent_per_year(points: Sequence[HistoryPoint]) -> float | None:
         w * (t - t_mean) * (v - v_mean) for w, t, v in zip(weights, years, values, strict=True)
     )
     return 100.0 * (sxy / sxx) / v_mean
+
+
+def individuals_chart(serial: str, stand: str, points: Sequence[tuple[str, float]]) -> ControlChart:
+    """Centre and 3-sigma limits from all points but the newest (sigma = mean moving range /
+    d2); a warning when the newest falls outside them."""
+    earlier = [value for _, value in points[:-1]]
+    if len(earlier) < MIN_CONTROL_POINTS:
+        return ControlChart(serial, stand, tuple(points), None, None, None, None)
+    centre = sum(earlier) / len(earlier)
+    moving = [abs(b - a) for a, b in itertools.pairwise(earlier)]
+    sigma = sum(moving) / len(moving) / D2_MOVING_RANGE
+    lower, upper = centre - 3 * sigma, centre + 3 * sigma
+    run_id, newest = points[-1]
+    warning = None
+    if not lower <= newest <= upper:
+        warning = (
+            f"check standard {serial} on {stand}: run {run_id} gave {newest:.5g} mV/(m/s^2), "
+            f"outside the control limits {lower:.5g} to {upper:.5g}: check the stand"
+        )
+    return ControlChart(serial, stand, tuple(points), centre, lower, upper, warning)
 
 
 def _keep_sensor_due_dates(session: Session, _context: Any, _instances: Any) -> None:

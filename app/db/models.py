@@ -9,6 +9,7 @@ from __future__ import annotations
 from datetime import date, datetime
 
 from sqlalchemy import (
+    Boolean,
     CheckConstraint,
     Date,
     DateTime,
@@ -78,6 +79,7 @@ class Sensor(Base):
         DateTime(timezone=True), nullable=True
     )
     due_date: Mapped[date | None] = mapped_column(Date, nullable=True)
+    check_standard: Mapped[bool] = mapped_column(Boolean, default=False)
     model: Mapped[SensorModel] = relationship(back_populates="sensors")
     owner: Mapped[Customer] = relationship(back_populates="sensors")
     runs: Mapped[list[Run]] = relationship(back_populates="sensor")
@@ -182,7 +184,9 @@ class Certificate(Base):
     prepared_by: Mapped[str] = mapped_column(String(200))
     approved_by: Mapped[str] = mapped_column(String(200))
     issued_utc: Mapped[datetime] = mapped_column(DateTime(timezone=True))
-    run: Mapped[Run] = relationship()
+    as_found_run_id: Mapped[int | None] = mapped_column(ForeignKey("runs.id"), nullable=True)
+    run: Mapped[Run] = relationship(foreign_keys=[run_id])
+    as_found_run: Mapped[Run | None] = relationship(foreign_keys=[as_found_run_id])
     sensor: Mapped[Sensor] = relationship()
 
 

@@ -277,3 +277,38 @@ def test_two_person_rule_and_run_checks(lab: Lab) -> None:
     with pytest.raises(RecordsError, match=r"^certificate_pattern"):
         lab.set_setting("certificate_pattern", "ACC-{seq:04d}-{year}")
     assert lab.register() == []
+
+
+def test_a_check_standard_outside_its_control_limits_is_a_warning() -> None:
+    from app.db.lab import individuals_chart
+
+    values = [10.00, 10.02, 9.99, 10.01, 10.00]
+    # hand: mean 10.004; moving ranges 0.02, 0.03, 0.02, 0.01 -> mean 0.02; sigma 0.02/1.128
+    sigma = 0.02 / 1.128
+    points = [(f"r{i}", v) for i, v in enumerate(values)]
+    inside = individuals_chart("CS-1", "stand 1", [*points, ("r5", 10.004 + 2.9 * sigma)])
+    assert inside.centre == pytest.approx(10.004, rel=1e-12)
+    assert inside.upper == pytest.approx(10.004 + 3 * sigma, rel=1e-12)
+    assert inside.lower == pytest.approx(10.004 - 3 * sigma, rel=1e-12)
+    assert inside.warning is None
+    outside = individuals_chart("CS-1", "stand 1", [*points, ("r5", 10.004 - 3.1 * sigma)])
+    assert outside.warning is not None and "run r5" in outside.warning
+    assert individuals_chart("CS-1", "s", points[:5]).centre is None  # 4 earlier: no limits
+
+
+def test_as_found_must_be_an_earlier_complete_run_of_the_same_sensor(lab: Lab) -> None:
+    t = datetime(2026, 11, 20, tzinfo=UTC)
+    _run(lab, "found", "SN-1", t, 10.6)
+    _run(lab, "left", "SN-1", t + timedelta(hours=2), 10.0)
+    _run(lab, "other", "SN-2", t, 10.0)
+    with pytest.raises(RecordsError, match=r"^as found: run other is no complete run of SN-1"):
+        lab.issue_certificate(
+            run_id="left", prepared_by="A", approved_by="B", as_found_run_id="other"
+        )
+    with pytest.raises(RecordsError, match=r"^as found: run left is not before"):
+        lab.issue_certificate(
+            run_id="found", prepared_by="A", approved_by="B", as_found_run_id="left"
+        )
+    lab.issue_certificate(run_id="left", prepared_by="A", approved_by="B", as_found_run_id="found")
+    (entry,) = lab.register()
+    assert (entry.run.run_id, entry.as_found_run.run_id) == ("left", "found")
