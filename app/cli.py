@@ -19,6 +19,9 @@ from app import formatting as fmt
 from app import lines
 from app.analysis import analyze, read_for_analysis, status_warning
 from app.certificate import CertificateError, CertificateInfo, issue
+from app.db.cli import Handler
+from app.db.cli import add_commands as add_records_commands
+from app.db.errors import RecordsInputError
 from app.files import FileExistsRefusal, check_target, write_new
 from app.procedure import PreflightError
 from app.recording import RecordingError, read_csv
@@ -36,6 +39,7 @@ from sim.models import DUT_CATALOGUE, StandModel
 from sim.stand import Fault
 
 EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT, EXIT_ABORTED = 0, 1, 2, 3
+RECORDS_COMMANDS: dict[str, Handler] = {}  # filled by build_parser (app.db.cli)
 
 
 class UsageError(ValueError):
@@ -186,6 +190,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--out", type=Path, help="recording to write (.h5)")
     s.add_argument("--overwrite", action="store_true", help="--out may replace an existing file")
     s.add_argument("--json", action="store_true", help="machine-readable output")
+    RECORDS_COMMANDS.update(add_records_commands(sub))
     return parser
 
 
@@ -193,7 +198,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        return COMMANDS[args.command](args)
+        return (COMMANDS | RECORDS_COMMANDS)[args.command](args)
     except (
         UsageError,
         PlanError,
@@ -204,6 +209,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         ConfigError,
         PreflightError,
         CertificateError,
+        RecordsInputError,
     ) as exc:
         print(f"accelcal {args.command}: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
