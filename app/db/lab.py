@@ -6,8 +6,8 @@ the certificate register. Every write is checked first (a refusal names the fiel
 from __future__ import annotations
 
 import contextlib
-import itertools
 import hashlib
+import itertools
 import json
 import math
 import re
