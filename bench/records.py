@@ -132,7 +132,8 @@ def measure(name: str, url: str) -> None:
     n_due = len(lab.due(today=today, days=30))
     print(
         f"{name:10s} count(runs) {baseline:6.1f} ms | due ({n_due} items) {due:6.1f} ms "
-        f"({due / baseline:5.2f}x count; aggregating the runs instead: {old:6.1f} ms, {old / baseline:5.2f}x) | "
+        f"({due / baseline:5.2f}x count; aggregating the runs instead: {old:6.1f} ms, "
+        f"{old / baseline:5.2f}x) | "
         f"history {history:5.1f} ms ({history / baseline:5.2f}x)"
     )
     print(f"{name:10s} migration 0001 -> head with the data: {migrate_s:.1f} s")
