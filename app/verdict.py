@@ -161,10 +161,12 @@ def _summary(name: str, outcomes: list[tuple[str, str]]) -> tuple[str, str]:
     parts = []
     for kind in ("fail", "inconclusive", NOT_STATED):
         hit = [label for outcome, label in outcomes if outcome == kind]
-        if hit:
+        if len(hit) > 4:
+            parts.append(f"{kind} at {len(hit)} lines ({hit[0]} to {hit[-1]})")
+        elif hit:
             parts.append(f"{kind} at {', '.join(hit)}")
     if not parts:
-        return "pass", f"{name}: pass at all {len(outcomes)} line(s)"
+        return "pass", f"{name}: pass at all {len(outcomes)} line(s) checked"
     found = {outcome for outcome, _ in outcomes}
     worst = next(k for k in ("fail", "inconclusive", NOT_STATED) if k in found)
     return worst, f"{name}: {'; '.join(parts)}"
@@ -199,8 +201,8 @@ def assess(
         checked: list[tuple[str, str]] = []
         for ln in results.lines:
             band = next((b for b in bands if b.covers(ln.frequency_hz)), None)
-            if band is None:
-                continue
+            if band is None or (unit == "%" and ln.nominal_frequency_hz == r.frequency_hz):
+                continue  # the reference line's deviation is 0 by definition
             label = f"{ln.nominal_frequency_hz:g} Hz"
             if unit == "%":
                 u = 100 * ln.relative_expanded_uncertainty
