@@ -3,9 +3,12 @@
 S_dut(f) = H(f) S_ref(f) G_ref / G_dut (SPEC s.2), in mV/(m/s^2), with S_ref(f) the reference
 chain's complex sensitivity interpolated from its certificate; phase
 phi_dut = arg H + phi_ref - 2 pi f tau (SPEC s.6), tau the DUT channel's sampling delay after
-the reference channel. Uncertainty per line: type A from the estimator, type B from the budget,
-combined, Welch-Satterthwaite and k per SPEC s.7 (dsp.uncertainty). The results object is plain
-data: JSON-ready dicts and CSV text; files are written by the application.
+the reference channel (positive when the DUT channel is sampled later; unknown: the phase is
+not corrected, flagged and not stated). Uncertainty per line: type A from the estimator,
+type B from the budget, combined, Welch-Satterthwaite and k per SPEC s.7 (dsp.uncertainty); a
+statement that needs U (ISO limit, tolerance) is "not stated" where U is 0 or undefined. The
+results object is plain data: JSON-ready dicts and CSV text; files are written by the
+application.
 """
 
 from __future__ import annotations
@@ -75,7 +78,7 @@ class ReferenceChain:
             raise ValueError("reference chain: skew_s must be finite (or None: unknown)")
 
     @classmethod
-    def flat(cls, sensitivity_mv_per_ms2: float, **kwargs: float) -> ReferenceChain:
+    def flat(cls, sensitivity_mv_per_ms2: float, **kwargs: float | None) -> ReferenceChain:
         """A reference with one frequency-independent sensitivity and zero phase."""
         return cls((160.0,), (float(sensitivity_mv_per_ms2),), (0.0,), **kwargs)
 
