@@ -414,12 +414,20 @@ class Procedure:
 
     def _write_truth(self) -> None:
         """The simulated stand's true DUT sensitivity and phase at every line (/truth), at the
-        plan's total rms acceleration (what equalisation reaches)."""
+        excitation's rms acceleration (the multisine's total, or one line's in stepped sine)."""
         if self._writer is None or self.stand.truth is None:
             return
-        plan = self.plan
+        plan, truth = self.plan, self.stand.truth
         rms = float(np.sqrt(np.sum(plan.amplitudes_ms2**2) / 2))
-        values = self.stand.truth(plan.frequencies_hz, rms)
+        if self.settings.mode == "stepped-sine":  # one line at a time: its own rms
+            values = np.array(
+                [
+                    truth(np.array([f]), a / np.sqrt(2))[0]
+                    for f, a in zip(plan.frequencies_hz, plan.amplitudes_ms2, strict=True)
+                ]
+            )
+        else:
+            values = truth(plan.frequencies_hz, rms)
         dut = self.identity.get("dut") or {}
         self._writer.write_truth(
             Truth(
