@@ -8,6 +8,7 @@ is analysed only after the folder's manifest verifies (app.records).
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -28,8 +29,10 @@ from app.records import (
     inspect_run,
     is_run_folder,
 )
+from app.verdict import Tolerances, tolerances_for, with_verdict
 from dsp.calibration import Results, compute_results
 from dsp.hum import mains_hum
+from dsp.multisine import Plan, PlanError
 from dsp.segments import segment_line_spectra, segment_plan
 from dsp.spectral import Estimate, SpectralAccumulator
 from dsp.uncertainty import Budget
@@ -52,8 +55,12 @@ def analyze(
     probability: float = 0.9545,
     rule: str = "gum",
     tolerance_percent: float | None = None,
+    tolerances: Tolerances | None = None,
 ) -> Analysis:
-    """Analyse whole periods (default) or, with `segments`, the seed's L equal segments."""
+    """Analyse whole periods (default) or, with `segments`, the seed's L equal segments.
+
+    The results carry the overall verdict (app.verdict) against `tolerances`; by default those
+    of the simulated DUT the recording's truth names, else `tolerance_percent` alone."""
     plan = recording.plan
     status_note = status_warning(recording.status)
     warnings: list[str] = [status_note] if status_note else []
@@ -71,9 +78,10 @@ def analyze(
         reference = recording.reference_v[start:]
         dut = recording.dut_v[start:]
         labels = [f"{f:g} Hz" for f in plan.nominal_frequencies_hz]
-        length, warnings = segment_plan(
+        length, segment_warnings = segment_plan(
             reference.size, segments, plan.frequencies_hz, labels, plan.sample_rate_hz
         )
+        warnings.extend(segment_warnings)
         accumulator = SpectralAccumulator(length, plan.bins, track_floor=False)
         spectra = [
             segment_line_spectra(x, segments, length, plan.frequencies_hz, plan.sample_rate_hz)
@@ -93,6 +101,12 @@ def analyze(
         tolerance_percent=tolerance_percent,
         extra_warnings=warnings,
     )
+    if tolerances is None:
+        dut = recording.truth.attrs.get("dut") if recording.truth is not None else None
+        tolerances = tolerances_for(
+            str(dut) if dut else None, plan.reference_frequency_hz, tolerance_percent
+        )
+    results = with_verdict(results, tolerances, recording.status)
     return Analysis(estimate, results, recording.status)
 
 
@@ -126,6 +140,56 @@ def _drive_off_periods(recording: Recording):
     return (
         recording.reference_v[: count * n].reshape(count, n),
         recording.dut_v[: count * n].reshape(count, n),
+    )
+
+
+def reanalysis(
+    recording: Recording,
+    *,
+    reference_frequency_hz: float | None = None,
+    settle_periods: int | None = None,
+    mains_frequency_hz: float | None = None,
+) -> Recording:
+    """A stored recording with re-analysis settings applied, each refused naming its option
+    (RecordingError) when it cannot be: `reference_frequency_hz` must be a planned line (its
+    nominal frequency); `settle_periods` more leading periods are dropped from the analysed
+    ones when at least 2 remain; `mains_frequency_hz` replaces the plan's mains frequency (the
+    mains-harmonic checks and hum logic use it)."""
+    plan = recording.plan
+    changes: dict[str, float] = {}
+    if reference_frequency_hz is not None:
+        if not any(
+            math.isclose(f, reference_frequency_hz, rel_tol=1e-9)
+            for f in plan.nominal_frequencies_hz
+        ):
+            raise RecordingError(
+                f"--reference-frequency: {reference_frequency_hz:g} Hz is not a line of the "
+                f"recording's plan ({', '.join(f'{f:g}' for f in plan.nominal_frequencies_hz)} Hz)"
+            )
+        changes["reference_frequency_hz"] = float(reference_frequency_hz)
+    if mains_frequency_hz is not None:
+        changes["mains_frequency_hz"] = float(mains_frequency_hz)
+    if changes:
+        try:
+            plan = Plan.from_dict({**plan.to_dict(), **changes})
+        except PlanError as exc:
+            option = "--mains" if "mains_frequency_hz" in changes else "--reference-frequency"
+            raise RecordingError(f"{option}: {exc}") from None
+    settle = recording.settle_periods
+    acquired = recording.acquired_periods
+    if settle_periods is not None:
+        if settle_periods < 0:
+            raise RecordingError(f"--settle-periods: must be >= 0, got {settle_periods}")
+        available = recording.analysis_periods()[0].shape[0]
+        if available - settle_periods < 2:
+            raise RecordingError(
+                f"--settle-periods: dropping {settle_periods} of the {available} analysed "
+                "period(s) leaves fewer than 2 (type A needs them)"
+            )
+        settle += settle_periods
+        acquired = None if acquired is None else acquired - settle_periods
+    return dataclasses.replace(
+        recording, plan=plan, settle_periods=settle, acquired_periods=acquired
     )
 
 

@@ -27,9 +27,10 @@ from typing import Any
 
 import numpy as np
 
-from app.recording import RecordingWriter, software_version
+from app.recording import RecordingWriter, Truth, software_version
 from app.records import STATUS_ABORTED, STATUS_COMPLETE, RunFolder
 from app.stands import Stand
+from app.verdict import Tolerances, tolerances_for, with_verdict
 from dsp.calibration import AnalysisError, Results, compute_results
 from dsp.crestfactor import synthesize
 from dsp.hum import mains_hum_from_lines
@@ -315,7 +316,12 @@ class Procedure:
         else:
             self._state(State.FINISHED)
         results = self._run.results if status == STATUS_COMPLETE else None
+        if results is not None:
+            results = with_verdict(results, self._tolerances())
         record = self._record(started, status, reason, final_output)
+        if results is not None:
+            record["verdict"] = results.verdict
+            record["verdict_reasons"] = list(results.verdict_reasons)
         if self.folder is not None:
             self.folder.log(f"{status}{': ' + reason if reason else ''}")
             record = self.folder.finish(record, results)
@@ -412,6 +418,45 @@ class Procedure:
                 with_drive=True,
                 ranges_v=self._ranges,
             )
+            self._write_truth()
+
+    def _write_truth(self) -> None:
+        """The simulated stand's true DUT sensitivity and phase at every line (/truth), at the
+        excitation's rms acceleration (the multisine's total, or one line's in stepped sine)."""
+        if self._writer is None or self.stand.truth is None:
+            return
+        plan, truth = self.plan, self.stand.truth
+        rms = float(np.sqrt(np.sum(plan.amplitudes_ms2**2) / 2))
+        if self.settings.mode == "stepped-sine":  # one line at a time: its own rms
+            values = np.array(
+                [
+                    truth(np.array([f]), a / np.sqrt(2))[0]
+                    for f, a in zip(plan.frequencies_hz, plan.amplitudes_ms2, strict=True)
+                ]
+            )
+        else:
+            values = truth(plan.frequencies_hz, rms)
+        dut = self.identity.get("dut") or {}
+        self._writer.write_truth(
+            Truth(
+                plan.frequencies_hz,
+                np.abs(values),
+                np.degrees(np.angle(values)),
+                {
+                    "dut": str(dut.get("catalogue") or ""),
+                    "description": self.stand.description,
+                    "level_ms2": float(self.identity.get("level_ms2") or 0.0),
+                    "rms_ms2": rms,
+                },
+            )
+        )
+
+    def _tolerances(self) -> Tolerances:
+        """The DUT model's tolerances (simulated catalogue DUT) and the run's --tolerance."""
+        dut = self.identity.get("dut") or {}
+        return tolerances_for(
+            dut.get("catalogue"), self.plan.reference_frequency_hz, self.settings.tolerance_percent
+        )
 
     def _background(self) -> None:
         self._state(State.BACKGROUND, "drive at 0 V: noise and hum at every line")
