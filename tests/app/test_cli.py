@@ -212,11 +212,13 @@ def _numeric_actions():
     """(command, action) for every option of every command that takes a typed value."""
     import argparse
 
-    from app.cli import build_parser
+    from app.cli import COMMANDS, build_parser
 
     parser = build_parser()
     sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
     for command, p in sub.choices.items():
+        if command not in COMMANDS:  # the records commands (app.db.cli) check their own
+            continue
         for action in p._actions:
             if action.option_strings and action.type is not None:
                 yield command, action
