@@ -298,7 +298,7 @@ CERTIFICATE_CASES: list[tuple[str, dict[str, str], str]] = [
 @pytest.fixture(scope="module")
 def complete_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("runs")
-    finished = execute(RunRequest(dut="piezo", dut_id="SN-7", periods=2, out=out))
+    finished = execute(RunRequest(dut="piezo", dut_id="SN-7", periods=3, out=out))
     assert finished.status == "complete"
     return out / finished.record["run_id"]
 
