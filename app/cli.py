@@ -28,6 +28,8 @@ from app.db.cli import add_commands as add_records_commands
 from app.db.errors import RecordsInputError
 from app.files import FileExistsRefusal, check_target, write_new
 from app.input_files import MAX_TEXT_BYTES, InputFileError, check_input_file
+from app.options import Bounded
+from app.options import numeric_option as _numeric
 from app.procedure import PreflightError
 from app.recording import RecordingError, read_csv
 from app.records import is_run_folder, refuse_in_run_folder
@@ -87,60 +89,6 @@ def _plan_from_options(args: argparse.Namespace, *, optimise: bool) -> Plan:
         shift_mains_lines=getattr(args, "shift_mains", False),
         phases_rad=None if optimise else [0.0] * len(freqs),
     )
-
-
-class Bounded:
-    """An argparse type: a finite number between `low` and `high` (inclusive unless `open_low`
-    / `open_high`); an int type also takes integral float notation such as 1e3."""
-
-    def __init__(
-        self,
-        kind: type,
-        low: float,
-        high: float,
-        *,
-        open_low: bool = False,
-        open_high: bool = False,
-        unit: str = "",
-    ) -> None:
-        self.kind, self.low, self.high = kind, low, high
-        self.open_low, self.open_high, self.unit = open_low, open_high, unit
-        self.__name__ = kind.__name__  # argparse names the type in its messages
-
-    def describe(self) -> str:
-        """The range as printed in --help, e.g. '(0, 1000] m/s^2'."""
-        unit = f" {self.unit}" if self.unit else ""
-        left, right = "(" if self.open_low else "[", ")" if self.open_high else "]"
-        spec = "d" if self.kind is int else "g"
-        return f"{left}{self.low:{spec}}, {self.high:{spec}}{right}{unit}"
-
-    def __call__(self, text: str) -> float | int:
-        try:
-            value = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-        if not math.isfinite(value):
-            raise argparse.ArgumentTypeError(f"must be a finite number, got {text!r}")
-        if self.kind is int:
-            if value != int(value):
-                raise argparse.ArgumentTypeError(f"must be a whole number, got {text!r}")
-        too_low = value <= self.low if self.open_low else value < self.low
-        too_high = value >= self.high if self.open_high else value > self.high
-        if too_low or too_high:
-            raise argparse.ArgumentTypeError(f"must be in {self.describe()}, got {text}")
-        return int(value) if self.kind is int else value
-
-
-def _numeric(
-    p: argparse.ArgumentParser | argparse._ArgumentGroup,
-    flag: str,
-    bounded: Bounded,
-    help: str,
-    **kwargs: object,
-) -> None:
-    """Add a numeric option whose --help states its bounds."""
-    bounds = bounded.describe().replace("%", "%%")  # argparse %-formats help texts
-    p.add_argument(flag, type=bounded, help=f"{help}; {bounds}", **kwargs)
 
 
 # The bounds of every numeric option (also in docs/reliability.md).

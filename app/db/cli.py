@@ -6,18 +6,26 @@ from __future__ import annotations
 
 import argparse
 import csv
-import math
 from collections.abc import Callable
 from datetime import UTC, date, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from app.db.errors import RecordsInputError
+from app.options import Bounded, numeric_option
 
 if TYPE_CHECKING:
     from app.db.lab import Lab
 
 Handler = Callable[[argparse.Namespace], int]
+
+NOMINAL = Bounded(float, 0.0, 1e6, open_low=True)
+TOLERANCE = Bounded(float, 0.0, 100.0, open_low=True, unit="%")
+FREQUENCY = Bounded(float, 0.0, 1e6, open_low=True, unit="Hz")
+LEVEL = Bounded(float, 0.0, 1000.0, open_low=True, unit="m/s^2")
+PHASE_TOLERANCE = Bounded(float, 0.0, 180.0, open_low=True, unit="deg")
+INTERVAL = Bounded(int, 1, 120, unit="months")
+DAYS = Bounded(int, 0, 3650, unit="days")
 
 
 class RecordsUsageError(RecordsInputError):
@@ -32,16 +40,6 @@ def _iso_date(field: str) -> Callable[[str], date]:
             raise argparse.ArgumentTypeError(f"{field}: not a date yyyy-mm-dd: {text!r}") from None
 
     return parse
-
-
-def _finite(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"must be finite, got {text!r}")
-    return value
 
 
 def _lab(args: argparse.Namespace) -> Lab:
@@ -80,14 +78,14 @@ def add_commands(sub: argparse._SubParsersAction) -> dict[str, Handler]:  # type
     ma = msub.add_parser("add", help="add a sensor model")
     ma.add_argument("maker")
     ma.add_argument("model")
-    ma.add_argument("--nominal", type=_finite, required=True, help="nominal sensitivity (> 0)")
+    numeric_option(ma, "--nominal", NOMINAL, "nominal sensitivity in --unit", required=True)
     ma.add_argument("--unit", required=True, help="mV/(m/s^2), pC/(m/s^2) or mV/g")
-    ma.add_argument("--tolerance", type=_finite, required=True, help="tolerance, %% (0-100]")
-    ma.add_argument("--fmin", type=_finite, required=True, help="lowest frequency, Hz (> 0)")
-    ma.add_argument("--fmax", type=_finite, required=True, help="highest frequency, Hz")
+    numeric_option(ma, "--tolerance", TOLERANCE, "tolerance", required=True)
+    numeric_option(ma, "--fmin", FREQUENCY, "lowest frequency", required=True)
+    numeric_option(ma, "--fmax", FREQUENCY, "highest frequency", required=True)
     ma.add_argument("--preset", default="piezo", help="default plan")
-    ma.add_argument("--level", type=_finite, default=5.0, help="default level, m/s^2 (0-1000]")
-    ma.add_argument("--phase-tolerance", type=_finite, help="phase tolerance, degrees (0-180]")
+    numeric_option(ma, "--level", LEVEL, "default level", default=5.0)
+    numeric_option(ma, "--phase-tolerance", PHASE_TOLERANCE, "phase tolerance")
     _db_option(ma)
     _db_option(msub.add_parser("list", help="list sensor models"))
 
@@ -97,7 +95,7 @@ def add_commands(sub: argparse._SubParsersAction) -> dict[str, Handler]:  # type
     sa.add_argument("serial")
     sa.add_argument("--model", required=True, help="'maker model' or the model alone")
     sa.add_argument("--owner", required=True, help="customer name")
-    sa.add_argument("--interval", type=int, default=12, help="calibration interval, months 1-120")
+    numeric_option(sa, "--interval", INTERVAL, "calibration interval", default=12)
     sa.add_argument("--teds", help="TEDS identity (manufacturer/model/serial)")
     sa.add_argument(
         "--check-standard", action="store_true", help="the lab's check standard (control chart)"
@@ -129,7 +127,7 @@ def add_commands(sub: argparse._SubParsersAction) -> dict[str, Handler]:  # type
     _db_option(rsub.add_parser("list", help="list reference standards"))
 
     due = sub.add_parser("due", help="sensors and reference standards due for calibration")
-    due.add_argument("--days", type=int, default=30, help="horizon in days, 0-3650 (30)")
+    numeric_option(due, "--days", DAYS, "horizon (default 30)", default=30)
     _db_option(due)
 
     h = sub.add_parser("history", help="a sensor's calibrations over time and its drift")
@@ -255,8 +253,6 @@ def cmd_models(args: argparse.Namespace) -> int:
 def cmd_sensors(args: argparse.Namespace) -> int:
     lab = _lab(args)
     if args.action == "add":
-        if not 1 <= args.interval <= 120:
-            raise RecordsUsageError(f"--interval: must be 1 to 120 months, got {args.interval}")
         row = lab.add_sensor(
             args.serial,
             model=args.model,
@@ -332,8 +328,6 @@ def _read_reference_table(path: Path) -> list[tuple[float, float, float, float |
 
 
 def cmd_due(args: argparse.Namespace) -> int:
-    if not 0 <= args.days <= 3650:
-        raise RecordsUsageError(f"--days: must be 0 to 3650, got {args.days}")
     today = datetime.now(UTC).date()
     items = _lab(args).due(today=today, days=args.days)
     for item in items:

@@ -212,16 +212,19 @@ def _numeric_actions():
     """(command, action) for every option of every command that takes a typed value."""
     import argparse
 
-    from app.cli import COMMANDS, build_parser
+    from app.cli import build_parser
 
-    parser = build_parser()
-    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
-    for command, p in sub.choices.items():
-        if command not in COMMANDS:  # the records commands (app.db.cli) check their own
-            continue
-        for action in p._actions:
-            if action.option_strings and action.type is not None:
-                yield command, action
+    def walk(parser: argparse.ArgumentParser, name: str):
+        for action in parser._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                for command, p in action.choices.items():
+                    yield from walk(p, f"{name} {command}".strip())
+            elif action.option_strings and action.type is not None:
+                yield name, action
+
+    commands = {command.split()[0] for command, _ in walk(build_parser(), "")}
+    assert {"run", "analyze", "simulate", "sensors", "due", "models"} <= commands
+    yield from walk(build_parser(), "")
 
 
 def test_every_numeric_option_is_bounded_and_its_help_says_so():
@@ -233,7 +236,7 @@ def test_every_numeric_option_is_bounded_and_its_help_says_so():
         if isinstance(action.type, Bounded):
             seen += 1
             assert action.type.describe() in action.help.replace("%%", "%"), action.help
-    assert seen >= 30
+    assert seen >= 38
 
 
 @pytest.mark.parametrize(

@@ -28,7 +28,7 @@ def _refused(argv: list[str], capsys: pytest.CaptureFixture[str]) -> str:
     code = main(argv)
     out, err = capsys.readouterr()
     assert code == 2, out + err
-    assert "Traceback" not in err and err.count("\n") == 1
+    assert "Traceback" not in err and "error" in err.splitlines()[-1]
     return err
 
 
@@ -81,7 +81,7 @@ def test_a_lab_day_through_the_command_line(
     assert "serial: 'SN-7' already exists" in _refused(
         ["sensors", "add", "SN-7", "--model", "352C33", "--owner", "ACME Ltd"], capsys
     )
-    assert "--interval: must be 1 to 120" in _refused(
+    assert "--interval: must be in [1, 120] months" in _refused(
         ["sensors", "add", "SN-8", "--model", "352C33", "--owner", "ACME Ltd", "--interval", "0"],
         capsys,
     )
@@ -141,7 +141,7 @@ def test_a_lab_day_through_the_command_line(
     due = _ok(["due", "--days", "30"], capsys)
     assert "sensor    SN-7\tACME Ltd\tnever calibrated here" in due
     assert "REF-1" not in due
-    assert "--days: must be 0 to 3650" in _refused(["due", "--days", "-1"], capsys)
+    assert "--days: must be in [0, 3650] days" in _refused(["due", "--days", "-1"], capsys)
     assert "drift: needs two calibrations at least 30 days apart" in _ok(
         ["history", "SN-7"], capsys
     )
