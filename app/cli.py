@@ -20,7 +20,7 @@ from app import lines
 from app.analysis import analyze, read_for_analysis, status_warning
 from app.certificate import CertificateError, CertificateInfo, issue
 from app.files import FileExistsRefusal, check_target, write_new
-from app.procedure import PreflightError
+from app.procedure import PreflightError, RunNotRecordedError
 from app.recording import RecordingError, read_csv
 from app.records import refuse_in_run_folder
 from app.run import RunRequest, execute
@@ -35,6 +35,7 @@ from sim.models import DUT_CATALOGUE, StandModel
 from sim.stand import Fault
 
 EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT, EXIT_ABORTED = 0, 1, 2, 3
+EXIT_INTERRUPTED = 130  # Ctrl-C outside a run (128 + SIGINT)
 
 
 class UsageError(ValueError):
@@ -209,9 +210,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     except HardwareError as exc:
         print(f"accelcal {args.command}: {type(exc).__name__}: {exc}", file=sys.stderr)
         return EXIT_FAILURE
+    except RunNotRecordedError as exc:
+        print(f"accelcal {args.command}: {exc}", file=sys.stderr)
+        return EXIT_ABORTED
     except KeyboardInterrupt:
-        print(f"accelcal {args.command}: interrupted", file=sys.stderr)
-        return EXIT_FAILURE
+        print(f"accelcal {args.command}: interrupted (Ctrl-C)", file=sys.stderr)
+        return EXIT_INTERRUPTED
     except Exception as exc:
         print(f"accelcal {args.command}: failed: {type(exc).__name__}: {exc}", file=sys.stderr)
         return EXIT_FAILURE
