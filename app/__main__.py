@@ -8,6 +8,8 @@ aborted "disk full" run, instead of killing the process with the drive on.
 
 from __future__ import annotations
 
+import logging
+import os
 import signal
 import sys
 
@@ -15,7 +17,7 @@ EXIT_INTERRUPTED = 130  # 128 + SIGINT, as a shell reports it
 
 
 def run(argv: list[str] | None = None) -> int:
-    """The CLI's exit code (see `app.cli.main`); 130 when interrupted by Ctrl-C."""
+    """The CLI's exit code (see `app.cli.main`); Ctrl-C outside a run exits 130 at once."""
     try:
         if hasattr(signal, "SIGXFSZ"):
             signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
@@ -23,12 +25,18 @@ def run(argv: list[str] | None = None) -> int:
 
         return main(argv)
     except KeyboardInterrupt:
-        try:
-            sys.stderr.write("accelcal: interrupted (Ctrl-C)\n")
-            sys.stderr.flush()
-        except (OSError, ValueError):
-            pass
-        return EXIT_INTERRUPTED
+        # A KeyboardInterrupt raised inside some imports leaves CPython's "unhandled
+        # KeyboardInterrupt" flag set even though it was caught here, and the interpreter would
+        # then kill itself with SIGINT (exit -2) at the very end. No run is open at this point
+        # (a run handles Ctrl-C itself): say it in one line, flush, and leave with 130 at once.
+        for stream, text in ((sys.stdout, ""), (sys.stderr, "accelcal: interrupted (Ctrl-C)\n")):
+            try:
+                stream.write(text)
+                stream.flush()
+            except (OSError, ValueError):
+                pass
+        logging.shutdown()
+        os._exit(EXIT_INTERRUPTED)
 
 
 if __name__ == "__main__":

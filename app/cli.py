@@ -35,7 +35,6 @@ from sim.models import DUT_CATALOGUE, StandModel
 from sim.stand import Fault
 
 EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT, EXIT_ABORTED = 0, 1, 2, 3
-EXIT_INTERRUPTED = 130  # Ctrl-C outside a run (128 + SIGINT)
 
 
 class UsageError(ValueError):
@@ -213,9 +212,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     except RunNotRecordedError as exc:
         print(f"accelcal {args.command}: {exc}", file=sys.stderr)
         return EXIT_ABORTED
-    except KeyboardInterrupt:
-        print(f"accelcal {args.command}: interrupted (Ctrl-C)", file=sys.stderr)
-        return EXIT_INTERRUPTED
     except Exception as exc:
         print(f"accelcal {args.command}: failed: {type(exc).__name__}: {exc}", file=sys.stderr)
         return EXIT_FAILURE

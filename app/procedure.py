@@ -809,6 +809,7 @@ class Procedure:
         self._run.periods_read += 1
         if np.any(played != 0):
             self._run.excited_s += active.period_s
+        self._poll_power()  # first: a tripped amplifier explains what the channels show
         self._check_block(block)
         if self._writer is not None and not self._recording_full:
             drive = (
@@ -817,7 +818,6 @@ class Procedure:
             self._writer.append(
                 block[self._channel_index["reference"]], block[self._channel_index["dut"]], drive
             )
-        self._poll_power()
         amplifier = self.stand.measuring_amplifier
         if amplifier is not None and amplifier.overloaded(
             self.stand.config.reference_amplifier_channel
