@@ -284,18 +284,25 @@ class Procedure:
         started = datetime.now(UTC)
         status, reason = STATUS_COMPLETE, None
         if self.folder is not None:
-            self.folder.write_json(
-                "config.json",
-                {
-                    "stand": self.stand.config.raw,
-                    "stand_source": self.stand.config.source,
-                    "plan": self.plan.to_dict(),
-                    "settings": self.settings.__dict__,
-                    "identity": self.identity,
-                },
-            )
-            if self.stand.config.text:
-                self.folder.write_text("stand.toml", self.stand.config.text)
+            try:
+                self.folder.write_json(
+                    "config.json",
+                    {
+                        "stand": self.stand.config.raw,
+                        "stand_source": self.stand.config.source,
+                        "plan": self.plan.to_dict(),
+                        "settings": self.settings.__dict__,
+                        "identity": self.identity,
+                    },
+                )
+                if self.stand.config.text:
+                    self.folder.write_text("stand.toml", self.stand.config.text)
+            except OSError as exc:  # nothing has moved yet
+                raise RunNotRecordedError(
+                    f"run {self.folder.run_id} not started, nothing moved: its configuration "
+                    f"could not be stored in {self.folder.path} ({exc.strerror or exc}); free "
+                    "disk space"
+                ) from exc
         try:
             self._state(State.PREFLIGHT)
             self._preflight()

@@ -263,6 +263,22 @@ def test_file_size_limit_ends_the_run_aborted_disk_full_exit_3(tmp_path):
     assert_survived(only_run(out), "disk full")
 
 
+def test_a_tiny_file_size_limit_is_one_line_not_a_kill(tmp_path):
+    """SIGXFSZ is ignored: writing past RLIMIT_FSIZE is an EFBIG error, not a killed process."""
+    process = subprocess.run(
+        [sys.executable, "-m", "app", "run", "--sim", "--out", str(tmp_path / "runs")],
+        preexec_fn=_file_size_limit(10_000),  # config.json (14 kB) does not fit
+        capture_output=True,
+        text=True,
+        env=env(),
+        timeout=300,
+    )
+    assert process.returncode == 3, process.stderr
+    assert "Traceback" not in process.stderr
+    (line,) = process.stderr.strip().splitlines()
+    assert "not started, nothing moved" in line and "File too large" in line
+
+
 def test_results_that_cannot_be_stored_give_one_line_and_exit_3(tmp_path, capsys, monkeypatch):
     def refuse(self, record, results):
         raise OSError(errno.ENOSPC, "No space left on device")
