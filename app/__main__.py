@@ -3,7 +3,8 @@
 The whole CLI, imports included, runs inside `run()`, so a Ctrl-C in the first seconds (heavy
 imports, opening the stand) ends with one line and exit 130, never a traceback. SIGXFSZ is
 ignored so a file-size limit (RLIMIT_FSIZE) gives EFBIG on write, which a run turns into an
-aborted "disk full" run, instead of killing the process with the drive on.
+aborted "disk full" run, instead of killing the process with the drive on (CPython ignores it
+at start-up already; it is set again here so an embedding interpreter cannot undo that).
 """
 
 from __future__ import annotations

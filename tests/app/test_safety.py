@@ -239,6 +239,25 @@ def test_recording_stops_before_the_disk_is_full_and_stays_readable(tmp_path, mo
     assert recording.periods == 1 and recording.status == "aborted"
 
 
+def test_an_enospc_from_hdf5_is_a_disk_full_error(tmp_path):
+    plan = preset_plan("piezo")
+    stand = open_stand(CONFIG, dut="piezo")
+    writer = RecordingWriter(tmp_path / "r.h5", plan, stand.chain, stand.budget)
+    stand.close()
+    real = writer._file
+
+    class Full:  # what h5py raises when the disk refuses a flush
+        def flush(self):
+            raise OSError("Can't write data (file write failed: errno = 28, error message = ..)")
+
+    writer._file = Full()
+    n = plan.period_samples
+    with pytest.raises(DiskFullError, match="errno = 28"):
+        writer.append(np.ones(n), np.ones(n))
+    writer._file = real
+    writer.close()
+
+
 def _file_size_limit(limit_bytes: int):
     def apply() -> None:
         resource.setrlimit(resource.RLIMIT_FSIZE, (limit_bytes, limit_bytes))
