@@ -304,7 +304,7 @@ def test_results_that_cannot_be_stored_give_one_line_and_exit_3(tmp_path, capsys
 
     monkeypatch.setattr(RunFolder, "finish", refuse)
     out = tmp_path / "runs"
-    assert main(["run", "--sim", "--fault", "device-lost@5", "--out", str(out)]) == 3
+    assert main(["run", "--sim", "--fault", "device-lost@5", "--out", str(out), "--json"]) == 3
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1
     assert "could not be stored (No space left on device)" in err[0]
