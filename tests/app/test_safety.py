@@ -358,3 +358,20 @@ def test_ctrl_c_while_starting_exits_130_with_one_line(tmp_path, delay_s):
 def test_console_script_is_the_interrupt_safe_entry_point():
     text = (ROOT / "pyproject.toml").read_text()
     assert 'accelcal = "app.__main__:run"' in text
+
+
+def test_free_bytes_is_the_smaller_of_the_disk_and_the_file_size_limit(tmp_path, monkeypatch):
+    from app import recording
+
+    path = tmp_path / "r.h5"
+    path.write_bytes(b"x" * 1000)
+
+    class Stat:
+        f_bavail, f_frsize = 10, 4096  # 40960 bytes free on the disk
+
+    monkeypatch.setattr(recording.os, "statvfs", lambda folder: Stat())
+    unlimited = (resource.RLIM_INFINITY, resource.RLIM_INFINITY)
+    monkeypatch.setattr(recording.resource, "getrlimit", lambda which: unlimited)
+    assert recording.free_bytes(path) == 40960
+    monkeypatch.setattr(recording.resource, "getrlimit", lambda which: (5000, 5000))
+    assert recording.free_bytes(path) == 4000  # the limit minus what the file holds
