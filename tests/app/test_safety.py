@@ -139,6 +139,12 @@ def test_amplifier_faults_come_through_the_amplifier_and_leave_it_off(tmp_path, 
     assert "state: fading out" in (folder.path / "run.log").read_text()
 
 
+def test_power_amplifier_faults_need_a_power_amplifier():
+    config = dataclasses.replace(CONFIG, power_amplifier=None)
+    with pytest.raises(stand_config.ConfigError, match="over-current: the stand has no power"):
+        open_stand(config, faults=(Fault("over-current", 1.0),))
+
+
 def test_natural_over_travel_opens_the_interlock_and_ends_the_run(tmp_path):
     limits = dataclasses.replace(CONFIG.limits, displacement_peak_to_peak_m=1.0)
     config = dataclasses.replace(CONFIG, limits=limits)  # preflight lets it through ...
