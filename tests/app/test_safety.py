@@ -320,6 +320,10 @@ def test_results_that_cannot_be_stored_give_one_line_and_exit_3(tmp_path, capsys
 # --- signals --------------------------------------------------------------------------------
 
 
+def _log_text(out: Path) -> str:
+    return "".join(p.read_text() for p in out.glob("*/run.log"))
+
+
 @pytest.mark.parametrize("signum", [signal.SIGHUP, signal.SIGTERM], ids=["SIGHUP", "SIGTERM"])
 def test_sighup_and_sigterm_fade_out_and_exit_3(tmp_path, signum):
     out = tmp_path / "runs"
@@ -330,10 +334,10 @@ def test_sighup_and_sigterm_fade_out_and_exit_3(tmp_path, signum):
         text=True,
         env=env(),
     )
-    deadline = time.monotonic() + 60
-    while time.monotonic() < deadline and not list(out.glob("*/recording.h5")):
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and "state: identifying" not in _log_text(out):
         time.sleep(0.2)
-    time.sleep(5.0)  # into the identification: the shaker is moving
+    time.sleep(1.0)  # into the identification: the shaker is moving
     process.send_signal(signum)
     stdout, stderr = process.communicate(timeout=60)
     assert process.returncode == 3, stderr
