@@ -40,7 +40,7 @@ def env() -> dict[str, str]:
     return {**os.environ, "PYTHONPATH": str(ROOT)}
 
 
-def assert_survived(folder: Path, reason: str) -> dict:
+def assert_survived(folder: Path, reason: str, *, power_lost: bool = False) -> dict:
     """Aborted with `reason` in its status, drive at 0 V, power amplifier off (or its loss
     logged), recording readable and marked aborted, manifest valid."""
     record = load_run(folder)  # verifies the manifest first (RunIntegrityError otherwise)
@@ -52,11 +52,11 @@ def assert_survived(folder: Path, reason: str) -> dict:
     recording = read_recording(folder / "recording.h5")
     assert recording.status == "aborted" and recording.periods >= 2
     log = (folder / "run.log").read_text()
-    if "power amplifier: output on" in log:
-        assert (
-            "power amplifier: output off" in log
-            or "power amplifier: output could not be switched off" in log
-        )
+    assert "power amplifier: output on" in log  # every case here ends a moving run
+    if power_lost:  # nobody can switch a lost amplifier off: said, not hidden
+        assert "power amplifier: output could not be switched off" in log
+    else:
+        assert log.index("power amplifier: output off") > log.index("power amplifier: output on")
     return record
 
 
@@ -90,7 +90,7 @@ def test_every_fault_kind_exits_3_at_0_v_readable_and_verified(tmp_path, capsys,
     assert code == 3
     record = json.loads(capsys.readouterr().out)
     assert record["status"] == "aborted"
-    assert_survived(only_run(out), EXPECTED[kind])
+    assert_survived(only_run(out), EXPECTED[kind], power_lost=kind == "amplifier-lost")
 
 
 # --- the power amplifier --------------------------------------------------------------------
