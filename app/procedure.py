@@ -716,6 +716,10 @@ class Procedure:
         self._in_transition = True
         try:
             self._period(state)
+        except BaseException:
+            # the crossfade is written (played or queued): a fade-out starts where it ends
+            self._drive = new_drive
+            raise
         finally:
             self._in_transition = False
         self._drive = new_drive

@@ -6,7 +6,9 @@ from __future__ import annotations
 
 import dataclasses
 import errno
+import itertools
 import json
+import math
 import os
 import resource
 import signal
@@ -22,7 +24,7 @@ import pytest
 import app.procedure as procedure_module
 from app import stand_config
 from app.cli import main
-from app.procedure import PeriodBlock, Procedure, RunSettings
+from app.procedure import PeriodBlock, Procedure, RunSettings, State, StateChanged
 from app.recording import DiskFullError, RecordingWriter, read_recording
 from app.records import RunFolder, inspect_run, load_run
 from app.stands import open_stand
@@ -264,6 +266,36 @@ def test_an_enospc_from_hdf5_is_a_disk_full_error(tmp_path):
     writer.close()
 
 
+@pytest.mark.parametrize("full_in", [State.IDENTIFYING, State.EQUALISING])
+def test_a_disk_full_during_a_crossfade_fades_out_from_where_it_ends(
+    tmp_path, monkeypatch, full_in
+):
+    """The disk fills while a crossfade plays: the run fades out from the crossfade's end, so
+    the drive never steps at a period boundary and the last period played ends near 0 V."""
+    full = {"now": False}
+    monkeypatch.setattr("app.recording.free_bytes", lambda p: 0.0 if full["now"] else math.inf)
+    stand = open_stand(CONFIG, dut="piezo", systematic=False)
+    folder = RunFolder.create(tmp_path, "full")
+
+    def listener(event):
+        if isinstance(event, StateChanged) and event.state == full_in:
+            full["now"] = True  # the crossfade into this state is the next period recorded
+
+    try:
+        finished = Procedure(stand, preset_plan("piezo"), RunSettings(), folder, listener).run()
+    finally:
+        stand.close()
+    assert finished.status == "aborted" and finished.abort_reason.startswith("disk full")
+    played = stand.daq.output.periods
+    peak = max(p.peak_v for p in played)
+    assert played[-1].tail_rms_v <= 0.01 * peak  # faded out before the stop
+    for before, after in itertools.pairwise(played):
+        tail, head = before.tail_rms_v, after.head_rms_v
+        assert head <= 5 * tail + 0.01 * after.peak_v, (before, after)
+        assert tail <= 5 * head + 0.01 * before.peak_v, (before, after)
+    assert read_recording(folder.recording).status == "aborted"
+
+
 def _file_size_limit(limit_bytes: int):
     def apply() -> None:
         resource.setrlimit(resource.RLIMIT_FSIZE, (limit_bytes, limit_bytes))
@@ -285,7 +317,9 @@ def test_file_size_limit_ends_the_run_aborted_disk_full_exit_3(tmp_path):
     assert "Traceback" not in process.stderr
     record = json.loads(process.stdout)
     assert record["abort_reason"].startswith("disk full")
-    assert_survived(only_run(out), "disk full")
+    folder = only_run(out)
+    assert_survived(folder, "disk full")
+    assert "state: fading out" in (folder / "run.log").read_text()  # from the drive playing
 
 
 def test_a_tiny_file_size_limit_is_one_line_not_a_kill(tmp_path):
