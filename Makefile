@@ -36,6 +36,7 @@ bench: $(STAMP)
 	$(BIN)/python bench/coverage.py 600 piezo
 	$(BIN)/python bench/estimators.py
 	$(BIN)/python bench/excitation_time.py
+	$(BIN)/python bench/records.py
 	QT_QPA_PLATFORM=offscreen $(BIN)/python bench/gui_responsiveness.py
 
 lint: $(STAMP)

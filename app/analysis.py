@@ -8,8 +8,11 @@ is analysed only after the folder's manifest verifies (app.records).
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass
 from pathlib import Path
+
+import numpy as np
 
 from app.recording import (
     STATUS_ABORTED,
@@ -26,9 +29,13 @@ from app.records import (
     inspect_run,
     is_run_folder,
 )
+from app.verdict import Tolerances, tolerances_for, with_verdict
 from dsp.calibration import Results, compute_results
+from dsp.hum import mains_hum
+from dsp.multisine import Plan, PlanError
 from dsp.segments import segment_line_spectra, segment_plan
 from dsp.spectral import Estimate, SpectralAccumulator
+from dsp.uncertainty import Budget
 
 
 @dataclass(frozen=True)
@@ -48,8 +55,12 @@ def analyze(
     probability: float = 0.9545,
     rule: str = "gum",
     tolerance_percent: float | None = None,
+    tolerances: Tolerances | None = None,
 ) -> Analysis:
-    """Analyse whole periods (default) or, with `segments`, the seed's L equal segments."""
+    """Analyse whole periods (default) or, with `segments`, the seed's L equal segments.
+
+    The results carry the overall verdict (app.verdict) against `tolerances`; by default those
+    of the simulated DUT the recording's truth names, else `tolerance_percent` alone."""
     plan = recording.plan
     status_note = status_warning(recording.status)
     warnings: list[str] = [status_note] if status_note else []
@@ -67,9 +78,10 @@ def analyze(
         reference = recording.reference_v[start:]
         dut = recording.dut_v[start:]
         labels = [f"{f:g} Hz" for f in plan.nominal_frequencies_hz]
-        length, warnings = segment_plan(
+        length, segment_warnings = segment_plan(
             reference.size, segments, plan.frequencies_hz, labels, plan.sample_rate_hz
         )
+        warnings.extend(segment_warnings)
         accumulator = SpectralAccumulator(length, plan.bins, track_floor=False)
         spectra = [
             segment_line_spectra(x, segments, length, plan.frequencies_hz, plan.sample_rate_hz)
@@ -77,17 +89,108 @@ def analyze(
         ]
         accumulator.add_line_spectra(*spectra)
     estimate = accumulator.estimate(estimator)
+    budget, hum_warnings = _budget_with_hum(recording)
+    warnings.extend(hum_warnings)
     results = compute_results(
         estimate,
         plan,
         recording.chain,
-        recording.budget,
+        budget,
         probability=probability,
         rule=rule,
         tolerance_percent=tolerance_percent,
         extra_warnings=warnings,
     )
+    if tolerances is None:
+        dut = recording.truth.attrs.get("dut") if recording.truth is not None else None
+        tolerances = tolerances_for(
+            str(dut) if dut else None, plan.reference_frequency_hz, tolerance_percent
+        )
+    results = with_verdict(results, tolerances, recording.status)
     return Analysis(estimate, results, recording.status)
+
+
+def _budget_with_hum(recording: Recording) -> tuple[Budget, list[str]]:
+    """The recording's budget with a "mains hum at X Hz" component (magnitude and phase) at
+    every line on a mains harmonic (one already stored with the recording, measured by the
+    procedure at run time, is kept as it is), and a warning per such line (issue 13 point 3;
+    dsp.hum). The hum comes from the leading drive-off periods (drive exactly 0 V, among the
+    settle periods) when the recording has a drive channel, else from the neighbouring mains
+    harmonics (flagged as not separable from the line)."""
+    hum = mains_hum(recording.plan, recording.analysis_periods(), _drive_off_periods(recording))
+    if not hum.affected.any():
+        return recording.budget, []
+    stored = {c.name for c in recording.budget.components}
+    new = tuple(c for c in hum.components() if c.name not in stored)
+    return Budget((*recording.budget.components, *new)), hum.warnings()
+
+
+def _drive_off_periods(recording: Recording):
+    """(reference, DUT) of the leading settle periods played at 0 V, or None."""
+    if recording.drive_v is None:
+        return None
+    n = recording.period_samples
+    count = 0
+    while count < recording.settle_periods and (count + 1) * n <= recording.drive_v.size:
+        if np.any(recording.drive_v[count * n : (count + 1) * n] != 0.0):
+            break
+        count += 1
+    if count == 0:
+        return None
+    return (
+        recording.reference_v[: count * n].reshape(count, n),
+        recording.dut_v[: count * n].reshape(count, n),
+    )
+
+
+def reanalysis(
+    recording: Recording,
+    *,
+    reference_frequency_hz: float | None = None,
+    settle_periods: int | None = None,
+    mains_frequency_hz: float | None = None,
+) -> Recording:
+    """A stored recording with re-analysis settings applied, each refused naming its option
+    (RecordingError) when it cannot be: `reference_frequency_hz` must be a planned line (its
+    nominal frequency); `settle_periods` more leading periods are dropped from the analysed
+    ones when at least 2 remain; `mains_frequency_hz` replaces the plan's mains frequency (the
+    mains-harmonic checks and hum logic use it)."""
+    plan = recording.plan
+    changes: dict[str, float] = {}
+    if reference_frequency_hz is not None:
+        if not any(
+            math.isclose(f, reference_frequency_hz, rel_tol=1e-9)
+            for f in plan.nominal_frequencies_hz
+        ):
+            raise RecordingError(
+                f"--reference-frequency: {reference_frequency_hz:g} Hz is not a line of the "
+                f"recording's plan ({', '.join(f'{f:g}' for f in plan.nominal_frequencies_hz)} Hz)"
+            )
+        changes["reference_frequency_hz"] = float(reference_frequency_hz)
+    if mains_frequency_hz is not None:
+        changes["mains_frequency_hz"] = float(mains_frequency_hz)
+    if changes:
+        try:
+            plan = Plan.from_dict({**plan.to_dict(), **changes})
+        except PlanError as exc:
+            option = "--mains" if "mains_frequency_hz" in changes else "--reference-frequency"
+            raise RecordingError(f"{option}: {exc}") from None
+    settle = recording.settle_periods
+    acquired = recording.acquired_periods
+    if settle_periods is not None:
+        if settle_periods < 0:
+            raise RecordingError(f"--settle-periods: must be >= 0, got {settle_periods}")
+        available = recording.analysis_periods()[0].shape[0]
+        if available - settle_periods < 2:
+            raise RecordingError(
+                f"--settle-periods: dropping {settle_periods} of the {available} analysed "
+                "period(s) leaves fewer than 2 (type A needs them)"
+            )
+        settle += settle_periods
+        acquired = None if acquired is None else acquired - settle_periods
+    return dataclasses.replace(
+        recording, plan=plan, settle_periods=settle, acquired_periods=acquired
+    )
 
 
 def status_warning(status: str | None) -> str | None:

@@ -50,7 +50,7 @@ from app.records import (
     unlock,
     writable_folder,
 )
-from dsp.calibration import Results
+from dsp.calibration import NOT_STATED, Results
 from dsp.uncertainty import Budget, Quantity
 
 MANDATORY = (
@@ -153,6 +153,10 @@ BODY = ParagraphStyle("body", parent=STYLES["BodyText"], fontSize=9, leading=11.
 SMALL = ParagraphStyle("small", parent=BODY, fontSize=7.5, leading=9.5)
 HEAD = ParagraphStyle("head", parent=STYLES["Heading2"], fontSize=11.5, spaceBefore=8, spaceAfter=3)
 TITLE = ParagraphStyle("title", parent=STYLES["Title"], fontSize=17, alignment=TA_CENTER)
+VERDICT = ParagraphStyle(
+    "verdict", parent=STYLES["Title"], fontSize=20, leading=24, alignment=TA_CENTER
+)
+PHASE_NOT_STATED = "not stated (not corrected for the inter-channel delay)"
 GRID = colors.Color(0.75, 0.75, 0.75)
 BAND = colors.Color(0.78, 0.86, 0.97)
 INK = colors.Color(0.1, 0.25, 0.55)
@@ -519,11 +523,17 @@ def _write_pdf(
                     f"<b>({value} ± {u_value}) mV/(m/s²)</b>, i.e. "
                     f"{r.sensitivity_db:.2f} dB re 1 mV/(m/s²)",
                 ),
-                ("Phase", f"({phase} ± {u_phase})°"),
+                (
+                    "Phase",
+                    f"({phase} ± {u_phase})°"
+                    if results.phase_corrected_for_skew
+                    else PHASE_NOT_STATED,
+                ),
                 ("Coverage", f"k = {r.coverage_factor:.2f}, coverage probability {p_percent}"),
             ]
         ),
     ]
+    story += _verdict_section(results)
     story += _line_table(results)
     story += _charts(results)
     if sweep is not None:
@@ -545,6 +555,24 @@ def _write_pdf(
     )
     document.build(story, canvasmaker=_numbered_canvas(number, lab.get("name", "")))
     out.chmod(0o444)
+
+
+def _verdict_section(results: Results) -> list[Any]:
+    """The overall verdict, large and plain, with its reasons (app.verdict)."""
+    if results.verdict is None:
+        return []
+    reasons = "<br/>".join(f"• {_esc(reason)}" for reason in results.verdict_reasons)
+    return [
+        Paragraph("Overall verdict", HEAD),
+        Paragraph(f"<b>{_esc(results.verdict)}</b>", VERDICT),
+        Paragraph(
+            "Decision rule: guarded acceptance (ILAC-G8) against the DUT's tolerances; "
+            "INDETERMINATE where a result is inside its tolerance only without its uncertainty, "
+            "where no uncertainty or tolerance is stated, or where the mounting is in doubt.",
+            SMALL,
+        ),
+        Paragraph(reasons, SMALL),
+    ]
 
 
 def _method_text(record: dict[str, Any], results: Results, plan: dict[str, Any]) -> str:
@@ -588,6 +616,8 @@ def _line_table(results: Results) -> list[Any]:
     for ln in results.lines:
         s, u = fmt.round_gum(ln.sensitivity_mv_per_ms2, ln.expanded_uncertainty_mv_per_ms2)
         ph, u_ph = fmt.round_gum(ln.phase_deg, ln.phase_expanded_uncertainty_deg)
+        if not results.phase_corrected_for_skew:
+            ph, u_ph = "n/s", "n/s"
         rel = 100 * ln.relative_expanded_uncertainty
         dev_decimals = (
             max(0, -math.floor(math.log10(rel)) + 1) if rel > 0 and math.isfinite(rel) else 2
@@ -604,7 +634,9 @@ def _line_table(results: Results) -> list[Any]:
                 u_ph,
                 fmt.significant(rel),
                 f"{ln.coverage_factor:.2f}",
-                {"within": "within", "over": "over", "n/a": "n/a"}[ln.iso_verdict],
+                {"within": "within", "over": "over", "n/a": "n/a", NOT_STATED: "n/s"}[
+                    ln.iso_verdict
+                ],
             ]
         )
     widths = [w * mm for w in (15, 15, 19, 16, 16, 16, 15, 14, 13, 11, 16)]
@@ -614,7 +646,9 @@ def _line_table(results: Results) -> list[Any]:
         "U: expanded "
         "uncertainty with the coverage factor k of its line. ISO 16063-21: relative expanded "
         "uncertainty within the standard's suggested limits (2 % to 1 kHz, 4 % to 2 kHz, 6 % "
-        "to 10 kHz) or over them.",
+        "to 10 kHz) or over them; n/s: not stated (no expanded uncertainty"
+        + ("" if results.phase_corrected_for_skew else "; phase: " + PHASE_NOT_STATED)
+        + ").",
         SMALL,
     )
     return [Paragraph("Results per frequency", HEAD), table, Spacer(1, 1.5 * mm), note]
@@ -629,6 +663,17 @@ def _charts(results: Results) -> list[Any]:
     ]
     phase = [ln.phase_deg for ln in results.lines]
     u_phase = [ln.phase_expanded_uncertainty_deg for ln in results.lines]
+    if not results.phase_corrected_for_skew:  # no phase characteristic without the skew
+        return [
+            KeepTogether(
+                [
+                    Paragraph("Amplitude-frequency characteristic", HEAD),
+                    chart(f, deviation, u_dev, "deviation in %"),
+                    Paragraph(f"Phase-frequency characteristic: {PHASE_NOT_STATED}.", BODY),
+                    Paragraph("Shaded: the expanded uncertainty (k as in the table).", SMALL),
+                ]
+            )
+        ]
     return [
         KeepTogether(
             [
@@ -748,6 +793,9 @@ def _statements(results: Results, info: CertificateInfo, p_percent: str) -> list
             if all(v == "pass" for v in verdicts)
             else "does not conform"
             if any(v == "fail" for v in verdicts)
+            else "conformity not stated (no expanded uncertainty stated at "
+            f"{verdicts.count(NOT_STATED)} frequencies)"
+            if NOT_STATED in verdicts
             else "no statement of conformity can be made at every frequency"
         )
         out += [
@@ -758,7 +806,8 @@ def _statements(results: Results, info: CertificateInfo, p_percent: str) -> list
                 "acceptance (ILAC-G8): pass where |deviation| + U ≤ tolerance, fail where "
                 "|deviation| − U > tolerance, otherwise inconclusive. Result: the item "
                 f"<b>{summary}</b> ({verdicts.count('pass')} pass, {verdicts.count('fail')} "
-                f"fail, {verdicts.count('inconclusive')} inconclusive of {len(verdicts)}).",
+                f"fail, {verdicts.count('inconclusive')} inconclusive, "
+                f"{verdicts.count(NOT_STATED)} not stated of {len(verdicts)}).",
                 BODY,
             ),
         ]

@@ -10,6 +10,7 @@ import csv
 import io
 import json
 import math
+import re
 import sys
 import tomllib
 from collections.abc import Sequence
@@ -17,8 +18,11 @@ from pathlib import Path
 
 from app import formatting as fmt
 from app import lines
-from app.analysis import analyze, read_for_analysis, status_warning
+from app.analysis import analyze, read_for_analysis, reanalysis, status_warning
 from app.certificate import CertificateError, CertificateInfo, issue
+from app.db.cli import Handler
+from app.db.cli import add_commands as add_records_commands
+from app.db.errors import RecordsInputError
 from app.files import FileExistsRefusal, check_target, write_new
 from app.procedure import PreflightError, RunNotRecordedError
 from app.recording import RecordingError, read_csv
@@ -29,12 +33,14 @@ from app.stand_config import ConfigError
 from dsp.calibration import AnalysisError, ReferenceChain, Results
 from dsp.multisine import PRESETS, Plan, PlanError, make_plan
 from dsp.segments import SegmentError
+from dsp.spectral import check_periods
 from dsp.uncertainty import Budget
 from hardware.errors import HardwareError
 from sim.models import DUT_CATALOGUE, StandModel
 from sim.stand import Fault
 
 EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT, EXIT_ABORTED = 0, 1, 2, 3
+RECORDS_COMMANDS: dict[str, Handler] = {}  # filled by build_parser (app.db.cli)
 
 
 class UsageError(ValueError):
@@ -72,7 +78,7 @@ def _plan_from_options(args: argparse.Namespace, *, optimise: bool) -> Plan:
         args.period or preset.period_samples,
         args.level or preset.level_ms2,
         args.reference_frequency or preset.reference_frequency_hz,
-        mains_frequency_hz=args.mains,
+        mains_frequency_hz=args.mains if args.mains is not None else 50.0,
         shift_mains_lines=getattr(args, "shift_mains", False),
         phases_rad=None if optimise else [0.0] * len(freqs),
     )
@@ -85,7 +91,26 @@ def _add_plan_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--period", type=int, help="period length in samples")
     p.add_argument("--level", type=float, help="target peak acceleration per line, m/s^2")
     p.add_argument("--reference-frequency", type=float, help="reference frequency in Hz")
-    p.add_argument("--mains", type=float, default=50.0, help="mains frequency in Hz (50)")
+    p.add_argument("--mains", type=float, default=None, help="mains frequency in Hz (50)")
+
+
+def _skew(text: str) -> float:
+    """--skew SECONDS: a finite number of seconds, either sign."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number of seconds") from None
+    if not math.isfinite(value) or abs(value) > 1.0:
+        raise argparse.ArgumentTypeError(f"{text!r}: must be finite and within +-1 s")
+    return value
+
+
+def _accept_negative_numbers(parser: argparse.ArgumentParser) -> None:
+    """Let `parser` take negative numbers in any float notation as option values
+    (`--skew -2e-06`), not only argparse's default -1 and -.5 forms."""
+    parser._negative_number_matcher = re.compile(  # argparse has no public hook for this
+        r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$"
+    )
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -110,15 +135,33 @@ def build_parser() -> argparse.ArgumentParser:
     a.add_argument("--json", action="store_true", help="results as JSON")
     a.add_argument("--csv", type=Path, help="also write the per-line results as CSV here")
     a.add_argument("--overwrite", action="store_true", help="--csv may replace an existing file")
-    csv_group = a.add_argument_group("CSV recordings (an HDF5 recording carries these)")
+    csv_group = a.add_argument_group(
+        "CSV recordings (an HDF5 recording carries these; on one, --reference-frequency, "
+        "--settle-periods and --mains re-analyse it, the others are refused)"
+    )
     _add_plan_options(csv_group)
     csv_group.add_argument("--reference-sensitivity", type=float, help="mV/(m/s^2)")
     csv_group.add_argument("--reference-gain", type=float, default=None, help="V/V")
     csv_group.add_argument("--dut-gain", type=float, default=None, help="V/V")
-    csv_group.add_argument("--skew", type=float, default=None, help="DUT channel delay, s")
-    csv_group.add_argument("--settle-periods", type=int, default=0, help="periods to skip")
+    csv_group.add_argument(
+        "--skew",
+        type=_skew,
+        default=None,
+        metavar="SECONDS",
+        help="inter-channel delay in s, positive when the DUT channel is sampled after the "
+        "reference (e.g. 2e-06 or -2e-06); or a '# skew_s = ...' line in the CSV. Without "
+        "either the phase is not corrected for skew and not stated",
+    )
+    csv_group.add_argument(
+        "--settle-periods",
+        type=int,
+        default=None,
+        help="leading periods to skip (CSV: of the file, default 0; HDF5: of the analysed ones)",
+    )
     csv_group.add_argument("--range", type=float, dest="range_v", help="channel range, V")
     csv_group.add_argument("--budget", type=Path, help="type B budget, TOML [[component]]")
+
+    _accept_negative_numbers(a)
 
     r = sub.add_parser("run", help="run a calibration (simulated stand unless --stand)")
     r.add_argument("--sim", action="store_true", help="the built-in simulated stand (default)")
@@ -185,6 +228,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--out", type=Path, help="recording to write (.h5)")
     s.add_argument("--overwrite", action="store_true", help="--out may replace an existing file")
     s.add_argument("--json", action="store_true", help="machine-readable output")
+    RECORDS_COMMANDS.update(add_records_commands(sub))
     return parser
 
 
@@ -192,7 +236,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        return COMMANDS[args.command](args)
+        return (COMMANDS | RECORDS_COMMANDS)[args.command](args)
     except (
         UsageError,
         PlanError,
@@ -203,6 +247,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         ConfigError,
         PreflightError,
         CertificateError,
+        RecordsInputError,
     ) as exc:
         print(f"accelcal {args.command}: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
@@ -286,13 +331,21 @@ def _load(args: argparse.Namespace):
                 "skew",
                 "budget",
                 "range_v",
+                "level",
             )
             if getattr(args, name) not in (None, False)
         ]
         if given:
             opts = ", ".join("--" + g.replace("_", "-").replace("range-v", "range") for g in given)
             raise UsageError(f"{opts}: not allowed with an HDF5 recording, which stores them")
-        return read_for_analysis(args.file)
+        _positive("--reference-frequency", args.reference_frequency)
+        _positive("--mains", args.mains)
+        return reanalysis(
+            read_for_analysis(args.file),
+            reference_frequency_hz=args.reference_frequency,
+            settle_periods=args.settle_periods,
+            mains_frequency_hz=args.mains,
+        )
     if suffix not in (".csv", ".txt"):
         raise UsageError(f"{args.file}: unknown recording type (use .h5/.hdf5 or .csv)")
     if args.preset is None and (
@@ -311,11 +364,18 @@ def _load(args: argparse.Namespace):
         args.reference_sensitivity,
         reference_gain=args.reference_gain or 1.0,
         dut_gain=args.dut_gain or 1.0,
-        skew_s=args.skew or 0.0,
+        skew_s=args.skew,  # None: from the file's header, else unknown
     )
     budget = _read_budget(args.budget) if args.budget else Budget(())
+    if args.settle_periods is not None and args.settle_periods < 0:
+        raise UsageError(f"--settle-periods: must be >= 0, got {args.settle_periods}")
     return read_csv(
-        args.file, plan, chain, budget, settle_periods=args.settle_periods, range_v=args.range_v
+        args.file,
+        plan,
+        chain,
+        budget,
+        settle_periods=args.settle_periods or 0,
+        range_v=args.range_v,
     )
 
 
@@ -363,10 +423,23 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         note = status_warning(analysis.status)
         if note:
             print(f"accelcal analyze: warning: {note}", file=sys.stderr)
-        print(json.dumps({"status": status, **results.to_dict()}, indent=2))
+        print(json.dumps({"status": status, **results.to_dict(), **_reanalysed(args)}, indent=2))
     else:
         print_results(results, recording.source, analysis.status)
     return EXIT_OK
+
+
+def _reanalysed(args: argparse.Namespace) -> dict:
+    """The re-analysis settings applied to a stored HDF5 recording (empty for CSV)."""
+    if args.file.suffix.lower() not in (".h5", ".hdf5") and not args.file.is_dir():
+        return {}
+    applied = {
+        "reference_frequency_hz": args.reference_frequency,
+        "settle_periods_dropped": args.settle_periods,
+        "mains_frequency_hz": args.mains,
+    }
+    applied = {k: v for k, v in applied.items() if v is not None}
+    return {"reanalysis": applied} if applied else {}
 
 
 def _output_target(
@@ -418,7 +491,7 @@ def print_results(results: Results, source: str = "", status: str | None = None)
                 s,
                 us,
                 f"{ln.deviation_percent:+.2f}",
-                f"{ln.phase_deg:.2f}",
+                f"{ln.phase_deg:.2f}" if results.phase_corrected_for_skew else "n/c",
                 f"{ln.phase_expanded_uncertainty_deg:.2f}",
                 fmt.percent(ln.relative_expanded_uncertainty),
                 f"{ln.coverage_factor:.2f}",
@@ -448,6 +521,12 @@ def print_results(results: Results, source: str = "", status: str | None = None)
     )
     for warning in results.warnings:
         print(f"warning: {warning}")
+    if not results.phase_corrected_for_skew:
+        print("phase (n/c): not corrected for skew (inter-channel delay unknown); not stated")
+    if results.verdict is not None:
+        print(f"VERDICT: {results.verdict}")
+        for reason in results.verdict_reasons:
+            print(f"  - {reason}")
 
 
 def parse_percent(text: str, option: str) -> float:
@@ -487,8 +566,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.sim and args.stand:
         raise UsageError("--sim and --stand: choose one")
     _positive("--level", args.level)
-    if args.periods < 2:
-        raise UsageError(f"--periods: at least 2, got {args.periods}")
+    try:
+        check_periods(args.estimator, args.periods)  # issue 13 point 5 (dsp.spectral)
+    except ValueError as exc:
+        raise UsageError(f"--{exc}") from None
     faults = _faults(args.fault)
     request = RunRequest(
         stand_file=args.stand,

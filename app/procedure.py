@@ -28,14 +28,23 @@ from typing import Any
 
 import numpy as np
 
-from app.recording import DiskFullError, RecordingWriter, software_version
+from app.recording import DiskFullError, RecordingWriter, Truth, software_version
 from app.records import STATUS_ABORTED, STATUS_COMPLETE, RunFolder
 from app.stands import Stand
+from app.verdict import Tolerances, tolerances_for, with_verdict
 from dsp.calibration import AnalysisError, Results, compute_results
 from dsp.crestfactor import synthesize
+from dsp.hum import mains_hum_from_lines
 from dsp.multisine import Line, Plan, fade_envelope
 from dsp.sinefit import integer_cycle_block, sine_fit
-from dsp.spectral import Estimate, SpectralAccumulator, period_spectrum, periods_agree
+from dsp.spectral import (
+    MIN_PERIODS,
+    Estimate,
+    SpectralAccumulator,
+    check_periods,
+    period_spectrum,
+    periods_agree,
+)
 from dsp.uncertainty import Budget, Component, Distribution
 from hardware.errors import (
     AmplifierFaultError,
@@ -194,8 +203,8 @@ class RunSettings:
     stepped_block_s: float = 0.25
 
     def __post_init__(self) -> None:
-        if self.periods < 2 and self.target_type_a is None:
-            raise ValueError("periods: at least 2 (type A needs them)")
+        if self.target_type_a is None:
+            check_periods(self.estimator, self.periods)  # issue 13 point 5: MIN_PERIODS
         if self.target_type_a is not None and not 0 < self.target_type_a < 1:
             raise ValueError("target type A: must be a fraction between 0 and 1 (0.002 = 0.2 %)")
         if self.max_acquisition_s is not None and not self.max_acquisition_s > 0:
@@ -350,7 +359,12 @@ class Procedure:
         else:
             self._state(State.FINISHED)
         results = self._run.results if status == STATUS_COMPLETE else None
+        if results is not None:
+            results = with_verdict(results, self._tolerances())
         record = self._record(started, status, reason, final_output)
+        if results is not None:
+            record["verdict"] = results.verdict
+            record["verdict_reasons"] = list(results.verdict_reasons)
         if self.folder is not None:
             self._log(f"{status}{': ' + reason if reason else ''}")
             try:
@@ -456,6 +470,45 @@ class Procedure:
                 with_drive=True,
                 ranges_v=self._ranges,
             )
+            self._write_truth()
+
+    def _write_truth(self) -> None:
+        """The simulated stand's true DUT sensitivity and phase at every line (/truth), at the
+        excitation's rms acceleration (the multisine's total, or one line's in stepped sine)."""
+        if self._writer is None or self.stand.truth is None:
+            return
+        plan, truth = self.plan, self.stand.truth
+        rms = float(np.sqrt(np.sum(plan.amplitudes_ms2**2) / 2))
+        if self.settings.mode == "stepped-sine":  # one line at a time: its own rms
+            values = np.array(
+                [
+                    truth(np.array([f]), a / np.sqrt(2))[0]
+                    for f, a in zip(plan.frequencies_hz, plan.amplitudes_ms2, strict=True)
+                ]
+            )
+        else:
+            values = truth(plan.frequencies_hz, rms)
+        dut = self.identity.get("dut") or {}
+        self._writer.write_truth(
+            Truth(
+                plan.frequencies_hz,
+                np.abs(values),
+                np.degrees(np.angle(values)),
+                {
+                    "dut": str(dut.get("catalogue") or ""),
+                    "description": self.stand.description,
+                    "level_ms2": float(self.identity.get("level_ms2") or 0.0),
+                    "rms_ms2": rms,
+                },
+            )
+        )
+
+    def _tolerances(self) -> Tolerances:
+        """The DUT model's tolerances (simulated catalogue DUT) and the run's --tolerance."""
+        dut = self.identity.get("dut") or {}
+        return tolerances_for(
+            dut.get("catalogue"), self.plan.reference_frequency_hz, self.settings.tolerance_percent
+        )
 
     def _background(self) -> None:
         self._state(State.BACKGROUND, "drive at 0 V: noise and hum at every line")
@@ -564,7 +617,7 @@ class Procedure:
             count = accumulator.periods
             if self._writer is not None:
                 self._writer.set_acquired_periods(count)
-            if count < 2:
+            if count < MIN_PERIODS[s.estimator]:  # no honest type A yet (dsp.spectral)
                 continue
             estimate = accumulator.estimate(s.estimator)
             results = self._publish(estimate, budget)
@@ -881,16 +934,27 @@ class Procedure:
 
     def _budget_with_background(self) -> Budget:
         """The stand's budget plus, per line, the background found with the drive at 0 V (hum,
-        which a periodic average does not remove) relative to the settled line, as a
-        rectangular bound on its bias (SPEC s.5 step 2); negligible ones (< 1e-4) are left out."""
+        which a periodic average does not remove) relative to the settled line (SPEC s.5 step
+        2): at a line on a mains harmonic the "mains hum at X Hz" components of dsp.hum
+        (U-shaped, magnitude and phase; issue 13 point 3), elsewhere a rectangular bound on the
+        background's bias, left out when negligible (< 1e-4)."""
         components = list(self.stand.budget.components)
         ref_lines, dut_lines = self._settled_lines
+        hum = mains_hum_from_lines(
+            self.plan,
+            self._background_v["reference"],
+            self._background_v["dut"],
+            ref_lines,
+            dut_lines,
+            max(1, self.settings.background_periods),
+        )
+        components.extend(hum.components())
         with np.errstate(divide="ignore", invalid="ignore"):
             bound = self._background_v["reference"] / np.abs(ref_lines) + self._background_v[
                 "dut"
             ] / np.abs(dut_lines)
-        for f, b in zip(self.plan.frequencies_hz, bound, strict=True):
-            if np.isfinite(b) and b >= 1e-4:
+        for f, b, on_mains in zip(self.plan.frequencies_hz, bound, hum.affected, strict=True):
+            if not on_mains and np.isfinite(b) and b >= 1e-4:
                 components.append(
                     Component(
                         f"background (hum, noise) at {f:g} Hz",

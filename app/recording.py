@@ -18,18 +18,23 @@ HDF5 layout (format "accelcal-recording", version 1):
                       the simulated DUT and level
 
 CSV import: two columns (reference, DUT) or three (plus drive) in volts, one optional header
-line; the plan comes from options. Files that are malformed (missing dataset, wrong length,
+line; the plan comes from options. Lines starting with '#' before the data are comments; one of
+the form `# skew_s = 2e-06` gives the inter-channel delay in s, positive when the DUT channel is
+sampled after the reference (the --skew option's sign; the two must agree when both are given).
+Files that are malformed (missing dataset, wrong length,
 NaN/inf, a flat dead channel, samples at a channel's range limit) are refused with a
 RecordingError that names the file, the channel and the problem.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import errno
 import json
 import logging
 import math
 import os
+import re
 import resource
 from collections.abc import Iterator
 from dataclasses import dataclass, field
@@ -450,7 +455,15 @@ def read_csv(
         raise RecordingError(f"{path}: no such file") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise RecordingError(f"{name}: cannot be read as text ({exc})") from None
-    data = _parse_csv(text, name)
+    data, header_skew_s = _parse_csv(text, name)
+    if header_skew_s is not None:
+        if chain.skew_s is None:
+            chain = dataclasses.replace(chain, skew_s=header_skew_s)
+        elif not math.isclose(chain.skew_s, header_skew_s, rel_tol=1e-9, abs_tol=1e-15):
+            raise RecordingError(
+                f"{name}: --skew {chain.skew_s:g} s disagrees with the file's 'skew_s = "
+                f"{header_skew_s:g}' line; give one of them"
+            )
     drive = data[:, 2].copy() if data.shape[1] == 3 else None
     ranges = {} if range_v is None else {c: float(range_v) for c in CHANNELS}
     recording = Recording(
@@ -470,11 +483,29 @@ def read_csv(
     return recording
 
 
-def _parse_csv(text: str, name: str) -> np.ndarray:
+SKEW_LINE = re.compile(r"^#\s*skew_s\s*=\s*(\S+)\s*$")
+
+
+def _parse_csv(text: str, name: str) -> tuple[np.ndarray, float | None]:
+    """The samples and the skew (s) of a '# skew_s = ...' comment line, None without one."""
     lines = text.splitlines()
     start = 0
-    if lines and not _is_numeric_row(lines[0]):
-        start = 1  # one header line allowed
+    skew_s = None
+    while start < len(lines) and lines[start].lstrip().startswith("#"):
+        match = SKEW_LINE.match(lines[start].strip())
+        if match:
+            try:
+                skew_s = float(match.group(1))
+            except ValueError:
+                skew_s = math.nan
+            if not (math.isfinite(skew_s) and abs(skew_s) <= 1.0):
+                raise RecordingError(
+                    f"{name}: line {start + 1}: skew_s {match.group(1)!r} is not a delay in s "
+                    "(finite, within +-1 s)"
+                )
+        start += 1
+    if start < len(lines) and not _is_numeric_row(lines[start]):
+        start += 1  # one header line allowed
     rows: list[list[float]] = []
     width = None
     for number, raw in enumerate(lines[start:], start=start + 1):
@@ -500,7 +531,7 @@ def _parse_csv(text: str, name: str) -> np.ndarray:
             ) from None
     if not rows:
         raise RecordingError(f"{name}: no data rows")
-    return np.asarray(rows, dtype=float)
+    return np.asarray(rows, dtype=float), skew_s
 
 
 def _is_numeric_row(line: str) -> bool:

@@ -3,9 +3,12 @@
 S_dut(f) = H(f) S_ref(f) G_ref / G_dut (SPEC s.2), in mV/(m/s^2), with S_ref(f) the reference
 chain's complex sensitivity interpolated from its certificate; phase
 phi_dut = arg H + phi_ref - 2 pi f tau (SPEC s.6), tau the DUT channel's sampling delay after
-the reference channel. Uncertainty per line: type A from the estimator, type B from the budget,
-combined, Welch-Satterthwaite and k per SPEC s.7 (dsp.uncertainty). The results object is plain
-data: JSON-ready dicts and CSV text; files are written by the application.
+the reference channel (positive when the DUT channel is sampled later; unknown: the phase is
+not corrected, flagged and not stated). Uncertainty per line: type A from the estimator,
+type B from the budget, combined, Welch-Satterthwaite and k per SPEC s.7 (dsp.uncertainty); a
+statement that needs U (ISO limit, tolerance) is "not stated" where U is 0 or undefined. The
+results object is plain data: JSON-ready dicts and CSV text; files are written by the
+application.
 """
 
 from __future__ import annotations
@@ -21,7 +24,7 @@ import numpy as np
 
 from dsp import uncertainty as unc
 from dsp.multisine import Plan
-from dsp.spectral import Estimate
+from dsp.spectral import MIN_PERIODS, Estimate
 
 RESULTS_FORMAT_VERSION = 1
 LOW_COHERENCE = 0.99  # warn below this magnitude-squared coherence
@@ -41,7 +44,8 @@ class ReferenceChain:
     Sensitivity magnitude in mV/(m/s^2) and phase in degrees at certificate frequencies in Hz,
     interpolated linearly over log frequency and held constant beyond the end points. Gains are
     the conditioning amplifiers' V/V; `skew_s` is the DUT channel's sampling delay after the
-    reference channel in s (multiplexed boards).
+    reference channel in s (multiplexed boards; positive when the DUT channel is sampled after
+    the reference), None when unknown: the phase is then not corrected and not stated.
     """
 
     frequencies_hz: tuple[float, ...] = (160.0,)
@@ -49,7 +53,7 @@ class ReferenceChain:
     phase_deg: tuple[float, ...] = (0.0,)
     reference_gain: float = 1.0
     dut_gain: float = 1.0
-    skew_s: float = 0.0
+    skew_s: float | None = 0.0
 
     def __post_init__(self) -> None:
         n = len(self.frequencies_hz)
@@ -70,11 +74,11 @@ class ReferenceChain:
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"reference chain: {name} must be > 0, got {value!r}")
-        if not math.isfinite(self.skew_s):
-            raise ValueError("reference chain: skew_s must be finite")
+        if self.skew_s is not None and not math.isfinite(self.skew_s):
+            raise ValueError("reference chain: skew_s must be finite (or None: unknown)")
 
     @classmethod
-    def flat(cls, sensitivity_mv_per_ms2: float, **kwargs: float) -> ReferenceChain:
+    def flat(cls, sensitivity_mv_per_ms2: float, **kwargs: float | None) -> ReferenceChain:
         """A reference with one frequency-independent sensitivity and zero phase."""
         return cls((160.0,), (float(sensitivity_mv_per_ms2),), (0.0,), **kwargs)
 
@@ -107,6 +111,8 @@ class ReferenceChain:
             try:
                 if key in ("frequencies_hz", "sensitivity_mv_per_ms2", "phase_deg"):
                     kwargs[key] = tuple(float(v) for v in value)
+                elif key == "skew_s" and value is None:
+                    kwargs[key] = None
                 else:
                     kwargs[key] = float(value)
             except (TypeError, ValueError):
@@ -173,6 +179,9 @@ class Results:
     lines: tuple[LineResult, ...]
     tolerance_percent: float | None = None
     warnings: tuple[str, ...] = field(default=())
+    phase_corrected_for_skew: bool = True  # False: skew unknown, phase not stated
+    verdict: str | None = None  # PASS, FAIL, INDETERMINATE (app.verdict); None: not assessed
+    verdict_reasons: tuple[str, ...] = field(default=())
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready nested dict (NaN and inf become None)."""
@@ -180,6 +189,7 @@ class Results:
         data["format_version"] = RESULTS_FORMAT_VERSION
         data["lines"] = [asdict(line) for line in self.lines]
         data["warnings"] = list(self.warnings)
+        data["verdict_reasons"] = list(self.verdict_reasons)
         return _json_safe(data)
 
     @classmethod
@@ -199,6 +209,9 @@ class Results:
                 lines=lines,
                 tolerance_percent=data.get("tolerance_percent"),
                 warnings=tuple(data.get("warnings", ())),
+                phase_corrected_for_skew=bool(data.get("phase_corrected_for_skew", True)),
+                verdict=data.get("verdict"),
+                verdict_reasons=tuple(data.get("verdict_reasons", ())),
             )
         except (KeyError, TypeError) as exc:
             raise ValueError(f"results: missing or malformed field ({exc})") from None
@@ -248,9 +261,20 @@ def _wrap_deg(phase_deg: np.ndarray) -> np.ndarray:
     return wrapped
 
 
+NOT_STATED = "not stated"  # a verdict that needs an uncertainty which is 0 or undefined
+
+
+def uncertainty_stated(expanded: float) -> bool:
+    """True when an expanded uncertainty can support a statement: finite and > 0."""
+    return math.isfinite(expanded) and expanded > 0
+
+
 def _tolerance_verdict(deviation: float, expanded: float, tolerance: float) -> str:
-    """Guarded acceptance (ILAC-G8): pass if |dev| + U <= T, fail if |dev| - U > T."""
-    if not (math.isfinite(deviation) and math.isfinite(expanded)):
+    """Guarded acceptance (ILAC-G8): pass if |dev| + U <= T, fail if |dev| - U > T, otherwise
+    inconclusive; "not stated" when U is 0, negative or not finite (no statement without U)."""
+    if not uncertainty_stated(expanded):
+        return NOT_STATED
+    if not math.isfinite(deviation):
         return "inconclusive"
     if abs(deviation) + expanded <= tolerance:
         return "pass"
@@ -290,12 +314,26 @@ def compute_results(
     s_ref, phi_ref = chain.sensitivity_at(frequencies)
     response = estimate.response
     sensitivity = np.abs(response) * s_ref * chain.reference_gain / chain.dut_gain
-    phase = _wrap_deg(np.degrees(np.angle(response)) + phi_ref - 360.0 * frequencies * chain.skew_s)
+    skew_known = chain.skew_s is not None
+    skew_s = chain.skew_s if chain.skew_s is not None else 0.0
+    phase = _wrap_deg(np.degrees(np.angle(response)) + phi_ref - 360.0 * frequencies * skew_s)
+    if not skew_known:
+        warnings.append(
+            "phase not corrected for skew: the inter-channel delay is unknown (give --skew or "
+            "a '# skew_s = ...' header line); the phase characteristic is not stated"
+        )
     ref_index = plan.reference_index
     s0 = sensitivity[ref_index]
 
+    need = MIN_PERIODS.get(estimate.estimator, 2)
     if estimate.periods < 2:
-        warnings.append("one period only: no type A uncertainty; acquire at least 2 periods")
+        warnings.append(f"one period only: no type A uncertainty; acquire at least {need} periods")
+    elif estimate.periods < need:  # issue 13 point 5: no honest type A below the minimum
+        warnings.append(
+            f"{estimate.periods} periods: the {estimate.estimator} estimator states a type A "
+            f"uncertainty from {need} periods on, so no uncertainty is stated; acquire at "
+            f"least {need} periods"
+        )
     if not budget.components:
         warnings.append(
             "no type B budget: the stated uncertainty is type A only (reference calibration, "
@@ -327,6 +365,8 @@ def compute_results(
         )
         deviation = sensitivity[k] / s0 - 1.0
         verdict = unc.iso_verdict(f, mag.expanded)
+        if verdict != unc.Verdict.NOT_APPLICABLE and not uncertainty_stated(mag.expanded):
+            verdict = NOT_STATED  # no U: neither within nor over the ISO limit
         tolerance = (
             None
             if tolerance_percent is None
@@ -384,6 +424,7 @@ def compute_results(
         lines=tuple(lines),
         tolerance_percent=tolerance_percent,
         warnings=tuple(warnings),
+        phase_corrected_for_skew=skew_known,
     )
 
 

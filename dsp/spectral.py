@@ -11,10 +11,29 @@ grow with the number of periods and batches merge exactly in any order. At any t
 - `periodic` (default, errors-in-variables): H = mean(Y_n) / mean(U_n); relative type A
   variance [s2_Y/|Y|^2 + s2_U/|U|^2 - 2 Re(s2_YU/(Y conj U))]/L, half on magnitude, half on phase.
 - `h1`: H1 = sum conj(U_n) Y_n / sum |U_n|^2 (seed eq. 5-7 with averaged spectra); type A from
-  the coherence, u(|H|)/|H| = u(phase) = sqrt(1 - g2) / (|g| sqrt(2 L)) (Bendat & Piersol).
+  the coherence as the least-squares residual of Y_n on U_n: one complex parameter fitted, so
+  L - 1 complex residuals, var(H1)/|H1|^2 = (1 - g2) / (g2 (L - 1)) (Bendat & Piersol's
+  (1 - g2)/(g2 L) with the small-sample L - 1), half on magnitude, half on phase; plus the
+  bias term of H1 under reference-channel noise, E[H1] = H |U|^2/(|U|^2 + s2_U) (seed eq. 5-7
+  with noisy U_n): its relative size s2_U/|U_bar|^2 is added in quadrature (H1 itself is left
+  uncorrected so that it stays equal to scipy's csd/welch, SPEC s.6).
 - `seed`: H_n = Y_n / U_n per period, |H| = mean |H_n| (seed eq. 8, 11), phase = circular mean
   of arg H_n (seed eq. 9, 12 taken on the circle), u_A = s(|H_n|)/sqrt(L)/mean (seed eq. 15-17
-  as corrected in SPEC s.7), phase u_A = circular standard deviation / sqrt(L).
+  as corrected in SPEC s.7), phase u_A = circular standard deviation / sqrt(L), its variance
+  -2 ln R scaled by L/(L - 1) (the mean resultant length R is estimated from the same periods,
+  as ddof = 1 does for s(|H_n|)).
+
+Small samples (issue 13 point 5): a type A uncertainty is stated only from `MIN_PERIODS`
+periods on (periodic and h1: 3, seed: 4); below that it is NaN, and `check_periods` refuses a
+run planned with fewer. Degrees of freedom: 2 (L - 1) for the complex estimators (circular
+noise at a DFT bin), L - 1 for `seed`; k then follows from Student's t (SPEC s.7).
+
+Distortion (issue 13 point 4): periodic content at a harmonic bin is counted only where the
+statistic T = |mean X|^2 / (s2_X / L) exceeds the F(2, 2 (L - 1)) quantile at a false-alarm
+rate of `DISTORTION_FALSE_ALARM` per run, Sidak-corrected over the harmonic bins tested on the
+channel: alpha_bin = 1 - (1 - alpha_run)^(1/n). With circular Gaussian noise and no periodic
+content, |mean X|^2 / (sigma^2/L) ~ chi2(2)/2 and s2_X / sigma^2 ~ chi2(2 (L - 1))/(2 (L - 1)),
+so T ~ F(2, 2 (L - 1)) exactly.
 
 Coherence g2 = |sum conj(U)Y|^2 / (sum|U|^2 sum|Y|^2) per line. The noise floor per line is the
 mean over nearby non-excited bins of the across-period variance (random noise only, since
@@ -29,11 +48,36 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import stats
 
 ESTIMATORS = ("periodic", "h1", "seed")
 HARMONICS = (2, 3, 4, 5)
 FLOOR_HALF_WIDTH_BINS = 12
-DETECTION_RATIO = 9.0  # harmonic power counts when > 9x the averaged noise power at its bin
+DISTORTION_FALSE_ALARM = 0.01  # probability per run that noise alone counts as distortion
+MIN_PERIODS = {"periodic": 3, "h1": 3, "seed": 4}  # fewest periods with a stated type A
+
+
+def check_periods(estimator: str, periods: int) -> None:
+    """Refuse a number of periods too small for an honest type A with `estimator`.
+
+    ValueError naming "periods", the estimator and its minimum (`MIN_PERIODS`; issue 13
+    point 5: below it the k = 2 coverage of the type A interval is not reached).
+    """
+    if estimator not in ESTIMATORS:
+        raise ValueError(f"estimator: unknown {estimator!r}; choose one of {ESTIMATORS}")
+    need = MIN_PERIODS[estimator]
+    if int(periods) < need:
+        raise ValueError(
+            f"periods: the {estimator} estimator needs at least {need} periods for a type A "
+            f"uncertainty that can be stated honestly, got {periods}"
+        )
+
+
+def detection_threshold(periods: int, tests: int, false_alarm: float = DISTORTION_FALSE_ALARM):
+    """Threshold on T = |mean X|^2 / (s2_X / L) at one bin: the F(2, 2 (L - 1)) quantile at
+    alpha_bin = 1 - (1 - false_alarm)^(1/tests) (Sidak over `tests` bins; module docstring)."""
+    alpha = -np.expm1(np.log1p(-false_alarm) / max(int(tests), 1))
+    return float(stats.f.isf(alpha, 2, 2 * (periods - 1)))
 
 
 def period_spectrum(blocks: np.ndarray) -> np.ndarray:
@@ -111,8 +155,9 @@ def _type_a_dof(estimator: str, periods: int) -> float:
     circular (real and imaginary parts independent, of equal variance), so both parts estimate
     it: 2 (L - 1) degrees of freedom. `seed` takes the sample variance of |H_n|: L - 1.
     Checked by simulation: with L = 4, L - 1 gives 98-99 % coverage at k = 2 nominal.
+    NaN below `MIN_PERIODS` (no type A is stated there).
     """
-    if periods < 2:
+    if periods < MIN_PERIODS[estimator]:
         return float("nan")
     return float(periods - 1) if estimator == "seed" else float(2 * (periods - 1))
 
@@ -250,6 +295,7 @@ class SpectralAccumulator:
         count = m.count
         if count == 0:
             raise ValueError("accumulator: no period has been added yet")
+        stated = count >= MIN_PERIODS[estimator]  # below: no honest type A (NaN)
         with np.errstate(divide="ignore", invalid="ignore"):
             sum_uu = count * np.abs(m.mean_u) ** 2 + m.m2_u
             sum_yy = count * np.abs(m.mean_y) ** 2 + m.m2_y
@@ -258,7 +304,7 @@ class SpectralAccumulator:
             coherence = np.minimum(coherence, 1.0)
             if estimator == "periodic":
                 response = m.mean_y / m.mean_u
-                if count >= 2:
+                if stated:
                     s2_u = m.m2_u / (count - 1)
                     s2_y = m.m2_y / (count - 1)
                     s2_yu = m.c_yu / (count - 1)
@@ -273,19 +319,24 @@ class SpectralAccumulator:
                     u_mag = u_phase = np.full(self.bins.size, np.nan)
             elif estimator == "h1":
                 response = sum_uy / sum_uu
-                if count >= 2:
-                    u_mag = u_phase = np.sqrt(
-                        np.maximum(1.0 - coherence, 0.0) / (coherence * 2.0 * count)
-                    )
+                if stated:
+                    # residual variance of the fit, L - 1 complex dof (module docstring)
+                    relative_var = np.maximum(1.0 - coherence, 0.0) / (coherence * (count - 1))
+                    # bias of H1 under reference noise, s2_U/|U_bar|^2 (module docstring)
+                    bias = (m.m2_u / (count - 1)) / np.abs(m.mean_u) ** 2
+                    u_mag = np.sqrt(relative_var / 2.0 + bias**2)
+                    u_phase = np.sqrt(relative_var / 2.0)
                 else:
                     u_mag = u_phase = np.full(self.bins.size, np.nan)
             else:
                 s = self._seed
                 resultant = np.abs(s.sum_unit) / count
                 response = s.mean_abs * np.exp(1j * np.angle(s.sum_unit))
-                if count >= 2:
+                if stated:
                     u_mag = np.sqrt(s.m2_abs / (count - 1)) / np.sqrt(count) / s.mean_abs
-                    circular_sd = np.sqrt(-2.0 * np.log(np.minimum(resultant, 1.0)))
+                    # circular variance -2 ln R, scaled L/(L - 1) like ddof = 1 (docstring)
+                    circular_var = -2.0 * np.log(np.minimum(resultant, 1.0)) * count / (count - 1)
+                    circular_sd = np.sqrt(circular_var)
                     u_phase = circular_sd / np.sqrt(count)
                 else:
                     u_mag = u_phase = np.full(self.bins.size, np.nan)
@@ -322,6 +373,8 @@ class SpectralAccumulator:
             )
         b = self._bins
         results = []
+        tests = sum(idx.size for idx in self._harmonic_bins)  # harmonic bins tested per channel
+        threshold = detection_threshold(count, tests) if count >= 2 else np.nan
         for mean, m2 in ((b.mean_u, b.m2_u), (b.mean_y, b.m2_y)):
             if count >= 2:
                 noise_power = m2 / (count - 1)
@@ -330,12 +383,12 @@ class SpectralAccumulator:
             floor = np.array([noise_power[idx].mean() for idx in self._floor_bins])
             power = np.abs(mean) ** 2
             if count >= 2:
-                # periodic content only where it stands out of the averaged noise (a pure-noise
-                # bin passes with probability e^-9), then bias-corrected
+                # periodic content only where T = power / (s2 / L) exceeds the F(2, 2(L-1))
+                # threshold at 1 % false alarms per run (module docstring), bias-corrected
                 averaged_noise = noise_power / count
-                periodic = np.where(
-                    power > DETECTION_RATIO * averaged_noise, power - averaged_noise, 0.0
-                )
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    detected = power > threshold * averaged_noise
+                periodic = np.where(detected, power - averaged_noise, 0.0)
             else:
                 periodic = power
             line_power = np.abs(mean[self.bins]) ** 2

@@ -216,7 +216,7 @@ class MainWindow(QMainWindow):
         self.level = QDoubleSpinBox(
             decimals=2, minimum=0.01, maximum=1000.0, value=5.0, suffix=" m/s² peak per line"
         )
-        self.periods = QSpinBox(minimum=2, maximum=10000, value=8, suffix=" periods")
+        self.periods = QSpinBox(minimum=3, maximum=10000, value=8, suffix=" periods")
         self.target = QDoubleSpinBox(decimals=3, maximum=10.0, suffix=" % type A target")
         self.target.setSpecialValueText("off: acquire the periods above")
         self.max_time = QSpinBox(maximum=100_000, suffix=" s at most")

@@ -80,7 +80,7 @@ def test_simulated_runs_recover_the_truth(tmp_path, dut, level, seed):
         State.FADING_OUT,
         State.FINISHED,
     ]
-    assert [e.periods for e in events if isinstance(e, PeriodEstimate)] == list(range(2, 9))
+    assert [e.periods for e in events if isinstance(e, PeriodEstimate)] == list(range(3, 9))
     record = load_run(folder.path)
     assert record["status"] == "complete" and record["final_output_v"] == 0.0
     assert stand.daq.output.final_v == 0.0 and stand.daq.output.periods[-1].last_v == 0.0
@@ -433,3 +433,40 @@ def test_without_a_drive_loopback_the_recording_holds_the_drive_as_played(tmp_pa
     assert [p.peak_v for p in played] == list(np.max(np.abs(drive), axis=1))
     assert [p.first_v for p in played] == list(drive[:, 0])
     assert [p.last_v for p in played] == list(drive[:, -1])
+
+
+def test_the_budget_carries_the_mains_hum_measured_with_the_drive_off(tmp_path):
+    """Issue 13 point 3: every line of the piezo plan on a mains harmonic (50, 100, 200, 250 Hz)
+    gets "mains hum at X Hz" (U-shaped, half-width sqrt(r_u^2 + r_y^2), r = background at the
+    line bin / settled line; dsp.hum), computed here by hand from the raw recording: the
+    drive-off periods at its start and the settled period that opens the acquisition."""
+    finished, _stand, plan, folder = run(tmp_path, "piezo", seed=1, systematic=False)
+    assert finished.status == "complete", finished.abort_reason
+    record = load_run(folder.path)
+    budget = {c["name"]: c for c in record["budget"]}
+    recording = read_recording(folder.recording)
+    n = plan.period_samples
+    background = [
+        np.fft.rfft(x[: 2 * n].reshape(2, n).mean(axis=0)) * 2 / n
+        for x in (recording.reference_v, recording.dut_v)
+    ]
+    assert np.all(recording.drive_v[: 2 * n] == 0.0)  # the two background periods
+    start = (recording.settle_periods + 1) * n  # the second settled period: the settled lines
+    settled = [
+        np.fft.rfft(x[start : start + n]) * 2 / n for x in (recording.reference_v, recording.dut_v)
+    ]
+    mains = [f for f in plan.nominal_frequencies_hz if f in (50.0, 100.0, 200.0, 250.0)]
+    assert mains == [50.0, 100.0, 200.0, 250.0]
+    for f in mains:
+        m = plan.bins[list(plan.nominal_frequencies_hz).index(f)]
+        r_u = abs(background[0][m]) / abs(settled[0][m])
+        r_y = abs(background[1][m]) / abs(settled[1][m])
+        component = budget[f"mains hum at {f:g} Hz"]
+        assert component["distribution"] == "u-shaped"
+        assert component["value"] == pytest.approx(np.hypot(r_u, r_y), rel=1e-6), f
+        assert f"background (hum, noise) at {f:g} Hz" not in budget
+        assert budget[f"mains hum (phase) at {f:g} Hz"]["quantity"] == "phase"
+    hum_50 = budget["mains hum at 50 Hz"]["value"]
+    assert hum_50 > 1e-3  # the simulated ADC's 40 uV of 50 Hz hum is not negligible here
+    line_50 = finished.results.lines[list(plan.nominal_frequencies_hz).index(50.0)]
+    assert line_50.relative_type_b >= hum_50 / np.sqrt(2)

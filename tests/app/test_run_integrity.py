@@ -438,10 +438,10 @@ def test_the_procedure_marks_its_recording_complete_or_aborted(tmp_path):
     from app.run import RunRequest, execute
     from sim.stand import Fault
 
-    done = execute(RunRequest(dut="piezo", periods=2, out=tmp_path / "ok"))
+    done = execute(RunRequest(dut="piezo", periods=3, out=tmp_path / "ok"))
     cut = execute(
         RunRequest(
-            dut="piezo", periods=2, faults=(Fault("daq-timeout", 6.0),), out=tmp_path / "cut"
+            dut="piezo", periods=3, faults=(Fault("daq-timeout", 6.0),), out=tmp_path / "cut"
         )
     )
     assert (done.status, cut.status) == ("complete", "aborted")

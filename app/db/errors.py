@@ -1,0 +1,7 @@
+"""Errors of the records, in a module that imports nothing heavy (app.cli catches them)."""
+
+from __future__ import annotations
+
+
+class RecordsInputError(ValueError):
+    """A refused records operation or option; the message names the field and the reason."""

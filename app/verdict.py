@@ -1,0 +1,249 @@
+"""The overall verdict of a run: PASS, FAIL or INDETERMINATE, with its reasons.
+
+One place computes it; the procedure and the offline analysis call `with_verdict`, the CLI,
+the GUI and the certificate only read `Results.verdict` and `Results.verdict_reasons`.
+
+Decision rule: guarded acceptance (ILAC-G8), as the certificate states it: a check passes where
+|deviation| + U <= tolerance, fails where |deviation| - U > tolerance, and is inconclusive
+otherwise (inside the tolerance only without its uncertainty, or outside only with it). A check
+whose U is 0 or undefined is "not stated". Checks, against the DUT model's tolerances:
+sensitivity at the reference frequency against its nominal value, the amplitude characteristic
+per band (deviation from the reference frequency's sensitivity, %), and the phase per band
+(|phase|, degrees). Overall: FAIL when any check fails; PASS when every check passes and
+nothing else stands in the way; otherwise INDETERMINATE (an inconclusive or unstated check, no
+tolerance at all, a mounting warning, a recording that did not complete).
+
+Mounting check: a resonance inside the calibrated range (an interior line whose sensitivity
+exceeds both neighbours' and the reference frequency's by more than RESONANCE_RISE), or a
+coherence drop that noise cannot explain (coherence below LOW_COHERENCE at a line where both
+channels' SNR is at least CLEAN_SNR_DB), is a named warning ("mounting: ..."); with one the
+verdict is never PASS.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any
+
+from dsp.calibration import LOW_COHERENCE, NOT_STATED, Results, uncertainty_stated
+
+PASS, FAIL, INDETERMINATE = "PASS", "FAIL", "INDETERMINATE"
+VERDICTS = (PASS, FAIL, INDETERMINATE)
+RESONANCE_RISE = 0.25  # an interior peak more than +25 % (about 2 dB) above the reference
+CLEAN_SNR_DB = 40.0  # above this SNR on both channels, noise cannot explain a coherence drop
+MOUNTING_PREFIX = "mounting: "
+
+
+@dataclass(frozen=True)
+class Band:
+    """A tolerance over a frequency range (inclusive), in % (characteristic) or degrees (phase)."""
+
+    min_hz: float
+    max_hz: float
+    tolerance: float
+
+    def covers(self, frequency_hz: float) -> bool:
+        return self.min_hz <= frequency_hz <= self.max_hz
+
+
+@dataclass(frozen=True)
+class Tolerances:
+    """A DUT model's tolerances; a missing one is not checked (and named in the reasons)."""
+
+    nominal_sensitivity_mv_per_ms2: float | None = None
+    sensitivity_percent: float | None = None
+    characteristic: tuple[Band, ...] = ()
+    phase: tuple[Band, ...] = ()
+    source: str = ""
+
+    @property
+    def empty(self) -> bool:
+        sensitivity = (
+            self.nominal_sensitivity_mv_per_ms2 is not None and self.sensitivity_percent is not None
+        )
+        return not (sensitivity or self.characteristic or self.phase)
+
+    def to_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+
+# The simulated catalogue's data sheets: sensitivity +-5 % of the model's nominal value at the
+# reference frequency; characteristic and phase per band (capacitive: sensitivity only, its
+# 200 Hz low-pass is the sensor's own and not a tolerance).
+CATALOGUE_TOLERANCES: dict[str, dict[str, Any]] = {
+    "piezo": {
+        "sensitivity_percent": 5.0,
+        "characteristic": (Band(0.5, 5000.0, 5.0),),
+        "phase": (Band(5.0, 5000.0, 5.0),),
+    },
+    "loose": {  # the same sensor as "piezo", badly mounted
+        "sensitivity_percent": 5.0,
+        "characteristic": (Band(0.5, 5000.0, 5.0),),
+        "phase": (Band(5.0, 5000.0, 5.0),),
+    },
+    "capacitive": {"sensitivity_percent": 5.0},
+}
+
+
+def tolerances_for(
+    catalogue: str | None,
+    reference_frequency_hz: float,
+    tolerance_percent: float | None = None,
+) -> Tolerances:
+    """The tolerances of a simulated catalogue DUT (None: none known), with `tolerance_percent`
+    (the --tolerance option) replacing the characteristic's bands by one over every line."""
+    override = (Band(0.0, math.inf, float(tolerance_percent)),) if tolerance_percent else None
+    spec = CATALOGUE_TOLERANCES.get(catalogue or "")
+    if spec is None:
+        return Tolerances(characteristic=override or (), source="--tolerance" if override else "")
+    from sim.models import DUT_CATALOGUE
+
+    model = dataclasses.replace(DUT_CATALOGUE[catalogue], mount_resonance_hz=None)
+    nominal = float(abs(model.sensitivity([reference_frequency_hz])[0]))
+    return Tolerances(
+        nominal_sensitivity_mv_per_ms2=nominal,
+        sensitivity_percent=spec.get("sensitivity_percent"),
+        characteristic=override or spec.get("characteristic", ()),
+        phase=spec.get("phase", ()),
+        source=f"data sheet of the simulated {catalogue!r} model"
+        + (" with --tolerance" if override else ""),
+    )
+
+
+def decide(deviation: float, expanded: float, tolerance: float) -> str:
+    """Guarded acceptance (ILAC-G8) of |deviation| against `tolerance` with expanded U (same
+    unit): "pass", "fail", "inconclusive", or "not stated" without a usable U."""
+    if not uncertainty_stated(expanded):
+        return NOT_STATED
+    if not math.isfinite(deviation):
+        return "inconclusive"
+    if abs(deviation) + expanded <= tolerance:
+        return "pass"
+    if abs(deviation) - expanded > tolerance:
+        return "fail"
+    return "inconclusive"
+
+
+def mounting_warnings(results: Results) -> list[str]:
+    """Named warnings for a resonance or an unexplained coherence drop inside the calibrated
+    range (see the module's docstring)."""
+    lines = results.lines
+    s0 = results.reference.sensitivity_mv_per_ms2
+    out = []
+    for k in range(1, len(lines) - 1):
+        s = lines[k].sensitivity_mv_per_ms2
+        rise = s / s0 - 1.0
+        if (
+            s > lines[k - 1].sensitivity_mv_per_ms2
+            and s > lines[k + 1].sensitivity_mv_per_ms2
+            and rise > RESONANCE_RISE
+        ):
+            out.append(
+                f"{MOUNTING_PREFIX}a resonance near {lines[k].nominal_frequency_hz:g} Hz inside "
+                f"the calibrated range ({100 * rise:+.0f} % there): check the mounting (stud "
+                "torque, contact surface, cable clamping)"
+            )
+    for ln in lines:
+        clean = min(ln.reference_snr_db, ln.dut_snr_db) >= CLEAN_SNR_DB
+        if results.periods >= 2 and clean and ln.coherence < LOW_COHERENCE:
+            out.append(
+                f"{MOUNTING_PREFIX}coherence {ln.coherence:.3f} at {ln.nominal_frequency_hz:g} "
+                f"Hz with both channels above {CLEAN_SNR_DB:g} dB SNR: a rattling or loose "
+                "mount; check the mounting"
+            )
+    return out
+
+
+def _summary(name: str, outcomes: list[tuple[str, str]]) -> tuple[str, str]:
+    """The worst outcome of a check over lines and one reason naming the lines concerned."""
+    parts = []
+    for kind in ("fail", "inconclusive", NOT_STATED):
+        hit = [label for outcome, label in outcomes if outcome == kind]
+        if len(hit) > 4:
+            parts.append(f"{kind} at {len(hit)} lines ({hit[0]} to {hit[-1]})")
+        elif hit:
+            parts.append(f"{kind} at {', '.join(hit)}")
+    if not parts:
+        return "pass", f"{name}: pass at all {len(outcomes)} line(s) checked"
+    found = {outcome for outcome, _ in outcomes}
+    worst = next(k for k in ("fail", "inconclusive", NOT_STATED) if k in found)
+    return worst, f"{name}: {'; '.join(parts)}"
+
+
+def assess(
+    results: Results, tolerances: Tolerances, status: str | None = None
+) -> tuple[str, list[str], list[str]]:
+    """The verdict, its reasons and the mounting warnings of `results`; `status` is the
+    recording's (a recording that did not complete is never PASS)."""
+    reasons: list[str] = []
+    outcomes: list[str] = []
+    r = results.reference
+    nominal = tolerances.nominal_sensitivity_mv_per_ms2
+    if nominal is not None and tolerances.sensitivity_percent is not None:
+        deviation = 100 * (r.sensitivity_mv_per_ms2 / nominal - 1)
+        outcome = decide(
+            deviation, 100 * r.relative_expanded_uncertainty, tolerances.sensitivity_percent
+        )
+        outcomes.append(outcome)
+        reasons.append(
+            f"sensitivity at {r.frequency_hz:g} Hz: {outcome} ({deviation:+.2f} % from the "
+            f"nominal {nominal:.4g} mV/(m/s^2), U {100 * r.relative_expanded_uncertainty:.2f} %,"
+            f" tolerance ±{tolerances.sensitivity_percent:g} %)"
+        )
+    else:
+        reasons.append("sensitivity at the reference frequency: no tolerance given, not checked")
+    for name, bands, unit in (
+        ("amplitude characteristic", tolerances.characteristic, "%"),
+        ("phase", tolerances.phase, "°"),
+    ):
+        checked: list[tuple[str, str]] = []
+        for ln in results.lines:
+            band = next((b for b in bands if b.covers(ln.frequency_hz)), None)
+            if band is None or (unit == "%" and ln.nominal_frequency_hz == r.frequency_hz):
+                continue  # the reference line's deviation is 0 by definition
+            label = f"{ln.nominal_frequency_hz:g} Hz"
+            if unit == "%":
+                u = 100 * ln.relative_expanded_uncertainty
+                checked.append((decide(ln.deviation_percent, u, band.tolerance), label))
+            elif not results.phase_corrected_for_skew:
+                checked.append((NOT_STATED, label))
+            else:
+                u = ln.phase_expanded_uncertainty_deg
+                checked.append((decide(ln.phase_deg, u, band.tolerance), label))
+        if not checked:
+            reasons.append(f"{name}: no tolerance given, not checked")
+            continue
+        worst, reason = _summary(name, checked)
+        outcomes.append(worst)
+        limits = ", ".join(f"±{b.tolerance:g} {unit}" for b in bands)
+        reasons.append(f"{reason} (tolerance {limits})")
+    mounting = mounting_warnings(results)
+    if "fail" in outcomes:
+        verdict = FAIL
+    elif not outcomes:
+        verdict = INDETERMINATE
+        reasons.insert(0, "no tolerance is set for this DUT: conformity cannot be decided")
+    elif any(o != "pass" for o in outcomes):
+        verdict = INDETERMINATE
+    else:
+        verdict = PASS
+    if mounting:
+        reasons += mounting
+        if verdict == PASS:
+            verdict = INDETERMINATE
+    if status not in (None, "complete"):
+        reasons.append(f"the recording is {status}: results for review only")
+        if verdict == PASS:
+            verdict = INDETERMINATE
+    return verdict, reasons, mounting
+
+
+def with_verdict(results: Results, tolerances: Tolerances, status: str | None = None) -> Results:
+    """`results` with its verdict, reasons and mounting warnings (see `assess`)."""
+    verdict, reasons, mounting = assess(results, tolerances, status)
+    warnings = (*results.warnings, *(w for w in mounting if w not in results.warnings))
+    return dataclasses.replace(
+        results, verdict=verdict, verdict_reasons=tuple(reasons), warnings=warnings
+    )

@@ -1,0 +1,63 @@
+"""Two stands issuing certificates at once against one database: no gap, no duplicate."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from datetime import UTC, datetime
+
+from sqlalchemy import Engine, select
+from sqlalchemy.orm import Session
+
+from app.db.lab import Lab
+from app.db.models import Certificate, Run, Sensor, Stand
+
+WORKER = """
+import sys
+from app.db.engine import open_engine
+from app.db.lab import Lab
+lab = Lab(open_engine(sys.argv[1]), actor=sys.argv[2])
+for _ in range(50):
+    lab.issue_certificate(run_id="r1", prepared_by=sys.argv[2], approved_by="QM")
+"""
+
+
+def test_two_processes_issue_100_distinct_numbers_without_a_gap(engine: Engine) -> None:
+    lab = Lab(engine, actor="setup")
+    lab.add_customer("ACME Ltd")
+    lab.add_model(
+        "PCB",
+        "352C33",
+        nominal_sensitivity=10.2,
+        unit="mV/(m/s^2)",
+        tolerance_percent=5,
+        frequency_min_hz=1,
+        frequency_max_hz=10000,
+    )
+    lab.add_sensor("SN-1", model="352C33", owner="ACME Ltd")
+    with Session(engine) as s:
+        s.add(
+            Run(
+                run_id="r1",
+                manifest_sha256="a" * 64,
+                folder="/r1",
+                status="complete",
+                started_utc=datetime(2026, 11, 23, tzinfo=UTC),
+                dut_id="SN-1",
+                stand=Stand(stand_file_sha256="b" * 64, name="stand"),
+                sensor=s.scalar(select(Sensor)),
+            )
+        )
+        s.commit()
+    url = engine.url.render_as_string(hide_password=False)
+    workers = [
+        subprocess.Popen([sys.executable, "-c", WORKER, url, name], stderr=subprocess.PIPE)
+        for name in ("stand-A", "stand-B")
+    ]
+    for worker in workers:
+        _, err = worker.communicate(timeout=240)
+        assert worker.returncode == 0, err.decode()
+    with Session(engine) as s:
+        rows = s.execute(select(Certificate.sequence, Certificate.prepared_by)).all()
+    assert sorted(seq for seq, _ in rows) == list(range(1, 101))
+    assert {who for _, who in rows} == {"stand-A", "stand-B"}
