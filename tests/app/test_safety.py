@@ -108,7 +108,7 @@ def test_power_amplifier_is_on_only_while_the_run_plays(tmp_path):
             states.append((event.state, stand.daq.power_output_on))
 
     folder = RunFolder.create(tmp_path, "pa")
-    settings = RunSettings(periods=2)
+    settings = RunSettings(periods=3)
     try:
         finished = Procedure(stand, preset_plan("piezo"), settings, folder, listener).run()
         assert finished.status == "complete"
@@ -186,7 +186,7 @@ def test_every_written_period_passes_the_drive_limit_gate(tmp_path, monkeypatch,
     monkeypatch.setattr(procedure_module, "limited_drive", spy)
     stand = open_stand(CONFIG, dut="piezo")
     folder = RunFolder.create(tmp_path, mode)
-    settings = RunSettings(periods=2, mode=mode)
+    settings = RunSettings(periods=3, mode=mode)
     try:
         finished = Procedure(stand, small_plan(), settings, folder).run()
     finally:
