@@ -30,7 +30,7 @@ from app.files import FileExistsRefusal, check_target, write_new
 from app.input_files import MAX_TEXT_BYTES, InputFileError, check_input_file
 from app.options import Bounded
 from app.options import numeric_option as _numeric
-from app.procedure import PreflightError
+from app.procedure import PreflightError, RunNotRecordedError
 from app.recording import RecordingError, read_csv
 from app.records import is_run_folder, refuse_in_run_folder
 from app.run import RunRequest, execute
@@ -321,9 +321,9 @@ def _main(argv: Sequence[str] | None) -> int:
     except HardwareError as exc:
         print(f"accelcal {args.command}: {type(exc).__name__}: {exc}", file=sys.stderr)
         return EXIT_FAILURE
-    except KeyboardInterrupt:
-        print(f"accelcal {args.command}: interrupted", file=sys.stderr)
-        return EXIT_FAILURE
+    except RunNotRecordedError as exc:
+        print(f"accelcal {args.command}: {exc}", file=sys.stderr)
+        return EXIT_ABORTED
     except Exception as exc:
         print(f"accelcal {args.command}: failed: {type(exc).__name__}: {exc}", file=sys.stderr)
         return EXIT_FAILURE

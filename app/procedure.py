@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import cmath
 import dataclasses
+import logging
 import math
 import sys
 import threading
@@ -27,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from app.recording import RecordingWriter, Truth, software_version
+from app.recording import DiskFullError, RecordingWriter, Truth, software_version
 from app.records import STATUS_ABORTED, STATUS_COMPLETE, RunFolder
 from app.stands import Stand
 from app.verdict import Tolerances, tolerances_for, with_verdict
@@ -55,6 +56,7 @@ from hardware.errors import (
 from hardware.interfaces import DaqConfig
 
 OVERLOAD_FRACTION = 0.995  # SPEC s.11: a sample within 0.5 % of a channel's range
+log = logging.getLogger(__name__)
 MODES = ("multisine", "stepped-sine")
 
 
@@ -79,6 +81,29 @@ class PreflightError(ProcedureError):
 
 class Aborted(ProcedureError):
     """The run was stopped on request (operator, SIGTERM)."""
+
+
+class DriveLimitError(ProcedureError):
+    """A period of drive would exceed the stand's drive limit: refused, never played."""
+
+
+class RunNotRecordedError(RuntimeError):
+    """The run ended (drive at 0 V) but its status and results could not be stored."""
+
+
+def limited_drive(period_v: np.ndarray, limit_v: float) -> np.ndarray:
+    """The one gate every output period passes on its way to the DAQ (identification,
+    equalisation, crossfades, stepped sine, fades, zeros): the period as float volts, or
+    DriveLimitError when any |sample| exceeds `limit_v` (V) or is not finite."""
+    x = np.asarray(period_v, dtype=float)
+    peak = float(np.max(np.abs(x))) if x.size else 0.0
+    if not math.isfinite(peak) or peak > limit_v:
+        raise DriveLimitError(
+            f"drive peak {peak:.4g} V exceeds the stand's drive limit {limit_v:g} V "
+            "(limits.drive_peak_v, daq.output.range_v): refused before it was played; lower "
+            "the level or the identification drive"
+        )
+    return x
 
 
 # --- events ---------------------------------------------------------------------------------
@@ -239,6 +264,10 @@ class Procedure:
         self._inputs = config.inputs
         self._channel_index = {c.name: i for i, c in enumerate(self._inputs)}
         self._ranges = {c.name: c.range_v for c in self._inputs}
+        self._drive_limit_v = min(config.limits.drive_peak_v, config.output.range_v)
+        self._recording_full = False  # the disk is full: no more periods are appended
+        self._power_on = False  # the power amplifier's output was enabled by this run
+        self._power_failed = False  # the power amplifier failed: no more polling
 
     # --- control (thread-safe) ------------------------------------------------------------
 
@@ -264,18 +293,25 @@ class Procedure:
         started = datetime.now(UTC)
         status, reason = STATUS_COMPLETE, None
         if self.folder is not None:
-            self.folder.write_json(
-                "config.json",
-                {
-                    "stand": self.stand.config.raw,
-                    "stand_source": self.stand.config.source,
-                    "plan": self.plan.to_dict(),
-                    "settings": self.settings.__dict__,
-                    "identity": self.identity,
-                },
-            )
-            if self.stand.config.text:
-                self.folder.write_text("stand.toml", self.stand.config.text)
+            try:
+                self.folder.write_json(
+                    "config.json",
+                    {
+                        "stand": self.stand.config.raw,
+                        "stand_source": self.stand.config.source,
+                        "plan": self.plan.to_dict(),
+                        "settings": self.settings.__dict__,
+                        "identity": self.identity,
+                    },
+                )
+                if self.stand.config.text:
+                    self.folder.write_text("stand.toml", self.stand.config.text)
+            except OSError as exc:  # nothing has moved yet
+                raise RunNotRecordedError(
+                    f"run {self.folder.run_id} not started, nothing moved: its configuration "
+                    f"could not be stored in {self.folder.path} ({exc.strerror or exc}); free "
+                    "disk space"
+                ) from exc
         try:
             self._state(State.PREFLIGHT)
             self._preflight()
@@ -291,6 +327,10 @@ class Procedure:
         except Aborted as exc:
             status, reason = STATUS_ABORTED, str(exc)
             self._try_fade_out()
+        except DiskFullError as exc:
+            self._recording_full = True
+            status, reason = STATUS_ABORTED, f"disk full: {exc}"
+            self._try_fade_out()
         except PreflightError as exc:
             status, reason = STATUS_ABORTED, f"refused before anything moved: {exc}"
         except (ProcedureError, AnalysisError) as exc:
@@ -301,12 +341,15 @@ class Procedure:
                 status, reason = STATUS_ABORTED, "emergency stop"
             else:
                 status, reason = STATUS_ABORTED, f"{type(exc).__name__}: {exc}. {_advice(exc)}"
+                if self._power_failed or isinstance(exc, (AmplifierFaultError, OverloadError)):
+                    self._try_fade_out()  # the DAQ still works: fade its drive out
         except KeyboardInterrupt:
             status, reason = STATUS_ABORTED, "interrupted (Ctrl-C)"
         except Exception as exc:
             status, reason = STATUS_ABORTED, f"internal error: {type(exc).__name__}: {exc}"
         finally:
             final_output = self._stop_drive()
+            self._disable_power()
             if self._writer is not None:
                 escaping = sys.exc_info()[0] is not None  # e.g. SystemExit: not complete
                 self._writer.set_status(STATUS_ABORTED if escaping else status, reason)
@@ -323,8 +366,17 @@ class Procedure:
             record["verdict"] = results.verdict
             record["verdict_reasons"] = list(results.verdict_reasons)
         if self.folder is not None:
-            self.folder.log(f"{status}{': ' + reason if reason else ''}")
-            record = self.folder.finish(record, results)
+            self._log(f"{status}{': ' + reason if reason else ''}")
+            try:
+                record = self.folder.finish(record, results)
+            except OSError as exc:
+                raise RunNotRecordedError(
+                    f"run {self.folder.run_id} {status}"
+                    f"{' (' + reason + ')' if reason else ''}, drive at "
+                    f"{'unknown' if final_output is None else f'{final_output:g} V'}; its "
+                    f"results could not be stored ({exc.strerror or exc}): free disk space; "
+                    f"the recording in {self.folder.path} is readable up to its last period"
+                ) from exc
         finished = Finished(status, reason, results, record)
         self._emit(finished)
         return finished
@@ -461,7 +513,8 @@ class Procedure:
     def _background(self) -> None:
         self._state(State.BACKGROUND, "drive at 0 V: noise and hum at every line")
         zeros = np.zeros(self.plan.period_samples)
-        self.stand.daq.start(zeros)
+        self._start(zeros)
+        self._enable_power()
         self._drive = self._played = zeros
         self._queue.clear()
         accumulator = SpectralAccumulator(self.plan.period_samples, self.plan.bins)
@@ -626,7 +679,7 @@ class Procedure:
             self._active, self._line_index = active, k
             self._drive = self._played = np.zeros(n)
             self._queue.clear()
-            self.stand.daq.start(self._drive)
+            self._start(self._drive)
             self._log(f"stepped sine: line {line.label}, blocks of {n} samples")
             self._reusable_blocks = []
             if k == 0:
@@ -716,6 +769,10 @@ class Procedure:
         self._in_transition = True
         try:
             self._period(state)
+        except BaseException:
+            # the crossfade is written (played or queued): a fade-out starts where it ends
+            self._drive = new_drive
+            raise
         finally:
             self._in_transition = False
         self._drive = new_drive
@@ -753,8 +810,54 @@ class Procedure:
 
     def _write(self, drive: np.ndarray) -> None:
         """Queue one period of drive: it plays after those written before it (Daq protocol)."""
-        self.stand.daq.write_period(drive)
+        self.stand.daq.write_period(limited_drive(drive, self._drive_limit_v))
         self._queue.append(drive)
+
+    def _start(self, drive: np.ndarray) -> None:
+        """Start the DAQ output with `drive` (through the same drive-limit gate)."""
+        self.stand.daq.start(limited_drive(drive, self._drive_limit_v))
+
+    def _enable_power(self) -> None:
+        """Switch the power amplifier's output on (the DAQ already plays 0 V); it refuses
+        while its interlock is open or it reports a fault (AmplifierFaultError)."""
+        amplifier = self.stand.power_amplifier
+        if amplifier is None or self._power_on:
+            return
+        self._power_on = True  # from here, every exit path switches it off
+        amplifier.set_output_enabled(True)
+        self._log("power amplifier: output on")
+
+    def _poll_power(self) -> None:
+        """The power amplifier's fault and interlock state, once per period: an over-current,
+        an open interlock (over-travel) or a lost session ends the run (HardwareError)."""
+        amplifier = self.stand.power_amplifier
+        if amplifier is None or not self._power_on or self._power_failed:
+            return
+        try:
+            fault = amplifier.fault()
+            if fault is not None:
+                raise AmplifierFaultError(f"power amplifier reports a fault: {fault}")
+            if not amplifier.interlock_closed():
+                raise AmplifierFaultError(
+                    "power amplifier interlock open (exciter over-travel or cover open)"
+                )
+        except HardwareError:
+            self._power_failed = True
+            raise
+
+    def _disable_power(self) -> None:
+        """Switch the power amplifier's output off after the drive is at 0 V (every exit
+        path); a failure is logged, never raised over the run's own outcome."""
+        amplifier = self.stand.power_amplifier
+        if amplifier is None or not self._power_on:
+            return
+        try:
+            amplifier.set_output_enabled(False)
+            self._power_on = False
+            self._log("power amplifier: output off")
+        except Exception as exc:
+            log.error("power amplifier: output could not be switched off: %s", exc)
+            self._log(f"power amplifier: output could not be switched off: {exc}")
 
     def _period(self, state: State, *, return_block: bool = False) -> Any:
         """Read one period, check it, record it; line spectra of (reference, DUT)."""
@@ -770,8 +873,9 @@ class Procedure:
         self._run.periods_read += 1
         if np.any(played != 0):
             self._run.excited_s += active.period_s
+        self._poll_power()  # first: a tripped amplifier explains what the channels show
         self._check_block(block)
-        if self._writer is not None:
+        if self._writer is not None and not self._recording_full:
             drive = (
                 block[self._channel_index["drive"]] if "drive" in self._channel_index else played
             )
@@ -920,7 +1024,10 @@ class Procedure:
 
     def _log(self, line: str) -> None:
         if self.folder is not None:
-            self.folder.log(line)
+            try:
+                self.folder.log(line)
+            except OSError as exc:  # a full disk must not hide what happened to the run
+                log.warning("run.log: %s (%s)", line, exc)
 
     def _emit(self, event: Event) -> None:
         if self.listener is not None:
@@ -985,6 +1092,7 @@ def _advice(exc: HardwareError) -> str:
 
 __all__ = [
     "Aborted",
+    "DriveLimitError",
     "EqualisationStep",
     "Finished",
     "PeriodBlock",
@@ -993,8 +1101,10 @@ __all__ = [
     "Procedure",
     "ProcedureError",
     "Progress",
+    "RunNotRecordedError",
     "RunSettings",
     "State",
     "StateChanged",
     "WarningRaised",
+    "limited_drive",
 ]

@@ -29,10 +29,13 @@ RecordingError that names the file, the channel and the problem.
 from __future__ import annotations
 
 import dataclasses
+import errno
 import json
 import logging
 import math
+import os
 import re
+import resource
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
@@ -64,6 +67,50 @@ STATUS_INCOMPLETE = "incomplete"  # no end status: cut off, or written before st
 STATUSES = (STATUS_COMPLETE, STATUS_ABORTED, STATUS_INCOMPLETE)
 
 log = logging.getLogger(__name__)
+
+HEADROOM_PERIODS = 4  # a recording stops this many periods before the disk or file limit
+HEADROOM_FIXED_BYTES = 256 * 1024  # plus this much (HDF5 metadata, status, results, manifest)
+
+
+class DiskFullError(OSError):
+    """The recording's disk (or the process's file-size limit) has no room for another period.
+
+    Raised before HDF5 is asked to write what it could not, so the file stays readable up to
+    its last flushed period."""
+
+    def __init__(self, message: str):
+        super().__init__(errno.ENOSPC, message)
+
+    def __str__(self) -> str:
+        return str(self.strerror)
+
+
+def _is_disk_full(exc: OSError) -> bool:
+    """ENOSPC or EFBIG, from the OS or quoted in an HDF5 message ("errno = 28")."""
+    codes = (errno.ENOSPC, errno.EFBIG)
+    if getattr(exc, "errno", None) in codes:
+        return True
+    return any(f"errno = {code}," in str(exc) for code in codes)
+
+
+def free_bytes(path: Path) -> float:
+    """Bytes a file at `path` (existing or not) may still grow by: the smaller of the free space
+    of its file system (statvfs, unprivileged) and what RLIMIT_FSIZE leaves it; inf if unknown."""
+    room = math.inf
+    folder = path if path.is_dir() else path.parent
+    try:
+        st = os.statvfs(folder)
+        room = float(st.f_bavail) * float(st.f_frsize)
+    except OSError:
+        pass
+    soft, _ = resource.getrlimit(resource.RLIMIT_FSIZE)
+    if soft != resource.RLIM_INFINITY:
+        try:
+            size = path.stat().st_size
+        except OSError:
+            size = 0
+        room = min(room, float(soft - size))
+    return room
 
 
 class RecordingError(ValueError):
@@ -139,6 +186,8 @@ class RecordingWriter:
         created_utc: str | None = None,
     ):
         self.path = Path(path)
+        self._period_bytes = 8 * 3 * int(plan.period_samples)  # float64, up to three channels
+        self._check_room()
         self._file = h5py.File(self.path, "w")
         f = self._file
         f.attrs["format"] = FORMAT_NAME
@@ -178,12 +227,31 @@ class RecordingWriter:
         lengths = {np.asarray(b).size for b in blocks.values()}
         if len(lengths) != 1:
             raise ValueError("recording: every channel needs the same number of samples")
-        for name, block in blocks.items():
-            ds = self._datasets[name]
-            start = ds.shape[0]
-            ds.resize((start + np.asarray(block).size,))
-            ds[start:] = block
-        self._file.flush()
+        self._period_bytes = max(self._period_bytes, 8 * len(blocks) * lengths.pop())
+        self._check_room()
+        try:
+            for name, block in blocks.items():
+                ds = self._datasets[name]
+                start = ds.shape[0]
+                ds.resize((start + np.asarray(block).size,))
+                ds[start:] = block
+            self._file.flush()
+        except OSError as exc:
+            if _is_disk_full(exc):
+                raise DiskFullError(f"{self.path}: {exc}") from exc
+            raise
+
+    def _check_room(self) -> None:
+        """DiskFullError unless the disk and the file-size limit leave room for a few more
+        periods (`HEADROOM_PERIODS`) plus `HEADROOM_FIXED_BYTES`."""
+        needed = HEADROOM_PERIODS * self._period_bytes + HEADROOM_FIXED_BYTES
+        room = free_bytes(self.path)
+        if room < needed:
+            raise DiskFullError(
+                f"{room / 1e6:.2f} MB left for {self.path.name}, a period needs "
+                f"{self._period_bytes / 1e6:.2f} MB and {needed / 1e6:.2f} MB are kept free; "
+                "the recording stops at its last complete period"
+            )
 
     def set_settle_periods(self, periods: int) -> None:
         """Mark how many leading periods the analysis skips (background, fades, settling)."""

@@ -126,8 +126,8 @@ def start(request: RunRequest, listener: Listener | None = None) -> tuple[Proced
 def execute(request: RunRequest, listener: Listener | None = None) -> Finished:
     """Run a calibration to its end (complete or aborted) in a new run folder.
 
-    SIGTERM and a first Ctrl-C ask for a fade-out; a second Ctrl-C stops at once. The drive ends
-    at 0 V in every case (the procedure's own `finally`).
+    SIGTERM, SIGHUP (terminal closed) and a first Ctrl-C ask for a fade-out; a second Ctrl-C
+    stops at once. The drive ends at 0 V in every case (the procedure's own `finally`).
     """
     procedure, stand = prepare(request, listener)
     try:
@@ -139,7 +139,8 @@ def execute(request: RunRequest, listener: Listener | None = None) -> Finished:
 
 
 class _graceful_signals:
-    """Route SIGTERM and SIGINT to `procedure.abort` while a run is going (main thread only)."""
+    """Route SIGTERM, SIGHUP and SIGINT to `procedure.abort` while a run is going (main thread
+    only)."""
 
     def __init__(self, procedure: Procedure):
         self.procedure = procedure
@@ -151,7 +152,8 @@ class _graceful_signals:
         interrupted = {"count": 0}
 
         def on_term(signum: int, frame: Any) -> None:
-            self.procedure.abort("terminated (SIGTERM)")
+            name = "SIGHUP" if signum == getattr(signal, "SIGHUP", None) else "SIGTERM"
+            self.procedure.abort(f"terminated ({name})")
 
         def on_int(signum: int, frame: Any) -> None:
             interrupted["count"] += 1
@@ -159,7 +161,10 @@ class _graceful_signals:
                 raise KeyboardInterrupt
             self.procedure.abort("interrupted (Ctrl-C)")
 
-        for signum, handler in ((signal.SIGTERM, on_term), (signal.SIGINT, on_int)):
+        handlers = [(signal.SIGTERM, on_term), (signal.SIGINT, on_int)]
+        if hasattr(signal, "SIGHUP"):  # POSIX: the terminal was closed
+            handlers.append((signal.SIGHUP, on_term))
+        for signum, handler in handlers:
             self.previous[signum] = signal.signal(signum, handler)
 
     def __exit__(self, *exc: object) -> None:

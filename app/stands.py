@@ -3,6 +3,7 @@ fallback from one to the other."""
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -13,7 +14,9 @@ from dsp.calibration import ReferenceChain
 from dsp.uncertainty import Budget
 from hardware.interfaces import Daq, MeasuringAmplifier, PowerAmplifier
 from sim.models import StandModel
-from sim.stand import Fault, SimBudget, SimulatedStand
+from sim.stand import POWER_AMPLIFIER_FAULT_KINDS, Fault, SimBudget, SimulatedStand
+
+log = logging.getLogger(__name__)
 
 
 @dataclass
@@ -34,6 +37,11 @@ class Stand:
         try:
             self.daq.stop()
         finally:
+            if self.power_amplifier is not None:  # the drive is at 0 V: output off too
+                try:
+                    self.power_amplifier.set_output_enabled(False)
+                except Exception as exc:
+                    log.error("power amplifier: output could not be switched off: %s", exc)
             for device in (self.measuring_amplifier, self.power_amplifier):
                 if device is not None:
                     device.close()
@@ -52,6 +60,14 @@ def open_stand(
 ) -> Stand:
     """The stand of `config`; the simulated one needs a catalogue DUT (`dut`)."""
     if config.backend == "sim":
+        # without a power amplifier only the legacy `amplifier-fault` (raised by the DAQ) works
+        kinds = {f.kind for f in faults} & (set(POWER_AMPLIFIER_FAULT_KINDS) - {"amplifier-fault"})
+        needs_power = sorted(kinds)
+        if needs_power and not config.power_amplifier:
+            raise ConfigError(
+                f"--fault {', '.join(needs_power)}: the stand has no power amplifier "
+                f"(amplifiers.power in {config.source})"
+            )
         if model is None:
             model = StandModel(reference_gain=config.reference.gain, skew_s=config.skew_s)
         sim = SimulatedStand(
@@ -70,6 +86,7 @@ def open_stand(
             chain=chain,
             budget=config.budget,
             measuring_amplifier=sim.measuring_amplifier() if config.measuring_amplifier else None,
+            power_amplifier=sim.power_amplifier() if config.power_amplifier else None,
             truth=sim.truth,
             description=f"simulated stand, DUT {dut!r}, seed {seed}",
         )

@@ -4,8 +4,11 @@ Deterministic for a seed; block size does not change its output. It draws its sy
 deviations (reference certificate error, gains, mounting) per seed from its own budget
 (sim/stand.toml), so the analysis, which sees only the certificate and nominal values, is
 tested on its whole uncertainty statement. Faults are injected at chosen simulated times and
-surface as the interface's exceptions. It records its own output, so tests can prove the drive
-ended at 0 V.
+surface as the interface's exceptions; power amplifier faults (over-current, over-temperature,
+an open over-travel interlock, a lost VISA session) go through the power amplifier's pyvisa-sim
+instrument, where the procedure polls them as it would on a real stand, never through the DAQ.
+It records its own output (and the peak of every period written to it), so tests can prove
+the drive ended at 0 V and never exceeded a limit.
 """
 
 from __future__ import annotations
@@ -34,16 +37,30 @@ from hardware.errors import (
     OverloadError,
 )
 from hardware.interfaces import DaqConfig, DaqStatus, checked_output_period
-from hardware.visa_amplifiers import BK2525Amplifier
+from hardware.visa_amplifiers import BK2525Amplifier, ScpiPowerAmplifier
 from sim.lti import MultiZoh, Network, ZohFilter
 from sim.models import DUT_CATALOGUE, G_N, SensorModel, StandModel
 from sim.visa import (
     SIM_MEASURING_AMPLIFIER,
     SIM_MEASURING_AMPLIFIER_CHANNELS,
+    SIM_POWER_AMPLIFIER,
     simulated_resource_manager,
 )
 
-FAULT_KINDS = ("daq-timeout", "device-lost", "visa-timeout", "amplifier-fault", "overload")
+FAULT_KINDS = (
+    "daq-timeout",
+    "device-lost",
+    "visa-timeout",
+    "amplifier-fault",
+    "overload",
+    "over-current",
+    "interlock",
+    "amplifier-lost",
+)
+#: Faults of the power amplifier: injected through its pyvisa-sim instrument when the stand
+#: has one (`power_amplifier()`), else (`amplifier-fault` only) raised by the DAQ read.
+POWER_AMPLIFIER_FAULT_KINDS = ("amplifier-fault", "over-current", "interlock", "amplifier-lost")
+_FAULT_ANSWERS = {"amplifier-fault": '2,"Over-temperature"', "over-current": '3,"Over-current"'}
 TARGETS = (
     "reference_certificate",
     "reference_gain",
@@ -188,6 +205,7 @@ class OutputRecord:
     """What the simulated DAQ output did, period by period."""
 
     periods: list[OutputPeriod] = field(default_factory=list)
+    written_peaks_v: list[float] = field(default_factory=list)  # each period given, as given
     final_v: float = 0.0
     stopped: bool = False
 
@@ -241,6 +259,9 @@ class SimulatedStand:
         self._running = False
         self._lost = False
         self._amp_tripped = False
+        self._power: Any = None  # the power amplifier's raw pyvisa-sim resource, once opened
+        self._power_lost = False  # its VISA session is gone (amplifier-lost)
+        self._power_state = False  # its output, as last read
         self._sample_index = 0
         self._wall_start = 0.0
 
@@ -284,9 +305,33 @@ class SimulatedStand:
         )
         at = next((f.at_s for f in self.faults if f.kind == "visa-timeout"), None)
         return BK2525Amplifier(
-            _TimedOutResource(resource, lambda: at is not None and self.sim_time_s >= at),
+            _FailingResource(resource, lambda: at is not None and self.sim_time_s >= at),
             channels=SIM_MEASURING_AMPLIFIER_CHANNELS,
         )
+
+    def power_amplifier(self) -> ScpiPowerAmplifier:
+        """The stand's power amplifier: the real SCPI driver over pyvisa-sim. From now on the
+        exciter moves only while its output is on; its faults (`over-current`,
+        `amplifier-fault`, `interlock`, and over-travel) are set in the instrument, where a
+        poll finds them, and `amplifier-lost` makes its session fail (connection lost)."""
+        manager = simulated_resource_manager(fresh=True)
+        self._power = manager.open_resource(
+            SIM_POWER_AMPLIFIER, read_termination="\n", write_termination="\n"
+        )
+        lost = pyvisa.constants.StatusCode.error_connection_lost
+        return ScpiPowerAmplifier(_FailingResource(self._power, lambda: self._power_lost, lost))
+
+    @property
+    def power_output_on(self) -> bool | None:
+        """Whether the power amplifier's output is on (None without one), as the instrument
+        itself knows it (also after its session was lost)."""
+        if self._power is None:
+            return None
+        try:
+            self._power_state = self._power.query("OUTP?").strip() == "ON"
+        except (pyvisa.errors.Error, AttributeError):  # closed with the stand: as last seen
+            pass
+        return self._power_state
 
     # --- the Daq protocol -------------------------------------------------------------------
 
@@ -335,6 +380,7 @@ class SimulatedStand:
         if self._lost:
             raise DeviceLostError("simulated DAQ: device lost")
         self._buffer = self._checked(period_v)
+        self.output.written_peaks_v.append(float(np.max(np.abs(self._buffer))))
         self._pending.clear()
         self._running = True
         self.output.stopped = False
@@ -346,9 +392,9 @@ class SimulatedStand:
         one-period buffer, every period written plays)."""
         if self._lost:
             raise DeviceLostError("simulated DAQ: device lost")
-        self._pending.append(
-            (self._reads + self.model.output_latency_periods, self._checked(period_v))
-        )
+        period = self._checked(period_v)
+        self.output.written_peaks_v.append(float(np.max(np.abs(period))))
+        self._pending.append((self._reads + self.model.output_latency_periods, period))
 
     def read_period(self, timeout_s: float = 10.0) -> np.ndarray:
         """Simulate the next period; (channels, N) volts in the configured input order."""
@@ -442,9 +488,19 @@ class SimulatedStand:
             self._running = False
             self.output.final_v = 0.0  # a lost device resets its output
             raise DeviceLostError(f"simulated DAQ: device lost {at}")
-        if fault.kind == "amplifier-fault":
+        if fault.kind in POWER_AMPLIFIER_FAULT_KINDS and self._power is not None:
+            if fault.kind == "amplifier-lost":
+                self._power_lost = True  # the instrument plays on; its session is gone
+                return
+            self._amp_tripped = True  # it protects itself: no more output
+            if fault.kind == "interlock":
+                self._power.write("SIM:INTERLOCK 0")
+            else:
+                self._power.write(f"SIM:FAULT {_FAULT_ANSWERS[fault.kind]}")
+            return
+        if fault.kind in POWER_AMPLIFIER_FAULT_KINDS:
             self._amp_tripped = True
-            raise AmplifierFaultError(f"simulated power amplifier: fault (over-temperature) {at}")
+            raise AmplifierFaultError(f"simulated power amplifier: fault ({fault.kind}) {at}")
         if fault.kind == "overload":
             raise OverloadError(f"simulated measuring amplifier: overload {at}", channel="dut")
         # visa-timeout surfaces through the simulated measuring amplifier's queries
@@ -456,14 +512,17 @@ class SimulatedStand:
         amp = m.amplifier
         v = drive * amp.gain + amp.noise_v * self._noise["amp"].standard_normal(n)
         v = np.clip(v, -amp.output_limit_v, amp.output_limit_v)
-        if self._amp_tripped:
+        if self._amp_tripped or self.power_output_on is False:
             v = np.zeros(n)
         u = m.exciter.nonlinearity(v)
         chain = self._chain.process(u)
         displacement = chain["displacement"]
         limit = m.exciter.stroke_peak_to_peak_m / 2
-        if np.max(np.abs(displacement)) > limit:
+        if np.max(np.abs(displacement)) > limit and not self._amp_tripped:
             self._amp_tripped = True
+            if self._power is not None:  # the over-travel switch opens the interlock
+                self._power.write("SIM:INTERLOCK 0")
+                return self._simulate(drive)
             raise AmplifierFaultError(
                 f"simulated power amplifier: exciter over-travel interlock (displacement "
                 f"{1e3 * np.max(np.abs(displacement)):.2f} mm > {1e3 * limit:g} mm) at "
@@ -523,16 +582,22 @@ class SimulatedStand:
         return reference, dut
 
 
-class _TimedOutResource:
-    """A pyvisa resource that raises a genuine VISA timeout while `timed_out()` is true."""
+class _FailingResource:
+    """A pyvisa resource that raises a genuine VISA error (`code`) while `failing()` is true."""
 
-    def __init__(self, resource: Any, timed_out: Any):
+    def __init__(
+        self,
+        resource: Any,
+        failing: Any,
+        code: pyvisa.constants.StatusCode = pyvisa.constants.StatusCode.error_timeout,
+    ):
         self._resource = resource
-        self._timed_out = timed_out
+        self._failing = failing
+        self._code = code
 
     def _check(self) -> None:
-        if self._timed_out():
-            raise pyvisa.errors.VisaIOError(pyvisa.constants.StatusCode.error_timeout)
+        if self._failing():
+            raise pyvisa.errors.VisaIOError(self._code)
 
     def write(self, message: str) -> Any:
         self._check()

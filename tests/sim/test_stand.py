@@ -180,3 +180,57 @@ def test_paced_stand_follows_the_wall_clock_and_unpaced_does_not():
         else:
             assert elapsed < 0.29
         s.stop()
+
+
+@pytest.mark.parametrize(
+    ("kind", "fault", "interlock"),
+    [
+        ("over-current", "Over-current (fault code 3)", True),
+        ("amplifier-fault", "Over-temperature (fault code 2)", True),
+        ("interlock", None, False),
+    ],
+)
+def test_power_amplifier_faults_go_through_the_instrument_not_the_daq(kind, fault, interlock):
+    s = stand(faults=(Fault(kind, 5.0),))
+    pa = s.power_amplifier()
+    assert s.power_output_on is False
+    s.start(drive_period())
+    silent = s.read_period()  # output off: the exciter does not move
+    pa.set_output_enabled(True)
+    moving = s.read_period()
+    assert np.std(moving[0]) > 10 * np.std(silent[0])
+    assert pa.fault() is None and pa.interlock_closed()
+    s.read_period()  # 4-6 s holds the fault: the DAQ read does not raise ...
+    assert pa.fault() == fault and pa.interlock_closed() is interlock  # ... the amplifier says
+    tripped = s.read_period()
+    assert np.std(tripped[0]) < np.std(moving[0]) / 10  # it protects itself: no more output
+    pa.set_output_enabled(False)
+    assert s.power_output_on is False
+    s.stop()
+    pa.close()
+
+
+def test_a_lost_power_amplifier_session_is_device_lost():
+    s = stand(faults=(Fault("amplifier-lost", 3.0),))
+    pa = s.power_amplifier()
+    s.start(drive_period())
+    pa.set_output_enabled(True)
+    s.read_period()
+    assert pa.interlock_closed()
+    s.read_period()  # 2-4 s: the session is lost
+    with pytest.raises(DeviceLostError, match="connection lost"):
+        pa.fault()
+    s.stop()
+    pa.close()
+
+
+def test_over_travel_opens_the_power_amplifiers_interlock():
+    s = stand()
+    pa = s.power_amplifier()
+    i = np.arange(N)
+    s.start(9.0 * np.sin(2 * np.pi * 2 * i / N))  # 1 Hz at full drive: far over 4 mm
+    pa.set_output_enabled(True)
+    s.read_period()  # no exception from the DAQ: the interlock opens
+    assert pa.interlock_closed() is False
+    s.stop()
+    pa.close()

@@ -304,3 +304,66 @@ def test_closed_session_is_device_lost(rm):
     instrument.close()  # as if the driver's session were closed behind its back
     with pytest.raises(DeviceLostError, match="power amplifier at ASRL1::INSTR"):
         pa.set_output_enabled(False)
+
+
+class _Wire:
+    """A pyvisa-sim resource that logs every message as the bytes put on the wire."""
+
+    def __init__(self, resource):
+        self._resource = resource
+        self.exchange: list[tuple[str, bytes]] = []
+
+    @property
+    def timeout(self):
+        return self._resource.timeout
+
+    def _bytes(self, text: str, termination: str) -> bytes:
+        return (text + termination).encode("ascii")
+
+    def write(self, message: str):
+        self.exchange.append(("->", self._bytes(message, self._resource.write_termination)))
+        return self._resource.write(message)
+
+    def query(self, message: str) -> str:
+        self.exchange.append(("->", self._bytes(message, self._resource.write_termination)))
+        answer = self._resource.query(message)
+        self.exchange.append(("<-", self._bytes(answer, self._resource.read_termination)))
+        return answer
+
+    def read(self) -> str:
+        answer = self._resource.read()
+        self.exchange.append(("<-", self._bytes(answer, self._resource.read_termination)))
+        return answer
+
+    def close(self) -> None:
+        self._resource.close()
+
+
+def test_power_amplifier_run_exchange_is_byte_exact(rm):
+    """What a run sends: enable (interlock, fault, on, confirm), one poll per period (fault,
+    interlock), a fault found by the poll, disable (off, confirm)."""
+    wire = _Wire(raw(rm, SIM_POWER_AMPLIFIER))
+    pa = ScpiPowerAmplifier(wire)
+    pa.set_output_enabled(True)
+    assert pa.fault() is None and pa.interlock_closed()
+    raw(rm, SIM_POWER_AMPLIFIER).write('SIM:FAULT 3,"Over-current"')
+    assert pa.fault() == "Over-current (fault code 3)"
+    pa.set_output_enabled(False)
+    assert wire.exchange == [
+        ("->", b"INT?\n"),
+        ("<-", b"1\n"),
+        ("->", b"STAT:FAULT?\n"),
+        ("<-", b'0,"No fault"\n'),
+        ("->", b"OUTP ON\n"),
+        ("->", b"OUTP?\n"),
+        ("<-", b"ON\n"),
+        ("->", b"STAT:FAULT?\n"),
+        ("<-", b'0,"No fault"\n'),
+        ("->", b"INT?\n"),
+        ("<-", b"1\n"),
+        ("->", b"STAT:FAULT?\n"),
+        ("<-", b'3,"Over-current"\n'),
+        ("->", b"OUTP OFF\n"),
+        ("->", b"OUTP?\n"),
+        ("<-", b"OFF\n"),
+    ]
