@@ -20,7 +20,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from app import formatting as fmt
-from app import lines
+from app import lines, stand_config
 from app.analysis import analyze, read_for_analysis, reanalysis, status_warning
 from app.certificate import CertificateError, CertificateInfo, issue
 from app.db.cli import Handler
@@ -208,7 +208,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--dut-id", default=None, help="serial number / identification of the DUT")
     _numeric(r, "--nominal-sensitivity", SENSITIVITY, "DUT nominal, mV/(m/s^2)")
     r.add_argument("--preset", choices=sorted(PRESETS), help="plan (default: by DUT kind)")
-    _numeric(r, "--level", LEVEL, "peak acceleration per line, m/s^2", default=5.0)
+    _numeric(r, "--level", LEVEL, "peak acceleration per line, m/s^2 (default 5)")
     r.add_argument(
         "--levels", help=f"amplitude sweep: levels in m/s^2, e.g. 4,5,6,7,8; {LEVEL.describe()}"
     )
@@ -223,6 +223,20 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--fault", action="append", default=[], help="simulated: KIND@SECONDS")
     r.add_argument("--out", type=Path, default=Path("runs"), help="folder for run folders")
     r.add_argument("--json", action="store_true", help="the run record as JSON")
+    records = r.add_argument_group("records (accelcal db)")
+    records.add_argument(
+        "--sensor",
+        metavar="SERIAL",
+        help="the DUT from the records: its serial, nominal, tolerance, level and plan",
+    )
+    records.add_argument(
+        "--db", metavar="URL", help="records database (default $ACCELCAL_DB, else SQLite file)"
+    )
+    records.add_argument(
+        "--reference-override",
+        metavar="REASON",
+        help="use a reference standard past its due date, for this stated reason",
+    )
 
     w = sub.add_parser("show", help="print a stored run")
     w.add_argument("run", type=Path, help="run folder")
@@ -674,6 +688,38 @@ def cmd_run(args: argparse.Namespace) -> int:
     target = parse_percent(args.target_ua, "--target-ua") if args.target_ua else None
     max_time = parse_seconds(args.max_time, "--max-time") if args.max_time else None
     _writable_folder(args.out, "--out")
+    use_records = bool(args.sensor or args.db or os.environ.get("ACCELCAL_DB"))
+    notes: list[str] = []
+    if args.sensor:
+        from app.db.runs import sensor_defaults
+
+        sensor = sensor_defaults(args.sensor, args.db)
+        if args.dut_id is not None and args.dut_id != sensor.serial:
+            raise UsageError(f"--dut-id: {args.dut_id!r} differs from --sensor {sensor.serial!r}")
+        args.dut_id = sensor.serial
+        args.nominal_sensitivity = args.nominal_sensitivity or sensor.nominal_mv_per_ms2
+        args.tolerance = args.tolerance if args.tolerance is not None else sensor.tolerance_percent
+        args.level = args.level if args.level is not None else sensor.level_ms2
+        args.preset = args.preset or (sensor.preset if sensor.preset in PRESETS else None)
+        notes.append(f"sensor {sensor.serial}: {sensor.description}")
+    if use_records:
+        from datetime import UTC, datetime
+
+        from app.db.runs import check_reference_due
+
+        reference_id = stand_config.load(args.stand).reference.id
+        note = check_reference_due(
+            reference_id,
+            args.db,
+            today=datetime.now(UTC).date(),
+            override_reason=args.reference_override,
+        )
+        if note:
+            notes.append(note)
+    if args.level is None:
+        args.level = 5.0
+    for note in notes:
+        print(note, file=sys.stderr)
     request = RunRequest(
         stand_file=args.stand,
         dut=args.dut,
@@ -699,6 +745,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     if progress is not None:
         progress.close()
     record = finished.record
+    if use_records and record.get("run_id"):
+        from app.db.runs import index_finished_run
+
+        print(index_finished_run(args.out / str(record["run_id"]), args.db), file=sys.stderr)
     if args.json:
         print(json.dumps(record, indent=2, default=str))
     else:
