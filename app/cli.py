@@ -270,6 +270,11 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--issue-date", help="YYYY-MM-DD (default: the run's date)")
     c.add_argument("--notes", default="", help="free text printed under Notes")
     c.add_argument("--sweep", type=Path, help="sweep summary (sweep-*.json) the run belongs to")
+    cr = c.add_argument_group("records (accelcal db): customer, sensor and number from there")
+    cr.add_argument("--db", metavar="URL", help="records database (default $ACCELCAL_DB)")
+    cr.add_argument("--prepared-by", help="who prepared it (default: the login name)")
+    cr.add_argument("--replaces", metavar="NUMBER", help="the certificate this one amends")
+    cr.add_argument("--reason", help="why it amends the one it replaces")
 
     s = sub.add_parser("simulate", help="record a calibration on the simulated stand")
     s.add_argument("--list", action="store_true", help="print the simulated catalogue")
@@ -904,7 +909,24 @@ def cmd_certificate(args: argparse.Namespace) -> int:
     out = args.out or (args.run / "certificate.pdf")
     if args.out is not None and not is_run_folder(args.out.parent):  # a run's own: see issue()
         _writable_folder(args.out.parent, "--out")
-    issued = issue(args.run, info, out, args.sweep)
+    if args.db or os.environ.get("ACCELCAL_DB"):
+        from app.db.audit import current_actor
+        from app.db.certify import issue_registered
+
+        issued = issue_registered(
+            args.run,
+            info,
+            out,
+            url=args.db,
+            prepared_by=args.prepared_by or current_actor(),
+            sweep_path=args.sweep,
+            replaces=args.replaces,
+            reason=args.reason,
+        )
+    elif args.prepared_by or args.replaces or args.reason:
+        raise UsageError("--prepared-by, --replaces, --reason: need the records (--db URL)")
+    else:
+        issued = issue(args.run, info, out, args.sweep)
     print(f"certificate {issued.number}: {out}")
     return EXIT_OK
 

@@ -108,3 +108,59 @@ def test_an_unreachable_database_loses_nothing_and_the_next_import_indexes_the_r
     assert inspect_run(folder).state == "complete"
     assert main(["db", "import", str(out), "--db", lab_url]) == 0
     assert "1 imported" in capsys.readouterr().out
+
+
+def test_a_certificate_through_the_records_takes_customer_sensor_and_number_from_them(
+    lab_url: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from pypdf import PdfReader
+
+    out = tmp_path / "runs"
+    assert main([*RUN, "--sensor", "SN-7", "--db", lab_url, "--out", str(out)]) == 0
+    (folder,) = out.iterdir()
+    base = [
+        "certificate",
+        str(folder),
+        "--db",
+        lab_url,
+        "--temperature",
+        "23",
+        "--mounting",
+        "stud",
+        "--authorised-by",
+        "J. Smith",
+    ]
+    assert main([*base, "--certificate-number", "X-1"]) == 2
+    assert "--certificate-number: the records' register numbers" in capsys.readouterr().err
+    Lab(open_engine(lab_url)).set_setting("two_person_rule", "on")
+    assert main([*base, "--prepared-by", "j. smith"]) == 2
+    assert "two-person rule" in capsys.readouterr().err
+    assert not (folder / "certificate.pdf").exists()  # refused: nothing written, no number
+    assert main([*base, "--prepared-by", "A. Tech"]) == 0
+    year = date.today().year
+    assert f"certificate ACC-{year}-0001" in capsys.readouterr().out
+    text = " ".join(page.extract_text() for page in PdfReader(folder / "certificate.pdf").pages)
+    assert "ACME Ltd" in text and "Brüel & Kjær 4533-B" in text and "SN-7" in text
+    amended = tmp_path / "amended.pdf"
+    assert (
+        main(
+            [
+                *base,
+                "--prepared-by",
+                "A. Tech",
+                "--out",
+                str(amended),
+                "--replaces",
+                f"ACC-{year}-0001",
+                "--reason",
+                "address corrected",
+            ]
+        )
+        == 0
+    )
+    assert f"certificate ACC-{year}-0002" in capsys.readouterr().out
+    register = Lab(open_engine(lab_url)).register()
+    assert [(c.number, c.state, c.replaces) for c in register] == [
+        (f"ACC-{year}-0001", "replaced", None),
+        (f"ACC-{year}-0002", "issued", f"ACC-{year}-0001"),
+    ]
