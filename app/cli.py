@@ -36,6 +36,7 @@ from app.records import is_run_folder, refuse_in_run_folder
 from app.run import RunRequest, execute
 from app.simulate import SimulationError, simulate
 from app.stand_config import ConfigError
+from app.version import software_version
 from dsp.calibration import AnalysisError, ReferenceChain, Results
 from dsp.multisine import PRESETS, Plan, PlanError, make_plan
 from dsp.segments import SegmentError
@@ -154,6 +155,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog="accelcal",
         description="Accelerometer calibration by comparison, multisine excitation.",
     )
+    parser.add_argument("--version", action="version", version=f"accelcal {software_version()}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     p = sub.add_parser("plan", help="show a frequency plan, its checks and predicted peaks")
