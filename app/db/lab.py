@@ -509,7 +509,7 @@ class Lab:
         by_stand: dict[str, list[tuple[str, float]]] = {}
         for run, stand_name in rows:
             by_stand.setdefault(stand_name, []).append(
-                (run.run_id, float(run.sensitivity_mv_per_ms2))
+                (run.run_id, float(run.sensitivity_mv_per_ms2 or 0.0))  # not None: the query
             )
         return [individuals_chart(serial, stand, points) for stand, points in by_stand.items()]
 
