@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import logging
 import os
 import sys
 from pathlib import Path
+
+log = logging.getLogger(__name__)
 
 
 def run_gui(
@@ -25,9 +28,15 @@ def run_gui(
     from PySide6.QtCore import QSettings, QTimer
     from PySide6.QtWidgets import QApplication
 
+    from app.gui.binding import qt_binding_problem
     from app.gui.main_window import APPLICATION, ORGANISATION, MainWindow
 
     app = QApplication.instance() or QApplication(sys.argv[:1])
+    problem = qt_binding_problem()
+    if problem is not None:
+        log.error("%s", problem)
+        sys.stderr.write(f"accelcal gui: {problem}\n")
+        return 1
     if stand_file is None and not sim:  # the stand of the last session, if it is still there
         last = str(QSettings(ORGANISATION, APPLICATION).value("stand_file", ""))
         stand_file = Path(last) if last and Path(last).exists() else None
