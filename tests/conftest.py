@@ -1,4 +1,5 @@
-"""Shared test set-up: isolated Qt settings; opt-in real-hardware options (`pytest tests/hardware --daq-device Dev1 --visa-resource ...`)."""
+"""Shared test set-up: isolated Qt settings; opt-in real-hardware options
+(`pytest tests/hardware --daq-device Dev1 --visa-resource ...`)."""
 
 from __future__ import annotations
 
