@@ -124,7 +124,7 @@ def test_from_an_empty_window_to_a_certificate(window, qtbot, monkeypatch):
         folder,
         CertificateInfo(
             customer="ACME Ltd", authorised_by="J. Smith", temperature_c=23.0, mounting="stud"
-        )
+        ),
     )
     assert path is not None and path.exists() and path.name == "certificate.pdf"
     assert "Certificate:" in window.summary.text()
