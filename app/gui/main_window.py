@@ -14,6 +14,7 @@ import html
 import json
 import logging
 from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -69,6 +70,28 @@ log = logging.getLogger(__name__)
 
 ORGANISATION, APPLICATION = "accelcal", "accelcal"
 RUN_TAB, RESULTS_TAB, RUNS_TAB = 1, 2, 3
+
+
+@dataclass(frozen=True)
+class PlannedRequest(RunRequest):
+    """A RunRequest whose multisine phases were optimised already (the window does it on a
+    worker pool as the lines are typed): Start does not block the GUI for a second."""
+
+    phases_rad: tuple[float, ...] | None = None
+
+    def plan(self) -> Plan:
+        if self.phases_rad is None:
+            return super().plan()
+        preset = PRESETS[self.preset or "piezo"]
+        lines = self.frequencies_hz or tuple(preset.nominal_frequencies_hz)
+        return make_plan(
+            lines,
+            preset.sample_rate_hz,
+            preset.period_samples,
+            self.level_ms2,
+            preset.reference_frequency_hz,
+            phases_rad=self.phases_rad,
+        )
 
 
 class ElidedLabel(QLabel):
@@ -322,7 +345,18 @@ class MainWindow(QMainWindow):
     # --- plan checks --------------------------------------------------------------------
 
     def request(self) -> RunRequest:
-        return RunRequest(
+        """The run the fields describe, with the phases already optimised off this thread
+        (the same phases the CLI computes: they do not depend on the level)."""
+        preset = PRESETS[self.preset.currentText()]
+        custom = self._custom_lines()
+        future = self._plans.get(
+            (preset.name, tuple(custom if custom is not None else preset.nominal_frequencies_hz))
+        )
+        phases = None
+        if future is not None and future.done() and future.exception() is None:
+            phases = tuple(float(p) for p in future.result().phases_rad)
+        return PlannedRequest(
+            phases_rad=phases,
             stand_file=self.stand_file,
             dut=self.dut.currentText(),
             dut_id=self.dut_id.text().strip() or None,

@@ -40,6 +40,15 @@ FOLDER_ROLE = Qt.ItemDataRole.UserRole
 STATE_ROLE = Qt.ItemDataRole.UserRole + 1
 
 
+def fingerprint(folder: Path) -> tuple:
+    """Name, size, modification time and mode of the folder and of every file in it: what
+    changes when anything in a run folder is edited, replaced, added or removed."""
+    entries = [folder, *sorted(folder.iterdir())]
+    return tuple(
+        (p.name, st.st_size, st.st_mtime_ns, st.st_mode) for p in entries for st in [p.stat()]
+    )
+
+
 def check_folder(folder: Path) -> RunCheck | None:
     """inspect_run, or None for a folder that is no run (left out of the list)."""
     try:
@@ -57,6 +66,9 @@ class RunsTab(QWidget):
     def __init__(self, root: Path) -> None:
         super().__init__()
         self.root = root
+        # finished runs verified before, by fingerprint: a list of many runs is not hashed
+        # again on every refresh (opening or certifying a run always verifies it afresh)
+        self._verified: dict[Path, tuple[tuple, RunCheck]] = {}
         layout = QVBoxLayout(self)
         self.heading = QLabel(
             f"Stored runs in {root} (double-click to open; only a complete run can be certified)"
@@ -81,7 +93,7 @@ class RunsTab(QWidget):
         for folder in sorted(self.root.iterdir(), reverse=True):
             if not folder.is_dir():
                 continue
-            check = check_folder(folder)
+            check = self.check(folder)
             if check is None:
                 continue
             item = QListWidgetItem(f"{folder.name}   {check.state}")
@@ -95,6 +107,20 @@ class RunsTab(QWidget):
                 tip = f"aborted: {check.record['abort_reason']}"
             item.setToolTip(tip)
             self.runs.addItem(item)
+
+    def check(self, folder: Path) -> RunCheck | None:
+        """inspect_run of `folder`, from the cache when nothing in it changed since."""
+        try:
+            key = fingerprint(folder)
+        except OSError:
+            return None
+        cached = self._verified.get(folder)
+        if cached is not None and cached[0] == key:
+            return cached[1]
+        check = check_folder(folder)
+        if check is not None and check.state not in ("running", "interrupted"):
+            self._verified[folder] = (key, check)  # finished: only a change can change it
+        return check
 
     def state_of(self, name: str) -> str | None:
         """The listed state of the run folder `name` (None: not listed)."""
