@@ -12,6 +12,7 @@ import shutil
 import subprocess
 import sys
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -24,9 +25,9 @@ ROOT = Path(__file__).resolve().parents[2]
 SESSION = Path(__file__).with_name("soak_session.py")
 
 
-@pytest.fixture()
-def xvfb_display():
-    """A private Xvfb (1366x768) on a display it chose itself; stopped afterwards."""
+def xvfb_server() -> Iterator[str]:
+    """A private Xvfb (1366x768) on a display it chose itself (yields ":N"); stopped after.
+    Skips without Xvfb, fails without it under CI=true."""
     xvfb = shutil.which("Xvfb")
     if xvfb is None:
         message = "Xvfb is not installed (make xvfb installs it)"
@@ -53,6 +54,11 @@ def xvfb_display():
             server.wait(10)
         except subprocess.TimeoutExpired:
             server.kill()
+
+
+@pytest.fixture()
+def xvfb_display() -> Iterator[str]:
+    yield from xvfb_server()
 
 
 @pytest.mark.xvfb
