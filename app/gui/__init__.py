@@ -25,7 +25,7 @@ def run_gui(
     """Open the window; optionally run at once, save a screenshot and quit (headless smoke)."""
     if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
         os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
-    from PySide6.QtCore import QSettings, QTimer
+    from PySide6.QtCore import QCoreApplication, QEvent, QSettings, QTimer
     from PySide6.QtWidgets import QApplication
 
     from app.gui.binding import qt_binding_problem
@@ -75,4 +75,8 @@ def run_gui(
 
         QTimer.singleShot(200, shot)
     app.exec()
+    # the window goes before the application (a QApplication destroyed under a live window,
+    # as locals may be, can crash at exit after the work is done)
+    window.deleteLater()
+    QCoreApplication.sendPostedEvents(None, QEvent.Type.DeferredDelete)
     return outcome["code"]

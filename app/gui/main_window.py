@@ -237,8 +237,9 @@ class MainWindow(QMainWindow):
         self.dut.addItems(list(DUT_CATALOGUE))
         self.dut.setCurrentText(str(self.settings.value("dut", "piezo")))
         self.dut.setToolTip("DUT of the simulated stand's catalogue")
-        self.dut_id = QLineEdit(str(self.settings.value("dut_id", "")))
-        self.dut_id.setPlaceholderText("serial number")
+        # never restored from the last session: another day's sensor is another serial
+        self.dut_id = QLineEdit()
+        self.dut_id.setPlaceholderText("serial number of the sensor on the stand")
         self.nominal = QDoubleSpinBox(decimals=3, maximum=10000.0, suffix=" mV/(m/s²)")
         self.nominal.setSpecialValueText("not given")
         self.tolerance = QDoubleSpinBox(decimals=1, maximum=50.0, value=5.0, suffix=" %")
@@ -483,7 +484,6 @@ class MainWindow(QMainWindow):
             return
         self.settings.setValue("dut", self.dut.currentText())
         self.settings.setValue("stand_file", str(self.stand_file or ""))
-        self.settings.setValue("dut_id", self.dut_id.text())
         try:
             procedure, stand = start(self.request())
         except (ValueError, HardwareError) as exc:  # config, plan, missing driver or device

@@ -261,3 +261,10 @@ def test_qt_settings_are_isolated_per_test(tmp_path_factory):
     path = QSettings(main_window.ORGANISATION, main_window.APPLICATION).fileName()
     assert str(tmp_path_factory.getbasetemp()) in path or os.environ["XDG_CONFIG_HOME"] in path
     assert not path.startswith(os.path.expanduser("~/.config"))
+
+
+def test_the_dut_serial_is_not_carried_into_the_next_session(qtbot, tmp_path):
+    QSettings(main_window.ORGANISATION, main_window.APPLICATION).setValue("dut_id", "SN-OLD")
+    w = MainWindow(out=tmp_path / "runs", paced=False)
+    qtbot.addWidget(w)
+    assert w.dut_id.text() == "" and w.request().dut_id is None
