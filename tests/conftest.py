@@ -3,14 +3,18 @@
 
 from __future__ import annotations
 
+import atexit
 import os
+import shutil
 import tempfile
 
 import pytest
 
 # before anything creates a QSettings: the whole session's Qt settings live in a temporary
 # folder, never in the user's ~/.config (tests also get one folder each, below)
-os.environ["XDG_CONFIG_HOME"] = tempfile.mkdtemp(prefix="accelcal-tests-config-")
+_CONFIG_HOME = tempfile.mkdtemp(prefix="accelcal-tests-config-")
+os.environ["XDG_CONFIG_HOME"] = _CONFIG_HOME
+atexit.register(shutil.rmtree, _CONFIG_HOME, ignore_errors=True)
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:

@@ -194,6 +194,7 @@ def test_the_run_tab_is_cleared_when_a_new_run_starts(window, qtbot):
 def test_a_long_abort_message_never_widens_the_window(window, qtbot):
     window.show()
     qtbot.waitExposed(window)
+    window.tabs.setCurrentIndex(main_window.RUN_TAB)  # where a run ends
     screen = window.screen().availableGeometry()
     assert window.minimumSizeHint().width() <= screen.width()
     before = window.width()
@@ -204,10 +205,11 @@ def test_a_long_abort_message_never_widens_the_window(window, qtbot):
     window._on_done(Finished("aborted", reason, None, {"run_id": None, "final_output_v": 0.0}))
     for _ in range(5):
         QApplication.processEvents()
-    assert "ABORTED" in window.state.text() and reason in window.state.toolTip()
     assert window.width() == before <= screen.width()
     assert window.minimumSizeHint().width() <= screen.width()
     assert window.frameGeometry().width() <= screen.width() + 20  # frame: a few pixels
+    assert "ABORTED" in window.state.text() and reason in window.state.toolTip()
+    assert reason[:200] in window.messages.text()  # the whole message, wrapped below
 
 
 def test_the_worker_never_draws_and_copies_what_it_queues(window, qtbot, monkeypatch):
