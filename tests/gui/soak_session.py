@@ -36,7 +36,7 @@ def main(out: Path, runs: int, summary: Path) -> int:
     window.show()
     window.wait_for_plans()
     window.frequencies.setText(SHORT_LINES)
-    window.periods.setValue(2)
+    window.periods.setValue(3)  # the fewest with a stated type A
     deadline = time.monotonic() + 30
     while not window.start_button.isEnabled() and time.monotonic() < deadline:
         app.processEvents(QEventLoop.ProcessEventsFlag.AllEvents, 50)

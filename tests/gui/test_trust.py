@@ -32,7 +32,7 @@ def window(qtbot, tmp_path, monkeypatch):
     w.wait_for_plans()
     w.frequencies.setText(SHORT_LINES)
     qtbot.waitUntil(w.start_button.isEnabled, timeout=30_000)
-    w.periods.setValue(2)
+    w.periods.setValue(3)  # the fewest with a stated type A
     return w
 
 
