@@ -194,6 +194,8 @@ def test_stop_fades_out_to_0_v_and_keeps_an_aborted_run(qtbot, tmp_path):
     w.periods.setValue(100)  # a long acquisition: Stop comes first
     w.start_run()
     qtbot.waitUntil(lambda: "acquiring" in w.state.text(), timeout=40_000)
+    # the first live estimate comes once MIN_PERIODS periods are in (maybe a few periods on)
+    qtbot.waitUntil(lambda: "coherence" in w.coherence.text(), timeout=40_000)
     stand = w.worker.stand
     with qtbot.waitSignal(w.run_finished, timeout=30_000) as blocker:
         qtbot.mouseClick(w.stop_button, Qt.MouseButton.LeftButton)
