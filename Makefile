@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 DEMO_DIR ?= demo-output
 
-.PHONY: venv test demo gui bench lint clean
+.PHONY: venv test demo gui bench lint clean xvfb
 
 venv: $(STAMP)
 
@@ -15,7 +15,20 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet -e '.[test]'
 	@touch $(STAMP)
 
-test: $(STAMP)
+# a real X server for the GUI soak test, and the X libraries Qt's xcb plugin loads; installed
+# (Debian, as root) only when missing
+XVFB_PACKAGES := xvfb libxcb-icccm4 libxcb-keysyms1 libxcb-cursor0 libxcb-image0 \
+	libxcb-render-util0 libxcb-randr0 libxcb-shape0 libxcb-xkb1 libxkbcommon-x11-0 libegl1
+
+xvfb:
+	@command -v dpkg >/dev/null || { echo "xvfb: not a Debian system; install Xvfb yourself"; exit 0; }; \
+	missing=$$(for p in $(XVFB_PACKAGES); do dpkg -s $$p >/dev/null 2>&1 || echo $$p; done); \
+	if [ -n "$$missing" ]; then \
+	    echo "installing $$missing"; \
+	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing; \
+	fi
+
+test: $(STAMP) xvfb
 	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest -q
 
 demo: $(STAMP)
