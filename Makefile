@@ -15,10 +15,12 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet -e '.[test]'
 	@touch $(STAMP)
 
-# a real X server for the GUI soak test, and the X libraries Qt's xcb plugin loads; installed
+# a real X server for the GUI soak test, the X libraries Qt's xcb plugin loads, and pdftoppm
+# (the certificate page-rendering test); installed
 # (Debian, as root) only when missing
 XVFB_PACKAGES := xvfb libxcb-icccm4 libxcb-keysyms1 libxcb-cursor0 libxcb-image0 \
-	libxcb-render-util0 libxcb-randr0 libxcb-shape0 libxcb-xkb1 libxkbcommon-x11-0 libegl1
+	libxcb-render-util0 libxcb-randr0 libxcb-shape0 libxcb-xkb1 libxkbcommon-x11-0 libegl1 \
+	poppler-utils
 
 xvfb:
 	@command -v dpkg >/dev/null || { echo "xvfb: not a Debian system; install Xvfb yourself"; exit 0; }; \
