@@ -5,15 +5,25 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 DEMO_DIR ?= demo-output
 
-.PHONY: venv test demo gui bench lint clean xvfb
+.PHONY: venv test demo gui bench lint clean xvfb lock
 
 venv: $(STAMP)
 
-$(STAMP): pyproject.toml
+# requirements.lock pins every dependency (and theirs) to what CI tested; `make lock` renews it
+$(STAMP): pyproject.toml requirements.lock
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[test]'
+	$(BIN)/python -m pip install --quiet -r requirements.lock
+	$(BIN)/python -m pip install --quiet --no-deps -e '.[test]'
 	@touch $(STAMP)
+
+lock:
+	rm -rf .lock-venv && $(PYTHON) -m venv .lock-venv
+	.lock-venv/bin/python -m pip install --quiet --upgrade pip
+	.lock-venv/bin/python -m pip install --quiet -e '.[test]'
+	.lock-venv/bin/python -m pip freeze --exclude-editable | grep -v '^accelcal' \
+	    > requirements.lock
+	rm -rf .lock-venv
 
 # a real X server for the GUI soak test, the X libraries Qt's xcb plugin loads, and pdftoppm
 # (the certificate page-rendering test); installed
