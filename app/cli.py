@@ -933,9 +933,7 @@ def cmd_certificate(args: argparse.Namespace) -> int:
     from app.certificate import dcc_path
 
     if dcc_path(out).exists():
-        print(
-            f"digital calibration certificate (DCC 3.3.0, also attached to the PDF): {dcc_path(out)}"
-        )
+        print(f"digital calibration certificate (DCC 3.3.0, in the PDF too): {dcc_path(out)}")
     else:
         print("no digital calibration certificate: the stand file names no laboratory.country")
     return EXIT_OK
