@@ -272,6 +272,12 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--issue-date", help="YYYY-MM-DD (default: the run's date)")
     c.add_argument("--notes", default="", help="free text printed under Notes")
     c.add_argument("--sweep", type=Path, help="sweep summary (sweep-*.json) the run belongs to")
+    c.add_argument(
+        "--sign",
+        type=Path,
+        metavar="P12",
+        help="sign the PDF (PAdES) with the lab's key; password from $ACCELCAL_SIGN_PASSWORD",
+    )
     cr = c.add_argument_group("records (accelcal db): customer, sensor and number from there")
     cr.add_argument("--db", metavar="URL", help="records database (default $ACCELCAL_DB)")
     cr.add_argument("--prepared-by", help="who prepared it (default: the login name)")
@@ -289,6 +295,10 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--out", type=Path, help="recording to write (.h5)")
     s.add_argument("--overwrite", action="store_true", help="--out may replace an existing file")
     s.add_argument("--json", action="store_true", help="machine-readable output")
+    v = sub.add_parser("verify", help="check a certificate PDF: signature, DCC, run")
+    v.add_argument("pdf", type=Path, help="certificate PDF")
+    v.add_argument("--run", type=Path, help="the run folder it certifies (manifest and numbers)")
+    v.add_argument("--trust", type=Path, help="the CA certificate (PEM or DER) to trust")
     RECORDS_COMMANDS.update(add_records_commands(sub))
     return parser
 
@@ -909,6 +919,14 @@ def cmd_certificate(args: argparse.Namespace) -> int:
         notes=args.notes,
     )
     out = args.out or (args.run / "certificate.pdf")
+    signer = None
+    if args.sign is not None:
+        from app.signing import Signer, SigningError
+
+        try:
+            signer = Signer.load(args.sign)
+        except SigningError as exc:
+            raise UsageError(str(exc)) from None
     if args.out is not None and not is_run_folder(args.out.parent):  # a run's own: see issue()
         _writable_folder(args.out.parent, "--out")
     if args.db or os.environ.get("ACCELCAL_DB"):
@@ -924,11 +942,12 @@ def cmd_certificate(args: argparse.Namespace) -> int:
             sweep_path=args.sweep,
             replaces=args.replaces,
             reason=args.reason,
+            signer=signer,
         )
     elif args.prepared_by or args.replaces or args.reason:
         raise UsageError("--prepared-by, --replaces, --reason: need the records (--db URL)")
     else:
-        issued = issue(args.run, info, out, args.sweep)
+        issued = issue(args.run, info, out, args.sweep, signer)
     print(f"certificate {issued.number}: {out}")
     from app.certificate import dcc_path
 
@@ -1053,6 +1072,22 @@ def print_catalogue(as_json: bool) -> int:
     return EXIT_OK
 
 
+def cmd_verify(args: argparse.Namespace) -> int:
+    """accelcal verify: exit 0 when every check holds, 1 when one fails, 2 on bad input."""
+    from app.signing import verify
+
+    for option, path in (("pdf", args.pdf), ("--trust", args.trust)):
+        if path is not None and not path.is_file():
+            raise UsageError(f"{option}: no such file {path}")
+    if args.run is not None and not args.run.is_dir():
+        raise UsageError(f"--run: no such run folder {args.run}")
+    report = verify(args.pdf, args.run, args.trust)
+    for name, ok, detail in report.checks:
+        print(f"{'ok  ' if ok else 'FAIL'} {name}" + (f": {detail}" if detail else ""))
+    print("certificate verified" if report.ok else "certificate NOT verified")
+    return EXIT_OK if report.ok else EXIT_FAILURE
+
+
 COMMANDS = {
     "plan": cmd_plan,
     "analyze": cmd_analyze,
@@ -1062,6 +1097,7 @@ COMMANDS = {
     "certificate": cmd_certificate,
     "devices": cmd_devices,
     "gui": cmd_gui,
+    "verify": cmd_verify,
 }
 
 
