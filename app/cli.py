@@ -1073,7 +1073,7 @@ def print_catalogue(as_json: bool) -> int:
 
 
 def cmd_verify(args: argparse.Namespace) -> int:
-    """accelcal verify: exit 0 when every check holds, 1 when one fails, 2 on bad input."""
+    """accelcal verify: exit 0 when every check holds, 2 when one fails or the input is bad."""
     from app.signing import verify
 
     for option, path in (("pdf", args.pdf), ("--trust", args.trust)):
@@ -1085,7 +1085,7 @@ def cmd_verify(args: argparse.Namespace) -> int:
     for name, ok, detail in report.checks:
         print(f"{'ok  ' if ok else 'FAIL'} {name}" + (f": {detail}" if detail else ""))
     print("certificate verified" if report.ok else "certificate NOT verified")
-    return EXIT_OK if report.ok else EXIT_FAILURE
+    return EXIT_OK if report.ok else EXIT_BAD_INPUT
 
 
 COMMANDS = {

@@ -132,7 +132,7 @@ def test_a_signed_certificate_verifies_with_its_run_and_ca(
         "ok   DCC numbers equal the run's results",
     ):
         assert check in out
-    assert main(["verify", str(pdf), "--trust", str(keys["other"])]) == 1
+    assert main(["verify", str(pdf), "--trust", str(keys["other"])]) == 2
     assert "FAIL signer trusted by the given CA" in capsys.readouterr().out
 
 
@@ -145,7 +145,7 @@ def test_a_changed_byte_fails_verification(
     data[at + 2] ^= 0x01
     changed = tmp_path / "changed.pdf"
     changed.write_bytes(bytes(data))
-    assert main(["verify", str(changed)]) == 1
+    assert main(["verify", str(changed)]) == 2
     out = capsys.readouterr().out
     assert "FAIL signature intact, covering the whole file" in out
     assert "certificate NOT verified" in out
@@ -160,7 +160,7 @@ def test_a_changed_run_fails_verification(
     results = copy / "results.json"
     results.chmod(0o644)
     results.write_text(results.read_text().replace('"complete"', '"complete" ', 1))
-    assert main(["verify", str(pdf), "--run", str(copy)]) == 1
+    assert main(["verify", str(pdf), "--run", str(copy)]) == 2
     assert "FAIL run manifest verified" in capsys.readouterr().out
 
 
