@@ -295,6 +295,19 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--out", type=Path, help="recording to write (.h5)")
     s.add_argument("--overwrite", action="store_true", help="--out may replace an existing file")
     s.add_argument("--json", action="store_true", help="machine-readable output")
+    t = sub.add_parser("teds", help="a sensor's TEDS (IEEE 1451.4): decode a file, read, write")
+    tsub = t.add_subparsers(dest="teds_command", required=True, metavar="ACTION")
+    tsub.add_parser("decode", help="decode an NI .ted file").add_argument("file", type=Path)
+    tr = tsub.add_parser("read", help="read the DUT channel's TEDS on a stand")
+    tw = tsub.add_parser("write", help="write a complete run's sensitivity and date to the TEDS")
+    tw.add_argument("run", type=Path, help="the run folder whose result is written")
+    tw.add_argument("--initials", default="", help="calibrator's initials, up to 3 letters")
+    tw.add_argument("--yes", action="store_true", help="write without asking (scripts)")
+    for p in (tr, tw):
+        p.add_argument("--stand", type=Path, help="stand configuration (default: simulated)")
+        p.add_argument("--dut", type=_dut_name, default="piezo", help="simulated DUT")
+        _numeric(p, "--seed", SEED, "simulated stand: random seed", default=0)
+
     v = sub.add_parser("verify", help="check a certificate PDF: signature, DCC, run")
     v.add_argument("pdf", type=Path, help="certificate PDF")
     v.add_argument("--run", type=Path, help="the run folder it certifies (manifest and numbers)")
@@ -1072,6 +1085,47 @@ def print_catalogue(as_json: bool) -> int:
     return EXIT_OK
 
 
+def cmd_teds(args: argparse.Namespace) -> int:
+    """accelcal teds decode|read|write; writing asks first (or --yes) and reads back."""
+    from app import teds_io
+    from app.records import load_run
+    from hardware.teds import TedsError, decode, read_ted_file
+
+    try:
+        if args.teds_command == "decode":
+            for line in teds_io.describe(decode(read_ted_file(args.file))):
+                print(line)
+            return EXIT_OK
+        port = teds_io.open_port(args.stand, args.dut, args.seed)
+        current = port.read()
+        if args.teds_command == "read":
+            print(f"TEDS on {port.description}:")
+            for line in teds_io.describe(decode(current)):
+                print(f"  {line}")
+            return EXIT_OK
+        record = load_run(args.run)
+        new = teds_io.calibrated_teds(current, record, args.initials)
+    except (TedsError, ValueError) as exc:  # a run that does not verify is a ValueError too
+        raise UsageError(str(exc)) from None
+    assert new.accelerometer is not None
+    old = decode(current).accelerometer
+    change = (
+        f"sensitivity {old.sensitivity_mv_per_ms2 if old else float('nan'):.5g} -> "
+        f"{new.accelerometer.sensitivity_mv_per_ms2:.5g} mV/(m/s^2), calibration date "
+        f"{new.accelerometer.calibration_date} (run {record.get('run_id')})"
+    )
+    if not args.yes:
+        if not sys.stdin.isatty():
+            raise UsageError("--yes: writing a TEDS needs a confirmation (a terminal, or --yes)")
+        answer = input(f"Write to the TEDS on {port.description}: {change}? [y/N] ")
+        if answer.strip().lower() not in ("y", "yes"):
+            print("TEDS not written")
+            return EXIT_OK
+    teds_io.write_checked(port, new)
+    print(f"TEDS written and read back on {port.description}: {change}")
+    return EXIT_OK
+
+
 def cmd_verify(args: argparse.Namespace) -> int:
     """accelcal verify: exit 0 when every check holds, 2 when one fails or the input is bad."""
     from app.signing import verify
@@ -1098,6 +1152,7 @@ COMMANDS = {
     "devices": cmd_devices,
     "gui": cmd_gui,
     "verify": cmd_verify,
+    "teds": cmd_teds,
 }
 
 
