@@ -235,6 +235,12 @@ def build_parser() -> argparse.ArgumentParser:
         "--db", metavar="URL", help="records database (default $ACCELCAL_DB, else SQLite file)"
     )
     records.add_argument(
+        "--teds",
+        action="store_true",
+        help="identify the DUT by its TEDS (the records' sensor with that identity, else the "
+        "TEDS serial and nominal sensitivity)",
+    )
+    records.add_argument(
         "--reference-override",
         metavar="REASON",
         help="use a reference standard past its due date, for this stated reason",
@@ -706,6 +712,32 @@ def _faults(texts: list[str]) -> tuple[Fault, ...]:
         raise UsageError(str(exc)) from None
 
 
+def _dut_from_teds(args: argparse.Namespace, use_records: bool, notes: list[str]) -> str | None:
+    """run --teds: the DUT's TEDS read on the stand; the records' sensor of that identity
+    (its serial, for --sensor), else the TEDS serial and nominal sensitivity."""
+    from app import teds_io
+    from hardware.teds import TedsError, decode
+
+    try:
+        teds = decode(teds_io.open_port(args.stand, args.dut, args.seed).read())
+    except TedsError as exc:
+        raise UsageError(f"--teds: {exc}") from None
+    identity = teds.basic.identity
+    notes.append(f"TEDS identity {identity}")
+    if use_records:
+        from app.db.engine import open_engine
+        from app.db.lab import Lab
+
+        sensor = Lab(open_engine(args.db)).sensor_by_teds(identity)
+        if args.sensor and args.sensor != sensor.serial:
+            raise UsageError(f"--sensor: {args.sensor!r} is not the TEDS sensor {sensor.serial!r}")
+        return sensor.serial
+    args.dut_id = args.dut_id or f"TEDS-{identity.replace('/', '-')}"
+    if teds.accelerometer is not None and args.nominal_sensitivity is None:
+        args.nominal_sensitivity = teds.accelerometer.sensitivity_mv_per_ms2
+    return args.sensor
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     if args.sim and args.stand:
         raise UsageError("--sim and --stand: choose one")
@@ -720,6 +752,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     _writable_folder(args.out, "--out")
     use_records = bool(args.sensor or args.db or os.environ.get("ACCELCAL_DB"))
     notes: list[str] = []
+    if args.teds:
+        args.sensor = _dut_from_teds(args, use_records, notes)
     if args.sensor:
         from app.db.runs import sensor_defaults
 
