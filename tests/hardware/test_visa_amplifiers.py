@@ -265,8 +265,9 @@ def test_output_gain_goes_out_in_db_and_comes_back_in_v_per_v(scripted, gain, db
         *writes(1, "1E-12", db, "OFf", "1"),
         *readback(1, "Acceleration", "1E-12", db, "OFf", "1"),
     )
-    settings = BK2525Amplifier(fake).configure(1, sensitivity_mv_per_ms2=1, gain=gain,
-                                               high_pass_hz=1)
+    settings = BK2525Amplifier(fake).configure(
+        1, sensitivity_mv_per_ms2=1, gain=gain, high_pass_hz=1
+    )
     assert settings.gain == gain
 
 
