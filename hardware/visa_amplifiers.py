@@ -603,6 +603,12 @@ def _wire_choices(values: Sequence[float | None]) -> dict[object, str]:
     return {v: ("OFf" if v is None else f"{v:g}") for v in values}
 
 
+# MANUAL UNREAD: the 2525 also has Input_Gain and Fine_Gain (vol. 2, 5.3 example: "Input_Gain
+# -20;Fine_Gain 0"), and vol. 1, 6.4 makes the gain the operator needs out of Input and Output
+# Gain together; how the three combine with the transducer sensitivity into the output scaling
+# is in unread pages (Table 9.2, chapter 6). The driver neither sets nor reads Input_Gain and
+# Fine_Gain, and reports Output_Gain alone as `gain`, as it did before: check on a real 2525
+# that Input_Gain and Fine_Gain leave the output scaling the stand file assumes.
 _GAIN_CHOICES = OneOf({g: _db_text(g) for g in BK2525_GAINS}, unit="V/V")
 _SENSITIVITY_RANGE = InRange(*BK2525_SENSITIVITY_RANGE, unit="pC/(m/s^2) or mV/(m/s^2)")
 
