@@ -2,6 +2,8 @@
 
 Nothing is carried over from the previous certificate (another customer's name or another
 DUT's model on a certificate is the error this prevents); the dialog names the run it is for.
+When the records know the run's sensor (by its serial), its customer, address, model and serial
+are filled in from them (and say so); everything else starts empty.
 """
 
 from __future__ import annotations
@@ -24,7 +26,8 @@ def run_identity(record: dict) -> str:
 
 
 class CertificateDialog(QDialog):
-    """Customer, signatory and conditions for one certificate; every field starts empty."""
+    """Customer, signatory and conditions for one certificate; every field starts empty but
+    what the records say of the run's sensor (`defaults`: CertificateInfo field -> value)."""
 
     FIELDS = (
         ("customer", "Customer"),
@@ -32,11 +35,12 @@ class CertificateDialog(QDialog):
         ("authorised_by", "Authorised by"),
         ("mounting", "Mounting"),
         ("dut_model", "DUT model (empty: from the run)"),
+        ("dut_serial", "DUT serial (empty: from the run)"),
         ("dut_type", "DUT type (empty: from the run)"),
         ("notes", "Notes"),
     )
 
-    def __init__(self, parent: QWidget | None, record: dict):
+    def __init__(self, parent: QWidget | None, record: dict, defaults: dict | None = None):
         super().__init__(parent)
         self.setWindowTitle(f"Certificate of run {record.get('run_id')}")
         form = QFormLayout(self)
@@ -44,10 +48,17 @@ class CertificateDialog(QDialog):
         heading.setWordWrap(True)
         form.addRow(heading)
         self.edits: dict[str, QLineEdit] = {}
+        defaults = defaults or {}
         for key, label in self.FIELDS:
             edit = QLineEdit()
+            if defaults.get(key):
+                edit.setText(str(defaults[key]))
+                edit.setToolTip("from the records, for the run's sensor")
             form.addRow(label, edit)
             self.edits[key] = edit
+        if defaults:
+            note = QLabel("<i>Customer and sensor filled in from the records.</i>")
+            form.addRow(note)
         self.temperature = QLineEdit()
         self.temperature.setPlaceholderText("°C, as measured during the run")
         form.addRow("Ambient temperature (°C)", self.temperature)
@@ -76,6 +87,7 @@ class CertificateDialog(QDialog):
             authorised_by=values["authorised_by"],
             mounting=values["mounting"],
             dut_model=values["dut_model"],
+            dut_serial=values["dut_serial"],
             dut_type=values["dut_type"],
             notes=values["notes"] or "",
             temperature_c=self.temperature_c(),
