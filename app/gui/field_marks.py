@@ -12,6 +12,7 @@ from __future__ import annotations
 import html
 from typing import Any
 
+from PySide6.QtCore import Qt
 from PySide6.QtWidgets import QFormLayout, QLabel, QWidget
 
 ERROR, WARNING, INFO = "error", "warning", "info"
@@ -48,13 +49,13 @@ class FieldMarks:
         layout = parent.layout() if parent is not None else None
         if not isinstance(layout, QFormLayout):
             return None
-        row, _role = layout.getWidgetPosition(widget)
+        row = int(layout.getWidgetPosition(widget)[0])  # type: ignore[index]
         return (layout, row) if row >= 0 else None
 
     def _attach(self, widget: QWidget) -> None:
         label = QLabel()
         label.setWordWrap(True)
-        label.setMinimumWidth(1)
+        label.setAlignment(Qt.AlignmentFlag.AlignLeft | Qt.AlignmentFlag.AlignTop)
         place = self._form(widget)
         self.notes[widget] = label
         self._styles[widget] = widget.styleSheet()
@@ -76,7 +77,9 @@ class FieldMarks:
             return
         severity, reason = mark
         colour = STYLE[severity]
-        label.setText(f"<span style='color:{colour}'>{SYMBOL[severity]} {html.escape(reason)}</span>")
+        label.setText(
+            f"<span style='color:{colour}'>{SYMBOL[severity]} {html.escape(reason)}</span>"
+        )
         if severity != INFO:
             name = type(widget).__name__
             widget.setStyleSheet(f"{name} {{ border: 2px solid {colour}; }}")

@@ -179,7 +179,7 @@ class MainWindow(QMainWindow):
         self.budget, self.result_mag = self.results_tab.budget, self.results_tab.result_mag
         self.runs = self.runs_tab
 
-        self.actions = WindowActions(self)  # menus and shortcuts (Ctrl+R, Ctrl+., Esc, ...)
+        self.window_actions = WindowActions(self)  # menus and shortcuts (Ctrl+R, Ctrl+., Esc, ...)
         self.field_marks = field_marks.install(self)  # bad input marked at its field
         self.serial_entry = SerialEntry(self, self.records, self.field_marks)
         self.records.changed.connect(self.show_reference)
@@ -244,7 +244,7 @@ class MainWindow(QMainWindow):
         self.dut_id = QLineEdit()
         self.dut_id.setPlaceholderText("serial number of the sensor on the stand")
         self.nominal = QDoubleSpinBox(decimals=3, maximum=10000.0, suffix=" mV/(m/s²)")
-        self.nominal.setSpecialValueText("not given")
+        self.nominal.setSpecialValueText("not given, mV/(m/s²)")
         self.tolerance = QDoubleSpinBox(decimals=1, maximum=50.0, value=5.0, suffix=" %")
         form.addRow("DUT", self.dut)
         form.addRow("DUT serial", self.dut_id)
@@ -264,9 +264,9 @@ class MainWindow(QMainWindow):
         )
         self.periods = QSpinBox(minimum=3, maximum=10000, value=8, suffix=" periods")
         self.target = QDoubleSpinBox(decimals=3, maximum=10.0, suffix=" % type A target")
-        self.target.setSpecialValueText("off: acquire the periods above")
+        self.target.setSpecialValueText("off (% type A): acquire the periods above")
         self.max_time = QSpinBox(maximum=100_000, suffix=" s at most")
-        self.max_time.setSpecialValueText("no time bound")
+        self.max_time.setSpecialValueText("no time bound (s)")
         self.estimator = QComboBox()
         self.estimator.addItems(["periodic", "h1", "seed"])
         self.mode = QComboBox()
@@ -489,7 +489,9 @@ class MainWindow(QMainWindow):
         text += "".join(f"<div style='color:#b9770e'>⚠ {w}</div>" for w in warnings[:4])
         self.checks.setText(text)
         self.start_button.setEnabled(not problems and not running)
-        self.start_button.setToolTip("; ".join(problems) or with_key("Start the calibration", START))
+        self.start_button.setToolTip(
+            "; ".join(problems) or with_key("Start the calibration", START)
+        )
         marks = getattr(self, "field_marks", None)
         if marks is not None:
             marks.show_problems(problems)

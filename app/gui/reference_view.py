@@ -23,8 +23,7 @@ def describe_reference(config: Any, link: Any = None, today: date | None = None)
         + (" (the simulated stand issues its own)" if simulated else "")
     )
     lines = [
-        f"<b>{html.escape(ref.id)}</b>: {html.escape(ref.model)}, serial "
-        f"{html.escape(ref.serial)}",
+        f"<b>{html.escape(ref.id)}</b>: {html.escape(ref.model)}, serial {html.escape(ref.serial)}",
         f"certificate {html.escape(ref.certificate_number)} of "
         f"{html.escape(ref.certificate_date)}; {table}; from {html.escape(origin)}",
     ]
@@ -34,7 +33,7 @@ def describe_reference(config: Any, link: Any = None, today: date | None = None)
         return "<br/>".join(lines)
     record = link.reference(ref.id)
     if record is None:
-        lines.append(f"<i>not in the records (the stand file's data is used)</i>")
+        lines.append("<i>not in the records (the stand file's data is used)</i>")
     elif record.due_date < today:
         lines.append(
             f"<span style='color:#c0392b'><b>records: EXPIRED, due on {record.due_date}</b> "

@@ -149,24 +149,29 @@ class RunsTab(QWidget):
             self._verified[folder] = (key, check)  # finished: only a change can change it
         return check
 
-    def state_of(self, name: str) -> str | None:
-        """The listed state of the run folder `name` (None: not listed)."""
+    def _row_of(self, name: str) -> int | None:
         for row in range(self.runs.rowCount()):
             item = self.runs.item(row, 0)
-            if Path(item.data(FOLDER_ROLE)).name == name:
-                return item.data(STATE_ROLE)
+            if item is not None and Path(item.data(FOLDER_ROLE)).name == name:
+                return row
         return None
+
+    def state_of(self, name: str) -> str | None:
+        """The listed state of the run folder `name` (None: not listed)."""
+        row = self._row_of(name)
+        return None if row is None else self.item(row).data(STATE_ROLE)
 
     def verdict_of(self, name: str) -> str | None:
         """The verdict column of the run folder `name` ("" when none; None: not listed)."""
-        for row in range(self.runs.rowCount()):
-            if Path(self.runs.item(row, 0).data(FOLDER_ROLE)).name == name:
-                return self.runs.item(row, 1).text()
-        return None
+        row = self._row_of(name)
+        cell = None if row is None else self.runs.item(row, 1)
+        return None if cell is None else cell.text()
 
     def count(self) -> int:
         return self.runs.rowCount()
 
     def item(self, row: int) -> QTableWidgetItem:
         """The first cell of `row` (run and state)."""
-        return self.runs.item(row, 0)
+        cell = self.runs.item(row, 0)
+        assert cell is not None, f"no run listed in row {row}"
+        return cell

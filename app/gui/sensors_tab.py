@@ -37,9 +37,14 @@ from app.gui.results_tab import wrapping_label
 
 log = logging.getLogger(__name__)
 
-SENSOR_COLUMNS = ("Serial", "Model", "Owner", "Interval (months)", "Due")
+SENSOR_COLUMNS = ("Serial", "Model", "Owner", "Interval", "Due")
 DUE_COLUMNS = ("Kind", "Identifier", "Due", "Owner")
 OVERDUE = "#c0392b"
+
+
+def _text(table: QTableWidget, row: int, column: int) -> str:
+    cell = table.item(row, column)
+    return cell.text() if cell is not None else ""
 
 
 def _item(text: str, colour: str | None = None) -> QTableWidgetItem:
@@ -67,7 +72,7 @@ class SensorsTab(QWidget):
         self.search = QLineEdit()
         self.search.setPlaceholderText("serial contains ... (scan or type, Enter)")
         self.search.setToolTip("Search the sensors by serial number")
-        self.search.textChanged.connect(self.find)
+        self.search.textChanged.connect(self.search_sensors)
         refresh = QPushButton("Refresh")
         refresh.setToolTip("Read the sensors and the due list again")
         refresh.clicked.connect(self.refresh)
@@ -137,7 +142,7 @@ class SensorsTab(QWidget):
         for widget in (self.search, self.sensors, self.days, self.due, self.chart):
             widget.setEnabled(enabled)
         if enabled:
-            self.find(self.search.text())
+            self.search_sensors(self.search.text())
             self.show_due()
         else:
             self.sensors.setRowCount(0)
@@ -147,7 +152,7 @@ class SensorsTab(QWidget):
     def _failed(self, exc: Exception) -> None:
         self.status.setText(f"records: {exc}")
 
-    def find(self, text: str = "") -> list[Any]:
+    def search_sensors(self, text: str = "") -> list[Any]:
         """Sensors whose serial contains `text`; an exact match is selected."""
         lab = self.link.lab
         if lab is None:
@@ -166,7 +171,7 @@ class SensorsTab(QWidget):
                 sensor.serial,
                 f"{sensor.model.maker} {sensor.model.model}",
                 sensor.owner.name,
-                str(sensor.interval_months),
+                f"{sensor.interval_months} months",
                 str(sensor.due_date) if sensor.due_date else "never calibrated here",
             )
             for column, text_ in enumerate(cells):
@@ -182,7 +187,7 @@ class SensorsTab(QWidget):
     def _selected(self) -> None:
         rows = {i.row() for i in self.sensors.selectedItems()}
         if len(rows) == 1:
-            self.show_history(self.sensors.item(rows.pop(), 0).text())
+            self.show_history(_text(self.sensors, rows.pop(), 0))
 
     def show_history(self, serial: str | None) -> None:
         """The history chart of sensor `serial` (None: empty)."""
@@ -249,8 +254,8 @@ class SensorsTab(QWidget):
 
     def _due_clicked(self, item: QTableWidgetItem) -> None:
         row = item.row()
-        if self.due.item(row, 0).text() == "sensor":
-            self.search.setText(self.due.item(row, 1).text())
+        if _text(self.due, row, 0) == "sensor":
+            self.search.setText(_text(self.due, row, 1))
 
     def due_identifiers(self) -> list[str]:
-        return [self.due.item(r, 1).text() for r in range(self.due.rowCount())]
+        return [_text(self.due, r, 1) for r in range(self.due.rowCount())]

@@ -26,7 +26,8 @@ def verdict_of(results: Any = None, record: dict[str, Any] | None = None) -> tup
     if verdict is None and record:
         verdict = record.get("verdict") or (record.get("results") or {}).get("verdict")
         reasons = list(
-            record.get("verdict_reasons") or (record.get("results") or {}).get("verdict_reasons")
+            record.get("verdict_reasons")
+            or (record.get("results") or {}).get("verdict_reasons")
             or ()
         )
     return (str(verdict) if verdict else NOT_ASSESSED), reasons

@@ -157,10 +157,10 @@ def test_esc_aborts_a_run_through_the_menu_action_to_0_v(qtbot, tmp_path):
     qtbot.waitExposed(w)
     w.activateWindow()
     w.wait_for_plans()
-    assert not w.actions.abort.isEnabled()  # idle: Esc is left to dialogs
+    assert not w.window_actions.abort.isEnabled()  # idle: Esc is left to dialogs
     w.start_run()
-    qtbot.waitUntil(w.actions.abort.isEnabled, timeout=5_000)
-    assert w.actions.abort.shortcut().toString() == "Esc"
+    qtbot.waitUntil(w.window_actions.abort.isEnabled, timeout=5_000)
+    assert w.window_actions.abort.shortcut().toString() == "Esc"
     qtbot.waitUntil(
         lambda: "identifying" in w.state.text() or "equalising" in w.state.text(), timeout=30_000
     )
@@ -172,7 +172,7 @@ def test_esc_aborts_a_run_through_the_menu_action_to_0_v(qtbot, tmp_path):
 
 
 def test_shortcuts_are_in_the_menus_and_tooltips_and_every_field_is_reached_by_tab(window):
-    actions = window.actions
+    actions = window.window_actions
     shortcuts = {
         actions.start: "Ctrl+R",
         actions.abort: "Esc",
