@@ -409,10 +409,12 @@ class MainWindow(QMainWindow):
     def _index_run(self, finished: Finished) -> None:
         """A finished run goes into the records' index (the folder stays the record)."""
         run_id = finished.record.get("run_id")
-        note = self.records.index_run(self.out / str(run_id) if run_id else None)
-        if note:
+
+        def indexed(note: str) -> None:
             log.info("%s", note)
             self.sensors_tab.refresh()
+
+        self.records.index_run_later(self.out / str(run_id) if run_id else None, indexed)
 
     def _custom_lines(self) -> tuple[float, ...] | None:
         """The typed line list (Hz), None for the preset's; ValueError says what is wrong."""

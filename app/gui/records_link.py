@@ -3,14 +3,18 @@
 The URL is `--db URL`, else $ACCELCAL_DB, else the default SQLite file (`app.db.engine`). Opening
 may take a while (a PostgreSQL server that does not answer); it runs on its own thread and the
 window polls it. When the records cannot be opened, `error` says why and everything else in the
-window works without them. Queries afterwards take milliseconds and run on the GUI thread.
+window works without them. Queries afterwards take milliseconds and run on the GUI thread;
+indexing a finished run (which verifies every file of its folder by SHA-256) runs on the
+records' own thread, and its report comes back to the GUI thread.
 Nothing here computes: it reads and writes through `Lab` only.
 """
 
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
+from pathlib import Path
 from typing import Any
 
 from PySide6.QtCore import QObject, QTimer, Signal
@@ -40,6 +44,7 @@ class RecordsLink(QObject):
         self.error: str | None = None
         self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="records")
         self._future: Future | None = self._pool.submit(_open, url)
+        self._jobs: list[tuple[Future, Callable[[str], None]]] = []
         self._timer = QTimer(self, interval=50, timeout=self._poll)
         self._timer.start()
 
@@ -57,12 +62,17 @@ class RecordsLink(QObject):
             self._poll()
 
     def _poll(self) -> None:
+        for job in [j for j in self._jobs if j[0].done()]:
+            self._jobs.remove(job)
+            job[1](job[0].result())  # index_run's own report: it raises nothing
         future = self._future
         if future is None or not future.done():
+            if future is None and not self._jobs:
+                self._timer.stop()
             return
         self._future = None
-        self._timer.stop()
-        self._pool.shutdown(wait=False)
+        if not self._jobs:
+            self._timer.stop()
         try:
             self.lab = future.result()
         except RecordsInputError as exc:
@@ -125,6 +135,21 @@ class RecordsLink(QObject):
         except RecordsInputError as exc:
             log.warning("reference standards not read: %s", exc)
             return None
+
+    def index_run_later(self, folder: Path | None, done: Callable[[str], None]) -> bool:
+        """Index a finished run folder on the records' thread; `done(report line)` is called
+        on the GUI thread afterwards. False (and nothing done) without records."""
+        if self.lab is None or folder is None:
+            return False
+        self._jobs.append((self._pool.submit(self.index_run, folder), done))
+        self._timer.start()
+        return True
+
+    def wait_jobs(self, timeout_s: float = 60.0) -> None:
+        """Block until every indexing job is done and reported (tests)."""
+        for future, _done in list(self._jobs):
+            future.result(timeout=timeout_s)
+        self._poll()
 
     def index_run(self, folder: Any) -> str | None:
         """Index a finished run folder; a line to show (None when there are no records)."""

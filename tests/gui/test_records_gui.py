@@ -134,8 +134,10 @@ def test_a_clean_run_shows_pass_large_and_in_the_runs_list_and_the_certificate_i
     folder = window.results_tab.folder
     assert window.runs_tab.verdict_of(folder.name) == "PASS"
     assert window.runs_tab.runs.horizontalHeaderItem(1).text() == "Verdict"
-    # indexed into the records when it ended: the sensor's history has a fourth point
+    # indexed into the records when it ended (off the GUI thread): a fourth point
+    window.records.wait_jobs()
     assert len(window.records.lab.history("SN-7").points) == 4
+    assert window.sensors_tab.search.text() == "" and window.sensors_tab.sensors.rowCount() == 2
 
     seen = {}
 
@@ -294,3 +296,26 @@ def test_the_reference_standard_shown_is_the_stand_files_with_its_record(window,
     assert ref.id in text and ref.serial in text and "stand-pxi6251.toml" in text
     assert "EXPIRED, due on 2025-01-10" in text
     assert "simulated" not in text
+
+
+def test_the_verdict_view_shows_fail_and_indeterminate_with_reasons(qtbot):
+    from app.gui.verdict_view import VerdictView, verdict_of
+
+    view = VerdictView()
+    qtbot.addWidget(view)
+    view.show_verdict("FAIL", ["sensitivity at 160 Hz: fail (-7.1 % from the nominal)"])
+    assert view.word.text() == "FAIL" and "#c0392b" in view.word.styleSheet()
+    assert "sensitivity at 160 Hz: fail" in view.reasons.text()
+    record = {"verdict": "INDETERMINATE", "verdict_reasons": ["no tolerance given"]}
+    assert verdict_of(None, record) == ("INDETERMINATE", ["no tolerance given"])
+    assert verdict_of(None, {"status": "aborted"})[0] == "not assessed"
+    view.show_verdict(None)
+    assert not view.isVisibleTo(view.parentWidget() or view) or view.word.text() == ""
+
+
+def test_gui_takes_the_records_url():
+    from app.cli import build_parser
+
+    args = build_parser().parse_args(["gui", "--sim", "--db", "sqlite:///x.sqlite"])
+    assert args.db == "sqlite:///x.sqlite"
+    assert build_parser().parse_args(["gui"]).db is None
