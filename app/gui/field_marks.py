@@ -13,7 +13,7 @@ import html
 from typing import Any
 
 from PySide6.QtCore import Qt
-from PySide6.QtWidgets import QFormLayout, QLabel, QWidget
+from PySide6.QtWidgets import QFormLayout, QLabel, QSizePolicy, QWidget
 
 ERROR, WARNING, INFO = "error", "warning", "info"
 STYLE = {ERROR: "#c0392b", WARNING: "#b9770e", INFO: "#1e8449"}
@@ -30,6 +30,31 @@ def field_for(problem: str, fields: dict[str, QWidget]) -> QWidget | None:
     if text.startswith(("lines:", "line ", "reference frequency")):
         return fields.get("frequencies")
     return None
+
+
+class NoteLabel(QLabel):
+    """A wrapped note exactly as tall as its text at the width it is given (a wrapped label in
+    a form otherwise reserves the height of a much narrower one), never widening the form."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.setWordWrap(True)
+        self.setAlignment(Qt.AlignmentFlag.AlignLeft | Qt.AlignmentFlag.AlignTop)
+        self.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Fixed)
+        self.setMinimumWidth(1)
+
+    def _fit(self) -> None:
+        height = self.heightForWidth(max(self.width(), 1)) if self.text() else 0
+        if height >= 0 and height != self.height():
+            self.setFixedHeight(height)
+
+    def setText(self, text: str) -> None:
+        super().setText(text)
+        self._fit()
+
+    def resizeEvent(self, event: Any) -> None:
+        super().resizeEvent(event)
+        self._fit()
 
 
 class FieldMarks:
@@ -53,9 +78,7 @@ class FieldMarks:
         return (layout, row) if row >= 0 else None
 
     def _attach(self, widget: QWidget) -> None:
-        label = QLabel()
-        label.setWordWrap(True)
-        label.setAlignment(Qt.AlignmentFlag.AlignLeft | Qt.AlignmentFlag.AlignTop)
+        label = NoteLabel()
         place = self._form(widget)
         self.notes[widget] = label
         self._styles[widget] = widget.styleSheet()
