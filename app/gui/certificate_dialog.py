@@ -13,6 +13,7 @@ import math
 from PySide6.QtWidgets import QDialog, QDialogButtonBox, QFormLayout, QLabel, QLineEdit, QWidget
 
 from app.certificate import CertificateInfo
+from app.gui.field_marks import NoteLabel
 
 
 def run_identity(record: dict) -> str:
@@ -44,11 +45,13 @@ class CertificateDialog(QDialog):
         super().__init__(parent)
         self.setWindowTitle(f"Certificate of run {record.get('run_id')}")
         form = QFormLayout(self)
-        heading = QLabel(f"<b>Certificate of {run_identity(record)}</b>")
-        heading.setWordWrap(True)
+        heading = NoteLabel()  # wrapped, as tall as its text
+        heading.setText(f"<b>Certificate of {run_identity(record)}</b>")
         form.addRow(heading)
         self.edits: dict[str, QLineEdit] = {}
         defaults = defaults or {}
+        if defaults:
+            form.addRow(QLabel("<i>Customer and sensor filled in from the records.</i>"))
         for key, label in self.FIELDS:
             edit = QLineEdit()
             if defaults.get(key):
@@ -56,9 +59,6 @@ class CertificateDialog(QDialog):
                 edit.setToolTip("from the records, for the run's sensor")
             form.addRow(label, edit)
             self.edits[key] = edit
-        if defaults:
-            note = QLabel("<i>Customer and sensor filled in from the records.</i>")
-            form.addRow(note)
         self.temperature = QLineEdit()
         self.temperature.setPlaceholderText("°C, as measured during the run")
         form.addRow("Ambient temperature (°C)", self.temperature)
