@@ -27,7 +27,7 @@ from dsp.uncertainty import Budget, Quantity
 COLUMNS = (
     "f Hz",
     "S mV/(m/s²)",
-    "U",
+    "U mV/(m/s²)",
     "dev. %",
     "phase °",
     "U °",
