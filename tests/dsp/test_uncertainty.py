@@ -603,3 +603,88 @@ def test_welch_satterthwaite_bounds(pairs: list[tuple[float, float]]) -> None:
     nu_eff = welch_satterthwaite(u, nu)
     assert nu_eff >= min(nu) * (1 - 1e-9)
     assert nu_eff <= sum(nu) * (1 + 1e-9)
+
+
+# --- a budget computed by hand: every term counts (docs/mutation.md) ----------------------
+#
+# Magnitude at 160 Hz, u_i^2 in units of 1e-6 (relative^2):
+#   type A                 u_A = 0.002, nu = 4                     u^2 =  4    u^4/nu = 4.0
+#   reference calibration  normal U = 0.010, k = 2 -> u = 0.005    u^2 = 25    nu 50 -> 12.5
+#   DAQ gain               rectangular a = 0.003 -> a^2/3          u^2 =  3
+#   mounting               triangular a = 0.006 -> a^2/6           u^2 =  6
+#   hum                    U-shaped a = 0.002 -> a^2/2             u^2 =  2
+#   temperature            standard u = 0.001, nu = 10             u^2 =  1    nu 10 -> 0.1
+#   (not applying: "upper band" from 1 kHz, "phase ref" a phase component)
+#   u_B^2 = 37, u_c^2 = 41 -> u_c = sqrt(41e-6) = 0.0064031242...
+#   nu_eff = 41^2 / (4.0 + 12.5 + 0.1) = 1681 / 16.6 = 101.265...
+#   k = t_0.97725(101.27) = 2.025 (GUM table G.2: 2.025 at nu = 100), U = k u_c = 0.01297
+
+HAND_TYPE_A = (0.002, 4.0)
+HAND_U2 = {  # each term's u^2 in 1e-6, from the table above
+    "reference calibration": 25.0,
+    "DAQ gain": 3.0,
+    "mounting": 6.0,
+    "hum": 2.0,
+    "temperature": 1.0,
+}
+
+
+def _hand_budget() -> Budget:
+    return Budget(
+        (
+            Component("reference calibration", 0.010, Distribution.NORMAL, 2.0, dof=50),
+            Component("DAQ gain", 0.003, Distribution.RECTANGULAR),
+            Component("mounting", 0.006, Distribution.TRIANGULAR),
+            Component("hum", 0.002, Distribution.U_SHAPED),
+            Component("temperature", 0.001, Distribution.STANDARD, dof=10),
+            Component("upper band", 0.05, min_frequency_hz=1000.0),
+            Component("phase ref", 0.5, Distribution.STANDARD, quantity=Quantity.PHASE),
+        )
+    )
+
+
+def test_hand_budget_combined_and_expanded() -> None:
+    res = combine(*HAND_TYPE_A, _hand_budget(), 160.0)
+    assert res.type_b == pytest.approx(math.sqrt(37e-6), rel=1e-12)
+    assert res.standard == pytest.approx(math.sqrt(41e-6), rel=1e-12)  # 0.0064031...
+    assert res.standard == pytest.approx(0.00640312424, rel=1e-9)
+    assert res.dof == pytest.approx(1681 / 16.6, rel=1e-12)  # 101.265...
+    assert res.coverage_factor == pytest.approx(2.025, abs=0.001)  # GUM table G.2, nu = 100
+    assert res.coverage_factor == pytest.approx(stats.t.ppf(0.97725, 1681 / 16.6), rel=1e-12)
+    assert res.coverage_probability == 0.9545
+    assert res.expanded == pytest.approx(res.coverage_factor * math.sqrt(41e-6), rel=1e-12)
+    assert res.expanded == pytest.approx(0.01297, abs=0.00001)
+    u_b, nu_b = _hand_budget().type_b(160.0, MAG)
+    assert u_b == pytest.approx(math.sqrt(37e-6), rel=1e-12)
+    assert nu_b == pytest.approx(37**2 / 12.6, rel=1e-12)  # 1369 / (12.5 + 0.1)
+
+
+@pytest.mark.parametrize("name", sorted(HAND_U2))
+def test_every_hand_budget_term_counts(name: str) -> None:
+    """The budget without `name` loses exactly that term's u^2: a combination that dropped,
+    doubled or mis-divided any one term fails here."""
+    comp = next(c for c in _hand_budget().components if c.name == name)
+    assert comp.standard_uncertainty**2 == pytest.approx(HAND_U2[name] * 1e-6, rel=1e-12)
+    without = Budget(tuple(c for c in _hand_budget().components if c.name != name))
+    full = combine(*HAND_TYPE_A, _hand_budget(), 160.0)
+    less = combine(*HAND_TYPE_A, without, 160.0)
+    assert full.standard**2 - less.standard**2 == pytest.approx(HAND_U2[name] * 1e-6, rel=1e-9)
+    assert less.standard == pytest.approx(math.sqrt((41.0 - HAND_U2[name]) * 1e-6), rel=1e-12)
+    assert full.expanded > less.expanded
+
+
+def test_hand_budget_above_1_khz_adds_the_upper_band_term() -> None:
+    # upper band: rectangular a = 0.05 -> u^2 = 0.0025/3 = 833.33e-6; u_c^2 = 874.33e-6
+    res = combine(*HAND_TYPE_A, _hand_budget(), 1000.0)
+    assert res.standard == pytest.approx(math.sqrt(41e-6 + 0.0025 / 3), rel=1e-12)
+    assert combine(*HAND_TYPE_A, _hand_budget(), 999.9).standard == pytest.approx(
+        math.sqrt(41e-6), rel=1e-12
+    )
+
+
+def test_hand_budget_phase_uses_only_the_phase_term() -> None:
+    # u_A 0.2 deg (nu 4), phase ref 0.5 deg: u_c^2 = 0.04 + 0.25 = 0.29 deg^2
+    res = combine(0.2, 4, _hand_budget(), 160.0, PHASE)
+    assert res.standard == pytest.approx(math.sqrt(0.29), rel=1e-12)
+    assert res.dof == pytest.approx(0.29**2 / (0.2**4 / 4), rel=1e-12)  # 0.0841/0.0004 = 210.25
+    assert res.dof == pytest.approx(210.25, rel=1e-12)
