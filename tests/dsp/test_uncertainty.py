@@ -688,3 +688,201 @@ def test_hand_budget_phase_uses_only_the_phase_term() -> None:
     assert res.standard == pytest.approx(math.sqrt(0.29), rel=1e-12)
     assert res.dof == pytest.approx(0.29**2 / (0.2**4 / 4), rel=1e-12)  # 0.0841/0.0004 = 210.25
     assert res.dof == pytest.approx(210.25, rel=1e-12)
+
+
+# --- error messages, word for word (they name the field and the component) -----------------
+
+_KNOWN_KEYS = (
+    "name, value, distribution, coverage_factor, dof, quantity, min_frequency_hz, "
+    "max_frequency_hz, note"
+)
+
+
+@pytest.mark.parametrize(
+    ("call", "error", "message"),
+    [
+        (lambda: Component("", 0.1), ValueError, "component '': name must be a non-empty string"),
+        (
+            lambda: Component("x", "a"),  # type: ignore[arg-type]
+            ValueError,
+            "component 'x': value must be a number, got 'a'",
+        ),
+        (
+            lambda: Component("x", math.inf),
+            ValueError,
+            "component 'x': value must be finite, got inf",
+        ),
+        (lambda: Component("x", -0.1), ValueError, "component 'x': value must be >= 0, got -0.1"),
+        (
+            lambda: Component("x", 0.1, "gauss"),  # type: ignore[arg-type]
+            ValueError,
+            "component 'x': distribution must be one of 'normal', 'rectangular', 'triangular', "
+            "'u-shaped', 'standard', got 'gauss'",
+        ),
+        (
+            lambda: Component("x", 0.1, coverage_factor=0),
+            ValueError,
+            "component 'x': coverage_factor must be finite and > 0, got 0.0",
+        ),
+        (
+            lambda: Component("x", 0.1, dof=0),
+            ValueError,
+            "component 'x': dof must be > 0 (inf allowed), got 0",
+        ),
+        (
+            lambda: Component("x", 0.1, min_frequency_hz=-1),
+            ValueError,
+            "component 'x': min_frequency_hz must be finite and >= 0 Hz, got -1",
+        ),
+        (
+            lambda: Component("x", 0.1, min_frequency_hz=10, max_frequency_hz=5),
+            ValueError,
+            "component 'x': min_frequency_hz must be <= max_frequency_hz, got 10.0 > 5.0",
+        ),
+        (
+            lambda: Component("x", 0.1, note=3),  # type: ignore[arg-type]
+            ValueError,
+            "component 'x': note must be a string, got 3",
+        ),
+        (
+            lambda: Component("x", 0.1).applies_at(math.nan),
+            ValueError,
+            "component 'x': frequency_hz must not be NaN",
+        ),
+        (
+            lambda: Component("x", 0.1).applies_at("a"),  # type: ignore[arg-type]
+            ValueError,
+            "component 'x': frequency_hz must be a number, got 'a'",
+        ),
+        (
+            lambda: Component.from_dict([1]),  # type: ignore[arg-type]
+            ValueError,
+            "component: expected a mapping of keys to values, got [1]",
+        ),
+        (
+            lambda: Component.from_dict({"name": "x", "value": 0.1, "foo": 1}),
+            ValueError,
+            f"component 'x': unknown key 'foo' (known keys: {_KNOWN_KEYS})",
+        ),
+        (
+            lambda: Component.from_dict({"value": 0.1}),
+            ValueError,
+            "component <unnamed>: missing key 'name'",
+        ),
+        (
+            lambda: Component.from_dict({"name": "x"}),
+            ValueError,
+            "component 'x': missing key 'value'",
+        ),
+        (
+            lambda: Component.from_dict({"name": "x", "value": 0.1, "dof": "many"}),
+            ValueError,
+            "component 'x': dof must be a number > 0, null or 'inf', got 'many'",
+        ),
+        (
+            lambda: Budget((Component("x", 0.01), 5)),  # type: ignore[arg-type]
+            TypeError,
+            "budget entry 2: expected a Component, got 5",
+        ),
+        (
+            lambda: Budget.from_list([{"name": "x", "value": 0.1}, {"name": "y"}]),
+            ValueError,
+            "budget entry 2 of 2: component 'y': missing key 'value'",
+        ),
+        (
+            lambda: Budget().at(100.0, "volts"),  # type: ignore[arg-type]
+            ValueError,
+            "budget: quantity must be one of 'magnitude', 'phase', got 'volts'",
+        ),
+        (
+            lambda: welch_satterthwaite([0.1], [1, 2]),
+            ValueError,
+            "welch_satterthwaite: standard_uncertainties and dofs must be 1-D and of equal "
+            "length, got shapes (1,) and (2,)",
+        ),
+        (
+            lambda: welch_satterthwaite([-0.1], [1]),
+            ValueError,
+            "welch_satterthwaite: uncertainties must be finite and >= 0, got [-0.1]",
+        ),
+        (
+            lambda: welch_satterthwaite([0.1], [0]),
+            ValueError,
+            "welch_satterthwaite: dofs must be > 0 (inf allowed), got [0.]",
+        ),
+        (
+            lambda: coverage_factor(5, 1.0),
+            ValueError,
+            "coverage_factor: probability must be in (0, 1), got 1.0",
+        ),
+        (
+            lambda: coverage_factor(0),
+            ValueError,
+            "coverage_factor: dof must be > 0 (inf allowed), got 0",
+        ),
+        (
+            lambda: seed_coverage_factor(True),
+            ValueError,
+            "seed_coverage_factor: periods must be an integer, got True",
+        ),
+        (
+            lambda: seed_coverage_factor(2.5),  # type: ignore[arg-type]
+            ValueError,
+            "seed_coverage_factor: periods must be an integer, got 2.5",
+        ),
+        (
+            lambda: seed_coverage_factor(1),
+            ValueError,
+            "seed_coverage_factor: periods must be >= 2, got 1",
+        ),
+        (
+            lambda: combine(0.01, 3, Budget(), 100.0, rule="x"),
+            ValueError,
+            "combine: rule must be one of ('gum', 'seed'), got 'x'",
+        ),
+        (
+            lambda: combine(0.01, 3, Budget(), 100.0, probability=0),
+            ValueError,
+            "combine: probability must be in (0, 1), got 0",
+        ),
+        (
+            lambda: combine(0.01, 3, Budget(), 100.0, rule="seed"),
+            ValueError,
+            "combine: rule 'seed' needs periods (the number of periods L)",
+        ),
+        (
+            lambda: combine(0.01, 3, None, 100.0),  # type: ignore[arg-type]
+            TypeError,
+            "combine: budget must be a Budget, got None",
+        ),
+        (
+            lambda: combine(-1, 3, Budget(), 100.0),
+            ValueError,
+            "combine: type_a must be finite and >= 0 (or NaN), got -1",
+        ),
+        (
+            lambda: combine(0.01, 0, Budget(), 100.0),
+            ValueError,
+            "combine: type_a_dof must be > 0 (inf allowed), got 0",
+        ),
+        (
+            lambda: combine(0.01, 3, Budget(), 100.0, "volts"),  # type: ignore[arg-type]
+            ValueError,
+            "combine: quantity must be one of 'magnitude', 'phase', got 'volts'",
+        ),
+        (
+            lambda: iso_16063_21_limit(math.nan),
+            ValueError,
+            "iso_16063_21_limit: frequency_hz must not be NaN",
+        ),
+        (
+            lambda: iso_verdict(100.0, -0.1),
+            ValueError,
+            "iso_verdict: relative_expanded_uncertainty must be >= 0, got -0.1",
+        ),
+    ],
+)
+def test_error_messages_word_for_word(call, error, message) -> None:
+    with pytest.raises(error) as info:
+        call()
+    assert str(info.value) == message
