@@ -735,3 +735,18 @@ def test_write_period_sets_output_to_the_last_sample(fake):
     assert daq.output_v == pytest.approx(3.0 * math.sin(2 * math.pi * 49 / 50 + 0.3))
     daq.stop()
     assert daq.output_v == 0.0
+
+
+def test_start_twice_is_refused_by_name_and_changes_nothing(fake):
+    daq, mark = started(fake)
+    with pytest.raises(HardwareError) as info:
+        daq.start(sine())
+    assert str(info.value) == "NI-DAQ Dev1: already running; stop() first"
+    assert fake.events[mark:] == []
+    with pytest.raises(HardwareError) as info:
+        NiDaq("Dev1", task_factory=fake).write_period(sine())
+    assert str(info.value) == "NI-DAQ Dev1: configure() first"
+    daq.stop()
+    with pytest.raises(HardwareError) as info:
+        daq.write_period(sine())
+    assert str(info.value) == "NI-DAQ Dev1: write_period before start()"
