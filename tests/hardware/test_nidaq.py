@@ -750,3 +750,12 @@ def test_start_twice_is_refused_by_name_and_changes_nothing(fake):
     with pytest.raises(HardwareError) as info:
         daq.write_period(sine())
     assert str(info.value) == "NI-DAQ Dev1: write_period before start()"
+
+
+def test_reader_is_a_named_daemon_thread_joined_by_stop(fake):
+    daq, _ = started(fake)
+    readers = [t for t in threading.enumerate() if t.name == "accelcal-nidaq-reader-Dev1"]
+    assert len(readers) == 1
+    assert readers[0].daemon  # never keeps the interpreter alive if a run dies without stop()
+    daq.stop()
+    assert not readers[0].is_alive()
