@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import fields
 
 import pytest
 from hypothesis import given
@@ -885,4 +886,69 @@ _KNOWN_KEYS = (
 def test_error_messages_word_for_word(call, error, message) -> None:
     with pytest.raises(error) as info:
         call()
+    assert str(info.value) == message
+
+
+def test_component_defaults_include_an_empty_note() -> None:
+    assert Component("x", 0.01).note == ""
+    assert Component("x", 0.01).to_dict()["note"] == ""
+
+
+def test_component_normalises_numbers_to_float_and_strings_to_enums() -> None:
+    c = Component(
+        "x",
+        1,
+        " Normal ",  # type: ignore[arg-type]
+        coverage_factor=2,
+        dof=10,
+        quantity="PHASE",  # type: ignore[arg-type]
+        min_frequency_hz=1,
+        max_frequency_hz=2,
+    )
+    for field in ("value", "coverage_factor", "dof", "min_frequency_hz", "max_frequency_hz"):
+        assert type(getattr(c, field)) is float, field
+    assert c.distribution is Distribution.NORMAL
+    assert c.quantity is Quantity.PHASE
+    assert Budget((c,)).at(1.5, PHASE) == (c,)  # found by its enum, not its spelling
+    assert c.to_dict() == {
+        "name": "x",
+        "value": 1.0,
+        "distribution": "normal",
+        "coverage_factor": 2.0,
+        "dof": 10.0,
+        "quantity": "phase",
+        "min_frequency_hz": 1.0,
+        "max_frequency_hz": 2.0,
+        "note": "",
+    }
+    assert set(vars(c)) == {f.name for f in fields(Component)}  # no stray attributes
+
+
+@pytest.mark.parametrize("lowest", [0.0, 0.4, 0.5])
+def test_a_range_may_start_at_0_hz_or_below_1_hz(lowest: float) -> None:
+    c = Component("low band", 0.01, min_frequency_hz=lowest, max_frequency_hz=lowest)
+    assert c.min_frequency_hz == lowest
+    assert c.applies_at(lowest)
+    assert not c.applies_at(lowest + 0.01)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"coverage_factor": "2"}, "component 'x': coverage_factor must be a number, got '2'"),
+        ({"dof": "10"}, "component 'x': dof must be a number, got '10'"),
+        ({"max_frequency_hz": "1k"}, "component 'x': max_frequency_hz must be a number, got '1k'"),
+        (
+            {"max_frequency_hz": math.inf},
+            "component 'x': max_frequency_hz must be finite and >= 0 Hz, got inf",
+        ),
+        (
+            {"quantity": "volts"},
+            "component 'x': quantity must be one of 'magnitude', 'phase', got 'volts'",
+        ),
+    ],
+)
+def test_component_field_errors_word_for_word(kwargs: dict, message: str) -> None:
+    with pytest.raises(ValueError) as info:
+        Component("x", 0.1, **kwargs)
     assert str(info.value) == message
