@@ -7,6 +7,7 @@ way out of a run, and the ones that gate what reaches the output. Other files: e
 from __future__ import annotations
 
 import ast
+import os
 from functools import cache
 from pathlib import Path
 
@@ -43,7 +44,20 @@ def _safety_lines() -> frozenset[int]:
     return frozenset(lines)
 
 
+def _line_window() -> tuple[int, int] | None:
+    """MUTMUT_LINES="lo-hi" (1-based, inclusive) mutates only those lines: to split one file's
+    run over two processes, each in its own copy of the tree."""
+    window = os.environ.get("MUTMUT_LINES")
+    if not window:
+        return None
+    lo, hi = window.split("-")
+    return int(lo), int(hi)
+
+
 def pre_mutation(context) -> None:
-    if Path(context.filename).as_posix().endswith(NIDAQ):
-        if context.current_line_index + 1 not in _safety_lines():
-            context.skip = True
+    line = context.current_line_index + 1
+    if Path(context.filename).as_posix().endswith(NIDAQ) and line not in _safety_lines():
+        context.skip = True
+    window = _line_window()
+    if window is not None and not window[0] <= line <= window[1]:
+        context.skip = True
