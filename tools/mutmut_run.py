@@ -4,12 +4,9 @@ number instead, and report (not crash) if that fails too."""
 
 import sys
 
-from pony.orm import db_session
-
 import mutmut.cache as cache
 from mutmut.__main__ import climain
-
-_original = cache.update_mutant_status
+from pony.orm import db_session
 
 
 @cache.init_db
