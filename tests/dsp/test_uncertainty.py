@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import fields
+from dataclasses import FrozenInstanceError, fields
 
 import pytest
 from hypothesis import given
@@ -952,3 +952,45 @@ def test_component_field_errors_word_for_word(kwargs: dict, message: str) -> Non
     with pytest.raises(ValueError) as info:
         Component("x", 0.1, **kwargs)
     assert str(info.value) == message
+
+
+@pytest.mark.parametrize(
+    ("call", "message"),
+    [
+        (lambda: coverage_factor("5"), "coverage_factor: dof must be a number, got '5'"),
+        (
+            lambda: coverage_factor(5, "0.95"),
+            "coverage_factor: probability must be a number, got '0.95'",
+        ),
+        (
+            lambda: combine("0.01", 3, Budget(), 100.0),
+            "combine: type_a must be a number, got '0.01'",
+        ),
+        (
+            lambda: combine(0.01, "3", Budget(), 100.0),
+            "combine: type_a_dof must be a number, got '3'",
+        ),
+        (
+            lambda: combine(0.01, 3, Budget(), 100.0, probability="x"),
+            "combine: probability must be a number, got 'x'",
+        ),
+        (
+            lambda: iso_verdict(100.0, "x"),
+            "iso_verdict: relative_expanded_uncertainty must be a number, got 'x'",
+        ),
+        (
+            lambda: iso_16063_21_limit("x"),
+            "iso_16063_21_limit: frequency_hz must be a number, got 'x'",
+        ),
+    ],
+)
+def test_non_numbers_are_refused_by_function_and_argument(call, message) -> None:
+    with pytest.raises(ValueError) as info:
+        call()
+    assert str(info.value) == message
+
+
+def test_combined_is_immutable() -> None:
+    res = combine(*HAND_TYPE_A, _hand_budget(), 160.0)
+    with pytest.raises(FrozenInstanceError):
+        res.expanded = 0.0  # type: ignore[misc]
