@@ -759,3 +759,34 @@ def test_reader_is_a_named_daemon_thread_joined_by_stop(fake):
     assert readers[0].daemon  # never keeps the interpreter alive if a run dies without stop()
     daq.stop()
     assert not readers[0].is_alive()
+
+
+def test_every_failure_on_the_way_out_is_logged_word_for_word(fake, caplog):
+    daq, _ = started(fake)
+    for call in ("ao.write", "ao.stop", "ai.stop", "ao.close", "ai.close", "task2.write"):
+        fake.fail[call] = RuntimeError("boom")
+    fake.fail["task2.close"] = RuntimeError("gone")
+    with caplog.at_level("WARNING", logger="hardware.nidaq"):
+        daq.stop()
+    assert [r.getMessage() for r in caplog.records] == [
+        "NI-DAQ Dev1: could not write the zero period: boom",
+        "NI-DAQ Dev1: stopping the AO task: boom",
+        "NI-DAQ Dev1: stopping the AI task: boom",
+        "NI-DAQ Dev1: closing the AO task: boom",
+        "NI-DAQ Dev1: closing the AI task: boom",
+        "NI-DAQ Dev1: could not set the output to 0 V: boom",
+        "NI-DAQ Dev1: closing the 0 V task: gone",
+    ]
+    assert daq.output_v is None
+
+
+def test_no_task_for_the_on_demand_zero_is_logged(fake, caplog):
+    daq, _ = started(fake)
+    fake.fail["ao.write"] = RuntimeError("boom")
+    fake.fail["factory"] = RuntimeError("no task")
+    with caplog.at_level("WARNING", logger="hardware.nidaq"):
+        daq.stop()
+    assert [r.getMessage() for r in caplog.records] == [
+        "NI-DAQ Dev1: could not write the zero period: boom",
+        "NI-DAQ Dev1: could not set the output to 0 V: NI-DAQ Dev1: no task",
+    ]
