@@ -990,6 +990,13 @@ def test_non_numbers_are_refused_by_function_and_argument(call, message) -> None
     assert str(info.value) == message
 
 
+@pytest.mark.parametrize("p", [0.0, 1.0, -0.5, 1.5])
+def test_combine_refuses_probabilities_outside_the_open_interval(p: float) -> None:
+    with pytest.raises(ValueError) as info:
+        combine(0.01, 3, Budget(), 100.0, probability=p)
+    assert str(info.value) == f"combine: probability must be in (0, 1), got {p!r}"
+
+
 def test_combined_is_immutable() -> None:
     res = combine(*HAND_TYPE_A, _hand_budget(), 160.0)
     with pytest.raises(FrozenInstanceError):
