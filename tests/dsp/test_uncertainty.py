@@ -1001,3 +1001,8 @@ def test_combined_is_immutable() -> None:
     res = combine(*HAND_TYPE_A, _hand_budget(), 160.0)
     with pytest.raises(FrozenInstanceError):
         res.expanded = 0.0  # type: ignore[misc]
+
+
+def test_zero_expanded_uncertainty_is_within_every_limit() -> None:
+    for f in (0.4, 160.0, 1000.0, 1000.1, 2000.0, 10000.0):
+        assert iso_verdict(f, 0.0) is Verdict.WITHIN
