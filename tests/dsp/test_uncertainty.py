@@ -1006,3 +1006,35 @@ def test_combined_is_immutable() -> None:
 def test_zero_expanded_uncertainty_is_within_every_limit() -> None:
     for f in (0.4, 160.0, 1000.0, 1000.1, 2000.0, 10000.0):
         assert iso_verdict(f, 0.0) is Verdict.WITHIN
+
+
+def test_welch_satterthwaite_single_component_keeps_its_dof() -> None:
+    # nu_eff = u^4 / (u^4 / nu) = nu; with nu = 1 the denominator is exactly 1 (scaled)
+    assert welch_satterthwaite([0.01], [1]) == pytest.approx(1.0, rel=1e-12)
+    assert welch_satterthwaite([0.01, 0.01], [1, math.inf]) == pytest.approx(4.0, rel=1e-12)
+
+
+@pytest.mark.parametrize("name", ["", 5])
+def test_from_dict_without_a_usable_name_says_unnamed(name: object) -> None:
+    with pytest.raises(ValueError) as info:
+        Component.from_dict({"name": name, "value": 0.1, "foo": 1})
+    assert str(info.value) == f"component <unnamed>: unknown key 'foo' (known keys: {_KNOWN_KEYS})"
+
+
+@pytest.mark.parametrize("spelling", ["inf", "Infinity", " INF ", "infinity"])
+def test_from_dict_spells_infinite_dof_both_ways(spelling: str) -> None:
+    assert math.isinf(Component.from_dict({"name": "x", "value": 0.1, "dof": spelling}).dof)
+
+
+def test_budget_is_a_frozen_tuple_of_components() -> None:
+    c = Component("x", 0.01)
+    b = Budget([c])  # type: ignore[arg-type]
+    assert b.components == (c,) and type(b.components) is tuple
+    assert Budget(c for c in [c]).components == (c,)  # type: ignore[arg-type]
+    with pytest.raises(FrozenInstanceError):
+        b.components = ()  # type: ignore[misc]
+
+
+def test_seed_rectangular_notes_its_origin() -> None:
+    (c,) = Budget.seed_rectangular({"DAQ": 0.05}).components
+    assert c.note == "maximum permissible error (seed eq. 18/19)"
