@@ -20,7 +20,7 @@ Reader errors are passed on through the queue and re-raised (translated) by `rea
 `stop` writes a period of zeros, waits for it to play out, then stops and closes both tasks;
 it does this on every path (also after an error) and never raises. If the zeros cannot be
 written it falls back to a one-sample on-demand AO write of 0 V; if that fails too, `output_v`
-becomes None (unknown).
+becomes None (unknown), and stays so until a later `stop` manages the 0 V write.
 
 nidaqmx is imported lazily; a missing Python package or NI-DAQmx driver raises
 `DaqNotFoundError` whose message starts with "NI-DAQmx is not installed: ".
@@ -259,7 +259,7 @@ class NiDaq:
         """Play a period of 0 V, then stop and close both tasks. Never raises."""
         with self._lock:
             ao, ai, reader, config = self._ao, self._ai, self._reader, self._config
-            zeroed = True
+            zeroed = self._output_v is not None  # unknown stays unknown until 0 V is written
             if self._generating and ao is not None and config is not None:
                 zeroed = self._play_zeros(ao, config)
             self._stop_event.set()
