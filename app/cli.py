@@ -18,6 +18,7 @@ import tempfile
 import tomllib
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from app import formatting as fmt
 from app import lines, stand_config
@@ -1083,7 +1084,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 def print_catalogue(as_json: bool) -> int:
     """The simulated stand's exciter, reference and DUTs."""
     stand = StandModel()
-    entries = {
+    entries: dict[str, Any] = {
         "exciter": {
             "name": stand.exciter.name,
             "suspension_resonance_hz": stand.exciter.suspension_hz,

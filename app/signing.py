@@ -135,7 +135,7 @@ def _check_signature(pdf: Path, trust: Path | None, report: Verification) -> Non
             roots = [_load_certificate(trust)] if trust is not None else []
             context = ValidationContext(trust_roots=roots, allow_fetching=False)
             status = validate_pdf_signature(signatures[-1], context)
-            covers_all = status.coverage.name == "ENTIRE_FILE"
+            covers_all = status.coverage is not None and status.coverage.name == "ENTIRE_FILE"
             report.add(
                 "signature intact, covering the whole file",
                 bool(status.intact and status.valid and covers_all),

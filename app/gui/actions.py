@@ -69,7 +69,8 @@ class WindowActions(QObject):
         window.results_tab.certificate_button.setToolTip(
             with_key("Issue the certificate of the run shown here", CERTIFICATE)
         )
-        self.timer = QTimer(self, interval=200, timeout=self.refresh)
+        self.timer = QTimer(self, interval=200)
+        self.timer.timeout.connect(self.refresh)
         self.timer.start()
         self.refresh()
 

@@ -18,7 +18,9 @@ from app.gui.field_marks import NoteLabel
 
 def run_identity(record: dict) -> str:
     """'run <id>, DUT serial <serial>, <date>' of a stored run's record."""
-    dut = record.get("dut") if isinstance(record.get("dut"), dict) else {}
+    dut = record.get("dut") or {}
+    if not isinstance(dut, dict):
+        dut = {}
     serial = dut.get("id") or "not given"
     return (
         f"run {record.get('run_id')}, DUT serial {serial}, "

@@ -184,7 +184,8 @@ class MainWindow(QMainWindow):
         self.serial_entry = SerialEntry(self, self.records, self.field_marks)
         self.records.changed.connect(self.show_reference)
         self.run_finished.connect(self._index_run)
-        self.timer = QTimer(self, interval=int(1000 / FRAME_HZ), timeout=self._tick)
+        self.timer = QTimer(self, interval=int(1000 / FRAME_HZ))
+        self.timer.timeout.connect(self._tick)
         self.timer.start()
         geometry = self.settings.value("geometry")
         if geometry is not None:
@@ -273,8 +274,8 @@ class MainWindow(QMainWindow):
         self.mode.addItems(["multisine", "stepped-sine"])
         for widget in (self.preset, self.estimator, self.mode, self.dut):
             widget.currentTextChanged.connect(self.validate)
-        for widget in (self.level, self.nominal, self.tolerance):
-            widget.valueChanged.connect(self.validate)
+        for spin in (self.level, self.nominal, self.tolerance):
+            spin.valueChanged.connect(self.validate)
         self.periods.valueChanged.connect(self.validate)
         self.frequencies.textChanged.connect(self.validate)
         pform.addRow("Preset", self.preset)
@@ -611,13 +612,15 @@ class MainWindow(QMainWindow):
         )
         self.live.draw_characteristic(results)
 
-    def _on_done(self, finished: Finished) -> None:
+    def _on_done(self, finished: Finished | None) -> None:
         """The run has ended (GUI thread): show how, list it, open its results if complete."""
         self.last_finished = finished
         self.worker = None
         self._live = {}
         self.stop_button.setEnabled(False)
         self.runs_tab.refresh()
+        if finished is None:  # the worker ended without a result (its error is shown)
+            return
         run_id = finished.record.get("run_id")
         folder = self.out / str(run_id) if run_id else None
         if finished.status == "complete" and folder is not None:

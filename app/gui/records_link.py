@@ -45,7 +45,8 @@ class RecordsLink(QObject):
         self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="records")
         self._future: Future | None = self._pool.submit(_open, url)
         self._jobs: list[tuple[Future, Callable[[str], None]]] = []
-        self._timer = QTimer(self, interval=50, timeout=self._poll)
+        self._timer = QTimer(self, interval=50)
+        self._timer.timeout.connect(self._poll)
         self._timer.start()
 
     @property
