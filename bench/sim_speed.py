@@ -1,4 +1,4 @@
-"""Simulated stand speed: simulated seconds per wall second (target >= 50x at 12 kS/s).
+"""Simulated stand speed: simulated seconds per wall second (target >= 50x at 51.2 kS/s).
 
 The baseline measured in the same run is scipy.signal.sosfilt of the same number of samples
 through one 10th-order filter per channel, so the ratio shows the cost of the physics
