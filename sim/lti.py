@@ -14,16 +14,15 @@ signal into blocks of any size gives the same output.
 
 from __future__ import annotations
 
+import functools
+from collections.abc import Callable
 from dataclasses import dataclass
+from types import ModuleType
 
 import numpy as np
-import scipy.linalg
-import scipy.signal
 
-try:  # the cython kernel behind scipy.signal.sosfilt, in place, without its copies
-    from scipy.signal._sosfilt import _sosfilt as _sosfilt_kernel
-except ImportError:  # pragma: no cover - another scipy layout
-    _sosfilt_kernel = None
+# scipy.signal and scipy.linalg are imported where used: building a model needs neither, and
+# `import sim.models` stays light for the command line's start-up.
 
 Stage = tuple[np.ndarray, np.ndarray]  # (num, den) polynomials in s, highest power first
 _MIX_CHUNK = 2048  # samples per matrix product when mixing the sections into the outputs
@@ -84,7 +83,7 @@ class Model:
         c = np.zeros((1, 0))
         d = np.array([[self.gain]])
         for num, den in self.stages:
-            a2, b2, c2, d2 = scipy.signal.tf2ss(num, den)
+            a2, b2, c2, d2 = _signal().tf2ss(num, den)
             n1, n2 = a.shape[0], a2.shape[0]
             a_new = np.zeros((n1 + n2, n1 + n2))
             a_new[:n1, :n1] = a
@@ -97,14 +96,33 @@ class Model:
         return a, b, c, d
 
 
+def _signal() -> ModuleType:
+    """scipy.signal, imported on first use."""
+    import scipy.signal
+
+    return scipy.signal
+
+
+@functools.cache
+def _sosfilt_kernel() -> Callable[[np.ndarray, np.ndarray, np.ndarray], None] | None:
+    """The cython kernel behind scipy.signal.sosfilt (in place, without its copies), or None
+    on a scipy that lays it out otherwise."""
+    try:
+        from scipy.signal._sosfilt import _sosfilt
+    except ImportError:  # pragma: no cover - another scipy layout
+        return None
+    return _sosfilt
+
+
 def _sosfilt_inplace(sos: np.ndarray, x: np.ndarray, zi: np.ndarray) -> None:
     """Filter the rows of C-contiguous `x` (rows, n) through `sos` in place; `zi`
     (rows, sections, 2) carries the state in place."""
-    if _sosfilt_kernel is not None:
-        _sosfilt_kernel(sos, x, zi)
+    kernel = _sosfilt_kernel()
+    if kernel is not None:
+        kernel(sos, x, zi)
         return
     for r in range(x.shape[0]):
-        x[r], zi[r] = scipy.signal.sosfilt(sos, x[r], zi=zi[r])
+        x[r], zi[r] = _signal().sosfilt(sos, x[r], zi=zi[r])
 
 
 def _zoh(a: np.ndarray, b: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
@@ -113,6 +131,8 @@ def _zoh(a: np.ndarray, b: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray
     block = np.zeros((n + m, n + m))
     block[:n, :n] = a * t
     block[:n, n:] = b * t
+    import scipy.linalg
+
     expm = scipy.linalg.expm(block)
     return expm[:n, :n], expm[:n, n:]
 

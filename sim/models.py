@@ -19,7 +19,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.signal
 
 from sim.lti import Model, Stage, highpass1, highpass2, lowpass1, resonance
 
@@ -51,6 +50,8 @@ def zpk_stages(
 def elliptic_lowpass(order: int, edge_hz: float, ripple_db: float, stop_db: float) -> Model:
     """Analog elliptic (Cauer) low-pass: passband to `edge_hz` within `ripple_db`, at least
     `stop_db` down in the stopband."""
+    import scipy.signal  # here: importing the models stays light
+
     z, p, k = scipy.signal.ellip(
         order, ripple_db, stop_db, 2 * np.pi * edge_hz, analog=True, output="zpk"
     )
