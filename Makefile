@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 DEMO_DIR ?= demo-output
 
-.PHONY: venv test demo gui bench lint clean
+.PHONY: venv test test-fast demo gui bench lint clean
 
 venv: $(STAMP)
 
@@ -17,6 +17,11 @@ $(STAMP): pyproject.toml
 
 test: $(STAMP)
 	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest -q
+
+# dsp, units, CLI parsing: under a minute on 2 cores (no runs, subprocesses, GUI, databases or
+# Monte Carlo: markers `integration` and `slow`, see tests/conftest.py)
+test-fast: $(STAMP)
+	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest -q -m "not slow and not integration"
 
 demo: $(STAMP)
 	$(BIN)/accelcal plan --preset piezo
@@ -33,6 +38,7 @@ bench: $(STAMP)
 	$(BIN)/python bench/crest_factor.py
 	$(BIN)/python bench/analysis_speed.py
 	$(BIN)/python bench/sim_speed.py
+	$(BIN)/python bench/startup.py
 	$(BIN)/python bench/coverage.py 600 piezo
 	$(BIN)/python bench/estimators.py
 	$(BIN)/python bench/excitation_time.py
