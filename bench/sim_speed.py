@@ -8,7 +8,7 @@ other work on a shared machine stretches wall time only. `--also PATH` times the
 another checkout (e.g. an export of an older commit) in the same run, for a before/after
 figure.
 
-Run: python bench/sim_speed.py [--also /path/to/other/checkout]
+Run: python bench/sim_speed.py [--also /path/to/other/checkout] [--one-blas-thread]
 """
 
 from __future__ import annotations
@@ -59,9 +59,11 @@ print(json.dumps({"wall": min(walls), "cpu": min(cpus)}))
 """
 
 
-def timed(root: Path, dut: str, fs: float) -> dict[str, float]:
+def timed(root: Path, dut: str, fs: float, one_blas_thread: bool = False) -> dict[str, float]:
     """Best-of-3 wall and CPU seconds of PERIODS periods of the stand of checkout `root`."""
     env = dict(os.environ, PYTHONPATH=str(root))
+    if one_blas_thread:
+        env["OPENBLAS_NUM_THREADS"] = "1"
     out = subprocess.run(
         [sys.executable, "-c", _TIMER, dut, str(fs), str(PERIODS)],
         cwd=root,
@@ -76,7 +78,11 @@ def timed(root: Path, dut: str, fs: float) -> dict[str, float]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--also", type=Path, action="append", default=[], help="other checkout")
+    parser.add_argument(
+        "--one-blas-thread", action="store_true", help="OPENBLAS_NUM_THREADS=1 in every timing"
+    )
     args = parser.parse_args()
+    one = args.one_blas_thread
     simulated = 2 * PERIODS
     head = "| DUT | fs | simulated | wall | real-time factor (wall) | (CPU) | ratio to sosfilt |"
     rule = "| --- | --- | --- | --- | --- | --- | --- |"
@@ -86,15 +92,15 @@ def main() -> None:
     print(head)
     print(rule)
     for dut, fs in CASES:
-        ours = timed(ROOT, dut, fs)
-        base = timed(ROOT, "baseline", fs)
+        ours = timed(ROOT, dut, fs, one)
+        base = timed(ROOT, "baseline", fs, one)
         row = (
             f"| {dut} | {fs / 1000:g} kS/s | {simulated} s | {ours['wall']:.2f} s | "
             f"{simulated / ours['wall']:.0f}x | {simulated / ours['cpu']:.0f}x | "
             f"{ours['cpu'] / base['cpu']:.1f} |"
         )
         for other in args.also:
-            theirs = timed(other.resolve(), dut, fs)
+            theirs = timed(other.resolve(), dut, fs, one)
             row += f" {simulated / theirs['cpu']:.0f}x | {theirs['cpu'] / ours['cpu']:.2f} |"
         print(row)
 
