@@ -127,12 +127,12 @@ def _sosfilt_inplace(sos: np.ndarray, x: np.ndarray, zi: np.ndarray) -> None:
 
 def _zoh(a: np.ndarray, b: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
     """(e^{A t}, Gamma(t) B) via one block-matrix exponential (Van Loan)."""
+    import scipy.linalg
+
     n, m = a.shape[0], b.shape[1]
     block = np.zeros((n + m, n + m))
     block[:n, :n] = a * t
     block[:n, n:] = b * t
-    import scipy.linalg
-
     expm = scipy.linalg.expm(block)
     return expm[:n, :n], expm[:n, n:]
 
@@ -236,7 +236,7 @@ class MultiZoh:
         q = z^-1 / (1 - 2 Re(p) z^-1 + |p|^2 z^-2) u, a real all-pole section; so the real part
         of its weighted contribution is Re(W) q[n] - Re(W conj(p)) q[n-1]. A real pole is a
         first-order real section. Real arithmetic runs several times faster than a complex
-        `lfilter`; the outputs agree to rounding (tests/sim/test_models.py).
+        `lfilter`; the outputs agree to rounding (tests/sim/test_fast_path.py).
         """
         weights = self._outputs * self._inputs  # (outputs, modes), the input gain folded in
         sections, columns, shifted = [], [], []
