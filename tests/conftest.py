@@ -59,6 +59,7 @@ def _isolated_qt_settings(tmp_path_factory: pytest.TempPathFactory) -> None:
 INTEGRATION_PATHS = (
     "app/db/",  # SQLite and PostgreSQL records databases, migrations, concurrent writers
     "app/test_certificate.py",  # fixture runs, PDFs
+    "app/test_dcc.py",  # a fixture run, its certificate and DCC
     "app/test_honest_numbers.py",  # calibration runs and recordings end to end
     "app/test_procedure.py",  # procedure runs, SIGTERM on a subprocess
     "app/test_records.py",  # run folders of real runs
@@ -66,6 +67,7 @@ INTEGRATION_PATHS = (
     "app/test_safety.py",  # runs with faults, signals to subprocesses
     "app/test_simulate.py",  # simulated recordings end to end
     "app/test_startup.py",  # fresh interpreters
+    "app/test_version.py",  # git and a fresh interpreter
     "gui/",  # the Qt window, live runs, soak
     "hostile/test_processes.py",  # subprocesses
 )
