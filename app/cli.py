@@ -31,7 +31,6 @@ from app.files import FileExistsRefusal, check_target, write_new
 from app.input_files import MAX_TEXT_BYTES, InputFileError, check_input_file
 from app.options import Bounded
 from app.options import numeric_option as _numeric
-from app.version import software_version
 from dsp.multisine import PRESETS, Plan, PlanError, make_plan
 from hardware.errors import HardwareError
 from sim.models import DUT_CATALOGUE, StandModel
@@ -145,6 +144,8 @@ class _Version(argparse.Action):
         super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, **kwargs)  # type: ignore[arg-type]
 
     def __call__(self, parser, namespace, values, option_string=None) -> None:  # type: ignore[no-untyped-def]
+        from app.version import software_version
+
         parser._print_message(f"accelcal {software_version()}\n", sys.stdout)
         parser.exit()
 
