@@ -245,6 +245,12 @@ def build_parser() -> argparse.ArgumentParser:
         "--db", metavar="URL", help="records database (default $ACCELCAL_DB, else SQLite file)"
     )
     records.add_argument(
+        "--teds",
+        action="store_true",
+        help="identify the DUT by its TEDS (the records' sensor with that identity, else the "
+        "TEDS serial and nominal sensitivity)",
+    )
+    records.add_argument(
         "--reference-override",
         metavar="REASON",
         help="use a reference standard past its due date, for this stated reason",
@@ -282,6 +288,12 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--issue-date", help="YYYY-MM-DD (default: the run's date)")
     c.add_argument("--notes", default="", help="free text printed under Notes")
     c.add_argument("--sweep", type=Path, help="sweep summary (sweep-*.json) the run belongs to")
+    c.add_argument(
+        "--sign",
+        type=Path,
+        metavar="P12",
+        help="sign the PDF (PAdES) with the lab's key; password from $ACCELCAL_SIGN_PASSWORD",
+    )
     cr = c.add_argument_group("records (accelcal db): customer, sensor and number from there")
     cr.add_argument("--db", metavar="URL", help="records database (default $ACCELCAL_DB)")
     cr.add_argument("--prepared-by", help="who prepared it (default: the login name)")
@@ -299,6 +311,23 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--out", type=Path, help="recording to write (.h5)")
     s.add_argument("--overwrite", action="store_true", help="--out may replace an existing file")
     s.add_argument("--json", action="store_true", help="machine-readable output")
+    t = sub.add_parser("teds", help="a sensor's TEDS (IEEE 1451.4): decode a file, read, write")
+    tsub = t.add_subparsers(dest="teds_command", required=True, metavar="ACTION")
+    tsub.add_parser("decode", help="decode an NI .ted file").add_argument("file", type=Path)
+    tr = tsub.add_parser("read", help="read the DUT channel's TEDS on a stand")
+    tw = tsub.add_parser("write", help="write a complete run's sensitivity and date to the TEDS")
+    tw.add_argument("run", type=Path, help="the run folder whose result is written")
+    tw.add_argument("--initials", default="", help="calibrator's initials, up to 3 letters")
+    tw.add_argument("--yes", action="store_true", help="write without asking (scripts)")
+    for p in (tr, tw):
+        p.add_argument("--stand", type=Path, help="stand configuration (default: simulated)")
+        p.add_argument("--dut", type=_dut_name, default="piezo", help="simulated DUT")
+        _numeric(p, "--seed", SEED, "simulated stand: random seed", default=0)
+
+    v = sub.add_parser("verify", help="check a certificate PDF: signature, DCC, run")
+    v.add_argument("pdf", type=Path, help="certificate PDF")
+    v.add_argument("--run", type=Path, help="the run folder it certifies (manifest and numbers)")
+    v.add_argument("--trust", type=Path, help="the CA certificate (PEM or DER) to trust")
     RECORDS_COMMANDS.update(add_records_commands(sub))
     return parser
 
@@ -717,6 +746,32 @@ def _faults(texts: list[str]) -> tuple[Fault, ...]:
         raise UsageError(str(exc)) from None
 
 
+def _dut_from_teds(args: argparse.Namespace, use_records: bool, notes: list[str]) -> str | None:
+    """run --teds: the DUT's TEDS read on the stand; the records' sensor of that identity
+    (its serial, for --sensor), else the TEDS serial and nominal sensitivity."""
+    from app import teds_io
+    from hardware.teds import TedsError, decode
+
+    try:
+        teds = decode(teds_io.open_port(args.stand, args.dut, args.seed).read())
+    except TedsError as exc:
+        raise UsageError(f"--teds: {exc}") from None
+    identity = teds.basic.identity
+    notes.append(f"TEDS identity {identity}")
+    if use_records:
+        from app.db.engine import open_engine
+        from app.db.lab import Lab
+
+        sensor = Lab(open_engine(args.db)).sensor_by_teds(identity)
+        if args.sensor and args.sensor != sensor.serial:
+            raise UsageError(f"--sensor: {args.sensor!r} is not the TEDS sensor {sensor.serial!r}")
+        return sensor.serial
+    args.dut_id = args.dut_id or f"TEDS-{identity.replace('/', '-')}"
+    if teds.accelerometer is not None and args.nominal_sensitivity is None:
+        args.nominal_sensitivity = teds.accelerometer.sensitivity_mv_per_ms2
+    return args.sensor
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     from app.run import RunRequest, execute
     from dsp.spectral import check_periods
@@ -734,6 +789,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     _writable_folder(args.out, "--out")
     use_records = bool(args.sensor or args.db or os.environ.get("ACCELCAL_DB"))
     notes: list[str] = []
+    if args.teds:
+        args.sensor = _dut_from_teds(args, use_records, notes)
     if args.sensor:
         from app.db.runs import sensor_defaults
 
@@ -950,6 +1007,14 @@ def cmd_certificate(args: argparse.Namespace) -> int:
         notes=args.notes,
     )
     out = args.out or (args.run / "certificate.pdf")
+    signer = None
+    if args.sign is not None:
+        from app.signing import Signer, SigningError
+
+        try:
+            signer = Signer.load(args.sign)
+        except SigningError as exc:
+            raise UsageError(str(exc)) from None
     if args.out is not None and not is_run_folder(args.out.parent):  # a run's own: see issue()
         _writable_folder(args.out.parent, "--out")
     if args.db or os.environ.get("ACCELCAL_DB"):
@@ -965,11 +1030,12 @@ def cmd_certificate(args: argparse.Namespace) -> int:
             sweep_path=args.sweep,
             replaces=args.replaces,
             reason=args.reason,
+            signer=signer,
         )
     elif args.prepared_by or args.replaces or args.reason:
         raise UsageError("--prepared-by, --replaces, --reason: need the records (--db URL)")
     else:
-        issued = issue(args.run, info, out, args.sweep)
+        issued = issue(args.run, info, out, args.sweep, signer)
     print(f"certificate {issued.number}: {out}")
     from app.certificate import dcc_path
 
@@ -1097,6 +1163,63 @@ def print_catalogue(as_json: bool) -> int:
     return EXIT_OK
 
 
+def cmd_teds(args: argparse.Namespace) -> int:
+    """accelcal teds decode|read|write; writing asks first (or --yes) and reads back."""
+    from app import teds_io
+    from app.records import load_run
+    from hardware.teds import TedsError, decode, read_ted_file
+
+    try:
+        if args.teds_command == "decode":
+            for line in teds_io.describe(decode(read_ted_file(args.file))):
+                print(line)
+            return EXIT_OK
+        port = teds_io.open_port(args.stand, args.dut, args.seed)
+        current = port.read()
+        if args.teds_command == "read":
+            print(f"TEDS on {port.description}:")
+            for line in teds_io.describe(decode(current)):
+                print(f"  {line}")
+            return EXIT_OK
+        record = load_run(args.run)
+        new = teds_io.calibrated_teds(current, record, args.initials)
+    except (TedsError, ValueError) as exc:  # a run that does not verify is a ValueError too
+        raise UsageError(str(exc)) from None
+    assert new.accelerometer is not None
+    old = decode(current).accelerometer
+    change = (
+        f"sensitivity {old.sensitivity_mv_per_ms2 if old else float('nan'):.5g} -> "
+        f"{new.accelerometer.sensitivity_mv_per_ms2:.5g} mV/(m/s^2), calibration date "
+        f"{new.accelerometer.calibration_date} (run {record.get('run_id')})"
+    )
+    if not args.yes:
+        if not sys.stdin.isatty():
+            raise UsageError("--yes: writing a TEDS needs a confirmation (a terminal, or --yes)")
+        answer = input(f"Write to the TEDS on {port.description}: {change}? [y/N] ")
+        if answer.strip().lower() not in ("y", "yes"):
+            print("TEDS not written")
+            return EXIT_OK
+    teds_io.write_checked(port, new)
+    print(f"TEDS written and read back on {port.description}: {change}")
+    return EXIT_OK
+
+
+def cmd_verify(args: argparse.Namespace) -> int:
+    """accelcal verify: exit 0 when every check holds, 2 when one fails or the input is bad."""
+    from app.signing import verify
+
+    for option, path in (("pdf", args.pdf), ("--trust", args.trust)):
+        if path is not None and not path.is_file():
+            raise UsageError(f"{option}: no such file {path}")
+    if args.run is not None and not args.run.is_dir():
+        raise UsageError(f"--run: no such run folder {args.run}")
+    report = verify(args.pdf, args.run, args.trust)
+    for name, ok, detail in report.checks:
+        print(f"{'ok  ' if ok else 'FAIL'} {name}" + (f": {detail}" if detail else ""))
+    print("certificate verified" if report.ok else "certificate NOT verified")
+    return EXIT_OK if report.ok else EXIT_BAD_INPUT
+
+
 COMMANDS = {
     "plan": cmd_plan,
     "analyze": cmd_analyze,
@@ -1106,6 +1229,8 @@ COMMANDS = {
     "certificate": cmd_certificate,
     "devices": cmd_devices,
     "gui": cmd_gui,
+    "verify": cmd_verify,
+    "teds": cmd_teds,
 }
 
 

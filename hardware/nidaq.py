@@ -452,3 +452,39 @@ def _quietly(action: Callable[[], Any], what: str) -> None:
         action()
     except Exception as exc:
         log.warning("%s: %s", what, exc)
+
+
+# --- TEDS (IEEE 1451.4) on a physical channel: read, and write only when asked --------------
+
+
+def read_teds_bits(physical_channel: str, *, ni: SimpleNamespace | None = None) -> tuple[int, ...]:
+    """The TEDS bits of a physical channel (e.g. "Dev1/ai1") as DAQmx reads them from the
+    sensor (PhysicalChannel.teds_bit_stream, bytes LSB first); HardwareError when none."""
+    from hardware.teds import bits_from_bytes
+
+    ni = ni or import_nidaqmx()
+    try:
+        channel = ni.system.PhysicalChannel(physical_channel)
+        data = bytes(channel.teds_bit_stream)
+    except Exception as exc:
+        raise translate_error(exc, f"NI-DAQ {physical_channel} TEDS") from None
+    if not data:
+        raise DaqNotFoundError(f"NI-DAQ {physical_channel}: no TEDS sensor found on the channel")
+    return bits_from_bytes(data)
+
+
+def write_teds_bits(
+    physical_channel: str, bits: tuple[int, ...], *, ni: SimpleNamespace | None = None
+) -> None:
+    """Write TEDS bits to the sensor on a physical channel (its Basic TEDS left as it is)."""
+    from hardware.teds import bitstream_bytes
+
+    ni = ni or import_nidaqmx()
+    try:
+        channel = ni.system.PhysicalChannel(physical_channel)
+        channel.write_to_teds_from_array(
+            list(bitstream_bytes(bits)),
+            basic_teds_options=ni.constants.WriteBasicTEDSOptions.DO_NOT_WRITE,
+        )
+    except Exception as exc:
+        raise translate_error(exc, f"NI-DAQ {physical_channel} TEDS write") from None

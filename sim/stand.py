@@ -265,6 +265,19 @@ class SimulatedStand:
         self._power_state = False  # its output, as last read
         self._sample_index = 0
         self._wall_start = 0.0
+        from sim.teds import TedsMemory, catalogue_teds
+
+        self.dut_teds = TedsMemory(catalogue_teds(dut, serial_number=10_000 + seed % 10_000))
+
+    # --- the DUT's TEDS (IEEE 1451.4) -----------------------------------------------------
+
+    def read_teds(self) -> tuple[int, ...]:
+        """The bits of the DUT channel's TEDS."""
+        return self.dut_teds.read()
+
+    def write_teds(self, bits: tuple[int, ...]) -> None:
+        """Write the DUT channel's TEDS (refused unless it decodes)."""
+        self.dut_teds.write(bits)
 
     # --- what the analysis is told (nominal values and the certificate) ---------------------
 
