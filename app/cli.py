@@ -272,6 +272,7 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--autorun", action="store_true", help="start a run at once")
     g.add_argument("--screenshot", type=Path, help="save a PNG of the window (after the run)")
     g.add_argument("--quit-after-run", action="store_true", help="close when the run ends")
+    g.add_argument("--db", help="records database URL (default: $ACCELCAL_DB, else the local file)")
 
     c = sub.add_parser("certificate", help="the PDF certificate of a stored complete run")
     c.add_argument("run", type=Path, help="run folder")
@@ -986,6 +987,7 @@ def cmd_gui(args: argparse.Namespace) -> int:
         quit_after_run=args.quit_after_run,
         dut=args.dut,
         sim=args.sim,
+        db=args.db,
     )
 
 

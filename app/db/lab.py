@@ -294,6 +294,17 @@ class Lab:
                 query = query.where(Sensor.serial.contains(search.strip()))
             return list(s.scalars(query).all())
 
+    def customers(self) -> list[Customer]:
+        """Every customer, by name."""
+        with self.session() as s:
+            return list(s.scalars(select(Customer).order_by(Customer.name)).all())
+
+    def models(self) -> list[SensorModel]:
+        """Every sensor model, by maker and model."""
+        with self.session() as s:
+            query = select(SensorModel).order_by(SensorModel.maker, SensorModel.model)
+            return list(s.scalars(query).all())
+
     # ---- reference standards -------------------------------------------------------------
     def add_reference(
         self,
