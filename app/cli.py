@@ -18,12 +18,12 @@ import tempfile
 import tomllib
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
+# Only light modules at the top (numpy at most): `accelcal --help` and the parser stay quick
+# (bench/startup.py, tests/app/test_startup.py). Every command imports what it uses.
 from app import formatting as fmt
-from app import lines, stand_config
-from app.analysis import analyze, read_for_analysis, reanalysis, status_warning
-from app.certificate import CertificateError, CertificateInfo, issue
+from app import lines
 from app.db.cli import Handler
 from app.db.cli import add_commands as add_records_commands
 from app.db.errors import RecordsInputError
@@ -31,21 +31,15 @@ from app.files import FileExistsRefusal, check_target, write_new
 from app.input_files import MAX_TEXT_BYTES, InputFileError, check_input_file
 from app.options import Bounded
 from app.options import numeric_option as _numeric
-from app.procedure import PreflightError, RunNotRecordedError
-from app.recording import RecordingError, read_csv
-from app.records import is_run_folder, refuse_in_run_folder
-from app.run import RunRequest, execute
-from app.simulate import SimulationError, simulate
-from app.stand_config import ConfigError
-from app.version import software_version
-from dsp.calibration import AnalysisError, ReferenceChain, Results
 from dsp.multisine import PRESETS, Plan, PlanError, make_plan
-from dsp.segments import SegmentError
-from dsp.spectral import check_periods
-from dsp.uncertainty import Budget
 from hardware.errors import HardwareError
 from sim.models import DUT_CATALOGUE, StandModel
-from sim.stand import Fault
+
+if TYPE_CHECKING:
+    from app.run import RunRequest
+    from dsp.calibration import Results
+    from dsp.uncertainty import Budget
+    from sim.stand import Fault
 
 EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT, EXIT_ABORTED = 0, 1, 2, 3
 EXIT_BROKEN_PIPE = 128 + 13  # SIGPIPE: the reader of stdout went away (`| head`)
@@ -141,6 +135,21 @@ class _Parser(argparse.ArgumentParser):
 NEGATIVE_NUMBER = re.compile(r"^-\.?\d")
 
 
+class _Version(argparse.Action):
+    """--version: the version (which asks git) is looked up only when asked for, not at every
+    start-up."""
+
+    def __init__(self, option_strings: list[str], dest: str, **kwargs: object) -> None:
+        kwargs.pop("default", None)
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, **kwargs)  # type: ignore[arg-type]
+
+    def __call__(self, parser, namespace, values, option_string=None) -> None:  # type: ignore[no-untyped-def]
+        from app.version import software_version
+
+        parser._print_message(f"accelcal {software_version()}\n", sys.stdout)
+        parser.exit()
+
+
 def _add_plan_options(p: argparse.ArgumentParser | argparse._ArgumentGroup) -> None:
     p.add_argument("--preset", choices=sorted(PRESETS), help="named plan (default piezo)")
     p.add_argument("--frequencies", help="line list in Hz, e.g. 10,12.5,...,2500 (ISO 266 fill)")
@@ -156,7 +165,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog="accelcal",
         description="Accelerometer calibration by comparison, multisine excitation.",
     )
-    parser.add_argument("--version", action="version", version=f"accelcal {software_version()}")
+    parser.add_argument("--version", action=_Version, help="show the version and exit")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     p = sub.add_parser("plan", help="show a frequency plan, its checks and predicted peaks")
@@ -356,29 +365,39 @@ def _main(argv: Sequence[str] | None) -> int:
         return (COMMANDS | RECORDS_COMMANDS)[args.command](args)
     except BrokenPipeError:
         raise
-    except (
-        UsageError,
-        PlanError,
-        RecordingError,
-        SegmentError,
-        AnalysisError,
-        SimulationError,
-        ConfigError,
-        PreflightError,
-        CertificateError,
-        RecordsInputError,
-    ) as exc:
+    except (UsageError, PlanError, RecordsInputError, *_loaded(_BAD_INPUT_ERRORS)) as exc:
         print(f"accelcal {args.command}: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except HardwareError as exc:
         print(f"accelcal {args.command}: {type(exc).__name__}: {exc}", file=sys.stderr)
         return EXIT_FAILURE
-    except RunNotRecordedError as exc:
+    except _loaded(_NOT_RECORDED_ERRORS) as exc:
         print(f"accelcal {args.command}: {exc}", file=sys.stderr)
         return EXIT_ABORTED
     except Exception as exc:
         print(f"accelcal {args.command}: failed: {type(exc).__name__}: {exc}", file=sys.stderr)
         return EXIT_FAILURE
+
+
+# Errors of the heavy modules, by (module, class): a module never imported raised none, so
+# main() catches them without importing it.
+_BAD_INPUT_ERRORS = (
+    ("app.recording", "RecordingError"),
+    ("dsp.segments", "SegmentError"),
+    ("dsp.calibration", "AnalysisError"),
+    ("app.simulate", "SimulationError"),
+    ("app.stand_config", "ConfigError"),
+    ("app.procedure", "PreflightError"),
+    ("app.certificate", "CertificateError"),
+)
+_NOT_RECORDED_ERRORS = (("app.procedure", "RunNotRecordedError"),)
+
+
+def _loaded(errors: tuple[tuple[str, str], ...]) -> tuple[type[BaseException], ...]:
+    """The classes named in `errors` whose module has been imported."""
+    return tuple(
+        getattr(sys.modules[module], name) for module, name in errors if module in sys.modules
+    )
 
 
 def _writable_folder(folder: Path, option: str) -> None:
@@ -454,6 +473,12 @@ def cmd_plan(args: argparse.Namespace) -> int:
 
 
 def _load(args: argparse.Namespace):
+    from app.analysis import read_for_analysis, reanalysis
+    from app.recording import read_csv
+    from app.records import is_run_folder
+    from dsp.calibration import ReferenceChain
+    from dsp.uncertainty import Budget
+
     if args.file.is_dir() and not is_run_folder(args.file):
         raise UsageError(
             f"{args.file}: is a folder but not a run folder (no manifest.json); name a "
@@ -523,6 +548,8 @@ def _load(args: argparse.Namespace):
 
 
 def _read_budget(path: Path) -> Budget:
+    from dsp.uncertainty import Budget
+
     try:
         check_input_file(path, MAX_TEXT_BYTES, "budget file")
     except InputFileError as exc:
@@ -543,6 +570,8 @@ def _read_budget(path: Path) -> Budget:
 
 
 def cmd_analyze(args: argparse.Namespace) -> int:
+    from app.analysis import analyze, status_warning
+
     if not 0 < args.coverage < 1:
         raise UsageError(f"--coverage: must be between 0 and 1, got {args.coverage:g}")
     if args.segments is not None and args.segments < 1:
@@ -595,6 +624,8 @@ def _output_target(
 ) -> None:
     """UsageError naming `option` when `target` is an input, inside a run folder, or exists
     without --overwrite."""
+    from app.records import refuse_in_run_folder
+
     try:
         check_target(target, inputs=inputs, overwrite=overwrite)
         refuse_in_run_folder(target)
@@ -708,6 +739,8 @@ def parse_seconds(text: str, option: str) -> float:
 
 def _faults(texts: list[str]) -> tuple[Fault, ...]:
     """--fault KIND@SECONDS options as faults of the simulated stand."""
+    from sim.stand import Fault
+
     try:
         return tuple(Fault.parse(text) for text in texts)
     except ValueError as exc:
@@ -741,6 +774,9 @@ def _dut_from_teds(args: argparse.Namespace, use_records: bool, notes: list[str]
 
 
 def cmd_run(args: argparse.Namespace) -> int:
+    from app.run import RunRequest, execute
+    from dsp.spectral import check_periods
+
     if args.sim and args.stand:
         raise UsageError("--sim and --stand: choose one")
     try:
@@ -771,6 +807,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     if use_records:
         from datetime import UTC, datetime
 
+        from app import stand_config
         from app.db.runs import check_reference_due
 
         reference_id = stand_config.load(args.stand).reference.id
@@ -955,6 +992,9 @@ def cmd_gui(args: argparse.Namespace) -> int:
 
 
 def cmd_certificate(args: argparse.Namespace) -> int:
+    from app.certificate import CertificateInfo, issue
+    from app.records import is_run_folder
+
     info = CertificateInfo(
         customer=args.customer,
         customer_address=args.customer_address,
@@ -1010,6 +1050,7 @@ def cmd_certificate(args: argparse.Namespace) -> int:
 
 def cmd_show(args: argparse.Namespace) -> int:
     from app.records import load_run
+    from dsp.calibration import Results
 
     try:
         record = load_run(args.run)
@@ -1033,6 +1074,8 @@ def cmd_show(args: argparse.Namespace) -> int:
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
+    from app.simulate import simulate
+
     if args.list:
         return print_catalogue(args.json)
     if args.out is None:
