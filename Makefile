@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 DEMO_DIR ?= demo-output
 
-.PHONY: venv test test-fast demo gui bench lint clean xvfb lock
+.PHONY: venv test test-fast demo gui bench lint typecheck clean xvfb lock
 
 venv: $(STAMP)
 
@@ -69,6 +69,9 @@ bench: $(STAMP)
 	$(BIN)/python bench/excitation_time.py
 	$(BIN)/python bench/records.py
 	QT_QPA_PLATFORM=offscreen $(BIN)/python bench/gui_responsiveness.py
+
+typecheck: $(STAMP)
+	$(BIN)/mypy dsp app --ignore-missing-imports
 
 lint: $(STAMP)
 	$(BIN)/ruff check dsp hardware sim app tests bench
