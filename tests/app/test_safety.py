@@ -22,6 +22,7 @@ import numpy as np
 import pytest
 
 import app.procedure as procedure_module
+import app.procedure.stand_io as gate_module
 from app import stand_config
 from app.cli import main
 from app.procedure import PeriodBlock, Procedure, RunSettings, State, StateChanged
@@ -183,7 +184,7 @@ def test_every_written_period_passes_the_drive_limit_gate(tmp_path, monkeypatch,
         gated.append(float(np.max(np.abs(period_v))))
         return gate(period_v, limit_v)
 
-    monkeypatch.setattr(procedure_module, "limited_drive", spy)
+    monkeypatch.setattr(gate_module, "limited_drive", spy)  # where the gate lives
     stand = open_stand(CONFIG, dut="piezo")
     folder = RunFolder.create(tmp_path, mode)
     settings = RunSettings(periods=3, mode=mode)
