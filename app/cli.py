@@ -700,22 +700,18 @@ def cmd_run(args: argparse.Namespace) -> int:
         progress.close()
     record = finished.record
     if args.json:
-        print(json.dumps(record, indent=2, default=str))
+        print(record.to_json())
     else:
         if finished.results is not None:
-            print_results(finished.results, record.get("run_id") or "")
-        print(f"run folder: {args.out / str(record.get('run_id'))}")
+            print_results(finished.results, record.run_id or "")
+        print(f"run folder: {args.out / str(record.run_id)}")
         print(
-            f"status: {record['status']}"
-            + (f" ({record['abort_reason']})" if record.get("abort_reason") else "")
-            + f"; excitation {record['excitation_time_s']:g} s; output now "
-            + (
-                f"{record['final_output_v']:g} V"
-                if record.get("final_output_v") is not None
-                else "unknown"
-            )
+            f"status: {record.status}"
+            + (f" ({record.abort_reason})" if record.abort_reason else "")
+            + f"; excitation {record.excitation_time_s:g} s; output now "
+            + (f"{record.final_output_v:g} V" if record.final_output_v is not None else "unknown")
         )
-    return EXIT_OK if record["status"] == "complete" else EXIT_ABORTED
+    return EXIT_OK if record.complete else EXIT_ABORTED
 
 
 def _levels(text: str) -> list[float]:
@@ -867,19 +863,20 @@ def cmd_show(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise UsageError(str(exc)) from None
     if args.json:
-        print(json.dumps(record, indent=2))
+        print(json.dumps(record.to_dict(), indent=2))
         return EXIT_OK
     print(
-        f"run {record.get('run_id')}: {record['status']}"
-        + (f" ({record['abort_reason']})" if record.get("abort_reason") else "")
+        f"run {record.run_id}: {record.status}"
+        + (f" ({record.abort_reason})" if record.abort_reason else "")
     )
     print(
-        f"started {record.get('started_utc')}, finished {record.get('finished_utc')}, "
-        f"excitation {record.get('excitation_time_s')} s, raw data SHA-256 "
-        f"{record.get('raw_data_sha256', 'n/a')}"
+        f"started {record.started_utc}, finished {record.finished_utc}, "
+        f"excitation {record.excitation_time_s} s, raw data SHA-256 "
+        f"{record.raw_data_sha256 or 'n/a'}"
     )
-    if record.get("results"):
-        print_results(Results.from_dict(record["results"]), str(args.run))
+    results = record.results_object()
+    if results is not None:
+        print_results(results, str(args.run))
     return EXIT_OK
 
 

@@ -9,6 +9,8 @@ disk, Ctrl-C, SIGTERM), the status and the run record.
 
 from __future__ import annotations
 
+import dataclasses
+import json
 import logging
 import math
 import sys
@@ -36,6 +38,7 @@ from app.procedure.stand_io import StandIO
 from app.procedure.stepped import SteppedSine
 from app.recording import DiskFullError, RecordingWriter, Truth, software_version
 from app.records import STATUS_ABORTED, STATUS_COMPLETE, RunFolder
+from app.run_record import DutIdentity, RunRecord, StandInfo
 from app.stands import Stand
 from app.verdict import Tolerances, tolerances_for, with_verdict
 from dsp.calibration import AnalysisError
@@ -44,6 +47,15 @@ from hardware.errors import AmplifierFaultError, HardwareError, OverloadError
 from hardware.interfaces import DaqConfig
 
 log = logging.getLogger(__name__)
+
+
+def _plain(value: Any) -> dict[str, Any]:
+    """A dataclass or mapping as a JSON-ready dict (as results.json has always held it)."""
+    if value is None:
+        return {}
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return json.loads(json.dumps(value.__dict__, default=str))
+    return json.loads(json.dumps(dict(value), default=str))
 
 
 class Procedure:
@@ -190,10 +202,9 @@ class Procedure:
         if results is not None:
             results = with_verdict(results, self._tolerances())
         record = self._record(started, status, reason, final_output)
-        if results is not None:
-            record["verdict"] = results.verdict
-            record["verdict_reasons"] = list(results.verdict_reasons)
-        if self.folder is not None:
+        if self.folder is None:
+            record = record.with_results(results, None)
+        else:
             self._log(f"{status}{': ' + reason if reason else ''}")
             try:
                 record = self.folder.finish(record, results)
@@ -287,33 +298,41 @@ class Procedure:
 
     def _record(
         self, started: datetime, status: str, reason: str | None, final_output: float | None
-    ) -> dict[str, Any]:
+    ) -> RunRecord:
+        """The run record without results (RunFolder.finish adds them and the raw data's
+        hash)."""
         budget = self.notes.budget or self.stand.budget
-        return {
-            "run_id": self.folder.run_id if self.folder else None,
-            "status": status,
-            "abort_reason": reason,
-            "mode": self.settings.mode,
-            "started_utc": started.isoformat(timespec="seconds"),
-            "finished_utc": datetime.now(UTC).isoformat(timespec="seconds"),
-            "excitation_time_s": self.io.excited_s,
-            "periods_read": self.io.periods_read,
-            "final_output_v": final_output,
-            "equalisation_worst": self.notes.equalisation,
-            "background_v": self.notes.background,
-            "budget": budget.to_list(),
-            "reference_chain": self.stand.chain.to_dict(),
-            "software_version": software_version(),
-            "settings": self.settings.__dict__,
-            "plan": self.plan.to_dict(),
-            "stand": {
-                "description": self.stand.description,
-                "source": self.stand.config.source,
-                "laboratory": self.stand.config.laboratory,
-                "reference": self.stand.config.reference.__dict__,
-            },
-            **self.identity,
-        }
+        identity = dict(self.identity)
+        dut = identity.pop("dut", None)
+        config = self.stand.config
+        return RunRecord(
+            run_id=self.folder.run_id if self.folder else None,
+            status=status,
+            abort_reason=reason,
+            mode=self.settings.mode,
+            started_utc=started.isoformat(timespec="seconds"),
+            finished_utc=datetime.now(UTC).isoformat(timespec="seconds"),
+            excitation_time_s=self.io.excited_s,
+            periods_read=self.io.periods_read,
+            final_output_v=final_output,
+            equalisation_worst=tuple(self.notes.equalisation),
+            background_v=dict(self.notes.background),
+            budget=tuple(budget.to_list()),
+            reference_chain=self.stand.chain.to_dict(),
+            software_version=software_version(),
+            settings=dict(self.settings.__dict__),
+            plan=self.plan.to_dict(),
+            stand=StandInfo(
+                self.stand.description,
+                config.source,
+                _plain(config.laboratory),
+                _plain(config.reference),
+            ),
+            dut=DutIdentity.from_dict(dut),
+            level_ms2=identity.pop("level_ms2", None),
+            measuring_amplifier=identity.pop("measuring_amplifier", None),
+            extra=identity,
+        )
 
     # --- telling -----------------------------------------------------------------------------
 

@@ -51,7 +51,7 @@ def test_manifest_holds_the_sha256_of_every_stored_file(tmp_path):
     raw = hashlib.sha256(b"raw samples").hexdigest()  # computed here, not by the code
     assert manifest["files"]["recording.h5"] == {"sha256": raw, "bytes": 11}
     record = load_run(path)
-    assert record["raw_data_sha256"] == raw and record["status"] == STATUS_ABORTED
+    assert record.raw_data_sha256 == raw and record.status == STATUS_ABORTED
 
 
 def test_files_and_folder_are_read_only_after_the_run(tmp_path):

@@ -58,7 +58,7 @@ def stored(tmp_path_factory):
         "aborted": RunRequest(periods=4, faults=(Fault("device-lost", 15.0),), out=out),
     }.items():
         finished = execute(request)
-        runs[name] = out / finished.record["run_id"]
+        runs[name] = out / finished.record.run_id
     assert [load(runs[k])["status"] for k in ("a", "b", "aborted")] == [
         "complete",
         "complete",
@@ -445,6 +445,6 @@ def test_the_procedure_marks_its_recording_complete_or_aborted(tmp_path):
         )
     )
     assert (done.status, cut.status) == ("complete", "aborted")
-    ok_rec = read_recording(tmp_path / "ok" / done.record["run_id"] / "recording.h5")
-    cut_rec = read_recording(tmp_path / "cut" / cut.record["run_id"] / "recording.h5")
+    ok_rec = read_recording(tmp_path / "ok" / done.record.run_id / "recording.h5")
+    cut_rec = read_recording(tmp_path / "cut" / cut.record.run_id / "recording.h5")
     assert (ok_rec.status, cut_rec.status) == ("complete", "aborted")
