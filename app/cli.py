@@ -31,6 +31,7 @@ from app.input_files import MAX_TEXT_BYTES, InputFileError, check_input_file
 from app.options import Bounded
 from app.options import numeric_option as _numeric
 from app.procedure import PreflightError, RunNotRecordedError
+from app.procedure.settings import MODE_MULTISINE, MODES
 from app.recording import RecordingError, read_csv
 from app.records import is_run_folder, refuse_in_run_folder
 from app.run import RunRequest, execute
@@ -39,11 +40,11 @@ from app.stand_config import ConfigError
 from dsp.calibration import AnalysisError, ReferenceChain, Results
 from dsp.multisine import PRESETS, Plan, PlanError, make_plan
 from dsp.segments import SegmentError
-from dsp.spectral import check_periods
+from dsp.spectral import DEFAULT_ESTIMATOR, ESTIMATORS, check_periods
 from dsp.uncertainty import Budget
 from hardware.errors import HardwareError
 from sim.models import DUT_CATALOGUE, StandModel
-from sim.stand import Fault
+from sim.stand import FAULT_KINDS, Fault
 
 EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT, EXIT_ABORTED = 0, 1, 2, 3
 EXIT_BROKEN_PIPE = 128 + 13  # SIGPIPE: the reader of stdout went away (`| head`)
@@ -163,7 +164,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     a = sub.add_parser("analyze", help="re-analyse a recording (HDF5 of this program or CSV)")
     a.add_argument("file", type=Path, help="recording.h5, recording.csv or a run folder")
-    a.add_argument("--estimator", choices=("periodic", "h1", "seed"), default="periodic")
+    a.add_argument("--estimator", choices=ESTIMATORS, default=DEFAULT_ESTIMATOR)
     _numeric(a, "--segments", SEGMENTS, "the seed's protocol: L equal segments")
     _numeric(a, "--coverage", COVERAGE, "coverage probability", default=0.9545)
     a.add_argument("--seed-rule", action="store_true", help="the seed's coverage factor rule")
@@ -215,12 +216,17 @@ def build_parser() -> argparse.ArgumentParser:
     _numeric(r, "--periods", RUN_PERIODS, "periods to acquire", default=8)
     r.add_argument("--target-ua", help="stop at this relative type A, e.g. 0.2%%; (0, 100 %%]")
     r.add_argument("--max-time", help="bound on the acquisition time, e.g. 30s; (0, 24 h]")
-    r.add_argument("--estimator", choices=("periodic", "h1", "seed"), default="periodic")
-    r.add_argument("--mode", choices=("multisine", "stepped-sine"), default="multisine")
+    r.add_argument("--estimator", choices=ESTIMATORS, default=DEFAULT_ESTIMATOR)
+    r.add_argument("--mode", choices=MODES, default=MODE_MULTISINE)
     _numeric(r, "--tolerance", TOLERANCE, "DUT tolerance of the characteristic, %%")
     _numeric(r, "--seed", SEED, "simulated stand: random seed", default=0)
     r.add_argument("--paced", action="store_true", help="simulated stand: real time")
-    r.add_argument("--fault", action="append", default=[], help="simulated: KIND@SECONDS")
+    r.add_argument(
+        "--fault",
+        action="append",
+        default=[],
+        help=f"simulated: KIND@SECONDS, KIND one of {', '.join(FAULT_KINDS)}",
+    )
     r.add_argument("--out", type=Path, default=Path("runs"), help="folder for run folders")
     r.add_argument("--json", action="store_true", help="the run record as JSON")
 
@@ -264,7 +270,12 @@ def build_parser() -> argparse.ArgumentParser:
     _numeric(s, "--periods", SIM_PERIODS, "periods to record after settling", default=8)
     _numeric(s, "--settle", SIM_SETTLE, "settling periods after the fade-in", default=2)
     _numeric(s, "--seed", SEED, "random seed (noise, stand deviations)", default=0)
-    s.add_argument("--fault", action="append", default=[], help="inject KIND@SECONDS")
+    s.add_argument(
+        "--fault",
+        action="append",
+        default=[],
+        help=f"inject KIND@SECONDS, KIND one of {', '.join(FAULT_KINDS)}",
+    )
     s.add_argument("--out", type=Path, help="recording to write (.h5)")
     s.add_argument("--overwrite", action="store_true", help="--out may replace an existing file")
     s.add_argument("--json", action="store_true", help="machine-readable output")
