@@ -56,7 +56,7 @@ class Acquisition:
             stop = rule.decide(count, worst_a, acquired_s, period_s)
             if stop is None:
                 continue
-            if stop is Stop.TARGET:
+            if stop is Stop.TARGET and s.target_type_a is not None:
                 ctx.log(f"type A target {100 * s.target_type_a:g} % reached after {count} periods")
             elif stop is Stop.TIME_BOUND and s.target_type_a is not None:
                 text = (

@@ -89,8 +89,8 @@ class StandIO:
         self.announce = announce  # a state change: logged and sent to the listener
         config = stand.config
         self.inputs = config.inputs
-        self.channel_index = {c.name: i for i, c in enumerate(self.inputs)}
-        self.ranges = {c.name: c.range_v for c in self.inputs}
+        self.channel_index: dict[str, int] = {c.name: i for i, c in enumerate(self.inputs)}
+        self.ranges: dict[str, float] = {c.name: c.range_v for c in self.inputs}
         self.drive_limit_v = min(config.limits.drive_peak_v, config.output.range_v)
         self.writer: RecordingWriter | None = None
         self.drive = np.zeros(plan.period_samples)  # the steady drive (what a fade-out fades)

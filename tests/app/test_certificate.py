@@ -46,7 +46,7 @@ def test_every_mandatory_item_and_the_stored_numbers(complete_run, tmp_path):
     value, u = fmt.round_gum(
         results.reference.sensitivity_mv_per_ms2, results.reference.expanded_uncertainty_mv_per_ms2
     )
-    number = f"AC-{record['run_id']}"
+    number = f"AC-{record.run_id}"
     for item in [
         "CALIBRATION CERTIFICATE",
         "accelcal demonstration laboratory",
