@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 from enum import StrEnum
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -84,7 +84,7 @@ class Finished:
     status: str
     abort_reason: str | None
     results: Results | None
-    record: RunRecord | Any
+    record: RunRecord
 
 
 Event = (
