@@ -21,6 +21,7 @@ from app.records import (
     inspect_run,
     load_run,
 )
+from app.run_record import RunRecord
 
 
 def finished_folder(tmp_path, status=STATUS_ABORTED):
@@ -30,7 +31,7 @@ def finished_folder(tmp_path, status=STATUS_ABORTED):
     folder.write_text("stand.toml", 'backend = "sim"\n')
     folder.recording.write_bytes(b"raw samples")
     folder.log("state: preflight")
-    folder.finish({"run_id": folder.run_id, "status": status}, None)
+    folder.finish(RunRecord(run_id=folder.run_id, status=status), None)
     return folder.path
 
 
