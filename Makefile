@@ -5,17 +5,42 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 DEMO_DIR ?= demo-output
 
-.PHONY: venv test demo gui bench lint clean
+.PHONY: venv test demo gui bench lint clean xvfb lock
 
 venv: $(STAMP)
 
-$(STAMP): pyproject.toml
+# requirements.lock pins every dependency (and theirs) to what CI tested; `make lock` renews it
+$(STAMP): pyproject.toml requirements.lock
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[test]'
+	$(BIN)/python -m pip install --quiet -r requirements.lock
+	$(BIN)/python -m pip install --quiet --no-deps -e '.[test]'
 	@touch $(STAMP)
 
-test: $(STAMP)
+lock:
+	rm -rf .lock-venv && $(PYTHON) -m venv .lock-venv
+	.lock-venv/bin/python -m pip install --quiet --upgrade pip
+	.lock-venv/bin/python -m pip install --quiet -e '.[test]'
+	.lock-venv/bin/python -m pip freeze --exclude-editable | grep -v '^accelcal' \
+	    > requirements.lock
+	rm -rf .lock-venv
+
+# a real X server for the GUI soak test, the X libraries Qt's xcb plugin loads, and pdftoppm
+# (the certificate page-rendering test); installed
+# (Debian, as root) only when missing
+XVFB_PACKAGES := xvfb libxcb-icccm4 libxcb-keysyms1 libxcb-cursor0 libxcb-image0 \
+	libxcb-render-util0 libxcb-randr0 libxcb-shape0 libxcb-xkb1 libxkbcommon-x11-0 libegl1 \
+	poppler-utils
+
+xvfb:
+	@command -v dpkg >/dev/null || { echo "xvfb: not a Debian system; install Xvfb yourself"; exit 0; }; \
+	missing=$$(for p in $(XVFB_PACKAGES); do dpkg -s $$p >/dev/null 2>&1 || echo $$p; done); \
+	if [ -n "$$missing" ]; then \
+	    echo "installing $$missing"; \
+	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing; \
+	fi
+
+test: $(STAMP) xvfb
 	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest -q
 
 demo: $(STAMP)

@@ -103,9 +103,9 @@ def analyze(
         extra_warnings=warnings,
     )
     if tolerances is None:
-        dut = recording.truth.attrs.get("dut") if recording.truth is not None else None
+        catalogue = recording.truth.attrs.get("dut") if recording.truth is not None else None
         tolerances = tolerances_for(
-            str(dut) if dut else None, plan.reference_frequency_hz, tolerance_percent
+            str(catalogue) if catalogue else None, plan.reference_frequency_hz, tolerance_percent
         )
     results = with_verdict(results, tolerances, recording.status)
     return Analysis(estimate, results, recording.status)

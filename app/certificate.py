@@ -556,7 +556,7 @@ def _write_pdf(
     lab = dict(stand.laboratory)
     reference = dict(stand.reference)
     plan = dict(record.plan)
-    number = info.certificate_number
+    number = str(info.certificate_number)  # numbered before the PDF is made (_numbered)
     story: list[Any] = []
     r = results.reference
     value, u_value = fmt.round_gum(r.sensitivity_mv_per_ms2, r.expanded_uncertainty_mv_per_ms2)
@@ -591,7 +591,7 @@ def _write_pdf(
         Paragraph("Conditions", HEAD),
         _kv(
             [
-                ("Ambient temperature", f"{float(info.temperature_c):.1f} °C"),
+                ("Ambient temperature", f"{float(info.temperature_c or 0.0):.1f} °C"),
                 ("Mounting", _esc(info.mounting)),
                 ("Excitation level", f"{record.level_ms2 or 0:g} m/s² peak per frequency"),
             ]

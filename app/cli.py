@@ -20,7 +20,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from app import formatting as fmt
-from app import lines
+from app import lines, stand_config
 from app.analysis import analyze, read_for_analysis, reanalysis, status_warning
 from app.certificate import CertificateError, CertificateInfo, issue
 from app.db.cli import Handler
@@ -37,6 +37,7 @@ from app.records import is_run_folder, refuse_in_run_folder
 from app.run import RunRequest, execute
 from app.simulate import SimulationError, simulate
 from app.stand_config import ConfigError
+from app.version import software_version
 from dsp.calibration import AnalysisError, ReferenceChain, Results
 from dsp.multisine import PRESETS, Plan, PlanError, make_plan
 from dsp.segments import SegmentError
@@ -155,6 +156,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog="accelcal",
         description="Accelerometer calibration by comparison, multisine excitation.",
     )
+    parser.add_argument("--version", action="version", version=f"accelcal {software_version()}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     p = sub.add_parser("plan", help="show a frequency plan, its checks and predicted peaks")
@@ -209,7 +211,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--dut-id", default=None, help="serial number / identification of the DUT")
     _numeric(r, "--nominal-sensitivity", SENSITIVITY, "DUT nominal, mV/(m/s^2)")
     r.add_argument("--preset", choices=sorted(PRESETS), help="plan (default: by DUT kind)")
-    _numeric(r, "--level", LEVEL, "peak acceleration per line, m/s^2", default=5.0)
+    _numeric(r, "--level", LEVEL, "peak acceleration per line, m/s^2 (default 5)")
     r.add_argument(
         "--levels", help=f"amplitude sweep: levels in m/s^2, e.g. 4,5,6,7,8; {LEVEL.describe()}"
     )
@@ -229,6 +231,20 @@ def build_parser() -> argparse.ArgumentParser:
     )
     r.add_argument("--out", type=Path, default=Path("runs"), help="folder for run folders")
     r.add_argument("--json", action="store_true", help="the run record as JSON")
+    records = r.add_argument_group("records (accelcal db)")
+    records.add_argument(
+        "--sensor",
+        metavar="SERIAL",
+        help="the DUT from the records: its serial, nominal, tolerance, level and plan",
+    )
+    records.add_argument(
+        "--db", metavar="URL", help="records database (default $ACCELCAL_DB, else SQLite file)"
+    )
+    records.add_argument(
+        "--reference-override",
+        metavar="REASON",
+        help="use a reference standard past its due date, for this stated reason",
+    )
 
     w = sub.add_parser("show", help="print a stored run")
     w.add_argument("run", type=Path, help="run folder")
@@ -262,6 +278,11 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--issue-date", help="YYYY-MM-DD (default: the run's date)")
     c.add_argument("--notes", default="", help="free text printed under Notes")
     c.add_argument("--sweep", type=Path, help="sweep summary (sweep-*.json) the run belongs to")
+    cr = c.add_argument_group("records (accelcal db): customer, sensor and number from there")
+    cr.add_argument("--db", metavar="URL", help="records database (default $ACCELCAL_DB)")
+    cr.add_argument("--prepared-by", help="who prepared it (default: the login name)")
+    cr.add_argument("--replaces", metavar="NUMBER", help="the certificate this one amends")
+    cr.add_argument("--reason", help="why it amends the one it replaces")
 
     s = sub.add_parser("simulate", help="record a calibration on the simulated stand")
     s.add_argument("--list", action="store_true", help="print the simulated catalogue")
@@ -685,6 +706,38 @@ def cmd_run(args: argparse.Namespace) -> int:
     target = parse_percent(args.target_ua, "--target-ua") if args.target_ua else None
     max_time = parse_seconds(args.max_time, "--max-time") if args.max_time else None
     _writable_folder(args.out, "--out")
+    use_records = bool(args.sensor or args.db or os.environ.get("ACCELCAL_DB"))
+    notes: list[str] = []
+    if args.sensor:
+        from app.db.runs import sensor_defaults
+
+        sensor = sensor_defaults(args.sensor, args.db)
+        if args.dut_id is not None and args.dut_id != sensor.serial:
+            raise UsageError(f"--dut-id: {args.dut_id!r} differs from --sensor {sensor.serial!r}")
+        args.dut_id = sensor.serial
+        args.nominal_sensitivity = args.nominal_sensitivity or sensor.nominal_mv_per_ms2
+        args.tolerance = args.tolerance if args.tolerance is not None else sensor.tolerance_percent
+        args.level = args.level if args.level is not None else sensor.level_ms2
+        args.preset = args.preset or (sensor.preset if sensor.preset in PRESETS else None)
+        notes.append(f"sensor {sensor.serial}: {sensor.description}")
+    if use_records:
+        from datetime import UTC, datetime
+
+        from app.db.runs import check_reference_due
+
+        reference_id = stand_config.load(args.stand).reference.id
+        note = check_reference_due(
+            reference_id,
+            args.db,
+            today=datetime.now(UTC).date(),
+            override_reason=args.reference_override,
+        )
+        if note:
+            notes.append(note)
+    if args.level is None:
+        args.level = 5.0
+    for note in notes:
+        print(note, file=sys.stderr)
     request = RunRequest(
         stand_file=args.stand,
         dut=args.dut,
@@ -710,6 +763,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     if progress is not None:
         progress.close()
     record = finished.record
+    if use_records and record.run_id:
+        from app.db.runs import index_finished_run
+
+        print(index_finished_run(args.out / str(record.run_id), args.db), file=sys.stderr)
     if args.json:
         print(record.to_json())
     else:
@@ -861,7 +918,24 @@ def cmd_certificate(args: argparse.Namespace) -> int:
     out = args.out or (args.run / "certificate.pdf")
     if args.out is not None and not is_run_folder(args.out.parent):  # a run's own: see issue()
         _writable_folder(args.out.parent, "--out")
-    issued = issue(args.run, info, out, args.sweep)
+    if args.db or os.environ.get("ACCELCAL_DB"):
+        from app.db.audit import current_actor
+        from app.db.certify import issue_registered
+
+        issued = issue_registered(
+            args.run,
+            info,
+            out,
+            url=args.db,
+            prepared_by=args.prepared_by or current_actor(),
+            sweep_path=args.sweep,
+            replaces=args.replaces,
+            reason=args.reason,
+        )
+    elif args.prepared_by or args.replaces or args.reason:
+        raise UsageError("--prepared-by, --replaces, --reason: need the records (--db URL)")
+    else:
+        issued = issue(args.run, info, out, args.sweep)
     print(f"certificate {issued.number}: {out}")
     return EXIT_OK
 

@@ -31,15 +31,16 @@ def parse_frequencies(text: str) -> list[float]:
             raise ValueError(f"{item!r}: a frequency must be a finite number > 0 Hz")
         values.append(value)
     out: list[float] = []
-    for i, value in enumerate(values):
-        if value is not None:
-            if out and value <= out[-1]:
+    for i, entry in enumerate(values):
+        if entry is not None:
+            if out and entry <= out[-1]:
                 raise ValueError("values must increase")
-            out.append(value)
+            out.append(entry)
             continue
-        if i == 0 or i == len(values) - 1 or values[i - 1] is None or values[i + 1] is None:
+        low = values[i - 1] if i > 0 else None
+        high = values[i + 1] if i < len(values) - 1 else None
+        if low is None or high is None:
             raise ValueError("'...' must stand between two frequencies")
-        low, high = values[i - 1], values[i + 1]
         out += [f for f in iso266.nominal_frequencies(low, high) if low < f < high]
     if not out:
         raise ValueError("no frequency given")

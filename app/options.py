@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import math
+from typing import Any
 
 
 class Bounded:
@@ -54,7 +55,7 @@ def numeric_option(
     flag: str,
     bounded: Bounded,
     help: str,
-    **kwargs: object,
+    **kwargs: Any,
 ) -> None:
     """Add a numeric option whose --help states its bounds."""
     bounds = bounded.describe().replace("%", "%%")  # argparse %-formats help texts

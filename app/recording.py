@@ -52,6 +52,7 @@ from app.input_files import (
     check_dataset_size,
     check_input_file,
 )
+from app.version import software_version
 from dsp.calibration import ReferenceChain
 from dsp.multisine import Plan, PlanError
 from dsp.uncertainty import Budget
@@ -115,15 +116,6 @@ def free_bytes(path: Path) -> float:
 
 class RecordingError(ValueError):
     """A recording that cannot be analysed; the message names the file and the problem."""
-
-
-def software_version() -> str:
-    from importlib.metadata import PackageNotFoundError, version
-
-    try:
-        return version("accelcal")
-    except PackageNotFoundError:
-        return "unknown"
 
 
 @dataclass(frozen=True)

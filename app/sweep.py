@@ -84,9 +84,10 @@ def summarise(runs: list[Finished], levels: list[float]) -> dict[str, Any]:
     }
     if len(complete) < 2:
         return summary
-    first = complete[0].results
+    results = [r.results for r in complete if r.results is not None]
+    first = results[0]
     frequencies = [ln.nominal_frequency_hz for ln in first.lines]
-    table = np.array([[ln.sensitivity_mv_per_ms2 for ln in r.results.lines] for r in complete])
+    table = np.array([[ln.sensitivity_mv_per_ms2 for ln in r.lines] for r in results])
     lin = linearity(table)
     ref = [ln.nominal_frequency_hz for ln in first.lines].index(first.reference.frequency_hz)
     summary.update(

@@ -27,6 +27,8 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
 from dsp.calibration import LOW_COHERENCE, NOT_STATED, Results, uncertainty_stated
 
 PASS, FAIL, INDETERMINATE = "PASS", "FAIL", "INDETERMINATE"
@@ -100,8 +102,8 @@ def tolerances_for(
         return Tolerances(characteristic=override or (), source="--tolerance" if override else "")
     from sim.models import DUT_CATALOGUE
 
-    model = dataclasses.replace(DUT_CATALOGUE[catalogue], mount_resonance_hz=None)
-    nominal = float(abs(model.sensitivity([reference_frequency_hz])[0]))
+    model = dataclasses.replace(DUT_CATALOGUE[str(catalogue)], mount_resonance_hz=None)
+    nominal = float(abs(model.sensitivity(np.array([reference_frequency_hz]))[0]))
     return Tolerances(
         nominal_sensitivity_mv_per_ms2=nominal,
         sensitivity_percent=spec.get("sensitivity_percent"),

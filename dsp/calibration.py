@@ -78,7 +78,7 @@ class ReferenceChain:
             raise ValueError("reference chain: skew_s must be finite (or None: unknown)")
 
     @classmethod
-    def flat(cls, sensitivity_mv_per_ms2: float, **kwargs: float | None) -> ReferenceChain:
+    def flat(cls, sensitivity_mv_per_ms2: float, **kwargs: Any) -> ReferenceChain:
         """A reference with one frequency-independent sensitivity and zero phase."""
         return cls((160.0,), (float(sensitivity_mv_per_ms2),), (0.0,), **kwargs)
 
@@ -364,7 +364,7 @@ def compute_results(
             periods=estimate.periods,
         )
         deviation = sensitivity[k] / s0 - 1.0
-        verdict = unc.iso_verdict(f, mag.expanded)
+        verdict: str = unc.iso_verdict(f, mag.expanded)
         if verdict != unc.Verdict.NOT_APPLICABLE and not uncertainty_stated(mag.expanded):
             verdict = NOT_STATED  # no U: neither within nor over the ISO limit
         tolerance = (

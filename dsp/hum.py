@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -95,7 +96,7 @@ class MainsHum:
             if not math.isfinite(a):
                 continue
             note = f"{self.harmonic[k]}. mains harmonic, hum from the {self.source}"
-            common = dict(
+            common: dict[str, Any] = dict(
                 distribution=Distribution.U_SHAPED,
                 min_frequency_hz=float(self.frequencies_hz[k]),
                 max_frequency_hz=float(self.frequencies_hz[k]),

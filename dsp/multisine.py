@@ -265,14 +265,14 @@ def _ordinal(n: int) -> str:
 
 
 def check_lines(
-    nominal_frequencies_hz: Sequence[float],
+    nominal_frequencies_hz: Sequence[float] | np.ndarray,
     sample_rate_hz: float,
     period_samples: int,
     reference_frequency_hz: float,
     *,
     mains_frequency_hz: float = 50.0,
     mains_harmonics: int = 5,
-    bins: Sequence[int] | None = None,
+    bins: Sequence[int] | np.ndarray | None = None,
 ) -> PlanCheck:
     """Check plan inputs before anything moves (SPEC s.3); every message names its line.
 
@@ -354,7 +354,7 @@ def check_lines(
 
 
 def make_plan(
-    nominal_frequencies_hz: Sequence[float],
+    nominal_frequencies_hz: Sequence[float] | np.ndarray,
     sample_rate_hz: float,
     period_samples: int,
     amplitude_ms2: float | Sequence[float],

@@ -22,7 +22,7 @@ class SegmentError(ValueError):
 def segment_plan(
     record_samples: int,
     segments: int,
-    frequencies_hz: Sequence[float],
+    frequencies_hz: Sequence[float] | np.ndarray,
     labels: Sequence[str],
     sample_rate_hz: float,
 ) -> tuple[int, list[str]]:
@@ -73,7 +73,7 @@ def segment_line_spectra(
     record_v: np.ndarray,
     segments: int,
     segment_samples: int,
-    frequencies_hz: Sequence[float],
+    frequencies_hz: Sequence[float] | np.ndarray,
     sample_rate_hz: float,
 ) -> np.ndarray:
     """Peak-scaled DFT of each segment at the exact line frequencies, shape (segments, lines)."""

@@ -88,7 +88,7 @@ def period_spectrum(blocks: np.ndarray) -> np.ndarray:
 
 
 def dft_at(
-    blocks: np.ndarray, frequencies_hz: Sequence[float], sample_rate_hz: float
+    blocks: np.ndarray, frequencies_hz: Sequence[float] | np.ndarray, sample_rate_hz: float
 ) -> np.ndarray:
     """Peak-scaled DFT of each block (last axis) evaluated at arbitrary frequencies in Hz.
 
@@ -233,7 +233,9 @@ class SpectralAccumulator:
     O(period_samples), independent of the number of periods.
     """
 
-    def __init__(self, period_samples: int, bins: Sequence[int], *, track_floor: bool = True):
+    def __init__(
+        self, period_samples: int, bins: Sequence[int] | np.ndarray, *, track_floor: bool = True
+    ):
         self.period_samples = int(period_samples)
         self.bins = np.asarray(bins, dtype=np.int64)
         if self.bins.ndim != 1 or self.bins.size == 0:

@@ -85,7 +85,7 @@ def _enum(where: str, field: str, enum: type[StrEnum], x: object) -> Any:
     """`x` as a member of `enum` (case-insensitive); ValueError naming `field` otherwise."""
     key = x.strip().lower() if isinstance(x, str) else x
     try:
-        return enum(key)
+        return enum(key)  # type: ignore[arg-type]  # a non-str is refused by the enum
     except ValueError:
         choices = ", ".join(repr(m.value) for m in enum)
         raise ValueError(f"{where}: {field} must be one of {choices}, got {x!r}") from None

@@ -506,7 +506,7 @@ _IDENTITY: Setting[str] = Setting("identity", query="*IDN?", parse=parse_text)
 
 
 def _one_two_five(lowest_exp: int, highest: float) -> tuple[float, ...]:
-    values = []
+    values: list[float] = []
     exp = lowest_exp
     while True:
         for mantissa in (1, 2, 5):

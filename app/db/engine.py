@@ -112,8 +112,9 @@ def upgrade(engine: Engine, revision: str = "head") -> tuple[str | None, str | N
     config = _alembic_config(engine)
     sqlite = engine.dialect.name == "sqlite"
     with engine.connect() as connection:
-        if sqlite:  # batch migrations rebuild tables: foreign keys are checked after, not during
-            connection.connection.driver_connection.execute("PRAGMA foreign_keys = OFF")
+        raw = connection.connection.driver_connection
+        if sqlite and raw is not None:  # batch migrations rebuild tables: keys checked after
+            raw.execute("PRAGMA foreign_keys = OFF")
         with connection.begin():
             config.attributes["connection"] = connection
             command.upgrade(config, revision)
@@ -121,8 +122,8 @@ def upgrade(engine: Engine, revision: str = "head") -> tuple[str | None, str | N
                 broken = connection.exec_driver_sql("PRAGMA foreign_key_check").all()
                 if broken:
                     raise DatabaseError(f"migration to {revision} broke foreign keys: {broken}")
-        if sqlite:
-            connection.connection.driver_connection.execute("PRAGMA foreign_keys = ON")
+        if sqlite and raw is not None:
+            raw.execute("PRAGMA foreign_keys = ON")
     after = current_revision(engine)
     if before != after:
         log.info("records database migrated from %s to %s", before or "nothing", after)

@@ -11,7 +11,7 @@ import itertools
 import json
 import math
 import re
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from datetime import UTC, date, datetime, timedelta
 from pathlib import Path
@@ -510,7 +510,7 @@ class Lab:
         by_stand: dict[str, list[tuple[str, float]]] = {}
         for run, stand_name in rows:
             by_stand.setdefault(stand_name, []).append(
-                (run.run_id, float(run.sensitivity_mv_per_ms2))
+                (run.run_id, float(run.sensitivity_mv_per_ms2 or 0.0))  # not None: the query
             )
         return [individuals_chart(serial, stand, points) for stand, points in by_stand.items()]
 
@@ -547,13 +547,16 @@ class Lab:
         replaces: str | None = None,
         reason: str | None = None,
         as_found_run_id: str | None = None,
+        produce: Callable[[str], None] | None = None,
     ) -> Certificate:
         """Enter a certificate for a complete, indexed run of a known sensor in the register.
         Its number is the next in the lab's pattern, allocated in the same transaction (no gap,
         no duplicate, whichever stand issues at the same time). With `replaces` it is an
         amendment: the replaced certificate is marked replaced with the reason. With
         `as_found_run_id` the sensor was adjusted: that earlier complete run of the same sensor
-        is the as-found result and the certified run the as-left one."""
+        is the as-found result and the certified run the as-left one. `produce(number)`, when
+        given, makes the certificate itself inside the transaction: if it fails, the number is
+        not taken (no gap, no entry without its certificate)."""
         prepared_by = _text(prepared_by, "prepared by")
         approved_by = _text(approved_by, "approved by")
         if (
@@ -621,6 +624,9 @@ class Lab:
                 as_found_run=as_found,
             )
             s.add(certificate)
+            if produce is not None:
+                s.flush()  # the number is ours (unique) before anything is written
+                produce(number)
         return certificate
 
     @staticmethod

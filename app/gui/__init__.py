@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import logging
 import os
 import sys
 from pathlib import Path
+
+log = logging.getLogger(__name__)
 
 
 def run_gui(
@@ -22,12 +25,18 @@ def run_gui(
     """Open the window; optionally run at once, save a screenshot and quit (headless smoke)."""
     if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
         os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
-    from PySide6.QtCore import QSettings, QTimer
+    from PySide6.QtCore import QCoreApplication, QEvent, QSettings, QTimer
     from PySide6.QtWidgets import QApplication
 
+    from app.gui.binding import qt_binding_problem
     from app.gui.main_window import APPLICATION, ORGANISATION, MainWindow
 
     app = QApplication.instance() or QApplication(sys.argv[:1])
+    problem = qt_binding_problem()
+    if problem is not None:
+        log.error("%s", problem)
+        sys.stderr.write(f"accelcal gui: {problem}\n")
+        return 1
     if stand_file is None and not sim:  # the stand of the last session, if it is still there
         last = str(QSettings(ORGANISATION, APPLICATION).value("stand_file", ""))
         stand_file = Path(last) if last and Path(last).exists() else None
@@ -66,4 +75,8 @@ def run_gui(
 
         QTimer.singleShot(200, shot)
     app.exec()
+    # the window goes before the application (a QApplication destroyed under a live window,
+    # as locals may be, can crash at exit after the work is done)
+    window.deleteLater()
+    QCoreApplication.sendPostedEvents(None, QEvent.Type.DeferredDelete)
     return outcome["code"]

@@ -1,26 +1,29 @@
 """The technician's window: set up, check the plan, run live, read results, issue certificates.
 
-The procedure runs on a worker thread (`RunWorker`); its events reach this window as Qt
-signals and only land in a small buffer. A 25 Hz timer draws from that buffer into preallocated
-pyqtgraph curves, so nothing is drawn per DAQ period and no widget is touched from the worker.
+Threads: the procedure runs on a plain worker thread (`app.gui.worker.RunWorker`) that only
+queues copies of its events; a 25 Hz timer on the GUI thread drains the queue and draws, so no
+widget or plot item is ever touched from another thread. The procedure writes the run's record
+itself; the window only reads records, each verified (`app.records`). The Results tab shows one
+verified run, and the certificate action certifies exactly that run, after naming it.
 Closing the window during a run fades the drive out first (then 0 V), with a bounded wait.
 """
 
 from __future__ import annotations
 
+import html
 import json
+import logging
 from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pyqtgraph as pg
-from PySide6.QtCore import QObject, QSettings, Qt, QThread, QTimer, QUrl, Signal, Slot
-from PySide6.QtGui import QDesktopServices, QKeySequence, QShortcut
+from PySide6.QtCore import QSettings, Qt, QTimer, QUrl, Signal, Slot
+from PySide6.QtGui import QDesktopServices, QFontMetrics, QKeySequence, QShortcut
 from PySide6.QtWidgets import (
     QComboBox,
     QDialog,
-    QDialogButtonBox,
     QDoubleSpinBox,
     QFileDialog,
     QFormLayout,
@@ -28,85 +31,100 @@ from PySide6.QtWidgets import (
     QHBoxLayout,
     QLabel,
     QLineEdit,
-    QListWidget,
     QMainWindow,
     QMessageBox,
     QProgressBar,
     QPushButton,
+    QSizePolicy,
     QSpinBox,
-    QTableWidget,
-    QTableWidgetItem,
     QTabWidget,
     QVBoxLayout,
     QWidget,
 )
 
-from app import formatting as fmt
 from app import stand_config
 from app.certificate import CertificateError, CertificateInfo, build
+from app.gui.certificate_dialog import CertificateDialog, run_identity
+from app.gui.plots import FRAME_HZ, LivePlots
+from app.gui.results_tab import ResultsTab, wrapping_label
+from app.gui.runs_tab import RunsTab
+from app.gui.worker import RunWorker
 from app.lines import parse_frequencies
 from app.procedure import (
     EqualisationStep,
     Finished,
     PeriodBlock,
     PeriodEstimate,
-    Procedure,
     Progress,
     StateChanged,
     WarningRaised,
 )
-from app.records import load_run
+from app.procedure.preflight import preflight
+from app.procedure.settings import MODES
+from app.records import RunIntegrityError, inspect_run, load_run
 from app.run import RunRequest, start
-from dsp.calibration import Results
+from app.run_record import RunRecord
+from dsp.calibration import ReferenceChain, Results
 from dsp.multisine import PRESETS, Plan, check_lines, make_plan, preset_plan
-from dsp.spectral import period_spectrum
-from dsp.uncertainty import Budget, Quantity
+from dsp.spectral import ESTIMATORS
 from hardware.errors import HardwareError
 from sim.models import DUT_CATALOGUE
 
-FRAME_HZ = 25
-# labelled ticks of the logarithmic frequency axes (Hz): decades, then 2 and 5 between them
-DECADE_TICKS_HZ = (1, 10, 100, 1000, 10000)
-MINOR_TICKS_HZ = (2, 5, 20, 50, 200, 500, 2000, 5000, 20000)
-
-
-def _hz_label(frequency_hz: float) -> str:
-    return f"{frequency_hz / 1000:g}k" if frequency_hz >= 1000 else f"{frequency_hz:g}"
-
-
-def _frequency_axis(plot: pg.PlotItem) -> None:
-    """Logarithmic frequency axis with readable labels (pyqtgraph's own crowd together)."""
-    plot.setLogMode(x=True)
-    plot.getAxis("bottom").setTicks(
-        [
-            [(float(np.log10(f)), _hz_label(f)) for f in DECADE_TICKS_HZ],
-            [(float(np.log10(f)), _hz_label(f)) for f in MINOR_TICKS_HZ],
-        ]
-    )
-
+log = logging.getLogger(__name__)
 
 ORGANISATION, APPLICATION = "accelcal", "accelcal"
+RUN_TAB, RESULTS_TAB, RUNS_TAB = 1, 2, 3
 
 
-class RunWorker(QObject):
-    """Runs one procedure on its own thread; forwards its events as signals."""
+@dataclass(frozen=True)
+class PlannedRequest(RunRequest):
+    """A RunRequest whose multisine phases were optimised already (the window does it on a
+    worker pool as the lines are typed): Start does not block the GUI for a second."""
 
-    event = Signal(object)
-    done = Signal(object)
+    phases_rad: tuple[float, ...] | None = None
 
-    def __init__(self, procedure: Procedure, stand: Any):
+    def plan(self) -> Plan:
+        if self.phases_rad is None:
+            return super().plan()
+        preset = PRESETS[self.preset or "piezo"]
+        lines = self.frequencies_hz or tuple(preset.nominal_frequencies_hz)
+        return make_plan(
+            lines,
+            preset.sample_rate_hz,
+            preset.period_samples,
+            self.level_ms2,
+            preset.reference_frequency_hz,
+            phases_rad=self.phases_rad,
+        )
+
+
+class ElidedLabel(QLabel):
+    """One line of text, elided to the width it is given (the whole text in the tooltip);
+    it never widens its window."""
+
+    def __init__(self, text: str = "") -> None:
         super().__init__()
-        self.procedure = procedure
-        self.stand = stand
-        procedure.listener = self.event.emit  # emitted on the worker thread, queued to the GUI
+        self._full = ""
+        self.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Preferred)
+        self.setMinimumWidth(1)
+        self.setText(text)
 
-    @Slot()
-    def run(self) -> None:
-        try:
-            finished = self.procedure.run()
-        finally:
-            self.stand.close()
-        self.done.emit(finished)
+    def setText(self, text: str) -> None:
+        self._full = text
+        self.setToolTip(text if len(text) > 60 else "")
+        self._elide()
+
+    def text(self) -> str:
+        return self._full
+
+    def resizeEvent(self, event: Any) -> None:
+        super().resizeEvent(event)
+        self._elide()
+
+    def _elide(self) -> None:
+        width = max(self.width(), 40)
+        shown = QFontMetrics(self.font()).elidedText(self._full, Qt.TextElideMode.ElideRight, width)
+        super().setText(shown)
 
 
 class MainWindow(QMainWindow):
@@ -129,14 +147,10 @@ class MainWindow(QMainWindow):
         self.stand_file, self.out, self.paced, self.seed = stand_file, Path(out), paced, seed
         self.faults = faults  # simulated stand only: for demonstrations and tests
         self.settings = QSettings(ORGANISATION, APPLICATION)
-        self.procedure: Procedure | None = None
-        self.thread: QThread | None = None
         self.worker: RunWorker | None = None
-        self.results: Results | None = None
         self.last_finished: Finished | None = None
-        self._buffer: dict[str, Any] = {}
-        self._dirty = False
-        self._plans: dict[str, Future] = {}
+        self._live: dict[str, Any] = {}
+        self._plans: dict[Any, Future] = {}
         self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="plan")
         for name, preset in PRESETS.items():  # optimised phases take ~1 s: off the GUI thread
             key = (name, tuple(preset.nominal_frequencies_hz))
@@ -146,8 +160,17 @@ class MainWindow(QMainWindow):
         self.setCentralWidget(self.tabs)
         self.tabs.addTab(self._setup_tab(), "1  Setup && plan")
         self.tabs.addTab(self._run_tab(), "2  Run")
-        self.tabs.addTab(self._results_tab(), "3  Results")
-        self.tabs.addTab(self._runs_tab(), "4  Runs")
+        self.results_tab = ResultsTab()
+        self.results_tab.export_button.clicked.connect(self.export_results)
+        self.results_tab.certificate_button.clicked.connect(self.certificate_action)
+        self.tabs.addTab(self.results_tab, "3  Results")
+        self.runs_tab = RunsTab(self.out)
+        self.runs_tab.open_requested.connect(self.open_run)
+        self.tabs.addTab(self.runs_tab, "4  Runs")
+        # the names tests and older code use
+        self.summary, self.table = self.results_tab.summary, self.results_tab.table
+        self.budget, self.result_mag = self.results_tab.budget, self.results_tab.result_mag
+        self.runs = self.runs_tab
 
         QShortcut(QKeySequence("Ctrl+R"), self, activated=self.start_run)
         QShortcut(QKeySequence("Ctrl+."), self, activated=self.stop_run)
@@ -157,14 +180,35 @@ class MainWindow(QMainWindow):
             activated=self.emergency_stop,
             context=Qt.ShortcutContext.ApplicationShortcut,
         )
-        self.timer = QTimer(self, interval=int(1000 / FRAME_HZ), timeout=self._render)
+        self.timer = QTimer(self, interval=int(1000 / FRAME_HZ), timeout=self._tick)
         self.timer.start()
         geometry = self.settings.value("geometry")
         if geometry is not None:
             self.restoreGeometry(geometry)
         else:
             self.resize(1280, 820)
+        self.fit_screen()
         self.validate()
+
+    # --- properties kept for callers ----------------------------------------------------
+
+    @property
+    def procedure(self) -> Any:
+        """The running procedure (None when idle)."""
+        return self.worker.procedure if self.worker is not None else None
+
+    @property
+    def results(self) -> Results | None:
+        return self.results_tab.results
+
+    def fit_screen(self) -> None:
+        """Never wider or taller than the available area of the screen the window is on."""
+        screen = self.screen() or self.window().screen()
+        if screen is None:
+            return
+        area = screen.availableGeometry()
+        if self.width() > area.width() or self.height() > area.height():
+            self.resize(min(self.width(), area.width()), min(self.height(), area.height()))
 
     # --- tabs ---------------------------------------------------------------------------
 
@@ -173,6 +217,7 @@ class MainWindow(QMainWindow):
         layout = QHBoxLayout(page)
         stand = QGroupBox("Stand and DUT")
         form = QFormLayout(stand)
+        form.setRowWrapPolicy(QFormLayout.RowWrapPolicy.WrapLongRows)
         ref = self.config.reference
         self.stand_label = QLabel(f"{self.config.source} ({self.config.backend})")
         self.stand_label.setWordWrap(True)
@@ -187,7 +232,7 @@ class MainWindow(QMainWindow):
         form.addRow("Stand", stand_row)
         form.addRow(
             "Reference standard",
-            QLabel(
+            wrapping_label(
                 f"{ref.model}\nserial {ref.serial}, certificate "
                 f"{ref.certificate_number} of {ref.certificate_date}"
             ),
@@ -196,8 +241,9 @@ class MainWindow(QMainWindow):
         self.dut.addItems(list(DUT_CATALOGUE))
         self.dut.setCurrentText(str(self.settings.value("dut", "piezo")))
         self.dut.setToolTip("DUT of the simulated stand's catalogue")
-        self.dut_id = QLineEdit(str(self.settings.value("dut_id", "")))
-        self.dut_id.setPlaceholderText("serial number")
+        # never restored from the last session: another day's sensor is another serial
+        self.dut_id = QLineEdit()
+        self.dut_id.setPlaceholderText("serial number of the sensor on the stand")
         self.nominal = QDoubleSpinBox(decimals=3, maximum=10000.0, suffix=" mV/(m/s²)")
         self.nominal.setSpecialValueText("not given")
         self.tolerance = QDoubleSpinBox(decimals=1, maximum=50.0, value=5.0, suffix=" %")
@@ -209,6 +255,7 @@ class MainWindow(QMainWindow):
 
         plan = QGroupBox("Plan")
         pform = QFormLayout(plan)
+        pform.setRowWrapPolicy(QFormLayout.RowWrapPolicy.WrapLongRows)
         self.preset = QComboBox()
         self.preset.addItems(list(PRESETS))
         self.frequencies = QLineEdit()
@@ -222,9 +269,9 @@ class MainWindow(QMainWindow):
         self.max_time = QSpinBox(maximum=100_000, suffix=" s at most")
         self.max_time.setSpecialValueText("no time bound")
         self.estimator = QComboBox()
-        self.estimator.addItems(["periodic", "h1", "seed"])
+        self.estimator.addItems(list(ESTIMATORS))
         self.mode = QComboBox()
-        self.mode.addItems(["multisine", "stepped-sine"])
+        self.mode.addItems(list(MODES))
         for widget in (self.preset, self.estimator, self.mode, self.dut):
             widget.currentTextChanged.connect(self.validate)
         for widget in (self.level, self.nominal, self.tolerance):
@@ -257,10 +304,10 @@ class MainWindow(QMainWindow):
         page = QWidget()
         layout = QVBoxLayout(page)
         top = QHBoxLayout()
-        self.state = QLabel("idle")
+        self.state = ElidedLabel("idle")
         self.state.setStyleSheet("font-size: 15px; font-weight: bold")
-        self.equalisation = QLabel("")
-        self.coherence = QLabel("")
+        self.equalisation = ElidedLabel("")
+        self.coherence = ElidedLabel("")
         self.progress = QProgressBar()
         self.stop_button = QPushButton("Stop (fade out)  Ctrl+.")
         self.stop_button.setStyleSheet(
@@ -281,115 +328,40 @@ class MainWindow(QMainWindow):
             meters.addWidget(bar)
             self.meters[name] = bar
         layout.addLayout(meters)
-        self.graphs = pg.GraphicsLayoutWidget()
-        layout.addWidget(self.graphs, 1)
-        self.wave_plot = self.graphs.addPlot(
-            title="Last period", labels={"left": "V", "bottom": "s"}
-        )
-        self.wave_ref = self.wave_plot.plot(pen=pg.mkPen("#1f77b4"), name="reference")
-        self.wave_dut = self.wave_plot.plot(pen=pg.mkPen("#d62728"), name="DUT")
-        self.spec_plot = self.graphs.addPlot(
-            title="Spectra (lines marked)", labels={"left": "dB re 1 V", "bottom": "Hz"}
-        )
-        _frequency_axis(self.spec_plot)
-        self.spec_ref = self.spec_plot.plot(pen=pg.mkPen("#1f77b4", width=1))
-        self.spec_dut = self.spec_plot.plot(pen=pg.mkPen("#d62728", width=1))
-        self.spec_lines = self.spec_plot.plot(pen=None, symbol="t", symbolSize=6, symbolBrush="k")
-        self.graphs.nextRow()
-        self.sens_plot = self.graphs.addPlot(
-            title="Sensitivity deviation from reference frequency",
-            labels={"left": "%", "bottom": "Hz"},
-        )
-        _frequency_axis(self.sens_plot)
-        self.sens_curve = self.sens_plot.plot(pen=pg.mkPen("#2c3e50"), symbol="o", symbolSize=5)
-        self.sens_err = pg.ErrorBarItem(beam=0.02, pen=pg.mkPen("#7f8c8d"))
-        self.sens_plot.addItem(self.sens_err)
-        self.phase_plot = self.graphs.addPlot(
-            title="Phase", labels={"left": "degree", "bottom": "Hz"}
-        )
-        _frequency_axis(self.phase_plot)
-        self.phase_curve = self.phase_plot.plot(pen=pg.mkPen("#8e44ad"), symbol="o", symbolSize=5)
-        self.phase_err = pg.ErrorBarItem(beam=0.02, pen=pg.mkPen("#7f8c8d"))
-        self.phase_plot.addItem(self.phase_err)
-        self.messages = QLabel("")
-        self.messages.setWordWrap(True)
+        self.live = LivePlots()
+        layout.addWidget(self.live.widget, 1)
+        self.messages = wrapping_label("")
+        self.messages.setTextFormat(Qt.TextFormat.RichText)
         layout.addWidget(self.messages)
         return page
 
-    def _results_tab(self) -> QWidget:
-        page = QWidget()
-        layout = QVBoxLayout(page)
-        self.summary = QLabel("No results yet.")
-        self.summary.setStyleSheet("font-size: 14px")
-        self.summary.setWordWrap(True)
-        layout.addWidget(self.summary)
-        self.table = QTableWidget(0, 10)
-        self.table.setHorizontalHeaderLabels(
-            [
-                "Hz",
-                "S mV/(m/s²)",
-                "U",
-                "dev. %",
-                "phase °",
-                "U °",
-                "U rel. %",
-                "k",
-                "ISO",
-                "tolerance",
-            ]
-        )
-        middle = QHBoxLayout()
-        middle.addWidget(self.table, 3)
-        charts = pg.GraphicsLayoutWidget()
-        self.result_mag = charts.addPlot(
-            title="Deviation from the reference frequency, ± U",
-            labels={"left": "%", "bottom": "Hz"},
-        )
-        charts.nextRow()
-        self.result_phase = charts.addPlot(
-            title="Phase, ± U", labels={"left": "degree", "bottom": "Hz"}
-        )
-        for plot in (self.result_mag, self.result_phase):
-            _frequency_axis(plot)
-            plot.showGrid(x=True, y=True, alpha=0.3)
-        middle.addWidget(charts, 2)
-        layout.addLayout(middle, 3)
-        self.budget = QTableWidget(0, 4)
-        self.budget.setHorizontalHeaderLabels(
-            ["Component (at the reference frequency)", "value", "distribution", "standard u"]
-        )
-        self.budget.horizontalHeader().setStretchLastSection(True)
-        self.budget.setColumnWidth(0, 420)
-        layout.addWidget(self.budget, 1)
-        buttons = QHBoxLayout()
-        self.export_button = QPushButton("Export CSV and JSON")
-        self.export_button.clicked.connect(self.export_results)
-        buttons.addWidget(self.export_button)
-        self.certificate_button = QPushButton("Certificate ...")
-        self.certificate_button.clicked.connect(self.certificate_dialog)
-        buttons.addWidget(self.certificate_button)
-        layout.addLayout(buttons)
-        return page
-
-    def _runs_tab(self) -> QWidget:
-        page = QWidget()
-        layout = QVBoxLayout(page)
-        self.runs = QListWidget()
-        self.runs.itemDoubleClicked.connect(
-            lambda item: self.open_run(self.out / item.text().split()[0])
-        )
-        refresh = QPushButton("Refresh")
-        refresh.clicked.connect(self.refresh_runs)
-        layout.addWidget(QLabel(f"Stored runs in {self.out} (double-click to open)"))
-        layout.addWidget(self.runs, 1)
-        layout.addWidget(refresh)
-        self.refresh_runs()
-        return page
+    def clear_run_tab(self) -> None:
+        """A new run starts from an empty Run tab: no curve, meter or word of the last run."""
+        self.live.clear()
+        for label in (self.equalisation, self.coherence):
+            label.setText("")
+        self.messages.setText("")
+        self.progress.setValue(0)
+        self.progress.resetFormat()
+        for bar in self.meters.values():
+            bar.setValue(0)
+            bar.setStyleSheet("")
 
     # --- plan checks --------------------------------------------------------------------
 
     def request(self) -> RunRequest:
-        return RunRequest(
+        """The run the fields describe, with the phases already optimised off this thread
+        (the same phases the CLI computes: they do not depend on the level)."""
+        preset = PRESETS[self.preset.currentText()]
+        custom = self._custom_lines()
+        future = self._plans.get(
+            (preset.name, tuple(custom if custom is not None else preset.nominal_frequencies_hz))
+        )
+        phases = None
+        if future is not None and future.done() and future.exception() is None:
+            phases = tuple(float(p) for p in future.result().phases_rad)
+        return PlannedRequest(
+            phases_rad=phases,
             stand_file=self.stand_file,
             dut=self.dut.currentText(),
             dut_id=self.dut_id.text().strip() or None,
@@ -416,7 +388,7 @@ class MainWindow(QMainWindow):
 
     def load_stand(self, path: Path | None) -> bool:
         """Switch to the stand of `path` (None: the simulated one); errors name the field."""
-        if self.procedure is not None:
+        if self.worker is not None:
             return False
         try:
             config = stand_config.load(path)
@@ -436,6 +408,14 @@ class MainWindow(QMainWindow):
         return tuple(parse_frequencies(text)) if text else None
 
     @Slot()
+    def _config_chain(self) -> ReferenceChain | None:
+        """The stand file's reference chain, None when it has no certificate table (the
+        simulated stand's chain comes with the stand when the run opens it)."""
+        try:
+            return self.config.reference_chain()
+        except stand_config.ConfigError:
+            return None
+
     def validate(self) -> list[str]:
         """Plan checks and stand limits beside the fields; Start only when nothing fails."""
         problems: list[str] = []
@@ -468,37 +448,28 @@ class MainWindow(QMainWindow):
         elif not future.done():
             problems.append("optimising the multisine phases ...")
             self.peaks.setText("")
-            QTimer.singleShot(200, self.validate)  # look again when it may be ready
+            QTimer.singleShot(200, self, self.validate)  # look again when it may be ready
         else:
-            plan: Plan = future.result()
-            peaks = plan.predicted_peaks()
-            level = self.level.value()
-            limits = self.config.limits
-            d, v, a = (
-                peaks.displacement_peak_to_peak_m * level,
-                peaks.velocity_m_per_s * level,
-                peaks.acceleration_ms2 * level,
+            plan: Plan = future.result()  # optimised at 1 m/s^2 per line: scaled to the level
+            report = preflight(  # the same preflight as the CLI and the run itself
+                plan,
+                self.config,
+                self._config_chain(),
+                self.nominal.value() or None,
+                level_scale=self.level.value(),
             )
+            peaks, limits = report.peaks, self.config.limits
             self.peaks.setText(
-                f"acceleration {a:.1f} m/s² (limit {limits.acceleration_peak_ms2:g}), velocity "
-                f"{1e3 * v:.0f} mm/s (limit {1e3 * limits.velocity_peak_m_per_s:g}), displacement "
-                f"{1e3 * d:.2f} mm p-p (limit {1e3 * limits.displacement_peak_to_peak_m:g}); crest "
-                f"factor {plan.crest_factor():.2f}"
+                f"acceleration {peaks.acceleration_ms2:.1f} m/s² (limit "
+                f"{limits.acceleration_peak_ms2:g}), velocity "
+                f"{1e3 * peaks.velocity_m_per_s:.0f} mm/s (limit "
+                f"{1e3 * limits.velocity_peak_m_per_s:g}), displacement "
+                f"{1e3 * peaks.displacement_peak_to_peak_m:.2f} mm p-p (limit "
+                f"{1e3 * limits.displacement_peak_to_peak_m:g}); crest factor "
+                f"{report.crest_factor:.2f}"
             )
-            if d > limits.displacement_peak_to_peak_m:
-                problems.append(
-                    f"displacement {1e3 * d:.2f} mm p-p exceeds the exciter's "
-                    f"{1e3 * limits.displacement_peak_to_peak_m:g} mm: lower the level"
-                )
-            if v > limits.velocity_peak_m_per_s:
-                problems.append(
-                    f"velocity {v:.3g} m/s exceeds {limits.velocity_peak_m_per_s:g} m/s"
-                )
-            if a > limits.acceleration_peak_ms2:
-                problems.append(
-                    f"acceleration {a:.1f} m/s² exceeds {limits.acceleration_peak_ms2:g}"
-                )
-        running = self.procedure is not None
+            problems += list(report.problems)
+        running = self.worker is not None
         text = "".join(f"<div style='color:#c0392b'>✖ {p}</div>" for p in problems)
         if not problems:
             text = "<div style='color:#1e8449'>✔ the plan can run</div>"
@@ -512,121 +483,94 @@ class MainWindow(QMainWindow):
 
     @Slot()
     def start_run(self) -> None:
-        if self.procedure is not None or self.validate():
+        if self.worker is not None or self.validate():
             return
         self.settings.setValue("dut", self.dut.currentText())
         self.settings.setValue("stand_file", str(self.stand_file or ""))
-        self.settings.setValue("dut_id", self.dut_id.text())
         try:
             procedure, stand = start(self.request())
         except (ValueError, HardwareError) as exc:  # config, plan, missing driver or device
             QMessageBox.warning(self, "Cannot start", f"{type(exc).__name__}: {exc}")
-            self.messages.setText(f"Cannot start: {exc}")
+            self.messages.setText(html.escape(f"Cannot start: {exc}"))
             return
-        self.procedure = procedure
-        self.thread = QThread(self)
+        self.clear_run_tab()
+        self.state.setText("starting ...")
+        self._live = {"plan": procedure.plan}
         self.worker = RunWorker(procedure, stand)
-        self.worker.moveToThread(self.thread)
-        self.worker.event.connect(self._on_event)
-        self.worker.done.connect(self._on_done)
-        # ends the thread's event loop from the worker itself: a wait() on the GUI thread
-        # (closing the window) cannot deadlock on a queued signal
-        self.worker.done.connect(self.thread.quit, Qt.ConnectionType.DirectConnection)
-        self.thread.started.connect(self.worker.run)
-        self._buffer = {"plan": procedure.plan}
-        self.messages.setText("")
         self.stop_button.setEnabled(True)
         self.start_button.setEnabled(False)
-        self.tabs.setCurrentIndex(1)
-        self.thread.start()
+        self.tabs.setCurrentIndex(RUN_TAB)
+        self.worker.start()
+        self.runs_tab.refresh()
 
     @Slot()
     def stop_run(self) -> None:
-        if self.procedure is not None:
-            self.procedure.abort("stopped by the operator")
+        if self.worker is not None:
+            self.worker.procedure.abort("stopped by the operator")
             self.state.setText("stopping: fading out ...")
 
     @Slot()
     def emergency_stop(self) -> None:
-        if self.procedure is not None:
-            self.procedure.emergency_stop()
+        if self.worker is not None:
+            self.worker.procedure.emergency_stop()
             self.state.setText("EMERGENCY STOP: drive at 0 V")
 
-    @Slot(object)
-    def _on_event(self, event: Any) -> None:
-        """Runs on the GUI thread; only stores, the timer draws."""
-        if isinstance(event, PeriodBlock):
-            self._buffer["block"] = event
-        elif isinstance(event, PeriodEstimate):
-            self._buffer["estimate"] = event
-        elif isinstance(event, StateChanged):
-            self._buffer["state"] = f"{event.state}  {event.message}"
-        elif isinstance(event, EqualisationStep):
-            self._buffer["equalisation"] = (
-                f"equalisation {event.iteration}: worst line {100 * event.worst:.2f} %"
-            )
-        elif isinstance(event, Progress):
-            self._buffer["progress"] = (event.fraction, event.remaining_s)
-        elif isinstance(event, WarningRaised):
-            self._buffer.setdefault("warnings", []).append(event.text)
-        self._dirty = True
-
-    @Slot(object)
-    def _on_done(self, finished: Finished) -> None:
-        self.last_finished = finished
-        self._buffer.pop("state", None)  # the final word is below; the renderer must not undo it
-        if self.thread is not None:
-            self.thread.quit()
-            self.thread.wait(5000)
-        self.procedure = self.thread = self.worker = None
-        self.stop_button.setEnabled(False)
-        self.refresh_runs()
-        if finished.status == "complete" and finished.results is not None:
-            self.show_results(finished.results, finished.record)
-            self.tabs.setCurrentIndex(2)
-            self.state.setText("finished: results on tab 3")
-        else:
-            self.state.setText(f"ABORTED: {finished.abort_reason}")
-            self.messages.setText(
-                f"<b>The run was aborted:</b> {finished.abort_reason}<br/>The drive is at "
-                f"{finished.record.get('final_output_v')} V. The data so far is kept in "
-                f"{self.out / str(finished.record.get('run_id'))}."
-            )
-        self.validate()
-        self.run_finished.emit(finished)
-
-    def _render(self) -> None:
-        """At most FRAME_HZ times a second: draw what the buffer holds."""
-        if not self._dirty:
+    def _tick(self) -> None:
+        """At most FRAME_HZ times a second, on the GUI thread: take the worker's events,
+        draw the latest of each kind, and end the run in the window once the worker has."""
+        worker = self.worker
+        if worker is None:
             return
-        self._dirty = False
-        b = self._buffer
-        if "state" in b:
-            self.state.setText(b["state"])
-        if "equalisation" in b:
-            self.equalisation.setText(b["equalisation"])
-        if "progress" in b:
-            fraction, remaining = b["progress"]
+        events = worker.drain()
+        if events:
+            self._take(events)
+            self._draw()
+        if worker.done:
+            self._take(worker.drain())
+            self._draw()
+            self._on_done(worker.finished)
+
+    def _take(self, events: list[Any]) -> None:
+        """Keep only what the next frame draws."""
+        live = self._live
+        for event in events:
+            if isinstance(event, PeriodBlock):
+                live["block"] = event
+            elif isinstance(event, PeriodEstimate):
+                live["estimate"] = event
+            elif isinstance(event, StateChanged):
+                live["state"] = f"{event.state}  {event.message}"
+            elif isinstance(event, EqualisationStep):
+                live["equalisation"] = (
+                    f"equalisation {event.iteration}: worst line {100 * event.worst:.2f} %"
+                )
+            elif isinstance(event, Progress):
+                live["progress"] = (event.fraction, event.remaining_s)
+            elif isinstance(event, WarningRaised):
+                live.setdefault("warnings", []).append(event.text)
+
+    def _draw(self) -> None:
+        live = self._live
+        if "state" in live:
+            self.state.setText(live.pop("state"))
+        if "equalisation" in live:
+            self.equalisation.setText(live.pop("equalisation"))
+        if "progress" in live:
+            fraction, remaining = live.pop("progress")
             self.progress.setValue(int(100 * fraction))
             left = "" if remaining is None else f", about {remaining:.0f} s left"
             self.progress.setFormat(f"%p %{left}")
-        if "warnings" in b:
-            self.messages.setText("<br/>".join(f"⚠ {w}" for w in b["warnings"][-4:]))
-        block: PeriodBlock | None = b.get("block")
-        plan: Plan | None = b.get("plan")
+        if live.get("warnings"):
+            self.messages.setText(
+                "<br/>".join(f"⚠ {html.escape(w)}" for w in live["warnings"][-4:])
+            )
+        block: PeriodBlock | None = live.pop("block", None)
+        plan: Plan | None = live.get("plan")
         if block is not None and plan is not None:
             names = list(block.channels)
-            ref, dut = block.samples[names.index("reference")], block.samples[names.index("dut")]
-            t = np.arange(ref.size) / plan.sample_rate_hz
-            step = max(1, ref.size // 4000)  # enough points for the eye
-            self.wave_ref.setData(t[::step], ref[::step])
-            self.wave_dut.setData(t[::step], dut[::step])
-            spectra = np.abs(period_spectrum(np.vstack([ref, dut]))) + 1e-12
-            f = np.arange(spectra.shape[1]) * plan.sample_rate_hz / ref.size
-            self.spec_ref.setData(f[1:], 20 * np.log10(spectra[0, 1:]))
-            self.spec_dut.setData(f[1:], 20 * np.log10(spectra[1, 1:]))
-            if ref.size == plan.period_samples:
-                self.spec_lines.setData(plan.frequencies_hz, 20 * np.log10(spectra[0, plan.bins]))
+            ref = block.samples[names.index("reference")]
+            dut = block.samples[names.index("dut")]
+            self.live.draw_period(ref, dut, plan)
             for name, x in (("reference", ref), ("dut", dut)):
                 range_v = next(c.range_v for c in self.config.inputs if c.name == name)
                 fill = int(100 * np.max(np.abs(x)) / range_v)
@@ -636,7 +580,7 @@ class MainWindow(QMainWindow):
                     "QProgressBar::chunk {background: %s}"
                     % ("#c0392b" if fill >= 95 else "#27ae60")
                 )
-        estimate: PeriodEstimate | None = b.pop("estimate", None)
+        estimate: PeriodEstimate | None = live.pop("estimate", None)
         if estimate is not None:
             self._draw_characteristic(estimate.results)
 
@@ -645,182 +589,154 @@ class MainWindow(QMainWindow):
         self.coherence.setText(
             f"coherence >= {worst.coherence:.4f} (lowest at {worst.nominal_frequency_hz:g} Hz)"
         )
-        f = np.log10([ln.frequency_hz for ln in results.lines])
-        dev = np.array([ln.deviation_percent for ln in results.lines])
-        u = np.array([100 * ln.relative_expanded_uncertainty for ln in results.lines])
-        ph = np.array([ln.phase_deg for ln in results.lines])
-        uph = np.array([ln.phase_expanded_uncertainty_deg for ln in results.lines])
-        self.sens_curve.setData(10**f, dev)
-        self.sens_err.setData(x=f, y=dev, height=2 * np.nan_to_num(u))
-        self.phase_curve.setData(10**f, ph)
-        self.phase_err.setData(x=f, y=ph, height=2 * np.nan_to_num(uph))
+        self.live.draw_characteristic(results)
 
-    # --- results and runs ---------------------------------------------------------------
-
-    def show_results(self, results: Results, record: dict[str, Any]) -> None:
-        self.results = results
-        self._current_record = record
-        r = results.reference
-        value, u = fmt.round_gum(r.sensitivity_mv_per_ms2, r.expanded_uncertainty_mv_per_ms2)
-        self.summary.setText(
-            f"<b>Reference sensitivity at {r.frequency_hz:g} Hz: ({value} ± {u}) mV/(m/s²)</b> "
-            f"({r.sensitivity_db:.2f} dB re 1 mV/(m/s²)), k = {r.coverage_factor:.2f}, "
-            f"p = {100 * r.coverage_probability:.2f} %. Run {record.get('run_id')}, "
-            f"{results.periods} periods, {record.get('mode')}."
-        )
-        self.table.setRowCount(len(results.lines))
-        for row, ln in enumerate(results.lines):
-            s, us = fmt.round_gum(ln.sensitivity_mv_per_ms2, ln.expanded_uncertainty_mv_per_ms2)
-            p, up = fmt.round_gum(ln.phase_deg, ln.phase_expanded_uncertainty_deg)
-            cells = [
-                f"{ln.nominal_frequency_hz:g}",
-                s,
-                us,
-                fmt.signed(ln.deviation_percent, 2),
-                p,
-                up,
-                fmt.significant(100 * ln.relative_expanded_uncertainty),
-                f"{ln.coverage_factor:.2f}",
-                ln.iso_verdict,
-                ln.tolerance_verdict or "",
-            ]
-            for column, text in enumerate(cells):
-                self.table.setItem(row, column, QTableWidgetItem(text))
-        self._draw_characteristic(results)
-        self._draw_result_charts(results)
-        self._fill_budget(results, record)
-
-    def _draw_result_charts(self, results: Results) -> None:
-        """Deviation and phase with their expanded-uncertainty bands (log frequency)."""
-        f = np.array([ln.frequency_hz for ln in results.lines])
-        for plot, values, half in (
-            (
-                self.result_mag,
-                [ln.deviation_percent for ln in results.lines],
-                [100 * ln.relative_expanded_uncertainty for ln in results.lines],
-            ),
-            (
-                self.result_phase,
-                [ln.phase_deg for ln in results.lines],
-                [ln.phase_expanded_uncertainty_deg for ln in results.lines],
-            ),
-        ):
-            plot.clear()
-            v, u = np.array(values), np.nan_to_num(np.array(half))
-            lower = plot.plot(f, v - u, pen=pg.mkPen("#9bb7e0"))
-            upper = plot.plot(f, v + u, pen=pg.mkPen("#9bb7e0"))
-            plot.addItem(pg.FillBetweenItem(lower, upper, brush=pg.mkBrush(155, 183, 224, 110)))
-            plot.plot(f, v, pen=pg.mkPen("#1f3a68", width=2), symbol="o", symbolSize=5)
-
-    def _fill_budget(self, results: Results, record: dict[str, Any]) -> None:
-        """The stored budget at the reference frequency, with this run's type A."""
-        budget = Budget.from_list(record.get("budget", []))
-        line = next(
-            ln for ln in results.lines if ln.nominal_frequency_hz == results.reference.frequency_hz
-        )
-        rows = [
-            (
-                "repeatability (type A, this run)",
-                "",
-                "normal (t)",
-                f"{100 * line.relative_type_a:.3g} %",
-            ),
-        ]
-        rows += [
-            (
-                c.name,
-                f"{100 * c.value:.3g} %",
-                str(c.distribution),
-                f"{100 * c.standard_uncertainty:.3g} %",
+    def _on_done(self, finished: Finished) -> None:
+        """The run has ended (GUI thread): show how, list it, open its results if complete."""
+        self.last_finished = finished
+        self.worker = None
+        self._live = {}
+        self.stop_button.setEnabled(False)
+        self.runs_tab.refresh()
+        run_id = finished.record.run_id
+        folder = self.out / str(run_id) if run_id else None
+        if finished.status == "complete" and folder is not None:
+            self.open_run(folder, switch=False)
+            self.tabs.setCurrentIndex(RESULTS_TAB)
+            self.state.setText("finished: results on tab 3")
+        else:
+            self.state.setText(f"ABORTED: {finished.abort_reason}")
+            self.messages.setText(
+                f"<b>The run was aborted:</b> {html.escape(str(finished.abort_reason))}<br/>"
+                f"The drive is at {finished.record.final_output_v} V. The data so far is "
+                f"kept in {html.escape(str(folder))}."
             )
-            for c in budget.at(line.frequency_hz, Quantity.MAGNITUDE)
-        ]
-        rows += [
-            (
-                "combined standard uncertainty",
-                "",
-                "",
-                f"{100 * line.relative_standard_uncertainty:.3g} %",
-            ),
-            (
-                f"expanded (k = {line.coverage_factor:.2f})",
-                "",
-                "",
-                f"{fmt.significant(100 * line.relative_expanded_uncertainty)} %",
-            ),
-        ]
-        self.budget.setRowCount(len(rows))
-        for r, row in enumerate(rows):
-            for c, text in enumerate(row):
-                self.budget.setItem(r, c, QTableWidgetItem(text))
+        self.validate()
+        self.run_finished.emit(finished)
+
+    # --- results, runs and certificates -------------------------------------------------
+
+    def open_run(self, folder: Path, *, switch: bool = True) -> bool:
+        """Show the stored run `folder` in the Results tab after verifying it; only a
+        complete, verified run is shown as certifiable. Whether results are shown."""
+        folder = Path(folder)
+        try:
+            check = inspect_run(folder)
+        except ValueError as exc:
+            self.results_tab.clear(html.escape(str(exc)))
+            return False
+        name = html.escape(folder.name)
+        if check.record is None:  # running, interrupted or modified
+            problems = "<br/>".join(html.escape(p) for p in check.problems)
+            self.results_tab.clear(
+                f"<b>Run {name}: {check.state}</b>, never certified.<br/>{problems}"
+            )
+        elif not check.certifiable or not check.record.results:
+            reason = html.escape(str(check.record.abort_reason))
+            self.results_tab.clear(
+                f"<b>Run {name}: {check.state}</b> ({reason}); kept, never certified."
+            )
+        else:
+            record = check.record
+            results = record.results_object()
+            assert results is not None  # checked above
+            self.results_tab.show_results(results, record, folder)
+        if switch:
+            self.tabs.setCurrentIndex(RESULTS_TAB)
+        return self.results_tab.folder is not None
 
     def export_results(self) -> Path | None:
         """Copy the stored results of the shown run (CSV and JSON) beside the run folders."""
-        if self.results is None:
+        results, record = self.results_tab.results, self.results_tab.record
+        if results is None:
             return None
-        run_id = self._current_record.get("run_id")
-        target = self.out / f"{run_id}-results"
-        target.with_suffix(".csv").write_text(self.results.to_csv(), encoding="utf-8")
+        target = self.out / f"{record.run_id}-results"
+        target.with_suffix(".csv").write_text(results.to_csv(), encoding="utf-8")
         target.with_suffix(".json").write_text(
-            json.dumps(self.results.to_dict(), indent=2), encoding="utf-8"
+            json.dumps(results.to_dict(), indent=2), encoding="utf-8"
         )
-        self.messages.setText(f"exported {target}.csv and .json")
+        self.messages.setText(html.escape(f"exported {target}.csv and .json"))
         return target
 
-    def certificate_dialog(self) -> Path | None:
-        """Ask for what the certificate needs beyond the run, then write and open the PDF."""
-        if self.results is None:
-            QMessageBox.information(self, "Certificate", "Open a complete run first (tab 4).")
+    def certifiable_run(self) -> tuple[Path, RunRecord] | None:
+        """The run the certificate action would certify: the one shown in the Results tab,
+        verified again now (None, with the reason shown, when there is none)."""
+        folder = self.results_tab.folder
+        if folder is None:
+            QMessageBox.information(
+                self, "Certificate", "Open a complete run first (tab 4); it will be certified."
+            )
             return None
-        dialog = CertificateDialog(self, self.settings)
+        try:
+            record = load_run(folder)
+        except (RunIntegrityError, ValueError) as exc:
+            QMessageBox.warning(self, "Certificate refused", str(exc))
+            self.open_run(folder)
+            return None
+        if not record.complete:
+            QMessageBox.warning(self, "Certificate refused", f"{folder.name}: {record.status} run")
+            return None
+        return folder, record
+
+    @Slot()
+    def certificate_action(self) -> Path | None:
+        """Certificate of the run shown: asks the fields afresh, names the run once, writes
+        and opens the PDF."""
+        target = self.certifiable_run()
+        if target is None:
+            return None
+        folder, record = target
+        dialog = CertificateDialog(self, record)
         if dialog.exec() != QDialog.DialogCode.Accepted:
             return None
-        return self.issue_certificate(dialog.info())
+        info = dialog.info()
+        answer = QMessageBox.question(
+            self,
+            "Issue the certificate?",
+            f"Issue the certificate of {run_identity(record)}?",
+        )
+        if answer != QMessageBox.StandardButton.Yes:
+            return None
+        return self.issue_certificate(folder, info)
 
-    def issue_certificate(self, info: CertificateInfo) -> Path | None:
-        """Write the certificate of the shown run into its folder; errors shown, not raised."""
-        folder = self.out / str(self._current_record.get("run_id"))
+    # kept for the menu's old name
+    certificate_dialog = certificate_action
+
+    def issue_certificate(self, folder: Path, info: CertificateInfo) -> Path | None:
+        """Write the certificate of the run `folder` into it; errors shown, not raised."""
+        folder = Path(folder)
         try:
             path = build(folder, info, folder / "certificate.pdf")
-        except CertificateError as exc:
+        except (CertificateError, RunIntegrityError, ValueError, OSError) as exc:
             QMessageBox.warning(self, "Certificate refused", str(exc))
             return None
-        self.messages.setText(f"certificate written: {path}")
-        self.summary.setText(self.summary.text() + f"<br/>Certificate: {path}")
+        log.info("certificate of %s written: %s", folder.name, path)
+        self.messages.setText(html.escape(f"certificate written: {path}"))
+        if self.results_tab.folder == folder:
+            self.summary.setText(
+                self.summary.text() + f"<br/>Certificate: {html.escape(str(path))}"
+            )
         QDesktopServices.openUrl(QUrl.fromLocalFile(str(path.resolve())))
         return path
 
     def refresh_runs(self) -> None:
-        self.runs.clear()
-        if not self.out.exists():
-            return
-        for folder in sorted(self.out.iterdir(), reverse=True):
-            if (folder / "results.json").exists():
-                status = json.loads((folder / "results.json").read_text()).get("status", "?")
-                self.runs.addItem(f"{folder.name}   {status}")
-
-    def open_run(self, folder: Path) -> None:
-        record = load_run(folder)
-        if record.get("results"):
-            self.show_results(Results.from_dict(record["results"]), record)
-            self.tabs.setCurrentIndex(2)
-        else:
-            self.summary.setText(
-                f"Run {folder.name}: {record['status']} ({record.get('abort_reason')})"
-            )
+        self.runs_tab.refresh()
 
     # --- closing ------------------------------------------------------------------------
 
     def closeEvent(self, event: Any) -> None:
         """Fade out and stop a running calibration first; never hang."""
         self.settings.setValue("geometry", self.saveGeometry())
-        if self.procedure is not None and self.thread is not None:
-            period = self.procedure.plan.period_s
-            self.procedure.abort("window closed")
-            if not self.thread.wait(int(1000 * (3 * period + 5))):
-                self.procedure.emergency_stop()
-                self.thread.wait(int(1000 * (period + 5)))
-            QThread.msleep(0)
+        worker = self.worker
+        if worker is not None:
+            period = worker.procedure.plan.period_s
+            worker.procedure.abort("window closed")
+            if not worker.join(3 * period + 5):
+                worker.procedure.emergency_stop()
+                worker.join(period + 5)
+            if worker.done:
+                self._on_done(worker.finished)
+        self.timer.stop()
         self._pool.shutdown(wait=False, cancel_futures=True)
         event.accept()
 
@@ -829,53 +745,3 @@ class MainWindow(QMainWindow):
         for future in self._plans.values():
             future.result()
         self.validate()
-
-
-class CertificateDialog(QDialog):
-    """Customer, signatory and conditions for a certificate (remembered between sessions)."""
-
-    FIELDS = (
-        ("customer", "Customer"),
-        ("customer_address", "Customer address"),
-        ("authorised_by", "Authorised by"),
-        ("mounting", "Mounting"),
-        ("dut_model", "DUT model (empty: from the run)"),
-        ("dut_type", "DUT type (empty: from the run)"),
-        ("notes", "Notes"),
-    )
-
-    def __init__(self, parent: QWidget, settings: QSettings):
-        super().__init__(parent)
-        self.setWindowTitle("Certificate")
-        self.settings = settings
-        form = QFormLayout(self)
-        self.edits: dict[str, QLineEdit] = {}
-        for key, label in self.FIELDS:
-            edit = QLineEdit(str(settings.value(f"certificate/{key}", "")))
-            form.addRow(label, edit)
-            self.edits[key] = edit
-        self.temperature = QDoubleSpinBox(decimals=1, minimum=-50, maximum=100, suffix=" °C")
-        self.temperature.setValue(float(settings.value("certificate/temperature_c", 23.0)))
-        form.addRow("Ambient temperature", self.temperature)
-        buttons = QDialogButtonBox(
-            QDialogButtonBox.StandardButton.Ok | QDialogButtonBox.StandardButton.Cancel
-        )
-        buttons.accepted.connect(self.accept)
-        buttons.rejected.connect(self.reject)
-        form.addRow(buttons)
-
-    def info(self) -> CertificateInfo:
-        values = {key: edit.text().strip() or None for key, edit in self.edits.items()}
-        for key, value in values.items():
-            self.settings.setValue(f"certificate/{key}", value or "")
-        self.settings.setValue("certificate/temperature_c", self.temperature.value())
-        return CertificateInfo(
-            customer=values["customer"],
-            customer_address=values["customer_address"] or "",
-            authorised_by=values["authorised_by"],
-            mounting=values["mounting"],
-            dut_model=values["dut_model"],
-            dut_type=values["dut_type"],
-            notes=values["notes"] or "",
-            temperature_c=self.temperature.value(),
-        )

@@ -52,13 +52,15 @@ class PreflightReport:
 def preflight(
     plan: Plan,
     config: StandConfig,
-    chain: ReferenceChain,
+    chain: ReferenceChain | None,
     nominal_mv_per_ms2: float | None = None,
     *,
     level_scale: float = 1.0,
 ) -> PreflightReport:
     """Check `plan` (its amplitudes times `level_scale`) on the stand of `config` with the
-    reference `chain` and, when known, the DUT's nominal sensitivity (mV/(m/s^2))."""
+    reference `chain` and, when known, the DUT's nominal sensitivity (mV/(m/s^2)). Without a
+    chain (a window before its stand is opened) the reference channel is not checked here;
+    the run's own preflight checks it before anything moves."""
     limits = config.limits
     ranges = {c.name: c.range_v for c in config.inputs}
     raw = plan.predicted_peaks()
@@ -85,15 +87,17 @@ def preflight(
             f"acceleration {peaks.acceleration_ms2:.1f} m/s^2 exceeds "
             f"{limits.acceleration_peak_ms2:g} m/s^2"
         )
-    ref_s, _ = chain.sensitivity_at(plan.frequencies_hz)
-    reference_peak = peaks.acceleration_ms2 * float(ref_s.max()) * 1e-3 * chain.reference_gain
-    if reference_peak > OVERLOAD_FRACTION * ranges["reference"] / RANGE_MARGIN:
-        problems.append(
-            f"reference channel: predicted peak {reference_peak:.3g} V is too close to its "
-            f"+-{ranges['reference']:g} V range (raise the range or lower the level)"
-        )
+    if chain is not None:
+        ref_s, _ = chain.sensitivity_at(plan.frequencies_hz)
+        ref_peak = peaks.acceleration_ms2 * float(ref_s.max()) * 1e-3 * chain.reference_gain
+        if ref_peak > OVERLOAD_FRACTION * ranges["reference"] / RANGE_MARGIN:
+            problems.append(
+                f"reference channel: predicted peak {ref_peak:.3g} V is too close to its "
+                f"+-{ranges['reference']:g} V range (raise the range or lower the level)"
+            )
+    dut_gain = chain.dut_gain if chain is not None else config.dut_gain
     if nominal_mv_per_ms2 is not None:  # the DUT's own response is unknown: its nominal stands in
-        dut_peak = peaks.acceleration_ms2 * nominal_mv_per_ms2 * 1e-3 * chain.dut_gain
+        dut_peak = peaks.acceleration_ms2 * nominal_mv_per_ms2 * 1e-3 * dut_gain
         if dut_peak > OVERLOAD_FRACTION * ranges["dut"] / RANGE_MARGIN:
             problems.append(
                 f"DUT channel: predicted peak {dut_peak:.3g} V (nominal {nominal_mv_per_ms2:g} "

@@ -82,7 +82,7 @@ def test_closing_the_window_during_a_run_fades_out_to_0_v(qtbot, tmp_path):
     )
     stand = w.worker.stand
     w.close()
-    assert w.procedure is None or not w.thread.isRunning()
+    assert w.worker is None
     assert stand.daq.output_v == 0.0 and stand.daq.output.stopped
     folder = next((tmp_path / "runs").iterdir())
     record = load_run(folder)
@@ -118,16 +118,19 @@ def test_from_an_empty_window_to_a_certificate(window, qtbot, monkeypatch):
     window.periods.setValue(3)
     with qtbot.waitSignal(window.run_finished, timeout=60_000):
         window.start_run()
+    folder = window.results_tab.folder
+    assert folder is not None and folder.parent == window.out
     path = window.issue_certificate(
+        folder,
         CertificateInfo(
             customer="ACME Ltd", authorised_by="J. Smith", temperature_c=23.0, mounting="stud"
-        )
+        ),
     )
     assert path is not None and path.exists() and path.name == "certificate.pdf"
     assert "Certificate:" in window.summary.text()
     refused = []
     monkeypatch.setattr(main_window.QMessageBox, "warning", lambda *a: refused.append(a[2]))
-    assert window.issue_certificate(CertificateInfo(customer="ACME Ltd")) is None
+    assert window.issue_certificate(folder, CertificateInfo(customer="ACME Ltd")) is None
     assert "never overwritten" in refused[0] or "missing" in refused[0]
 
 
@@ -191,6 +194,8 @@ def test_stop_fades_out_to_0_v_and_keeps_an_aborted_run(qtbot, tmp_path):
     w.periods.setValue(100)  # a long acquisition: Stop comes first
     w.start_run()
     qtbot.waitUntil(lambda: "acquiring" in w.state.text(), timeout=40_000)
+    # the first live estimate comes once MIN_PERIODS periods are in (maybe a few periods on)
+    qtbot.waitUntil(lambda: "coherence" in w.coherence.text(), timeout=40_000)
     stand = w.worker.stand
     with qtbot.waitSignal(w.run_finished, timeout=30_000) as blocker:
         qtbot.mouseClick(w.stop_button, Qt.MouseButton.LeftButton)

@@ -10,6 +10,7 @@ Create Date: 2026-11-23
 from __future__ import annotations
 
 from datetime import UTC, datetime
+from typing import Any
 
 import sqlalchemy as sa
 from alembic import op
@@ -35,16 +36,18 @@ def upgrade() -> None:
             "GROUP BY s.id, s.interval_months"
         )
     ).all()
-    for sensor_id, interval, last in rows:
-        if isinstance(last, str):  # SQLite hands back text from an aggregate
-            last = datetime.fromisoformat(last)
+    row: Any
+    for row in rows:
+        sensor_id, interval, value = row
+        # SQLite hands back text from an aggregate, PostgreSQL a datetime
+        last = datetime.fromisoformat(value) if isinstance(value, str) else value
         if last.tzinfo is None:
             last = last.replace(tzinfo=UTC)
         bind.execute(
             sa.text(
                 "UPDATE sensors SET last_calibrated_utc = :last, due_date = :due WHERE id = :id"
             ),
-            {"last": last, "due": add_months(last.date(), interval), "id": sensor_id},
+            {"last": last, "due": add_months(last.date(), int(interval)), "id": sensor_id},
         )
 
 

@@ -1,0 +1,137 @@
+"""The Runs tab: every stored run with its verified state.
+
+Each folder is checked with `app.records.inspect_run` (manifest verified, lock looked at):
+
+    complete     finished, every file matches its manifest: may be certified
+    aborted      finished early (reason stored): kept, never certified
+    running      a process still writes it
+    interrupted  no manifest and nobody writing: the process died (recording readable)
+    modified     a stored file does not match the manifest: refused, never certified
+"""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+
+from PySide6.QtCore import Qt, Signal
+from PySide6.QtGui import QColor
+from PySide6.QtWidgets import (
+    QLabel,
+    QListWidget,
+    QListWidgetItem,
+    QPushButton,
+    QVBoxLayout,
+    QWidget,
+)
+
+from app.records import RunCheck, inspect_run
+
+log = logging.getLogger(__name__)
+
+STATE_COLOURS = {
+    "complete": "#1e8449",
+    "aborted": "#b9770e",
+    "running": "#2471a3",
+    "interrupted": "#c0392b",
+    "modified": "#c0392b",
+}
+FOLDER_ROLE = Qt.ItemDataRole.UserRole
+STATE_ROLE = Qt.ItemDataRole.UserRole + 1
+
+
+def fingerprint(folder: Path) -> tuple:
+    """Name, size, modification time and mode of the folder and of every file in it: what
+    changes when anything in a run folder is edited, replaced, added or removed."""
+    entries = [folder, *sorted(folder.iterdir())]
+    return tuple(
+        (p.name, st.st_size, st.st_mtime_ns, st.st_mode) for p in entries for st in [p.stat()]
+    )
+
+
+def check_folder(folder: Path) -> RunCheck | None:
+    """inspect_run, or None for a folder that is no run (left out of the list)."""
+    try:
+        return inspect_run(folder)
+    except (ValueError, OSError) as exc:
+        log.debug("not listed: %s", exc)
+        return None
+
+
+class RunsTab(QWidget):
+    """Stored runs under `root`, newest first, each with its state; double-click opens one."""
+
+    open_requested = Signal(Path)
+
+    def __init__(self, root: Path) -> None:
+        super().__init__()
+        self.root = root
+        # finished runs verified before, by fingerprint: a list of many runs is not hashed
+        # again on every refresh (opening or certifying a run always verifies it afresh)
+        self._verified: dict[Path, tuple[tuple, RunCheck]] = {}
+        layout = QVBoxLayout(self)
+        self.heading = QLabel(
+            f"Stored runs in {root} (double-click to open; only a complete run can be certified)"
+        )
+        self.heading.setWordWrap(True)
+        self.runs = QListWidget()
+        self.runs.itemDoubleClicked.connect(
+            lambda item: self.open_requested.emit(Path(item.data(FOLDER_ROLE)))
+        )
+        refresh = QPushButton("Refresh")
+        refresh.clicked.connect(self.refresh)
+        layout.addWidget(self.heading)
+        layout.addWidget(self.runs, 1)
+        layout.addWidget(refresh)
+        self.refresh()
+
+    def refresh(self) -> None:
+        """List the run folders again, each verified."""
+        self.runs.clear()
+        if not self.root.is_dir():
+            return
+        for folder in sorted(self.root.iterdir(), reverse=True):
+            if not folder.is_dir():
+                continue
+            check = self.check(folder)
+            if check is None:
+                continue
+            item = QListWidgetItem(f"{folder.name}   {check.state}")
+            item.setData(FOLDER_ROLE, str(folder))
+            item.setData(STATE_ROLE, check.state)
+            item.setForeground(QColor(STATE_COLOURS.get(check.state, "#000000")))
+            tip = "\n".join(check.problems) or (
+                "verified: may be certified" if check.certifiable else "verified"
+            )
+            if check.record and check.record.abort_reason:
+                tip = f"aborted: {check.record.abort_reason}"
+            item.setToolTip(tip)
+            self.runs.addItem(item)
+
+    def check(self, folder: Path) -> RunCheck | None:
+        """inspect_run of `folder`, from the cache when nothing in it changed since."""
+        try:
+            key = fingerprint(folder)
+        except OSError:
+            return None
+        cached = self._verified.get(folder)
+        if cached is not None and cached[0] == key:
+            return cached[1]
+        check = check_folder(folder)
+        if check is not None and check.state not in ("running", "interrupted"):
+            self._verified[folder] = (key, check)  # finished: only a change can change it
+        return check
+
+    def state_of(self, name: str) -> str | None:
+        """The listed state of the run folder `name` (None: not listed)."""
+        for row in range(self.runs.count()):
+            item = self.runs.item(row)
+            if Path(item.data(FOLDER_ROLE)).name == name:
+                return item.data(STATE_ROLE)
+        return None
+
+    def count(self) -> int:
+        return self.runs.count()
+
+    def item(self, row: int) -> QListWidgetItem:
+        return self.runs.item(row)
