@@ -46,6 +46,7 @@ from app import formatting as fmt
 from app.certificate_register import Issued, Register, RegisterError, locked_register
 from app.files import FileExistsRefusal, write_with
 from app.input_files import MAX_TEXT_BYTES, InputFileError, check_input_file
+from app.procedure.settings import MODE_MULTISINE
 from app.records import (
     STATUS_COMPLETE,
     is_product_name,
@@ -684,7 +685,7 @@ def _method_text(record: RunRecord, results: Results, plan: dict[str, Any]) -> s
         f"values, {span}), each on a DFT bin of a {period_s:g} s "
         f"period sampled at {plan.get('sample_rate_hz', 0):g} Hz, phases optimised for a low "
         "crest factor, table acceleration equalised per frequency in closed loop"
-        if record.mode == "multisine"
+        if record.mode == MODE_MULTISINE
         else f"stepped-sine excitation: {len(freqs)} frequencies one at a time ({span}), "
         "three-parameter sine fits (IEEE 1057)"
     )

@@ -12,6 +12,7 @@ from app.procedure.context import RunContext
 from app.procedure.equalisation import Equalisation
 from app.procedure.events import Progress, State
 from app.procedure.identification import Identification
+from app.procedure.settings import MODE_STEPPED_SINE
 from app.procedure.stand_io import Segment
 from app.procedure.stopping import StoppingRule
 from dsp.multisine import Line, Plan
@@ -38,7 +39,7 @@ class SteppedSine:
         ctx, plan, s, io = self.ctx, self.ctx.plan, self.ctx.settings, self.ctx.io
         fs = plan.sample_rate_hz
         if io.writer is not None:
-            io.writer.set_mode("stepped-sine")
+            io.writer.set_mode(MODE_STEPPED_SINE)
         estimates: list[Estimate] = []
         settled_ref: list[complex] = []
         settled_dut: list[complex] = []
