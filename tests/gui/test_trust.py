@@ -19,6 +19,7 @@ from app.gui.main_window import MainWindow
 from app.gui.worker import copied
 from app.procedure import Finished, PeriodBlock, State
 from app.records import RunFolder
+from app.run_record import RunRecord
 from sim.stand import Fault
 
 SHORT_LINES = "40,80,160,315,630"  # a short plan: quick runs
@@ -202,7 +203,8 @@ def test_a_long_abort_message_never_widens_the_window(window, qtbot):
         " ".join(["the amplifier reported an over-current on output 1"] * 38) + " /" + ("x" * 300)
     )
     assert len(reason) > 2000
-    window._on_done(Finished("aborted", reason, None, {"run_id": None, "final_output_v": 0.0}))
+    record = RunRecord(run_id=None, status="aborted", abort_reason=reason, final_output_v=0.0)
+    window._on_done(Finished("aborted", reason, None, record))
     for _ in range(5):
         QApplication.processEvents()
     assert window.width() == before <= screen.width()
