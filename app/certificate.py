@@ -239,6 +239,15 @@ BAND = colors.Color(0.78, 0.86, 0.97)
 INK = colors.Color(0.1, 0.25, 0.55)
 
 
+def _fit(text: str, font: str, size: float, width: float) -> str:
+    """`text` shortened with '…' to fit `width` points in `font` at `size`."""
+    if pdfmetrics.stringWidth(text, font, size) <= width:
+        return text
+    while text and pdfmetrics.stringWidth(text + "…", font, size) > width:
+        text = text[:-1]
+    return text.rstrip() + "…"
+
+
 def _numbered_canvas(number: str, laboratory: str):
     """A canvas class that writes the header and 'page x of y' once all pages are known."""
 
@@ -263,12 +272,17 @@ def _numbered_canvas(number: str, laboratory: str):
 
         def _furniture(self, total: int) -> None:
             width, height = A4
-            self.setFont(FONT_BOLD, 8.5)
-            self.drawString(18 * mm, height - 12 * mm, laboratory)
-            self.setFont(FONT, 8.5)
-            self.drawRightString(
-                width - 18 * mm, height - 12 * mm, f"Calibration certificate {number}"
+            right = f"Calibration certificate {number}"
+            room = (
+                width
+                - 36 * mm
+                - pdfmetrics.stringWidth(right, FONT, 8.5)
+                - 6 * mm  # a gap between the two
             )
+            self.setFont(FONT_BOLD, 8.5)
+            self.drawString(18 * mm, height - 12 * mm, _fit(laboratory, FONT_BOLD, 8.5, room))
+            self.setFont(FONT, 8.5)
+            self.drawRightString(width - 18 * mm, height - 12 * mm, right)
             self.setStrokeColor(GRID)
             self.line(18 * mm, height - 14 * mm, width - 18 * mm, height - 14 * mm)
             self.line(18 * mm, 16 * mm, width - 18 * mm, 16 * mm)
@@ -483,22 +497,77 @@ def issue(
     try:
         with locked_register(run.path.resolve().parent) as register:
             info = _numbered(info, run, register)
+            xml = _dcc_of(run, info)  # validated before anything is written
+            xml_out = dcc_path(out)
+            wrote_xml = False
             with writable_folder(run.path) if into_run else contextlib.nullcontext():
                 try:
-                    write_with(out, lambda path: _write_pdf(run, info, sweep, path))
-                except FileExistsRefusal:
-                    raise CertificateError(_exists(out)) from None
+                    if xml is not None:
+                        write_with(xml_out, lambda path: _write_read_only(path, xml))
+                        wrote_xml = True
+                    write_with(out, lambda path: _write_pdf(run, info, sweep, path, xml))
+                except FileExistsRefusal as exc:
+                    if wrote_xml:
+                        xml_out.unlink(missing_ok=True)
+                    raise CertificateError(
+                        f"{exc}; a certificate is never overwritten (use --out)"
+                    ) from None
+                except BaseException:
+                    if wrote_xml:
+                        xml_out.unlink(missing_ok=True)
+                    raise
                 try:
                     return register.add(
                         str(info.certificate_number), _run_id(run), out.resolve(), sha256_of(out)
                     )
                 except BaseException:
                     out.unlink(missing_ok=True)  # never a certificate the register lacks
+                    if wrote_xml:
+                        xml_out.unlink(missing_ok=True)
                     raise
     except RegisterError as exc:
         raise CertificateError(str(exc)) from None
     finally:
         unlock(lock)
+
+
+def dcc_path(pdf: Path) -> Path:
+    """Where the digital calibration certificate of `pdf` goes: beside it, .xml."""
+    return pdf.with_suffix(".xml")
+
+
+def _dcc_of(run: StoredRun, info: CertificateInfo) -> bytes | None:
+    """The run's DCC XML (validated), or None when the stand file names no laboratory country
+    (the PDF is still issued; the CLI says why there is no DCC). CertificateError otherwise."""
+    from app.dcc import DccError, DccNotApplicable, build
+
+    try:
+        return build(run, info)
+    except DccNotApplicable:
+        return None
+    except DccError as exc:
+        raise CertificateError(str(exc)) from None
+
+
+def _write_read_only(path: Path, data: bytes) -> None:
+    path.write_bytes(data)
+    path.chmod(0o444)
+
+
+def _embed(pdf: Path, name: str, data: bytes) -> None:
+    """Attach `data` to the PDF as an associated file (PDF/A-3 style: /AF in the catalogue,
+    /AFRelationship /Data on the file specification), in place."""
+    from pypdf import PdfWriter
+    from pypdf.generic import ArrayObject, NameObject
+
+    writer = PdfWriter(clone_from=str(pdf))
+    writer.add_attachment(name, data)
+    names = writer.root_object["/Names"]["/EmbeddedFiles"]["/Names"]  # type: ignore[index]
+    spec = names[-1].get_object()
+    spec[NameObject("/AFRelationship")] = NameObject("/Data")
+    writer.root_object[NameObject("/AF")] = ArrayObject([names[-1]])
+    with pdf.open("wb") as handle:
+        writer.write(handle)
 
 
 def _run_id(run: StoredRun) -> str:
@@ -549,9 +618,14 @@ def _numbered(info: CertificateInfo, run: StoredRun, register: Register) -> Cert
 
 
 def _write_pdf(
-    run: StoredRun, info: CertificateInfo, sweep: dict[str, Any] | None, out: Path
+    run: StoredRun,
+    info: CertificateInfo,
+    sweep: dict[str, Any] | None,
+    out: Path,
+    dcc_xml: bytes | None = None,
 ) -> None:
-    """Draw the certificate PDF of `run` with `info` (numbered) to `out`, read-only."""
+    """Draw the certificate PDF of `run` with `info` (numbered) to `out`, read-only, with the
+    DCC XML attached when given."""
     record, results = run.record, run.results
     stand = record.stand
     lab = dict(stand.laboratory)
@@ -654,6 +728,8 @@ def _write_pdf(
         creator=f"accelcal {record.software_version}",
     )
     document.build(story, canvasmaker=_numbered_canvas(number, lab.get("name", "")))
+    if dcc_xml is not None:
+        _embed(out, "certificate.xml", dcc_xml)
     out.chmod(0o444)
 
 

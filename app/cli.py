@@ -937,6 +937,12 @@ def cmd_certificate(args: argparse.Namespace) -> int:
     else:
         issued = issue(args.run, info, out, args.sweep)
     print(f"certificate {issued.number}: {out}")
+    from app.certificate import dcc_path
+
+    if dcc_path(out).exists():
+        print(f"digital calibration certificate (DCC 3.3.0, in the PDF too): {dcc_path(out)}")
+    else:
+        print("no digital calibration certificate: the stand file names no laboratory.country")
     return EXIT_OK
 
 

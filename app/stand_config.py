@@ -56,7 +56,7 @@ SCHEMA: dict[str, frozenset[str]] = {
             "certificate",
         }
     ),
-    "laboratory": frozenset({"name", "address", "accreditation"}),
+    "laboratory": frozenset({"name", "address", "country", "accreditation"}),
     "daq": frozenset({"backend", "device", "skew_s", "output", "reference", "dut", "drive"}),
     "daq.output": frozenset({"physical", "range_v"}),
     "daq.reference": _INPUT_KEYS,
@@ -314,9 +314,17 @@ def _parse(data: dict[str, Any], text: str, source: str) -> StandConfig:
         "name": r.value(lab, "laboratory", "name", str),
         "address": r.value(lab, "laboratory", "address", str),
         "accreditation": lab.get("accreditation", ""),
+        "country": lab.get("country", ""),
     }
     if not isinstance(laboratory["accreditation"], str):
         raise r.fail("laboratory.accreditation", "must be a string (may be empty)")
+    country = laboratory["country"]
+    if country and not (
+        isinstance(country, str) and len(country) == 2 and country.isascii() and country.isupper()
+    ):
+        raise r.fail(
+            "laboratory.country", f"an ISO 3166-1 two-letter code like 'PL', got {country!r}"
+        )
     daq = r.table("daq")
     backend = r.value(daq, "daq", "backend", str)
     if backend not in BACKENDS:
