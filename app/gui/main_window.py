@@ -59,7 +59,7 @@ from app.procedure import (
     StateChanged,
     WarningRaised,
 )
-from app.procedure.preflight import preflight
+from app.procedure.preflight import check_preflight
 from app.procedure.settings import MODES
 from app.records import RunIntegrityError, inspect_run, load_run
 from app.run import RunRequest, start
@@ -451,7 +451,7 @@ class MainWindow(QMainWindow):
             QTimer.singleShot(200, self, self.validate)  # look again when it may be ready
         else:
             plan: Plan = future.result()  # optimised at 1 m/s^2 per line: scaled to the level
-            report = preflight(  # the same preflight as the CLI and the run itself
+            report = check_preflight(  # the same preflight as the CLI and the run itself
                 plan,
                 self.config,
                 self._config_chain(),

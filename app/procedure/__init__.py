@@ -14,7 +14,8 @@
 It drives any `hardware.interfaces.Daq` (and amplifiers), emits typed events to a listener,
 writes the run folder as it goes, imports nothing from a UI and prints nothing. The drive ends
 at 0 V on every path out of `Procedure.run()`. Names are imported from their module on first
-use, so `from app.procedure import PreflightError` stays light.
+use, so `from app.procedure import PreflightError` stays light. (No exported name equals a
+submodule's: importing the submodule would replace it on the package.)
 """
 
 from __future__ import annotations
@@ -43,7 +44,7 @@ if TYPE_CHECKING:
         StateChanged,
         WarningRaised,
     )
-    from app.procedure.preflight import OVERLOAD_FRACTION, PreflightReport, preflight
+    from app.procedure.preflight import OVERLOAD_FRACTION, PreflightReport, check_preflight
     from app.procedure.procedure import Procedure
     from app.procedure.settings import MODES, RunSettings
     from app.procedure.stand_io import limited_drive
@@ -62,7 +63,7 @@ _LAZY = {
     "WarningRaised": "events",
     "OVERLOAD_FRACTION": "preflight",
     "PreflightReport": "preflight",
-    "preflight": "preflight",
+    "check_preflight": "preflight",
     "Procedure": "procedure",
     "MODES": "settings",
     "RunSettings": "settings",
@@ -108,6 +109,6 @@ __all__ = [
     "Stop",
     "StoppingRule",
     "WarningRaised",
+    "check_preflight",
     "limited_drive",
-    "preflight",
 ]

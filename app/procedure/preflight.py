@@ -49,7 +49,7 @@ class PreflightReport:
         )
 
 
-def preflight(
+def check_preflight(
     plan: Plan,
     config: StandConfig,
     chain: ReferenceChain | None,

@@ -32,7 +32,7 @@ from app.procedure.errors import (
 )
 from app.procedure.events import Event, Finished, Listener, State
 from app.procedure.identification import Identification
-from app.procedure.preflight import preflight
+from app.procedure.preflight import check_preflight
 from app.procedure.settings import MODE_STEPPED_SINE, RunSettings
 from app.procedure.stand_io import StandIO
 from app.procedure.stepped import SteppedSine
@@ -95,7 +95,7 @@ class Procedure:
 
     def preflight(self) -> None:
         """The checks made before anything moves; PreflightError says what is refused."""
-        report = preflight(
+        report = check_preflight(
             self.plan, self.stand.config, self.stand.chain, self.settings.dut_nominal_mv_per_ms2
         )
         report.raise_if_refused()

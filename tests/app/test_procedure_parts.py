@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from app import stand_config
-from app.procedure import PreflightError, Stop, StoppingRule, preflight
+from app.procedure import PreflightError, Stop, StoppingRule, check_preflight
 from app.stands import open_stand
 from dsp.multisine import preset_plan
 
@@ -37,9 +37,9 @@ def test_preflight_reports_peaks_and_scales_with_the_level():
     stand = open_stand(CONFIG, dut="piezo")
     try:
         plan = preset_plan("piezo", level_ms2=1.0)
-        ok = preflight(plan, stand.config, stand.chain)
+        ok = check_preflight(plan, stand.config, stand.chain)
         assert ok.ok and ok.summary().startswith("preflight: peaks")
-        at_50 = preflight(plan, stand.config, stand.chain, level_scale=50.0)
+        at_50 = check_preflight(plan, stand.config, stand.chain, level_scale=50.0)
         assert at_50.peaks.acceleration_ms2 == pytest.approx(50 * ok.peaks.acceleration_ms2)
         assert any("exceeds the exciter's 8 mm" in p for p in at_50.problems)
         with pytest.raises(PreflightError, match="displacement"):
