@@ -46,7 +46,7 @@ from app import formatting as fmt
 from app.certificate_register import Issued, Register, RegisterError, locked_register
 from app.files import FileExistsRefusal, write_with
 from app.input_files import MAX_TEXT_BYTES, InputFileError, check_input_file
-from app.procedure.settings import MODE_MULTISINE
+from app.procedure.modes import MODE_MULTISINE
 from app.records import (
     STATUS_COMPLETE,
     is_product_name,

@@ -31,7 +31,7 @@ from app.input_files import MAX_TEXT_BYTES, InputFileError, check_input_file
 from app.options import Bounded
 from app.options import numeric_option as _numeric
 from app.procedure import PreflightError, RunNotRecordedError
-from app.procedure.settings import MODE_MULTISINE, MODES
+from app.procedure.modes import MODE_MULTISINE, MODES
 from app.recording import RecordingError, read_csv
 from app.records import is_run_folder, refuse_in_run_folder
 from app.run import RunRequest, execute
@@ -39,13 +39,15 @@ from app.simulate import SimulationError, simulate
 from app.stand_config import ConfigError
 from app.version import software_version
 from dsp.calibration import AnalysisError, ReferenceChain, Results
+from dsp.estimators import DEFAULT_ESTIMATOR, ESTIMATORS
 from dsp.multisine import PRESETS, Plan, PlanError, make_plan
 from dsp.segments import SegmentError
-from dsp.spectral import DEFAULT_ESTIMATOR, ESTIMATORS, check_periods
+from dsp.spectral import check_periods
 from dsp.uncertainty import Budget
 from hardware.errors import HardwareError
+from sim.faults import FAULT_KINDS
 from sim.models import DUT_CATALOGUE, StandModel
-from sim.stand import FAULT_KINDS, Fault
+from sim.stand import Fault
 
 EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT, EXIT_ABORTED = 0, 1, 2, 3
 EXIT_BROKEN_PIPE = 128 + 13  # SIGPIPE: the reader of stdout went away (`| head`)

@@ -11,11 +11,11 @@ from typing import Any
 
 from app import stand_config
 from app.procedure import Finished, Listener, PreflightError, Procedure, RunSettings
-from app.procedure.settings import MODE_MULTISINE
+from app.procedure.modes import MODE_MULTISINE
 from app.records import RunFolder
 from app.stands import open_stand
+from dsp.estimators import DEFAULT_ESTIMATOR
 from dsp.multisine import PRESETS, Plan, make_plan, preset_plan
-from dsp.spectral import DEFAULT_ESTIMATOR
 from sim.models import DUT_CATALOGUE, plan_preset_for
 from sim.stand import Fault
 

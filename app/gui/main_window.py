@@ -59,14 +59,14 @@ from app.procedure import (
     StateChanged,
     WarningRaised,
 )
+from app.procedure.modes import MODES
 from app.procedure.preflight import check_preflight
-from app.procedure.settings import MODES
 from app.records import RunIntegrityError, inspect_run, load_run
 from app.run import RunRequest, start
 from app.run_record import RunRecord
 from dsp.calibration import ReferenceChain, Results
+from dsp.estimators import ESTIMATORS
 from dsp.multisine import PRESETS, Plan, check_lines, make_plan, preset_plan
-from dsp.spectral import ESTIMATORS
 from hardware.errors import HardwareError
 from sim.models import DUT_CATALOGUE
 

@@ -4,11 +4,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from app.procedure.modes import MODE_MULTISINE, MODE_STEPPED_SINE, MODES
 from dsp.spectral import check_periods
 
-MODE_MULTISINE = "multisine"
-MODE_STEPPED_SINE = "stepped-sine"
-MODES = (MODE_MULTISINE, MODE_STEPPED_SINE)  # the one list: CLI, GUI and records read it here
+__all__ = ["MODES", "MODE_MULTISINE", "MODE_STEPPED_SINE", "RunSettings"]
 
 
 @dataclass(frozen=True)
