@@ -174,9 +174,9 @@ def test_the_run_folder_opens_only_while_its_certificate_is_written(monkeypatch,
     seen = []
     real = app.certificate._write_pdf
 
-    def spy(stored_run, info, sweep, path):
+    def spy(stored_run, info, sweep, path, *rest):  # rest: the DCC XML to attach
         seen.append((stat.S_IMODE(run.stat().st_mode), path.parent == run, path.name))
-        real(stored_run, info, sweep, path)
+        real(stored_run, info, sweep, path, *rest)
 
     monkeypatch.setattr(app.certificate, "_write_pdf", spy)
     out = app.certificate.build(
@@ -195,7 +195,7 @@ def test_a_failed_certificate_leaves_the_folder_read_only_and_nothing_behind(
     run = run_of(root, stored, "a")
     before = sorted(p.name for p in run.iterdir())
 
-    def broken(stored_run, info, sweep, path):
+    def broken(stored_run, info, sweep, path, *rest):
         path.write_bytes(b"%PDF-1.4 half")
         raise OSError(28, "No space left on device")
 
