@@ -378,7 +378,9 @@ def _main(argv: Sequence[str] | None) -> int:
         return (COMMANDS | RECORDS_COMMANDS)[args.command](args)
     except BrokenPipeError:
         raise
-    except (UsageError, PlanError, RecordsInputError, *_loaded(_BAD_INPUT_ERRORS)) as exc:
+    # the lazily imported modules' error classes are looked up when an error is matched (the
+    # command has imported them by then), so this tuple is built in the except clause
+    except (UsageError, PlanError, RecordsInputError, *_loaded(_BAD_INPUT_ERRORS)) as exc:  # type: ignore[misc]
         print(f"accelcal {args.command}: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except HardwareError as exc:

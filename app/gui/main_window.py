@@ -674,7 +674,7 @@ class MainWindow(QMainWindow):
     def export_results(self) -> Path | None:
         """Copy the stored results of the shown run (CSV and JSON) beside the run folders."""
         results, record = self.results_tab.results, self.results_tab.record
-        if results is None:
+        if results is None or record is None:
             return None
         target = self.out / f"{record.run_id}-results"
         target.with_suffix(".csv").write_text(results.to_csv(), encoding="utf-8")

@@ -32,7 +32,7 @@ def verdict_of(
         reasons = list(
             record.verdict_reasons or (record.results or {}).get("verdict_reasons") or ()
         )
-    elif verdict is None and record:
+    elif verdict is None and isinstance(record, Mapping):
         verdict = record.get("verdict") or (record.get("results") or {}).get("verdict")
         reasons = list(
             record.get("verdict_reasons")
