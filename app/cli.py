@@ -169,6 +169,11 @@ def build_parser() -> argparse.ArgumentParser:
         description="Accelerometer calibration by comparison, multisine excitation.",
     )
     parser.add_argument("--version", action=_Version, help="show the version and exit")
+    parser.add_argument(
+        "--verbose",
+        action="store_true",
+        help="also show what a run writes to its run.log, and information messages, on stderr",
+    )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     p = sub.add_parser("plan", help="show a frequency plan, its checks and predicted peaks")
@@ -374,6 +379,9 @@ def _main(argv: Sequence[str] | None) -> int:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # --help (0) or an option refused by argparse (2, message said)
         return exc.code if isinstance(exc.code, int) else EXIT_BAD_INPUT
+    from app.logs import setup
+
+    setup(args.verbose)
     try:
         return (COMMANDS | RECORDS_COMMANDS)[args.command](args)
     except BrokenPipeError:
@@ -390,7 +398,14 @@ def _main(argv: Sequence[str] | None) -> int:
         print(f"accelcal {args.command}: {exc}", file=sys.stderr)
         return EXIT_ABORTED
     except Exception as exc:
-        print(f"accelcal {args.command}: failed: {type(exc).__name__}: {exc}", file=sys.stderr)
+        from app.logs import keep_traceback
+
+        kept = keep_traceback(args.command, exc)
+        where = f" (traceback in {kept})" if kept is not None else ""
+        print(
+            f"accelcal {args.command}: failed: {type(exc).__name__}: {exc}{where}",
+            file=sys.stderr,
+        )
         return EXIT_FAILURE
 
 

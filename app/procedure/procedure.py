@@ -47,6 +47,7 @@ from hardware.errors import AmplifierFaultError, HardwareError, OverloadError
 from hardware.interfaces import DaqConfig
 
 log = logging.getLogger(__name__)
+run_log = logging.getLogger("accelcal.run")  # the lines of run.log, as they are written
 
 
 def _plain(value: Any) -> dict[str, Any]:
@@ -340,6 +341,7 @@ class Procedure:
         self.ctx.state(state)
 
     def _log(self, line: str) -> None:
+        run_log.info("%s", line)  # on stderr with --verbose
         if self.folder is not None:
             try:
                 self.folder.log(line)
