@@ -5,9 +5,10 @@ Recording: 51.2 kS/s x 2 channels x 30 s (30 periods of 51 200 samples, ISO 266 
 The CSV holds each sample as Python's shortest round-trip repr ("reference_v,dut_v" header);
 a second CSV is numpy.savetxt's '%.18e' (wider numbers). The TDMS file is written with
 npTDMS's writer, one segment per period. Each reader runs in a fresh process (best time of
-`--repeats`): the time of the reader (read + validate, app.recording / app.tdms), its peak
-traced memory (tracemalloc: numpy buffers and Python objects) and its growth of the maximum
-resident set (ru_maxrss, catches what the HDF5 library allocates), both as multiples of the
+`--repeats`): the time of the reader (read + validate, app.recording / app.tdms), its growth
+of the maximum resident set (ru_maxrss, catches what the HDF5 library allocates) and, in a
+run of its own, its peak traced memory (tracemalloc: numpy buffers and Python objects), both
+as multiples of the
 float64 data (2 x 1 536 000 x 8 B = 24.6 MB); and the whole `accelcal analyze` command. Times
 are printed as ratios to the HDF5 path measured in the same run.
 
@@ -92,11 +93,13 @@ def read(kind: str, path: Path, plan: Plan):
     return read_tdms(path, plan, chain, budget, reference="reference", dut="dut")
 
 
-def measure(kind: str, path: Path) -> dict[str, float]:
-    """Child process: time, traced peak and max-RSS growth of one read, in s and bytes."""
+def measure(kind: str, path: Path, traced: bool) -> dict[str, float]:
+    """Child process: time and max-RSS growth of one read (s, bytes), or with `traced` its
+    traced peak (tracemalloc slows Python objects down, so it is a run of its own)."""
     plan = Plan.from_dict(json.loads((path.parent / "plan.json").read_text()))
     rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
-    tracemalloc.start()
+    if traced:
+        tracemalloc.start()
     t0 = time.perf_counter()
     rec = read(kind, path, plan)
     elapsed = time.perf_counter() - t0
@@ -107,12 +110,10 @@ def measure(kind: str, path: Path) -> dict[str, float]:
     return {"time_s": elapsed, "traced": peak, "rss": rss, "data": data}
 
 
-def child(kind: str, path: Path) -> dict[str, float]:
+def child(kind: str, path: Path, traced: bool = False) -> dict[str, float]:
+    argv = [sys.executable, __file__, "--measure", kind, str(path)]
     out = subprocess.run(
-        [sys.executable, __file__, "--measure", kind, str(path)],
-        check=True,
-        capture_output=True,
-        text=True,
+        [*argv, "--traced"] if traced else argv, check=True, capture_output=True, text=True
     ).stdout
     return json.loads(out)
 
@@ -136,10 +137,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--seconds", type=int, default=30)
     parser.add_argument("--measure", nargs=2, metavar=("KIND", "FILE"), help=argparse.SUPPRESS)
+    parser.add_argument("--traced", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--kinds", default="hdf5,csv,csv-savetxt,tdms")
     args = parser.parse_args(argv)
     if args.measure:
-        print(json.dumps(measure(args.measure[0], Path(args.measure[1]))))
+        print(json.dumps(measure(args.measure[0], Path(args.measure[1]), args.traced)))
         return 0
     kinds = args.kinds.split(",")
     with tempfile.TemporaryDirectory() as tmp:
@@ -153,6 +155,8 @@ def main(argv: list[str] | None = None) -> int:
                 if prev is None or got["time_s"] < prev["time_s"]:
                     best[kind] = got
                 whole[kind] = min(whole.get(kind, np.inf), analyze_time(kind, files[kind]))
+        for kind in kinds:
+            best[kind]["traced"] = child(kind, files[kind], traced=True)["traced"]
         sizes = {kind: files[kind].stat().st_size / 1e6 for kind in kinds}
     base, base_whole = best["hdf5"]["time_s"], whole["hdf5"]
     print(
