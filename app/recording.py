@@ -527,9 +527,18 @@ def merge_skew(
 
 SKEW_LINE = re.compile(r"^#\s*skew_s\s*=\s*(\S+)\s*$")
 CSV_BLOCK_BYTES = 1 << 22  # text parsed at a time, bytes (a block ends at a line end)
-# Line breaks str.splitlines knows besides \n and \r\n: a block holding one is parsed line by
-# line, so line numbers stay those of the text (and of earlier versions).
-_OTHER_BREAKS = re.compile(rb"[\x0b\x0c\x1c\x1d\x1e]|\r(?!\n)")
+# Line breaks str.splitlines knows besides \n and \r\n (ASCII ones; the others are not ASCII):
+# a block holding one is parsed line by line, so line numbers stay those of the text (and of
+# earlier versions). Searched byte by byte (memchr): a regular expression costs more than
+# parsing the numbers.
+_OTHER_BREAKS = (b"\x0b", b"\x0c", b"\x1c", b"\x1d", b"\x1e")
+
+
+def _other_breaks(text: bytes) -> bool:
+    """Whether `text` holds a line break other than \\n and \\r\\n (see _OTHER_BREAKS)."""
+    if b"\r" in text and text.count(b"\r") != text.count(b"\r\n"):
+        return True
+    return any(mark in text for mark in _OTHER_BREAKS)
 
 
 def _parse_csv(handle: BinaryIO, name: str) -> tuple[list[np.ndarray], float | None]:
@@ -542,7 +551,7 @@ def _parse_csv(handle: BinaryIO, name: str) -> tuple[list[np.ndarray], float | N
         raw = handle.readline()
         if not raw:
             break
-        if _OTHER_BREAKS.search(raw):  # lines end with \r alone (or worse): the text whole
+        if _other_breaks(raw):  # lines end with \r alone (or worse): the text whole
             handle.seek(0)
             return _parse_text(handle.read().decode("utf-8").splitlines(), name)
         line = raw.decode("utf-8").rstrip("\r\n")
@@ -626,7 +635,7 @@ def _fast_block(block: bytes, width: int | None) -> np.ndarray | None:
     holds anything but well-formed rows of 2 or 3 numbers (`width` when known), a byte that
     is not ASCII, or another line break than \\n or \\r\\n (the line-by-line parser then
     decides, with the messages and line numbers it always gave)."""
-    if not block.isascii() or _OTHER_BREAKS.search(block):
+    if not block.isascii() or _other_breaks(block):
         return None
     if b";" in block:
         block = block.replace(b";", b",")
