@@ -199,7 +199,7 @@ def build_parser() -> argparse.ArgumentParser:
         csv_group,
         "--settle-periods",
         SETTLE_PERIODS,
-        "leading periods to skip (CSV: of the file, default 0; HDF5: of the analysed ones)",
+        "leading periods to skip (CSV, TDMS: of the file, default 0; HDF5: of the analysed ones)",
         default=None,
     )
     _numeric(csv_group, "--range", RANGE, "channel range, V", dest="range_v")
@@ -532,6 +532,7 @@ def _load_tdms(args: argparse.Namespace):
         dut=args.dut,
         settle_periods=args.settle_periods or 0,
         range_v=args.range_v,
+        source=source,
     )
 
 

@@ -136,13 +136,16 @@ def read_tdms(
     dut: str | None,
     settle_periods: int = 0,
     range_v: float | None = None,
+    source: TdmsSource | None = None,
 ) -> Recording:
     """Read the `reference` and `dut` channels of a TDMS file (volts) and validate them. The
     plan's sample rate must be the file's (1 / wf_increment) when the file states one; the
-    file's skew property and `chain.skew_s` must agree when both are given."""
+    file's skew property and `chain.skew_s` must agree when both are given. `source`: this
+    file's inspect_tdms for these channels, when the caller has it."""
     from nptdms import TdmsFile
 
-    source = inspect_tdms(path, reference, dut)
+    if source is None or source.path != Path(path):
+        source = inspect_tdms(path, reference, dut)
     name = source.path.name
     rate = source.sample_rate_hz
     if rate is not None and not math.isclose(plan.sample_rate_hz, rate, rel_tol=1e-9):
