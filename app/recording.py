@@ -748,7 +748,8 @@ def _check_range(x: np.ndarray, range_v: float, channel: str, name: str) -> None
 def _longest_run(mask: np.ndarray) -> int:
     if not mask.any():
         return 0
-    padded = np.concatenate(([0], mask.astype(np.int8), [0]))
+    padded = np.zeros(mask.size + 2, dtype=np.int8)  # int8 throughout: 2 bytes a sample,
+    padded[1:-1] = mask  # not the 16 of int64 (a recording's memory goes to its samples)
     edges = np.flatnonzero(np.diff(padded))
     return int((edges[1::2] - edges[::2]).max())
 

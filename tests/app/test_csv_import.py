@@ -165,7 +165,9 @@ def test_too_many_rows_refused_naming_the_line(tmp_path, monkeypatch):
 
 def test_peak_memory_at_most_twice_the_samples(tmp_path, monkeypatch):
     """200 000 rows x 3 columns (4.8 MB float64) in 256 KiB blocks: the traced peak of the
-    whole read (parse, columns, validation) stays under 2x the samples."""
+    whole read (parse, columns, validation) stays under 2x the samples (the goal), in fact
+    under 1.6x: the samples, one column being joined, a block; validation's masks take
+    2 bytes a sample."""
     monkeypatch.setattr(recording_module, "CSV_BLOCK_BYTES", 1 << 18)
     n = 200_000
     t = np.arange(n) / 1000.0
@@ -181,4 +183,4 @@ def test_peak_memory_at_most_twice_the_samples(tmp_path, monkeypatch):
     finally:
         tracemalloc.stop()
     np.testing.assert_array_equal(rec.drive_v, data[:, 2])
-    assert peak <= 2.0 * data.nbytes, f"peak {peak / data.nbytes:.2f}x the samples"
+    assert peak <= 1.6 * data.nbytes, f"peak {peak / data.nbytes:.2f}x the samples"
