@@ -6,11 +6,11 @@ The CSV holds each sample as Python's shortest round-trip repr ("reference_v,dut
 a second CSV is numpy.savetxt's '%.18e' (wider numbers). The TDMS file is written with
 npTDMS's writer, one segment per period. Each reader runs in a fresh process (best time of
 `--repeats`): the time of the reader (read + validate, app.recording / app.tdms), its growth
-of the resident set (ru_maxrss after less VmRSS before; catches what the HDF5 library
-allocates) and, in a run of its own, its peak traced memory (tracemalloc: numpy buffers and
-Python objects), both as multiples of the float64 data (2 x 1 536 000 x 8 B = 24.6 MB); and
-the whole `accelcal analyze` command. Times are printed as ratios to the HDF5 path measured in
-the same run.
+of the resident set (VmHWM after, reset by /proc/self/clear_refs, less VmRSS before; catches
+what the HDF5 library allocates) and, in a run of its own, its peak traced memory
+(tracemalloc: numpy buffers and Python objects), both as multiples of the float64 data
+(2 x 1 536 000 x 8 B = 24.6 MB); and the whole `accelcal analyze` command. Times are printed
+as ratios to the HDF5 path measured in the same run.
 
 Goal: CSV at most 1.5x the HDF5 path's time and at most 2x the data's memory.
 
@@ -97,7 +97,7 @@ def measure(kind: str, path: Path, traced: bool) -> dict[str, float]:
     """Child process: time and max-RSS growth of one read (s, bytes), or with `traced` its
     traced peak (tracemalloc slows Python objects down, so it is a run of its own)."""
     plan = Plan.from_dict(json.loads((path.parent / "plan.json").read_text()))
-    rss0 = _resident_bytes()
+    rss0 = _reset_peak()
     if traced:
         tracemalloc.start()
     t0 = time.perf_counter()
@@ -105,20 +105,36 @@ def measure(kind: str, path: Path, traced: bool) -> dict[str, float]:
     elapsed = time.perf_counter() - t0
     _, peak = tracemalloc.get_traced_memory()
     tracemalloc.stop()
-    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024 - rss0
+    rss = _peak_bytes() - rss0
     data = 8 * (rec.reference_v.size + rec.dut_v.size)
     return {"time_s": elapsed, "traced": peak, "rss": rss, "data": data}
 
 
-def _resident_bytes() -> int:
-    """The process's resident set now (VmRSS, Linux), bytes; ru_maxrss where /proc lacks it."""
+def _status_bytes(key: str) -> int | None:
+    """A /proc/self/status figure in bytes (VmRSS, VmHWM; Linux), None without it."""
     try:
         for line in Path("/proc/self/status").read_text().splitlines():
-            if line.startswith("VmRSS:"):
+            if line.startswith(key + ":"):
                 return int(line.split()[1]) * 1024
     except OSError:
         pass
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    return None
+
+
+def _reset_peak() -> int:
+    """Reset the resident-set peak (VmHWM) to now, where Linux allows it; the resident set
+    now, bytes (0 when unknown: the growth printed is then the process's whole peak)."""
+    try:
+        Path("/proc/self/clear_refs").write_text("5")
+    except OSError:
+        return 0
+    return _status_bytes("VmRSS") or 0
+
+
+def _peak_bytes() -> int:
+    """The resident-set peak (VmHWM, else ru_maxrss), bytes."""
+    hwm = _status_bytes("VmHWM")
+    return hwm if hwm is not None else resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
 
 
 def child(kind: str, path: Path, traced: bool = False) -> dict[str, float]:
