@@ -526,7 +526,7 @@ def merge_skew(
 
 
 SKEW_LINE = re.compile(r"^#\s*skew_s\s*=\s*(\S+)\s*$")
-CSV_BLOCK_BYTES = 1 << 22  # text parsed at a time, bytes (a block ends at a line end)
+CSV_BLOCK_BYTES = 1 << 20  # text parsed at a time, bytes (a block ends at a line end)
 # Line breaks str.splitlines knows besides \n and \r\n (ASCII ones; the others are not ASCII):
 # a block holding one is parsed line by line, so line numbers stay those of the text (and of
 # earlier versions). Searched byte by byte (memchr): a regular expression costs more than

@@ -111,7 +111,7 @@ CASES = {
 }
 
 
-@pytest.mark.parametrize("block_bytes", [24, 100, 1 << 22])
+@pytest.mark.parametrize("block_bytes", [24, 100, 1 << 20])
 @pytest.mark.parametrize("case", sorted(CASES))
 def test_same_samples_and_messages_as_the_line_by_line_reader(
     tmp_path, monkeypatch, case, block_bytes
