@@ -21,7 +21,7 @@ import logging
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
@@ -207,7 +207,7 @@ def check_segments(path: Path, size: int) -> None:
                         f"{name}: truncated: the segment at byte {position} ends inside its lead-in"
                     )
                 toc = int.from_bytes(lead_in[4:8], "little")
-                order = "big" if toc & TOC_BIG_ENDIAN else "little"
+                order: Literal["little", "big"] = "big" if toc & TOC_BIG_ENDIAN else "little"
                 following = int.from_bytes(lead_in[12:20], order)
                 if following == UNCLOSED:
                     raise RecordingError(
