@@ -22,7 +22,7 @@ MIB = 1 << 20
 MAX_RECORDING_SAMPLES = 1 << 25
 # A CSV row is at most three numbers of ~25 characters and two separators: 80 bytes is ample.
 MAX_CSV_ROW_BYTES = 80
-# The CSV parser reads blocks of text straight into float64 columns (about 1.5x the samples'
+# The CSV parser reads blocks of text straight into float64 columns (about 1.1x the samples'
 # memory at its peak), so a CSV may hold as many rows as a recording samples (2.5 GiB of text).
 MAX_CSV_ROWS = MAX_RECORDING_SAMPLES
 MAX_CSV_BYTES = MAX_CSV_ROWS * MAX_CSV_ROW_BYTES

@@ -87,6 +87,7 @@ CASES = {
     "underscores": "1_0.5,2\n" + "\n".join(BODY) + "\n",
     "fullwidth digit": "\n".join(BODY[:30]) + "\n１,2\n" + "\n".join(BODY[30:]) + "\n",
     "lone CR": "\r".join(BODY) + "\r",
+    "lone CR later": "\n".join(BODY[:10]) + "\n" + "\r".join(BODY[10:]) + "\r\n",
     "nan and inf": "\n".join(BODY) + "\nnan,inf\n",
     "empty item": "\n".join(BODY[:25]) + "\n1,\n" + "\n".join(BODY[25:]) + "\n",
     "two empty items": "\n".join(BODY[:25]) + "\n1,,2\n" + "\n".join(BODY[25:]) + "\n",
@@ -166,8 +167,8 @@ def test_too_many_rows_refused_naming_the_line(tmp_path, monkeypatch):
 def test_peak_memory_at_most_twice_the_samples(tmp_path, monkeypatch):
     """200 000 rows x 3 columns (4.8 MB float64) in 256 KiB blocks: the traced peak of the
     whole read (parse, columns, validation) stays under 2x the samples (the goal), in fact
-    under 1.6x: the samples, one column being joined, a block; validation's masks take
-    2 bytes a sample."""
+    under 1.25x: the columns are allocated once (lines counted first) and filled in place, a
+    block at a time; validation's masks take 2 bytes a sample."""
     monkeypatch.setattr(recording_module, "CSV_BLOCK_BYTES", 1 << 18)
     n = 200_000
     t = np.arange(n) / 1000.0
@@ -183,4 +184,4 @@ def test_peak_memory_at_most_twice_the_samples(tmp_path, monkeypatch):
     finally:
         tracemalloc.stop()
     np.testing.assert_array_equal(rec.drive_v, data[:, 2])
-    assert peak <= 1.6 * data.nbytes, f"peak {peak / data.nbytes:.2f}x the samples"
+    assert peak <= 1.25 * data.nbytes, f"peak {peak / data.nbytes:.2f}x the samples"
