@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 DEMO_DIR ?= demo-output
 
-.PHONY: venv test demo gui bench lint clean xvfb lock
+.PHONY: venv test test-fast demo gui bench lint typecheck clean xvfb lock
 
 venv: $(STAMP)
 
@@ -43,6 +43,11 @@ xvfb:
 test: $(STAMP) xvfb
 	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest -q
 
+# dsp, units, CLI parsing: under a minute on 2 cores (no runs, subprocesses, GUI, databases or
+# Monte Carlo: markers `integration` and `slow`, see tests/conftest.py)
+test-fast: $(STAMP)
+	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest -q -m "not slow and not integration"
+
 demo: $(STAMP)
 	$(BIN)/accelcal plan --preset piezo
 	$(BIN)/accelcal run --sim --dut piezo --dut-id SN-DEMO-0001 --level 5 --periods 8 --seed 1 \
@@ -58,11 +63,15 @@ bench: $(STAMP)
 	$(BIN)/python bench/crest_factor.py
 	$(BIN)/python bench/analysis_speed.py
 	$(BIN)/python bench/sim_speed.py
+	$(BIN)/python bench/startup.py
 	$(BIN)/python bench/coverage.py 600 piezo
 	$(BIN)/python bench/estimators.py
 	$(BIN)/python bench/excitation_time.py
 	$(BIN)/python bench/records.py
 	QT_QPA_PLATFORM=offscreen $(BIN)/python bench/gui_responsiveness.py
+
+typecheck: $(STAMP)
+	$(BIN)/mypy dsp app --ignore-missing-imports
 
 lint: $(STAMP)
 	$(BIN)/ruff check dsp hardware sim app tests bench

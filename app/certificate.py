@@ -468,6 +468,7 @@ def issue(
     info: CertificateInfo,
     out: str | Path,
     sweep_path: str | Path | None = None,
+    signer: Any = None,
 ) -> Issued:
     """Issue the certificate of a stored, verified, complete run: a number unique under the
     runs root (the run folder's parent; default AC-<run id>, then AC-<run id>-2, ...), the PDF
@@ -503,7 +504,7 @@ def issue(
                     if xml is not None:
                         write_with(xml_out, lambda path: _write_read_only(path, xml))
                         wrote_xml = True
-                    write_with(out, lambda path: _write_pdf(run, info, sweep, path, xml))
+                    write_with(out, lambda path: _write_pdf(run, info, sweep, path, xml, signer))
                 except FileExistsRefusal as exc:
                     if wrote_xml:
                         xml_out.unlink(missing_ok=True)
@@ -621,9 +622,10 @@ def _write_pdf(
     sweep: dict[str, Any] | None,
     out: Path,
     dcc_xml: bytes | None = None,
+    signer: Any = None,
 ) -> None:
     """Draw the certificate PDF of `run` with `info` (numbered) to `out`, read-only, with the
-    DCC XML attached when given."""
+    DCC XML attached when given, signed last with `signer` (app.signing.Signer) when given."""
     record, results = run.record, run.results
     stand = record.get("stand", {})
     lab = stand.get("laboratory", {})
@@ -728,6 +730,8 @@ def _write_pdf(
     document.build(story, canvasmaker=_numbered_canvas(number, lab.get("name", "")))
     if dcc_xml is not None:
         _embed(out, "certificate.xml", dcc_xml)
+    if signer is not None:
+        signer.sign_in_place(out, reason=f"Calibration certificate {number}")
     out.chmod(0o444)
 
 

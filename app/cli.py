@@ -18,11 +18,12 @@ import tempfile
 import tomllib
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
+# Only light modules at the top (numpy at most): `accelcal --help` and the parser stay quick
+# (bench/startup.py, tests/app/test_startup.py). Every command imports what it uses.
 from app import formatting as fmt
-from app import lines, stand_config
-from app.analysis import analyze, read_for_analysis, reanalysis, status_warning
-from app.certificate import CertificateError, CertificateInfo, issue
+from app import lines
 from app.db.cli import Handler
 from app.db.cli import add_commands as add_records_commands
 from app.db.errors import RecordsInputError
@@ -30,21 +31,15 @@ from app.files import FileExistsRefusal, check_target, write_new
 from app.input_files import MAX_TEXT_BYTES, InputFileError, check_input_file
 from app.options import Bounded
 from app.options import numeric_option as _numeric
-from app.procedure import PreflightError, RunNotRecordedError
-from app.recording import RecordingError, read_csv
-from app.records import is_run_folder, refuse_in_run_folder
-from app.run import RunRequest, execute
-from app.simulate import SimulationError, simulate
-from app.stand_config import ConfigError
-from app.version import software_version
-from dsp.calibration import AnalysisError, ReferenceChain, Results
 from dsp.multisine import PRESETS, Plan, PlanError, make_plan
-from dsp.segments import SegmentError
-from dsp.spectral import check_periods
-from dsp.uncertainty import Budget
 from hardware.errors import HardwareError
 from sim.models import DUT_CATALOGUE, StandModel
-from sim.stand import Fault
+
+if TYPE_CHECKING:
+    from app.run import RunRequest
+    from dsp.calibration import Results
+    from dsp.uncertainty import Budget
+    from sim.stand import Fault
 
 EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT, EXIT_ABORTED = 0, 1, 2, 3
 EXIT_BROKEN_PIPE = 128 + 13  # SIGPIPE: the reader of stdout went away (`| head`)
@@ -140,6 +135,21 @@ class _Parser(argparse.ArgumentParser):
 NEGATIVE_NUMBER = re.compile(r"^-\.?\d")
 
 
+class _Version(argparse.Action):
+    """--version: the version (which asks git) is looked up only when asked for, not at every
+    start-up."""
+
+    def __init__(self, option_strings: list[str], dest: str, **kwargs: object) -> None:
+        kwargs.pop("default", None)
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, **kwargs)  # type: ignore[arg-type]
+
+    def __call__(self, parser, namespace, values, option_string=None) -> None:  # type: ignore[no-untyped-def]
+        from app.version import software_version
+
+        parser._print_message(f"accelcal {software_version()}\n", sys.stdout)
+        parser.exit()
+
+
 def _add_plan_options(p: argparse.ArgumentParser | argparse._ArgumentGroup) -> None:
     p.add_argument("--preset", choices=sorted(PRESETS), help="named plan (default piezo)")
     p.add_argument("--frequencies", help="line list in Hz, e.g. 10,12.5,...,2500 (ISO 266 fill)")
@@ -155,7 +165,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog="accelcal",
         description="Accelerometer calibration by comparison, multisine excitation.",
     )
-    parser.add_argument("--version", action="version", version=f"accelcal {software_version()}")
+    parser.add_argument("--version", action=_Version, help="show the version and exit")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     p = sub.add_parser("plan", help="show a frequency plan, its checks and predicted peaks")
@@ -246,6 +256,12 @@ def build_parser() -> argparse.ArgumentParser:
         "--db", metavar="URL", help="records database (default $ACCELCAL_DB, else SQLite file)"
     )
     records.add_argument(
+        "--teds",
+        action="store_true",
+        help="identify the DUT by its TEDS (the records' sensor with that identity, else the "
+        "TEDS serial and nominal sensitivity)",
+    )
+    records.add_argument(
         "--reference-override",
         metavar="REASON",
         help="use a reference standard past its due date, for this stated reason",
@@ -267,6 +283,7 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--autorun", action="store_true", help="start a run at once")
     g.add_argument("--screenshot", type=Path, help="save a PNG of the window (after the run)")
     g.add_argument("--quit-after-run", action="store_true", help="close when the run ends")
+    g.add_argument("--db", help="records database URL (default: $ACCELCAL_DB, else the local file)")
 
     c = sub.add_parser("certificate", help="the PDF certificate of a stored complete run")
     c.add_argument("run", type=Path, help="run folder")
@@ -283,6 +300,12 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--issue-date", help="YYYY-MM-DD (default: the run's date)")
     c.add_argument("--notes", default="", help="free text printed under Notes")
     c.add_argument("--sweep", type=Path, help="sweep summary (sweep-*.json) the run belongs to")
+    c.add_argument(
+        "--sign",
+        type=Path,
+        metavar="P12",
+        help="sign the PDF (PAdES) with the lab's key; password from $ACCELCAL_SIGN_PASSWORD",
+    )
     cr = c.add_argument_group("records (accelcal db): customer, sensor and number from there")
     cr.add_argument("--db", metavar="URL", help="records database (default $ACCELCAL_DB)")
     cr.add_argument("--prepared-by", help="who prepared it (default: the login name)")
@@ -300,6 +323,23 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--out", type=Path, help="recording to write (.h5)")
     s.add_argument("--overwrite", action="store_true", help="--out may replace an existing file")
     s.add_argument("--json", action="store_true", help="machine-readable output")
+    t = sub.add_parser("teds", help="a sensor's TEDS (IEEE 1451.4): decode a file, read, write")
+    tsub = t.add_subparsers(dest="teds_command", required=True, metavar="ACTION")
+    tsub.add_parser("decode", help="decode an NI .ted file").add_argument("file", type=Path)
+    tr = tsub.add_parser("read", help="read the DUT channel's TEDS on a stand")
+    tw = tsub.add_parser("write", help="write a complete run's sensitivity and date to the TEDS")
+    tw.add_argument("run", type=Path, help="the run folder whose result is written")
+    tw.add_argument("--initials", default="", help="calibrator's initials, up to 3 letters")
+    tw.add_argument("--yes", action="store_true", help="write without asking (scripts)")
+    for p in (tr, tw):
+        p.add_argument("--stand", type=Path, help="stand configuration (default: simulated)")
+        p.add_argument("--dut", type=_dut_name, default="piezo", help="simulated DUT")
+        _numeric(p, "--seed", SEED, "simulated stand: random seed", default=0)
+
+    v = sub.add_parser("verify", help="check a certificate PDF: signature, DCC, run")
+    v.add_argument("pdf", type=Path, help="certificate PDF")
+    v.add_argument("--run", type=Path, help="the run folder it certifies (manifest and numbers)")
+    v.add_argument("--trust", type=Path, help="the CA certificate (PEM or DER) to trust")
     RECORDS_COMMANDS.update(add_records_commands(sub))
     return parser
 
@@ -336,29 +376,39 @@ def _main(argv: Sequence[str] | None) -> int:
         return (COMMANDS | RECORDS_COMMANDS)[args.command](args)
     except BrokenPipeError:
         raise
-    except (
-        UsageError,
-        PlanError,
-        RecordingError,
-        SegmentError,
-        AnalysisError,
-        SimulationError,
-        ConfigError,
-        PreflightError,
-        CertificateError,
-        RecordsInputError,
-    ) as exc:
+    except (UsageError, PlanError, RecordsInputError, *_loaded(_BAD_INPUT_ERRORS)) as exc:
         print(f"accelcal {args.command}: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except HardwareError as exc:
         print(f"accelcal {args.command}: {type(exc).__name__}: {exc}", file=sys.stderr)
         return EXIT_FAILURE
-    except RunNotRecordedError as exc:
+    except _loaded(_NOT_RECORDED_ERRORS) as exc:
         print(f"accelcal {args.command}: {exc}", file=sys.stderr)
         return EXIT_ABORTED
     except Exception as exc:
         print(f"accelcal {args.command}: failed: {type(exc).__name__}: {exc}", file=sys.stderr)
         return EXIT_FAILURE
+
+
+# Errors of the heavy modules, by (module, class): a module never imported raised none, so
+# main() catches them without importing it.
+_BAD_INPUT_ERRORS = (
+    ("app.recording", "RecordingError"),
+    ("dsp.segments", "SegmentError"),
+    ("dsp.calibration", "AnalysisError"),
+    ("app.simulate", "SimulationError"),
+    ("app.stand_config", "ConfigError"),
+    ("app.procedure", "PreflightError"),
+    ("app.certificate", "CertificateError"),
+)
+_NOT_RECORDED_ERRORS = (("app.procedure", "RunNotRecordedError"),)
+
+
+def _loaded(errors: tuple[tuple[str, str], ...]) -> tuple[type[BaseException], ...]:
+    """The classes named in `errors` whose module has been imported."""
+    return tuple(
+        getattr(sys.modules[module], name) for module, name in errors if module in sys.modules
+    )
 
 
 def _writable_folder(folder: Path, option: str) -> None:
@@ -434,6 +484,12 @@ def cmd_plan(args: argparse.Namespace) -> int:
 
 
 def _load(args: argparse.Namespace):
+    from app.analysis import read_for_analysis, reanalysis
+    from app.recording import read_csv
+    from app.records import is_run_folder
+    from dsp.calibration import ReferenceChain
+    from dsp.uncertainty import Budget
+
     if args.file.is_dir() and not is_run_folder(args.file):
         raise UsageError(
             f"{args.file}: is a folder but not a run folder (no manifest.json); name a "
@@ -555,6 +611,8 @@ def _chain_and_budget(args: argparse.Namespace, kind: str) -> tuple[ReferenceCha
 
 
 def _read_budget(path: Path) -> Budget:
+    from dsp.uncertainty import Budget
+
     try:
         check_input_file(path, MAX_TEXT_BYTES, "budget file")
     except InputFileError as exc:
@@ -575,6 +633,8 @@ def _read_budget(path: Path) -> Budget:
 
 
 def cmd_analyze(args: argparse.Namespace) -> int:
+    from app.analysis import analyze, status_warning
+
     if not 0 < args.coverage < 1:
         raise UsageError(f"--coverage: must be between 0 and 1, got {args.coverage:g}")
     if args.segments is not None and args.segments < 1:
@@ -627,6 +687,8 @@ def _output_target(
 ) -> None:
     """UsageError naming `option` when `target` is an input, inside a run folder, or exists
     without --overwrite."""
+    from app.records import refuse_in_run_folder
+
     try:
         check_target(target, inputs=inputs, overwrite=overwrite)
         refuse_in_run_folder(target)
@@ -740,13 +802,44 @@ def parse_seconds(text: str, option: str) -> float:
 
 def _faults(texts: list[str]) -> tuple[Fault, ...]:
     """--fault KIND@SECONDS options as faults of the simulated stand."""
+    from sim.stand import Fault
+
     try:
         return tuple(Fault.parse(text) for text in texts)
     except ValueError as exc:
         raise UsageError(str(exc)) from None
 
 
+def _dut_from_teds(args: argparse.Namespace, use_records: bool, notes: list[str]) -> str | None:
+    """run --teds: the DUT's TEDS read on the stand; the records' sensor of that identity
+    (its serial, for --sensor), else the TEDS serial and nominal sensitivity."""
+    from app import teds_io
+    from hardware.teds import TedsError, decode
+
+    try:
+        teds = decode(teds_io.open_port(args.stand, args.dut, args.seed).read())
+    except TedsError as exc:
+        raise UsageError(f"--teds: {exc}") from None
+    identity = teds.basic.identity
+    notes.append(f"TEDS identity {identity}")
+    if use_records:
+        from app.db.engine import open_engine
+        from app.db.lab import Lab
+
+        sensor = Lab(open_engine(args.db)).sensor_by_teds(identity)
+        if args.sensor and args.sensor != sensor.serial:
+            raise UsageError(f"--sensor: {args.sensor!r} is not the TEDS sensor {sensor.serial!r}")
+        return sensor.serial
+    args.dut_id = args.dut_id or f"TEDS-{identity.replace('/', '-')}"
+    if teds.accelerometer is not None and args.nominal_sensitivity is None:
+        args.nominal_sensitivity = teds.accelerometer.sensitivity_mv_per_ms2
+    return args.sensor
+
+
 def cmd_run(args: argparse.Namespace) -> int:
+    from app.run import RunRequest, execute
+    from dsp.spectral import check_periods
+
     if args.sim and args.stand:
         raise UsageError("--sim and --stand: choose one")
     try:
@@ -760,6 +853,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     _writable_folder(args.out, "--out")
     use_records = bool(args.sensor or args.db or os.environ.get("ACCELCAL_DB"))
     notes: list[str] = []
+    if args.teds:
+        args.sensor = _dut_from_teds(args, use_records, notes)
     if args.sensor:
         from app.db.runs import sensor_defaults
 
@@ -775,6 +870,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     if use_records:
         from datetime import UTC, datetime
 
+        from app import stand_config
         from app.db.runs import check_reference_due
 
         reference_id = stand_config.load(args.stand).reference.id
@@ -954,10 +1050,14 @@ def cmd_gui(args: argparse.Namespace) -> int:
         quit_after_run=args.quit_after_run,
         dut=args.dut,
         sim=args.sim,
+        db=args.db,
     )
 
 
 def cmd_certificate(args: argparse.Namespace) -> int:
+    from app.certificate import CertificateInfo, issue
+    from app.records import is_run_folder
+
     info = CertificateInfo(
         customer=args.customer,
         customer_address=args.customer_address,
@@ -972,6 +1072,14 @@ def cmd_certificate(args: argparse.Namespace) -> int:
         notes=args.notes,
     )
     out = args.out or (args.run / "certificate.pdf")
+    signer = None
+    if args.sign is not None:
+        from app.signing import Signer, SigningError
+
+        try:
+            signer = Signer.load(args.sign)
+        except SigningError as exc:
+            raise UsageError(str(exc)) from None
     if args.out is not None and not is_run_folder(args.out.parent):  # a run's own: see issue()
         _writable_folder(args.out.parent, "--out")
     if args.db or os.environ.get("ACCELCAL_DB"):
@@ -987,11 +1095,12 @@ def cmd_certificate(args: argparse.Namespace) -> int:
             sweep_path=args.sweep,
             replaces=args.replaces,
             reason=args.reason,
+            signer=signer,
         )
     elif args.prepared_by or args.replaces or args.reason:
         raise UsageError("--prepared-by, --replaces, --reason: need the records (--db URL)")
     else:
-        issued = issue(args.run, info, out, args.sweep)
+        issued = issue(args.run, info, out, args.sweep, signer)
     print(f"certificate {issued.number}: {out}")
     from app.certificate import dcc_path
 
@@ -1004,6 +1113,7 @@ def cmd_certificate(args: argparse.Namespace) -> int:
 
 def cmd_show(args: argparse.Namespace) -> int:
     from app.records import load_run
+    from dsp.calibration import Results
 
     try:
         record = load_run(args.run)
@@ -1027,6 +1137,8 @@ def cmd_show(args: argparse.Namespace) -> int:
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
+    from app.simulate import simulate
+
     if args.list:
         return print_catalogue(args.json)
     if args.out is None:
@@ -1078,7 +1190,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 def print_catalogue(as_json: bool) -> int:
     """The simulated stand's exciter, reference and DUTs."""
     stand = StandModel()
-    entries = {
+    entries: dict[str, Any] = {
         "exciter": {
             "name": stand.exciter.name,
             "suspension_resonance_hz": stand.exciter.suspension_hz,
@@ -1116,6 +1228,63 @@ def print_catalogue(as_json: bool) -> int:
     return EXIT_OK
 
 
+def cmd_teds(args: argparse.Namespace) -> int:
+    """accelcal teds decode|read|write; writing asks first (or --yes) and reads back."""
+    from app import teds_io
+    from app.records import load_run
+    from hardware.teds import TedsError, decode, read_ted_file
+
+    try:
+        if args.teds_command == "decode":
+            for line in teds_io.describe(decode(read_ted_file(args.file))):
+                print(line)
+            return EXIT_OK
+        port = teds_io.open_port(args.stand, args.dut, args.seed)
+        current = port.read()
+        if args.teds_command == "read":
+            print(f"TEDS on {port.description}:")
+            for line in teds_io.describe(decode(current)):
+                print(f"  {line}")
+            return EXIT_OK
+        record = load_run(args.run)
+        new = teds_io.calibrated_teds(current, record, args.initials)
+    except (TedsError, ValueError) as exc:  # a run that does not verify is a ValueError too
+        raise UsageError(str(exc)) from None
+    assert new.accelerometer is not None
+    old = decode(current).accelerometer
+    change = (
+        f"sensitivity {old.sensitivity_mv_per_ms2 if old else float('nan'):.5g} -> "
+        f"{new.accelerometer.sensitivity_mv_per_ms2:.5g} mV/(m/s^2), calibration date "
+        f"{new.accelerometer.calibration_date} (run {record.get('run_id')})"
+    )
+    if not args.yes:
+        if not sys.stdin.isatty():
+            raise UsageError("--yes: writing a TEDS needs a confirmation (a terminal, or --yes)")
+        answer = input(f"Write to the TEDS on {port.description}: {change}? [y/N] ")
+        if answer.strip().lower() not in ("y", "yes"):
+            print("TEDS not written")
+            return EXIT_OK
+    teds_io.write_checked(port, new)
+    print(f"TEDS written and read back on {port.description}: {change}")
+    return EXIT_OK
+
+
+def cmd_verify(args: argparse.Namespace) -> int:
+    """accelcal verify: exit 0 when every check holds, 2 when one fails or the input is bad."""
+    from app.signing import verify
+
+    for option, path in (("pdf", args.pdf), ("--trust", args.trust)):
+        if path is not None and not path.is_file():
+            raise UsageError(f"{option}: no such file {path}")
+    if args.run is not None and not args.run.is_dir():
+        raise UsageError(f"--run: no such run folder {args.run}")
+    report = verify(args.pdf, args.run, args.trust)
+    for name, ok, detail in report.checks:
+        print(f"{'ok  ' if ok else 'FAIL'} {name}" + (f": {detail}" if detail else ""))
+    print("certificate verified" if report.ok else "certificate NOT verified")
+    return EXIT_OK if report.ok else EXIT_BAD_INPUT
+
+
 COMMANDS = {
     "plan": cmd_plan,
     "analyze": cmd_analyze,
@@ -1125,6 +1294,8 @@ COMMANDS = {
     "certificate": cmd_certificate,
     "devices": cmd_devices,
     "gui": cmd_gui,
+    "verify": cmd_verify,
+    "teds": cmd_teds,
 }
 
 

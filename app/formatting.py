@@ -3,19 +3,29 @@
 from __future__ import annotations
 
 import math
+from decimal import ROUND_HALF_UP, Decimal, localcontext
+
+
+def _round_half_up(x: float, exponent: int) -> Decimal:
+    """`x` rounded to a multiple of 10**exponent, ties away from zero, on the decimal that
+    prints as `x` (repr): 9.95 -> 10 and 1.25e-05 -> 1.3e-05, although the binary doubles lie
+    just below and just above those ties."""
+    with localcontext() as ctx:
+        ctx.prec = 800  # enough for any double at any exponent: quantize never raises
+        return Decimal(repr(float(x))).quantize(Decimal(1).scaleb(exponent), ROUND_HALF_UP)
 
 
 def round_gum(value: float, uncertainty: float, digits: int = 2) -> tuple[str, str]:
     """Round per GUM 7.2.6: uncertainty to `digits` significant digits, value to the same place."""
     if not (math.isfinite(value) and math.isfinite(uncertainty)) or uncertainty <= 0:
         return (f"{value:.4g}" if math.isfinite(value) else "n/a", "n/a")
-    exponent = math.floor(math.log10(uncertainty)) - (digits - 1)
-    rounded_u = round(uncertainty, -exponent)
-    if rounded_u >= 10 ** (exponent + digits):  # e.g. 0.0996 -> 0.10: one digit more
+    exponent = Decimal(repr(float(uncertainty))).adjusted() - (digits - 1)
+    rounded_u = _round_half_up(uncertainty, exponent)
+    if rounded_u >= Decimal(1).scaleb(exponent + digits):  # 0.0996 -> 0.10: one digit fewer
         exponent += 1
-        rounded_u = round(uncertainty, -exponent)
+        rounded_u = _round_half_up(uncertainty, exponent)
     decimals = max(0, -exponent)
-    text = f"{round(value, -exponent):.{decimals}f}"
+    text = f"{_round_half_up(value, exponent):.{decimals}f}"
     if float(text) == 0:
         text = text.lstrip("-")
     return text, f"{rounded_u:.{decimals}f}"
@@ -31,8 +41,11 @@ def significant(value: float, digits: int = 2) -> str:
     """`value` to `digits` significant digits, trailing zeros kept (0.80, 1.2, 12)."""
     if not math.isfinite(value) or value == 0:
         return "n/a" if not math.isfinite(value) else "0"
-    decimals = max(0, digits - 1 - math.floor(math.log10(abs(value))))
-    return f"{round(value, decimals):.{decimals}f}"
+    exponent = Decimal(repr(float(value))).adjusted() - (digits - 1)
+    if abs(_round_half_up(value, exponent)) >= Decimal(1).scaleb(exponent + digits):
+        exponent += 1  # 9.96 -> 10: one digit fewer after the point
+    decimals = max(0, -exponent)  # never rounded left of the point: 123.4 -> 123
+    return f"{_round_half_up(value, -decimals):.{decimals}f}"
 
 
 def percent(ratio: float, decimals: int = 2) -> str:

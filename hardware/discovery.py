@@ -82,6 +82,11 @@ def _identify(resource_manager: Any, name: str, timeout_ms: int) -> dict[str, An
         return entry
     try:
         entry["idn"] = str(resource.query("*IDN?")).strip()
+        if entry["idn"].upper().startswith("ERROR"):
+            # the B&K 2525 has no *IDN?; it identifies itself to Identify? (manual vol. 2, 9.1)
+            answer = str(resource.query("Identify?")).strip()
+            # its answers carry a header by default (Header Long, vol. 2 4.3.2): ":Identify ..."
+            entry["idn"] = answer.split(None, 1)[1] if answer.startswith(":") else answer
     except Exception as exc:
         entry["error"] = f"no answer to *IDN?: {_text(exc)}"
     finally:

@@ -20,7 +20,7 @@ Reader errors are passed on through the queue and re-raised (translated) by `rea
 `stop` writes a period of zeros, waits for it to play out, then stops and closes both tasks;
 it does this on every path (also after an error) and never raises. If the zeros cannot be
 written it falls back to a one-sample on-demand AO write of 0 V; if that fails too, `output_v`
-becomes None (unknown).
+becomes None (unknown), and stays so until a later `stop` manages the 0 V write.
 
 nidaqmx is imported lazily; a missing Python package or NI-DAQmx driver raises
 `DaqNotFoundError` whose message starts with "NI-DAQmx is not installed: ".
@@ -259,7 +259,7 @@ class NiDaq:
         """Play a period of 0 V, then stop and close both tasks. Never raises."""
         with self._lock:
             ao, ai, reader, config = self._ao, self._ai, self._reader, self._config
-            zeroed = True
+            zeroed = self._output_v is not None  # unknown stays unknown until 0 V is written
             if self._generating and ao is not None and config is not None:
                 zeroed = self._play_zeros(ao, config)
             self._stop_event.set()
@@ -452,3 +452,39 @@ def _quietly(action: Callable[[], Any], what: str) -> None:
         action()
     except Exception as exc:
         log.warning("%s: %s", what, exc)
+
+
+# --- TEDS (IEEE 1451.4) on a physical channel: read, and write only when asked --------------
+
+
+def read_teds_bits(physical_channel: str, *, ni: SimpleNamespace | None = None) -> tuple[int, ...]:
+    """The TEDS bits of a physical channel (e.g. "Dev1/ai1") as DAQmx reads them from the
+    sensor (PhysicalChannel.teds_bit_stream, bytes LSB first); HardwareError when none."""
+    from hardware.teds import bits_from_bytes
+
+    ni = ni or import_nidaqmx()
+    try:
+        channel = ni.system.PhysicalChannel(physical_channel)
+        data = bytes(channel.teds_bit_stream)
+    except Exception as exc:
+        raise translate_error(exc, f"NI-DAQ {physical_channel} TEDS") from None
+    if not data:
+        raise DaqNotFoundError(f"NI-DAQ {physical_channel}: no TEDS sensor found on the channel")
+    return bits_from_bytes(data)
+
+
+def write_teds_bits(
+    physical_channel: str, bits: tuple[int, ...], *, ni: SimpleNamespace | None = None
+) -> None:
+    """Write TEDS bits to the sensor on a physical channel (its Basic TEDS left as it is)."""
+    from hardware.teds import bitstream_bytes
+
+    ni = ni or import_nidaqmx()
+    try:
+        channel = ni.system.PhysicalChannel(physical_channel)
+        channel.write_to_teds_from_array(
+            list(bitstream_bytes(bits)),
+            basic_teds_options=ni.constants.WriteBasicTEDSOptions.DO_NOT_WRITE,
+        )
+    except Exception as exc:
+        raise translate_error(exc, f"NI-DAQ {physical_channel} TEDS write") from None

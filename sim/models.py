@@ -19,7 +19,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.signal
 
 from sim.lti import Model, Stage, highpass1, highpass2, lowpass1, resonance
 
@@ -51,6 +50,8 @@ def zpk_stages(
 def elliptic_lowpass(order: int, edge_hz: float, ripple_db: float, stop_db: float) -> Model:
     """Analog elliptic (Cauer) low-pass: passband to `edge_hz` within `ripple_db`, at least
     `stop_db` down in the stopband."""
+    import scipy.signal  # here: importing the models stays light
+
     z, p, k = scipy.signal.ellip(
         order, ripple_db, stop_db, 2 * np.pi * edge_hz, analog=True, output="zpk"
     )
@@ -131,8 +132,13 @@ class ExciterModel:
         return Model((lowpass1(0.2), lowpass1(0.3)), 1.0 / ((2 * np.pi) ** 2 * 0.2 * 0.3))
 
     def nonlinearity(self, v: np.ndarray) -> np.ndarray:
-        x = v / 10.0
-        return v + 10.0 * (self.quadratic * x**2 - self.cubic * x**3)
+        """v + c2 v^2/V0 - c3 v^3/V0^2 (V0 = 10 V), in Horner form."""
+        out = v * (-self.cubic / 100.0)
+        out += self.quadratic / 10.0
+        out *= v
+        out += 1.0
+        out *= v
+        return out
 
 
 @dataclass(frozen=True)
@@ -194,8 +200,11 @@ class AdcModel:
     def quantise(self, x: np.ndarray, range_v: float) -> np.ndarray:
         """Round to the ADC step (2 range / 2^bits) and clip to the code range."""
         step = 2.0 * range_v / 2**self.bits
-        codes = np.clip(np.round(x / step), -(2 ** (self.bits - 1)), 2 ** (self.bits - 1) - 1)
-        return codes * step
+        codes = x / step
+        np.rint(codes, out=codes)
+        np.clip(codes, -(2 ** (self.bits - 1)), 2 ** (self.bits - 1) - 1, out=codes)
+        codes *= step
+        return codes
 
 
 REFERENCE = SensorModel(

@@ -250,6 +250,7 @@ class SimulatedStand:
             )
         }
         self._hum_phases = np.random.default_rng(seeds[6]).uniform(0, 2 * np.pi, (2, 8))
+        self._hum_table: tuple[np.ndarray, float] | None = None  # (2, k spans + n), fs
         self.output = OutputRecord()
         self._config: DaqConfig | None = None
         self._buffer: np.ndarray | None = None  # the period playing (regenerated)
@@ -264,6 +265,19 @@ class SimulatedStand:
         self._power_state = False  # its output, as last read
         self._sample_index = 0
         self._wall_start = 0.0
+        from sim.teds import TedsMemory, catalogue_teds
+
+        self.dut_teds = TedsMemory(catalogue_teds(dut, serial_number=10_000 + seed % 10_000))
+
+    # --- the DUT's TEDS (IEEE 1451.4) -----------------------------------------------------
+
+    def read_teds(self) -> tuple[int, ...]:
+        """The bits of the DUT channel's TEDS."""
+        return self.dut_teds.read()
+
+    def write_teds(self, bits: tuple[int, ...]) -> None:
+        """Write the DUT channel's TEDS (refused unless it decodes)."""
+        self.dut_teds.write(bits)
 
     # --- what the analysis is told (nominal values and the certificate) ---------------------
 
@@ -510,56 +524,59 @@ class SimulatedStand:
         m, d = self.model, self.deviations
         n = drive.size
         amp = m.amplifier
-        v = drive * amp.gain + amp.noise_v * self._noise["amp"].standard_normal(n)
-        v = np.clip(v, -amp.output_limit_v, amp.output_limit_v)
+        v = self._noise["amp"].standard_normal(n)
+        v *= amp.noise_v
+        v += drive * amp.gain
+        np.clip(v, -amp.output_limit_v, amp.output_limit_v, out=v)
         if self._amp_tripped or self.power_output_on is False:
             v = np.zeros(n)
         u = m.exciter.nonlinearity(v)
         chain = self._chain.process(u)
         displacement = chain["displacement"]
         limit = m.exciter.stroke_peak_to_peak_m / 2
-        if np.max(np.abs(displacement)) > limit and not self._amp_tripped:
+        peak = max(float(displacement.max(initial=0.0)), -float(displacement.min(initial=0.0)))
+        if peak > limit and not self._amp_tripped:
             self._amp_tripped = True
             if self._power is not None:  # the over-travel switch opens the interlock
                 self._power.write("SIM:INTERLOCK 0")
                 return self._simulate(drive)
             raise AmplifierFaultError(
                 f"simulated power amplifier: exciter over-travel interlock (displacement "
-                f"{1e3 * np.max(np.abs(displacement)):.2f} mm > {1e3 * limit:g} mm) at "
+                f"{1e3 * peak:.2f} mm > {1e3 * limit:g} mm) at "
                 f"{self.sim_time_s:g} s; lower the level at low frequencies"
             )
         fs = config.sample_rate_hz
         sensor_noise = math.sqrt(fs / 2) * G_N
-        reference = chain["reference"] * m.reference_gain * d.reference_gain
-        reference += (
+        reference = chain["reference"]
+        reference *= m.reference_gain * d.reference_gain
+        noise = self._noise["ref_sensor"].standard_normal(n)
+        noise *= (
             m.reference.noise_g_per_rthz
             * sensor_noise
             * m.reference.sensitivity_mv_per_ms2
             * 1e-3
             * m.reference_gain
-            * self._noise["ref_sensor"].standard_normal(n)
         )
+        reference += noise
         dut = chain["dut"]
         if self._cubic is not None:
             dut += self._cubic.process(self.dut.cubic_per_ms2_sq * chain["acceleration"] ** 3)
-        dut += (
-            self.dut.noise_g_per_rthz
-            * sensor_noise
-            * self.dut.sensitivity_mv_per_ms2
-            * 1e-3
-            * self._noise["dut_sensor"].standard_normal(n)
-        )
+        noise = self._noise["dut_sensor"].standard_normal(n)
+        noise *= self.dut.noise_g_per_rthz * sensor_noise * self.dut.sensitivity_mv_per_ms2 * 1e-3
+        dut += noise
         hum_reference, hum_dut = self._hum(n, fs)
         adc = m.adc
-        out = {
-            "reference": reference * d.daq_gain_reference
-            + hum_reference
-            + adc.noise_v * self._noise["adc_ref"].standard_normal(n),
-            "dut": dut * d.daq_gain_dut
-            + hum_dut
-            + adc.noise_v * self._noise["adc_dut"].standard_normal(n),
-            "drive": drive.copy(),
-        }
+        reference *= d.daq_gain_reference
+        reference += hum_reference
+        noise = self._noise["adc_ref"].standard_normal(n)
+        noise *= adc.noise_v
+        reference += noise
+        dut *= d.daq_gain_dut
+        dut += hum_dut
+        noise = self._noise["adc_dut"].standard_normal(n)
+        noise *= adc.noise_v
+        dut += noise
+        out = {"reference": reference, "dut": dut, "drive": drive.copy()}
         ranges = {c.name: c.range_v for c in config.inputs}
         for name in ("reference", "dut", "drive"):
             if name in ranges:
@@ -568,9 +585,30 @@ class SimulatedStand:
 
     def _hum(self, n: int, fs: float) -> tuple[np.ndarray, np.ndarray]:
         """Mains hum (V) on the reference and DUT channels for the next n samples; the DUT
-        channel is sampled `skew_s` later. One complex exponential, harmonics by products."""
+        channel is sampled `skew_s` later. When a whole number of mains cycles spans a whole
+        number of samples (50 Hz at 6, 12 or 51.2 kS/s: one cycle), it is cut from a table of
+        one such span, computed once; else computed for the block."""
+        start = self._sample_index
+        span = _hum_span(fs, self.model.mains_hz)
+        if span is None:
+            return self._hum_block(start, n, fs)
+        if (
+            self._hum_table is None
+            or self._hum_table[1] != fs
+            or self._hum_table[0].shape[1] < span + n
+        ):
+            repeats = -(-(span + n) // span)
+            one = np.vstack(self._hum_block(0, span, fs))
+            self._hum_table = (np.tile(one, repeats), fs)
+        table = self._hum_table[0]
+        offset = start % span
+        return table[0, offset : offset + n], table[1, offset : offset + n]
+
+    def _hum_block(self, start: int, n: int, fs: float) -> tuple[np.ndarray, np.ndarray]:
+        """The hum for samples start .. start + n - 1: one complex exponential, harmonics by
+        products."""
         m = self.model
-        time_s = (self._sample_index + np.arange(n)) / fs
+        time_s = (start + np.arange(n)) / fs
         base = np.exp(2j * np.pi * m.mains_hz * time_s)
         rotor = np.ones(n, complex)
         reference, dut = np.zeros(n), np.zeros(n)
@@ -580,6 +618,19 @@ class SimulatedStand:
             reference += amplitude * (rotor * np.exp(1j * self._hum_phases[0, h])).imag
             dut += amplitude * (rotor * (skew * np.exp(1j * self._hum_phases[1, h]))).imag
         return reference, dut
+
+
+def _hum_span(fs: float, mains_hz: float, max_cycles: int = 50) -> int | None:
+    """The fewest samples holding a whole number of mains cycles (at most `max_cycles`), or
+    None when there is no such span."""
+    if mains_hz <= 0:
+        return None
+    per_cycle = fs / mains_hz
+    for cycles in range(1, max_cycles + 1):
+        samples = per_cycle * cycles
+        if abs(samples - round(samples)) < 1e-9 * samples and round(samples) >= 1:
+            return round(samples)
+    return None
 
 
 class _FailingResource:

@@ -7,6 +7,7 @@ import atexit
 import os
 import shutil
 import tempfile
+from pathlib import Path
 
 import pytest
 
@@ -49,3 +50,36 @@ def _isolated_qt_settings(tmp_path_factory: pytest.TempPathFactory) -> None:
     folder = tmp_path_factory.mktemp("qsettings")
     for fmt in (QSettings.Format.NativeFormat, QSettings.Format.IniFormat):
         QSettings.setPath(fmt, QSettings.Scope.UserScope, str(folder))
+
+
+# The fast tier (`make test-fast`: dsp, units, CLI parsing) leaves out whatever runs a
+# calibration, a subprocess, the GUI, a database or a Monte Carlo study. Whole files are marked
+# here by path, tests of other files by the fixtures they use (a completed calibration run, the
+# Qt window); single tests elsewhere carry @pytest.mark.integration / slow themselves.
+INTEGRATION_PATHS = (
+    "app/db/",  # SQLite and PostgreSQL records databases, migrations, concurrent writers
+    "app/test_certificate.py",  # fixture runs, PDFs
+    "app/test_dcc.py",  # a fixture run, its certificate and DCC
+    "app/test_honest_numbers.py",  # calibration runs and recordings end to end
+    "app/test_procedure.py",  # procedure runs, SIGTERM on a subprocess
+    "app/test_records.py",  # run folders of real runs
+    "app/test_run_integrity.py",  # runs, concurrent subprocesses
+    "app/test_safety.py",  # runs with faults, signals to subprocesses
+    "app/test_simulate.py",  # simulated recordings end to end
+    "app/test_startup.py",  # fresh interpreters
+    "app/test_version.py",  # git and a fresh interpreter
+    "gui/",  # the Qt window, live runs, soak
+    "hostile/test_processes.py",  # subprocesses
+)
+
+INTEGRATION_FIXTURES = frozenset({"complete_run", "qtbot"})
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """Mark the tests of INTEGRATION_PATHS, and those using INTEGRATION_FIXTURES, `integration`."""
+    root = Path(__file__).resolve().parent
+    for item in items:
+        relative = Path(str(item.path)).resolve().relative_to(root).as_posix()
+        fixtures = set(getattr(item, "fixturenames", ()))
+        if relative.startswith(INTEGRATION_PATHS) or fixtures & INTEGRATION_FIXTURES:
+            item.add_marker(pytest.mark.integration)

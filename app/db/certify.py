@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 from pathlib import Path
+from typing import Any
 
 from app.certificate import CertificateError, CertificateInfo, Issued, issue
 from app.db.engine import open_engine
@@ -23,6 +24,7 @@ def issue_registered(
     sweep_path: Path | None = None,
     replaces: str | None = None,
     reason: str | None = None,
+    signer: Any = None,
 ) -> Issued:
     """Issue the certificate of a stored run with its number from the records' register; the
     run is indexed first when it is not yet. RecordsError / CertificateError name the field."""
@@ -53,7 +55,13 @@ def issue_registered(
 
     def produce(number: str) -> None:
         issued.append(
-            issue(run_path, dataclasses.replace(info, certificate_number=number), out, sweep_path)
+            issue(
+                run_path,
+                dataclasses.replace(info, certificate_number=number),
+                out,
+                sweep_path,
+                signer,
+            )
         )
 
     try:

@@ -271,6 +271,17 @@ class Lab:
                 raise RecordsError(f"serial: no sensor {serial!r} in the records")
             return row
 
+    def sensor_by_teds(self, identity: str) -> Sensor:
+        """The sensor whose TEDS identity ('manufacturer/model/version/serial') is `identity`."""
+        with self.session() as s:
+            row = s.scalar(select(Sensor).where(Sensor.teds_identity == identity.strip()))
+            if row is None:
+                raise RecordsError(
+                    f"TEDS: no sensor with TEDS identity {identity!r} in the records "
+                    "(register it: accelcal sensors add SERIAL ... --teds IDENTITY)"
+                )
+            return row
+
     def sensors(self, search: str = "") -> list[Sensor]:
         """Sensors whose serial contains `search`, by serial."""
         with self.session() as s:
@@ -281,6 +292,17 @@ class Lab:
             )
             if search:
                 query = query.where(Sensor.serial.contains(search.strip()))
+            return list(s.scalars(query).all())
+
+    def customers(self) -> list[Customer]:
+        """Every customer, by name."""
+        with self.session() as s:
+            return list(s.scalars(select(Customer).order_by(Customer.name)).all())
+
+    def models(self) -> list[SensorModel]:
+        """Every sensor model, by maker and model."""
+        with self.session() as s:
+            query = select(SensorModel).order_by(SensorModel.maker, SensorModel.model)
             return list(s.scalars(query).all())
 
     # ---- reference standards -------------------------------------------------------------

@@ -2,6 +2,8 @@
 
 Nothing is carried over from the previous certificate (another customer's name or another
 DUT's model on a certificate is the error this prevents); the dialog names the run it is for.
+When the records know the run's sensor (by its serial), its customer, address, model and serial
+are filled in from them (and say so); everything else starts empty.
 """
 
 from __future__ import annotations
@@ -11,11 +13,14 @@ import math
 from PySide6.QtWidgets import QDialog, QDialogButtonBox, QFormLayout, QLabel, QLineEdit, QWidget
 
 from app.certificate import CertificateInfo
+from app.gui.field_marks import NoteLabel
 
 
 def run_identity(record: dict) -> str:
     """'run <id>, DUT serial <serial>, <date>' of a stored run's record."""
-    dut = record.get("dut") if isinstance(record.get("dut"), dict) else {}
+    dut = record.get("dut") or {}
+    if not isinstance(dut, dict):
+        dut = {}
     serial = dut.get("id") or "not given"
     return (
         f"run {record.get('run_id')}, DUT serial {serial}, "
@@ -24,7 +29,8 @@ def run_identity(record: dict) -> str:
 
 
 class CertificateDialog(QDialog):
-    """Customer, signatory and conditions for one certificate; every field starts empty."""
+    """Customer, signatory and conditions for one certificate; every field starts empty but
+    what the records say of the run's sensor (`defaults`: CertificateInfo field -> value)."""
 
     FIELDS = (
         ("customer", "Customer"),
@@ -32,20 +38,27 @@ class CertificateDialog(QDialog):
         ("authorised_by", "Authorised by"),
         ("mounting", "Mounting"),
         ("dut_model", "DUT model (empty: from the run)"),
+        ("dut_serial", "DUT serial (empty: from the run)"),
         ("dut_type", "DUT type (empty: from the run)"),
         ("notes", "Notes"),
     )
 
-    def __init__(self, parent: QWidget | None, record: dict):
+    def __init__(self, parent: QWidget | None, record: dict, defaults: dict | None = None):
         super().__init__(parent)
         self.setWindowTitle(f"Certificate of run {record.get('run_id')}")
         form = QFormLayout(self)
-        heading = QLabel(f"<b>Certificate of {run_identity(record)}</b>")
-        heading.setWordWrap(True)
+        heading = NoteLabel()  # wrapped, as tall as its text
+        heading.setText(f"<b>Certificate of {run_identity(record)}</b>")
         form.addRow(heading)
         self.edits: dict[str, QLineEdit] = {}
+        defaults = defaults or {}
+        if defaults:
+            form.addRow(QLabel("<i>Customer and sensor filled in from the records.</i>"))
         for key, label in self.FIELDS:
             edit = QLineEdit()
+            if defaults.get(key):
+                edit.setText(str(defaults[key]))
+                edit.setToolTip("from the records, for the run's sensor")
             form.addRow(label, edit)
             self.edits[key] = edit
         self.temperature = QLineEdit()
@@ -76,6 +89,7 @@ class CertificateDialog(QDialog):
             authorised_by=values["authorised_by"],
             mounting=values["mounting"],
             dut_model=values["dut_model"],
+            dut_serial=values["dut_serial"],
             dut_type=values["dut_type"],
             notes=values["notes"] or "",
             temperature_c=self.temperature_c(),

@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 from PySide6.QtCore import QSettings, Qt, QTimer, QUrl, Signal, Slot
-from PySide6.QtGui import QDesktopServices, QFontMetrics, QKeySequence, QShortcut
+from PySide6.QtGui import QDesktopServices, QFontMetrics
 from PySide6.QtWidgets import (
     QComboBox,
     QDialog,
@@ -44,10 +44,16 @@ from PySide6.QtWidgets import (
 
 from app import stand_config
 from app.certificate import CertificateError, CertificateInfo, build
+from app.gui import field_marks
+from app.gui.actions import START, WindowActions, with_key
 from app.gui.certificate_dialog import CertificateDialog, run_identity
 from app.gui.plots import FRAME_HZ, LivePlots
+from app.gui.records_link import RecordsLink
+from app.gui.reference_view import describe_reference
 from app.gui.results_tab import ResultsTab, wrapping_label
 from app.gui.runs_tab import RunsTab
+from app.gui.sensor_entry import SerialEntry
+from app.gui.sensors_tab import SensorsTab
 from app.gui.worker import RunWorker
 from app.lines import parse_frequencies
 from app.procedure import (
@@ -69,7 +75,7 @@ from sim.models import DUT_CATALOGUE
 log = logging.getLogger(__name__)
 
 ORGANISATION, APPLICATION = "accelcal", "accelcal"
-RUN_TAB, RESULTS_TAB, RUNS_TAB = 1, 2, 3
+RUN_TAB, RESULTS_TAB, RUNS_TAB, SENSORS_TAB = 1, 2, 3, 4
 
 
 @dataclass(frozen=True)
@@ -124,7 +130,7 @@ class ElidedLabel(QLabel):
 
 
 class MainWindow(QMainWindow):
-    """Setup & plan, Run (live), Results, Runs."""
+    """Setup & plan, Run (live), Results, Runs, Sensors (the lab's records)."""
 
     run_finished = Signal(object)  # emitted on the GUI thread when a run has ended
 
@@ -136,8 +142,11 @@ class MainWindow(QMainWindow):
         paced: bool = True,
         seed: int = 0,
         faults: tuple = (),
+        db: str | None = None,
     ):
         super().__init__()
+        # the lab's records (--db, $ACCELCAL_DB or the default file), opened off this thread
+        self.records = RecordsLink(db, self)
         self.setWindowTitle("accelcal: accelerometer calibration")
         self.config = stand_config.load(stand_file)
         self.stand_file, self.out, self.paced, self.seed = stand_file, Path(out), paced, seed
@@ -163,20 +172,20 @@ class MainWindow(QMainWindow):
         self.runs_tab = RunsTab(self.out)
         self.runs_tab.open_requested.connect(self.open_run)
         self.tabs.addTab(self.runs_tab, "4  Runs")
+        self.sensors_tab = SensorsTab(self.records)
+        self.tabs.addTab(self.sensors_tab, "5  Sensors")
         # the names tests and older code use
         self.summary, self.table = self.results_tab.summary, self.results_tab.table
         self.budget, self.result_mag = self.results_tab.budget, self.results_tab.result_mag
         self.runs = self.runs_tab
 
-        QShortcut(QKeySequence("Ctrl+R"), self, activated=self.start_run)
-        QShortcut(QKeySequence("Ctrl+."), self, activated=self.stop_run)
-        QShortcut(
-            QKeySequence(Qt.Key.Key_Escape),
-            self,
-            activated=self.emergency_stop,
-            context=Qt.ShortcutContext.ApplicationShortcut,
-        )
-        self.timer = QTimer(self, interval=int(1000 / FRAME_HZ), timeout=self._tick)
+        self.window_actions = WindowActions(self)  # menus and shortcuts (Ctrl+R, Ctrl+., Esc, ...)
+        self.field_marks = field_marks.install(self)  # bad input marked at its field
+        self.serial_entry = SerialEntry(self, self.records, self.field_marks)
+        self.records.changed.connect(self.show_reference)
+        self.run_finished.connect(self._index_run)
+        self.timer = QTimer(self, interval=int(1000 / FRAME_HZ))
+        self.timer.timeout.connect(self._tick)
         self.timer.start()
         geometry = self.settings.value("geometry")
         if geometry is not None:
@@ -214,7 +223,6 @@ class MainWindow(QMainWindow):
         stand = QGroupBox("Stand and DUT")
         form = QFormLayout(stand)
         form.setRowWrapPolicy(QFormLayout.RowWrapPolicy.WrapLongRows)
-        ref = self.config.reference
         self.stand_label = QLabel(f"{self.config.source} ({self.config.backend})")
         self.stand_label.setWordWrap(True)
         choose = QPushButton("Stand file ...")
@@ -226,13 +234,9 @@ class MainWindow(QMainWindow):
         stand_row.addWidget(choose)
         stand_row.addWidget(simulated)
         form.addRow("Stand", stand_row)
-        form.addRow(
-            "Reference standard",
-            wrapping_label(
-                f"{ref.model}\nserial {ref.serial}, certificate "
-                f"{ref.certificate_number} of {ref.certificate_date}"
-            ),
-        )
+        self.reference_label = wrapping_label(describe_reference(self.config))
+        self.reference_label.setTextFormat(Qt.TextFormat.RichText)
+        form.addRow("Reference standard", self.reference_label)
         self.dut = QComboBox()
         self.dut.addItems(list(DUT_CATALOGUE))
         self.dut.setCurrentText(str(self.settings.value("dut", "piezo")))
@@ -241,7 +245,7 @@ class MainWindow(QMainWindow):
         self.dut_id = QLineEdit()
         self.dut_id.setPlaceholderText("serial number of the sensor on the stand")
         self.nominal = QDoubleSpinBox(decimals=3, maximum=10000.0, suffix=" mV/(m/s²)")
-        self.nominal.setSpecialValueText("not given")
+        self.nominal.setSpecialValueText("not given, mV/(m/s²)")
         self.tolerance = QDoubleSpinBox(decimals=1, maximum=50.0, value=5.0, suffix=" %")
         form.addRow("DUT", self.dut)
         form.addRow("DUT serial", self.dut_id)
@@ -261,17 +265,17 @@ class MainWindow(QMainWindow):
         )
         self.periods = QSpinBox(minimum=3, maximum=10000, value=8, suffix=" periods")
         self.target = QDoubleSpinBox(decimals=3, maximum=10.0, suffix=" % type A target")
-        self.target.setSpecialValueText("off: acquire the periods above")
+        self.target.setSpecialValueText("off (% type A): acquire the periods above")
         self.max_time = QSpinBox(maximum=100_000, suffix=" s at most")
-        self.max_time.setSpecialValueText("no time bound")
+        self.max_time.setSpecialValueText("no time bound (s)")
         self.estimator = QComboBox()
         self.estimator.addItems(["periodic", "h1", "seed"])
         self.mode = QComboBox()
         self.mode.addItems(["multisine", "stepped-sine"])
         for widget in (self.preset, self.estimator, self.mode, self.dut):
             widget.currentTextChanged.connect(self.validate)
-        for widget in (self.level, self.nominal, self.tolerance):
-            widget.valueChanged.connect(self.validate)
+        for spin in (self.level, self.nominal, self.tolerance):
+            spin.valueChanged.connect(self.validate)
         self.periods.valueChanged.connect(self.validate)
         self.frequencies.textChanged.connect(self.validate)
         pform.addRow("Preset", self.preset)
@@ -394,9 +398,24 @@ class MainWindow(QMainWindow):
             return False
         self.config, self.stand_file = config, path
         self.stand_label.setText(f"{config.source} ({config.backend})")
+        self.show_reference()
         self.settings.setValue("stand_file", str(path or ""))
         self.validate()
         return True
+
+    def show_reference(self) -> None:
+        """The reference standard the run will use: the stand file's, with its record."""
+        self.reference_label.setText(describe_reference(self.config, self.records))
+
+    def _index_run(self, finished: Finished) -> None:
+        """A finished run goes into the records' index (the folder stays the record)."""
+        run_id = finished.record.get("run_id")
+
+        def indexed(note: str) -> None:
+            log.info("%s", note)
+            self.sensors_tab.refresh()
+
+        self.records.index_run_later(self.out / str(run_id) if run_id else None, indexed)
 
     def _custom_lines(self) -> tuple[float, ...] | None:
         """The typed line list (Hz), None for the preset's; ValueError says what is wrong."""
@@ -473,7 +492,12 @@ class MainWindow(QMainWindow):
         text += "".join(f"<div style='color:#b9770e'>⚠ {w}</div>" for w in warnings[:4])
         self.checks.setText(text)
         self.start_button.setEnabled(not problems and not running)
-        self.start_button.setToolTip("; ".join(problems) or "Start the calibration")
+        self.start_button.setToolTip(
+            "; ".join(problems) or with_key("Start the calibration", START)
+        )
+        marks = getattr(self, "field_marks", None)
+        if marks is not None:
+            marks.show_problems(problems)
         return problems
 
     # --- running ------------------------------------------------------------------------
@@ -588,13 +612,15 @@ class MainWindow(QMainWindow):
         )
         self.live.draw_characteristic(results)
 
-    def _on_done(self, finished: Finished) -> None:
+    def _on_done(self, finished: Finished | None) -> None:
         """The run has ended (GUI thread): show how, list it, open its results if complete."""
         self.last_finished = finished
         self.worker = None
         self._live = {}
         self.stop_button.setEnabled(False)
         self.runs_tab.refresh()
+        if finished is None:  # the worker ended without a result (its error is shown)
+            return
         run_id = finished.record.get("run_id")
         folder = self.out / str(run_id) if run_id else None
         if finished.status == "complete" and folder is not None:
@@ -683,7 +709,7 @@ class MainWindow(QMainWindow):
         if target is None:
             return None
         folder, record = target
-        dialog = CertificateDialog(self, record)
+        dialog = CertificateDialog(self, record, self.records.certificate_defaults(record))
         if dialog.exec() != QDialog.DialogCode.Accepted:
             return None
         info = dialog.info()

@@ -58,7 +58,9 @@ class LivePlots:
     def __init__(self) -> None:
         self.widget = pg.GraphicsLayoutWidget()
         g = self.widget
-        self.wave_plot = g.addPlot(title="Last period", labels={"left": "V", "bottom": "s"})
+        self.wave_plot = g.addPlot(title="Last period")
+        self.wave_plot.setLabel("left", "voltage", units="V")  # auto SI prefix: mV, not x0.001
+        self.wave_plot.setLabel("bottom", "time", units="s")
         self.wave_ref = self.wave_plot.plot(pen=pg.mkPen("#1f77b4"), name="reference")
         self.wave_dut = self.wave_plot.plot(pen=pg.mkPen("#d62728"), name="DUT")
         self.spec_plot = g.addPlot(

@@ -20,13 +20,14 @@ from PySide6.QtWidgets import (
 
 from app import formatting as fmt
 from app.gui.plots import draw_bands, frequency_axis
+from app.gui.verdict_view import VerdictView, verdict_of
 from dsp.calibration import Results
 from dsp.uncertainty import Budget, Quantity
 
 COLUMNS = (
     "f Hz",
     "S mV/(m/s²)",
-    "U",
+    "U mV/(m/s²)",
     "dev. %",
     "phase °",
     "U °",
@@ -56,6 +57,8 @@ class ResultsTab(QWidget):
         self.record: dict[str, Any] = {}
         self.folder: Path | None = None
         layout = QVBoxLayout(self)
+        self.verdict = VerdictView()
+        layout.addWidget(self.verdict)
         self.summary = wrapping_label("No results yet.")
         self.summary.setTextFormat(Qt.TextFormat.RichText)
         layout.addWidget(self.summary)
@@ -96,6 +99,7 @@ class ResultsTab(QWidget):
     def clear(self, message: str) -> None:
         """Nothing shown, nothing to export or certify; `message` (rich text) says why."""
         self.results, self.record, self.folder = None, {}, None
+        self.verdict.show_verdict(None)
         self.summary.setText(message)
         self.table.setRowCount(0)
         self.budget.setRowCount(0)
@@ -106,6 +110,7 @@ class ResultsTab(QWidget):
     def show_results(self, results: Results, record: dict[str, Any], folder: Path | None) -> None:
         """The results of the verified run in `folder` (None: not certifiable)."""
         self.results, self.record, self.folder = results, record, folder
+        self.verdict.show_verdict(*verdict_of(results, record))
         r = results.reference
         value, u = fmt.round_gum(r.sensitivity_mv_per_ms2, r.expanded_uncertainty_mv_per_ms2)
         self.summary.setText(

@@ -17,14 +17,18 @@ from pathlib import Path
 from PySide6.QtCore import Qt, Signal
 from PySide6.QtGui import QColor
 from PySide6.QtWidgets import (
+    QAbstractItemView,
+    QHeaderView,
     QLabel,
-    QListWidget,
-    QListWidgetItem,
     QPushButton,
+    QTableWidget,
+    QTableWidgetItem,
     QVBoxLayout,
     QWidget,
 )
 
+from app.gui.verdict_view import COLOURS as VERDICT_COLOURS
+from app.gui.verdict_view import verdict_of
 from app.records import RunCheck, inspect_run
 
 log = logging.getLogger(__name__)
@@ -59,7 +63,8 @@ def check_folder(folder: Path) -> RunCheck | None:
 
 
 class RunsTab(QWidget):
-    """Stored runs under `root`, newest first, each with its state; double-click opens one."""
+    """Stored runs under `root`, newest first, each with its state and overall verdict (a
+    column); double-click opens one."""
 
     open_requested = Signal(Path)
 
@@ -74,7 +79,14 @@ class RunsTab(QWidget):
             f"Stored runs in {root} (double-click to open; only a complete run can be certified)"
         )
         self.heading.setWordWrap(True)
-        self.runs = QListWidget()
+        self.runs = QTableWidget(0, 2)
+        self.runs.setHorizontalHeaderLabels(["Run and state", "Verdict"])
+        self.runs.verticalHeader().setVisible(False)
+        self.runs.setSelectionBehavior(QAbstractItemView.SelectionBehavior.SelectRows)
+        self.runs.setEditTriggers(QAbstractItemView.EditTrigger.NoEditTriggers)
+        header = self.runs.horizontalHeader()
+        header.setSectionResizeMode(0, QHeaderView.ResizeMode.Stretch)
+        header.setSectionResizeMode(1, QHeaderView.ResizeMode.ResizeToContents)
         self.runs.itemDoubleClicked.connect(
             lambda item: self.open_requested.emit(Path(item.data(FOLDER_ROLE)))
         )
@@ -87,18 +99,19 @@ class RunsTab(QWidget):
 
     def refresh(self) -> None:
         """List the run folders again, each verified."""
-        self.runs.clear()
+        self.runs.setRowCount(0)
         if not self.root.is_dir():
             return
+        rows = []
         for folder in sorted(self.root.iterdir(), reverse=True):
             if not folder.is_dir():
                 continue
             check = self.check(folder)
-            if check is None:
-                continue
-            item = QListWidgetItem(f"{folder.name}   {check.state}")
-            item.setData(FOLDER_ROLE, str(folder))
-            item.setData(STATE_ROLE, check.state)
+            if check is not None:
+                rows.append((folder, check))
+        self.runs.setRowCount(len(rows))
+        for row, (folder, check) in enumerate(rows):
+            item = QTableWidgetItem(f"{folder.name}   {check.state}")
             item.setForeground(QColor(STATE_COLOURS.get(check.state, "#000000")))
             tip = "\n".join(check.problems) or (
                 "verified: may be certified" if check.certifiable else "verified"
@@ -106,7 +119,21 @@ class RunsTab(QWidget):
             if check.record and check.record.get("abort_reason"):
                 tip = f"aborted: {check.record['abort_reason']}"
             item.setToolTip(tip)
-            self.runs.addItem(item)
+            verdict, reasons = (
+                verdict_of(None, check.record) if check.record is not None else ("", [])
+            )
+            if check.state != "complete":
+                verdict, reasons = "", []  # only a verified complete run has a verdict
+            verdict_item = QTableWidgetItem(verdict)
+            verdict_item.setForeground(QColor(VERDICT_COLOURS.get(verdict, "#555555")))
+            font = verdict_item.font()
+            font.setBold(True)
+            verdict_item.setFont(font)
+            verdict_item.setToolTip("\n".join(reasons))
+            for column, cell in enumerate((item, verdict_item)):
+                cell.setData(FOLDER_ROLE, str(folder))
+                cell.setData(STATE_ROLE, check.state)
+                self.runs.setItem(row, column, cell)
 
     def check(self, folder: Path) -> RunCheck | None:
         """inspect_run of `folder`, from the cache when nothing in it changed since."""
@@ -122,16 +149,29 @@ class RunsTab(QWidget):
             self._verified[folder] = (key, check)  # finished: only a change can change it
         return check
 
-    def state_of(self, name: str) -> str | None:
-        """The listed state of the run folder `name` (None: not listed)."""
-        for row in range(self.runs.count()):
-            item = self.runs.item(row)
-            if Path(item.data(FOLDER_ROLE)).name == name:
-                return item.data(STATE_ROLE)
+    def _row_of(self, name: str) -> int | None:
+        for row in range(self.runs.rowCount()):
+            item = self.runs.item(row, 0)
+            if item is not None and Path(item.data(FOLDER_ROLE)).name == name:
+                return row
         return None
 
-    def count(self) -> int:
-        return self.runs.count()
+    def state_of(self, name: str) -> str | None:
+        """The listed state of the run folder `name` (None: not listed)."""
+        row = self._row_of(name)
+        return None if row is None else self.item(row).data(STATE_ROLE)
 
-    def item(self, row: int) -> QListWidgetItem:
-        return self.runs.item(row)
+    def verdict_of(self, name: str) -> str | None:
+        """The verdict column of the run folder `name` ("" when none; None: not listed)."""
+        row = self._row_of(name)
+        cell = None if row is None else self.runs.item(row, 1)
+        return None if cell is None else cell.text()
+
+    def count(self) -> int:
+        return self.runs.rowCount()
+
+    def item(self, row: int) -> QTableWidgetItem:
+        """The first cell of `row` (run and state)."""
+        cell = self.runs.item(row, 0)
+        assert cell is not None, f"no run listed in row {row}"
+        return cell

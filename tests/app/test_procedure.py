@@ -224,11 +224,12 @@ def test_sigterm_fades_out_and_leaves_an_aborted_readable_run(tmp_path):
         stderr=subprocess.PIPE,
         text=True,
     )
-    deadline = time.monotonic() + 60
-    while time.monotonic() < deadline and not list(out.glob("*/recording.h5")):
-        time.sleep(0.2)
-    time.sleep(3.0)  # into the run: the shaker is moving
-    process.send_signal(signal.SIGTERM)
+    deadline = time.monotonic() + 120  # a condition polled, no timing assumed
+    while time.monotonic() < deadline and "state: equalising" not in "".join(
+        p.read_text() for p in out.glob("*/run.log")
+    ):
+        time.sleep(0.1)
+    process.send_signal(signal.SIGTERM)  # the shaker is moving (identified, now equalising)
     stdout, stderr = process.communicate(timeout=60)
     assert process.returncode == 3, stderr
     record = json.loads(stdout)

@@ -368,11 +368,10 @@ def test_sighup_and_sigterm_fade_out_and_exit_3(tmp_path, signum):
         text=True,
         env=env(),
     )
-    deadline = time.monotonic() + 120
-    while time.monotonic() < deadline and "state: identifying" not in _log_text(out):
-        time.sleep(0.2)
-    time.sleep(1.0)  # into the identification: the shaker is moving
-    process.send_signal(signum)
+    deadline = time.monotonic() + 120  # a condition polled, no timing assumed
+    while time.monotonic() < deadline and "state: equalising" not in _log_text(out):
+        time.sleep(0.1)
+    process.send_signal(signum)  # the shaker is moving (identified, now equalising)
     stdout, stderr = process.communicate(timeout=60)
     assert process.returncode == 3, stderr
     name = signal.Signals(signum).name
@@ -382,16 +381,37 @@ def test_sighup_and_sigterm_fade_out_and_exit_3(tmp_path, signum):
     assert json.loads(stdout)["status"] == "aborted"
 
 
-@pytest.mark.parametrize("delay_s", [0.3, 1.0, 1.8])
-def test_ctrl_c_while_starting_exits_130_with_one_line(tmp_path, delay_s):
+# Stops the interpreter inside the first import of STAGE: says so on stdout, then waits for
+# the signal, so that Ctrl-C arrives at a known point of the start-up (no timing assumed).
+_STOP_IN_IMPORT = """
+import importlib.abc, signal, sys
+STAGE = sys.argv[1]
+class Stop(importlib.abc.MetaPathFinder):
+    def find_spec(self, name, path=None, target=None):
+        if name == STAGE:
+            sys.meta_path.remove(self)
+            print("importing " + name, flush=True)
+            signal.pause()
+        return None
+sys.meta_path.insert(0, Stop())
+sys.argv[1:] = sys.argv[2:]
+from app.__main__ import run
+raise SystemExit(run())
+"""
+
+
+@pytest.mark.parametrize("stage", ["numpy", "scipy.stats", "h5py", "sim.stand"])
+def test_ctrl_c_while_starting_exits_130_with_one_line(tmp_path, stage):
+    """Ctrl-C while importing numpy, scipy, h5py or the stand: one line, exit 130."""
     process = subprocess.Popen(
-        [sys.executable, "-m", "app", "run", "--sim", "--out", str(tmp_path / "runs")],
+        [sys.executable, "-c", _STOP_IN_IMPORT, stage, "run", "--sim", "--out", str(tmp_path)],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
         env=env(),
     )
-    time.sleep(delay_s)  # importing numpy, scipy, h5py or opening the stand
+    assert process.stdout is not None
+    assert process.stdout.readline() == f"importing {stage}\n"  # it waits there for the signal
     process.send_signal(signal.SIGINT)
     _, stderr = process.communicate(timeout=60)
     assert process.returncode == 130, stderr

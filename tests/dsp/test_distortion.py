@@ -64,6 +64,7 @@ def test_threshold_is_the_sidak_corrected_f_quantile():
     assert detection_threshold(L, 1) == pytest.approx(stats.f.isf(0.01, 2, 14))
 
 
+@pytest.mark.slow  # Monte Carlo
 def test_clean_runs_warn_of_distortion_at_most_at_the_stated_rate(plan):
     """1000 clean runs at L = 8: at most 1 % warn (binomial: <= 17 of 1000 at the 1.5 % level).
     The former fixed 9x-noise threshold warned in about 10 % of such runs."""

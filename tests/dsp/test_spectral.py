@@ -104,6 +104,7 @@ def monte_carlo(estimator: str, runs: int, periods: int, snr_db: float, seed: in
     return np.array(errors), np.array(stated)
 
 
+@pytest.mark.slow  # Monte Carlo
 def test_type_a_matches_monte_carlo_spread():
     """Stated type A (rms over runs) within 15 % of the Monte Carlo std, time-domain noise."""
     for estimator in ("periodic", "seed"):
@@ -132,6 +133,7 @@ def line_spectra_monte_carlo(estimator: str, runs: int, periods: int, snr_db: fl
     return np.abs(acc.estimate(estimator).response) / abs(truth) - 1
 
 
+@pytest.mark.slow  # Monte Carlo
 def test_periodic_is_unbiased_and_seed_is_biased_at_20_db():
     periodic = line_spectra_monte_carlo("periodic", runs=200_000, periods=16, snr_db=20)
     seed = line_spectra_monte_carlo("seed", runs=200_000, periods=16, snr_db=20)
@@ -219,6 +221,7 @@ def test_one_period_gives_nan_type_a_and_errors_on_bad_shapes():
         acc.estimate("welch")
 
 
+@pytest.mark.slow  # Monte Carlo
 @pytest.mark.parametrize("estimator", ["periodic", "seed"])
 def test_type_a_degrees_of_freedom_give_nominal_t_coverage(estimator):
     """With 4 periods, the t interval at the stated dof covers the truth 95.45 % of the time

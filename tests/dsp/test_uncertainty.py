@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import FrozenInstanceError, fields
 
 import pytest
 from hypothesis import given
@@ -603,3 +604,437 @@ def test_welch_satterthwaite_bounds(pairs: list[tuple[float, float]]) -> None:
     nu_eff = welch_satterthwaite(u, nu)
     assert nu_eff >= min(nu) * (1 - 1e-9)
     assert nu_eff <= sum(nu) * (1 + 1e-9)
+
+
+# --- a budget computed by hand: every term counts (docs/mutation.md) ----------------------
+#
+# Magnitude at 160 Hz, u_i^2 in units of 1e-6 (relative^2):
+#   type A                 u_A = 0.002, nu = 4                     u^2 =  4    u^4/nu = 4.0
+#   reference calibration  normal U = 0.010, k = 2 -> u = 0.005    u^2 = 25    nu 50 -> 12.5
+#   DAQ gain               rectangular a = 0.003 -> a^2/3          u^2 =  3
+#   mounting               triangular a = 0.006 -> a^2/6           u^2 =  6
+#   hum                    U-shaped a = 0.002 -> a^2/2             u^2 =  2
+#   temperature            standard u = 0.001, nu = 10             u^2 =  1    nu 10 -> 0.1
+#   (not applying: "upper band" from 1 kHz, "phase ref" a phase component)
+#   u_B^2 = 37, u_c^2 = 41 -> u_c = sqrt(41e-6) = 0.0064031242...
+#   nu_eff = 41^2 / (4.0 + 12.5 + 0.1) = 1681 / 16.6 = 101.265...
+#   k = t_0.97725(101.27) = 2.025 (GUM table G.2: 2.025 at nu = 100), U = k u_c = 0.01297
+
+HAND_TYPE_A = (0.002, 4.0)
+HAND_U2 = {  # each term's u^2 in 1e-6, from the table above
+    "reference calibration": 25.0,
+    "DAQ gain": 3.0,
+    "mounting": 6.0,
+    "hum": 2.0,
+    "temperature": 1.0,
+}
+
+
+def _hand_budget() -> Budget:
+    return Budget(
+        (
+            Component("reference calibration", 0.010, Distribution.NORMAL, 2.0, dof=50),
+            Component("DAQ gain", 0.003, Distribution.RECTANGULAR),
+            Component("mounting", 0.006, Distribution.TRIANGULAR),
+            Component("hum", 0.002, Distribution.U_SHAPED),
+            Component("temperature", 0.001, Distribution.STANDARD, dof=10),
+            Component("upper band", 0.05, min_frequency_hz=1000.0),
+            Component("phase ref", 0.5, Distribution.STANDARD, quantity=Quantity.PHASE),
+        )
+    )
+
+
+def test_hand_budget_combined_and_expanded() -> None:
+    res = combine(*HAND_TYPE_A, _hand_budget(), 160.0)
+    assert res.type_b == pytest.approx(math.sqrt(37e-6), rel=1e-12)
+    assert res.standard == pytest.approx(math.sqrt(41e-6), rel=1e-12)  # 0.0064031...
+    assert res.standard == pytest.approx(0.00640312424, rel=1e-9)
+    assert res.dof == pytest.approx(1681 / 16.6, rel=1e-12)  # 101.265...
+    assert res.coverage_factor == pytest.approx(2.025, abs=0.001)  # GUM table G.2, nu = 100
+    assert res.coverage_factor == pytest.approx(stats.t.ppf(0.97725, 1681 / 16.6), rel=1e-12)
+    assert res.coverage_probability == 0.9545
+    assert res.expanded == pytest.approx(res.coverage_factor * math.sqrt(41e-6), rel=1e-12)
+    assert res.expanded == pytest.approx(0.01297, abs=0.00001)
+    u_b, nu_b = _hand_budget().type_b(160.0, MAG)
+    assert u_b == pytest.approx(math.sqrt(37e-6), rel=1e-12)
+    assert nu_b == pytest.approx(37**2 / 12.6, rel=1e-12)  # 1369 / (12.5 + 0.1)
+
+
+@pytest.mark.parametrize("name", sorted(HAND_U2))
+def test_every_hand_budget_term_counts(name: str) -> None:
+    """The budget without `name` loses exactly that term's u^2: a combination that dropped,
+    doubled or mis-divided any one term fails here."""
+    comp = next(c for c in _hand_budget().components if c.name == name)
+    assert comp.standard_uncertainty**2 == pytest.approx(HAND_U2[name] * 1e-6, rel=1e-12)
+    without = Budget(tuple(c for c in _hand_budget().components if c.name != name))
+    full = combine(*HAND_TYPE_A, _hand_budget(), 160.0)
+    less = combine(*HAND_TYPE_A, without, 160.0)
+    assert full.standard**2 - less.standard**2 == pytest.approx(HAND_U2[name] * 1e-6, rel=1e-9)
+    assert less.standard == pytest.approx(math.sqrt((41.0 - HAND_U2[name]) * 1e-6), rel=1e-12)
+    assert full.expanded > less.expanded
+
+
+def test_hand_budget_above_1_khz_adds_the_upper_band_term() -> None:
+    # upper band: rectangular a = 0.05 -> u^2 = 0.0025/3 = 833.33e-6; u_c^2 = 874.33e-6
+    res = combine(*HAND_TYPE_A, _hand_budget(), 1000.0)
+    assert res.standard == pytest.approx(math.sqrt(41e-6 + 0.0025 / 3), rel=1e-12)
+    assert combine(*HAND_TYPE_A, _hand_budget(), 999.9).standard == pytest.approx(
+        math.sqrt(41e-6), rel=1e-12
+    )
+
+
+def test_hand_budget_phase_uses_only_the_phase_term() -> None:
+    # u_A 0.2 deg (nu 4), phase ref 0.5 deg: u_c^2 = 0.04 + 0.25 = 0.29 deg^2
+    res = combine(0.2, 4, _hand_budget(), 160.0, PHASE)
+    assert res.standard == pytest.approx(math.sqrt(0.29), rel=1e-12)
+    assert res.dof == pytest.approx(0.29**2 / (0.2**4 / 4), rel=1e-12)  # 0.0841/0.0004 = 210.25
+    assert res.dof == pytest.approx(210.25, rel=1e-12)
+
+
+# --- error messages, word for word (they name the field and the component) -----------------
+
+_KNOWN_KEYS = (
+    "name, value, distribution, coverage_factor, dof, quantity, min_frequency_hz, "
+    "max_frequency_hz, note"
+)
+
+
+@pytest.mark.parametrize(
+    ("call", "error", "message"),
+    [
+        (lambda: Component("", 0.1), ValueError, "component '': name must be a non-empty string"),
+        (
+            lambda: Component("x", "a"),  # type: ignore[arg-type]
+            ValueError,
+            "component 'x': value must be a number, got 'a'",
+        ),
+        (
+            lambda: Component("x", math.inf),
+            ValueError,
+            "component 'x': value must be finite, got inf",
+        ),
+        (lambda: Component("x", -0.1), ValueError, "component 'x': value must be >= 0, got -0.1"),
+        (
+            lambda: Component("x", 0.1, "gauss"),  # type: ignore[arg-type]
+            ValueError,
+            "component 'x': distribution must be one of 'normal', 'rectangular', 'triangular', "
+            "'u-shaped', 'standard', got 'gauss'",
+        ),
+        (
+            lambda: Component("x", 0.1, coverage_factor=0),
+            ValueError,
+            "component 'x': coverage_factor must be finite and > 0, got 0.0",
+        ),
+        (
+            lambda: Component("x", 0.1, dof=0),
+            ValueError,
+            "component 'x': dof must be > 0 (inf allowed), got 0",
+        ),
+        (
+            lambda: Component("x", 0.1, min_frequency_hz=-1),
+            ValueError,
+            "component 'x': min_frequency_hz must be finite and >= 0 Hz, got -1",
+        ),
+        (
+            lambda: Component("x", 0.1, min_frequency_hz=10, max_frequency_hz=5),
+            ValueError,
+            "component 'x': min_frequency_hz must be <= max_frequency_hz, got 10.0 > 5.0",
+        ),
+        (
+            lambda: Component("x", 0.1, note=3),  # type: ignore[arg-type]
+            ValueError,
+            "component 'x': note must be a string, got 3",
+        ),
+        (
+            lambda: Component("x", 0.1).applies_at(math.nan),
+            ValueError,
+            "component 'x': frequency_hz must not be NaN",
+        ),
+        (
+            lambda: Component("x", 0.1).applies_at("a"),  # type: ignore[arg-type]
+            ValueError,
+            "component 'x': frequency_hz must be a number, got 'a'",
+        ),
+        (
+            lambda: Component.from_dict([1]),  # type: ignore[arg-type]
+            ValueError,
+            "component: expected a mapping of keys to values, got [1]",
+        ),
+        (
+            lambda: Component.from_dict({"name": "x", "value": 0.1, "foo": 1}),
+            ValueError,
+            f"component 'x': unknown key 'foo' (known keys: {_KNOWN_KEYS})",
+        ),
+        (
+            lambda: Component.from_dict({"value": 0.1}),
+            ValueError,
+            "component <unnamed>: missing key 'name'",
+        ),
+        (
+            lambda: Component.from_dict({"name": "x"}),
+            ValueError,
+            "component 'x': missing key 'value'",
+        ),
+        (
+            lambda: Component.from_dict({"name": "x", "value": 0.1, "dof": "many"}),
+            ValueError,
+            "component 'x': dof must be a number > 0, null or 'inf', got 'many'",
+        ),
+        (
+            lambda: Budget((Component("x", 0.01), 5)),  # type: ignore[arg-type]
+            TypeError,
+            "budget entry 2: expected a Component, got 5",
+        ),
+        (
+            lambda: Budget.from_list([{"name": "x", "value": 0.1}, {"name": "y"}]),
+            ValueError,
+            "budget entry 2 of 2: component 'y': missing key 'value'",
+        ),
+        (
+            lambda: Budget().at(100.0, "volts"),  # type: ignore[arg-type]
+            ValueError,
+            "budget: quantity must be one of 'magnitude', 'phase', got 'volts'",
+        ),
+        (
+            lambda: welch_satterthwaite([0.1], [1, 2]),
+            ValueError,
+            "welch_satterthwaite: standard_uncertainties and dofs must be 1-D and of equal "
+            "length, got shapes (1,) and (2,)",
+        ),
+        (
+            lambda: welch_satterthwaite([-0.1], [1]),
+            ValueError,
+            "welch_satterthwaite: uncertainties must be finite and >= 0, got [-0.1]",
+        ),
+        (
+            lambda: welch_satterthwaite([0.1], [0]),
+            ValueError,
+            "welch_satterthwaite: dofs must be > 0 (inf allowed), got [0.]",
+        ),
+        (
+            lambda: coverage_factor(5, 1.0),
+            ValueError,
+            "coverage_factor: probability must be in (0, 1), got 1.0",
+        ),
+        (
+            lambda: coverage_factor(0),
+            ValueError,
+            "coverage_factor: dof must be > 0 (inf allowed), got 0",
+        ),
+        (
+            lambda: seed_coverage_factor(True),
+            ValueError,
+            "seed_coverage_factor: periods must be an integer, got True",
+        ),
+        (
+            lambda: seed_coverage_factor(2.5),  # type: ignore[arg-type]
+            ValueError,
+            "seed_coverage_factor: periods must be an integer, got 2.5",
+        ),
+        (
+            lambda: seed_coverage_factor(1),
+            ValueError,
+            "seed_coverage_factor: periods must be >= 2, got 1",
+        ),
+        (
+            lambda: combine(0.01, 3, Budget(), 100.0, rule="x"),
+            ValueError,
+            "combine: rule must be one of ('gum', 'seed'), got 'x'",
+        ),
+        (
+            lambda: combine(0.01, 3, Budget(), 100.0, probability=0),
+            ValueError,
+            "combine: probability must be in (0, 1), got 0",
+        ),
+        (
+            lambda: combine(0.01, 3, Budget(), 100.0, rule="seed"),
+            ValueError,
+            "combine: rule 'seed' needs periods (the number of periods L)",
+        ),
+        (
+            lambda: combine(0.01, 3, None, 100.0),  # type: ignore[arg-type]
+            TypeError,
+            "combine: budget must be a Budget, got None",
+        ),
+        (
+            lambda: combine(-1, 3, Budget(), 100.0),
+            ValueError,
+            "combine: type_a must be finite and >= 0 (or NaN), got -1",
+        ),
+        (
+            lambda: combine(0.01, 0, Budget(), 100.0),
+            ValueError,
+            "combine: type_a_dof must be > 0 (inf allowed), got 0",
+        ),
+        (
+            lambda: combine(0.01, 3, Budget(), 100.0, "volts"),  # type: ignore[arg-type]
+            ValueError,
+            "combine: quantity must be one of 'magnitude', 'phase', got 'volts'",
+        ),
+        (
+            lambda: iso_16063_21_limit(math.nan),
+            ValueError,
+            "iso_16063_21_limit: frequency_hz must not be NaN",
+        ),
+        (
+            lambda: iso_verdict(100.0, -0.1),
+            ValueError,
+            "iso_verdict: relative_expanded_uncertainty must be >= 0, got -0.1",
+        ),
+    ],
+)
+def test_error_messages_word_for_word(call, error, message) -> None:
+    with pytest.raises(error) as info:
+        call()
+    assert str(info.value) == message
+
+
+def test_component_defaults_include_an_empty_note() -> None:
+    assert Component("x", 0.01).note == ""
+    assert Component("x", 0.01).to_dict()["note"] == ""
+
+
+def test_component_normalises_numbers_to_float_and_strings_to_enums() -> None:
+    c = Component(
+        "x",
+        1,
+        " Normal ",  # type: ignore[arg-type]
+        coverage_factor=2,
+        dof=10,
+        quantity="PHASE",  # type: ignore[arg-type]
+        min_frequency_hz=1,
+        max_frequency_hz=2,
+    )
+    for field in ("value", "coverage_factor", "dof", "min_frequency_hz", "max_frequency_hz"):
+        assert type(getattr(c, field)) is float, field
+    assert c.distribution is Distribution.NORMAL
+    assert c.quantity is Quantity.PHASE
+    assert Budget((c,)).at(1.5, PHASE) == (c,)  # found by its enum, not its spelling
+    assert c.to_dict() == {
+        "name": "x",
+        "value": 1.0,
+        "distribution": "normal",
+        "coverage_factor": 2.0,
+        "dof": 10.0,
+        "quantity": "phase",
+        "min_frequency_hz": 1.0,
+        "max_frequency_hz": 2.0,
+        "note": "",
+    }
+    assert set(vars(c)) == {f.name for f in fields(Component)}  # no stray attributes
+
+
+@pytest.mark.parametrize("lowest", [0.0, 0.4, 0.5])
+def test_a_range_may_start_at_0_hz_or_below_1_hz(lowest: float) -> None:
+    c = Component("low band", 0.01, min_frequency_hz=lowest, max_frequency_hz=lowest)
+    assert c.min_frequency_hz == lowest
+    assert c.applies_at(lowest)
+    assert not c.applies_at(lowest + 0.01)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"coverage_factor": "2"}, "component 'x': coverage_factor must be a number, got '2'"),
+        ({"dof": "10"}, "component 'x': dof must be a number, got '10'"),
+        ({"max_frequency_hz": "1k"}, "component 'x': max_frequency_hz must be a number, got '1k'"),
+        (
+            {"max_frequency_hz": math.inf},
+            "component 'x': max_frequency_hz must be finite and >= 0 Hz, got inf",
+        ),
+        (
+            {"quantity": "volts"},
+            "component 'x': quantity must be one of 'magnitude', 'phase', got 'volts'",
+        ),
+    ],
+)
+def test_component_field_errors_word_for_word(kwargs: dict, message: str) -> None:
+    with pytest.raises(ValueError) as info:
+        Component("x", 0.1, **kwargs)
+    assert str(info.value) == message
+
+
+@pytest.mark.parametrize(
+    ("call", "message"),
+    [
+        (lambda: coverage_factor("5"), "coverage_factor: dof must be a number, got '5'"),
+        (
+            lambda: coverage_factor(5, "0.95"),
+            "coverage_factor: probability must be a number, got '0.95'",
+        ),
+        (
+            lambda: combine("0.01", 3, Budget(), 100.0),
+            "combine: type_a must be a number, got '0.01'",
+        ),
+        (
+            lambda: combine(0.01, "3", Budget(), 100.0),
+            "combine: type_a_dof must be a number, got '3'",
+        ),
+        (
+            lambda: combine(0.01, 3, Budget(), 100.0, probability="x"),
+            "combine: probability must be a number, got 'x'",
+        ),
+        (
+            lambda: iso_verdict(100.0, "x"),
+            "iso_verdict: relative_expanded_uncertainty must be a number, got 'x'",
+        ),
+        (
+            lambda: iso_16063_21_limit("x"),
+            "iso_16063_21_limit: frequency_hz must be a number, got 'x'",
+        ),
+    ],
+)
+def test_non_numbers_are_refused_by_function_and_argument(call, message) -> None:
+    with pytest.raises(ValueError) as info:
+        call()
+    assert str(info.value) == message
+
+
+@pytest.mark.parametrize("p", [0.0, 1.0, -0.5, 1.5])
+def test_combine_refuses_probabilities_outside_the_open_interval(p: float) -> None:
+    with pytest.raises(ValueError) as info:
+        combine(0.01, 3, Budget(), 100.0, probability=p)
+    assert str(info.value) == f"combine: probability must be in (0, 1), got {p!r}"
+
+
+def test_combined_is_immutable() -> None:
+    res = combine(*HAND_TYPE_A, _hand_budget(), 160.0)
+    with pytest.raises(FrozenInstanceError):
+        res.expanded = 0.0  # type: ignore[misc]
+
+
+def test_zero_expanded_uncertainty_is_within_every_limit() -> None:
+    for f in (0.4, 160.0, 1000.0, 1000.1, 2000.0, 10000.0):
+        assert iso_verdict(f, 0.0) is Verdict.WITHIN
+
+
+def test_welch_satterthwaite_single_component_keeps_its_dof() -> None:
+    # nu_eff = u^4 / (u^4 / nu) = nu; with nu = 1 the denominator is exactly 1 (scaled)
+    assert welch_satterthwaite([0.01], [1]) == pytest.approx(1.0, rel=1e-12)
+    assert welch_satterthwaite([0.01, 0.01], [1, math.inf]) == pytest.approx(4.0, rel=1e-12)
+
+
+@pytest.mark.parametrize("name", ["", 5])
+def test_from_dict_without_a_usable_name_says_unnamed(name: object) -> None:
+    with pytest.raises(ValueError) as info:
+        Component.from_dict({"name": name, "value": 0.1, "foo": 1})
+    assert str(info.value) == f"component <unnamed>: unknown key 'foo' (known keys: {_KNOWN_KEYS})"
+
+
+@pytest.mark.parametrize("spelling", ["inf", "Infinity", " INF ", "infinity"])
+def test_from_dict_spells_infinite_dof_both_ways(spelling: str) -> None:
+    assert math.isinf(Component.from_dict({"name": "x", "value": 0.1, "dof": spelling}).dof)
+
+
+def test_budget_is_a_frozen_tuple_of_components() -> None:
+    c = Component("x", 0.01)
+    b = Budget([c])  # type: ignore[arg-type]
+    assert b.components == (c,) and type(b.components) is tuple
+    assert Budget(c for c in [c]).components == (c,)  # type: ignore[arg-type]
+    with pytest.raises(FrozenInstanceError):
+        b.components = ()  # type: ignore[misc]
+
+
+def test_seed_rectangular_notes_its_origin() -> None:
+    (c,) = Budget.seed_rectangular({"DAQ": 0.05}).components
+    assert c.note == "maximum permissible error (seed eq. 18/19)"

@@ -3,6 +3,7 @@ sequence on every path, and error translation. No NI hardware or driver needed."
 
 from __future__ import annotations
 
+import math
 import sys
 import threading
 from types import SimpleNamespace
@@ -473,3 +474,319 @@ def test_default_factory_on_this_machine_without_driver():
         daq.configure(CONFIG)
     daq.stop()
     assert daq.output_v == 0.0
+
+
+# --- the zero write before stop, on every way out, with a plain fake task (docs/mutation.md) --
+#
+# Hand-computed for N = 50 samples at the actual rate 999.5 S/s: one period lasts
+# 50 / 999.5 = 0.0500250125 s; stop() waits that plus FIFO_ALLOWANCE_S = 0.25 s, i.e.
+# 0.3000250125 s; every AO write may take 2 * 0.0500250125 + 5 = 5.100050025 s.
+
+PERIOD_S = 0.0500250125
+ZERO_WAIT_S = 0.3000250125
+WRITE_TIMEOUT_S = 5.100050025
+
+
+class FakeTask:
+    """A nidaqmx.Task stand-in that appends every call to a shared event list."""
+
+    def __init__(self, name: str, events: list, fail: dict) -> None:
+        self.name, self.events, self.fail = name, events, fail
+        self.timing = SimpleNamespace(samp_clk_rate=ACTUAL_FS, ai_conv_rate=CONV_RATE)
+        self.timing.cfg_samp_clk_timing = lambda *a, **k: None
+        self.ai_channels = SimpleNamespace(add_ai_voltage_chan=lambda *a, **k: SimpleNamespace())
+        self.ao_channels = SimpleNamespace(add_ao_voltage_chan=self._add_ao)
+        start_trigger = SimpleNamespace(cfg_dig_edge_start_trig=lambda *a: None)
+        self.triggers = SimpleNamespace(start_trigger=start_trigger)
+        self.out_stream = SimpleNamespace()
+        self.in_stream = SimpleNamespace()
+
+    def _event(self, what: str, *args) -> None:
+        self.events.append((f"{self.name}.{what}", *args))
+        error = self.fail.get(f"{self.name}.{what}")
+        if error is not None:
+            if isinstance(error, list):  # fail only the first call(s)
+                if error:
+                    raise error.pop(0)
+                return
+            raise error
+
+    def _add_ao(self, physical, min_val, max_val):
+        self._event("add_ao", physical, min_val, max_val)
+
+    def write(self, data, auto_start, timeout=None):
+        if np.isscalar(data):  # the one-sample on-demand write
+            value = "0 V" if data == 0.0 else f"{data} V"
+        else:
+            assert data.shape == (N,)
+            value = "period" if np.any(data) else "zeros"
+        self._event("write", value, auto_start, timeout)
+
+    def start(self):
+        self._event("start")
+
+    def stop(self):
+        self._event("stop")
+
+    def close(self):
+        self._event("close")
+
+
+class FakeFactory:
+    """Tasks named ai, ao, then fallback1, fallback2, ...; `fail` maps "task.call" to an error
+    (raised on every call) or to a list of errors (raised once each, then the call succeeds)."""
+
+    def __init__(self) -> None:
+        self.events: list[tuple] = []
+        self.fail: dict = {}
+        self.made = 0
+
+    def __call__(self) -> FakeTask:
+        name = ("ai", "ao")[self.made] if self.made < 2 else f"task{self.made}"
+        self.made += 1
+        if self.fail.get("factory") and self.made > 2:
+            raise self.fail["factory"]
+        return FakeTask(name, self.events, self.fail)
+
+    def names(self, start: int = 0) -> list[str]:
+        return [e[0] for e in self.events[start:]]
+
+
+ZERO_THEN_RELEASE = [
+    ("ao.write", "zeros", False, pytest.approx(WRITE_TIMEOUT_S, rel=1e-9)),
+    ("sleep", pytest.approx(ZERO_WAIT_S, rel=1e-9)),
+    ("ao.stop",),
+    ("ai.stop",),
+    ("ao.close",),
+    ("ai.close",),
+]
+
+
+@pytest.fixture
+def fake(monkeypatch):
+    FakeReader.instances = []
+    FakeReader.script = {}
+    FakeReader.block = None
+    monkeypatch.setattr(nidaqmx.stream_readers, "AnalogMultiChannelReader", FakeReader)
+    factory = FakeFactory()
+    monkeypatch.setattr(nidaq, "_sleep", lambda s: factory.events.append(("sleep", s)))
+    return factory
+
+
+def started(fake: FakeFactory) -> tuple[NiDaq, int]:
+    daq = NiDaq("Dev1", task_factory=fake)
+    daq.configure(CONFIG)
+    daq.start(sine())
+    assert fake.events[-3:] == [
+        ("ao.write", "period", False, pytest.approx(WRITE_TIMEOUT_S, rel=1e-9)),
+        ("ao.start",),
+        ("ai.start",),
+    ]
+    return daq, len(fake.events)
+
+
+def test_hand_computed_period_and_waits():
+    assert N / ACTUAL_FS == pytest.approx(PERIOD_S, rel=1e-9)
+    assert nidaq.FIFO_ALLOWANCE_S == 0.25
+
+
+@pytest.mark.parametrize("path", ["stop", "close", "reconfigure", "device lost", "stop fails"])
+def test_every_way_out_writes_zeros_waits_then_stops_and_closes(fake, path):
+    if path == "device lost":  # the second read fails like an unplugged device
+        FakeReader.script = {1: daq_error(-88705, "Device has been removed")}
+    daq, mark = started(fake)
+    if path == "stop":
+        daq.stop()
+    elif path == "close":
+        daq.close()
+    elif path == "reconfigure":
+        daq.configure(CONFIG)
+    elif path == "device lost":
+        daq.read_period(timeout_s=2.0)
+        with pytest.raises(DeviceLostError):
+            daq.read_period(timeout_s=2.0)
+        fake.fail["ao.stop"] = daq_error(-88705, "Device has been removed")
+        fake.fail["ai.close"] = daq_error(-88705, "Device has been removed")
+        daq.stop()
+    else:
+        fake.fail["ao.stop"] = daq_error(-200010, "stop failed")
+        fake.fail["ai.stop"] = daq_error(-200010, "stop failed")
+        fake.fail["ao.close"] = daq_error(-200010, "close failed")
+        daq.stop()
+    # only the zero write and the release happen, in this order (reconfigure then builds
+    # new tasks, which come after)
+    assert fake.events[mark : mark + 6] == ZERO_THEN_RELEASE
+    if path != "reconfigure":
+        assert len(fake.events) == mark + 6
+    assert daq.output_v == 0.0
+    daq.stop()  # nothing more to do: no second zero write on a stopped device
+    assert [e for e in fake.events[mark + 6 :] if e[0] == "ao.write"] == []
+
+
+def test_failed_write_period_then_stop_still_writes_zeros(fake):
+    daq, mark = started(fake)
+    fake.fail["ao.write"] = [daq_error(-200010, "write failed")]  # once: the zeros go through
+    with pytest.raises(HardwareError, match="write failed"):
+        daq.write_period(sine(2.0))
+    assert fake.events[mark][:2] == ("ao.write", "period")
+    daq.stop()
+    assert fake.events[mark + 1 :] == ZERO_THEN_RELEASE
+    assert daq.output_v == 0.0
+
+
+def test_zeros_refused_falls_back_to_an_on_demand_zero_after_release(fake):
+    daq, mark = started(fake)
+    fake.fail["ao.write"] = daq_error(-200010, "write failed")
+    daq.stop()
+    assert fake.events[mark:] == [
+        ("ao.write", "zeros", False, pytest.approx(WRITE_TIMEOUT_S, rel=1e-9)),  # refused
+        ("ao.stop",),  # no wait: nothing was queued
+        ("ai.stop",),
+        ("ao.close",),
+        ("ai.close",),
+        ("task2.add_ao", "Dev1/ao0", -5.0, 5.0),
+        ("task2.write", "0 V", True, None),
+        ("task2.close",),
+    ]
+    assert daq.output_v == 0.0
+
+
+def test_on_demand_zero_refused_leaves_the_output_unknown_and_closes_its_task(fake):
+    daq, mark = started(fake)
+    fake.fail["ao.write"] = daq_error(-200010, "write failed")
+    fake.fail["task2.write"] = daq_error(-88705, "Device has been removed")
+    daq.stop()
+    assert fake.names(mark)[-3:] == ["task2.add_ao", "task2.write", "task2.close"]
+    assert daq.output_v is None
+    # a later stop (the procedure stops again on its way out) must not report 0 V without
+    # having written it: it tries the on-demand zero again
+    fake.fail["task3.write"] = daq_error(-88705, "Device has been removed")
+    mark = len(fake.events)
+    daq.stop()
+    assert fake.names(mark) == ["task3.add_ao", "task3.write", "task3.close"]
+    assert daq.output_v is None
+    daq.stop()  # and when that one works, the output is known to be 0 V
+    assert fake.events[-3:] == [
+        ("task4.add_ao", "Dev1/ao0", -5.0, 5.0),
+        ("task4.write", "0 V", True, None),
+        ("task4.close",),
+    ]
+    assert daq.output_v == 0.0
+
+
+def test_on_demand_task_cannot_be_made_leaves_the_output_unknown(fake):
+    daq, mark = started(fake)
+    fake.fail["ao.write"] = daq_error(-200010, "write failed")
+    fake.fail["factory"] = daq_error(-88705, "Device has been removed")
+    daq.stop()
+    assert fake.names(mark) == ["ao.write", "ao.stop", "ai.stop", "ao.close", "ai.close"]
+    assert daq.output_v is None
+    daq.stop()
+    assert daq.output_v is None  # still unknown: nothing could be written
+
+
+def test_stop_before_start_writes_nothing_and_releases(fake):
+    daq = NiDaq("Dev1", task_factory=fake)
+    daq.configure(CONFIG)
+    mark = len(fake.events)
+    daq.stop()
+    assert fake.events[mark:] == [("ao.stop",), ("ai.stop",), ("ao.close",), ("ai.close",)]
+    assert daq.output_v == 0.0
+
+
+def test_failed_start_releases_without_zeros_and_refuses_writes(fake):
+    daq = NiDaq("Dev1", task_factory=fake)
+    daq.configure(CONFIG)
+    mark = len(fake.events)
+    fake.fail["ai.start"] = daq_error(-200088, "Task specified is invalid")
+    with pytest.raises(HardwareError, match="Task specified is invalid"):
+        daq.start(sine())
+    assert fake.names(mark) == [
+        "ao.write",
+        "ao.start",
+        "ai.start",  # refused: the AO task never got its trigger, nothing played
+        "ao.stop",
+        "ai.stop",
+        "ao.close",
+        "ai.close",
+    ]
+    assert daq.output_v == 0.0
+    with pytest.raises(HardwareError, match="write_period before start"):
+        daq.write_period(sine())
+
+
+def test_write_period_after_a_reader_failure_raises_it_and_writes_nothing(fake):
+    FakeReader.script = {0: daq_error(-88705, "Device has been removed")}
+    daq, mark = started(fake)
+    with pytest.raises(DeviceLostError):
+        daq.read_period(timeout_s=2.0)
+    with pytest.raises(DeviceLostError, match="Device has been removed"):
+        daq.write_period(sine())
+    assert fake.names(mark) == []
+    daq.stop()
+    assert fake.events[mark:] == ZERO_THEN_RELEASE
+
+
+def test_write_period_sets_output_to_the_last_sample(fake):
+    daq, mark = started(fake)
+    new = sine(3.0)
+    daq.write_period(new)
+    assert fake.events[mark] == ("ao.write", "period", False, pytest.approx(WRITE_TIMEOUT_S))
+    assert daq.output_v == pytest.approx(3.0 * math.sin(2 * math.pi * 49 / 50 + 0.3))
+    daq.stop()
+    assert daq.output_v == 0.0
+
+
+def test_start_twice_is_refused_by_name_and_changes_nothing(fake):
+    daq, mark = started(fake)
+    with pytest.raises(HardwareError) as info:
+        daq.start(sine())
+    assert str(info.value) == "NI-DAQ Dev1: already running; stop() first"
+    assert fake.events[mark:] == []
+    with pytest.raises(HardwareError) as info:
+        NiDaq("Dev1", task_factory=fake).write_period(sine())
+    assert str(info.value) == "NI-DAQ Dev1: configure() first"
+    daq.stop()
+    with pytest.raises(HardwareError) as info:
+        daq.write_period(sine())
+    assert str(info.value) == "NI-DAQ Dev1: write_period before start()"
+
+
+def test_reader_is_a_named_daemon_thread_joined_by_stop(fake):
+    daq, _ = started(fake)
+    readers = [t for t in threading.enumerate() if t.name == "accelcal-nidaq-reader-Dev1"]
+    assert len(readers) == 1
+    assert readers[0].daemon  # never keeps the interpreter alive if a run dies without stop()
+    daq.stop()
+    assert not readers[0].is_alive()
+
+
+def test_every_failure_on_the_way_out_is_logged_word_for_word(fake, caplog):
+    daq, _ = started(fake)
+    for call in ("ao.write", "ao.stop", "ai.stop", "ao.close", "ai.close", "task2.write"):
+        fake.fail[call] = RuntimeError("boom")
+    fake.fail["task2.close"] = RuntimeError("gone")
+    with caplog.at_level("WARNING", logger="hardware.nidaq"):
+        daq.stop()
+    assert [r.getMessage() for r in caplog.records] == [
+        "NI-DAQ Dev1: could not write the zero period: boom",
+        "NI-DAQ Dev1: stopping the AO task: boom",
+        "NI-DAQ Dev1: stopping the AI task: boom",
+        "NI-DAQ Dev1: closing the AO task: boom",
+        "NI-DAQ Dev1: closing the AI task: boom",
+        "NI-DAQ Dev1: could not set the output to 0 V: boom",
+        "NI-DAQ Dev1: closing the 0 V task: gone",
+    ]
+    assert daq.output_v is None
+
+
+def test_no_task_for_the_on_demand_zero_is_logged(fake, caplog):
+    daq, _ = started(fake)
+    fake.fail["ao.write"] = RuntimeError("boom")
+    fake.fail["factory"] = RuntimeError("no task")
+    with caplog.at_level("WARNING", logger="hardware.nidaq"):
+        daq.stop()
+    assert [r.getMessage() for r in caplog.records] == [
+        "NI-DAQ Dev1: could not write the zero period: boom",
+        "NI-DAQ Dev1: could not set the output to 0 V: NI-DAQ Dev1: no task",
+    ]

@@ -24,11 +24,9 @@ from hardware.teds import (
     ted_file_bytes,
 )
 
-SHARED = Path(__file__).resolve().parents[3] / "shared" / "teds"
-ACCELEROMETER = SHARED / "Accelerometer.ted"
-VOLTAGE = SHARED / "Voltage.ted"
-
-pytestmark = pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/teds not present")
+DATA = Path(__file__).resolve().parents[1] / "data" / "teds"  # NI's files, MIT (see there)
+ACCELEROMETER = DATA / "Accelerometer.ted"
+VOLTAGE = DATA / "Voltage.ted"
 
 
 def test_the_accelerometer_file_decodes_to_the_values_its_readme_gives() -> None:

@@ -96,20 +96,6 @@ def timeout_error() -> visa_errors.VisaIOError:
     return visa_errors.VisaIOError(constants.StatusCode.error_timeout)
 
 
-def readback(channel: int, mode, sens, gain, hp, lp, idn: str | None = IDN_BK):
-    """The queries read_settings sends, with the given answers."""
-    pairs = [("*IDN?", idn)] if idn is not None else []
-    prefix = f":Channel_{channel}:"
-    pairs += [
-        (prefix + "Measurement_Mode?", mode),
-        (prefix + "Transducer_Sensitivity?", sens),
-        (prefix + "Output_Gain?", gain),
-        (prefix + "High_Pass_Filter?", hp),
-        (prefix + "Low_Pass_Filter?", lp),
-    ]
-    return pairs
-
-
 # --- the fake itself must be able to fail ------------------------------------------------------
 
 
@@ -176,6 +162,50 @@ def test_gain_list_is_one_two_five_from_0_1_to_10000():
 
 
 # --- measuring amplifier -------------------------------------------------------------------------
+# The exchanges follow the 2525 User Manual Vol. 2 (sections as hardware/visa_amplifiers.py
+# cites them): Header Long first (4.3.2), Identify? (Table 9.1), one message per setting with
+# its ":Channel_<n>:" header, Transducer_Sensitivity in C or V per m/s^2 (5.3: "1E-12"),
+# Output_Gain in dB (5.3: "Output_Gain 0"), Upper_/Lower_Frequency_Limit (5.3).
+
+HDR = ("Header Long", None)
+CHARGE = "Charge_Single_Ended"  # the 5.3 example's input type
+# Not a name from the manual (Table 9.2 unread): any Input_Type not starting with "Charge" is
+# taken as a voltage input, so any such word exercises that path.
+VOLTAGE = "Deltatron"
+
+
+def input_type(channel: int, answer: str = CHARGE, header: bool = True):
+    text = f":Channel_{channel}:Input_Type {answer}" if header else answer
+    return (f":Channel_{channel}:Input_Type?", text)
+
+
+def writes(channel: int, sensitivity: str, gain_db: str, upper: str, lower: str):
+    """The writes configure sends, one message per setting, in Recall_Work? order (5.3)."""
+    prefix = f":Channel_{channel}:"
+    return [
+        (prefix + "Measurement_Mode Acceleration", None),
+        (prefix + f"Transducer_Sensitivity {sensitivity}", None),
+        (prefix + f"Output_Gain {gain_db}", None),
+        (prefix + f"Upper_Frequency_Limit {upper}", None),
+        (prefix + f"Lower_Frequency_Limit {lower}", None),
+    ]
+
+
+def readback(channel: int, mode, sens, gain, upper, lower, idn: str | None = IDN_BK):
+    """The queries read_settings sends after Input_Type?, answered with a long header (the
+    2525's default and what the driver sets, 4.3.2) unless an answer starts with '='."""
+    prefix = f":Channel_{channel}:"
+    pairs = [("Identify?", f":Identify {idn}")] if idn is not None else []
+    for name, answer in (
+        ("Measurement_Mode", mode),
+        ("Transducer_Sensitivity", sens),
+        ("Output_Gain", gain),
+        ("Upper_Frequency_Limit", upper),
+        ("Lower_Frequency_Limit", lower),
+    ):
+        text = answer[1:] if answer.startswith("=") else f"{prefix}{name} {answer}"
+        pairs.append((f"{prefix}{name}?", text))
+    return pairs
 
 
 def test_drivers_satisfy_the_protocols(scripted):
@@ -183,17 +213,12 @@ def test_drivers_satisfy_the_protocols(scripted):
     assert isinstance(ScpiPowerAmplifier(scripted()), PowerAmplifier)
 
 
-def test_configure_writes_one_compound_message_then_reads_back(scripted):
+def test_configure_charge_input_sends_si_units_and_db_then_reads_back(scripted):
     fake = scripted(
-        (
-            ":Channel_1:Measurement_Mode Acceleration;"
-            ":Channel_1:Transducer_Sensitivity 9.21;"
-            ":Channel_1:Output_Gain 20;"
-            ":Channel_1:High_Pass_Filter 0.1;"
-            ":Channel_1:Low_Pass_Filter Off",
-            None,
-        ),
-        *readback(1, "Acceleration", "9.21", "20", "0.1", "Off"),
+        HDR,
+        input_type(1),
+        *writes(1, "9.21E-12", "26.0206", "OFf", "0.1"),
+        *readback(1, "Acceleration", "9.21E-12", "26.0206", "OFf", "0.1"),
     )
     amp = BK2525Amplifier(fake)
     settings = amp.configure(
@@ -202,8 +227,8 @@ def test_configure_writes_one_compound_message_then_reads_back(scripted):
     assert settings == ConditioningSettings(
         channel=1,
         measurement_mode="Acceleration",
-        sensitivity_mv_per_ms2=9.21,
-        gain=20.0,
+        sensitivity_mv_per_ms2=9.21,  # pC/(m/s^2), from 9.21E-12 C/(m/s^2)
+        gain=20.0,  # V/V, from 26.0206 dB
         output_mv_per_ms2=pytest.approx(184.2),
         high_pass_hz=0.1,
         low_pass_hz=None,
@@ -211,38 +236,46 @@ def test_configure_writes_one_compound_message_then_reads_back(scripted):
     )
 
 
-def test_configure_second_channel_uses_its_prefix_and_filter_texts(scripted):
+def test_configure_voltage_input_second_channel_sends_volts(scripted):
     fake = scripted(
-        (
-            ":Channel_2:Measurement_Mode Acceleration;"
-            ":Channel_2:Transducer_Sensitivity 0.316228;"
-            ":Channel_2:Output_Gain 10000;"
-            ":Channel_2:High_Pass_Filter 10;"
-            ":Channel_2:Low_Pass_Filter 22400",
-            None,
-        ),
-        *readback(2, "Acceleration", "0.316228", "10000", "10", "22400"),
+        HDR,
+        input_type(2, VOLTAGE),
+        *writes(2, "3.16228E-4", "80", "22400", "10"),
+        *readback(2, "Acceleration", "3.16228E-4", "80", "22400", "10"),
     )
     amp = BK2525Amplifier(fake, channels=2)
     settings = amp.configure(
         2, sensitivity_mv_per_ms2=math.sqrt(0.1), gain=1e4, high_pass_hz=10, low_pass_hz=22400
     )
     assert settings.channel == 2
-    assert settings.sensitivity_mv_per_ms2 == 0.316228
+    assert settings.sensitivity_mv_per_ms2 == 0.316228  # mV/(m/s^2), from V/(m/s^2)
+    assert settings.gain == 10000.0
     assert settings.high_pass_hz == 10.0
     assert settings.low_pass_hz == 22400.0
 
 
-def test_read_settings_parses_long_header_answers_and_off(scripted):
+@pytest.mark.parametrize(
+    ("gain", "db"),
+    [(0.1, "-20"), (0.2, "-13.9794"), (0.5, "-6.0206"), (1, "0"), (2, "6.0206"), (10, "20")],
+)
+def test_output_gain_goes_out_in_db_and_comes_back_in_v_per_v(scripted, gain, db):
     fake = scripted(
-        *readback(
-            1,
-            ":Channel_1:Measurement_Mode ACCELERATION",
-            ":Channel_1:Transducer_Sensitivity 1.250E+00",
-            ":Channel_1:Output_Gain 5.0E+01",
-            ":Channel_1:High_Pass_Filter OFf",
-            ":Channel_1:Low_Pass_Filter 1000",
-        )
+        HDR,
+        input_type(1),
+        *writes(1, "1E-12", db, "OFf", "1"),
+        *readback(1, "Acceleration", "1E-12", db, "OFf", "1"),
+    )
+    settings = BK2525Amplifier(fake).configure(
+        1, sensitivity_mv_per_ms2=1, gain=gain, high_pass_hz=1
+    )
+    assert settings.gain == gain
+
+
+def test_read_settings_parses_long_and_header_off_answers(scripted):
+    fake = scripted(
+        HDR,
+        input_type(1, header=False),
+        *readback(1, "=ACCELERATION", "1.250E-12", "=33.9794", "1000", "=OFf"),
     )
     settings = BK2525Amplifier(fake).read_settings(1)
     assert settings.measurement_mode == "Acceleration"
@@ -254,14 +287,19 @@ def test_read_settings_parses_long_header_answers_and_off(scripted):
     assert settings.identity == IDN_BK
 
 
-def test_identity_is_asked_once(scripted):
+def test_header_long_is_sent_once_and_identity_asked_once(scripted):
     fake = scripted(
-        ("*IDN?", IDN_BK),
-        *readback(1, "Velocity", "1", "1", "1", "Off", idn=None),
+        HDR,
+        ("Identify?", f":Identify {IDN_BK}"),
+        input_type(1),
+        *readback(1, "Velocity", "1E-12", "0", "OFf", "1", idn=None),
+        input_type(1),
+        *readback(1, "Velocity", "1E-12", "0", "OFf", "1", idn=None),
     )
     amp = BK2525Amplifier(fake)
     assert amp.identify() == IDN_BK
     assert amp.read_settings(1).measurement_mode == "Velocity"
+    assert amp.read_settings(1).gain == 1.0
 
 
 @pytest.mark.parametrize(
@@ -269,13 +307,18 @@ def test_identity_is_asked_once(scripted):
     [("0", False), ("1", True), (":Channel_1:Overload ON", True), ("OFf", False)],
 )
 def test_overload_query(scripted, answer, expected):
-    fake = scripted((":Channel_1:Overload?", answer))
+    fake = scripted(HDR, (":Channel_1:Overload?", answer))
     assert BK2525Amplifier(fake).overloaded(1) is expected
 
 
-def test_recall_work_returns_the_raw_text(scripted):
-    text = ":Channel_1:Measurement_Mode Acceleration;Output_Gain 20;Low_Pass_Filter 22400"
-    fake = scripted(("Recall_Work?", text))
+def test_recall_work_returns_the_raw_long_text(scripted):
+    # The manual's own example (vol. 2, 5.3), cut after Additional_Filter.
+    text = (
+        ":Channel_1:Measurement_Mode Acceleration;Transducer_Sensitivity 1E-12;"
+        "Input_Type Charge_Single_Ended;Input_Gain -20;Fine_Gain 0;Output_Gain 0;"
+        "Upper_Frequency_Limit 10000;Lower_Frequency_Limit 1;Additional_Filter None"
+    )
+    fake = scripted(HDR, ("Recall_Work?", text))
     assert BK2525Amplifier(fake).recall_work() == text
 
 
@@ -291,17 +334,17 @@ def test_recall_work_returns_the_raw_text(scripted):
     ],
 )
 def test_malformed_answer_is_an_instrument_error_quoting_it(scripted, position, answer):
-    answers = ["Acceleration", "1", "1", "1", "Off"]
-    answers[position - 1] = answer
+    answers = ["=Acceleration", "=1E-12", "=0", "=OFf", "=1"]
+    answers[position - 1] = "=" + answer
     pairs = readback(1, *answers)[: position + 1]  # the driver stops at the bad answer
-    fake = scripted(*pairs)
+    fake = scripted(HDR, input_type(1), *pairs)
     with pytest.raises(InstrumentError, match=f"answer {answer!r}") as info:
         BK2525Amplifier(fake).read_settings(1)
     assert "measuring amplifier at FAKE::1::INSTR" in str(info.value)
 
 
 def test_malformed_overload_answer(scripted):
-    fake = scripted((":Channel_1:Overload?", "maybe"))
+    fake = scripted(HDR, (":Channel_1:Overload?", "maybe"))
     with pytest.raises(InstrumentError, match=r"overload: answer 'maybe'"):
         BK2525Amplifier(fake).overloaded(1)
 
@@ -318,11 +361,20 @@ GOOD = {"sensitivity_mv_per_ms2": 1.0, "gain": 1.0, "high_pass_hz": 1.0, "low_pa
         ({"gain": float("nan")}, "output gain nan refused"),
         ({"gain": "20"}, "output gain '20' refused"),
         ({"gain": True}, "output gain True refused"),
-        ({"sensitivity_mv_per_ms2": 0.0}, r"transducer sensitivity 0\.0 refused: allowed 0\.001"),
+        (
+            {"sensitivity_mv_per_ms2": 0.0},
+            r"transducer sensitivity 0\.0 refused: allowed 0\.001 to 10000 pC/\(m/s\^2\) or mV",
+        ),
         ({"sensitivity_mv_per_ms2": 1e5}, "transducer sensitivity 100000.0 refused"),
         ({"sensitivity_mv_per_ms2": float("inf")}, "transducer sensitivity inf refused"),
-        ({"high_pass_hz": 5}, r"high-pass filter 5 refused: allowed one of off, 0\.1, 1, 10 Hz"),
-        ({"low_pass_hz": 2000}, "low-pass filter 2000 refused: allowed one of off, 1000, 3000"),
+        (
+            {"high_pass_hz": 5},
+            r"lower frequency limit \(high-pass\) 5 refused: allowed one of off, 0\.1, 1, 10 Hz",
+        ),
+        (
+            {"low_pass_hz": 2000},
+            r"upper frequency limit \(low-pass\) 2000 refused: allowed one of off, 1000, 3000",
+        ),
     ],
 )
 def test_out_of_range_setting_refused_with_nothing_sent(scripted, change, message):
@@ -344,34 +396,41 @@ def test_bad_channel_refused_with_nothing_sent(scripted, channel):
 
 def test_configure_raises_when_the_amplifier_does_not_take_a_setting(scripted):
     fake = scripted(
-        (
-            ":Channel_1:Measurement_Mode Acceleration;:Channel_1:Transducer_Sensitivity 1;"
-            ":Channel_1:Output_Gain 20;:Channel_1:High_Pass_Filter 1;"
-            ":Channel_1:Low_Pass_Filter Off",
-            None,
-        ),
-        *readback(1, "Acceleration", "1", "10", "1", "22400"),
+        HDR,
+        input_type(1),
+        *writes(1, "1E-12", "26.0206", "OFf", "1"),
+        *readback(1, "Acceleration", "1E-12", "20", "22400", "1"),
     )
-    with pytest.raises(InstrumentError, match=r"output gain reads 10, sent 20.*low-pass"):
+    with pytest.raises(
+        InstrumentError, match=r"output gain reads 10, sent 20.*upper frequency limit reads 22400"
+    ):
         BK2525Amplifier(fake).configure(1, **{**GOOD, "gain": 20})
+
+
+def test_configure_reports_a_gain_off_the_list_as_read(scripted):
+    fake = scripted(
+        HDR,
+        input_type(1),
+        *writes(1, "1E-12", "6.0206", "OFf", "1"),
+        *readback(1, "Acceleration", "1E-12", "6", "OFf", "1"),  # 6 dB, not 6.0206
+    )
+    with pytest.raises(InstrumentError, match=r"output gain reads 1\.99526, sent 2$"):
+        BK2525Amplifier(fake).configure(1, **{**GOOD, "gain": 2})
 
 
 def test_configure_tolerates_instrument_rounding_of_the_sensitivity(scripted):
     fake = scripted(
-        (
-            ":Channel_1:Measurement_Mode Acceleration;:Channel_1:Transducer_Sensitivity 9.21234;"
-            ":Channel_1:Output_Gain 1;:Channel_1:High_Pass_Filter 1;"
-            ":Channel_1:Low_Pass_Filter Off",
-            None,
-        ),
-        *readback(1, "Acceleration", "9.212", "1", "1", "Off"),
+        HDR,
+        input_type(1),
+        *writes(1, "9.21234E-12", "0", "OFf", "1"),
+        *readback(1, "Acceleration", "9.212E-12", "0", "OFf", "1"),
     )
     settings = BK2525Amplifier(fake).configure(1, **{**GOOD, "sensitivity_mv_per_ms2": 9.21234})
     assert settings.sensitivity_mv_per_ms2 == 9.212  # what the amplifier holds is reported
 
 
 def test_query_timeout_becomes_visa_timeout_error(scripted):
-    fake = scripted((":Channel_1:Overload?", timeout_error()))
+    fake = scripted(HDR, (":Channel_1:Overload?", timeout_error()))
     with pytest.raises(VisaTimeoutError, match=r"no answer to ':Channel_1:Overload\?'") as info:
         BK2525Amplifier(fake).overloaded(1)
     assert isinstance(info.value.__cause__, visa_errors.VisaIOError)
@@ -379,12 +438,9 @@ def test_query_timeout_becomes_visa_timeout_error(scripted):
 
 def test_write_timeout_becomes_visa_timeout_error(scripted):
     fake = scripted(
-        (
-            ":Channel_1:Measurement_Mode Acceleration;:Channel_1:Transducer_Sensitivity 1;"
-            ":Channel_1:Output_Gain 1;:Channel_1:High_Pass_Filter 1;"
-            ":Channel_1:Low_Pass_Filter Off",
-            timeout_error(),
-        )
+        HDR,
+        input_type(1),
+        (":Channel_1:Measurement_Mode Acceleration", timeout_error()),
     )
     with pytest.raises(VisaTimeoutError):
         BK2525Amplifier(fake).configure(1, **GOOD)
@@ -401,13 +457,19 @@ def test_write_timeout_becomes_visa_timeout_error(scripted):
     ids=["conn-lost", "rsrc-nfound", "invalid-session", "closed-session"],
 )
 def test_lost_connection_becomes_device_lost_error(scripted, error):
-    fake = scripted(("*IDN?", error))
+    fake = scripted(HDR, ("Identify?", error))
     with pytest.raises(DeviceLostError, match=r"measuring amplifier at FAKE::1::INSTR"):
         BK2525Amplifier(fake).identify()
 
 
+def test_lost_connection_on_the_header_command_is_device_lost(scripted):
+    fake = scripted(("Header Long", visa_errors.InvalidSession()))
+    with pytest.raises(DeviceLostError, match=r"while sending 'Header Long'"):
+        BK2525Amplifier(fake).identify()
+
+
 def test_other_visa_error_is_a_plain_hardware_error(scripted):
-    fake = scripted(("*IDN?", visa_errors.VisaIOError(constants.StatusCode.error_io)))
+    fake = scripted(HDR, ("Identify?", visa_errors.VisaIOError(constants.StatusCode.error_io)))
     with pytest.raises(HardwareError, match="VISA error") as info:
         BK2525Amplifier(fake).identify()
     assert type(info.value) is HardwareError
@@ -425,7 +487,7 @@ def test_close_is_idempotent_and_later_use_is_refused(scripted):
 
 
 def test_context_manager_closes(scripted):
-    fake = scripted(("*IDN?", IDN_BK))
+    fake = scripted(HDR, ("Identify?", f":Identify {IDN_BK}"))
     with BK2525Amplifier(fake) as amp:
         assert amp.identify() == IDN_BK
     assert fake.close_calls == 1

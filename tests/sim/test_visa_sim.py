@@ -73,17 +73,35 @@ def test_shared_manager_is_reused_and_fresh_one_starts_from_defaults():
         assert fresh.read_settings(1).gain == 1.0
     finally:
         fresh_rm.close()
-    amp.configure(1, sensitivity_mv_per_ms2=1.0, gain=1, high_pass_hz=1, low_pass_hz=22400)
+    amp.configure(1, sensitivity_mv_per_ms2=1.0, gain=1, high_pass_hz=1, low_pass_hz=10000)
     amp.close()
     other.close()
 
 
 def test_defaults_read_back(amp):
+    # The defaults of the manual's Recall_Work? example (vol. 2, 5.3): 1E-12 C/(m/s^2) on a
+    # charge input, Output_Gain 0 dB, Upper_Frequency_Limit 10000, Lower_Frequency_Limit 1.
     settings = amp.read_settings(1)
     assert settings.measurement_mode == "Acceleration"
     assert (settings.sensitivity_mv_per_ms2, settings.gain) == (1.0, 1.0)
-    assert (settings.high_pass_hz, settings.low_pass_hz) == (1.0, 22400.0)
+    assert (settings.high_pass_hz, settings.low_pass_hz) == (1.0, 10000.0)
     assert settings.identity == amp.identify()
+
+
+def test_simulation_speaks_the_manuals_units_and_long_headers(rm, amp):
+    amp.configure(1, sensitivity_mv_per_ms2=9.21, gain=20, high_pass_hz=0.1)
+    instrument = raw(rm, SIM_MEASURING_AMPLIFIER)
+    for query, answer in (
+        ("Header?", ":Header Long"),
+        (":Channel_1:Input_Type?", ":Channel_1:Input_Type Charge_Single_Ended"),
+        (":Channel_1:Transducer_Sensitivity?", ":Channel_1:Transducer_Sensitivity 9.21E-12"),
+        (":Channel_1:Output_Gain?", ":Channel_1:Output_Gain 26.0206"),
+        (":Channel_1:Upper_Frequency_Limit?", ":Channel_1:Upper_Frequency_Limit OFf"),
+        (":Channel_1:Lower_Frequency_Limit?", ":Channel_1:Lower_Frequency_Limit 0.1"),
+        ("*IDN?", "ERROR -100 Command error"),  # not in the 2525's command set (Table 9.1)
+    ):
+        assert instrument.query(query) == answer
+    instrument.close()
 
 
 @pytest.mark.parametrize(
@@ -153,25 +171,25 @@ def test_driver_refuses_out_of_range_and_the_instrument_keeps_its_settings(amp, 
 @pytest.mark.parametrize(
     ("command", "answer", "query", "unchanged"),
     [
-        (":Channel_1:Output_Gain 3", "ERROR -222 Data out of range", "Output_Gain?", "1"),
-        (":Channel_1:Output_Gain 20000", "ERROR -222 Data out of range", "Output_Gain?", "1"),
+        (":Channel_1:Output_Gain 3", "ERROR -224 Illegal parameter value", "Output_Gain?", "0"),
+        (":Channel_1:Output_Gain 81", "ERROR -224 Illegal parameter value", "Output_Gain?", "0"),
         (
             ":Channel_2:Transducer_Sensitivity 0",
             "ERROR -222 Data out of range",
             "Transducer_Sensitivity?",
+            "1E-12",
+        ),
+        (
+            ":Channel_1:Lower_Frequency_Limit 5",
+            "ERROR -224 Illegal parameter value",
+            "Lower_Frequency_Limit?",
             "1",
         ),
         (
-            ":Channel_1:High_Pass_Filter 5",
+            ":Channel_1:Upper_Frequency_Limit 2000",
             "ERROR -224 Illegal parameter value",
-            "High_Pass_Filter?",
-            "1",
-        ),
-        (
-            ":Channel_1:Low_Pass_Filter 2000",
-            "ERROR -224 Illegal parameter value",
-            "Low_Pass_Filter?",
-            "22400",
+            "Upper_Frequency_Limit?",
+            "10000",
         ),
         (
             ":Channel_1:Measurement_Mode Charge",
@@ -179,7 +197,8 @@ def test_driver_refuses_out_of_range_and_the_instrument_keeps_its_settings(amp, 
             "Measurement_Mode?",
             "Acceleration",
         ),
-        (":Channel_1:No_Such_Thing 1", "ERROR -100 Command error", "Output_Gain?", "1"),
+        (":Channel_1:High_Pass_Filter 1", "ERROR -100 Command error", "Output_Gain?", "0"),
+        (":Channel_1:No_Such_Thing 1", "ERROR -100 Command error", "Output_Gain?", "0"),
     ],
 )
 def test_simulated_measuring_amplifier_answers_errors_to_raw_bad_writes(
@@ -189,22 +208,28 @@ def test_simulated_measuring_amplifier_answers_errors_to_raw_bad_writes(
     instrument.write(command)
     assert instrument.read() == answer
     channel = command.split(":")[1]
-    assert instrument.query(f":{channel}:{query}") == unchanged
+    assert instrument.query(f":{channel}:{query}") == f":{channel}:{query[:-1]} {unchanged}"
     instrument.close()
 
 
-def test_simulated_measuring_amplifier_accepts_a_raw_good_compound_write(rm, amp):
+def test_simulated_measuring_amplifier_accepts_the_manuals_single_setting_writes(rm, amp):
     instrument = raw(rm, SIM_MEASURING_AMPLIFIER)
-    instrument.write(":Channel_2:Output_Gain 200;:Channel_2:Low_Pass_Filter 10000")
+    instrument.write(":Channel_2:Output_Gain 46.0206")  # 200 V/V
+    instrument.write(":Channel_2:Transducer_Sensitivity 1.03E-11")  # 10.3 pC/(m/s^2)
+    instrument.write(":Channel_2:Upper_Frequency_Limit 3000")
     settings = amp.read_settings(2)
-    assert (settings.gain, settings.low_pass_hz) == (200.0, 10000.0)
+    assert (settings.gain, settings.sensitivity_mv_per_ms2, settings.low_pass_hz) == (
+        200.0,
+        10.3,
+        3000.0,
+    )
     instrument.close()
 
 
 def test_an_error_answer_reaches_the_driver_as_an_instrument_error(rm, amp):
     instrument = raw(rm, SIM_MEASURING_AMPLIFIER)
     instrument.write(":Channel_1:Output_Gain 3")  # its error answer waits in the output queue
-    with pytest.raises(InstrumentError, match="'ERROR -222 Data out of range'"):
+    with pytest.raises(InstrumentError, match="'ERROR -224 Illegal parameter value'"):
         amp.overloaded(1)
     instrument.close()
 
@@ -218,8 +243,13 @@ def test_overload_and_recall_work(rm, amp):
     assert amp.overloaded(2) is True
     instrument.close()
     work = amp.recall_work()
-    assert work.startswith(":Channel_1:Measurement_Mode Acceleration;")
-    assert ":Channel_2:" in work
+    # The manual's example (vol. 2, 5.3), up to Additional_Filter, once per channel.
+    assert work.startswith(
+        ":Channel_1:Measurement_Mode Acceleration;Transducer_Sensitivity 1E-12;"
+        "Input_Type Charge_Single_Ended;Input_Gain -20;Fine_Gain 0;Output_Gain 0;"
+        "Upper_Frequency_Limit 10000;Lower_Frequency_Limit 1;Additional_Filter None;"
+    )
+    assert ":Channel_2:Measurement_Mode Acceleration;" in work
 
 
 def test_wrong_instrument_at_the_address_is_an_instrument_error(rm):
@@ -366,4 +396,40 @@ def test_power_amplifier_run_exchange_is_byte_exact(rm):
         ("->", b"OUTP OFF\n"),
         ("->", b"OUTP?\n"),
         ("<-", b"OFF\n"),
+    ]
+
+
+def test_measuring_amplifier_run_exchange_is_byte_exact(rm):
+    """What a run sends the 2525 (manual vol. 2 sections as the driver cites them): Header Long
+    (4.3.2), Input_Type? (5.3: charge -> C per m/s^2), one message per setting with SI
+    sensitivity and dB gain (5.3), Identify? (Table 9.1), the read-back with long headers,
+    then one overload poll per period (not a command of the pages read: see the driver)."""
+    wire = _Wire(raw(rm, SIM_MEASURING_AMPLIFIER))
+    amp = BK2525Amplifier(wire, channels=2)
+    settings = amp.configure(1, sensitivity_mv_per_ms2=1.0, gain=10.0)
+    assert (settings.sensitivity_mv_per_ms2, settings.gain) == (1.0, 10.0)
+    assert amp.overloaded(1) is False
+    assert wire.exchange == [
+        ("->", b"Header Long\n"),
+        ("->", b":Channel_1:Input_Type?\n"),
+        ("<-", b":Channel_1:Input_Type Charge_Single_Ended\n"),
+        ("->", b":Channel_1:Measurement_Mode Acceleration\n"),
+        ("->", b":Channel_1:Transducer_Sensitivity 1E-12\n"),
+        ("->", b":Channel_1:Output_Gain 20\n"),
+        ("->", b":Channel_1:Upper_Frequency_Limit OFf\n"),
+        ("->", b":Channel_1:Lower_Frequency_Limit OFf\n"),
+        ("->", b"Identify?\n"),
+        ("<-", b":Identify Bruel&Kjaer,2525,SIM-2525-0001,pyvisa-sim 1.0\n"),
+        ("->", b":Channel_1:Measurement_Mode?\n"),
+        ("<-", b":Channel_1:Measurement_Mode Acceleration\n"),
+        ("->", b":Channel_1:Transducer_Sensitivity?\n"),
+        ("<-", b":Channel_1:Transducer_Sensitivity 1E-12\n"),
+        ("->", b":Channel_1:Output_Gain?\n"),
+        ("<-", b":Channel_1:Output_Gain 20\n"),
+        ("->", b":Channel_1:Upper_Frequency_Limit?\n"),
+        ("<-", b":Channel_1:Upper_Frequency_Limit OFf\n"),
+        ("->", b":Channel_1:Lower_Frequency_Limit?\n"),
+        ("<-", b":Channel_1:Lower_Frequency_Limit OFf\n"),
+        ("->", b":Channel_1:Overload?\n"),
+        ("<-", b":Channel_1:Overload 0\n"),
     ]

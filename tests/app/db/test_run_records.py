@@ -164,3 +164,22 @@ def test_a_certificate_through_the_records_takes_customer_sensor_and_number_from
         (f"ACC-{year}-0001", "replaced", None),
         (f"ACC-{year}-0002", "issued", f"ACC-{year}-0001"),
     ]
+
+
+def test_run_teds_identifies_the_dut_in_the_records(
+    lab_url: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from app.teds_io import open_port
+    from hardware.teds import decode
+
+    identity = decode(open_port(None, "piezo", seed=1).read()).basic.identity
+    lab = Lab(open_engine(lab_url), actor="t")
+    lab.add_sensor("SN-TEDS", model="4533-B", owner="ACME Ltd", teds_identity=identity)
+    out = tmp_path / "runs"
+    assert main([*RUN, "--teds", "--db", lab_url, "--out", str(out), "--json"]) == 0
+    assert f"TEDS identity {identity}" in capsys.readouterr().err
+    assert _record(out)["dut"]["id"] == "SN-TEDS"
+    assert main([*RUN, "--teds", "--out", str(tmp_path / "no-db"), "--json"]) == 0
+    record = _record(tmp_path / "no-db")
+    assert record["dut"]["id"] == f"TEDS-{identity.replace('/', '-')}"
+    assert record["dut"]["nominal_sensitivity_mv_per_ms2"] == pytest.approx(10.2, rel=2e-4)

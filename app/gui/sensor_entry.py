@@ -1,0 +1,187 @@
+"""The DUT serial field against the records: typed or scanned (a barcode scanner types and
+presses Enter), looked up by exact serial only, never guessed.
+
+A serial on record fills the DUT's nominal sensitivity, tolerance, level and preset from its
+model (and says so under the field). An unknown serial fills nothing: it offers to register
+the sensor (model and owner chosen from the records), and when declined the field is marked
+"not in the records" (the run is still stored under that serial, and `accelcal db import`
+links it once the sensor is registered). Records that cannot be opened are said so.
+"""
+
+from __future__ import annotations
+
+import logging
+from typing import Any
+
+from PySide6.QtCore import QObject
+from PySide6.QtWidgets import (
+    QComboBox,
+    QDialog,
+    QDialogButtonBox,
+    QFormLayout,
+    QLabel,
+    QLineEdit,
+    QMessageBox,
+    QSpinBox,
+    QWidget,
+)
+
+from app.db.errors import RecordsInputError
+from app.gui.field_marks import INFO, WARNING, FieldMarks
+from dsp.multisine import PRESETS
+
+log = logging.getLogger(__name__)
+
+
+class RegisterSensorDialog(QDialog):
+    """A new sensor: the serial as typed (not editable here), its model, owner and interval."""
+
+    def __init__(self, parent: QWidget | None, serial: str, models: list[Any], owners: list[Any]):
+        super().__init__(parent)
+        self.setWindowTitle(f"Register sensor {serial}")
+        form = QFormLayout(self)
+        heading = QLabel(
+            f"<b>{serial}</b> is not in the records. Register it with the model and owner "
+            "below; nothing is taken from another sensor."
+        )
+        heading.setWordWrap(True)
+        form.addRow(heading)
+        self.serial = QLineEdit(serial)
+        self.serial.setReadOnly(True)
+        self.model = QComboBox()
+        for m in models:
+            self.model.addItem(
+                f"{m.maker} {m.model} ({m.nominal_sensitivity:g} {m.unit})", f"{m.maker} {m.model}"
+            )
+        self.owner = QComboBox()
+        for c in owners:
+            self.owner.addItem(c.name, c.name)
+        self.interval = QSpinBox(minimum=1, maximum=120, value=12, suffix=" months")
+        form.addRow("Serial", self.serial)
+        form.addRow("Model", self.model)
+        form.addRow("Owner", self.owner)
+        form.addRow("Calibration interval", self.interval)
+        buttons = QDialogButtonBox(
+            QDialogButtonBox.StandardButton.Ok | QDialogButtonBox.StandardButton.Cancel
+        )
+        buttons.accepted.connect(self.accept)
+        buttons.rejected.connect(self.reject)
+        form.addRow(buttons)
+
+    def values(self) -> dict[str, Any]:
+        return {
+            "model": self.model.currentData(),
+            "owner": self.owner.currentData(),
+            "interval_months": self.interval.value(),
+        }
+
+
+class SerialEntry(QObject):
+    """Looks the DUT serial up when it is entered (Enter, or the field left)."""
+
+    def __init__(self, window: Any, link: Any, marks: FieldMarks) -> None:
+        super().__init__(window)
+        self.window, self.link, self.marks = window, link, marks
+        self.sensor: Any = None
+        self._looked_up: str | None = None
+        self._busy = False
+        window.dut_id.editingFinished.connect(self.look_up)
+        window.dut_id.textEdited.connect(self._edited)
+
+    def _edited(self, _text: str) -> None:
+        """Typing again forgets the last look-up (the fields it filled stay until next sensor)."""
+        self._looked_up = None
+        self.sensor = None
+        self.marks.note(self.window.dut_id, None)
+
+    def reset(self) -> None:
+        self._looked_up, self.sensor = None, None
+        self.marks.note(self.window.dut_id, None)
+
+    def look_up(self) -> Any:
+        """The sensor on record for the serial typed (None: unknown or no records)."""
+        serial = self.window.dut_id.text().strip()
+        if self._busy or serial == self._looked_up:
+            return self.sensor
+        self._looked_up, self.sensor = serial, None
+        if not serial:
+            self.marks.note(self.window.dut_id, None)
+            return None
+        if self.link.lab is None:
+            self.marks.note(
+                self.window.dut_id,
+                f"not checked: {self.link.describe()}; the run is stored under this serial",
+                WARNING,
+            )
+            return None
+        self._busy = True
+        try:
+            sensor = self.link.sensor(serial)
+            if sensor is None:
+                self.marks.note(
+                    self.window.dut_id,
+                    f"{serial} is not in the records: nothing filled in; register it, or the run "
+                    "is stored under this serial only",
+                    WARNING,
+                )
+                if self.offer_registration(serial):
+                    sensor = self.link.sensor(serial)
+        except RecordsInputError as exc:
+            self.marks.note(self.window.dut_id, f"records: {exc}", WARNING)
+            sensor = None
+        finally:
+            self._busy = False
+        if sensor is not None:
+            self.fill(sensor)
+        return sensor
+
+    def offer_registration(self, serial: str) -> bool:
+        """Ask; register through the records when accepted. Whether the sensor now exists."""
+        lab = self.link.lab
+        answer = QMessageBox.question(
+            self.window,
+            "Unknown sensor",
+            f"{serial} is not in the records.\n\nRegister it now? Nothing is filled in from "
+            "another sensor.",
+        )
+        if answer != QMessageBox.StandardButton.Yes:
+            return False
+        models, owners = lab.models(), lab.customers()
+        if not models or not owners:
+            QMessageBox.information(
+                self.window,
+                "Register sensor",
+                "The records have no sensor model or no customer yet: add them first "
+                "(accelcal models add ..., accelcal customers add ...).",
+            )
+            return False
+        dialog = RegisterSensorDialog(self.window, serial, models, owners)
+        if dialog.exec() != QDialog.DialogCode.Accepted:
+            return False
+        try:
+            lab.add_sensor(serial, **dialog.values())
+        except RecordsInputError as exc:
+            QMessageBox.warning(self.window, "Sensor not registered", str(exc))
+            return False
+        return True
+
+    def fill(self, sensor: Any) -> None:
+        """The DUT's settings from its record (exact serial only)."""
+        from app.db.units import to_mv_per_ms2
+
+        self.sensor = sensor
+        model = sensor.model
+        w = self.window
+        w.nominal.setValue(to_mv_per_ms2(model.nominal_sensitivity, model.unit))
+        w.tolerance.setValue(model.tolerance_percent)
+        w.level.setValue(model.level_ms2)
+        if model.preset in PRESETS:
+            w.preset.setCurrentText(model.preset)
+        due = f", due {sensor.due_date}" if sensor.due_date else ""
+        self.marks.note(
+            w.dut_id,
+            f"from the records: {model.maker} {model.model}, owner {sensor.owner.name}{due}; "
+            f"nominal {model.nominal_sensitivity:g} {model.unit}, tolerance "
+            f"{model.tolerance_percent:g} %",
+            INFO,
+        )

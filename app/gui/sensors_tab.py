@@ -1,0 +1,261 @@
+"""The Sensors tab: search the lab's sensors by serial, a sensor's history (sensitivity at the
+reference frequency over time with its U bars, drift per year), and what is due.
+
+It reads `app.db.lab.Lab` through the window's `RecordsLink` and draws; it computes nothing
+(history and drift come from `Lab.history`, the due list from `Lab.due`). When the records
+cannot be opened the tab says why and the rest of the window works.
+"""
+
+from __future__ import annotations
+
+import logging
+from datetime import UTC, date, datetime
+from typing import Any
+
+import numpy as np
+import pyqtgraph as pg
+from PySide6.QtCore import Qt
+from PySide6.QtGui import QColor
+from PySide6.QtWidgets import (
+    QAbstractItemView,
+    QGroupBox,
+    QHBoxLayout,
+    QHeaderView,
+    QLabel,
+    QLineEdit,
+    QPushButton,
+    QSpinBox,
+    QTableWidget,
+    QTableWidgetItem,
+    QVBoxLayout,
+    QWidget,
+)
+
+from app.db.errors import RecordsInputError
+from app.gui.records_link import RecordsLink
+from app.gui.results_tab import wrapping_label
+
+log = logging.getLogger(__name__)
+
+SENSOR_COLUMNS = ("Serial", "Model", "Owner", "Interval", "Due")
+DUE_COLUMNS = ("Kind", "Identifier", "Due", "Owner")
+OVERDUE = "#c0392b"
+
+
+def _text(table: QTableWidget, row: int, column: int) -> str:
+    cell = table.item(row, column)
+    return cell.text() if cell is not None else ""
+
+
+def _item(text: str, colour: str | None = None) -> QTableWidgetItem:
+    item = QTableWidgetItem(text)
+    item.setFlags(item.flags() & ~Qt.ItemFlag.ItemIsEditable)
+    if colour:
+        item.setForeground(QColor(colour))
+    return item
+
+
+class SensorsTab(QWidget):
+    """Search, history chart and due list over the records of `link`."""
+
+    def __init__(self, link: RecordsLink, today: Any = None) -> None:
+        super().__init__()
+        self.link = link
+        self._today = today  # a fixed date for tests; None: the current UTC date
+        layout = QVBoxLayout(self)
+        self.status = wrapping_label(link.describe())
+        layout.addWidget(self.status)
+
+        body = QHBoxLayout()
+        left = QVBoxLayout()
+        search_row = QHBoxLayout()
+        self.search = QLineEdit()
+        self.search.setPlaceholderText("serial contains ... (scan or type, Enter)")
+        self.search.setToolTip("Search the sensors by serial number")
+        self.search.textChanged.connect(self.search_sensors)
+        refresh = QPushButton("Refresh")
+        refresh.setToolTip("Read the sensors and the due list again")
+        refresh.clicked.connect(self.refresh)
+        search_row.addWidget(QLabel("Serial"))
+        search_row.addWidget(self.search, 1)
+        search_row.addWidget(refresh)
+        left.addLayout(search_row)
+        self.sensors = QTableWidget(0, len(SENSOR_COLUMNS))
+        self.sensors.setHorizontalHeaderLabels(list(SENSOR_COLUMNS))
+        self.sensors.setSelectionBehavior(QAbstractItemView.SelectionBehavior.SelectRows)
+        self.sensors.setSelectionMode(QAbstractItemView.SelectionMode.SingleSelection)
+        self.sensors.horizontalHeader().setSectionResizeMode(QHeaderView.ResizeMode.Stretch)
+        self.sensors.verticalHeader().setVisible(False)
+        self.sensors.itemSelectionChanged.connect(self._selected)
+        left.addWidget(self.sensors, 1)
+
+        due_box = QGroupBox("Due for calibration")
+        due_layout = QVBoxLayout(due_box)
+        self.days = QSpinBox(minimum=0, maximum=3650, value=30, suffix=" days ahead")
+        self.days.setToolTip("Sensors and reference standards due within this many days")
+        self.days.valueChanged.connect(self.show_due)
+        due_layout.addWidget(self.days)
+        self.due = QTableWidget(0, len(DUE_COLUMNS))
+        self.due.setHorizontalHeaderLabels(list(DUE_COLUMNS))
+        self.due.horizontalHeader().setSectionResizeMode(QHeaderView.ResizeMode.Stretch)
+        self.due.verticalHeader().setVisible(False)
+        self.due.setSelectionBehavior(QAbstractItemView.SelectionBehavior.SelectRows)
+        self.due.itemDoubleClicked.connect(self._due_clicked)
+        due_layout.addWidget(self.due, 1)
+        left.addWidget(due_box, 1)
+        body.addLayout(left, 2)
+
+        right = QVBoxLayout()
+        self.chart = pg.PlotWidget(
+            title="History: sensitivity at the reference frequency, ± U",
+            axisItems={"bottom": pg.DateAxisItem(utcOffset=0)},
+        )
+        self.chart.setLabel("left", "sensitivity", units="mV/(m/s²)")
+        self.chart.setLabel("bottom", "calibration date (UTC)")
+        self.chart.getAxis("left").enableAutoSIPrefix(False)
+        self.chart.showGrid(x=True, y=True, alpha=0.3)
+        self.points = pg.ScatterPlotItem(size=9, brush=pg.mkBrush("#2471a3"))
+        self.line = pg.PlotDataItem(pen=pg.mkPen("#2471a3", width=1))
+        self.bars = pg.ErrorBarItem(beam=0.0, pen=pg.mkPen("#2471a3"))
+        for item in (self.line, self.bars, self.points):
+            self.chart.addItem(item)
+        right.addWidget(self.chart, 1)
+        self.history_text = wrapping_label("Select a sensor to see its history.")
+        right.addWidget(self.history_text)
+        body.addLayout(right, 3)
+        layout.addLayout(body, 1)
+
+        self.serial: str | None = None
+        self.history: Any = None
+        link.changed.connect(self.refresh)
+        self.refresh()
+
+    def today(self) -> date:
+        return self._today or datetime.now(UTC).date()
+
+    # --- reads ------------------------------------------------------------------------------
+
+    def refresh(self) -> None:
+        """Read the sensors (for the search) and the due list again."""
+        self.status.setText(self.link.describe())
+        enabled = self.link.lab is not None
+        for widget in (self.search, self.sensors, self.days, self.due, self.chart):
+            widget.setEnabled(enabled)
+        if enabled:
+            self.search_sensors(self.search.text())
+            self.show_due()
+        else:
+            self.sensors.setRowCount(0)
+            self.due.setRowCount(0)
+            self.show_history(None)
+
+    def _failed(self, exc: Exception) -> None:
+        self.status.setText(f"records: {exc}")
+
+    def search_sensors(self, text: str = "") -> list[Any]:
+        """Sensors whose serial contains `text`; an exact match is selected."""
+        lab = self.link.lab
+        if lab is None:
+            return []
+        try:
+            found = lab.sensors(text.strip())
+        except RecordsInputError as exc:
+            self._failed(exc)
+            return []
+        self.sensors.blockSignals(True)
+        self.sensors.setRowCount(len(found))
+        today = self.today()
+        for row, sensor in enumerate(found):
+            overdue = sensor.due_date is not None and sensor.due_date < today
+            cells = (
+                sensor.serial,
+                f"{sensor.model.maker} {sensor.model.model}",
+                sensor.owner.name,
+                f"{sensor.interval_months} months",
+                str(sensor.due_date) if sensor.due_date else "never calibrated here",
+            )
+            for column, text_ in enumerate(cells):
+                self.sensors.setItem(row, column, _item(text_, OVERDUE if overdue else None))
+        self.sensors.blockSignals(False)
+        exact = [r for r, s in enumerate(found) if s.serial == text.strip()]
+        if exact:
+            self.sensors.selectRow(exact[0])
+        elif len(found) == 1:
+            self.sensors.selectRow(0)
+        return found
+
+    def _selected(self) -> None:
+        rows = {i.row() for i in self.sensors.selectedItems()}
+        if len(rows) == 1:
+            self.show_history(_text(self.sensors, rows.pop(), 0))
+
+    def show_history(self, serial: str | None) -> None:
+        """The history chart of sensor `serial` (None: empty)."""
+        self.serial, self.history = serial, None
+        for item in (self.points, self.line):
+            item.setData([], [])
+        self.bars.setData(x=np.zeros(0), y=np.zeros(0), height=np.zeros(0))
+        lab = self.link.lab
+        if serial is None or lab is None:
+            self.history_text.setText("Select a sensor to see its history.")
+            return
+        try:
+            history = lab.history(serial)
+        except RecordsInputError as exc:
+            self.history_text.setText(str(exc))
+            return
+        self.history = history
+        points = history.points
+        if not points:
+            self.history_text.setText(f"{serial}: no complete calibration on record yet.")
+            return
+        x = np.array([p.started_utc.timestamp() for p in points])
+        y = np.array([p.sensitivity_mv_per_ms2 for p in points])
+        u = np.array([p.expanded_uncertainty_mv_per_ms2 or 0.0 for p in points])
+        self.points.setData(x, y)
+        self.line.setData(x, y)
+        self.bars.setData(x=x, y=y, height=2 * u)
+        self.chart.enableAutoRange()
+        drift = history.drift_percent_per_year
+        drift_text = (
+            "drift not stated (needs calibrations over at least 30 days)"
+            if drift is None
+            else f"drift {drift:+.3g} % per year"
+        )
+        last = points[-1]
+        self.history_text.setText(
+            f"{serial}: {len(points)} calibration(s); last {last.started_utc:%Y-%m-%d}, "
+            f"{last.sensitivity_mv_per_ms2:.5g} mV/(m/s²) at {last.reference_frequency_hz:g} Hz; "
+            f"{drift_text}."
+        )
+
+    def show_due(self) -> None:
+        """Sensors and reference standards due within the chosen days; overdue in red."""
+        lab = self.link.lab
+        if lab is None:
+            return
+        today = self.today()
+        try:
+            items = lab.due(today=today, days=self.days.value())
+        except RecordsInputError as exc:
+            self._failed(exc)
+            return
+        self.due.setRowCount(len(items))
+        for row, item in enumerate(items):
+            overdue = item.due is not None and item.due < today
+            due_text = (
+                "never calibrated here"
+                if item.due is None
+                else f"{item.due}{'  OVERDUE' if overdue else ''}"
+            )
+            cells = (item.kind, item.identifier, due_text, item.owner)
+            for column, text in enumerate(cells):
+                self.due.setItem(row, column, _item(text, OVERDUE if overdue else None))
+
+    def _due_clicked(self, item: QTableWidgetItem) -> None:
+        row = item.row()
+        if _text(self.due, row, 0) == "sensor":
+            self.search.setText(_text(self.due, row, 1))
+
+    def due_identifiers(self) -> list[str]:
+        return [_text(self.due, r, 1) for r in range(self.due.rowCount())]
