@@ -37,7 +37,7 @@ from sim.models import DUT_CATALOGUE, StandModel
 
 if TYPE_CHECKING:
     from app.run import RunRequest
-    from dsp.calibration import Results
+    from dsp.calibration import ReferenceChain, Results
     from dsp.uncertainty import Budget
     from sim.stand import Fault
 
@@ -487,8 +487,6 @@ def _load(args: argparse.Namespace):
     from app.analysis import read_for_analysis, reanalysis
     from app.recording import read_csv
     from app.records import is_run_folder
-    from dsp.calibration import ReferenceChain
-    from dsp.uncertainty import Budget
 
     if args.file.is_dir() and not is_run_folder(args.file):
         raise UsageError(
@@ -594,6 +592,9 @@ def _load_tdms(args: argparse.Namespace):
 
 def _chain_and_budget(args: argparse.Namespace, kind: str) -> tuple[ReferenceChain, Budget]:
     """The reference chain and budget of a CSV or TDMS recording, from the options."""
+    from dsp.calibration import ReferenceChain
+    from dsp.uncertainty import Budget
+
     if args.reference_sensitivity is None:
         raise UsageError(f"--reference-sensitivity: a {kind} recording needs it (mV/(m/s^2))")
     for name in ("reference_sensitivity", "reference_gain", "dut_gain", "sample_rate", "range_v"):
