@@ -26,6 +26,7 @@ from app.records import (
     STATUS_INTERRUPTED,
     STATUS_MODIFIED,
     STATUS_RUNNING,
+    STATUS_UNSUPPORTED,
     inspect_run,
     is_run_folder,
 )
@@ -231,7 +232,7 @@ def _run_status(folder: Path) -> str:
         check = inspect_run(folder)
     except ValueError as exc:  # unreadable manifest, not a run folder
         raise RecordingError(str(exc)) from None
-    if check.state == STATUS_MODIFIED:
+    if check.state in (STATUS_MODIFIED, STATUS_UNSUPPORTED):
         raise RecordingError("; ".join(check.problems))
     if check.state == STATUS_RUNNING:
         raise RecordingError(f"{folder}: the run is still being written; analyse it once it ends")

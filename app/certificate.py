@@ -46,6 +46,7 @@ from app import formatting as fmt
 from app.certificate_register import Issued, Register, RegisterError, locked_register
 from app.files import FileExistsRefusal, write_with
 from app.input_files import MAX_TEXT_BYTES, InputFileError, check_input_file
+from app.procedure.modes import MODE_MULTISINE
 from app.records import (
     STATUS_COMPLETE,
     is_product_name,
@@ -56,6 +57,7 @@ from app.records import (
     unlock,
     writable_folder,
 )
+from app.run_record import DutIdentity, RunRecord
 from dsp.calibration import NOT_STATED, Results
 from dsp.uncertainty import Budget, Quantity
 
@@ -104,7 +106,7 @@ class StoredRun:
     """What the certificate reads from a run folder."""
 
     path: Path
-    record: dict[str, Any]
+    record: RunRecord
     config: dict[str, Any]
     results: Results
     budget: Budget = field(default_factory=Budget)
@@ -117,26 +119,26 @@ def load_stored_run(path: str | Path) -> StoredRun:
         record = load_run(path)
     except ValueError as exc:
         raise CertificateError(str(exc)) from None
-    if record.get("status") != STATUS_COMPLETE or not record.get("results"):
-        reason = record.get("abort_reason") or "no results"
+    if record.status != STATUS_COMPLETE or not record.results:
+        reason = record.abort_reason or "no results"
         raise CertificateError(
-            f"{path}: the run is {record.get('status')} ({reason}); no certificate is issued for "
+            f"{path}: the run is {record.status} ({reason}); no certificate is issued for "
             "an incomplete run"
         )
     config_path = path / "config.json"
     config = json.loads(config_path.read_text(encoding="utf-8")) if config_path.exists() else {}
-    budget = Budget.from_list(record.get("budget", []))
-    return StoredRun(path, record, config, Results.from_dict(record["results"]), budget)
+    budget = Budget.from_list(list(record.budget))
+    return StoredRun(path, record, config, Results.from_dict(dict(record.results)), budget)
 
 
 def default_info(run: StoredRun) -> dict[str, Any]:
     """Defaults from the run and the stand's [certificate] table (the number is not one: `issue`
     takes the next free one from the runs root's register)."""
     defaults: dict[str, Any] = dict(run.config.get("stand", {}).get("certificate", {}))
-    dut = run.record.get("dut", {}) or {}
-    if dut.get("id"):
-        defaults.setdefault("dut_serial", dut["id"])
-    catalogue = dut.get("catalogue")
+    dut = run.record.dut or DutIdentity()
+    if dut.id:
+        defaults.setdefault("dut_serial", dut.id)
+    catalogue = dut.catalogue
     if catalogue:
         from sim.models import DUT_CATALOGUE
 
@@ -144,7 +146,7 @@ def default_info(run: StoredRun) -> dict[str, Any]:
         if model is not None:
             defaults.setdefault("dut_model", f"simulated {model.name} ({model.description})")
             defaults.setdefault("dut_type", f"{model.kind} accelerometer")
-    defaults.setdefault("issue_date", (run.record.get("finished_utc") or "")[:10])
+    defaults.setdefault("issue_date", run.record.finished_utc[:10])
     return defaults
 
 
@@ -445,8 +447,8 @@ def load_sweep(path: str | Path, run: StoredRun) -> dict[str, Any]:
         raise CertificateError(f"--sweep {path}: cannot be read ({exc})") from None
     if sweep.get("status") != "complete" or "sensitivity_mv_per_ms2" not in sweep:
         raise CertificateError(f"--sweep {path}: the sweep is not complete")
-    if run.record.get("run_id") not in sweep.get("run_ids", []):
-        raise CertificateError(f"--sweep {path}: does not include run {run.record.get('run_id')}")
+    if run.record.run_id not in sweep.get("run_ids", []):
+        raise CertificateError(f"--sweep {path}: does not include run {run.record.run_id}")
     return sweep
 
 
@@ -570,7 +572,7 @@ def _embed(pdf: Path, name: str, data: bytes) -> None:
 
 
 def _run_id(run: StoredRun) -> str:
-    return str(run.record.get("run_id") or run.path.name)
+    return str(run.record.run_id or run.path.name)
 
 
 def _exists(out: Path) -> str:
@@ -627,10 +629,10 @@ def _write_pdf(
     """Draw the certificate PDF of `run` with `info` (numbered) to `out`, read-only, with the
     DCC XML attached when given, signed last with `signer` (app.signing.Signer) when given."""
     record, results = run.record, run.results
-    stand = record.get("stand", {})
-    lab = stand.get("laboratory", {})
-    reference = stand.get("reference", {})
-    plan = record.get("plan", {})
+    stand = record.stand
+    lab = dict(stand.laboratory)
+    reference = dict(stand.reference)
+    plan = dict(record.plan)
     number = str(info.certificate_number)  # numbered before the PDF is made (_numbered)
     story: list[Any] = []
     r = results.reference
@@ -656,9 +658,9 @@ def _write_pdf(
                 ),
                 ("Item calibrated", f"{_esc(info.dut_type)}: {_esc(info.dut_model)}"),
                 ("Serial number", _esc(info.dut_serial)),
-                ("Date of calibration", _esc((record.get("started_utc") or "")[:10])),
+                ("Date of calibration", _esc(record.started_utc[:10])),
                 ("Date of issue", _esc(info.issue_date)),
-                ("Calibration run", _esc(record.get("run_id"))),
+                ("Calibration run", _esc(record.run_id)),
             ]
         ),
         Paragraph("Method", HEAD),
@@ -668,7 +670,7 @@ def _write_pdf(
             [
                 ("Ambient temperature", f"{float(info.temperature_c or 0.0):.1f} °C"),
                 ("Mounting", _esc(info.mounting)),
-                ("Excitation level", f"{record.get('level_ms2', 0):g} m/s² peak per frequency"),
+                ("Excitation level", f"{record.level_ms2 or 0:g} m/s² peak per frequency"),
             ]
         ),
         Paragraph("Reference standard and traceability", HEAD),
@@ -725,7 +727,7 @@ def _write_pdf(
         title=f"Calibration certificate {number}",
         author=lab.get("name", ""),
         subject=f"{info.dut_model} serial {info.dut_serial}",
-        creator=f"accelcal {record.get('software_version', '')}",
+        creator=f"accelcal {record.software_version}",
     )
     document.build(story, canvasmaker=_numbered_canvas(number, lab.get("name", "")))
     if dcc_xml is not None:
@@ -753,7 +755,7 @@ def _verdict_section(results: Results) -> list[Any]:
     ]
 
 
-def _method_text(record: dict[str, Any], results: Results, plan: dict[str, Any]) -> str:
+def _method_text(record: RunRecord, results: Results, plan: dict[str, Any]) -> str:
     lines = plan.get("lines", [])
     freqs = [ln["nominal_frequency_hz"] for ln in lines]
     span = f"{min(freqs):g} Hz to {max(freqs):g} Hz" if freqs else ""
@@ -763,7 +765,7 @@ def _method_text(record: dict[str, Any], results: Results, plan: dict[str, Any])
         f"values, {span}), each on a DFT bin of a {period_s:g} s "
         f"period sampled at {plan.get('sample_rate_hz', 0):g} Hz, phases optimised for a low "
         "crest factor, table acceleration equalised per frequency in closed loop"
-        if record.get("mode") == "multisine"
+        if record.mode == MODE_MULTISINE
         else f"stepped-sine excitation: {len(freqs)} frequencies one at a time ({span}), "
         "three-parameter sine fits (IEEE 1057)"
     )
@@ -772,7 +774,7 @@ def _method_text(record: dict[str, Any], results: Results, plan: dict[str, Any])
         f"{excitation}. The sensitivity is the ratio of the DUT's and the reference's spectra "
         f"({results.estimator} estimator, {results.periods} periods averaged) times the reference "
         "chain's certified sensitivity, corrected for the conditioning gains and the DAQ's "
-        f"inter-channel delay. Excitation time {record.get('excitation_time_s', 0):.0f} s."
+        f"inter-channel delay. Excitation time {record.excitation_time_s:.0f} s."
     )
 
 
@@ -994,7 +996,7 @@ def _statements(results: Results, info: CertificateInfo, p_percent: str) -> list
     return out
 
 
-def _sign_off(info: CertificateInfo, record: dict[str, Any]) -> list[Any]:
+def _sign_off(info: CertificateInfo, record: RunRecord) -> list[Any]:
     return [
         Spacer(1, 6 * mm),
         KeepTogether(
@@ -1007,10 +1009,10 @@ def _sign_off(info: CertificateInfo, record: dict[str, Any]) -> list[Any]:
                             "signature: ______________________",
                         ),
                         ("Date of issue", _esc(info.issue_date)),
-                        ("Software", f"accelcal {_esc(record.get('software_version', ''))}"),
+                        ("Software", f"accelcal {_esc(record.software_version)}"),
                         (
                             "Raw data SHA-256",
-                            f"<font size=7>{_esc(record.get('raw_data_sha256', ''))}</font>",
+                            f"<font size=7>{_esc(record.raw_data_sha256 or '')}</font>",
                         ),
                     ]
                 ),

@@ -31,8 +31,11 @@ from app.files import FileExistsRefusal, check_target, write_new
 from app.input_files import MAX_TEXT_BYTES, InputFileError, check_input_file
 from app.options import Bounded
 from app.options import numeric_option as _numeric
+from app.procedure.modes import MODE_MULTISINE, MODES
+from dsp.estimators import DEFAULT_ESTIMATOR, ESTIMATORS
 from dsp.multisine import PRESETS, Plan, PlanError, make_plan
 from hardware.errors import HardwareError
+from sim.faults import FAULT_KINDS
 from sim.models import DUT_CATALOGUE, StandModel
 
 if TYPE_CHECKING:
@@ -177,7 +180,7 @@ def build_parser() -> argparse.ArgumentParser:
     a.add_argument(
         "file", type=Path, help="recording.h5, recording.csv, recording.tdms or a run folder"
     )
-    a.add_argument("--estimator", choices=("periodic", "h1", "seed"), default="periodic")
+    a.add_argument("--estimator", choices=ESTIMATORS, default=DEFAULT_ESTIMATOR)
     _numeric(a, "--segments", SEGMENTS, "the seed's protocol: L equal segments")
     _numeric(a, "--coverage", COVERAGE, "coverage probability", default=0.9545)
     a.add_argument("--seed-rule", action="store_true", help="the seed's coverage factor rule")
@@ -238,12 +241,17 @@ def build_parser() -> argparse.ArgumentParser:
     _numeric(r, "--periods", RUN_PERIODS, "periods to acquire", default=8)
     r.add_argument("--target-ua", help="stop at this relative type A, e.g. 0.2%%; (0, 100 %%]")
     r.add_argument("--max-time", help="bound on the acquisition time, e.g. 30s; (0, 24 h]")
-    r.add_argument("--estimator", choices=("periodic", "h1", "seed"), default="periodic")
-    r.add_argument("--mode", choices=("multisine", "stepped-sine"), default="multisine")
+    r.add_argument("--estimator", choices=ESTIMATORS, default=DEFAULT_ESTIMATOR)
+    r.add_argument("--mode", choices=MODES, default=MODE_MULTISINE)
     _numeric(r, "--tolerance", TOLERANCE, "DUT tolerance of the characteristic, %%")
     _numeric(r, "--seed", SEED, "simulated stand: random seed", default=0)
     r.add_argument("--paced", action="store_true", help="simulated stand: real time")
-    r.add_argument("--fault", action="append", default=[], help="simulated: KIND@SECONDS")
+    r.add_argument(
+        "--fault",
+        action="append",
+        default=[],
+        help=f"simulated: KIND@SECONDS, KIND one of {', '.join(FAULT_KINDS)}",
+    )
     r.add_argument("--out", type=Path, default=Path("runs"), help="folder for run folders")
     r.add_argument("--json", action="store_true", help="the run record as JSON")
     records = r.add_argument_group("records (accelcal db)")
@@ -319,7 +327,12 @@ def build_parser() -> argparse.ArgumentParser:
     _numeric(s, "--periods", SIM_PERIODS, "periods to record after settling", default=8)
     _numeric(s, "--settle", SIM_SETTLE, "settling periods after the fade-in", default=2)
     _numeric(s, "--seed", SEED, "random seed (noise, stand deviations)", default=0)
-    s.add_argument("--fault", action="append", default=[], help="inject KIND@SECONDS")
+    s.add_argument(
+        "--fault",
+        action="append",
+        default=[],
+        help=f"inject KIND@SECONDS, KIND one of {', '.join(FAULT_KINDS)}",
+    )
     s.add_argument("--out", type=Path, help="recording to write (.h5)")
     s.add_argument("--overwrite", action="store_true", help="--out may replace an existing file")
     s.add_argument("--json", action="store_true", help="machine-readable output")
@@ -376,7 +389,9 @@ def _main(argv: Sequence[str] | None) -> int:
         return (COMMANDS | RECORDS_COMMANDS)[args.command](args)
     except BrokenPipeError:
         raise
-    except (UsageError, PlanError, RecordsInputError, *_loaded(_BAD_INPUT_ERRORS)) as exc:
+    # the lazily imported modules' error classes are looked up when an error is matched (the
+    # command has imported them by then), so this tuple is built in the except clause
+    except (UsageError, PlanError, RecordsInputError, *_loaded(_BAD_INPUT_ERRORS)) as exc:  # type: ignore[misc]
         print(f"accelcal {args.command}: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except HardwareError as exc:
@@ -912,27 +927,23 @@ def cmd_run(args: argparse.Namespace) -> int:
     if progress is not None:
         progress.close()
     record = finished.record
-    if use_records and record.get("run_id"):
+    if use_records and record.run_id:
         from app.db.runs import index_finished_run
 
-        print(index_finished_run(args.out / str(record["run_id"]), args.db), file=sys.stderr)
+        print(index_finished_run(args.out / str(record.run_id), args.db), file=sys.stderr)
     if args.json:
-        print(json.dumps(record, indent=2, default=str))
+        print(record.to_json())
     else:
         if finished.results is not None:
-            print_results(finished.results, record.get("run_id") or "")
-        print(f"run folder: {args.out / str(record.get('run_id'))}")
+            print_results(finished.results, record.run_id or "")
+        print(f"run folder: {args.out / str(record.run_id)}")
         print(
-            f"status: {record['status']}"
-            + (f" ({record['abort_reason']})" if record.get("abort_reason") else "")
-            + f"; excitation {record['excitation_time_s']:g} s; output now "
-            + (
-                f"{record['final_output_v']:g} V"
-                if record.get("final_output_v") is not None
-                else "unknown"
-            )
+            f"status: {record.status}"
+            + (f" ({record.abort_reason})" if record.abort_reason else "")
+            + f"; excitation {record.excitation_time_s:g} s; output now "
+            + (f"{record.final_output_v:g} V" if record.final_output_v is not None else "unknown")
         )
-    return EXIT_OK if record["status"] == "complete" else EXIT_ABORTED
+    return EXIT_OK if record.complete else EXIT_ABORTED
 
 
 def _levels(text: str) -> list[float]:
@@ -1114,26 +1125,26 @@ def cmd_certificate(args: argparse.Namespace) -> int:
 
 def cmd_show(args: argparse.Namespace) -> int:
     from app.records import load_run
-    from dsp.calibration import Results
 
     try:
         record = load_run(args.run)
     except ValueError as exc:
         raise UsageError(str(exc)) from None
     if args.json:
-        print(json.dumps(record, indent=2))
+        print(json.dumps(record.to_dict(), indent=2))
         return EXIT_OK
     print(
-        f"run {record.get('run_id')}: {record['status']}"
-        + (f" ({record['abort_reason']})" if record.get("abort_reason") else "")
+        f"run {record.run_id}: {record.status}"
+        + (f" ({record.abort_reason})" if record.abort_reason else "")
     )
     print(
-        f"started {record.get('started_utc')}, finished {record.get('finished_utc')}, "
-        f"excitation {record.get('excitation_time_s')} s, raw data SHA-256 "
-        f"{record.get('raw_data_sha256', 'n/a')}"
+        f"started {record.started_utc}, finished {record.finished_utc}, "
+        f"excitation {record.excitation_time_s} s, raw data SHA-256 "
+        f"{record.raw_data_sha256 or 'n/a'}"
     )
-    if record.get("results"):
-        print_results(Results.from_dict(record["results"]), str(args.run))
+    results = record.results_object()
+    if results is not None:
+        print_results(results, str(args.run))
     return EXIT_OK
 
 
@@ -1256,7 +1267,7 @@ def cmd_teds(args: argparse.Namespace) -> int:
     change = (
         f"sensitivity {old.sensitivity_mv_per_ms2 if old else float('nan'):.5g} -> "
         f"{new.accelerometer.sensitivity_mv_per_ms2:.5g} mV/(m/s^2), calibration date "
-        f"{new.accelerometer.calibration_date} (run {record.get('run_id')})"
+        f"{new.accelerometer.calibration_date} (run {record.run_id})"
     )
     if not args.yes:
         if not sys.stdin.isatty():

@@ -21,6 +21,7 @@ from importlib import resources
 from typing import TYPE_CHECKING, Any
 
 from app import formatting as fmt
+from app.run_record import RunRecord
 
 if TYPE_CHECKING:
     from app.certificate import CertificateInfo, StoredRun
@@ -119,7 +120,7 @@ def line_values(run: StoredRun) -> dict[str, list[str]]:
 def build(run: StoredRun, info: CertificateInfo) -> bytes:
     """The DCC XML of a stored complete run with its (checked, numbered) certificate items."""
     record, results = run.record, run.results
-    stand = run.config.get("stand", record.get("stand", {})) or {}
+    stand = run.config.get("stand", record.stand.to_dict()) or {}
     lab = stand.get("laboratory", {}) or {}
     reference = stand.get("reference", {}) or {}
     country = str(lab.get("country") or "")
@@ -128,8 +129,8 @@ def build(run: StoredRun, info: CertificateInfo) -> bytes:
             "laboratory.country (stand file): the DCC needs the laboratory's ISO 3166-1 "
             f"two-letter country code, got {country!r}"
         )
-    started = str(record.get("started_utc") or "")[:10]
-    finished = str(record.get("finished_utc") or started)[:10]
+    started = record.started_utc[:10]
+    finished = (record.finished_utc or started)[:10]
     root = ET.Element(
         f"{{{DCC_NS}}}digitalCalibrationCertificate",
         {
@@ -140,7 +141,7 @@ def build(run: StoredRun, info: CertificateInfo) -> bytes:
     admin = _d(root, "administrativeData")
     software = _d(_d(admin, "dccSoftware"), "software")
     _text(software, "name", "accelcal")
-    _d(software, "release", str(record.get("software_version") or "unknown"))
+    _d(software, "release", record.software_version or "unknown")
     _d(software, "type", "application")
     core = _d(admin, "coreData")
     _d(core, "countryCodeISO3166_1", country)
@@ -196,7 +197,7 @@ def build(run: StoredRun, info: CertificateInfo) -> bytes:
     _real(_d(temperature, "data"), f"{float(info.temperature_c or 0.0):.1f}", UNIT_CELSIUS)
     level = _d(conditions, "influenceCondition")
     _text(level, "name", "Excitation level, peak per frequency")
-    _real(_d(level, "data"), f"{record.get('level_ms2', 0):g}", UNIT_ACCELERATION)
+    _real(_d(level, "data"), f"{record.level_ms2 or 0:g}", UNIT_ACCELERATION)
     mounting = _d(conditions, "influenceCondition")
     _text(mounting, "name", "Mounting")
     _text(_d(mounting, "data"), "text", str(info.mounting))
@@ -247,8 +248,8 @@ def _statements(admin: ET.Element, results: Any) -> None:
         _d(statement, "conformity", CONFORMITY[verdict])
 
 
-def _method(record: dict[str, Any], results: Any) -> str:
-    plan = record.get("plan", {}) or {}
+def _method(record: RunRecord, results: Any) -> str:
+    plan = dict(record.plan)
     lines = len(plan.get("lines", []) or results.lines)
     return (
         f"Back-to-back comparison with a reference accelerometer, multisine of {lines} lines, "

@@ -35,6 +35,7 @@ from pathlib import Path
 from typing import Any
 
 from app.files import write_new
+from app.run_record import RunRecord, RunRecordError, UnsupportedSchemaError
 from dsp.calibration import Results
 
 STATUS_COMPLETE = "complete"
@@ -42,6 +43,7 @@ STATUS_ABORTED = "aborted"
 STATUS_RUNNING = "running"  # a live process holds the folder's lock
 STATUS_INTERRUPTED = "interrupted"  # no manifest and nobody writing: the process died
 STATUS_MODIFIED = "modified"  # a stored file does not match the manifest
+STATUS_UNSUPPORTED = "unsupported"  # results.json of a newer schema version than this code
 
 MANIFEST_NAME = "manifest.json"
 MANIFEST_VERSION = 1
@@ -175,14 +177,14 @@ class RunFolder:
         with (self.path / "run.log").open("a", encoding="utf-8") as handle:
             handle.write(f"{stamp} {line}\n")
 
-    def finish(self, record: dict[str, Any], results: Results | None) -> dict[str, Any]:
+    def finish(self, record: RunRecord, results: Results | None) -> RunRecord:
         """Write results.json (and results.csv) with the raw data's hash, then the manifest of
-        every file; make files and folder read-only and release the lock."""
+        every file; make files and folder read-only and release the lock. The record as
+        written."""
         try:
-            if self.recording.exists():
-                record["raw_data_sha256"] = sha256_of(self.recording)
-            record["results"] = results.to_dict() if results is not None else None
-            self.write_json("results.json", record)
+            sha = sha256_of(self.recording) if self.recording.exists() else None
+            record = record.with_results(results, sha)
+            self.write_text("results.json", record.to_json())
             if results is not None:
                 self.write_text("results.csv", results.to_csv())
             write_manifest(self.path)
@@ -249,7 +251,7 @@ class RunCheck:
     path: Path
     state: str
     problems: tuple[str, ...] = ()
-    record: dict[str, Any] | None = None
+    record: RunRecord | None = None
 
     @property
     def certifiable(self) -> bool:
@@ -281,21 +283,30 @@ def inspect_run(path: str | Path) -> RunCheck:
         return RunCheck(path, STATUS_MODIFIED, tuple(problems))
     target = path / "results.json"
     try:
-        record = json.loads(target.read_text(encoding="utf-8"))
+        data = json.loads(target.read_text(encoding="utf-8"))
     except (OSError, json.JSONDecodeError) as exc:  # verified bytes: written broken
         return RunCheck(path, STATUS_MODIFIED, (f"{target}: not readable ({exc})",))
-    state = record.get("status") if isinstance(record, dict) else None
+    state = data.get("status") if isinstance(data, dict) else None
+    try:
+        record = RunRecord.from_dict(data)
+    except UnsupportedSchemaError as exc:
+        return RunCheck(path, STATUS_UNSUPPORTED, (f"{path}: {exc}",))
+    except RunRecordError as exc:
+        return RunCheck(path, STATUS_MODIFIED, (f"{path}: {exc}",))
     if state not in (STATUS_COMPLETE, STATUS_ABORTED):
         return RunCheck(path, STATUS_MODIFIED, (f"{target}: unknown status {state!r}",))
     return RunCheck(path, state, (), record)
 
 
-def load_run(path: str | Path) -> dict[str, Any]:
+def load_run(path: str | Path) -> RunRecord:
     """The record of a stored, verified run (results.json). RunIntegrityError naming the file
-    when it does not verify; ValueError when it is no finished run."""
+    when it does not verify; UnsupportedSchemaError (a ValueError) for a newer schema version;
+    ValueError when it is no finished run."""
     check = inspect_run(path)
     if check.state == STATUS_MODIFIED:
         raise RunIntegrityError("; ".join(check.problems))
+    if check.state == STATUS_UNSUPPORTED:
+        raise UnsupportedSchemaError("; ".join(check.problems))
     if check.record is None:
         raise ValueError(check.problems[0] if check.problems else f"{path}: not a finished run")
     return check.record

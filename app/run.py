@@ -11,13 +11,13 @@ from typing import Any
 
 from app import stand_config
 from app.procedure import Finished, Listener, PreflightError, Procedure, RunSettings
+from app.procedure.modes import MODE_MULTISINE
 from app.records import RunFolder
 from app.stands import open_stand
+from dsp.estimators import DEFAULT_ESTIMATOR
 from dsp.multisine import PRESETS, Plan, make_plan, preset_plan
-from sim.models import DUT_CATALOGUE
+from sim.models import DUT_CATALOGUE, plan_preset_for
 from sim.stand import Fault
-
-PRESET_BY_DUT = {"capacitive": "capacitive"}  # every other catalogue DUT: the piezo plan
 
 
 @dataclass(frozen=True)
@@ -33,8 +33,8 @@ class RunRequest:
     periods: int = 8
     target_type_a: float | None = None
     max_acquisition_s: float | None = None
-    estimator: str = "periodic"
-    mode: str = "multisine"
+    estimator: str = DEFAULT_ESTIMATOR
+    mode: str = MODE_MULTISINE
     tolerance_percent: float | None = None
     nominal_mv_per_ms2: float | None = None
     seed: int = 0
@@ -43,7 +43,7 @@ class RunRequest:
     out: Path = Path("runs")
 
     def plan(self) -> Plan:
-        name = self.preset or PRESET_BY_DUT.get(self.dut, "piezo")
+        name = self.preset or plan_preset_for(self.dut)
         if self.frequencies_hz is None:
             return preset_plan(name, level_ms2=self.level_ms2)
         preset = PRESETS[name]

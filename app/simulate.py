@@ -21,12 +21,11 @@ from dsp.crestfactor import synthesize
 from dsp.multisine import Plan, fade_envelope, preset_plan
 from hardware.errors import HardwareError
 from hardware.interfaces import DaqConfig, InputChannel, OutputChannel
-from sim.models import DUT_CATALOGUE
+from sim.models import DUT_CATALOGUE, plan_preset_for
 from sim.stand import Fault, SimulatedStand
 
 AO_RANGE_V = 10.0
 AI_RANGES_V = (0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0)  # an M-series board's input ranges
-DEFAULT_PRESET = {"capacitive": "capacitive"}  # every other DUT: the piezo plan
 
 
 class SimulationError(ValueError):
@@ -96,7 +95,7 @@ def simulate(
         raise SimulationError(f"--periods: must be >= 1, got {periods}")
     path = _target(out, overwrite)
     if plan is None:
-        plan = preset_plan(DEFAULT_PRESET.get(dut, "piezo"), level_ms2=level_ms2)
+        plan = preset_plan(plan_preset_for(dut), level_ms2=level_ms2)
     stand = SimulatedStand(dut, seed=seed, faults=faults, paced=paced, systematic=systematic)
     sensor = stand.dut
     peaks = plan.predicted_peaks()

@@ -79,7 +79,7 @@ def summarise(runs: list[Finished], levels: list[float]) -> dict[str, Any]:
     summary: dict[str, Any] = {
         "status": "complete" if len(complete) == len(levels) else "aborted",
         "levels_ms2": levels,
-        "run_ids": [r.record.get("run_id") for r in runs],
+        "run_ids": [r.record.run_id for r in runs],
         "abort_reason": next((r.abort_reason for r in runs if r.status != "complete"), None),
     }
     if len(complete) < 2:

@@ -4,11 +4,13 @@ verified, complete run. Writing is never implicit: `accelcal teds write` asks fi
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from datetime import date
 from pathlib import Path
 from typing import Any
 
+from app.run_record import RunRecord
 from hardware.teds import Teds, TedsError, decode, encode
 
 
@@ -74,15 +76,20 @@ def describe(teds: Teds) -> list[str]:
     return lines
 
 
-def calibrated_teds(current: tuple[int, ...], record: dict[str, Any], initials: str) -> Teds:
-    """The TEDS `current` with the sensitivity and date of a complete run's record."""
+def calibrated_teds(
+    current: tuple[int, ...], record: RunRecord | Mapping[str, Any], initials: str
+) -> Teds:
+    """The TEDS `current` with the sensitivity and date of a complete run's record (a
+    RunRecord, or a results.json document)."""
+    if not isinstance(record, RunRecord):
+        record = RunRecord.from_dict(dict(record))
     teds = decode(current)
     if teds.accelerometer is None:
         raise TedsError(f"TEDS: template {teds.template_id} is no accelerometer template (25)")
-    if record.get("status") != "complete" or not record.get("results"):
+    if not record.complete or not record.results:
         raise TedsError("run: only a complete run's result is written to a TEDS")
-    reference = record["results"]["reference"]
-    when = date.fromisoformat(str(record.get("finished_utc"))[:10])
+    reference = record.results["reference"]
+    when = date.fromisoformat(record.finished_utc[:10])
     new = teds.accelerometer.with_sensitivity(
         float(reference["sensitivity_mv_per_ms2"]), when, initials
     )

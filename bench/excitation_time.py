@@ -51,7 +51,7 @@ def one(
     wall = time.perf_counter() - t0
     stand.close()
     worst = max(ln.relative_type_a for ln in finished.results.lines)
-    return finished.record["excitation_time_s"], worst, worst <= target, wall
+    return finished.record.excitation_time_s, worst, worst <= target, wall
 
 
 def main() -> None:

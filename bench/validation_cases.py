@@ -69,7 +69,7 @@ def sim_case(name: str, out: Path, dut: str, tolerance: float | None = None, see
         RunRequest(dut=dut, periods=8, seed=seed, tolerance_percent=tolerance, out=out)
     )
     results = finished.results
-    truth = read_recording(out / finished.record["run_id"] / "recording.h5").truth
+    truth = read_recording(out / finished.record.run_id / "recording.h5").truth
     magnitude, phase = against_truth(results, truth.sensitivity_mv_per_ms2, truth.phase_deg)
     mounting = [w for w in results.warnings if w.startswith("mounting:")]
     note = "; ".join(mounting) or next(

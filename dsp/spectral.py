@@ -50,7 +50,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-ESTIMATORS = ("periodic", "h1", "seed")
+from dsp.estimators import DEFAULT_ESTIMATOR as DEFAULT_ESTIMATOR
+from dsp.estimators import ESTIMATORS as ESTIMATORS
+
 HARMONICS = (2, 3, 4, 5)
 FLOOR_HALF_WIDTH_BINS = 12
 DISTORTION_FALSE_ALARM = 0.01  # probability per run that noise alone counts as distortion

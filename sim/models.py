@@ -265,6 +265,16 @@ DUT_CATALOGUE: dict[str, SensorModel] = {
     ),
 }
 
+#: The plan preset (dsp.multisine.PRESETS) a catalogue DUT is calibrated with by default:
+#: the one place CLI, GUI and `simulate` look it up.
+PLAN_PRESET_BY_DUT: dict[str, str] = {"capacitive": "capacitive"}
+DEFAULT_PLAN_PRESET = "piezo"  # every other catalogue DUT
+
+
+def plan_preset_for(dut: str) -> str:
+    """The default plan preset for the catalogue DUT `dut`."""
+    return PLAN_PRESET_BY_DUT.get(dut, DEFAULT_PLAN_PRESET)
+
 
 @dataclass(frozen=True)
 class StandModel:

@@ -38,6 +38,7 @@ from hardware.errors import (
 )
 from hardware.interfaces import DaqConfig, DaqStatus, checked_output_period
 from hardware.visa_amplifiers import BK2525Amplifier, ScpiPowerAmplifier
+from sim.faults import FAULT_KINDS, POWER_AMPLIFIER_FAULT_KINDS
 from sim.lti import MultiZoh, Network, ZohFilter
 from sim.models import DUT_CATALOGUE, G_N, SensorModel, StandModel
 from sim.visa import (
@@ -47,19 +48,6 @@ from sim.visa import (
     simulated_resource_manager,
 )
 
-FAULT_KINDS = (
-    "daq-timeout",
-    "device-lost",
-    "visa-timeout",
-    "amplifier-fault",
-    "overload",
-    "over-current",
-    "interlock",
-    "amplifier-lost",
-)
-#: Faults of the power amplifier: injected through its pyvisa-sim instrument when the stand
-#: has one (`power_amplifier()`), else (`amplifier-fault` only) raised by the DAQ read.
-POWER_AMPLIFIER_FAULT_KINDS = ("amplifier-fault", "over-current", "interlock", "amplifier-lost")
 _FAULT_ANSWERS = {"amplifier-fault": '2,"Over-temperature"', "over-current": '3,"Over-current"'}
 TARGETS = (
     "reference_certificate",

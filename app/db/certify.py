@@ -37,7 +37,7 @@ def issue_registered(
     report = lab.import_runs(run_path)
     if report.refused:
         raise RecordsError(f"run: {report.refused[0][1]}")
-    dut_id = str((record.get("dut") or {}).get("id") or "")
+    dut_id = str((record.dut.id if record.dut else None) or "")
     if not dut_id:
         raise RecordsError("run: the run names no DUT (--dut-id); the register needs its sensor")
     sensor = lab.sensor(dut_id)
@@ -66,7 +66,7 @@ def issue_registered(
 
     try:
         lab.issue_certificate(
-            run_id=str(record["run_id"]),
+            run_id=str(record.run_id),
             prepared_by=prepared_by,
             approved_by=str(info.authorised_by or ""),
             replaces=replaces,

@@ -37,6 +37,7 @@ from app.db.models import (
 )
 from app.db.units import check_unit
 from app.records import MANIFEST_NAME, STATUS_COMPLETE, inspect_run, sha256_of
+from app.run_record import RunRecord
 
 DEFAULT_PATTERN = "ACC-{year}-{seq:04d}"
 SETTING_PATTERN = "certificate_pattern"
@@ -433,13 +434,13 @@ class Lab:
             manifest_hash = sha256_of(folder / MANIFEST_NAME)
             with self.session() as s:
                 if s.scalar(select(Run).where(Run.manifest_sha256 == manifest_hash)):
-                    known.append(check.record["run_id"])
+                    known.append(str(check.record.run_id))
                     continue
                 row = self._run_row(s, folder, check.record, manifest_hash)
                 s.add(row)
                 if row.sensor is not None and row.sensor.check_standard:
                     check_standards.add(row.sensor.serial)
-            imported.append(check.record["run_id"])
+            imported.append(str(check.record.run_id))
         warnings = [
             chart.warning
             for serial in sorted(check_standards)
@@ -448,34 +449,34 @@ class Lab:
         ]
         return ImportReport(tuple(imported), tuple(known), tuple(refused), tuple(warnings))
 
-    def _run_row(self, s: Session, folder: Path, record: dict[str, Any], manifest: str) -> Run:
+    def _run_row(self, s: Session, folder: Path, record: RunRecord, manifest: str) -> Run:
         stand_file = folder / "stand.toml"
         stand_hash = (
             sha256_of(stand_file)
             if stand_file.exists()
             else hashlib.sha256(
-                json.dumps(record.get("stand", {}), sort_keys=True).encode()
+                json.dumps(record.stand.to_dict(), sort_keys=True).encode()
             ).hexdigest()
         )
         stand = s.scalar(select(Stand).where(Stand.stand_file_sha256 == stand_hash))
         if stand is None:
-            name = str((record.get("stand") or {}).get("description") or "stand")[:200]
+            name = str(record.stand.description or "stand")[:200]
             stand = Stand(stand_file_sha256=stand_hash, name=name)
             s.add(stand)
-        dut_id = str((record.get("dut") or {}).get("id") or "")
+        dut_id = str((record.dut.id if record.dut else None) or "")
         sensor = s.scalar(select(Sensor).where(Sensor.serial == dut_id)) if dut_id else None
-        reference = ((record.get("results") or {}).get("reference")) or {}
-        if existing := s.scalar(select(Run).where(Run.run_id == record["run_id"])):
+        reference = ((record.results or {}).get("reference")) or {}
+        if existing := s.scalar(select(Run).where(Run.run_id == record.run_id)):
             raise RecordsError(
                 f"run {existing.run_id}: already indexed with another manifest "
                 f"({existing.folder}); a run id is never reused"
             )
-        started = _utc(datetime.fromisoformat(record["started_utc"]))
+        started = _utc(datetime.fromisoformat(record.started_utc))
         return Run(
-            run_id=record["run_id"],
+            run_id=str(record.run_id),
             manifest_sha256=manifest,
             folder=str(folder.resolve()),
-            status=record["status"],
+            status=record.status,
             started_utc=started,
             dut_id=dut_id,
             stand=stand,

@@ -14,17 +14,15 @@ from PySide6.QtWidgets import QDialog, QDialogButtonBox, QFormLayout, QLabel, QL
 
 from app.certificate import CertificateInfo
 from app.gui.field_marks import NoteLabel
+from app.run_record import RunRecord
 
 
-def run_identity(record: dict) -> str:
+def run_identity(record: RunRecord) -> str:
     """'run <id>, DUT serial <serial>, <date>' of a stored run's record."""
-    dut = record.get("dut") or {}
-    if not isinstance(dut, dict):
-        dut = {}
-    serial = dut.get("id") or "not given"
+    serial = (record.dut.id if record.dut else None) or "not given"
     return (
-        f"run {record.get('run_id')}, DUT serial {serial}, "
-        f"{record.get('started_utc') or record.get('finished_utc') or 'date unknown'}"
+        f"run {record.run_id}, DUT serial {serial}, "
+        f"{record.started_utc or record.finished_utc or 'date unknown'}"
     )
 
 
@@ -43,9 +41,9 @@ class CertificateDialog(QDialog):
         ("notes", "Notes"),
     )
 
-    def __init__(self, parent: QWidget | None, record: dict, defaults: dict | None = None):
+    def __init__(self, parent: QWidget | None, record: RunRecord, defaults: dict | None = None):
         super().__init__(parent)
-        self.setWindowTitle(f"Certificate of run {record.get('run_id')}")
+        self.setWindowTitle(f"Certificate of run {record.run_id}")
         form = QFormLayout(self)
         heading = NoteLabel()  # wrapped, as tall as its text
         heading.setText(f"<b>Certificate of {run_identity(record)}</b>")

@@ -65,9 +65,13 @@ from app.procedure import (
     StateChanged,
     WarningRaised,
 )
+from app.procedure.modes import MODES
+from app.procedure.preflight import check_preflight
 from app.records import RunIntegrityError, inspect_run, load_run
 from app.run import RunRequest, start
-from dsp.calibration import Results
+from app.run_record import RunRecord
+from dsp.calibration import ReferenceChain, Results
+from dsp.estimators import ESTIMATORS
 from dsp.multisine import PRESETS, Plan, check_lines, make_plan, preset_plan
 from hardware.errors import HardwareError
 from sim.models import DUT_CATALOGUE
@@ -269,9 +273,9 @@ class MainWindow(QMainWindow):
         self.max_time = QSpinBox(maximum=100_000, suffix=" s at most")
         self.max_time.setSpecialValueText("no time bound (s)")
         self.estimator = QComboBox()
-        self.estimator.addItems(["periodic", "h1", "seed"])
+        self.estimator.addItems(list(ESTIMATORS))
         self.mode = QComboBox()
-        self.mode.addItems(["multisine", "stepped-sine"])
+        self.mode.addItems(list(MODES))
         for widget in (self.preset, self.estimator, self.mode, self.dut):
             widget.currentTextChanged.connect(self.validate)
         for spin in (self.level, self.nominal, self.tolerance):
@@ -409,7 +413,7 @@ class MainWindow(QMainWindow):
 
     def _index_run(self, finished: Finished) -> None:
         """A finished run goes into the records' index (the folder stays the record)."""
-        run_id = finished.record.get("run_id")
+        run_id = finished.record.run_id
 
         def indexed(note: str) -> None:
             log.info("%s", note)
@@ -423,6 +427,14 @@ class MainWindow(QMainWindow):
         return tuple(parse_frequencies(text)) if text else None
 
     @Slot()
+    def _config_chain(self) -> ReferenceChain | None:
+        """The stand file's reference chain, None when it has no certificate table (the
+        simulated stand's chain comes with the stand when the run opens it)."""
+        try:
+            return self.config.reference_chain()
+        except stand_config.ConfigError:
+            return None
+
     def validate(self) -> list[str]:
         """Plan checks and stand limits beside the fields; Start only when nothing fails."""
         problems: list[str] = []
@@ -457,34 +469,25 @@ class MainWindow(QMainWindow):
             self.peaks.setText("")
             QTimer.singleShot(200, self, self.validate)  # look again when it may be ready
         else:
-            plan: Plan = future.result()
-            peaks = plan.predicted_peaks()
-            level = self.level.value()
-            limits = self.config.limits
-            d, v, a = (
-                peaks.displacement_peak_to_peak_m * level,
-                peaks.velocity_m_per_s * level,
-                peaks.acceleration_ms2 * level,
+            plan: Plan = future.result()  # optimised at 1 m/s^2 per line: scaled to the level
+            report = check_preflight(  # the same preflight as the CLI and the run itself
+                plan,
+                self.config,
+                self._config_chain(),
+                self.nominal.value() or None,
+                level_scale=self.level.value(),
             )
+            peaks, limits = report.peaks, self.config.limits
             self.peaks.setText(
-                f"acceleration {a:.1f} m/s² (limit {limits.acceleration_peak_ms2:g}), velocity "
-                f"{1e3 * v:.0f} mm/s (limit {1e3 * limits.velocity_peak_m_per_s:g}), displacement "
-                f"{1e3 * d:.2f} mm p-p (limit {1e3 * limits.displacement_peak_to_peak_m:g}); crest "
-                f"factor {plan.crest_factor():.2f}"
+                f"acceleration {peaks.acceleration_ms2:.1f} m/s² (limit "
+                f"{limits.acceleration_peak_ms2:g}), velocity "
+                f"{1e3 * peaks.velocity_m_per_s:.0f} mm/s (limit "
+                f"{1e3 * limits.velocity_peak_m_per_s:g}), displacement "
+                f"{1e3 * peaks.displacement_peak_to_peak_m:.2f} mm p-p (limit "
+                f"{1e3 * limits.displacement_peak_to_peak_m:g}); crest factor "
+                f"{report.crest_factor:.2f}"
             )
-            if d > limits.displacement_peak_to_peak_m:
-                problems.append(
-                    f"displacement {1e3 * d:.2f} mm p-p exceeds the exciter's "
-                    f"{1e3 * limits.displacement_peak_to_peak_m:g} mm: lower the level"
-                )
-            if v > limits.velocity_peak_m_per_s:
-                problems.append(
-                    f"velocity {v:.3g} m/s exceeds {limits.velocity_peak_m_per_s:g} m/s"
-                )
-            if a > limits.acceleration_peak_ms2:
-                problems.append(
-                    f"acceleration {a:.1f} m/s² exceeds {limits.acceleration_peak_ms2:g}"
-                )
+            problems += list(report.problems)
         running = self.worker is not None
         text = "".join(f"<div style='color:#c0392b'>✖ {p}</div>" for p in problems)
         if not problems:
@@ -621,7 +624,7 @@ class MainWindow(QMainWindow):
         self.runs_tab.refresh()
         if finished is None:  # the worker ended without a result (its error is shown)
             return
-        run_id = finished.record.get("run_id")
+        run_id = finished.record.run_id
         folder = self.out / str(run_id) if run_id else None
         if finished.status == "complete" and folder is not None:
             self.open_run(folder, switch=False)
@@ -631,7 +634,7 @@ class MainWindow(QMainWindow):
             self.state.setText(f"ABORTED: {finished.abort_reason}")
             self.messages.setText(
                 f"<b>The run was aborted:</b> {html.escape(str(finished.abort_reason))}<br/>"
-                f"The drive is at {finished.record.get('final_output_v')} V. The data so far is "
+                f"The drive is at {finished.record.final_output_v} V. The data so far is "
                 f"kept in {html.escape(str(folder))}."
             )
         self.validate()
@@ -654,14 +657,16 @@ class MainWindow(QMainWindow):
             self.results_tab.clear(
                 f"<b>Run {name}: {check.state}</b>, never certified.<br/>{problems}"
             )
-        elif not check.certifiable or not check.record.get("results"):
-            reason = html.escape(str(check.record.get("abort_reason")))
+        elif not check.certifiable or not check.record.results:
+            reason = html.escape(str(check.record.abort_reason))
             self.results_tab.clear(
                 f"<b>Run {name}: {check.state}</b> ({reason}); kept, never certified."
             )
         else:
             record = check.record
-            self.results_tab.show_results(Results.from_dict(record["results"]), record, folder)
+            results = record.results_object()
+            assert results is not None  # checked above
+            self.results_tab.show_results(results, record, folder)
         if switch:
             self.tabs.setCurrentIndex(RESULTS_TAB)
         return self.results_tab.folder is not None
@@ -669,9 +674,9 @@ class MainWindow(QMainWindow):
     def export_results(self) -> Path | None:
         """Copy the stored results of the shown run (CSV and JSON) beside the run folders."""
         results, record = self.results_tab.results, self.results_tab.record
-        if results is None:
+        if results is None or record is None:
             return None
-        target = self.out / f"{record.get('run_id')}-results"
+        target = self.out / f"{record.run_id}-results"
         target.with_suffix(".csv").write_text(results.to_csv(), encoding="utf-8")
         target.with_suffix(".json").write_text(
             json.dumps(results.to_dict(), indent=2), encoding="utf-8"
@@ -679,7 +684,7 @@ class MainWindow(QMainWindow):
         self.messages.setText(html.escape(f"exported {target}.csv and .json"))
         return target
 
-    def certifiable_run(self) -> tuple[Path, dict[str, Any]] | None:
+    def certifiable_run(self) -> tuple[Path, RunRecord] | None:
         """The run the certificate action would certify: the one shown in the Results tab,
         verified again now (None, with the reason shown, when there is none)."""
         folder = self.results_tab.folder
@@ -694,10 +699,8 @@ class MainWindow(QMainWindow):
             QMessageBox.warning(self, "Certificate refused", str(exc))
             self.open_run(folder)
             return None
-        if record.get("status") != "complete":
-            QMessageBox.warning(
-                self, "Certificate refused", f"{folder.name}: {record.get('status')} run"
-            )
+        if not record.complete:
+            QMessageBox.warning(self, "Certificate refused", f"{folder.name}: {record.status} run")
             return None
         return folder, record
 

@@ -20,6 +20,7 @@ from typing import Any
 from PySide6.QtCore import QObject, QTimer, Signal
 
 from app.db.errors import RecordsInputError
+from app.run_record import RunRecord
 
 log = logging.getLogger(__name__)
 
@@ -108,11 +109,10 @@ class RecordsLink(QObject):
                 return None
             raise
 
-    def certificate_defaults(self, record: dict[str, Any]) -> dict[str, str]:
+    def certificate_defaults(self, record: RunRecord) -> dict[str, str]:
         """Customer, address, model and serial of the run's sensor from the records ({} when
         the run names no sensor on record or the records are not available)."""
-        dut = record.get("dut") if isinstance(record.get("dut"), dict) else {}
-        serial = str((dut or {}).get("id") or "")
+        serial = str((record.dut.id if record.dut else None) or "")
         try:
             sensor = self.sensor(serial)
         except RecordsInputError as exc:

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
 import pyqtgraph as pg
 from PySide6.QtCore import Qt
@@ -21,6 +20,7 @@ from PySide6.QtWidgets import (
 from app import formatting as fmt
 from app.gui.plots import draw_bands, frequency_axis
 from app.gui.verdict_view import VerdictView, verdict_of
+from app.run_record import RunRecord
 from dsp.calibration import Results
 from dsp.uncertainty import Budget, Quantity
 
@@ -54,7 +54,7 @@ class ResultsTab(QWidget):
     def __init__(self) -> None:
         super().__init__()
         self.results: Results | None = None
-        self.record: dict[str, Any] = {}
+        self.record: RunRecord | None = None
         self.folder: Path | None = None
         layout = QVBoxLayout(self)
         self.verdict = VerdictView()
@@ -98,7 +98,7 @@ class ResultsTab(QWidget):
 
     def clear(self, message: str) -> None:
         """Nothing shown, nothing to export or certify; `message` (rich text) says why."""
-        self.results, self.record, self.folder = None, {}, None
+        self.results, self.record, self.folder = None, None, None
         self.verdict.show_verdict(None)
         self.summary.setText(message)
         self.table.setRowCount(0)
@@ -107,7 +107,7 @@ class ResultsTab(QWidget):
         self.export_button.setEnabled(False)
         self.certificate_button.setEnabled(False)
 
-    def show_results(self, results: Results, record: dict[str, Any], folder: Path | None) -> None:
+    def show_results(self, results: Results, record: RunRecord, folder: Path | None) -> None:
         """The results of the verified run in `folder` (None: not certifiable)."""
         self.results, self.record, self.folder = results, record, folder
         self.verdict.show_verdict(*verdict_of(results, record))
@@ -116,8 +116,8 @@ class ResultsTab(QWidget):
         self.summary.setText(
             f"<b>Reference sensitivity at {r.frequency_hz:g} Hz: ({value} ± {u}) mV/(m/s²)</b> "
             f"({r.sensitivity_db:.2f} dB re 1 mV/(m/s²)), k = {r.coverage_factor:.2f}, "
-            f"p = {100 * r.coverage_probability:.2f} %. Run {record.get('run_id')}, "
-            f"{results.periods} periods, {record.get('mode')}."
+            f"p = {100 * r.coverage_probability:.2f} %. Run {record.run_id}, "
+            f"{results.periods} periods, {record.mode}."
         )
         self.table.setRowCount(len(results.lines))
         for row, ln in enumerate(results.lines):
@@ -142,9 +142,9 @@ class ResultsTab(QWidget):
         self.export_button.setEnabled(True)
         self.certificate_button.setEnabled(folder is not None)
 
-    def _fill_budget(self, results: Results, record: dict[str, Any]) -> None:
+    def _fill_budget(self, results: Results, record: RunRecord) -> None:
         """The stored budget at the reference frequency, with this run's type A."""
-        budget = Budget.from_list(record.get("budget", []))
+        budget = Budget.from_list(list(record.budget))
         line = next(
             ln for ln in results.lines if ln.nominal_frequency_hz == results.reference.frequency_hz
         )

@@ -116,8 +116,8 @@ class RunsTab(QWidget):
             tip = "\n".join(check.problems) or (
                 "verified: may be certified" if check.certifiable else "verified"
             )
-            if check.record and check.record.get("abort_reason"):
-                tip = f"aborted: {check.record['abort_reason']}"
+            if check.record and check.record.abort_reason:
+                tip = f"aborted: {check.record.abort_reason}"
             item.setToolTip(tip)
             verdict, reasons = (
                 verdict_of(None, check.record) if check.record is not None else ("", [])

@@ -7,23 +7,32 @@ The verdict is computed once (`app.verdict`, stored in results.json as `verdict`
 from __future__ import annotations
 
 import html
+from collections.abc import Mapping
 from typing import Any
 
 from PySide6.QtCore import Qt
 from PySide6.QtWidgets import QLabel, QSizePolicy, QVBoxLayout, QWidget
 
+from app.run_record import RunRecord
 from app.verdict import FAIL, INDETERMINATE, PASS
 
 COLOURS = {PASS: "#1e8449", FAIL: "#c0392b", INDETERMINATE: "#b9770e"}
 NOT_ASSESSED = "not assessed"
 
 
-def verdict_of(results: Any = None, record: dict[str, Any] | None = None) -> tuple[str, list[str]]:
+def verdict_of(
+    results: Any = None, record: RunRecord | Mapping[str, Any] | None = None
+) -> tuple[str, list[str]]:
     """(verdict, reasons) of a run: from its Results, else its stored record; NOT_ASSESSED
     when neither states one (an aborted run, a run from before verdicts)."""
     verdict = getattr(results, "verdict", None)
     reasons = list(getattr(results, "verdict_reasons", ()) or ())
-    if verdict is None and record:
+    if verdict is None and isinstance(record, RunRecord):
+        verdict = record.verdict or (record.results or {}).get("verdict")
+        reasons = list(
+            record.verdict_reasons or (record.results or {}).get("verdict_reasons") or ()
+        )
+    elif verdict is None and isinstance(record, Mapping):
         verdict = record.get("verdict") or (record.get("results") or {}).get("verdict")
         reasons = list(
             record.get("verdict_reasons")

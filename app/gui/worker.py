@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from app.procedure import Event, Finished, PeriodBlock, Procedure
+from app.run_record import RunRecord
 
 log = logging.getLogger(__name__)
 
@@ -78,7 +79,9 @@ class RunWorker:
             finished = self.procedure.run()
         except BaseException as exc:  # the procedure catches its own; this is a last resort
             log.exception("the run ended with an unexpected error")
-            finished = Finished("aborted", f"internal error: {type(exc).__name__}: {exc}", None, {})
+            reason = f"internal error: {type(exc).__name__}: {exc}"
+            record = RunRecord(run_id=None, status="aborted", abort_reason=reason)
+            finished = Finished("aborted", reason, None, record)
         finally:
             try:
                 self.stand.close()

@@ -15,7 +15,6 @@ from app import formatting as fmt
 from app.certificate import CertificateError, CertificateInfo, build
 from app.records import load_run
 from app.run import RunRequest, execute
-from dsp.calibration import Results
 
 INFO = CertificateInfo(
     customer="ACME Ltd",
@@ -32,7 +31,7 @@ def complete_run(tmp_path_factory):
         RunRequest(dut="piezo", dut_id="SN-42", periods=4, tolerance_percent=5.0, out=out)
     )
     assert finished.status == "complete"
-    return out / finished.record["run_id"]
+    return out / finished.record.run_id
 
 
 def text_of(path) -> str:
@@ -43,11 +42,11 @@ def test_every_mandatory_item_and_the_stored_numbers(complete_run, tmp_path):
     pdf = build(complete_run, INFO, tmp_path / "c.pdf")
     text = text_of(pdf)
     record = load_run(complete_run)
-    results = Results.from_dict(record["results"])
+    results = record.results_object()
     value, u = fmt.round_gum(
         results.reference.sensitivity_mv_per_ms2, results.reference.expanded_uncertainty_mv_per_ms2
     )
-    number = f"AC-{record['run_id']}"
+    number = f"AC-{record.run_id}"
     for item in [
         "CALIBRATION CERTIFICATE",
         "accelcal demonstration laboratory",
@@ -76,9 +75,9 @@ def test_every_mandatory_item_and_the_stored_numbers(complete_run, tmp_path):
         "guarded",
         "J. Smith",
         "results relate only to the item",
-        record["software_version"],
-        record["raw_data_sha256"],
-        record["run_id"],
+        record.software_version,
+        record.raw_data_sha256,
+        record.run_id,
         "Uncertainty budget",
         "reference standard calibration",
     ]:
@@ -120,7 +119,7 @@ def test_aborted_run_is_refused(tmp_path):
     finished = execute(RunRequest(faults=(Fault("device-lost", 15.0),), out=tmp_path))
     assert finished.status == "aborted"
     with pytest.raises(CertificateError, match="the run is aborted"):
-        build(tmp_path / finished.record["run_id"], INFO, tmp_path / "x.pdf")
+        build(tmp_path / finished.record.run_id, INFO, tmp_path / "x.pdf")
 
 
 def test_cli_certificate_default_place_and_exit_codes(complete_run, capsys):

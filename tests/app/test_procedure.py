@@ -82,7 +82,7 @@ def test_simulated_runs_recover_the_truth(tmp_path, dut, level, seed):
     ]
     assert [e.periods for e in events if isinstance(e, PeriodEstimate)] == list(range(3, 9))
     record = load_run(folder.path)
-    assert record["status"] == "complete" and record["final_output_v"] == 0.0
+    assert record.status == "complete" and record.final_output_v == 0.0
     assert stand.daq.output.final_v == 0.0 and stand.daq.output.periods[-1].last_v == 0.0
     recording = read_recording(folder.recording)  # the raw data, analysable again
     assert recording.acquired_periods == 8
@@ -93,7 +93,7 @@ def test_simulated_runs_recover_the_truth(tmp_path, dut, level, seed):
                 assert value == pytest.approx(getattr(b, key), rel=1e-9, nan_ok=True), key
             else:
                 assert value == getattr(b, key), key
-    assert len(record["raw_data_sha256"]) == 64
+    assert len(record.raw_data_sha256) == 64
     assert not os.access(folder.recording, os.W_OK) or os.geteuid() == 0
     assert oct(folder.recording.stat().st_mode)[-3:] == "444"
 
@@ -237,7 +237,7 @@ def test_sigterm_fades_out_and_leaves_an_aborted_readable_run(tmp_path):
     assert record["final_output_v"] == 0.0
     folder = next(out.iterdir())
     assert read_recording(folder / "recording.h5").periods >= 2
-    assert load_run(folder)["status"] == "aborted"
+    assert load_run(folder).status == "aborted"
 
 
 def test_cli_run_and_show(tmp_path, capsys):
@@ -269,7 +269,7 @@ def test_stepped_sine_and_multisine_agree_within_their_uncertainties(tmp_path):
         assert magnitude_ok.all()
         runs[mode] = finished
     multi, stepped = runs["multisine"], runs["stepped-sine"]
-    assert stepped.record["mode"] == "stepped-sine"
+    assert stepped.record.mode == "stepped-sine"
     for a, b in zip(multi.results.lines, stepped.results.lines, strict=True):
         difference = abs(a.sensitivity_mv_per_ms2 - b.sensitivity_mv_per_ms2)
         assert difference <= np.hypot(
@@ -279,8 +279,8 @@ def test_stepped_sine_and_multisine_agree_within_their_uncertainties(tmp_path):
         type_a = np.hypot(a.relative_type_a, b.relative_type_a) * a.sensitivity_mv_per_ms2
         assert difference <= 4 * type_a + 5e-4 * a.sensitivity_mv_per_ms2
     # the stepped sine ran longer: one line at a time
-    assert stepped.record["excitation_time_s"] > 2 * multi.record["excitation_time_s"]
-    stepped_folder = tmp_path / stepped.record["run_id"]
+    assert stepped.record.excitation_time_s > 2 * multi.record.excitation_time_s
+    stepped_folder = tmp_path / stepped.record.run_id
     with pytest.raises(RecordingError, match="a stepped-sine recording"):
         read_recording(stepped_folder / "recording.h5")
 
@@ -392,7 +392,7 @@ def test_the_drive_never_jumps_even_when_a_crossfade_is_cut_short(
     read = played[: len(drive)]
     assert [p.peak_v for p in read] == pytest.approx(np.max(np.abs(drive), axis=1), abs=8 * lsb)
     moving = sum(1 for p in played if p.peak_v > 0)
-    assert finished.record["excitation_time_s"] == pytest.approx(moving * plan.period_s)
+    assert finished.record.excitation_time_s == pytest.approx(moving * plan.period_s)
 
 
 def test_the_stepped_sine_level_loop_starts_from_an_extrapolated_response():
@@ -444,7 +444,7 @@ def test_the_budget_carries_the_mains_hum_measured_with_the_drive_off(tmp_path):
     finished, _stand, plan, folder = run(tmp_path, "piezo", seed=1, systematic=False)
     assert finished.status == "complete", finished.abort_reason
     record = load_run(folder.path)
-    budget = {c["name"]: c for c in record["budget"]}
+    budget = {c["name"]: c for c in record.budget}
     recording = read_recording(folder.recording)
     n = plan.period_samples
     background = [

@@ -21,6 +21,7 @@ from app.records import (
     inspect_run,
     load_run,
 )
+from app.run_record import RunRecord
 
 
 def finished_folder(tmp_path, status=STATUS_ABORTED):
@@ -30,7 +31,7 @@ def finished_folder(tmp_path, status=STATUS_ABORTED):
     folder.write_text("stand.toml", 'backend = "sim"\n')
     folder.recording.write_bytes(b"raw samples")
     folder.log("state: preflight")
-    folder.finish({"run_id": folder.run_id, "status": status}, None)
+    folder.finish(RunRecord(run_id=folder.run_id, status=status), None)
     return folder.path
 
 
@@ -51,7 +52,7 @@ def test_manifest_holds_the_sha256_of_every_stored_file(tmp_path):
     raw = hashlib.sha256(b"raw samples").hexdigest()  # computed here, not by the code
     assert manifest["files"]["recording.h5"] == {"sha256": raw, "bytes": 11}
     record = load_run(path)
-    assert record["raw_data_sha256"] == raw and record["status"] == STATUS_ABORTED
+    assert record.raw_data_sha256 == raw and record.status == STATUS_ABORTED
 
 
 def test_files_and_folder_are_read_only_after_the_run(tmp_path):

@@ -58,7 +58,7 @@ def stored(tmp_path_factory):
         "aborted": RunRequest(periods=4, faults=(Fault("device-lost", 15.0),), out=out),
     }.items():
         finished = execute(request)
-        runs[name] = out / finished.record["run_id"]
+        runs[name] = out / finished.record.run_id
     assert [load(runs[k])["status"] for k in ("a", "b", "aborted")] == [
         "complete",
         "complete",
@@ -174,9 +174,9 @@ def test_the_run_folder_opens_only_while_its_certificate_is_written(monkeypatch,
     seen = []
     real = app.certificate._write_pdf
 
-    def spy(stored_run, info, sweep, path):
+    def spy(stored_run, info, sweep, path, *rest):  # rest: the DCC XML to attach
         seen.append((stat.S_IMODE(run.stat().st_mode), path.parent == run, path.name))
-        real(stored_run, info, sweep, path)
+        real(stored_run, info, sweep, path, *rest)
 
     monkeypatch.setattr(app.certificate, "_write_pdf", spy)
     out = app.certificate.build(
@@ -195,7 +195,7 @@ def test_a_failed_certificate_leaves_the_folder_read_only_and_nothing_behind(
     run = run_of(root, stored, "a")
     before = sorted(p.name for p in run.iterdir())
 
-    def broken(stored_run, info, sweep, path):
+    def broken(stored_run, info, sweep, path, *rest):
         path.write_bytes(b"%PDF-1.4 half")
         raise OSError(28, "No space left on device")
 
@@ -445,6 +445,6 @@ def test_the_procedure_marks_its_recording_complete_or_aborted(tmp_path):
         )
     )
     assert (done.status, cut.status) == ("complete", "aborted")
-    ok_rec = read_recording(tmp_path / "ok" / done.record["run_id"] / "recording.h5")
-    cut_rec = read_recording(tmp_path / "cut" / cut.record["run_id"] / "recording.h5")
+    ok_rec = read_recording(tmp_path / "ok" / done.record.run_id / "recording.h5")
+    cut_rec = read_recording(tmp_path / "cut" / cut.record.run_id / "recording.h5")
     assert (ok_rec.status, cut_rec.status) == ("complete", "aborted")

@@ -22,11 +22,13 @@ import numpy as np
 import pytest
 
 import app.procedure as procedure_module
+import app.procedure.stand_io as gate_module
 from app import stand_config
 from app.cli import main
 from app.procedure import PeriodBlock, Procedure, RunSettings, State, StateChanged
 from app.recording import DiskFullError, RecordingWriter, read_recording
 from app.records import RunFolder, inspect_run, load_run
+from app.run_record import RunRecord
 from app.stands import open_stand
 from dsp.multisine import make_plan, preset_plan
 from sim.models import ExciterModel, StandModel
@@ -42,13 +44,13 @@ def env() -> dict[str, str]:
     return {**os.environ, "PYTHONPATH": str(ROOT)}
 
 
-def assert_survived(folder: Path, reason: str, *, power_lost: bool = False) -> dict:
+def assert_survived(folder: Path, reason: str, *, power_lost: bool = False) -> RunRecord:
     """Aborted with `reason` in its status, drive at 0 V, power amplifier off (or its loss
     logged), recording readable and marked aborted, manifest valid."""
     record = load_run(folder)  # verifies the manifest first (RunIntegrityError otherwise)
     assert inspect_run(folder).state == "aborted"
-    assert record["status"] == "aborted" and reason in record["abort_reason"]
-    assert record["final_output_v"] == 0.0
+    assert record.status == "aborted" and reason in record.abort_reason
+    assert record.final_output_v == 0.0
     with h5py.File(folder / "recording.h5", "r") as f:  # plain HDF5 opens it
         assert f["signals/reference"].shape[0] > 0
     recording = read_recording(folder / "recording.h5")
@@ -183,7 +185,7 @@ def test_every_written_period_passes_the_drive_limit_gate(tmp_path, monkeypatch,
         gated.append(float(np.max(np.abs(period_v))))
         return gate(period_v, limit_v)
 
-    monkeypatch.setattr(procedure_module, "limited_drive", spy)
+    monkeypatch.setattr(gate_module, "limited_drive", spy)  # where the gate lives
     stand = open_stand(CONFIG, dut="piezo")
     folder = RunFolder.create(tmp_path, mode)
     settings = RunSettings(periods=3, mode=mode)

@@ -63,7 +63,7 @@ def main(out: Path, runs: int, summary: Path) -> int:
         app.processEvents()
         ended.append(
             {
-                "run_id": finished[0].record.get("run_id"),
+                "run_id": finished[0].record.run_id,
                 "status": finished[0].status,
                 "window_width": window.frameGeometry().width(),
             }

@@ -86,8 +86,8 @@ def test_closing_the_window_during_a_run_fades_out_to_0_v(qtbot, tmp_path):
     assert stand.daq.output_v == 0.0 and stand.daq.output.stopped
     folder = next((tmp_path / "runs").iterdir())
     record = load_run(folder)
-    assert record["status"] == "aborted" and record["abort_reason"] == "window closed"
-    assert record["final_output_v"] == 0.0
+    assert record.status == "aborted" and record.abort_reason == "window closed"
+    assert record.final_output_v == 0.0
 
 
 def test_emergency_stop_zeroes_at_once(qtbot, tmp_path):
@@ -201,7 +201,7 @@ def test_stop_fades_out_to_0_v_and_keeps_an_aborted_run(qtbot, tmp_path):
         qtbot.mouseClick(w.stop_button, Qt.MouseButton.LeftButton)
     finished = blocker.args[0]
     assert finished.status == "aborted" and finished.abort_reason == "stopped by the operator"
-    assert stand.daq.output_v == 0.0 and finished.record["final_output_v"] == 0.0
+    assert stand.daq.output_v == 0.0 and finished.record.final_output_v == 0.0
     assert stand.daq.output.periods[-1].last_v == 0.0  # the fade-out's last sample
     assert "coherence" in w.coherence.text()
 

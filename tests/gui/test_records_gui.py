@@ -170,7 +170,7 @@ def test_esc_aborts_a_run_through_the_menu_action_to_0_v(qtbot, tmp_path):
     with qtbot.waitSignal(w.run_finished, timeout=30_000) as blocker:
         qtbot.keyClick(w.focusWidget() or w, Qt.Key.Key_Escape)
     assert blocker.args[0].abort_reason == "emergency stop"
-    assert stand.daq.output_v == 0.0 and blocker.args[0].record["final_output_v"] == 0.0
+    assert stand.daq.output_v == 0.0 and blocker.args[0].record.final_output_v == 0.0
 
 
 def test_shortcuts_are_in_the_menus_and_tooltips_and_every_field_is_reached_by_tab(window):

@@ -18,7 +18,6 @@ from pathlib import Path
 import pytest
 
 from app.records import inspect_run, load_run
-from dsp.calibration import Results
 
 RUNS = 50
 ROOT = Path(__file__).resolve().parents[2]
@@ -87,6 +86,7 @@ def test_fifty_runs_in_one_gui_session_leave_fifty_complete_records(xvfb_display
     assert {f.name for f in folders} == {r["run_id"] for r in report["runs"]}
     for folder in folders:
         assert inspect_run(folder).state == "complete", folder
-        results = Results.from_dict(load_run(folder)["results"])
+        results = load_run(folder).results_object()
+        assert results is not None
         assert len(results.lines) == 5
     print(f"soak: {RUNS} runs in {report['seconds']:.1f} s ({elapsed:.1f} s with start-up)")

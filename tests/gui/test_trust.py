@@ -19,6 +19,7 @@ from app.gui.main_window import MainWindow
 from app.gui.worker import copied
 from app.procedure import Finished, PeriodBlock, State
 from app.records import RunFolder
+from app.run_record import RunRecord
 from sim.stand import Fault
 
 SHORT_LINES = "40,80,160,315,630"  # a short plan: quick runs
@@ -85,8 +86,8 @@ def test_an_aborted_run_opened_in_the_runs_tab_is_never_certified_nor_another(
     good = run(window, qtbot, "SN-GOOD")
     bad = run(window, qtbot, "SN-BAD", (Fault("amplifier-fault", 0.5),))
     assert good.status == "complete" and bad.status == "aborted"
-    good_folder = window.out / good.record["run_id"]
-    bad_folder = window.out / bad.record["run_id"]
+    good_folder = window.out / good.record.run_id
+    bad_folder = window.out / bad.record.run_id
     assert window.runs_tab.state_of(good_folder.name) == "complete"
     assert window.runs_tab.state_of(bad_folder.name) == "aborted"
     answers = Answers(
@@ -111,7 +112,7 @@ def test_an_aborted_run_opened_in_the_runs_tab_is_never_certified_nor_another(
     assert len(answers.questions) == 1
     question = answers.questions[0]
     assert good_folder.name in question and "SN-GOOD" in question
-    assert good.record["started_utc"] in question
+    assert good.record.started_utc in question
     assert certificates(bad_folder) == []
 
 
@@ -129,7 +130,7 @@ def test_the_certificate_dialog_starts_empty_for_every_certificate(window, qtbot
     )
     assert window.certificate_action() is not None
     second = run(window, qtbot, "SN-2")
-    assert window.results_tab.folder.name == second.record["run_id"] != first.record["run_id"]
+    assert window.results_tab.folder.name == second.record.run_id != first.record.run_id
     assert window.certificate_action() is not None
     assert len(answers.seen) == 2
     assert all(value == "" for value in answers.seen[1].values()), answers.seen[1]
@@ -140,7 +141,7 @@ def test_modified_and_interrupted_runs_are_listed_so_and_never_certified(
     window, qtbot, monkeypatch
 ):
     done = run(window, qtbot, "SN-EDIT")
-    folder = window.out / done.record["run_id"]
+    folder = window.out / done.record.run_id
     target = folder / "results.json"
     folder.chmod(0o755)
     target.chmod(0o644)
@@ -162,7 +163,7 @@ def test_modified_and_interrupted_runs_are_listed_so_and_never_certified(
 
 def test_a_run_shown_then_tampered_is_refused_at_the_certificate(window, qtbot, monkeypatch):
     done = run(window, qtbot, "SN-LATE")
-    folder = window.out / done.record["run_id"]
+    folder = window.out / done.record.run_id
     assert window.results_tab.folder == folder
     folder.chmod(0o755)
     (folder / "results.csv").chmod(0o644)
@@ -202,7 +203,8 @@ def test_a_long_abort_message_never_widens_the_window(window, qtbot):
         " ".join(["the amplifier reported an over-current on output 1"] * 38) + " /" + ("x" * 300)
     )
     assert len(reason) > 2000
-    window._on_done(Finished("aborted", reason, None, {"run_id": None, "final_output_v": 0.0}))
+    record = RunRecord(run_id=None, status="aborted", abort_reason=reason, final_output_v=0.0)
+    window._on_done(Finished("aborted", reason, None, record))
     for _ in range(5):
         QApplication.processEvents()
     assert window.width() == before <= screen.width()

@@ -300,7 +300,7 @@ def complete_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("runs")
     finished = execute(RunRequest(dut="piezo", dut_id="SN-7", periods=3, out=out))
     assert finished.status == "complete"
-    return out / finished.record["run_id"]
+    return out / finished.record.run_id
 
 
 @pytest.mark.parametrize(

@@ -1,0 +1,68 @@
+"""Acquisition phase (multisine): L periods, or until a type A target within a time bound,
+with a live estimate after every period."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from app.procedure.context import RunContext
+from app.procedure.events import Progress, State
+from app.procedure.stopping import Stop, StoppingRule
+from dsp.spectral import MIN_PERIODS, SpectralAccumulator
+from dsp.uncertainty import Budget
+
+
+class Acquisition:
+    """Accumulate the multisine's periods (first the ones settled at the final drive), publish
+    results from MIN_PERIODS on, stop by the run's `StoppingRule`."""
+
+    def __init__(self, ctx: RunContext, budget: Budget, reusable_blocks: list[np.ndarray]):
+        self.ctx = ctx
+        self.budget = budget
+        self.pending = list(reusable_blocks)
+
+    def run(self) -> None:
+        ctx, s, plan = self.ctx, self.ctx.settings, self.ctx.plan
+        io = ctx.io
+        accumulator = SpectralAccumulator(plan.period_samples, plan.bins)
+        if io.writer is not None:
+            io.writer.set_settle_periods(io.periods_read - len(self.pending))
+            io.writer.set_budget(self.budget)
+        rule = StoppingRule(s.periods, s.target_type_a, s.max_acquisition_s)
+        period_s = plan.period_s
+        started = io.excited_s
+        while True:
+            block = self.pending.pop(0) if self.pending else io.read(State.ACQUIRING)
+            accumulator.add_period(*io.split_channels(block))
+            count = accumulator.periods
+            if io.writer is not None:
+                io.writer.set_acquired_periods(count)
+            if count < MIN_PERIODS[s.estimator]:  # no honest type A yet (dsp.spectral)
+                continue
+            estimate = accumulator.estimate(s.estimator)
+            results = ctx.publish(estimate, self.budget)
+            acquired_s = io.excited_s - started
+            worst_a = float(np.nanmax(estimate.relative_type_a))
+            ctx.emit(
+                Progress(
+                    rule.fraction(count, worst_a),
+                    acquired_s,
+                    rule.remaining_s(count, period_s),
+                    f"period {count}, worst type A {100 * worst_a:.3f} %",
+                )
+            )
+            stop = rule.decide(count, worst_a, acquired_s, period_s)
+            if stop is None:
+                continue
+            if stop is Stop.TARGET and s.target_type_a is not None:
+                ctx.log(f"type A target {100 * s.target_type_a:g} % reached after {count} periods")
+            elif stop is Stop.TIME_BOUND and s.target_type_a is not None:
+                text = (
+                    f"time bound {s.max_acquisition_s:g} s reached before the type A target: "
+                    f"worst line {100 * worst_a:.3f} % > {100 * s.target_type_a:g} %"
+                )
+                ctx.warn(text)
+                ctx.notes.results = dataclasses.replace(results, warnings=(*results.warnings, text))
+            return

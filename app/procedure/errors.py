@@ -1,0 +1,46 @@
+"""What stops a run: the procedure's exceptions (the message says what and what to do)."""
+
+from __future__ import annotations
+
+from hardware.errors import (
+    AmplifierFaultError,
+    DeviceLostError,
+    HardwareError,
+    HardwareTimeoutError,
+    OverloadError,
+)
+
+
+class ProcedureError(RuntimeError):
+    """The run cannot go on; the message says what and what to do."""
+
+
+class PreflightError(ProcedureError):
+    """The plan or level asks for more than the stand may do: refused before anything moves."""
+
+
+class Aborted(ProcedureError):
+    """The run was stopped on request (operator, SIGTERM)."""
+
+
+class DriveLimitError(ProcedureError):
+    """A period of drive would exceed the stand's drive limit: refused, never played."""
+
+
+class RunNotRecordedError(RuntimeError):
+    """The run ended (drive at 0 V) but its status and results could not be stored."""
+
+
+def advice(exc: HardwareError) -> str:
+    """What the operator should do about a hardware error."""
+    if isinstance(exc, OverloadError):
+        return "Lower the level or raise the channel's range, then run again"
+    if isinstance(exc, AmplifierFaultError):
+        return (
+            "Check the power amplifier (interlock, temperature, over-travel), reset it, run again"
+        )
+    if isinstance(exc, DeviceLostError):
+        return "Reconnect the device (cable, power), then run again; the data so far is kept"
+    if isinstance(exc, HardwareTimeoutError):
+        return "Check that the instrument is on, connected and configured; then run again"
+    return "Check the hardware, then run again"

@@ -1,0 +1,99 @@
+"""The typed events a run sends to its listener (the CLI's progress line, the GUI)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from enum import StrEnum
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from dsp.calibration import Results
+from dsp.spectral import Estimate
+
+if TYPE_CHECKING:
+    from app.run_record import RunRecord
+
+
+class State(StrEnum):
+    PREFLIGHT = "preflight"
+    BACKGROUND = "background"
+    IDENTIFYING = "identifying"
+    EQUALISING = "equalising"
+    ACQUIRING = "acquiring"
+    FADING_OUT = "fading out"
+    FINISHED = "finished"
+    ABORTED = "aborted"
+
+
+@dataclass(frozen=True)
+class StateChanged:
+    state: State
+    message: str = ""
+
+
+@dataclass(frozen=True)
+class Progress:
+    """Overall progress 0..1, the excitation time so far and an estimate of what remains (s)."""
+
+    fraction: float
+    elapsed_s: float
+    remaining_s: float | None
+    message: str = ""
+
+
+@dataclass(frozen=True)
+class PeriodBlock:
+    """One period as read (volts, channels in DaqConfig order) and what was played."""
+
+    index: int
+    state: State
+    channels: tuple[str, ...]
+    samples: np.ndarray
+    drive: np.ndarray
+
+
+@dataclass(frozen=True)
+class EqualisationStep:
+    """Per-line relative amplitude error of the table acceleration after an iteration."""
+
+    iteration: int
+    errors: np.ndarray
+    worst: float
+
+
+@dataclass(frozen=True)
+class PeriodEstimate:
+    """The live estimate after another acquired period."""
+
+    periods: int
+    estimate: Estimate
+    results: Results
+
+
+@dataclass(frozen=True)
+class WarningRaised:
+    text: str
+
+
+@dataclass(frozen=True)
+class Finished:
+    """How the run ended; `record` is what results.json holds (app.run_record.RunRecord)."""
+
+    status: str
+    abort_reason: str | None
+    results: Results | None
+    record: RunRecord
+
+
+Event = (
+    StateChanged
+    | Progress
+    | PeriodBlock
+    | EqualisationStep
+    | PeriodEstimate
+    | WarningRaised
+    | Finished
+)
+Listener = Callable[[Event], None]

@@ -1,0 +1,107 @@
+"""Preflight: the one check made before anything moves, for the CLI, the GUI and the run.
+
+The plan's predicted peaks (stroke, velocity, acceleration) against the stand's limits and the
+channels' predicted peaks against their ranges: refused, never clipped.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from app.procedure.errors import PreflightError
+from dsp.multisine import Plan, PredictedPeaks
+
+if TYPE_CHECKING:
+    from app.stand_config import StandConfig
+    from dsp.calibration import ReferenceChain
+
+OVERLOAD_FRACTION = 0.995  # SPEC s.11: a sample within 0.5 % of a channel's range
+RANGE_MARGIN = 1.2  # predicted channel peaks stay this far below the overload limit
+
+
+@dataclass(frozen=True)
+class PreflightReport:
+    """What preflight found: the predicted peaks (at the level checked), the crest factor and
+    the problems (empty: the plan may run)."""
+
+    peaks: PredictedPeaks
+    crest_factor: float
+    problems: tuple[str, ...]
+
+    @property
+    def ok(self) -> bool:
+        return not self.problems
+
+    def raise_if_refused(self) -> None:
+        """PreflightError naming every problem, if any."""
+        if self.problems:
+            raise PreflightError("; ".join(self.problems))
+
+    def summary(self) -> str:
+        """One line for run.log."""
+        p = self.peaks
+        return (
+            f"preflight: peaks {p.acceleration_ms2:.1f} m/s^2, "
+            f"{1e3 * p.velocity_m_per_s:.1f} mm/s, "
+            f"{1e3 * p.displacement_peak_to_peak_m:.3f} mm p-p; crest factor "
+            f"{self.crest_factor:.2f}"
+        )
+
+
+def check_preflight(
+    plan: Plan,
+    config: StandConfig,
+    chain: ReferenceChain | None,
+    nominal_mv_per_ms2: float | None = None,
+    *,
+    level_scale: float = 1.0,
+) -> PreflightReport:
+    """Check `plan` (its amplitudes times `level_scale`) on the stand of `config` with the
+    reference `chain` and, when known, the DUT's nominal sensitivity (mV/(m/s^2)). Without a
+    chain (a window before its stand is opened) the reference channel is not checked here;
+    the run's own preflight checks it before anything moves."""
+    limits = config.limits
+    ranges = {c.name: c.range_v for c in config.inputs}
+    raw = plan.predicted_peaks()
+    peaks = PredictedPeaks(
+        acceleration_ms2=raw.acceleration_ms2 * level_scale,
+        velocity_m_per_s=raw.velocity_m_per_s * level_scale,
+        displacement_m=raw.displacement_m * level_scale,
+        displacement_peak_to_peak_m=raw.displacement_peak_to_peak_m * level_scale,
+    )
+    problems = []
+    if peaks.displacement_peak_to_peak_m > limits.displacement_peak_to_peak_m:
+        problems.append(
+            f"displacement {1e3 * peaks.displacement_peak_to_peak_m:.2f} mm p-p exceeds the "
+            f"exciter's {1e3 * limits.displacement_peak_to_peak_m:g} mm (lower the level at "
+            "low frequencies)"
+        )
+    if peaks.velocity_m_per_s > limits.velocity_peak_m_per_s:
+        problems.append(
+            f"velocity {peaks.velocity_m_per_s:.3g} m/s exceeds "
+            f"{limits.velocity_peak_m_per_s:g} m/s"
+        )
+    if peaks.acceleration_ms2 > limits.acceleration_peak_ms2:
+        problems.append(
+            f"acceleration {peaks.acceleration_ms2:.1f} m/s^2 exceeds "
+            f"{limits.acceleration_peak_ms2:g} m/s^2"
+        )
+    if chain is not None:
+        ref_s, _ = chain.sensitivity_at(plan.frequencies_hz)
+        ref_peak = peaks.acceleration_ms2 * float(ref_s.max()) * 1e-3 * chain.reference_gain
+        if ref_peak > OVERLOAD_FRACTION * ranges["reference"] / RANGE_MARGIN:
+            problems.append(
+                f"reference channel: predicted peak {ref_peak:.3g} V is too close to its "
+                f"+-{ranges['reference']:g} V range (raise the range or lower the level)"
+            )
+    dut_gain = chain.dut_gain if chain is not None else config.dut_gain
+    if nominal_mv_per_ms2 is not None:  # the DUT's own response is unknown: its nominal stands in
+        dut_peak = peaks.acceleration_ms2 * nominal_mv_per_ms2 * 1e-3 * dut_gain
+        if dut_peak > OVERLOAD_FRACTION * ranges["dut"] / RANGE_MARGIN:
+            problems.append(
+                f"DUT channel: predicted peak {dut_peak:.3g} V (nominal {nominal_mv_per_ms2:g} "
+                f"mV/(m/s^2)) is too close to its +-{ranges['dut']:g} V range "
+                "(raise the range or lower the level)"
+            )
+    return PreflightReport(peaks, plan.crest_factor(), tuple(problems))

@@ -1,0 +1,354 @@
+"""The calibration procedure (SPEC.md section 5): the phases in order, and every way out.
+
+preflight -> background -> identification -> equalisation -> acquisition -> fade-out (or the
+stepped-sine mode after the background), each a small object of its own module sharing one
+`RunContext`. This module owns the run's outcome: the drive ends at 0 V and the power
+amplifier off on every path out of `run()` (success, abort, exception, lost hardware, a full
+disk, Ctrl-C, SIGTERM), the status and the run record.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import logging
+import math
+import sys
+from datetime import UTC, datetime
+from typing import Any
+
+import numpy as np
+
+from app.procedure.acquisition import Acquisition
+from app.procedure.background import Background, budget_with_background
+from app.procedure.context import RunContext, RunNotes
+from app.procedure.equalisation import Equalisation
+from app.procedure.errors import (
+    Aborted,
+    PreflightError,
+    ProcedureError,
+    RunNotRecordedError,
+    advice,
+)
+from app.procedure.events import Event, Finished, Listener, State
+from app.procedure.identification import Identification
+from app.procedure.preflight import check_preflight
+from app.procedure.settings import MODE_STEPPED_SINE, RunSettings
+from app.procedure.stand_io import StandIO
+from app.procedure.stepped import SteppedSine
+from app.recording import DiskFullError, RecordingWriter, Truth, software_version
+from app.records import STATUS_ABORTED, STATUS_COMPLETE, RunFolder
+from app.run_record import DutIdentity, RunRecord, StandInfo
+from app.stands import Stand
+from app.verdict import Tolerances, tolerances_for, with_verdict
+from dsp.calibration import AnalysisError
+from dsp.multisine import Plan
+from hardware.errors import AmplifierFaultError, HardwareError, OverloadError
+from hardware.interfaces import DaqConfig
+
+log = logging.getLogger(__name__)
+
+
+def _plain(value: Any) -> dict[str, Any]:
+    """A dataclass or mapping as a JSON-ready dict (as results.json has always held it)."""
+    if value is None:
+        return {}
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return json.loads(json.dumps(value.__dict__, default=str))
+    return json.loads(json.dumps(dict(value), default=str))
+
+
+class Procedure:
+    """One calibration run of `plan` on `stand`; call `run()` once."""
+
+    def __init__(
+        self,
+        stand: Stand,
+        plan: Plan,
+        settings: RunSettings,
+        folder: RunFolder | None = None,
+        listener: Listener | None = None,
+        *,
+        identity: dict[str, Any] | None = None,
+    ):
+        self.stand = stand
+        self.plan = plan
+        self.settings = settings
+        self.folder = folder
+        self.listener = listener
+        self.identity = identity or {}
+        self.io = StandIO(stand, plan, settings, self._emit, self._log, self._announce)
+        self.notes = RunNotes(budget=stand.budget)
+        self.ctx = RunContext(stand, plan, settings, self.io, self.notes, self._emit, self._log)
+
+    # --- control (thread-safe) ------------------------------------------------------------
+
+    def abort(self, reason: str = "stopped by the operator") -> None:
+        """Ask the run to fade out and stop at the next period boundary."""
+        self.io.abort(reason)
+
+    def emergency_stop(self) -> None:
+        """Zero the drive at once (no fade), from any thread; the run then ends aborted."""
+        self.io.emergency_stop()
+
+    # --- the run ---------------------------------------------------------------------------
+
+    def preflight(self) -> None:
+        """The checks made before anything moves; PreflightError says what is refused."""
+        report = check_preflight(
+            self.plan, self.stand.config, self.stand.chain, self.settings.dut_nominal_mv_per_ms2
+        )
+        report.raise_if_refused()
+        self._log(report.summary())
+
+    def run(self) -> Finished:
+        """The whole run, to its end (complete or aborted): the drive at 0 V afterwards."""
+        started = datetime.now(UTC)
+        status, reason = STATUS_COMPLETE, None
+        io = self.io
+        self._store_config()
+        try:
+            self.ctx.state(State.PREFLIGHT)
+            self.preflight()
+            self._configure()
+            self._phases()
+        except Aborted as exc:
+            status, reason = STATUS_ABORTED, str(exc)
+            io.try_fade_out()
+        except DiskFullError as exc:
+            io.recording_full = True
+            status, reason = STATUS_ABORTED, f"disk full: {exc}"
+            io.try_fade_out()
+        except PreflightError as exc:
+            status, reason = STATUS_ABORTED, f"refused before anything moved: {exc}"
+        except (ProcedureError, AnalysisError) as exc:
+            status, reason = STATUS_ABORTED, str(exc)
+            io.try_fade_out()
+        except HardwareError as exc:
+            if io.emergency:
+                status, reason = STATUS_ABORTED, "emergency stop"
+            else:
+                status, reason = STATUS_ABORTED, f"{type(exc).__name__}: {exc}. {advice(exc)}"
+                if io.power_failed or isinstance(exc, (AmplifierFaultError, OverloadError)):
+                    io.try_fade_out()  # the DAQ still works: fade its drive out
+        except KeyboardInterrupt:
+            status, reason = STATUS_ABORTED, "interrupted (Ctrl-C)"
+        except Exception as exc:
+            log.debug("run: internal error", exc_info=True)
+            status, reason = STATUS_ABORTED, f"internal error: {type(exc).__name__}: {exc}"
+        finally:
+            final_output = io.stop_drive()
+            io.disable_power()
+            if io.writer is not None:
+                escaping = sys.exc_info()[0] is not None  # e.g. SystemExit: not complete
+                io.writer.set_status(STATUS_ABORTED if escaping else status, reason)
+                io.writer.close()
+        if status == STATUS_ABORTED:
+            self.ctx.state(State.ABORTED, reason or "")
+        else:
+            self.ctx.state(State.FINISHED)
+        return self._finish(started, status, reason, final_output)
+
+    def _phases(self) -> None:
+        """Background, then the mode's phases; results end in `self.notes`."""
+        background = Background(self.ctx).run()
+        if self.settings.mode == MODE_STEPPED_SINE:
+            SteppedSine(self.ctx, background).run()
+            return
+        noise = background.noise()
+        response = Identification(self.ctx, noise).run()
+        equalised = Equalisation(self.ctx, noise).run(response)
+        self.ctx.state(State.ACQUIRING)
+        budget = budget_with_background(
+            self.stand.budget,
+            self.plan,
+            background,
+            equalised.settled.lines,
+            self.settings.background_periods,
+        )
+        self.notes.budget = budget
+        Acquisition(self.ctx, budget, equalised.reusable_blocks).run()
+        self.io.fade_out()
+
+    def _store_config(self) -> None:
+        """config.json and stand.toml, before anything moves (RunNotRecordedError)."""
+        if self.folder is None:
+            return
+        try:
+            self.folder.write_json(
+                "config.json",
+                {
+                    "stand": self.stand.config.raw,
+                    "stand_source": self.stand.config.source,
+                    "plan": self.plan.to_dict(),
+                    "settings": self.settings.__dict__,
+                    "identity": self.identity,
+                },
+            )
+            if self.stand.config.text:
+                self.folder.write_text("stand.toml", self.stand.config.text)
+        except OSError as exc:  # nothing has moved yet
+            raise RunNotRecordedError(
+                f"run {self.folder.run_id} not started, nothing moved: its configuration "
+                f"could not be stored in {self.folder.path} ({exc.strerror or exc}); free "
+                "disk space"
+            ) from exc
+
+    def _finish(
+        self, started: datetime, status: str, reason: str | None, final_output: float | None
+    ) -> Finished:
+        """Verdict, run record, results.json: the Finished event."""
+        results = self.notes.results if status == STATUS_COMPLETE else None
+        if results is not None:
+            results = with_verdict(results, self._tolerances())
+        record = self._record(started, status, reason, final_output)
+        if self.folder is None:
+            record = record.with_results(results, None)
+        else:
+            self._log(f"{status}{': ' + reason if reason else ''}")
+            try:
+                record = self.folder.finish(record, results)
+            except OSError as exc:
+                raise RunNotRecordedError(
+                    f"run {self.folder.run_id} {status}"
+                    f"{' (' + reason + ')' if reason else ''}, drive at "
+                    f"{'unknown' if final_output is None else f'{final_output:g} V'}; its "
+                    f"results could not be stored ({exc.strerror or exc}): free disk space; "
+                    f"the recording in {self.folder.path} is readable up to its last period"
+                ) from exc
+        finished = Finished(status, reason, results, record)
+        self._emit(finished)
+        return finished
+
+    def _configure(self) -> None:
+        """The DAQ at the plan's rate, the measuring amplifier, the recording."""
+        plan = self.plan
+        config = DaqConfig(
+            plan.sample_rate_hz, plan.period_samples, self.stand.config.output, self.io.inputs
+        )
+        status = self.stand.daq.configure(config)
+        if not math.isclose(status.actual_sample_rate_hz, plan.sample_rate_hz, rel_tol=1e-9):
+            raise ProcedureError(
+                f"the DAQ runs at {status.actual_sample_rate_hz:g} Hz instead of "
+                f"{plan.sample_rate_hz:g} Hz: choose a sample rate the board can divide exactly"
+            )
+        amplifier = self.stand.measuring_amplifier
+        if amplifier is not None:
+            ref = self.stand.config.reference
+            settings = amplifier.configure(
+                self.stand.config.reference_amplifier_channel,
+                sensitivity_mv_per_ms2=1.0,
+                gain=ref.gain,
+            )
+            self.identity["measuring_amplifier"] = {**settings.__dict__}
+            if not math.isclose(settings.gain, self.stand.chain.reference_gain, rel_tol=1e-6):
+                raise ProcedureError(
+                    f"measuring amplifier reads back gain {settings.gain:g}, the chain assumes "
+                    f"{self.stand.chain.reference_gain:g}"
+                )
+        if self.folder is not None:
+            self.io.writer = RecordingWriter(
+                self.folder.recording,
+                plan,
+                self.stand.chain,
+                self.stand.budget,
+                with_drive=True,
+                ranges_v=self.io.ranges,
+            )
+            self._write_truth()
+
+    def _write_truth(self) -> None:
+        """The simulated stand's true DUT sensitivity and phase at every line (/truth), at the
+        excitation's rms acceleration (the multisine's total, or one line's in stepped sine)."""
+        writer = self.io.writer
+        if writer is None or self.stand.truth is None:
+            return
+        plan, truth = self.plan, self.stand.truth
+        rms = float(np.sqrt(np.sum(plan.amplitudes_ms2**2) / 2))
+        if self.settings.mode == MODE_STEPPED_SINE:  # one line at a time: its own rms
+            values = np.array(
+                [
+                    truth(np.array([f]), a / np.sqrt(2))[0]
+                    for f, a in zip(plan.frequencies_hz, plan.amplitudes_ms2, strict=True)
+                ]
+            )
+        else:
+            values = truth(plan.frequencies_hz, rms)
+        dut = self.identity.get("dut") or {}
+        writer.write_truth(
+            Truth(
+                plan.frequencies_hz,
+                np.abs(values),
+                np.degrees(np.angle(values)),
+                {
+                    "dut": str(dut.get("catalogue") or ""),
+                    "description": self.stand.description,
+                    "level_ms2": float(self.identity.get("level_ms2") or 0.0),
+                    "rms_ms2": rms,
+                },
+            )
+        )
+
+    def _tolerances(self) -> Tolerances:
+        """The DUT model's tolerances (simulated catalogue DUT) and the run's --tolerance."""
+        dut = self.identity.get("dut") or {}
+        return tolerances_for(
+            dut.get("catalogue"), self.plan.reference_frequency_hz, self.settings.tolerance_percent
+        )
+
+    def _record(
+        self, started: datetime, status: str, reason: str | None, final_output: float | None
+    ) -> RunRecord:
+        """The run record without results (RunFolder.finish adds them and the raw data's
+        hash)."""
+        budget = self.notes.budget or self.stand.budget
+        identity = dict(self.identity)
+        dut = identity.pop("dut", None)
+        config = self.stand.config
+        return RunRecord(
+            run_id=self.folder.run_id if self.folder else None,
+            status=status,
+            abort_reason=reason,
+            mode=self.settings.mode,
+            started_utc=started.isoformat(timespec="seconds"),
+            finished_utc=datetime.now(UTC).isoformat(timespec="seconds"),
+            excitation_time_s=self.io.excited_s,
+            periods_read=self.io.periods_read,
+            final_output_v=final_output,
+            equalisation_worst=tuple(self.notes.equalisation),
+            background_v=dict(self.notes.background),
+            budget=tuple(budget.to_list()),
+            reference_chain=self.stand.chain.to_dict(),
+            software_version=software_version(),
+            settings=dict(self.settings.__dict__),
+            plan=self.plan.to_dict(),
+            stand=StandInfo(
+                self.stand.description,
+                config.source,
+                _plain(config.laboratory),
+                _plain(config.reference),
+            ),
+            dut=DutIdentity.from_dict(dut),
+            level_ms2=identity.pop("level_ms2", None),
+            measuring_amplifier=identity.pop("measuring_amplifier", None),
+            extra=identity,
+        )
+
+    # --- telling -----------------------------------------------------------------------------
+
+    def _announce(self, state: State) -> None:
+        self.ctx.state(state)
+
+    def _log(self, line: str) -> None:
+        if self.folder is not None:
+            try:
+                self.folder.log(line)
+            except OSError as exc:  # a full disk must not hide what happened to the run
+                log.warning("run.log: %s (%s)", line, exc)
+
+    def _emit(self, event: Event) -> None:
+        if self.listener is not None:
+            self.listener(event)
+
+
+__all__ = ["Procedure"]

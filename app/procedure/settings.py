@@ -1,0 +1,46 @@
+"""How to run: RunSettings (periods, targets, tolerances, bounds) and the modes."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from app.procedure.modes import MODE_MULTISINE, MODE_STEPPED_SINE, MODES
+from dsp.spectral import check_periods
+
+__all__ = ["MODES", "MODE_MULTISINE", "MODE_STEPPED_SINE", "RunSettings"]
+
+
+@dataclass(frozen=True)
+class RunSettings:
+    """How to run: periods, targets, tolerances and bounds (units in the names)."""
+
+    periods: int = 8
+    target_type_a: float | None = None
+    max_acquisition_s: float | None = None
+    background_periods: int = 2
+    fade_periods: int = 1
+    settle_tolerance: float = 0.002
+    max_settle_periods: int = 12
+    equalisation_tolerance: float = 0.01
+    max_equalisation_iterations: int = 8
+    identification_drive_v: float = 1e-3
+    estimator: str = "periodic"
+    probability: float = 0.9545
+    rule: str = "gum"
+    tolerance_percent: float | None = None
+    dut_nominal_mv_per_ms2: float | None = None
+    plausible_ratio: float = 2.0
+    mode: str = MODE_MULTISINE
+    stepped_block_s: float = 0.25
+
+    def __post_init__(self) -> None:
+        if self.target_type_a is None:
+            check_periods(self.estimator, self.periods)  # issue 13 point 5: MIN_PERIODS
+        if self.target_type_a is not None and not 0 < self.target_type_a < 1:
+            raise ValueError("target type A: must be a fraction between 0 and 1 (0.002 = 0.2 %)")
+        if self.max_acquisition_s is not None and not self.max_acquisition_s > 0:
+            raise ValueError("max time: must be > 0 s")
+        if not 0 < self.equalisation_tolerance < 0.5:
+            raise ValueError("equalisation tolerance: must be between 0 and 0.5")
+        if self.mode not in MODES:
+            raise ValueError(f"mode: one of {', '.join(MODES)}, got {self.mode!r}")

@@ -1,0 +1,336 @@
+"""The stand as the phases use it: the drive-limit gate, the output queue, fades and
+crossfades, the power amplifier, one checked and recorded period at a time, settling.
+
+Every output period passes `limited_drive`. A `Segment` says what is being played: the whole
+multisine plan (lines by DFT) or one stepped-sine line (lines by three-parameter sine fit).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import threading
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from app.procedure.errors import Aborted, DriveLimitError, ProcedureError
+from app.procedure.events import Event, PeriodBlock, State
+from app.procedure.preflight import OVERLOAD_FRACTION
+from app.procedure.settings import RunSettings
+from app.recording import RecordingWriter
+from app.stands import Stand
+from dsp.multisine import Plan, fade_envelope
+from dsp.sinefit import sine_fit
+from dsp.spectral import period_spectrum, periods_agree
+from hardware.errors import AmplifierFaultError, DeviceLostError, HardwareError, OverloadError
+
+log = logging.getLogger(__name__)
+
+
+def limited_drive(period_v: np.ndarray, limit_v: float) -> np.ndarray:
+    """The one gate every output period passes on its way to the DAQ (identification,
+    equalisation, crossfades, stepped sine, fades, zeros): the period as float volts, or
+    DriveLimitError when any |sample| exceeds `limit_v` (V) or is not finite."""
+    x = np.asarray(period_v, dtype=float)
+    peak = float(np.max(np.abs(x))) if x.size else 0.0
+    if not math.isfinite(peak) or peak > limit_v:
+        raise DriveLimitError(
+            f"drive peak {peak:.4g} V exceeds the stand's drive limit {limit_v:g} V "
+            "(limits.drive_peak_v, daq.output.range_v): refused before it was played; lower "
+            "the level or the identification drive"
+        )
+    return x
+
+
+@dataclass(frozen=True)
+class Segment:
+    """What the output plays: a plan and how its line spectra are read from a period."""
+
+    plan: Plan
+    one_line: bool = False  # stepped sine: one line by sine fit, blocks shorter than the plan's
+
+    def lines(self, pair: np.ndarray) -> np.ndarray:
+        """Complex line amplitudes of (reference, DUT), shape (2, lines)."""
+        if self.one_line:  # IEEE 1057 three-parameter fit of both channels
+            return sine_fit(pair, self.plan.frequencies_hz[0], self.plan.sample_rate_hz)[:, None]
+        return period_spectrum(pair)[:, self.plan.bins]
+
+
+@dataclass(frozen=True)
+class Settled:
+    """Two consecutive periods that agree: the table acceleration per line (complex, m/s^2),
+    the last period's line spectra (reference, DUT) and both periods as read."""
+
+    acceleration: np.ndarray
+    lines: tuple[np.ndarray, np.ndarray]
+    blocks: tuple[np.ndarray, np.ndarray]
+
+
+class StandIO:
+    """Drive out, periods in, for one run; thread-safe `abort` and `emergency_stop`."""
+
+    def __init__(
+        self,
+        stand: Stand,
+        plan: Plan,
+        settings: RunSettings,
+        emit: Callable[[Event], None],
+        log_line: Callable[[str], None],
+        announce: Callable[[State], None],
+    ):
+        self.stand = stand
+        self.settings = settings
+        self.segment = Segment(plan)
+        self.emit = emit
+        self.log = log_line
+        self.announce = announce  # a state change: logged and sent to the listener
+        config = stand.config
+        self.inputs = config.inputs
+        self.channel_index: dict[str, int] = {c.name: i for i, c in enumerate(self.inputs)}
+        self.ranges: dict[str, float] = {c.name: c.range_v for c in self.inputs}
+        self.drive_limit_v = min(config.limits.drive_peak_v, config.output.range_v)
+        self.writer: RecordingWriter | None = None
+        self.drive = np.zeros(plan.period_samples)  # the steady drive (what a fade-out fades)
+        self.played = self.drive  # the period the output plays now
+        self.queue: deque[np.ndarray] = deque()  # written, not played yet: each plays in turn
+        self.periods_read = 0
+        self.excited_s = 0.0
+        self.recording_full = False  # the disk is full: no more periods are appended
+        self.power_on = False  # the power amplifier's output was enabled by this run
+        self.power_failed = False  # the power amplifier failed: no more polling
+        self.emergency = False
+        self.in_transition = False  # a fade or crossfade period is playing: let it finish
+        self._abort_reason: str | None = None
+        self._abort_lock = threading.Lock()
+
+    # --- control (thread-safe) ------------------------------------------------------------
+
+    def abort(self, reason: str) -> None:
+        """Ask the run to fade out and stop at the next period boundary."""
+        with self._abort_lock:
+            if self._abort_reason is None:
+                self._abort_reason = reason
+
+    def emergency_stop(self) -> None:
+        """Zero the drive at once (no fade), from any thread; the run then ends aborted."""
+        with self._abort_lock:
+            self.emergency = True
+            self._abort_reason = "emergency stop"
+        try:
+            self.stand.daq.stop()
+        except Exception:  # the run's own `finally` stops again
+            pass
+
+    # --- output -----------------------------------------------------------------------------
+
+    def split_channels(self, block: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(reference, DUT) samples of a period as read."""
+        return block[self.channel_index["reference"]], block[self.channel_index["dut"]]
+
+    def pair(self, block: np.ndarray) -> np.ndarray:
+        """Rows (reference, DUT) of a period as read."""
+        return block[[self.channel_index["reference"], self.channel_index["dut"]]]
+
+    def begin(self, segment: Segment) -> None:
+        """Play `segment` from 0 V: the output starts with a zero period."""
+        self.segment = segment
+        self.drive = self.played = np.zeros(segment.plan.period_samples)
+        self.queue.clear()
+        self.start(self.drive)
+
+    def write(self, drive: np.ndarray) -> None:
+        """Queue one period of drive: it plays after those written before it (Daq protocol)."""
+        self.stand.daq.write_period(limited_drive(drive, self.drive_limit_v))
+        self.queue.append(drive)
+
+    def start(self, drive: np.ndarray) -> None:
+        """Start the DAQ output with `drive` (through the same drive-limit gate)."""
+        self.stand.daq.start(limited_drive(drive, self.drive_limit_v))
+
+    def crossfade(self, new_drive: np.ndarray, state: State = State.EQUALISING) -> None:
+        """One period moving smoothly from the current drive to `new_drive`, which then plays.
+        An abort meanwhile lets the crossfade play, then fades out from `new_drive`: the drive
+        never steps at a period boundary."""
+        ramp = fade_envelope(self.segment.plan.period_samples, 1, "in")
+        self.write(self.drive * (1.0 - ramp) + new_drive * ramp)
+        self.in_transition = True
+        try:
+            self.period(state)
+        except BaseException:
+            # the crossfade is written (played or queued): a fade-out starts where it ends
+            self.drive = new_drive
+            raise
+        finally:
+            self.in_transition = False
+        self.drive = new_drive
+        self.write(new_drive)
+
+    def fade_out(self) -> None:
+        """Raised-cosine fade of the steady drive over `fade_periods` periods, then 0 V; reads
+        until every faded period has played (a drive queued before it plays first)."""
+        self.announce(State.FADING_OUT)
+        n = self.segment.plan.period_samples
+        envelope = fade_envelope(n, self.settings.fade_periods, "out")
+        for k in range(self.settings.fade_periods):
+            self.write(self.drive * envelope[k * n : (k + 1) * n])
+        self.drive = np.zeros(n)
+        self.write(self.drive)
+        self.in_transition = True
+        try:
+            while len(self.queue) > 1:  # the zero period stays queued; stop() plays it
+                self.period(State.FADING_OUT)
+        finally:
+            self.in_transition = False
+
+    def try_fade_out(self) -> None:
+        """Fade out after a failure, if anything plays and no emergency stop zeroed it."""
+        if self.emergency:
+            return
+        try:
+            if np.any(self.drive != 0):
+                self.fade_out()
+        except Exception:
+            pass
+
+    def stop_drive(self) -> float | None:
+        """Stop with the output at 0 V, whatever happened; the output voltage as reported."""
+        try:
+            self.stand.daq.stop()
+        except DeviceLostError:
+            pass  # a lost device has reset its output
+        return self.stand.daq.output_v
+
+    # --- power amplifier ------------------------------------------------------------------
+
+    def enable_power(self) -> None:
+        """Switch the power amplifier's output on (the DAQ already plays 0 V); it refuses
+        while its interlock is open or it reports a fault (AmplifierFaultError)."""
+        amplifier = self.stand.power_amplifier
+        if amplifier is None or self.power_on:
+            return
+        self.power_on = True  # from here, every exit path switches it off
+        amplifier.set_output_enabled(True)
+        self.log("power amplifier: output on")
+
+    def poll_power(self) -> None:
+        """The power amplifier's fault and interlock state, once per period: an over-current,
+        an open interlock (over-travel) or a lost session ends the run (HardwareError)."""
+        amplifier = self.stand.power_amplifier
+        if amplifier is None or not self.power_on or self.power_failed:
+            return
+        try:
+            fault = amplifier.fault()
+            if fault is not None:
+                raise AmplifierFaultError(f"power amplifier reports a fault: {fault}")
+            if not amplifier.interlock_closed():
+                raise AmplifierFaultError(
+                    "power amplifier interlock open (exciter over-travel or cover open)"
+                )
+        except HardwareError:
+            self.power_failed = True
+            raise
+
+    def disable_power(self) -> None:
+        """Switch the power amplifier's output off after the drive is at 0 V (every exit
+        path); a failure is logged, never raised over the run's own outcome."""
+        amplifier = self.stand.power_amplifier
+        if amplifier is None or not self.power_on:
+            return
+        try:
+            amplifier.set_output_enabled(False)
+            self.power_on = False
+            self.log("power amplifier: output off")
+        except Exception as exc:
+            log.error("power amplifier: output could not be switched off: %s", exc)
+            self.log(f"power amplifier: output could not be switched off: {exc}")
+
+    # --- input ------------------------------------------------------------------------------
+
+    def read(self, state: State) -> np.ndarray:
+        """Read one period, check it, record it, send it to the listener; the block as read."""
+        with self._abort_lock:
+            reason = self._abort_reason
+        if reason is not None and (self.emergency or not self.in_transition):
+            raise Aborted(reason)  # a fade or crossfade already written plays to its end
+        period_s = self.segment.plan.period_s
+        block = self.stand.daq.read_period(timeout_s=period_s * 2 + 5.0)
+        if self.queue:
+            self.played = self.queue.popleft()
+        played = self.played
+        self.periods_read += 1
+        if np.any(played != 0):
+            self.excited_s += period_s
+        self.poll_power()  # first: a tripped amplifier explains what the channels show
+        self._check_block(block)
+        if self.writer is not None and not self.recording_full:
+            index = self.channel_index
+            drive = block[index["drive"]] if "drive" in index else played
+            self.writer.append(block[index["reference"]], block[index["dut"]], drive)
+        amplifier = self.stand.measuring_amplifier
+        if amplifier is not None and amplifier.overloaded(
+            self.stand.config.reference_amplifier_channel
+        ):
+            raise OverloadError(
+                "measuring amplifier reports an overload on the reference channel",
+                channel="reference",
+            )
+        self.emit(PeriodBlock(self.periods_read, state, tuple(self.channel_index), block, played))
+        return block
+
+    def period(self, state: State) -> tuple[np.ndarray, np.ndarray]:
+        """Read one period (see `read`); line spectra of (reference, DUT)."""
+        lines = self.segment.lines(self.pair(self.read(state)))
+        return lines[0], lines[1]
+
+    def _check_block(self, block: np.ndarray) -> None:
+        for name, index in self.channel_index.items():
+            x = block[index]
+            if not np.all(np.isfinite(x)):
+                raise ProcedureError(
+                    f"{name} channel: NaN or inf samples from the DAQ; check the driver and cabling"
+                )
+            if name == "drive":
+                continue
+            limit = OVERLOAD_FRACTION * self.ranges[name]
+            over = int(np.count_nonzero(np.abs(x) >= limit))
+            if over:
+                raise OverloadError(
+                    f"{name} channel: {over} sample(s) at its +-{self.ranges[name]:g} V range "
+                    "limit",
+                    channel=name,
+                )
+
+    def settle(self, noise: np.ndarray, state: State = State.EQUALISING) -> Settled:
+        """Read periods until two consecutive ones agree at every line on both channels (the
+        DUT can carry a transient of its own, e.g. a piezo's 0.5 Hz high-pass); the table
+        acceleration per line from the reference channel, averaged over the two. Agreement:
+        within `settle_tolerance` of the line or 6 `noise` standard deviations (V, per period,
+        shape (2, lines) of the segment)."""
+        s = self.settings
+        previous = previous_block = None
+        for _ in range(s.max_settle_periods):
+            block = self.read(state)
+            lines = self.segment.lines(self.pair(block))
+            ref, dut = lines[0], lines[1]
+            if previous is not None and periods_agree(previous, lines, noise, s.settle_tolerance):
+                assert previous_block is not None
+                return Settled(
+                    self.to_acceleration((ref + previous[0]) / 2),
+                    (ref, dut),
+                    (previous_block, block),
+                )
+            previous, previous_block = lines, block
+        raise ProcedureError(
+            f"the table did not settle within {s.max_settle_periods} periods (consecutive "
+            "periods still differ): check for a loose mount, a resonance or an unstable amplifier"
+        )
+
+    def to_acceleration(self, reference_lines: np.ndarray) -> np.ndarray:
+        """Table acceleration (complex, m/s^2) from the reference channel's line spectra (V)."""
+        chain = self.stand.chain
+        magnitude, phase = chain.sensitivity_at(self.segment.plan.frequencies_hz)
+        volts_per_ms2 = magnitude * 1e-3 * chain.reference_gain * np.exp(1j * np.radians(phase))
+        return reference_lines / volts_per_ms2

@@ -1,0 +1,136 @@
+"""Stepped-sine mode: classic ISO 16063-21, one line at a time."""
+
+from __future__ import annotations
+
+import cmath
+import math
+
+import numpy as np
+
+from app.procedure.background import BackgroundLevels, budget_with_background
+from app.procedure.context import RunContext
+from app.procedure.equalisation import Equalisation
+from app.procedure.events import Progress, State
+from app.procedure.identification import Identification
+from app.procedure.settings import MODE_STEPPED_SINE
+from app.procedure.stand_io import Segment
+from app.procedure.stopping import StoppingRule
+from dsp.multisine import Line, Plan
+from dsp.sinefit import integer_cycle_block, sine_fit
+from dsp.spectral import Estimate, SpectralAccumulator
+from hardware.interfaces import DaqConfig
+
+MAX_EXTRAPOLATED_CHANGE = 2.0  # the predicted response stays within x2 of the last line's
+MIN_LINE_PERIODS = 2  # blocks per line before an estimate is made
+
+
+class SteppedSine:
+    """One line at a time in blocks of a whole number of cycles (>= `stepped_block_s`, whole
+    mains cycles too): identification (first line) or the response extrapolated from the last
+    lines, closed-loop level, settle, acquisition by the run's `StoppingRule` (its time bound
+    shared out among the lines), fade-out; both channels by three-parameter sine fit. Same
+    estimators and results object as the multisine."""
+
+    def __init__(self, ctx: RunContext, background: BackgroundLevels):
+        self.ctx = ctx
+        self.background = background
+
+    def run(self) -> None:
+        ctx, plan, s, io = self.ctx, self.ctx.plan, self.ctx.settings, self.ctx.io
+        fs = plan.sample_rate_hz
+        if io.writer is not None:
+            io.writer.set_mode(MODE_STEPPED_SINE)
+        estimates: list[Estimate] = []
+        settled_ref: list[complex] = []
+        settled_dut: list[complex] = []
+        responses: list[tuple[float, complex]] = []  # (Hz, m/s^2 per drive volt) per line done
+        per_line_bound = (
+            None if s.max_acquisition_s is None else s.max_acquisition_s / len(plan.lines)
+        )
+        rule = StoppingRule(s.periods, s.target_type_a, per_line_bound)
+        for k, line in enumerate(plan.lines):
+            n = integer_cycle_block(
+                line.frequency_hz, fs, s.stepped_block_s, (plan.mains_frequency_hz,)
+            )
+            m = round(line.frequency_hz * n / fs)
+            one = Line(line.nominal_frequency_hz, line.frequency_hz, m, line.amplitude_ms2, 0.0)
+            active = Plan(fs, n, (one,), line.nominal_frequency_hz, plan.mains_frequency_hz, 0)
+            ctx.stand.daq.stop()
+            ctx.stand.daq.configure(DaqConfig(fs, n, ctx.stand.config.output, io.inputs))
+            io.begin(Segment(active, one_line=True))
+            ctx.log(f"stepped sine: line {line.label}, blocks of {n} samples")
+            # one line in a shorter block: more noise per bin than the plan's period
+            noise = self.background.noise()[:, [k]] * np.sqrt(plan.period_samples / n)
+            if k == 0:
+                response = Identification(ctx, noise).run()
+            else:  # the level loop starts from the response extrapolated from the last lines
+                response = np.array([extrapolated(responses, line.frequency_hz)])
+            equalised = Equalisation(ctx, noise).run(response)
+            responses.append((line.frequency_hz, complex(equalised.response[0])))
+            settled_ref.append(equalised.settled.lines[0][0])
+            settled_dut.append(equalised.settled.lines[1][0])
+            accumulator = SpectralAccumulator(n, [m], track_floor=False)
+            started = io.excited_s
+            pending = equalised.reusable_blocks  # settled at the final drive: reused
+            while True:
+                if pending:
+                    ref, dut = sine_fit(io.pair(pending.pop(0)), line.frequency_hz, fs)[:, None]
+                else:
+                    ref, dut = io.period(State.ACQUIRING)
+                accumulator.add_line_spectra(ref[None, :], dut[None, :])
+                count = accumulator.periods
+                if count < MIN_LINE_PERIODS:
+                    continue
+                estimate = accumulator.estimate(s.estimator)
+                type_a = float(estimate.relative_type_a[0])
+                if rule.decide(count, type_a, io.excited_s - started, active.period_s):
+                    break
+            estimates.append(estimate)
+            io.fade_out()
+            done = (k + 1) / len(plan.lines)
+            ctx.emit(Progress(done, io.excited_s, None, f"line {line.label} done"))
+        io.segment = Segment(plan)
+        settled = (np.array(settled_ref), np.array(settled_dut))
+        budget = budget_with_background(
+            ctx.stand.budget, plan, self.background, settled, s.background_periods
+        )
+        ctx.notes.budget = budget
+        ctx.publish(combine(estimates), budget)
+
+
+def extrapolated(responses: list[tuple[float, complex]], frequency_hz: float) -> complex:
+    """The stand's response (drive to table acceleration) at `frequency_hz`, extrapolated in
+    log-log magnitude and in phase from the last two lines measured (the last one alone if
+    only one), its change bounded to `MAX_EXTRAPOLATED_CHANGE` in magnitude: a guess the
+    closed loop then corrects, so one level step per line is often enough."""
+    f1, r1 = responses[-1]
+    if len(responses) < 2:
+        return r1
+    f2, r2 = responses[-2]
+    exponent = math.log(frequency_hz / f1) / math.log(f1 / f2)
+    ratio = r1 / r2
+    gain = min(max(abs(ratio) ** exponent, 1 / MAX_EXTRAPOLATED_CHANGE), MAX_EXTRAPOLATED_CHANGE)
+    return r1 * gain * cmath.exp(1j * exponent * cmath.phase(ratio))
+
+
+def combine(estimates: list[Estimate]) -> Estimate:
+    """One estimate from per-line ones (stepped sine): arrays concatenated, dof per line."""
+
+    def cat(name: str) -> np.ndarray:
+        return np.concatenate([np.atleast_1d(getattr(e, name)) for e in estimates])
+
+    return Estimate(
+        estimator=estimates[0].estimator,
+        periods=min(e.periods for e in estimates),
+        response=cat("response"),
+        relative_type_a=cat("relative_type_a"),
+        phase_type_a_rad=cat("phase_type_a_rad"),
+        dof=np.array([e.dof for e in estimates]),
+        coherence=cat("coherence"),
+        reference_amplitude_v=cat("reference_amplitude_v"),
+        dut_amplitude_v=cat("dut_amplitude_v"),
+        reference_noise_v=cat("reference_noise_v"),
+        dut_noise_v=cat("dut_noise_v"),
+        reference_distortion=cat("reference_distortion"),
+        dut_distortion=cat("dut_distortion"),
+    )
