@@ -40,7 +40,7 @@ from sim.models import DUT_CATALOGUE, StandModel
 
 if TYPE_CHECKING:
     from app.run import RunRequest
-    from dsp.calibration import Results
+    from dsp.calibration import ReferenceChain, Results
     from dsp.uncertainty import Budget
     from sim.stand import Fault
 
@@ -181,8 +181,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--shift-mains", action="store_true", help="move lines off mains harmonics")
     p.add_argument("--json", action="store_true", help="machine-readable output")
 
-    a = sub.add_parser("analyze", help="re-analyse a recording (HDF5 of this program or CSV)")
-    a.add_argument("file", type=Path, help="recording.h5, recording.csv or a run folder")
+    a = sub.add_parser("analyze", help="re-analyse a recording (HDF5 of this program, CSV or TDMS)")
+    a.add_argument(
+        "file", type=Path, help="recording.h5, recording.csv, recording.tdms or a run folder"
+    )
     a.add_argument("--estimator", choices=ESTIMATORS, default=DEFAULT_ESTIMATOR)
     _numeric(a, "--segments", SEGMENTS, "the seed's protocol: L equal segments")
     _numeric(a, "--coverage", COVERAGE, "coverage probability", default=0.9545)
@@ -192,8 +194,9 @@ def build_parser() -> argparse.ArgumentParser:
     a.add_argument("--csv", type=Path, help="also write the per-line results as CSV here")
     a.add_argument("--overwrite", action="store_true", help="--csv may replace an existing file")
     csv_group = a.add_argument_group(
-        "CSV recordings (an HDF5 recording carries these; on one, --reference-frequency, "
-        "--settle-periods and --mains re-analyse it, the others are refused)"
+        "CSV and TDMS recordings (an HDF5 recording carries these; on one, "
+        "--reference-frequency, --settle-periods and --mains re-analyse it, the others are "
+        "refused; a TDMS file gives the sample rate, 1/wf_increment)"
     )
     _add_plan_options(csv_group)
     _numeric(csv_group, "--reference-sensitivity", SENSITIVITY, "mV/(m/s^2)")
@@ -204,7 +207,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--skew",
         SKEW,
         "inter-channel delay in s, positive when the DUT channel is sampled after the "
-        "reference (e.g. 2e-06 or -2e-06); or a '# skew_s = ...' line in the CSV. Without "
+        "reference (e.g. 2e-06 or -2e-06); or a '# skew_s = ...' line in the CSV, the "
+        "property accelcal_skew_s in the TDMS (DUT channel, its group or the file). Without "
         "either the phase is not corrected for skew and not stated",
         default=None,
         metavar="SECONDS",
@@ -213,11 +217,18 @@ def build_parser() -> argparse.ArgumentParser:
         csv_group,
         "--settle-periods",
         SETTLE_PERIODS,
-        "leading periods to skip (CSV: of the file, default 0; HDF5: of the analysed ones)",
+        "leading periods to skip (CSV, TDMS: of the file, default 0; HDF5: of the analysed ones)",
         default=None,
     )
     _numeric(csv_group, "--range", RANGE, "channel range, V", dest="range_v")
     csv_group.add_argument("--budget", type=Path, help="type B budget, TOML [[component]]")
+    tdms_group = a.add_argument_group("TDMS recordings (channels in volts)")
+    tdms_group.add_argument(
+        "--reference", metavar="CHANNEL", help="reference channel: group/channel or its name"
+    )
+    tdms_group.add_argument(
+        "--dut", metavar="CHANNEL", help="DUT channel: group/channel or its name"
+    )
 
     r = sub.add_parser("run", help="run a calibration (simulated stand unless --stand)")
     r.add_argument("--sim", action="store_true", help="the built-in simulated stand (default)")
@@ -506,8 +517,6 @@ def _load(args: argparse.Namespace):
     from app.analysis import read_for_analysis, reanalysis
     from app.recording import read_csv
     from app.records import is_run_folder
-    from dsp.calibration import ReferenceChain
-    from dsp.uncertainty import Budget
 
     if args.file.is_dir() and not is_run_folder(args.file):
         raise UsageError(
@@ -530,6 +539,8 @@ def _load(args: argparse.Namespace):
                 "budget",
                 "range_v",
                 "level",
+                "reference",
+                "dut",
             )
             if getattr(args, name) not in (None, False)
         ]
@@ -544,8 +555,14 @@ def _load(args: argparse.Namespace):
             settle_periods=args.settle_periods,
             mains_frequency_hz=args.mains,
         )
+    if suffix == ".tdms":
+        return _load_tdms(args)
     if suffix not in (".csv", ".txt"):
-        raise UsageError(f"{args.file}: unknown recording type (use .h5/.hdf5 or .csv)")
+        raise UsageError(f"{args.file}: unknown recording type (use .h5/.hdf5, .csv or .tdms)")
+    if args.reference is not None or args.dut is not None:
+        raise UsageError(
+            "--reference, --dut: TDMS channels; a CSV's columns are reference, DUT[, drive]"
+        )
     if args.preset is None and (
         args.frequencies is None or args.sample_rate is None or args.period is None
     ):
@@ -553,20 +570,8 @@ def _load(args: argparse.Namespace):
             "--preset, or --frequencies with --sample-rate and --period: a CSV recording "
             "needs its plan"
         )
-    if args.reference_sensitivity is None:
-        raise UsageError("--reference-sensitivity: a CSV recording needs it (mV/(m/s^2))")
-    for name in ("reference_sensitivity", "reference_gain", "dut_gain", "sample_rate", "range_v"):
-        _positive("--" + name.replace("_", "-"), getattr(args, name))
+    chain, budget = _chain_and_budget(args, "CSV")
     plan = _plan_from_options(args, optimise=False)
-    chain = ReferenceChain.flat(
-        args.reference_sensitivity,
-        reference_gain=args.reference_gain or 1.0,
-        dut_gain=args.dut_gain or 1.0,
-        skew_s=args.skew,  # None: from the file's header, else unknown
-    )
-    budget = _read_budget(args.budget) if args.budget else Budget(())
-    if args.settle_periods is not None and args.settle_periods < 0:
-        raise UsageError(f"--settle-periods: must be >= 0, got {args.settle_periods}")
     return read_csv(
         args.file,
         plan,
@@ -575,6 +580,65 @@ def _load(args: argparse.Namespace):
         settle_periods=args.settle_periods or 0,
         range_v=args.range_v,
     )
+
+
+def _load_tdms(args: argparse.Namespace):
+    """A TDMS recording: the two channels the options name, the sample rate from the file."""
+    from app.tdms import inspect_tdms, read_tdms
+
+    if args.preset is None and (args.frequencies is None or args.period is None):
+        raise UsageError(
+            "--preset, or --frequencies with --period: a TDMS recording needs its plan (the "
+            "sample rate comes from the file)"
+        )
+    source = inspect_tdms(args.file, args.reference, args.dut)
+    rate = source.sample_rate_hz
+    _positive("--sample-rate", args.sample_rate)
+    if rate is None and args.sample_rate is None:
+        raise UsageError(
+            f"--sample-rate: {args.file.name} states none (no wf_increment); give it in Hz"
+        )
+    if rate is not None and args.sample_rate is not None:
+        if not math.isclose(args.sample_rate, rate, rel_tol=1e-9):
+            raise UsageError(
+                f"--sample-rate: {args.sample_rate:g} Hz disagrees with {args.file.name}'s "
+                f"{rate:g} Hz (1 / wf_increment)"
+            )
+    chain, budget = _chain_and_budget(args, "TDMS")
+    plan_args = argparse.Namespace(**{**vars(args), "sample_rate": rate or args.sample_rate})
+    plan = _plan_from_options(plan_args, optimise=False)
+    return read_tdms(
+        args.file,
+        plan,
+        chain,
+        budget,
+        reference=args.reference,
+        dut=args.dut,
+        settle_periods=args.settle_periods or 0,
+        range_v=args.range_v,
+        source=source,
+    )
+
+
+def _chain_and_budget(args: argparse.Namespace, kind: str) -> tuple[ReferenceChain, Budget]:
+    """The reference chain and budget of a CSV or TDMS recording, from the options."""
+    from dsp.calibration import ReferenceChain
+    from dsp.uncertainty import Budget
+
+    if args.reference_sensitivity is None:
+        raise UsageError(f"--reference-sensitivity: a {kind} recording needs it (mV/(m/s^2))")
+    for name in ("reference_sensitivity", "reference_gain", "dut_gain", "sample_rate", "range_v"):
+        _positive("--" + name.replace("_", "-"), getattr(args, name))
+    if args.settle_periods is not None and args.settle_periods < 0:
+        raise UsageError(f"--settle-periods: must be >= 0, got {args.settle_periods}")
+    chain = ReferenceChain.flat(
+        args.reference_sensitivity,
+        reference_gain=args.reference_gain or 1.0,
+        dut_gain=args.dut_gain or 1.0,
+        skew_s=args.skew,  # None: from the file (header line, property), else unknown
+    )
+    budget = _read_budget(args.budget) if args.budget else Budget(())
+    return chain, budget
 
 
 def _read_budget(path: Path) -> Budget:

@@ -22,12 +22,15 @@ MIB = 1 << 20
 MAX_RECORDING_SAMPLES = 1 << 25
 # A CSV row is at most three numbers of ~25 characters and two separators: 80 bytes is ample.
 MAX_CSV_ROW_BYTES = 80
-# The CSV parser holds every row as Python floats (about 100 bytes a row), so a CSV recording
-# is capped at 8 Mi rows (about 1 GiB parsed; 640 MiB of text).
-MAX_CSV_ROWS = 1 << 23
+# The CSV parser reads blocks of text straight into float64 columns (about 1.1x the samples'
+# memory at its peak), so a CSV may hold as many rows as a recording samples (2.5 GiB of text).
+MAX_CSV_ROWS = MAX_RECORDING_SAMPLES
 MAX_CSV_BYTES = MAX_CSV_ROWS * MAX_CSV_ROW_BYTES
 # HDF5: the signals (up to three channels of MAX_RECORDING_SAMPLES float64) plus metadata.
 MAX_HDF5_BYTES = 3 * 8 * MAX_RECORDING_SAMPLES + 64 * MIB
+# TDMS (app.tdms): the channels (up to three of MAX_RECORDING_SAMPLES float64; each channel
+# is checked against it before its data is read) plus metadata, as for HDF5.
+MAX_TDMS_BYTES = 3 * 8 * MAX_RECORDING_SAMPLES + 64 * MIB
 # Text configuration (stand.toml, a budget, a sweep summary): far more than any real one.
 MAX_TEXT_BYTES = 4 * MIB
 

@@ -85,6 +85,48 @@ def make_recording(
     )
 
 
+def write_csv(path, recording: Recording, *, header: bool = True, skew_s: float | None = None):
+    """Write a recording's channels as CSV (reference, DUT in V, shortest round-trip repr), with
+    an optional `# skew_s = ...` comment line and a header line."""
+    lines = [] if skew_s is None else [f"# skew_s = {skew_s!r}"]
+    if header:
+        lines.append("reference_v,dut_v")
+    with open(path, "w", encoding="utf-8") as f:
+        f.write("\n".join(lines) + ("\n" if lines else ""))
+        for a, b in zip(recording.reference_v.tolist(), recording.dut_v.tolist(), strict=True):
+            f.write(f"{a!r},{b!r}\n")
+
+
+def write_tdms(
+    path,
+    recording: Recording,
+    *,
+    group: str = "accel",
+    names: tuple[str, str] = ("reference", "dut"),
+    skew_s: float | None = None,
+    properties: dict | None = None,
+) -> None:
+    """Write a recording's channels to TDMS with npTDMS's writer, one segment per period (as a
+    logger appends), wf_increment = 1/fs on each channel; `skew_s` as the file property
+    accelcal_skew_s; `properties` added to every channel."""
+    from nptdms import ChannelObject, GroupObject, RootObject, TdmsWriter
+
+    n = recording.period_samples
+    root = RootObject({} if skew_s is None else {"accelcal_skew_s": skew_s})
+    props = {
+        "wf_increment": 1.0 / recording.sample_rate_hz,
+        "unit_string": "V",
+        **(properties or {}),
+    }
+    with TdmsWriter(str(path)) as writer:
+        for start in range(0, recording.reference_v.size, n):
+            channels = [
+                ChannelObject(group, name, x[start : start + n], properties=props)
+                for name, x in zip(names, (recording.reference_v, recording.dut_v), strict=True)
+            ]
+            writer.write_segment([root, GroupObject(group), *channels])
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("out", help="HDF5 file to write")
