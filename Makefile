@@ -68,6 +68,7 @@ bench: $(STAMP)
 	$(BIN)/python bench/estimators.py
 	$(BIN)/python bench/excitation_time.py
 	$(BIN)/python bench/records.py
+	$(BIN)/python bench/import.py
 	QT_QPA_PLATFORM=offscreen $(BIN)/python bench/gui_responsiveness.py
 
 typecheck: $(STAMP)

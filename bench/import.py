@@ -14,7 +14,7 @@ as ratios to the HDF5 path measured in the same run.
 
 Goal: CSV at most 1.5x the HDF5 path's time and at most 2x the data's memory.
 
-Run: python bench/import_speed.py [--repeats 3] [--seconds 30]
+Run: python bench/import.py [--repeats 3] [--seconds 30]
 """
 
 from __future__ import annotations
