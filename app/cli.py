@@ -390,9 +390,17 @@ def _main(argv: Sequence[str] | None) -> int:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # --help (0) or an option refused by argparse (2, message said)
         return exc.code if isinstance(exc.code, int) else EXIT_BAD_INPUT
-    from app.logs import setup
+    from app.logs import setup, teardown
 
-    setup(args.verbose)
+    handler = setup(args.verbose)
+    try:
+        return _run_command(args)
+    finally:
+        teardown(handler)
+
+
+def _run_command(args: argparse.Namespace) -> int:
+    """The command's exit code, its errors turned into one line and an exit code."""
     try:
         return (COMMANDS | RECORDS_COMMANDS)[args.command](args)
     except BrokenPipeError:

@@ -36,9 +36,9 @@ class _Stderr(logging.StreamHandler):  # type: ignore[type-arg]
         pass
 
 
-def setup(verbose: bool) -> None:
+def setup(verbose: bool) -> logging.Handler:
     """Log records to stderr: warnings and errors, and with `verbose` information too (a run's
-    states and warnings as its run.log has them)."""
+    states and warnings as its run.log has them). Returns the handler (see `teardown`)."""
     root = logging.getLogger()
     root.setLevel(logging.DEBUG if verbose else logging.INFO)
     for handler in [h for h in root.handlers if getattr(h, "_accelcal", False)]:
@@ -48,6 +48,12 @@ def setup(verbose: bool) -> None:
     handler.setFormatter(logging.Formatter("accelcal: %(levelname)s: %(name)s: %(message)s"))
     handler._accelcal = True  # type: ignore[attr-defined]
     root.addHandler(handler)
+    return handler
+
+
+def teardown(handler: logging.Handler) -> None:
+    """Remove the handler `setup` added (a command has ended; callers in-process go on)."""
+    logging.getLogger().removeHandler(handler)
 
 
 def keep_traceback(command: str, exc: BaseException) -> Path | None:
