@@ -44,6 +44,7 @@ from reportlab.platypus import (
 
 from app import formatting as fmt
 from app.certificate_register import Issued, Register, RegisterError, locked_register
+from app.dcc import line_values
 from app.files import FileExistsRefusal, write_with
 from app.input_files import MAX_TEXT_BYTES, InputFileError, check_input_file
 from app.procedure.modes import MODE_MULTISINE
@@ -793,9 +794,10 @@ def _line_table(results: Results) -> list[Any]:
         "ISO\n16063-21",
     ]
     rows = [header]
-    for ln in results.lines:
-        s, u = fmt.round_gum(ln.sensitivity_mv_per_ms2, ln.expanded_uncertainty_mv_per_ms2)
-        ph, u_ph = fmt.round_gum(ln.phase_deg, ln.phase_expanded_uncertainty_deg)
+    printed = line_values(results)  # the strings the DCC carries too
+    for i, ln in enumerate(results.lines):
+        s, u = printed["s"][i], printed["u"][i]
+        ph, u_ph = printed["ph"][i], printed["u_ph"][i]
         if not results.phase_corrected_for_skew:
             ph, u_ph = "n/s", "n/s"
         rel = 100 * ln.relative_expanded_uncertainty
@@ -805,7 +807,7 @@ def _line_table(results: Results) -> list[Any]:
         rows.append(
             [
                 f"{ln.nominal_frequency_hz:g}",
-                f"{ln.frequency_hz:g}",
+                printed["f"][i],
                 s,
                 u,
                 fmt.signed(ln.deviation_percent, dev_decimals),
@@ -813,7 +815,7 @@ def _line_table(results: Results) -> list[Any]:
                 ph,
                 u_ph,
                 fmt.significant(rel),
-                f"{ln.coverage_factor:.2f}",
+                printed["k"][i],
                 {"within": "within", "over": "over", "n/a": "n/a", NOT_STATED: "n/s"}[
                     ln.iso_verdict
                 ],

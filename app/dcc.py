@@ -101,11 +101,11 @@ def _list_quantity(
         _s(expanded, "coverageProbabilityXMLList", " ".join(probabilities))
 
 
-def line_values(run: StoredRun) -> dict[str, list[str]]:
-    """Per line, the strings the PDF prints: actual frequency, sensitivity and its U, phase and
-    its U (empty when the phase is not corrected for skew), coverage factor."""
+def line_values(results: Any) -> dict[str, list[str]]:
+    """Per line of `results` (dsp.calibration.Results), the strings both the PDF's table and
+    the DCC print: actual frequency, sensitivity and its U, phase and its U, coverage factor."""
     out: dict[str, list[str]] = {k: [] for k in ("f", "s", "u", "ph", "u_ph", "k")}
-    for ln in run.results.lines:
+    for ln in results.lines:
         s, u = fmt.round_gum(ln.sensitivity_mv_per_ms2, ln.expanded_uncertainty_mv_per_ms2)
         ph, u_ph = fmt.round_gum(ln.phase_deg, ln.phase_expanded_uncertainty_deg)
         out["f"].append(f"{ln.frequency_hz:g}")
@@ -202,7 +202,7 @@ def build(run: StoredRun, info: CertificateInfo) -> bytes:
     _text(mounting, "name", "Mounting")
     _text(_d(mounting, "data"), "text", str(info.mounting))
 
-    values = line_values(run)
+    values = line_values(results)
     n = len(values["f"])
     probability = [f"{results.coverage_probability:g}"] * n
     result = _d(_d(result_set, "results"), "result")

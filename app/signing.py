@@ -166,7 +166,7 @@ def _check_run(run: Path, values: dict[str, Any], report: Verification) -> None:
         report.add("run manifest verified", False, str(exc))
         return
     report.add("run manifest verified", True)
-    expected = line_values(stored)
+    expected = line_values(stored.results)
     same = all(expected[key] == values[key] for key in ("f", "s", "u", "k"))
     report.add("DCC numbers equal the run's results", same)
 

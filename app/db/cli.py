@@ -208,14 +208,8 @@ def cmd_customers(args: argparse.Namespace) -> int:
     if args.action == "add":
         print(f"customer {lab.add_customer(args.name, args.address).name} added")
         return 0
-    from sqlalchemy import select
-    from sqlalchemy.orm import Session
-
-    from app.db.models import Customer
-
-    with Session(lab.engine) as s:
-        for customer in s.scalars(select(Customer).order_by(Customer.name)):
-            print(customer.name)
+    for customer in lab.customers():
+        print(customer.name)
     return 0
 
 
@@ -236,17 +230,11 @@ def cmd_models(args: argparse.Namespace) -> int:
         )
         print(f"model {row.maker} {row.model} added")
         return 0
-    from sqlalchemy import select
-    from sqlalchemy.orm import Session
-
-    from app.db.models import SensorModel
-
-    with Session(lab.engine) as s:
-        for m in s.scalars(select(SensorModel).order_by(SensorModel.maker, SensorModel.model)):
-            print(
-                f"{m.maker} {m.model}: {m.nominal_sensitivity:g} {m.unit} "
-                f"±{m.tolerance_percent:g} %, {m.frequency_min_hz:g}-{m.frequency_max_hz:g} Hz"
-            )
+    for m in lab.models():
+        print(
+            f"{m.maker} {m.model}: {m.nominal_sensitivity:g} {m.unit} "
+            f"±{m.tolerance_percent:g} %, {m.frequency_min_hz:g}-{m.frequency_max_hz:g} Hz"
+        )
     return 0
 
 
