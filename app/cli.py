@@ -100,6 +100,7 @@ SEGMENTS = Bounded(int, 1, 10_000)
 COVERAGE = Bounded(float, 0.0, 1.0, open_low=True, open_high=True)
 TOLERANCE = Bounded(float, 0.0, 100.0, open_low=True, unit="%")
 SENSITIVITY = Bounded(float, 0.0, 1e6, open_low=True, unit="mV/(m/s^2)")
+DUT_MASS = Bounded(float, 0.0, 100_000.0, unit="g")
 GAIN = Bounded(float, 0.0, 1e6, open_low=True, unit="V/V")
 SKEW = Bounded(float, -1e-3, 1e-3, unit="s")
 SETTLE_PERIODS = Bounded(int, 0, 10_000)
@@ -249,6 +250,18 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--estimator", choices=ESTIMATORS, default=DEFAULT_ESTIMATOR)
     r.add_argument("--mode", choices=MODES, default=MODE_MULTISINE)
     _numeric(r, "--tolerance", TOLERANCE, "DUT tolerance of the characteristic, %%")
+    _numeric(
+        r,
+        "--dut-mass",
+        DUT_MASS,
+        "DUT mass in g: its class picks the stand's stored response (default: the simulated "
+        "DUT's catalogue mass; on real hardware not stated)",
+    )
+    r.add_argument(
+        "--fresh-response",
+        action="store_true",
+        help="identify the stand's response anew instead of starting from the stored one",
+    )
     _numeric(r, "--seed", SEED, "simulated stand: random seed", default=0)
     r.add_argument("--paced", action="store_true", help="simulated stand: real time")
     r.add_argument(
@@ -942,6 +955,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         paced=args.paced,
         faults=faults,
         out=args.out,
+        dut_mass_g=args.dut_mass,
+        stored_response=not args.fresh_response,
     )
     progress = None if args.json else TerminalProgress()
     if levels is not None:

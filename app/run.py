@@ -13,6 +13,7 @@ from app import stand_config
 from app.procedure import Finished, Listener, PreflightError, Procedure, RunSettings
 from app.procedure.modes import MODE_MULTISINE
 from app.records import RunFolder
+from app.stand.response import ResponseStore
 from app.stands import open_stand
 from dsp.estimators import DEFAULT_ESTIMATOR
 from dsp.multisine import PRESETS, Plan, make_plan, preset_plan
@@ -41,6 +42,23 @@ class RunRequest:
     paced: bool = False
     faults: tuple[Fault, ...] = ()
     out: Path = Path("runs")
+    dut_mass_g: float | None = None  # None: the simulated DUT's catalogue mass, else unstated
+    stored_response: bool = True  # start equalisation from the stand's stored response
+    response_store: Path | None = None  # where stored responses live (None: user data dir)
+
+    def mass_g(self, backend: str) -> float | None:
+        """The DUT mass the run states (g): given, else the simulated catalogue DUT's."""
+        if self.dut_mass_g is not None or backend != "sim":
+            return self.dut_mass_g
+        return DUT_CATALOGUE[self.dut].mass_g
+
+    def store(self) -> ResponseStore | None:
+        """The stored-response store the run reads and refreshes, or None (--fresh-response)."""
+        if not self.stored_response:
+            return None
+        if self.response_store is not None:
+            return ResponseStore(self.response_store)
+        return ResponseStore.default()
 
     def plan(self) -> Plan:
         name = self.preset or plan_preset_for(self.dut)
@@ -55,8 +73,9 @@ class RunRequest:
             preset.reference_frequency_hz,
         )
 
-    def settings(self) -> RunSettings:
+    def settings(self, backend: str = "sim") -> RunSettings:
         return RunSettings(
+            dut_mass_g=self.mass_g(backend),
             periods=self.periods,
             target_type_a=self.target_type_a,
             max_acquisition_s=self.max_acquisition_s,
@@ -82,6 +101,9 @@ def check_request(request: RunRequest) -> None:
         raise PreflightError(f"level: must be > 0 m/s^2, got {request.level_ms2:g}")
     if request.periods < 2:
         raise PreflightError(f"periods: at least 2, got {request.periods}")
+    mass = request.dut_mass_g
+    if mass is not None and not (math.isfinite(mass) and 0 <= mass <= 100_000):
+        raise PreflightError(f"DUT mass: must be between 0 and 100000 g, got {mass:g}")
 
 
 def prepare(request: RunRequest, listener: Listener | None = None) -> tuple[Procedure, Any]:
@@ -91,7 +113,12 @@ def prepare(request: RunRequest, listener: Listener | None = None) -> tuple[Proc
     check_request(request)
     config = stand_config.load(request.stand_file)
     stand = open_stand(
-        config, dut=request.dut, seed=request.seed, paced=request.paced, faults=request.faults
+        config,
+        dut=request.dut,
+        seed=request.seed,
+        paced=request.paced,
+        faults=request.faults,
+        dut_mass_g=request.dut_mass_g,
     )
     try:
         plan = request.plan()
@@ -103,7 +130,15 @@ def prepare(request: RunRequest, listener: Listener | None = None) -> tuple[Proc
             },
             "level_ms2": request.level_ms2,
         }
-        procedure = Procedure(stand, plan, request.settings(), None, listener, identity=identity)
+        procedure = Procedure(
+            stand,
+            plan,
+            request.settings(config.backend),
+            None,
+            listener,
+            identity=identity,
+            response_store=request.store(),
+        )
         procedure.preflight()
     except BaseException:
         stand.close()

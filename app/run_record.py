@@ -86,7 +86,14 @@ class StandInfo:
 
 
 # keys written only when they have a value (as before schema_version existed)
-_OPTIONAL = ("dut", "level_ms2", "measuring_amplifier", "verdict", "raw_data_sha256")
+_OPTIONAL = (
+    "dut",
+    "level_ms2",
+    "measuring_amplifier",
+    "stand_response",
+    "verdict",
+    "raw_data_sha256",
+)
 
 
 @dataclass(frozen=True)
@@ -113,6 +120,9 @@ class RunRecord:
     dut: DutIdentity | None = None
     level_ms2: float | None = None
     measuring_amplifier: Mapping[str, Any] | None = None
+    # where equalisation started: "stored" (with the entry's date, run and stand hash),
+    # "identified", or "stored, disagreed: identified" (with its check error)
+    stand_response: Mapping[str, Any] | None = None
     verdict: str | None = None
     verdict_reasons: tuple[str, ...] = ()
     raw_data_sha256: str | None = None
@@ -176,6 +186,8 @@ class RunRecord:
             data["level_ms2"] = self.level_ms2
         if self.measuring_amplifier is not None:
             data["measuring_amplifier"] = dict(self.measuring_amplifier)
+        if self.stand_response is not None:
+            data["stand_response"] = dict(self.stand_response)
         data.update(self.extra)
         if self.verdict is not None:
             data["verdict"] = self.verdict
@@ -226,6 +238,7 @@ class RunRecord:
                 dut=DutIdentity.from_dict(data.get("dut")),
                 level_ms2=data.get("level_ms2"),
                 measuring_amplifier=data.get("measuring_amplifier"),
+                stand_response=data.get("stand_response"),
                 verdict=data.get("verdict"),
                 verdict_reasons=tuple(data.get("verdict_reasons") or ()),
                 raw_data_sha256=data.get("raw_data_sha256"),

@@ -3,6 +3,7 @@ fallback from one to the other."""
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -13,7 +14,7 @@ from app.stand_config import ConfigError, StandConfig
 from dsp.calibration import ReferenceChain
 from dsp.uncertainty import Budget
 from hardware.interfaces import Daq, MeasuringAmplifier, PowerAmplifier
-from sim.models import StandModel
+from sim.models import DUT_CATALOGUE, StandModel
 from sim.stand import POWER_AMPLIFIER_FAULT_KINDS, Fault, SimBudget, SimulatedStand
 
 log = logging.getLogger(__name__)
@@ -31,6 +32,8 @@ class Stand:
     power_amplifier: PowerAmplifier | None = None
     truth: Callable[[np.ndarray, float], np.ndarray] | None = field(default=None, repr=False)
     description: str = ""
+    # what else than the stand file makes this stand what it is: the simulated stand's seed
+    realisation: str = ""
 
     def close(self) -> None:
         """Stop the drive and release every device (safe to call twice)."""
@@ -57,8 +60,10 @@ def open_stand(
     faults: tuple[Fault, ...] = (),
     systematic: bool = True,
     model: StandModel | None = None,
+    dut_mass_g: float | None = None,
 ) -> Stand:
-    """The stand of `config`; the simulated one needs a catalogue DUT (`dut`)."""
+    """The stand of `config`; the simulated one needs a catalogue DUT (`dut`), carrying
+    `dut_mass_g` (g) instead of its catalogue mass when given."""
     if config.backend == "sim":
         # without a power amplifier only the legacy `amplifier-fault` (raised by the DAQ) works
         kinds = {f.kind for f in faults} & (set(POWER_AMPLIFIER_FAULT_KINDS) - {"amplifier-fault"})
@@ -70,8 +75,11 @@ def open_stand(
             )
         if model is None:
             model = StandModel(reference_gain=config.reference.gain, skew_s=config.skew_s)
+        sensor = DUT_CATALOGUE.get(dut)
+        if sensor is not None and dut_mass_g is not None:
+            sensor = dataclasses.replace(sensor, mass_g=dut_mass_g)
         sim = SimulatedStand(
-            dut,
+            sensor if sensor is not None else dut,
             model=model,
             sim_budget=SimBudget(config.budget, config.simulation),
             seed=seed,
@@ -89,6 +97,7 @@ def open_stand(
             power_amplifier=sim.power_amplifier() if config.power_amplifier else None,
             truth=sim.truth,
             description=f"simulated stand, DUT {dut!r}, seed {seed}",
+            realisation=f"simulated, seed {seed}, {'drawn' if systematic else 'nominal'} values",
         )
     if faults:
         raise ConfigError("--fault: faults can only be injected into the simulated stand")

@@ -16,6 +16,8 @@ Signal chain, all at the DAQ sample rate and exact at the sample instants (sim.l
 
 from __future__ import annotations
 
+import dataclasses
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -110,6 +112,26 @@ class ExciterModel:
     transverse_ratio: float = 0.01
     rocking_hz: float = 1800.0
     rocking_q: float = 8.0
+    moving_mass_g: float = 100.0  # armature, table and reference standard
+    rated_load_g: float = 10.0  # the DUT mass the figures above hold for
+
+    def loaded(self, dut_mass_g: float) -> ExciterModel:
+        """The exciter carrying a DUT of `dut_mass_g` (g) instead of its rated load: a force
+        per volt acting on the whole moving mass M, so the mid-band acceleration per volt
+        scales as 1/M, the suspension resonance sqrt(k/M) as 1/sqrt(M) and its Q
+        (sqrt(k M)/c) as sqrt(M)."""
+        if dut_mass_g == self.rated_load_g:
+            return self
+        if not (math.isfinite(dut_mass_g) and dut_mass_g >= 0):
+            raise ValueError(f"DUT mass: must be >= 0 g, got {dut_mass_g:g}")
+        ratio = (self.moving_mass_g + self.rated_load_g) / (self.moving_mass_g + dut_mass_g)
+        return dataclasses.replace(
+            self,
+            midband_ms2_per_v=self.midband_ms2_per_v * ratio,
+            suspension_hz=self.suspension_hz * math.sqrt(ratio),
+            suspension_q=self.suspension_q / math.sqrt(ratio),
+            rated_load_g=dut_mass_g,
+        )
 
     def acceleration_model(self) -> Model:
         return Model(
@@ -166,6 +188,7 @@ class SensorModel:
     noise_g_per_rthz: float = 0.0
     cubic_per_ms2_sq: float = 0.0
     dead: bool = False
+    mass_g: float = 10.0  # what it adds to the exciter's moving mass
 
     def model(self) -> Model:
         """Linear output (V) per m/s^2."""

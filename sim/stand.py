@@ -343,12 +343,13 @@ class SimulatedStand:
         fs = config.sample_rate_hz
         m, d = self.model, self.deviations
         dut_model = self.dut.model()
+        exciter = m.exciter.loaded(self.dut.mass_g)
         network = (
             Network()
             .add(
                 "acceleration",
                 m.amplifier.anti_imaging(fs).then(
-                    *m.exciter.acceleration_model().stages, gain=m.exciter.midband_ms2_per_v
+                    *exciter.acceleration_model().stages, gain=exciter.midband_ms2_per_v
                 ),
             )
             .add("displacement", m.exciter.displacement_stage(), "acceleration")

@@ -40,6 +40,14 @@ def visa_resource(request: pytest.FixtureRequest) -> str:
 
 
 @pytest.fixture(autouse=True)
+def _isolated_data_dir(tmp_path_factory: pytest.TempPathFactory, monkeypatch) -> None:
+    """Each test gets its own user data directory (platformdirs honours XDG_DATA_HOME): the
+    stand's stored responses of one test never change how another one runs, and nothing is
+    written to the user's own ~/.local/share."""
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path_factory.mktemp("data-home")))
+
+
+@pytest.fixture(autouse=True)
 def _isolated_qt_settings(tmp_path_factory: pytest.TempPathFactory) -> None:
     """Each test gets its own QSettings store (no window geometry, DUT or stand file carried
     from one test to the next, nothing read from or written to the user's own settings)."""

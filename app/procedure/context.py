@@ -6,6 +6,9 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
 
 from app.procedure.errors import ProcedureError
 from app.procedure.events import Event, PeriodEstimate, State, StateChanged, WarningRaised
@@ -30,6 +33,9 @@ class RunNotes:
     background: dict[str, list[float]] = field(default_factory=dict)
     results: Results | None = None
     budget: Budget | None = None  # the budget the results used (the stand's until acquisition)
+    stand_response: dict[str, Any] | None = None  # where equalisation started (run record)
+    measured_response: np.ndarray | None = None  # converged response, (m/s^2)/V per line
+    measured_response_error: float | None = None  # its equalisation error (fraction)
 
 
 @dataclass

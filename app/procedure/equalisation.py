@@ -37,7 +37,10 @@ class Equalisation:
         self.ctx = ctx
         self.noise = noise  # per-period noise (V), rows (reference, DUT), the segment's lines
 
-    def run(self, response: np.ndarray) -> Equalised:
+    def run(self, response: np.ndarray, *, give_up_above: float | None = None) -> Equalised | None:
+        """Equalise from `response` ((m/s^2)/V per line). With `give_up_above` (a stored
+        response being checked): None when the first step's worst line is off by more than
+        that fraction, so the caller re-identifies the stand."""
         ctx, s = self.ctx, self.ctx.settings
         ctx.state(State.EQUALISING, f"closed loop, tolerance {100 * s.equalisation_tolerance:g} %")
         plan = ctx.io.segment.plan
@@ -70,6 +73,8 @@ class Equalisation:
             ctx.log(f"equalisation {iteration}: worst line {100 * worst:.2f} %")
             if worst <= s.equalisation_tolerance:
                 return Equalised(response, settled, True)
+            if iteration == 1 and give_up_above is not None and worst > give_up_above:
+                return None
             drive_lines = drive_lines * target / measured
         if settled is None:
             raise ProcedureError("equalisation: max_equalisation_iterations must be at least 1")

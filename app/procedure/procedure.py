@@ -22,7 +22,7 @@ import numpy as np
 from app.procedure.acquisition import Acquisition
 from app.procedure.background import Background, budget_with_background
 from app.procedure.context import RunContext, RunNotes
-from app.procedure.equalisation import Equalisation
+from app.procedure.equalisation import Equalisation, Equalised
 from app.procedure.errors import (
     Aborted,
     PreflightError,
@@ -35,10 +35,12 @@ from app.procedure.identification import Identification
 from app.procedure.preflight import check_preflight
 from app.procedure.settings import MODE_STEPPED_SINE, RunSettings
 from app.procedure.stand_io import StandIO
+from app.procedure.stand_memory import StandMemory
 from app.procedure.stepped import SteppedSine
 from app.recording import DiskFullError, RecordingWriter, Truth, software_version
 from app.records import STATUS_ABORTED, STATUS_COMPLETE, RunFolder
 from app.run_record import DutIdentity, RunRecord, StandInfo
+from app.stand.response import ResponseStore
 from app.stands import Stand
 from app.verdict import Tolerances, tolerances_for, with_verdict
 from dsp.calibration import AnalysisError
@@ -71,6 +73,7 @@ class Procedure:
         listener: Listener | None = None,
         *,
         identity: dict[str, Any] | None = None,
+        response_store: ResponseStore | None = None,
     ):
         self.stand = stand
         self.plan = plan
@@ -81,6 +84,7 @@ class Procedure:
         self.io = StandIO(stand, plan, settings, self._emit, self._log, self._announce)
         self.notes = RunNotes(budget=stand.budget)
         self.ctx = RunContext(stand, plan, settings, self.io, self.notes, self._emit, self._log)
+        self.memory = StandMemory(response_store, stand, plan, settings, self._log)
 
     # --- control (thread-safe) ------------------------------------------------------------
 
@@ -154,11 +158,9 @@ class Procedure:
         """Background, then the mode's phases; results end in `self.notes`."""
         background = Background(self.ctx).run()
         if self.settings.mode == MODE_STEPPED_SINE:
-            SteppedSine(self.ctx, background).run()
+            SteppedSine(self.ctx, background, self.memory.recall(), self.memory.describe).run()
             return
-        noise = background.noise()
-        response = Identification(self.ctx, noise).run()
-        equalised = Equalisation(self.ctx, noise).run(response)
+        equalised = self._equalise(background.noise())
         self.ctx.state(State.ACQUIRING)
         budget = budget_with_background(
             self.stand.budget,
@@ -170,6 +172,44 @@ class Procedure:
         self.notes.budget = budget
         Acquisition(self.ctx, budget, equalised.reusable_blocks).run()
         self.io.fade_out()
+
+    def _equalise(self, noise: np.ndarray) -> Equalised:
+        """Equalisation from the stand's stored response when there is one for this stand, DUT
+        mass class and plan, checked by its first settled step; a gentle identification first
+        when there is none, or when the stored one is off by more than
+        `stored_response_tolerance` at any line."""
+        equalisation = Equalisation(self.ctx, noise)
+        stored = self.memory.recall()
+        if stored is not None:
+            equalised = equalisation.run(
+                stored.response, give_up_above=self.settings.stored_response_tolerance
+            )
+            if equalised is not None:
+                self.notes.stand_response = self.memory.describe(
+                    stored, "stored", check_error=self.notes.equalisation[0]
+                )
+                return self._measured(equalised)
+            error = self.notes.equalisation[-1]
+            self._log(
+                f"stand response: the stored one is off by {100 * error:.1f} % at its check "
+                f"(> {100 * self.settings.stored_response_tolerance:g} %): re-identifying"
+            )
+            self.notes.stand_response = self.memory.describe(
+                stored, "stored, disagreed: identified", check_error=error
+            )
+        else:
+            self.notes.stand_response = self.memory.describe(None, "identified")
+        response = Identification(self.ctx, noise).run()
+        equalised = equalisation.run(response)
+        assert equalised is not None  # no give_up_above: always an Equalised
+        return self._measured(equalised)
+
+    def _measured(self, equalised: Equalised) -> Equalised:
+        """Note the response equalisation converged with, to keep when the run completes."""
+        if equalised.converged:
+            self.notes.measured_response = equalised.response
+            self.notes.measured_response_error = self.notes.equalisation[-1]
+        return equalised
 
     def _store_config(self) -> None:
         """config.json and stand.toml, before anything moves (RunNotRecordedError)."""
@@ -202,6 +242,12 @@ class Procedure:
         results = self.notes.results if status == STATUS_COMPLETE else None
         if results is not None:
             results = with_verdict(results, self._tolerances())
+        if status == STATUS_COMPLETE and self.notes.measured_response is not None:
+            self.memory.keep(
+                self.notes.measured_response,
+                self.notes.measured_response_error or 0.0,
+                self.folder.run_id if self.folder else None,
+            )
         record = self._record(started, status, reason, final_output)
         if self.folder is None:
             record = record.with_results(results, None)
@@ -332,6 +378,7 @@ class Procedure:
             dut=DutIdentity.from_dict(dut),
             level_ms2=identity.pop("level_ms2", None),
             measuring_amplifier=identity.pop("measuring_amplifier", None),
+            stand_response=self.notes.stand_response,
             extra=identity,
         )
 

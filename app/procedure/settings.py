@@ -18,7 +18,7 @@ class RunSettings:
     target_type_a: float | None = None
     max_acquisition_s: float | None = None
     background_periods: int = 2
-    fade_periods: int = 1
+    fade_out_s: float | None = None  # None: dsp.multisine.fade_out_samples (4 cycles)
     settle_tolerance: float = 0.002
     max_settle_periods: int = 12
     equalisation_tolerance: float = 0.01
@@ -32,6 +32,10 @@ class RunSettings:
     plausible_ratio: float = 2.0
     mode: str = MODE_MULTISINE
     stepped_block_s: float = 0.25
+    dut_mass_g: float | None = None  # its mass class picks the stored stand response
+    stored_response_max_age_days: float = 30.0  # an older stored response is not used
+    # a stored response off by more than this at its first check is dropped: re-identify
+    stored_response_tolerance: float = 0.1
 
     def __post_init__(self) -> None:
         if self.target_type_a is None:
@@ -42,5 +46,15 @@ class RunSettings:
             raise ValueError("max time: must be > 0 s")
         if not 0 < self.equalisation_tolerance < 0.5:
             raise ValueError("equalisation tolerance: must be between 0 and 0.5")
+        if self.fade_out_s is not None and not 0.001 <= self.fade_out_s <= 60:
+            raise ValueError("fade-out: must be between 0.001 and 60 s")
+        if self.dut_mass_g is not None and not (0 <= self.dut_mass_g <= 100_000):
+            raise ValueError("DUT mass: must be between 0 and 100000 g")
+        if not self.stored_response_max_age_days >= 0:
+            raise ValueError("stored response max age: must be >= 0 days")
+        if not self.equalisation_tolerance < self.stored_response_tolerance <= 1:
+            raise ValueError(
+                "stored response tolerance: must be above the equalisation tolerance and <= 1"
+            )
         if self.mode not in MODES:
             raise ValueError(f"mode: one of {', '.join(MODES)}, got {self.mode!r}")

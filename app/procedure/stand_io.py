@@ -22,7 +22,7 @@ from app.procedure.preflight import OVERLOAD_FRACTION
 from app.procedure.settings import RunSettings
 from app.recording import RecordingWriter
 from app.stands import Stand
-from dsp.multisine import Plan, fade_envelope
+from dsp.multisine import Plan, fade_envelope, fade_out_envelope, fade_out_samples
 from dsp.sinefit import sine_fit
 from dsp.spectral import period_spectrum, periods_agree
 from hardware.errors import AmplifierFaultError, DeviceLostError, HardwareError, OverloadError
@@ -97,7 +97,9 @@ class StandIO:
         self.played = self.drive  # the period the output plays now
         self.queue: deque[np.ndarray] = deque()  # written, not played yet: each plays in turn
         self.periods_read = 0
-        self.excited_s = 0.0
+        self._excited_before_s = 0.0  # the shaker's running time in bursts already ended
+        self._burst: tuple[int, int] | None = None  # first, last non-zero sample of this burst
+        self._segment_samples = 0  # samples played since the segment began
         self.recording_full = False  # the disk is full: no more periods are appended
         self.power_on = False  # the power amplifier's output was enabled by this run
         self.power_failed = False  # the power amplifier failed: no more polling
@@ -134,8 +136,32 @@ class StandIO:
         """Rows (reference, DUT) of a period as read."""
         return block[[self.channel_index["reference"], self.channel_index["dut"]]]
 
+    @property
+    def excited_s(self) -> float:
+        """How long the shaker has run (s): from the first to the last non-zero drive sample of
+        each burst of drive (fades included, background and pauses between lines not)."""
+        if self._burst is None:
+            return self._excited_before_s
+        first, last = self._burst
+        return self._excited_before_s + (last - first + 1) / self.segment.plan.sample_rate_hz
+
+    def _count_excitation(self, played: np.ndarray) -> None:
+        moving = np.flatnonzero(played)
+        if moving.size:
+            first = self._burst[0] if self._burst else self._segment_samples + int(moving[0])
+            self._burst = (first, self._segment_samples + int(moving[-1]))
+        else:
+            self._end_burst()
+        self._segment_samples += played.size
+
+    def _end_burst(self) -> None:
+        self._excited_before_s = self.excited_s
+        self._burst = None
+
     def begin(self, segment: Segment) -> None:
         """Play `segment` from 0 V: the output starts with a zero period."""
+        self._end_burst()
+        self._segment_samples = 0
         self.segment = segment
         self.drive = self.played = np.zeros(segment.plan.period_samples)
         self.queue.clear()
@@ -169,12 +195,21 @@ class StandIO:
         self.write(new_drive)
 
     def fade_out(self) -> None:
-        """Raised-cosine fade of the steady drive over `fade_periods` periods, then 0 V; reads
-        until every faded period has played (a drive queued before it plays first)."""
+        """Raised-cosine fade of the steady drive over a few cycles of the lowest line
+        (`fade_out_s`, else dsp.multisine.fade_out_samples), zeros to the period's end, then
+        0 V; reads until every faded period has played (a drive queued before it plays first)."""
         self.announce(State.FADING_OUT)
-        n = self.segment.plan.period_samples
-        envelope = fade_envelope(n, self.settings.fade_periods, "out")
-        for k in range(self.settings.fade_periods):
+        plan = self.segment.plan
+        n = plan.period_samples
+        fs = plan.sample_rate_hz
+        fade_s = self.settings.fade_out_s
+        ramp = (
+            max(2, round(fade_s * fs))
+            if fade_s is not None
+            else fade_out_samples(float(np.min(plan.frequencies_hz)), fs)
+        )
+        envelope = fade_out_envelope(n, ramp)
+        for k in range(envelope.size // n):
             self.write(self.drive * envelope[k * n : (k + 1) * n])
         self.drive = np.zeros(n)
         self.write(self.drive)
@@ -261,8 +296,7 @@ class StandIO:
             self.played = self.queue.popleft()
         played = self.played
         self.periods_read += 1
-        if np.any(played != 0):
-            self.excited_s += period_s
+        self._count_excitation(played)
         self.poll_power()  # first: a tripped amplifier explains what the channels show
         self._check_block(block)
         if self.writer is not None and not self.recording_full:

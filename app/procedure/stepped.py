@@ -4,17 +4,20 @@ from __future__ import annotations
 
 import cmath
 import math
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
 from app.procedure.background import BackgroundLevels, budget_with_background
 from app.procedure.context import RunContext
-from app.procedure.equalisation import Equalisation
+from app.procedure.equalisation import Equalisation, Equalised
 from app.procedure.events import Progress, State
 from app.procedure.identification import Identification
 from app.procedure.settings import MODE_STEPPED_SINE
 from app.procedure.stand_io import Segment
 from app.procedure.stopping import StoppingRule
+from app.stand.response import StoredResponse
 from dsp.multisine import Line, Plan
 from dsp.sinefit import integer_cycle_block, sine_fit
 from dsp.spectral import Estimate, SpectralAccumulator
@@ -31,9 +34,17 @@ class SteppedSine:
     shared out among the lines), fade-out; both channels by three-parameter sine fit. Same
     estimators and results object as the multisine."""
 
-    def __init__(self, ctx: RunContext, background: BackgroundLevels):
+    def __init__(
+        self,
+        ctx: RunContext,
+        background: BackgroundLevels,
+        stored: StoredResponse | None = None,
+        describe: Callable[..., dict[str, Any]] | None = None,
+    ):
         self.ctx = ctx
         self.background = background
+        self.stored = stored  # the stand's stored response per line (this mode), if any
+        self.describe = describe  # StandMemory.describe: the run record's note
 
     def run(self) -> None:
         ctx, plan, s, io = self.ctx, self.ctx.plan, self.ctx.settings, self.ctx.io
@@ -48,6 +59,8 @@ class SteppedSine:
             None if s.max_acquisition_s is None else s.max_acquisition_s / len(plan.lines)
         )
         rule = StoppingRule(s.periods, s.target_type_a, per_line_bound)
+        converged, worst_final = True, 0.0
+        self.disagreed = 0
         for k, line in enumerate(plan.lines):
             n = integer_cycle_block(
                 line.frequency_hz, fs, s.stepped_block_s, (plan.mains_frequency_hz,)
@@ -61,12 +74,17 @@ class SteppedSine:
             ctx.log(f"stepped sine: line {line.label}, blocks of {n} samples")
             # one line in a shorter block: more noise per bin than the plan's period
             noise = self.background.noise()[:, [k]] * np.sqrt(plan.period_samples / n)
-            if k == 0:
-                response = Identification(ctx, noise).run()
-            else:  # the level loop starts from the response extrapolated from the last lines
-                response = np.array([extrapolated(responses, line.frequency_hz)])
-            equalised = Equalisation(ctx, noise).run(response)
+            equalised = self._from_stored(k, noise)
+            if equalised is None:
+                if not responses:
+                    response = Identification(ctx, noise).run()
+                else:  # the level loop starts from the response extrapolated from the last lines
+                    response = np.array([extrapolated(responses, line.frequency_hz)])
+                equalised = Equalisation(ctx, noise).run(response)
+                assert equalised is not None  # no give_up_above: always an Equalised
             responses.append((line.frequency_hz, complex(equalised.response[0])))
+            converged = converged and equalised.converged
+            worst_final = max(worst_final, ctx.notes.equalisation[-1])
             settled_ref.append(equalised.settled.lines[0][0])
             settled_dut.append(equalised.settled.lines[1][0])
             accumulator = SpectralAccumulator(n, [m], track_floor=False)
@@ -90,12 +108,37 @@ class SteppedSine:
             done = (k + 1) / len(plan.lines)
             ctx.emit(Progress(done, io.excited_s, None, f"line {line.label} done"))
         io.segment = Segment(plan)
+        if converged:
+            ctx.notes.measured_response = np.array([r for _, r in responses])
+            ctx.notes.measured_response_error = worst_final
+        if self.describe is not None:
+            outcome = "identified" if self.stored is None else "stored"
+            if self.disagreed:
+                outcome = f"stored, disagreed at {self.disagreed} lines: identified there"
+            ctx.notes.stand_response = self.describe(self.stored, outcome)
         settled = (np.array(settled_ref), np.array(settled_dut))
         budget = budget_with_background(
             ctx.stand.budget, plan, self.background, settled, s.background_periods
         )
         ctx.notes.budget = budget
         ctx.publish(combine(estimates), budget)
+
+    def _from_stored(self, k: int, noise: np.ndarray) -> Equalised | None:
+        """Line k equalised from the stored response, or None (none, or off by more than
+        `stored_response_tolerance` at its check: the caller identifies or extrapolates)."""
+        if self.stored is None:
+            return None
+        ctx = self.ctx
+        equalised = Equalisation(ctx, noise).run(
+            self.stored.response[[k]], give_up_above=ctx.settings.stored_response_tolerance
+        )
+        if equalised is None:
+            self.disagreed += 1
+            ctx.log(
+                f"stand response: stored one off by {100 * ctx.notes.equalisation[-1]:.1f} % "
+                "at its check: this line from identification or the last lines"
+            )
+        return equalised
 
 
 def extrapolated(responses: list[tuple[float, complex]], frequency_hz: float) -> complex:

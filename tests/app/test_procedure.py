@@ -392,7 +392,12 @@ def test_the_drive_never_jumps_even_when_a_crossfade_is_cut_short(
     read = played[: len(drive)]
     assert [p.peak_v for p in read] == pytest.approx(np.max(np.abs(drive), axis=1), abs=8 * lsb)
     moving = sum(1 for p in played if p.peak_v > 0)
-    assert finished.record.excitation_time_s == pytest.approx(moving * plan.period_s)
+    # by hand: the shaker runs from sample 1 of the fade-in (its sample 0 is 0 V) through
+    # whole periods to the fade-out's ramp of 4 cycles of 10 Hz at 6 kS/s = 2400 samples,
+    # whose last sample is 0 V: (moving - 1) periods - 1 sample + 2399 samples
+    assert plan.period_samples == 12000 and plan.sample_rate_hz == 6000.0
+    expected_samples = (moving - 1) * 12000 - 1 + 2399
+    assert finished.record.excitation_time_s == pytest.approx(expected_samples / 6000.0, abs=1e-9)
 
 
 def test_the_stepped_sine_level_loop_starts_from_an_extrapolated_response():
@@ -471,3 +476,106 @@ def test_the_budget_carries_the_mains_hum_measured_with_the_drive_off(tmp_path):
     assert hum_50 > 1e-3  # the simulated ADC's 40 uV of 50 Hz hum is not negligible here
     line_50 = finished.results.lines[list(plan.nominal_frequencies_hz).index(50.0)]
     assert line_50.relative_type_b >= hum_50 / np.sqrt(2)
+
+
+def _run_with_store(store, *, mode="multisine", declared_g=10.0, physical_g=None, plan=None):
+    stand = open_stand(CONFIG, dut="piezo", seed=5, systematic=False, dut_mass_g=physical_g)
+    settings = RunSettings(
+        mode=mode, target_type_a=0.002, max_acquisition_s=600.0, dut_mass_g=declared_g
+    )
+    plan = plan or preset_plan("piezo")
+    try:
+        finished = Procedure(stand, plan, settings, response_store=store).run()
+    finally:
+        stand.close()
+    return finished, stand, plan
+
+
+def test_the_stored_response_brings_the_seed_characteristic_under_10_s(tmp_path):
+    """Issue 14 point 1: the seed's 25-line piezo characteristic at 0.2 % type A. The first run
+    identifies (gentle drive, two equalisation steps); it stores the response it converged
+    with, and the next run of the same stand, mass class and plan starts from it: fade-in
+    crossfade, two settled periods (the check, reused), one more period, the fade-out."""
+    import hashlib
+
+    from app.stand.response import ResponseStore
+
+    store = ResponseStore(tmp_path / "responses")
+    cold, _, _ = _run_with_store(store)
+    assert cold.status == "complete", cold.abort_reason
+    assert cold.record.stand_response["source"] == "identified"
+    assert cold.record.excitation_time_s > 15.0
+    warm, stand, plan = _run_with_store(store)
+    assert warm.status == "complete", warm.abort_reason
+    # by hand: 4 periods of 12000 samples from sample 1, then the 2400-sample ramp's 2399
+    # non-zero samples: (48000 - 1 + 2399) / 6000 Hz = 8.39967 s
+    assert warm.record.excitation_time_s == pytest.approx((48000 - 1 + 2399) / 6000.0, abs=1e-9)
+    assert warm.record.periods_read == 2 + 4 + 1  # background, 4 moving, the fade-out
+    assert len(warm.record.equalisation_worst) == 1 and warm.record.equalisation_worst[0] < 0.01
+    note = warm.record.stand_response
+    assert note["source"] == "stored" and note["mass_class"] == "up to 25 g"
+    assert note["stand_sha256"] == hashlib.sha256(CONFIG.text.encode()).hexdigest()
+    assert note["stored"]["measured_utc"] and note["check_error"] < 0.01
+    magnitude_ok, phase_ok = within(warm, stand, plan)
+    assert magnitude_ok.all() and phase_ok.all()
+    assert warm.record.final_output_v == 0.0
+
+
+def test_without_a_store_or_with_the_fresh_option_the_stand_is_identified(tmp_path):
+    from app.stand.response import ResponseStore
+
+    store = ResponseStore(tmp_path / "responses")
+    _run_with_store(store)
+    fresh, _, _ = _run_with_store(None)  # RunRequest(stored_response=False) passes no store
+    assert fresh.record.stand_response["source"] == "identified"
+    assert fresh.record.excitation_time_s > 15.0
+
+
+def test_a_dut_heavier_than_its_declared_class_is_caught_at_the_check_and_re_identified(
+    tmp_path,
+):
+    """The response stored with a 10 g DUT, then a 150 g DUT declared as 10 g: above the
+    suspension the table moves 110/250 = 44 % of the target (56 % off, > the 10 % check
+    tolerance), so the run drops the stored response, identifies and still completes."""
+    from app.stand.response import ResponseStore
+
+    store = ResponseStore(tmp_path / "responses")
+    _run_with_store(store)
+    wrong, stand, plan = _run_with_store(store, physical_g=150.0)
+    assert wrong.status == "complete", wrong.abort_reason
+    note = wrong.record.stand_response
+    assert note["source"] == "stored, disagreed: identified"
+    assert note["check_error"] > 0.5
+    assert wrong.record.equalisation_worst[-1] < 0.01
+    magnitude_ok, _ = within(wrong, stand, plan)
+    assert magnitude_ok.all()
+    assert wrong.record.final_output_v == 0.0
+    assert stand.daq.output.periods[-1].last_v == 0.0
+
+
+def test_a_stored_response_of_another_mass_class_is_not_used(tmp_path):
+    from app.stand.response import ResponseStore
+
+    store = ResponseStore(tmp_path / "responses")
+    _run_with_store(store)
+    heavy, _, _ = _run_with_store(store, declared_g=150.0, physical_g=150.0)
+    assert heavy.record.stand_response["source"] == "identified"
+    assert heavy.record.stand_response["mass_class"] == "100-300 g"
+
+
+def test_the_stepped_sine_starts_each_line_from_its_stored_response(tmp_path):
+    """The fair comparison (issue 14 point 2): the stepped sine keeps and reuses its own stored
+    response per line just as the multisine does."""
+    from app.stand.response import ResponseStore
+
+    store = ResponseStore(tmp_path / "responses")
+    from dsp.multisine import make_plan
+
+    plan = make_plan([63.0, 80.0, 100.0, 125.0, 160.0, 200.0], 6000.0, 12000, 5.0, 160.0)
+    cold, _, _ = _run_with_store(store, mode="stepped-sine", plan=plan)
+    warm, _, _ = _run_with_store(store, mode="stepped-sine", plan=plan)
+    assert cold.status == warm.status == "complete"
+    assert cold.record.stand_response["source"] == "identified"
+    assert warm.record.stand_response["source"] == "stored"
+    assert len(warm.record.equalisation_worst) == 6  # one level step per line
+    assert warm.record.excitation_time_s < cold.record.excitation_time_s

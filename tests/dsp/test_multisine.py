@@ -163,3 +163,26 @@ def test_random_valid_plans_have_distinct_bins_below_045_fs(fs, period_s, picks)
     assert np.all(plan.frequencies_hz < 0.45 * fs)
     assert np.all(plan.bins > 0)
     np.testing.assert_allclose(plan.frequencies_hz, plan.bins * fs / n)
+
+
+def test_a_fade_out_lasts_four_cycles_of_the_lowest_line_and_at_least_50_ms():
+    from dsp.multisine import fade_out_samples
+
+    assert fade_out_samples(10.0, 6000.0) == 2400  # 4 / 10 Hz = 0.4 s at 6 kS/s
+    assert fade_out_samples(2500.0, 6000.0) == 300  # 1.6 ms < 50 ms: 0.05 s x 6000
+    assert fade_out_samples(100.0, 51200.0) == 2560  # 40 ms < 50 ms: 0.05 s x 51200
+    assert fade_out_samples(8.0, 51200.0) == 25600  # 0.5 s
+
+
+def test_a_fade_out_envelope_falls_to_exactly_zero_then_stays_there_to_a_period_boundary():
+    from dsp.multisine import fade_out_envelope
+
+    env = fade_out_envelope(12000, 2400)
+    assert env.size == 12000  # one whole period
+    assert env[0] == 1.0 and env[2399] == 0.0 and not np.any(env[2400:])
+    assert env[1199] == pytest.approx(0.5 * (1 + np.cos(np.pi * 1199 / 2399)))  # raised cosine
+    assert np.all(np.diff(env[:2400]) <= 0)
+    longer = fade_out_envelope(1000, 2500)  # a ramp longer than a period: whole periods
+    assert longer.size == 3000 and longer[2499] == 0.0 and longer[999] > 0
+    with pytest.raises(ValueError):
+        fade_out_envelope(1000, 1)

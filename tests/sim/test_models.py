@@ -107,3 +107,20 @@ def test_network_shares_a_front_end_between_outputs():
     np.testing.assert_allclose(sim.discrete_response("b", f, fs), direct, rtol=1e-9)
     out = sim.process(np.random.default_rng(1).standard_normal(500))
     np.testing.assert_allclose(out["c"], out["a"] - 2 * out["b"], atol=1e-12)
+
+
+def test_a_heavier_dut_lowers_the_exciters_gain_and_suspension_as_its_mass_says():
+    """Force per volt on the whole moving mass M: M = 100 g + rated 10 g = 110 g; with a 150 g
+    DUT M = 250 g, so the mid band falls to 110/250 = 0.44 (100 -> 44 m/s^2/V), the suspension
+    to 150 sqrt(0.44) = 99.50 Hz and its Q rises to 1.5/sqrt(0.44) = 2.261."""
+    rated = ExciterModel()
+    assert rated.loaded(10.0) is rated  # the rated load: the figures as given
+    heavy = rated.loaded(150.0)
+    assert heavy.midband_ms2_per_v == pytest.approx(44.0, rel=1e-12)
+    assert heavy.suspension_hz == pytest.approx(99.4987, rel=1e-5)
+    assert heavy.suspension_q == pytest.approx(2.26134, rel=1e-5)
+    at_2k = np.array([2000.0])
+    ratio = heavy.acceleration_model().response(at_2k) / rated.acceleration_model().response(at_2k)
+    assert abs(ratio[0]) == pytest.approx(0.44, rel=0.01)  # well above both suspensions
+    with pytest.raises(ValueError, match="DUT mass"):
+        rated.loaded(-5.0)

@@ -1,0 +1,144 @@
+"""The store of measured stand responses (app.stand.response, issue 14 point 1): keyed by stand
+hash, simulated realisation, mode, DUT mass class and plan lines; age limit; nearest level; a
+damaged file ignored, never fatal."""
+
+from __future__ import annotations
+
+import json
+from datetime import UTC, datetime, timedelta
+
+import numpy as np
+import pytest
+
+from app.stand.response import (
+    MASS_UNSTATED,
+    ResponseStore,
+    StoredResponse,
+    mass_class,
+    stand_sha256,
+)
+from dsp.multisine import make_plan
+
+NOW = datetime(2026, 11, 24, 12, 0, tzinfo=UTC)
+PLAN = make_plan([10.0, 80.0, 160.0, 1000.0], 6000.0, 12000, 5.0, 160.0)
+STAND = stand_sha256("[daq]\nbackend = 'sim'\n")
+
+
+def entry(level: float = 5.0, *, days_old: float = 1.0, mass: str = "up to 25 g", **kw):
+    values = dict(
+        stand_sha256=STAND,
+        realisation="seed 1",
+        mode="multisine",
+        mass_class=mass,
+        sample_rate_hz=6000.0,
+        period_samples=12000,
+        bins=tuple(int(b) for b in PLAN.bins),
+        levels_ms2=(level,) * 4,
+        phases_rad=tuple(float(p) for p in PLAN.phases_rad),
+        response=np.array([1 + 2j, 3 - 1j, 4 + 0.5j, -2 + 1j]) * level,
+        measured_utc=(NOW - timedelta(days=days_old)).isoformat(timespec="seconds"),
+        run_id=f"run-{level:g}",
+        worst_error=0.001,
+    )
+    values.update(kw)
+    return StoredResponse(**values)  # type: ignore[arg-type]
+
+
+def lookup(store: ResponseStore, *, mass="up to 25 g", mode="multisine", plan=PLAN, age=30.0):
+    return store.lookup(STAND, "seed 1", mode, mass, plan, now=NOW, max_age_days=age)
+
+
+def test_mass_classes_have_their_stated_bounds():
+    assert mass_class(None) == MASS_UNSTATED
+    assert mass_class(0.0) == mass_class(25.0) == "up to 25 g"
+    assert mass_class(25.001) == mass_class(100.0) == "25-100 g"
+    assert mass_class(100.5) == "100-300 g"
+    assert mass_class(301.0) == "over 300 g"
+    with pytest.raises(ValueError, match="DUT mass"):
+        mass_class(-1.0)
+    with pytest.raises(ValueError, match="DUT mass"):
+        mass_class(float("nan"))
+
+
+def test_a_saved_response_is_found_again_exactly(tmp_path):
+    store = ResponseStore(tmp_path)
+    saved = entry()
+    store.save(saved)
+    found = lookup(store)
+    assert found.entry is not None
+    np.testing.assert_array_equal(found.entry.response, saved.response)
+    assert found.entry.measured_utc == "2026-11-23T12:00:00+00:00"
+    assert "run-5" in found.reason and "1.0 days old" in found.reason
+
+
+@pytest.mark.parametrize(
+    ("change", "why"),
+    [
+        ({"mass": "100-300 g"}, "no stored response"),
+        ({"mode": "stepped-sine"}, "no stored response"),
+        ({"plan": make_plan([10.0, 80.0, 160.0, 1250.0], 6000.0, 12000, 5.0, 160.0)}, "no stored"),
+        ({"plan": make_plan([10.0, 80.0, 160.0, 1000.0], 6000.0, 6000, 5.0, 160.0)}, "no stored"),
+        ({"age": 0.5}, "older than 0.5 days"),
+    ],
+)
+def test_another_mass_class_mode_plan_or_an_old_response_is_not_used(tmp_path, change, why):
+    store = ResponseStore(tmp_path)
+    store.save(entry())
+    found = lookup(store, **change)
+    assert found.entry is None
+    assert why in found.reason
+
+
+def test_another_stand_or_realisation_finds_nothing(tmp_path):
+    store = ResponseStore(tmp_path)
+    store.save(entry())
+    other = stand_sha256("[daq]\nbackend = 'sim'\n# edited\n")
+    assert store.lookup(other, "seed 1", "multisine", "up to 25 g", PLAN, now=NOW,
+                        max_age_days=30).entry is None  # fmt: skip
+    assert store.lookup(STAND, "seed 2", "multisine", "up to 25 g", PLAN, now=NOW,
+                        max_age_days=30).entry is None  # fmt: skip
+
+
+def test_the_nearest_level_is_used_and_a_same_level_entry_is_replaced(tmp_path):
+    store = ResponseStore(tmp_path)
+    for level in (3.0, 5.0, 7.0):
+        store.save(entry(level))
+    store.save(entry(5.0, days_old=0.0, run_id="newer"))  # replaces the 5 m/s^2 one
+    found = lookup(store)  # the plan is at 5 m/s^2 per line
+    assert found.entry is not None and found.entry.run_id == "newer"
+    data = json.loads(next(tmp_path.rglob("*.json")).read_text())
+    assert sorted(e["levels_ms2"][0] for e in data["entries"]) == [3.0, 5.0, 7.0]
+    at_6 = make_plan([10.0, 80.0, 160.0, 1000.0], 6000.0, 12000, 6.5, 160.0)
+    nearest = lookup(store, plan=at_6).entry
+    assert nearest is not None and nearest.levels_ms2[0] == 7.0  # |ln 7/6.5| < |ln 5/6.5|
+
+
+@pytest.mark.parametrize(
+    "damage",
+    [
+        "not json at all",
+        json.dumps({"format": 99, "entries": []}),
+        json.dumps({"format": 1, "entries": [{"bins": [1]}]}),
+        "DAMAGED-RESPONSE",
+    ],
+)
+def test_a_damaged_store_file_is_ignored_not_fatal(tmp_path, damage, caplog):
+    store = ResponseStore(tmp_path)
+    path = store.save(entry())
+    if damage == "DAMAGED-RESPONSE":  # a zero response would divide the drive by zero
+        data = json.loads(path.read_text())
+        data["entries"][0]["response_real"][1] = 0.0
+        data["entries"][0]["response_imag"][1] = 0.0
+        damage = json.dumps(data)
+    path.write_text(damage)
+    found = lookup(store)
+    assert found.entry is None
+    assert "ignored" in caplog.text or "unreadable" in caplog.text
+
+
+def test_saving_leaves_no_temporary_file(tmp_path):
+    store = ResponseStore(tmp_path)
+    store.save(entry())
+    store.save(entry(6.0))
+    names = [p.name for p in tmp_path.rglob("*") if p.is_file()]
+    assert len(names) == 1 and not names[0].startswith(".response-")
