@@ -579,3 +579,31 @@ def test_the_stepped_sine_starts_each_line_from_its_stored_response(tmp_path):
     assert warm.record.stand_response["source"] == "stored"
     assert len(warm.record.equalisation_worst) == 6  # one level step per line
     assert warm.record.excitation_time_s < cold.record.excitation_time_s
+
+
+def test_the_cli_keeps_the_stand_response_and_fresh_response_identifies_anew(tmp_path, capsys):
+    """`accelcal run` stores the response in the user's data directory (isolated per test by
+    tests/conftest.py), starts the next run from it, and --fresh-response does not; a DUT mass
+    out of bounds is refused by name before anything moves."""
+    from app.cli import main
+
+    def run_json(*extra):
+        argv = ["run", "--sim", "--periods", "3", "--out", str(tmp_path), "--json", *extra]
+        code = main(argv)
+        out = capsys.readouterr().out
+        return code, json.loads(out) if code == 0 else out
+
+    code, first = run_json()
+    assert code == 0 and first["stand_response"]["source"] == "identified"
+    assert first["stand_response"]["mass_class"] == "up to 25 g"  # the catalogue's 10 g
+    code, second = run_json()
+    assert code == 0 and second["stand_response"]["source"] == "stored"
+    assert second["stand_response"]["stored"]["run_id"] == first["run_id"]
+    assert second["excitation_time_s"] < first["excitation_time_s"] - 6.0
+    code, fresh = run_json("--fresh-response")
+    assert code == 0 and fresh["stand_response"]["source"] == "identified"
+    code, heavy = run_json("--dut-mass", "150")
+    assert code == 0 and heavy["stand_response"]["mass_class"] == "100-300 g"
+    assert heavy["stand_response"]["source"] == "identified"
+    assert main(["run", "--sim", "--dut-mass", "-3", "--out", str(tmp_path)]) == 2
+    assert "--dut-mass" in capsys.readouterr().err
