@@ -45,6 +45,7 @@ class SteppedSine:
         self.background = background
         self.stored = stored  # the stand's stored response per line (this mode), if any
         self.describe = describe  # StandMemory.describe: the run record's note
+        self.disagreed = 0  # lines whose stored response failed its check
 
     def run(self) -> None:
         ctx, plan, s, io = self.ctx, self.ctx.plan, self.ctx.settings, self.ctx.io
@@ -60,7 +61,6 @@ class SteppedSine:
         )
         rule = StoppingRule(s.periods, s.target_type_a, per_line_bound)
         converged, worst_final = True, 0.0
-        self.disagreed = 0
         for k, line in enumerate(plan.lines):
             n = integer_cycle_block(
                 line.frequency_hz, fs, s.stepped_block_s, (plan.mains_frequency_hz,)

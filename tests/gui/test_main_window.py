@@ -43,8 +43,12 @@ def test_a_run_through_the_gui_equals_the_same_run_through_the_cli(window, qtbot
             tolerance_percent=5.0,
             preset="piezo",
             out=tmp_path / "cli",
+            # the GUI's run stored its response: the CLI's starts from the same (empty) state
+            response_store=tmp_path / "cli-responses",
         )
     )
+    assert finished.record.stand_response["source"] == "identified"
+    assert cli.record.stand_response["source"] == "identified"
     for a, b in zip(finished.results.lines, cli.results.lines, strict=True):
         assert a.sensitivity_mv_per_ms2 == pytest.approx(b.sensitivity_mv_per_ms2, rel=1e-12)
         assert a.phase_deg == pytest.approx(b.phase_deg, abs=1e-9)
