@@ -66,9 +66,9 @@ class CertificateDialog(QDialog):
         self.setWindowTitle(f"Certificate of run {record.run_id}")
         self._check = check
         form = QFormLayout(self)
-        title = NoteLabel()  # wrapped, as tall as its text
-        title.setText(f"<b>{heading or 'Certificate'} of {run_identity(record)}</b>")
-        form.addRow(title)
+        self.title = NoteLabel()  # wrapped, as tall as its text
+        self.title.setText(f"<b>{heading or 'Certificate'} of {run_identity(record)}</b>")
+        form.addRow(self.title)
         self.edits: dict[str, QLineEdit] = {}
         defaults = defaults or {}
         if defaults:

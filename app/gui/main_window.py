@@ -89,9 +89,11 @@ PLAN_FIELDS = (
     *("nominal", "tolerance", "preset", "frequencies", "level", "periods", "target"),
     *("max_time", "estimator", "mode"),
 )
-STOP_STYLE = (
-    "QPushButton { background: #c0392b; color: white; font-weight: bold; padding: 8px; }"
-    "QPushButton:disabled { background: #d5d8dc; color: #909497; font-weight: normal; }"
+STOP_STYLE = (  # flat colours (a border makes Qt draw the background as given)
+    "QPushButton { background: #c0392b; color: white; font-weight: bold; padding: 8px;"
+    " border: 1px solid #922b21; border-radius: 4px; }"
+    "QPushButton:disabled { background: #e5e7e9; color: #a6acaf; font-weight: normal;"
+    " border: 1px solid #ccd1d1; }"
 )
 
 
