@@ -406,9 +406,9 @@ def test_a_bad_template_field_is_refused_by_name(lab: Lab, change: dict, field: 
 def test_the_same_person_is_refused_as_approver_under_the_two_person_rule(lab: Lab) -> None:
     assert lab.check_signatories(" Ann ", "ann") == ("Ann", "ann")  # rule off: allowed
     lab.set_setting("two_person_rule", "on")
-    with pytest.raises(RecordsError, match="^approved by: the lab's two-person rule"):
+    with pytest.raises(RecordsError, match=r"^approved by: the lab's two-person rule"):
         lab.check_signatories("Ann", " ANN")
-    with pytest.raises(RecordsError, match="^prepared by: must not be blank"):
+    with pytest.raises(RecordsError, match=r"^prepared by: must not be blank"):
         lab.check_signatories("", "Bob")
     assert lab.check_signatories("Ann", "Bob") == ("Ann", "Bob")
 
@@ -420,5 +420,5 @@ def test_complete_runs_of_a_sensor_newest_first(lab: Lab) -> None:
     _run(lab, "cut", "SN-1", t + timedelta(days=2), 10.0, status="aborted")
     _run(lab, "other", "SN-2", t, 10.0)
     assert [r.run_id for r in lab.complete_runs("SN-1")] == ["new", "old"]
-    with pytest.raises(RecordsError, match="^serial: no sensor"):
+    with pytest.raises(RecordsError, match=r"^serial: no sensor"):
         lab.complete_runs("SN-404")
