@@ -500,3 +500,46 @@ def test_a_disabled_stop_button_looks_disabled(window, qtbot):
     r, g, b = colour()
     assert (r, g, b) == (0xC0, 0x39, 0x2B)  # red
     button.setEnabled(False)
+
+
+def test_a_reissue_from_the_register_may_certify_a_later_run_of_the_same_sensor(
+    window, qtbot, lab_url
+):
+    window.frequencies.setText(LINES_A)
+    window.periods.setValue(3)
+    type_serial(qtbot, window, "PZ-0001")
+    first = run_now(qtbot, window)
+    second = run_now(qtbot, window)  # e.g. after the sensor was remounted
+    lab = Lab(open_engine(lab_url))
+    number = lab.issue_certificate(
+        run_id=str(first.record.run_id), prepared_by="A. Tech", approved_by="J. Smith"
+    ).number
+    tab = window.register_tab
+    tab.refresh()
+    assert tab.select(number)
+    offered: list[list[str]] = []
+
+    def choose_run(dialog: QInputDialog) -> None:
+        offered.append(list(dialog.comboBoxItems()))
+        dialog.setTextValue(str(second.record.run_id))
+        dialog.accept()
+
+    def fields(dialog: CertificateDialog) -> None:
+        assert str(second.record.run_id) in dialog.title.text()
+        dialog.edits["authorised_by"].setText("J. Smith")
+        dialog.edits["mounting"].setText("stud, 2 N m, remounted")
+        dialog.temperature.setText("22.8")
+        press(dialog, QDialogButtonBox.StandardButton.Ok)
+
+    modal = Modal().then(
+        QInputDialog, lambda d: (d.setTextValue("reissued on the remounted run"), d.accept())
+    )
+    modal.then(QInputDialog, choose_run).then(CertificateDialog, fields).then(QMessageBox, yes)
+    qtbot.mouseClick(tab.amend_button, Qt.MouseButton.LeftButton)
+    modal.check()
+    # the certificate's own run offered first, then the sensor's other complete run
+    assert offered == [[str(first.record.run_id), str(second.record.run_id)]]
+    old, new = lab.register()
+    assert (old.number, old.state) == (number, "replaced")
+    assert new.replaces == number and new.run.run_id == str(second.record.run_id)
+    assert (window.out / str(second.record.run_id) / "certificate.pdf").is_file()
