@@ -30,6 +30,7 @@ from app.db.models import (
     ReferenceStandard,
     RegisterCounter,
     Run,
+    RunTemplate,
     Sensor,
     SensorModel,
     Setting,
@@ -306,6 +307,93 @@ class Lab:
             query = select(SensorModel).order_by(SensorModel.maker, SensorModel.model)
             return list(s.scalars(query).all())
 
+    # ---- run templates per sensor model ---------------------------------------------------
+    def add_template(
+        self,
+        model: str,
+        name: str,
+        *,
+        preset: str,
+        level_ms2: float,
+        periods: int,
+        estimator: str,
+        frequencies_hz: Sequence[float] | None = None,
+        target_type_a: float | None = None,
+        max_acquisition_s: float | None = None,
+        tolerance_percent: float | None = None,
+    ) -> RunTemplate:
+        """Named run settings for sensor model `model` ('maker model' or model): preset and
+        lines (Hz, None: the preset's), level (m/s^2 peak per line), periods, type A target
+        (relative, e.g. 0.002), time bound (s), tolerance (%) and estimator. Every field is
+        checked and named when refused; the lines are checked as a plan on the preset's rate."""
+        from dsp.estimators import ESTIMATORS
+        from dsp.multisine import PRESETS, check_lines
+        from dsp.spectral import check_periods
+
+        name = _text(name, "template name", max_len=100)
+        if preset not in PRESETS:
+            raise RecordsError(f"preset: {preset!r} is none of {', '.join(PRESETS)}")
+        if estimator not in ESTIMATORS:
+            raise RecordsError(f"estimator: {estimator!r} is none of {', '.join(ESTIMATORS)}")
+        _number(level_ms2, "level", low=0, high=1000)
+        try:
+            check_periods(estimator, int(periods))
+        except ValueError as exc:
+            raise RecordsError(str(exc)) from None
+        if target_type_a is not None:
+            _number(target_type_a, "type A target", low=0, high=0.1)
+        if max_acquisition_s is not None:
+            _number(max_acquisition_s, "time bound", low=0, high=100_000)
+        if tolerance_percent is not None:
+            _number(tolerance_percent, "tolerance", low=0, high=100)
+        lines = None
+        if frequencies_hz is not None:
+            values = [float(f) for f in frequencies_hz]
+            if not values:
+                raise RecordsError("frequencies: an empty line list (None: the preset's lines)")
+            spec = PRESETS[preset]
+            check = check_lines(
+                values, spec.sample_rate_hz, spec.period_samples, spec.reference_frequency_hz
+            )
+            if check.errors:
+                raise RecordsError(f"frequencies: {check.errors[0]}")
+            lines = ",".join(f"{f:.10g}" for f in values)
+        with self.session() as s:
+            model_row = self._model(s, model)
+            if s.scalar(
+                select(RunTemplate).where(
+                    RunTemplate.model_id == model_row.id, RunTemplate.name == name
+                )
+            ):
+                raise RecordsError(
+                    f"template name: {name!r} exists for {model_row.maker} {model_row.model}"
+                )
+            row = RunTemplate(
+                model=model_row,
+                name=name,
+                preset=preset,
+                frequencies_hz=lines,
+                level_ms2=float(level_ms2),
+                periods=int(periods),
+                target_type_a=target_type_a,
+                max_acquisition_s=max_acquisition_s,
+                tolerance_percent=tolerance_percent,
+                estimator=estimator,
+            )
+            s.add(row)
+        return row
+
+    def templates(self, model: str) -> list[RunTemplate]:
+        """The run templates of sensor model `model` ('maker model' or model), by name."""
+        with self.session() as s:
+            model_row = self._model(s, model)
+            query = (
+                select(RunTemplate)
+                .where(RunTemplate.model_id == model_row.id)
+                .order_by(RunTemplate.name)
+            )
+            return list(s.scalars(query).all())
+
     # ---- reference standards -------------------------------------------------------------
     def add_reference(
         self,
@@ -559,6 +647,33 @@ class Lab:
             return default if row is None else row.value
 
     # ---- certificate register ------------------------------------------------------------
+    def check_signatories(self, prepared_by: str, approved_by: str) -> tuple[str, str]:
+        """Prepared by and approved by as the register takes them (stripped); RecordsError
+        naming the field when one is blank or, under the lab's two-person rule, when both are
+        the same person (case-insensitive)."""
+        prepared_by = _text(prepared_by, "prepared by")
+        approved_by = _text(approved_by, "approved by")
+        if (
+            self.setting(SETTING_TWO_PERSON, "off") == "on"
+            and prepared_by.casefold() == approved_by.casefold()
+        ):
+            raise RecordsError(
+                "approved by: the lab's two-person rule needs someone other than the preparer"
+            )
+        return prepared_by, approved_by
+
+    def complete_runs(self, serial: str) -> list[Run]:
+        """The indexed complete runs of sensor `serial`, newest first (what a certificate or
+        its amendment may be issued for)."""
+        sensor = self.sensor(serial)
+        with self.session() as s:
+            query = (
+                select(Run)
+                .where(Run.sensor_id == sensor.id, Run.status == STATUS_COMPLETE)
+                .order_by(Run.started_utc.desc(), Run.id.desc())
+            )
+            return list(s.scalars(query).all())
+
     def issue_certificate(
         self,
         *,
@@ -579,15 +694,7 @@ class Lab:
         is the as-found result and the certified run the as-left one. `produce(number)`, when
         given, makes the certificate itself inside the transaction: if it fails, the number is
         not taken (no gap, no entry without its certificate)."""
-        prepared_by = _text(prepared_by, "prepared by")
-        approved_by = _text(approved_by, "approved by")
-        if (
-            self.setting(SETTING_TWO_PERSON, "off") == "on"
-            and prepared_by.casefold() == approved_by.casefold()
-        ):
-            raise RecordsError(
-                "approved by: the lab's two-person rule needs someone other than the preparer"
-            )
+        prepared_by, approved_by = self.check_signatories(prepared_by, approved_by)
         when = when or datetime.now(UTC)
         pattern = self.setting(SETTING_PATTERN, DEFAULT_PATTERN)
         with self.session() as s:
@@ -680,7 +787,7 @@ class Lab:
                     select(Certificate)
                     .options(
                         joinedload(Certificate.run),
-                        joinedload(Certificate.sensor),
+                        joinedload(Certificate.sensor).joinedload(Sensor.owner),
                         joinedload(Certificate.as_found_run),
                     )
                     .order_by(Certificate.issued_utc, Certificate.id)

@@ -63,6 +63,37 @@ class SensorModel(Base):
     sensors: Mapped[list[Sensor]] = relationship(back_populates="model")
 
 
+class RunTemplate(Base):
+    """Named run settings for one sensor model, chosen from a list in the GUI: plan preset and
+    lines (Hz), level (m/s^2 peak per line), periods or a type A target (relative), a time
+    bound (s), tolerance (%) and estimator. `name` is unique per model."""
+
+    __tablename__ = "run_templates"
+    __table_args__ = (
+        UniqueConstraint("model_id", "name", name="uq_run_templates_model_name"),
+        CheckConstraint("level_ms2 > 0", name="level_positive"),
+        CheckConstraint("periods >= 2", name="periods_enough"),
+    )
+    id: Mapped[int] = mapped_column(primary_key=True)
+    model_id: Mapped[int] = mapped_column(ForeignKey("sensor_models.id"))
+    name: Mapped[str] = mapped_column(String(100))
+    preset: Mapped[str] = mapped_column(String(40))
+    frequencies_hz: Mapped[str | None] = mapped_column(Text, nullable=True)  # "10,12.5,..." Hz
+    level_ms2: Mapped[float] = mapped_column(Float)
+    periods: Mapped[int] = mapped_column(Integer)
+    target_type_a: Mapped[float | None] = mapped_column(Float, nullable=True)  # relative
+    max_acquisition_s: Mapped[float | None] = mapped_column(Float, nullable=True)
+    tolerance_percent: Mapped[float | None] = mapped_column(Float, nullable=True)
+    estimator: Mapped[str] = mapped_column(String(20))
+    model: Mapped[SensorModel] = relationship()
+
+    def lines_hz(self) -> tuple[float, ...] | None:
+        """The template's own line list in Hz (None: the preset's lines)."""
+        if not self.frequencies_hz:
+            return None
+        return tuple(float(item) for item in self.frequencies_hz.split(","))
+
+
 class Sensor(Base):
     """One accelerometer: serial (unique), model, owner, TEDS identity, calibration interval."""
 

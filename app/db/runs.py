@@ -11,6 +11,7 @@ import logging
 from dataclasses import dataclass
 from datetime import date
 from pathlib import Path
+from typing import Any
 
 from app.db.errors import RecordsInputError
 
@@ -61,12 +62,23 @@ def check_reference_due(
     say). A reference standard not on record is the stand file's business, and records that
     cannot be reached do not stop a run: a note says so."""
     from app.db.engine import DatabaseError, open_engine
-    from app.db.lab import Lab, RecordsError
+    from app.db.lab import Lab
 
     try:
         lab = Lab(open_engine(url))
     except DatabaseError as exc:  # the run still records to its folder
         return f"records not reachable, reference due date not checked: {exc}"
+    return reference_due_note(lab, reference_id, today=today, override_reason=override_reason)
+
+
+def reference_due_note(
+    lab: Any, reference_id: str, *, today: date, override_reason: str | None
+) -> str | None:
+    """`check_reference_due` on records already open (`app.db.lab.Lab`; the GUI's): the
+    records' rule (`Lab.reference_for_run`), RecordsInputError naming the due date when
+    refused, else a note (None when nothing to say)."""
+    from app.db.lab import RecordsError
+
     try:
         ref = lab.reference_for_run(reference_id, today=today, override_reason=override_reason)
     except RecordsError as exc:

@@ -39,7 +39,7 @@ class WindowActions(QObject):
         )
         self.abort.setShortcutContext(Qt.ShortcutContext.ApplicationShortcut)
         self.next_sensor = self._action(
-            "&Next sensor", NEXT, self.next, "Clear the DUT fields for the next sensor"
+            "&Next sensor", NEXT, self.next, "Clear every field of the last sensor for the next"
         )
         run_menu.addActions([self.start, self.stop, self.abort])
         run_menu.addSeparator()
@@ -97,16 +97,5 @@ class WindowActions(QObject):
         self.export.setEnabled(w.results_tab.export_button.isEnabled())
 
     def next(self) -> None:
-        """A fresh start for the next sensor: no serial, nominal or tolerance carried over."""
-        w = self.window
-        if w.worker is not None:
-            return
-        w.dut_id.clear()
-        w.nominal.setValue(0.0)  # "not given"
-        w.tolerance.setValue(5.0)
-        entry = getattr(w, "serial_entry", None)
-        if entry is not None:
-            entry.reset()
-        w.tabs.setCurrentIndex(SETUP_TAB)
-        w.dut_id.setFocus(Qt.FocusReason.ShortcutFocusReason)
-        w.validate()
+        """A fresh start for the next sensor: nothing of the last one carried over."""
+        self.window.next_sensor()

@@ -4,17 +4,26 @@ Nothing is carried over from the previous certificate (another customer's name o
 DUT's model on a certificate is the error this prevents); the dialog names the run it is for.
 When the records know the run's sensor (by its serial), its customer, address, model and serial
 are filled in from them (and say so); everything else starts empty.
+
+With the records open the certificate goes through the lab's register: "Prepared by" (the
+technician, filled from the window's Technician field) and "Approved by" (who signs it) are
+checked by the records' own rule (`Lab.check_signatories`: the two-person rule) when OK is
+pressed, and a refusal is shown at its field while the dialog stays open.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 from PySide6.QtWidgets import QDialog, QDialogButtonBox, QFormLayout, QLabel, QLineEdit, QWidget
 
 from app.certificate import CertificateInfo
-from app.gui.field_marks import NoteLabel
+from app.db.errors import RecordsInputError
+from app.gui.field_marks import ERROR, FieldMarks, NoteLabel
 from app.run_record import RunRecord
+
+Signatories = Callable[[str, str], object]  # (prepared by, approved by): raises when refused
 
 
 def run_identity(record: RunRecord) -> str:
@@ -41,18 +50,37 @@ class CertificateDialog(QDialog):
         ("notes", "Notes"),
     )
 
-    def __init__(self, parent: QWidget | None, record: RunRecord, defaults: dict | None = None):
+    def __init__(
+        self,
+        parent: QWidget | None,
+        record: RunRecord,
+        defaults: dict | None = None,
+        *,
+        prepared_by: str | None = None,
+        check: Signatories | None = None,
+        heading: str = "",
+    ):
+        """`prepared_by` (None: no register, no such field) fills "Prepared by"; `check`
+        is the records' rule for the two signatories, run when OK is pressed."""
         super().__init__(parent)
         self.setWindowTitle(f"Certificate of run {record.run_id}")
+        self._check = check
         form = QFormLayout(self)
-        heading = NoteLabel()  # wrapped, as tall as its text
-        heading.setText(f"<b>Certificate of {run_identity(record)}</b>")
-        form.addRow(heading)
+        self.title = NoteLabel()  # wrapped, as tall as its text
+        self.title.setText(f"<b>{heading or 'Certificate'} of {run_identity(record)}</b>")
+        form.addRow(self.title)
         self.edits: dict[str, QLineEdit] = {}
         defaults = defaults or {}
         if defaults:
             form.addRow(QLabel("<i>Customer and sensor filled in from the records.</i>"))
+        self.prepared: QLineEdit | None = None
+        if prepared_by is not None:
+            self.prepared = QLineEdit(prepared_by)
+            self.prepared.setToolTip("who prepared the certificate (the technician)")
+            form.addRow("Prepared by", self.prepared)
         for key, label in self.FIELDS:
+            if key == "authorised_by" and prepared_by is not None:
+                label = "Approved by (signs)"
             edit = QLineEdit()
             if defaults.get(key):
                 edit.setText(str(defaults[key]))
@@ -68,6 +96,33 @@ class CertificateDialog(QDialog):
         buttons.accepted.connect(self.accept)
         buttons.rejected.connect(self.reject)
         form.addRow(buttons)
+        marked: dict[str, QWidget] = {"approved_by": self.edits["authorised_by"]}
+        if self.prepared is not None:
+            marked["prepared_by"] = self.prepared
+        self.marks = FieldMarks(marked)
+
+    def prepared_by(self) -> str:
+        """The "Prepared by" field as typed ("" without the register)."""
+        return self.prepared.text().strip() if self.prepared is not None else ""
+
+    def accept(self) -> None:
+        """Close only when the records take the two signatories; else say why at the field."""
+        if self._check is not None:
+            approved = self.edits["authorised_by"]
+            for edit in (approved, self.prepared):
+                if edit is not None:
+                    self.marks.note(edit, None)
+            try:
+                self._check(self.prepared_by(), approved.text())
+            except RecordsInputError as exc:
+                text = str(exc)
+                field = approved
+                if text.startswith("prepared by") and self.prepared is not None:
+                    field = self.prepared
+                self.marks.note(field, text, ERROR)
+                field.setFocus()
+                return
+        super().accept()
 
     def temperature_c(self) -> float | None:
         """The typed temperature (None when empty or not a finite number: refused by name

@@ -15,6 +15,7 @@ import json
 import logging
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
+from datetime import UTC, date, datetime
 from pathlib import Path
 from typing import Any
 
@@ -44,16 +45,19 @@ from PySide6.QtWidgets import (
 
 from app import stand_config
 from app.certificate import CertificateError, CertificateInfo, build
-from app.gui import field_marks
+from app.gui import certify, field_marks
 from app.gui.actions import START, WindowActions, with_key
 from app.gui.certificate_dialog import CertificateDialog, run_identity
 from app.gui.plots import FRAME_HZ, LivePlots
 from app.gui.records_link import RecordsLink
-from app.gui.reference_view import describe_reference
+from app.gui.reference_view import describe_reference, reference_allows_run
+from app.gui.register_tab import RegisterTab
 from app.gui.results_tab import ResultsTab, wrapping_label
 from app.gui.runs_tab import RunsTab
 from app.gui.sensor_entry import SerialEntry
 from app.gui.sensors_tab import SensorsTab
+from app.gui.teds_entry import TedsEntry
+from app.gui.templates import TemplatePicker
 from app.gui.worker import RunWorker
 from app.lines import parse_frequencies
 from app.procedure import (
@@ -79,7 +83,18 @@ from sim.models import DUT_CATALOGUE
 log = logging.getLogger(__name__)
 
 ORGANISATION, APPLICATION = "accelcal", "accelcal"
-RUN_TAB, RESULTS_TAB, RUNS_TAB, SENSORS_TAB = 1, 2, 3, 4
+RUN_TAB, RESULTS_TAB, RUNS_TAB, SENSORS_TAB, REGISTER_TAB = 1, 2, 3, 4, 5
+# the plan fields Next sensor puts back to how the window opened (nothing of the last sensor)
+PLAN_FIELDS = (
+    *("nominal", "tolerance", "preset", "frequencies", "level", "periods", "target"),
+    *("max_time", "estimator", "mode"),
+)
+STOP_STYLE = (  # flat colours (a border makes Qt draw the background as given)
+    "QPushButton { background: #c0392b; color: white; font-weight: bold; padding: 8px;"
+    " border: 1px solid #922b21; border-radius: 4px; }"
+    "QPushButton:disabled { background: #e5e7e9; color: #a6acaf; font-weight: normal;"
+    " border: 1px solid #ccd1d1; }"
+)
 
 
 @dataclass(frozen=True)
@@ -158,6 +173,10 @@ class MainWindow(QMainWindow):
         self.settings = QSettings(ORGANISATION, APPLICATION)
         self.worker: RunWorker | None = None
         self.last_finished: Finished | None = None
+        self.last_request: RunRequest | None = None  # the settings of the run just made
+        self.last_certificate: str | None = None  # the number the register gave last
+        self.certificate_dialog_open: Any = None
+        self.today: date | None = None  # a fixed date for tests; None: the UTC date
         self._live: dict[str, Any] = {}
         self._plans: dict[Any, Future] = {}
         self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="plan")
@@ -178,6 +197,9 @@ class MainWindow(QMainWindow):
         self.tabs.addTab(self.runs_tab, "4  Runs")
         self.sensors_tab = SensorsTab(self.records)
         self.tabs.addTab(self.sensors_tab, "5  Sensors")
+        self.register_tab = RegisterTab(self)
+        self.tabs.addTab(self.register_tab, "6  Register")
+        self._plan_defaults = self._plan_values()
         # the names tests and older code use
         self.summary, self.table = self.results_tab.summary, self.results_tab.table
         self.budget, self.result_mag = self.results_tab.budget, self.results_tab.result_mag
@@ -186,6 +208,7 @@ class MainWindow(QMainWindow):
         self.window_actions = WindowActions(self)  # menus and shortcuts (Ctrl+R, Ctrl+., Esc, ...)
         self.field_marks = field_marks.install(self)  # bad input marked at its field
         self.serial_entry = SerialEntry(self, self.records, self.field_marks)
+        self.serial_entry.sensor_changed.connect(self.templates.show_for)
         self.records.changed.connect(self.show_reference)
         self.run_finished.connect(self._index_run)
         self.timer = QTimer(self, interval=int(1000 / FRAME_HZ))
@@ -241,6 +264,14 @@ class MainWindow(QMainWindow):
         self.reference_label = wrapping_label(describe_reference(self.config))
         self.reference_label.setTextFormat(Qt.TextFormat.RichText)
         form.addRow("Reference standard", self.reference_label)
+        self.technician = QLineEdit(str(self.settings.value("technician", "")) or _login_name())
+        self.technician.setToolTip(
+            "who is working at the stand today: 'Prepared by' on the certificates"
+        )
+        self.technician.editingFinished.connect(
+            lambda: self.settings.setValue("technician", self.technician.text().strip())
+        )
+        form.addRow("Technician", self.technician)
         self.dut = QComboBox()
         self.dut.addItems(list(DUT_CATALOGUE))
         self.dut.setCurrentText(str(self.settings.value("dut", "piezo")))
@@ -253,6 +284,8 @@ class MainWindow(QMainWindow):
         self.tolerance = QDoubleSpinBox(decimals=1, maximum=50.0, value=5.0, suffix=" %")
         form.addRow("DUT", self.dut)
         form.addRow("DUT serial", self.dut_id)
+        self.teds = TedsEntry(self, self.records)
+        form.addRow("", self.teds.button)
         form.addRow("Nominal sensitivity", self.nominal)
         form.addRow("Tolerance of the characteristic", self.tolerance)
         layout.addWidget(stand, 1)
@@ -282,6 +315,11 @@ class MainWindow(QMainWindow):
             spin.valueChanged.connect(self.validate)
         self.periods.valueChanged.connect(self.validate)
         self.frequencies.textChanged.connect(self.validate)
+        self.templates = TemplatePicker(self, self.records)
+        template_row = QHBoxLayout()
+        template_row.addWidget(self.templates.combo, 1)
+        template_row.addWidget(self.templates.save_button)
+        pform.addRow("Template", template_row)
         pform.addRow("Preset", self.preset)
         pform.addRow("Lines", self.frequencies)
         pform.addRow("Level", self.level)
@@ -314,9 +352,7 @@ class MainWindow(QMainWindow):
         self.coherence = ElidedLabel("")
         self.progress = QProgressBar()
         self.stop_button = QPushButton("Stop (fade out)  Ctrl+.")
-        self.stop_button.setStyleSheet(
-            "background: #c0392b; color: white; font-weight: bold; padding: 8px"
-        )
+        self.stop_button.setStyleSheet(STOP_STYLE)  # disabled: grey, visibly not active
         self.stop_button.clicked.connect(self.stop_run)
         self.stop_button.setEnabled(False)
         top.addWidget(self.state, 2)
@@ -338,6 +374,43 @@ class MainWindow(QMainWindow):
         self.messages.setTextFormat(Qt.TextFormat.RichText)
         layout.addWidget(self.messages)
         return page
+
+    def _plan_values(self) -> dict[str, Any]:
+        """The values of PLAN_FIELDS now (Next sensor puts the window's first ones back)."""
+        values: dict[str, Any] = {}
+        for name in PLAN_FIELDS:
+            widget = getattr(self, name)
+            if isinstance(widget, QComboBox):
+                values[name] = widget.currentText()
+            elif isinstance(widget, QLineEdit):
+                values[name] = widget.text()
+            else:
+                values[name] = widget.value()
+        return values
+
+    def next_sensor(self) -> None:
+        """A fresh start for the next sensor: serial, nominal, tolerance, template and plan
+        fields as the window opened, no results, no run, no certificate of the last one."""
+        if self.worker is not None:
+            return
+        self.dut_id.clear()
+        self.serial_entry.reset()
+        for name, value in self._plan_defaults.items():
+            widget = getattr(self, name)
+            if isinstance(widget, QComboBox):
+                widget.setCurrentText(value)
+            elif isinstance(widget, QLineEdit):
+                widget.setText(value)
+            else:
+                widget.setValue(value)
+        self.results_tab.clear("No results yet: the next sensor's run shows here.")
+        self.clear_run_tab()
+        self.state.setText("idle")
+        self.last_finished, self.last_request, self.last_certificate = None, None, None
+        self.field_marks.note(self.reference_label, None)
+        self.tabs.setCurrentIndex(0)
+        self.dut_id.setFocus(Qt.FocusReason.ShortcutFocusReason)
+        self.validate()
 
     def clear_run_tab(self) -> None:
         """A new run starts from an empty Run tab: no curve, meter or word of the last run."""
@@ -509,15 +582,22 @@ class MainWindow(QMainWindow):
     def start_run(self) -> None:
         if self.worker is not None or self.validate():
             return
+        allowed, note = reference_allows_run(self)  # the records' due-date rule, as the CLI
+        if not allowed:
+            return
         self.settings.setValue("dut", self.dut.currentText())
         self.settings.setValue("stand_file", str(self.stand_file or ""))
+        request = self.request()
         try:
-            procedure, stand = start(self.request())
+            procedure, stand = start(request)
         except (ValueError, HardwareError) as exc:  # config, plan, missing driver or device
             QMessageBox.warning(self, "Cannot start", f"{type(exc).__name__}: {exc}")
             self.messages.setText(html.escape(f"Cannot start: {exc}"))
             return
         self.clear_run_tab()
+        self.last_request = request
+        if note:
+            self.messages.setText(html.escape(note))
         self.state.setText("starting ...")
         self._live = {"plan": procedure.plan}
         self.worker = RunWorker(procedure, stand)
@@ -712,6 +792,8 @@ class MainWindow(QMainWindow):
         if target is None:
             return None
         folder, record = target
+        if self.records.lab is not None:  # the lab's register numbers it
+            return certify.ask(self, folder, record)
         dialog = CertificateDialog(self, record, self.records.certificate_defaults(record))
         if dialog.exec() != QDialog.DialogCode.Accepted:
             return None
@@ -764,10 +846,22 @@ class MainWindow(QMainWindow):
                 self._on_done(worker.finished)
         self.timer.stop()
         self._pool.shutdown(wait=False, cancel_futures=True)
+        self.teds.close()
         event.accept()
+
+    def today_utc(self) -> date:
+        """Today (UTC), or the date a test fixed."""
+        return self.today or datetime.now(UTC).date()
 
     def wait_for_plans(self) -> None:
         """Block until the preset plans are optimised (tests, screenshots)."""
         for future in self._plans.values():
             future.result()
         self.validate()
+
+
+def _login_name() -> str:
+    """The operating-system user: the technician until one is typed."""
+    from app.db.audit import current_actor
+
+    return current_actor()

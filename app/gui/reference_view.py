@@ -1,13 +1,23 @@
 """What the Setup tab says about the reference standard: the one the run will use, from the
 stand file loaded (its [reference] table), and what the records know of it (certificate, due
-date, expired). It reads; the due-date rule itself is the records' (`Lab.reference_for_run`).
+date, expired). It reads; the due-date rule itself is the records' (`Lab.reference_for_run`,
+through `app.db.runs.reference_due_note`, the CLI's own check): Start refuses a reference
+standard past its due date unless an override reason is typed, as `run --reference-override`.
 """
 
 from __future__ import annotations
 
 import html
+import logging
 from datetime import UTC, date, datetime
 from typing import Any
+
+from PySide6.QtWidgets import QInputDialog
+
+from app.db.errors import RecordsInputError
+from app.gui.field_marks import ERROR
+
+log = logging.getLogger(__name__)
 
 
 def describe_reference(config: Any, link: Any = None, today: date | None = None) -> str:
@@ -47,3 +57,39 @@ def describe_reference(config: Any, link: Any = None, today: date | None = None)
             f"{record.due_date}</span>"
         )
     return "<br/>".join(lines)
+
+
+def reference_allows_run(window: Any) -> tuple[bool, str | None]:
+    """Whether Start may go on with the stand's reference standard, and a note to show. Past
+    its due date on record: the refusal names the date and asks an override reason; without
+    one nothing starts and the refusal is shown at the reference standard. Records not open:
+    not checked here (the run still records to its folder), as the CLI."""
+    from app.db.runs import reference_due_note
+
+    lab = window.records.lab
+    marks = window.field_marks
+    marks.note(window.reference_label, None)
+    if lab is None:
+        return True, None
+    reference_id = window.config.reference.id
+    today = window.today_utc()
+    try:
+        return True, reference_due_note(lab, reference_id, today=today, override_reason=None)
+    except RecordsInputError as exc:
+        refusal = str(exc)
+    reason, ok = QInputDialog.getText(
+        window,
+        "Reference standard past its due date",
+        f"{refusal}.\n\nOverride reason (required to run; kept in the log):",
+    )
+    if not ok or not reason.strip():
+        marks.note(window.reference_label, f"Start refused: {refusal}", ERROR)
+        window.messages.setText(html.escape(f"Start refused: {refusal}"))
+        return False, None
+    try:
+        note = reference_due_note(lab, reference_id, today=today, override_reason=reason.strip())
+    except RecordsInputError as exc:  # the records changed meanwhile
+        marks.note(window.reference_label, f"Start refused: {exc}", ERROR)
+        return False, None
+    log.warning("%s", note)
+    return True, note

@@ -13,7 +13,7 @@ from __future__ import annotations
 import logging
 from typing import Any
 
-from PySide6.QtCore import QObject
+from PySide6.QtCore import QObject, Signal
 from PySide6.QtWidgets import (
     QComboBox,
     QDialog,
@@ -77,7 +77,10 @@ class RegisterSensorDialog(QDialog):
 
 
 class SerialEntry(QObject):
-    """Looks the DUT serial up when it is entered (Enter, or the field left)."""
+    """Looks the DUT serial up when it is entered (Enter, or the field left). `sensor_changed`
+    carries the sensor on record now (None: none), for the templates of its model."""
+
+    sensor_changed = Signal(object)
 
     def __init__(self, window: Any, link: Any, marks: FieldMarks) -> None:
         super().__init__(window)
@@ -90,20 +93,32 @@ class SerialEntry(QObject):
 
     def _edited(self, _text: str) -> None:
         """Typing again forgets the last look-up (the fields it filled stay until next sensor)."""
+        had = self.sensor is not None
         self._looked_up = None
         self.sensor = None
         self.marks.note(self.window.dut_id, None)
+        if had:
+            self.sensor_changed.emit(None)
 
     def reset(self) -> None:
         self._looked_up, self.sensor = None, None
         self.marks.note(self.window.dut_id, None)
+        self.sensor_changed.emit(None)
+
+    def take(self, sensor: Any, how: str) -> None:
+        """A sensor found another way (its TEDS): as if its serial had been typed."""
+        self._looked_up = sensor.serial
+        self.fill(sensor, how)
 
     def look_up(self) -> Any:
         """The sensor on record for the serial typed (None: unknown or no records)."""
         serial = self.window.dut_id.text().strip()
         if self._busy or serial == self._looked_up:
             return self.sensor
+        had = self.sensor is not None
         self._looked_up, self.sensor = serial, None
+        if had:
+            self.sensor_changed.emit(None)
         if not serial:
             self.marks.note(self.window.dut_id, None)
             return None
@@ -165,8 +180,8 @@ class SerialEntry(QObject):
             return False
         return True
 
-    def fill(self, sensor: Any) -> None:
-        """The DUT's settings from its record (exact serial only)."""
+    def fill(self, sensor: Any, how: str = "") -> None:
+        """The DUT's settings from its record (exact serial only); `how` it was identified."""
         from app.db.units import to_mv_per_ms2
 
         self.sensor = sensor
@@ -180,8 +195,10 @@ class SerialEntry(QObject):
         due = f", due {sensor.due_date}" if sensor.due_date else ""
         self.marks.note(
             w.dut_id,
-            f"from the records: {model.maker} {model.model}, owner {sensor.owner.name}{due}; "
+            f"from the records{f' ({how})' if how else ''}: {model.maker} {model.model}, "
+            f"owner {sensor.owner.name}{due}; "
             f"nominal {model.nominal_sensitivity:g} {model.unit}, tolerance "
             f"{model.tolerance_percent:g} %",
             INFO,
         )
+        self.sensor_changed.emit(sensor)

@@ -1,6 +1,10 @@
-"""Screenshots of every tab at 1366x768 (offscreen): a records database with two customers'
-sensors and a history, one simulated run of a registered sensor, each tab grabbed.
+"""Screenshots of every tab: a records database with two customers' sensors, their history,
+run templates and a certificate register (issued, amended, withdrawn), one simulated run of a
+registered sensor from its template, its certificate issued through the register, each tab
+grabbed.
 
+    xvfb-run -s "-screen 0 1920x1080x24" env QT_QPA_PLATFORM=xcb \
+        python docs/screenshots/take.py [WIDTHxHEIGHT]        # default 1366x768
     QT_QPA_PLATFORM=offscreen python docs/screenshots/take.py [WIDTHxHEIGHT]
 """
 
@@ -17,6 +21,8 @@ os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 from PySide6.QtCore import QCoreApplication, QEventLoop, QTimer
 from PySide6.QtWidgets import QApplication
 
+from app.certificate import CertificateInfo
+from app.db.certify import issue_registered
 from app.db.engine import open_engine
 from app.db.lab import Lab
 from app.db.models import Run, Stand
@@ -58,6 +64,26 @@ def records(url: str) -> None:
         ("SN-1042", date(2025, 11, 3), 10.31, 0.05),
         ("BK-2210", date(2024, 6, 12), 9.98, 0.04),
     ]
+    lab.add_template(
+        "352C33",
+        "5 lines, quick",
+        preset="piezo",
+        frequencies_hz=[40, 80, 160, 315, 630],
+        level_ms2=5.0,
+        periods=4,
+        estimator="periodic",
+    )
+    lab.add_template(
+        "352C33",
+        "full, 0.2 % type A",
+        preset="piezo",
+        level_ms2=5.0,
+        periods=8,
+        target_type_a=0.002,
+        max_acquisition_s=30.0,
+        estimator="periodic",
+    )
+    lab.set_setting("two_person_rule", "on")
     ids = {s.serial: s.id for s in lab.sensors()}
     with lab.session() as session:
         stand = Stand(stand_file_sha256="0" * 64, name="simulated stand")
@@ -77,6 +103,21 @@ def records(url: str) -> None:
                     expanded_uncertainty_mv_per_ms2=u,
                 )
             )
+    for n, (_serial, day, _s, _u) in enumerate(history):
+        when = datetime(day.year, day.month, day.day, 15, tzinfo=UTC)
+        lab.issue_certificate(
+            run_id=f"hist-{n}", prepared_by="A. Tech", approved_by="J. Smith", when=when
+        )
+    first = lab.register()[0].number
+    lab.issue_certificate(
+        run_id="hist-0",
+        prepared_by="A. Tech",
+        approved_by="J. Smith",
+        when=datetime(2022, 11, 9, 10, tzinfo=UTC),
+        replaces=first,
+        reason="customer address corrected",
+    )
+    lab.withdraw_certificate(lab.register()[2].number, "wrong sensor mounted")
 
 
 def main() -> int:
@@ -93,17 +134,34 @@ def main() -> int:
     window.show()
     window.records.wait()
     window.wait_for_plans()
+    window.technician.setText("A. Tech")
     window.dut_id.setText("SN-1043")
     window.dut_id.editingFinished.emit()
+    window.templates.choose("5 lines, quick")
     window.nominal.setValue(0.0)  # the simulated piezo is not a 352C33
-    window.periods.setValue(4)
     loop = QEventLoop()
     window.run_finished.connect(lambda _f: QTimer.singleShot(300, loop.quit))
+    while not window.start_button.isEnabled():
+        QCoreApplication.processEvents(QEventLoop.ProcessEventsFlag.AllEvents, 50)
     window.start_run()
     loop.exec()
-    names = ["1-setup", "2-run", "3-results", "4-runs", "5-sensors"]
+    window.records.wait_jobs()
+    folder = window.results_tab.folder
+    assert folder is not None, "the run did not complete"
+    issued = issue_registered(
+        folder,
+        CertificateInfo(
+            authorised_by="J. Smith", temperature_c=23.0, mounting="stud, 2 N m", dut_type="IEPE"
+        ),
+        folder / "certificate.pdf",
+        url=url,
+        prepared_by="A. Tech",
+    )
+    window.open_run(folder, switch=False)
+    window.register_tab.refresh()
+    window.register_tab.select(issued.number)
+    names = ["1-setup", "2-run", "3-results", "4-runs", "5-sensors", "6-register"]
     window.sensors_tab.search.setText("SN-1042")
-    window.dut_id.setText("SN-1043")
     for index, name in enumerate(names):
         window.tabs.setCurrentIndex(index)
         for _ in range(5):

@@ -312,3 +312,113 @@ def test_as_found_must_be_an_earlier_complete_run_of_the_same_sensor(lab: Lab) -
     lab.issue_certificate(run_id="left", prepared_by="A", approved_by="B", as_found_run_id="found")
     (entry,) = lab.register()
     assert (entry.run.run_id, entry.as_found_run.run_id) == ("left", "found")
+
+
+# ---- run templates per sensor model -----------------------------------------------------------
+def test_templates_belong_to_a_model_and_come_back_as_saved(lab: Lab) -> None:
+    lab.add_model(
+        "PCB",
+        "352C33",
+        nominal_sensitivity=100.0,
+        unit="mV/g",
+        tolerance_percent=5,
+        frequency_min_hz=1,
+        frequency_max_hz=10000,
+    )
+    lab.add_template(
+        "4533-B",
+        "quick check",
+        preset="piezo",
+        frequencies_hz=(40.0, 80.0, 160.0, 315.0, 630.0),
+        level_ms2=4.0,
+        periods=3,
+        estimator="periodic",
+        tolerance_percent=2.5,
+    )
+    lab.add_template(
+        "Brüel & Kjær 4533-B",
+        "full, 0.2 % type A",
+        preset="piezo",
+        level_ms2=5.0,
+        periods=8,
+        target_type_a=0.002,
+        max_acquisition_s=30.0,
+        estimator="h1",
+    )
+    lab.add_template(
+        "352C33", "quick check", preset="capacitive", level_ms2=3.0, periods=4, estimator="seed"
+    )  # same name, another model: allowed
+    rows = lab.templates("4533-B")
+    assert [t.name for t in rows] == ["full, 0.2 % type A", "quick check"]  # by name
+    full, quick = rows
+    assert quick.lines_hz() == (40.0, 80.0, 160.0, 315.0, 630.0)
+    assert (quick.level_ms2, quick.periods, quick.tolerance_percent) == (4.0, 3, 2.5)
+    assert quick.target_type_a is None and quick.estimator == "periodic"
+    assert full.lines_hz() is None and full.target_type_a == 0.002
+    assert (full.max_acquisition_s, full.estimator) == (30.0, "h1")
+    assert [t.preset for t in lab.templates("PCB 352C33")] == ["capacitive"]
+    with Session(lab.engine) as s:
+        trail = s.scalars(select(AuditEntry).where(AuditEntry.table_name == "run_templates")).all()
+    assert [(e.action, e.row_key, e.actor) for e in trail] == [
+        ("insert", "quick check", "tester"),
+        ("insert", "full, 0.2 % type A", "tester"),
+        ("insert", "quick check", "tester"),
+    ]
+    assert '"level_ms2": 4.0' in trail[0].changes
+
+
+@pytest.mark.parametrize(
+    ("change", "field"),
+    [
+        ({"name": "  "}, "template name"),
+        ({"name": "quick"}, "template name"),  # exists for the model
+        ({"model": "NOPE"}, "model"),
+        ({"preset": "quartz"}, "preset"),
+        ({"estimator": "h2"}, "estimator"),
+        ({"level_ms2": 0.0}, "level"),
+        ({"level_ms2": float("nan")}, "level"),
+        ({"periods": 2}, "periods"),
+        ({"target_type_a": 0.5}, "type A target"),
+        ({"max_acquisition_s": -1.0}, "time bound"),
+        ({"tolerance_percent": 0.0}, "tolerance"),
+        ({"frequencies_hz": (40.0, 80.0)}, "frequencies"),  # no 160 Hz reference line
+        ({"frequencies_hz": (160.0, 2900.0)}, "frequencies"),  # above 0.45 fs of 6 kHz
+    ],
+)
+def test_a_bad_template_field_is_refused_by_name(lab: Lab, change: dict, field: str) -> None:
+    lab.add_template(
+        "4533-B", "quick", preset="piezo", level_ms2=4, periods=3, estimator="periodic"
+    )
+    values = {
+        "model": "4533-B",
+        "name": "other",
+        "preset": "piezo",
+        "level_ms2": 4.0,
+        "periods": 3,
+        "estimator": "periodic",
+    } | change
+    model, name = values.pop("model"), values.pop("name")
+    with pytest.raises(RecordsError, match=f"^{field}: "):
+        lab.add_template(model, name, **values)
+    assert [t.name for t in lab.templates("4533-B")] == ["quick"]
+
+
+def test_the_same_person_is_refused_as_approver_under_the_two_person_rule(lab: Lab) -> None:
+    assert lab.check_signatories(" Ann ", "ann") == ("Ann", "ann")  # rule off: allowed
+    lab.set_setting("two_person_rule", "on")
+    with pytest.raises(RecordsError, match=r"^approved by: the lab's two-person rule"):
+        lab.check_signatories("Ann", " ANN")
+    with pytest.raises(RecordsError, match=r"^prepared by: must not be blank"):
+        lab.check_signatories("", "Bob")
+    assert lab.check_signatories("Ann", "Bob") == ("Ann", "Bob")
+
+
+def test_complete_runs_of_a_sensor_newest_first(lab: Lab) -> None:
+    t = datetime(2026, 11, 20, tzinfo=UTC)
+    _run(lab, "old", "SN-1", t, 10.0)
+    _run(lab, "new", "SN-1", t + timedelta(days=1), 10.0)
+    _run(lab, "cut", "SN-1", t + timedelta(days=2), 10.0, status="aborted")
+    _run(lab, "other", "SN-2", t, 10.0)
+    assert [r.run_id for r in lab.complete_runs("SN-1")] == ["new", "old"]
+    with pytest.raises(RecordsError, match=r"^serial: no sensor"):
+        lab.complete_runs("SN-404")

@@ -1,0 +1,121 @@
+"""Certificates from the window through the lab's register: the run shown (verified again), the
+fields asked afresh, the number allocated by the register (`app.db.certify.issue_registered`,
+the PDF written inside the register's transaction), or a refusal shown and nothing written.
+
+An amendment or reissue (from the Register tab) is the same, with the certificate it replaces
+and the reason. Without the records the window issues an unregistered certificate as before
+(`MainWindow.issue_certificate`). Nothing here computes: it asks, calls and shows.
+"""
+
+from __future__ import annotations
+
+import html
+import logging
+from pathlib import Path
+from typing import Any
+
+from PySide6.QtCore import QUrl
+from PySide6.QtGui import QDesktopServices
+from PySide6.QtWidgets import QDialog, QMessageBox
+
+from app.certificate import CertificateError, CertificateInfo
+from app.db.errors import RecordsInputError
+from app.gui.certificate_dialog import CertificateDialog, run_identity
+from app.records import RunIntegrityError, is_product_name
+from app.run_record import RunRecord
+
+log = logging.getLogger(__name__)
+
+MAX_CERTIFICATES_PER_RUN = 100
+
+
+def free_pdf(folder: Path) -> Path:
+    """The first certificate file name not yet used in a run folder: certificate.pdf, then
+    certificate-2.pdf, ... (a certificate is never overwritten; an amendment is a new file)."""
+    for n in range(1, MAX_CERTIFICATES_PER_RUN + 1):
+        path = folder / ("certificate.pdf" if n == 1 else f"certificate-{n}.pdf")
+        assert is_product_name(path.name)
+        if not path.exists() and not path.with_suffix(".xml").exists():
+            return path
+    raise CertificateError(f"{folder}: {MAX_CERTIFICATES_PER_RUN} certificates already")
+
+
+def ask(
+    window: Any,
+    folder: Path,
+    record: RunRecord,
+    *,
+    replaces: str | None = None,
+    reason: str | None = None,
+) -> Path | None:
+    """Ask the certificate's fields for the run `folder`, name the run once, then issue it
+    through the register; the PDF's path, None when cancelled or refused (shown)."""
+    lab = window.records.lab
+    heading = f"Amendment of {replaces} ({reason})" if replaces else "Certificate"
+    dialog = CertificateDialog(
+        window,
+        record,
+        window.records.certificate_defaults(record),
+        prepared_by=window.technician.text().strip(),
+        check=lab.check_signatories,
+        heading=html.escape(heading),
+    )
+    window.certificate_dialog_open = dialog  # tests and screenshots reach the open dialog
+    try:
+        if dialog.exec() != QDialog.DialogCode.Accepted:
+            return None
+    finally:
+        window.certificate_dialog_open = None
+    what = f"an amendment of {replaces}" if replaces else "the certificate"
+    answer = QMessageBox.question(
+        window,
+        "Issue the certificate?",
+        f"Issue {what} of {run_identity(record)} and enter it in the register?",
+    )
+    if answer != QMessageBox.StandardButton.Yes:
+        return None
+    return issue(
+        window, folder, dialog.info(), dialog.prepared_by(), replaces=replaces, reason=reason
+    )
+
+
+def issue(
+    window: Any,
+    folder: Path,
+    info: CertificateInfo,
+    prepared_by: str,
+    *,
+    replaces: str | None = None,
+    reason: str | None = None,
+) -> Path | None:
+    """Issue through the register (number, PDF in one transaction); errors shown, not raised."""
+    from app.db.certify import issue_registered
+
+    window.records.wait_jobs()  # the run's own indexing (records thread) first: no race
+    try:
+        out = free_pdf(folder)
+        issued = issue_registered(
+            folder,
+            info,
+            out,
+            url=window.records.url,
+            prepared_by=prepared_by,
+            replaces=replaces,
+            reason=reason,
+        )
+    except (RecordsInputError, CertificateError, RunIntegrityError, ValueError, OSError) as exc:
+        QMessageBox.warning(window, "Certificate refused", str(exc))
+        window.messages.setText(html.escape(f"certificate refused: {exc}"))
+        return None
+    path = Path(issued.file)
+    log.info("certificate %s of %s written: %s", issued.number, folder.name, path)
+    window.last_certificate = issued.number
+    window.messages.setText(html.escape(f"certificate {issued.number} written: {path}"))
+    if window.results_tab.folder == folder:
+        window.summary.setText(
+            window.summary.text()
+            + f"<br/>Certificate {html.escape(issued.number)}: {html.escape(str(path))}"
+        )
+    window.register_tab.refresh()
+    QDesktopServices.openUrl(QUrl.fromLocalFile(str(path.resolve())))
+    return path

@@ -1,0 +1,234 @@
+"""The Register tab: the lab's certificate register (number, state, sensor, customer, run, date,
+prepared and approved by, what it replaces, the reason). From a selected certificate:
+"Amend / reissue ..." asks the reason (required), the run (the sensor's complete runs, the
+certificate's own first) and the certificate's fields, and issues a new certificate that
+replaces it; "Withdraw ..." asks the reason. The rules (which state may be replaced, the two-
+person rule, the numbers) are the records' (`app.db.lab.Lab`); this tab asks and shows.
+"""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+from typing import Any
+
+from PySide6.QtCore import Qt
+from PySide6.QtGui import QColor
+from PySide6.QtWidgets import (
+    QAbstractItemView,
+    QHBoxLayout,
+    QHeaderView,
+    QInputDialog,
+    QMessageBox,
+    QPushButton,
+    QTableWidget,
+    QTableWidgetItem,
+    QVBoxLayout,
+    QWidget,
+)
+
+from app.db.errors import RecordsInputError
+from app.gui import certify
+from app.gui.results_tab import wrapping_label
+from app.records import RunIntegrityError, load_run
+
+log = logging.getLogger(__name__)
+
+COLUMNS = (
+    "Number",
+    "State",
+    "Sensor",
+    "Customer",
+    "Run",
+    "Issued (UTC)",
+    "Prepared by",
+    "Approved by",
+    "Replaces",
+    "Reason",
+)
+STATE_COLOUR = {"issued": "#1e8449", "replaced": "#7f8c8d", "withdrawn": "#c0392b"}
+
+
+def _item(text: str, colour: str | None = None) -> QTableWidgetItem:
+    item = QTableWidgetItem(text)
+    item.setFlags(item.flags() & ~Qt.ItemFlag.ItemIsEditable)
+    if colour:
+        item.setForeground(QColor(colour))
+    return item
+
+
+class RegisterTab(QWidget):
+    """The certificate register of the window's records; amend, reissue and withdraw."""
+
+    def __init__(self, window: Any) -> None:
+        super().__init__()
+        self.main = window
+        self.link = window.records
+        layout = QVBoxLayout(self)
+        self.status = wrapping_label(self.link.describe())
+        layout.addWidget(self.status)
+        self.table = QTableWidget(0, len(COLUMNS))
+        self.table.setHorizontalHeaderLabels(list(COLUMNS))
+        self.table.setSelectionBehavior(QAbstractItemView.SelectionBehavior.SelectRows)
+        self.table.setSelectionMode(QAbstractItemView.SelectionMode.SingleSelection)
+        self.table.verticalHeader().setVisible(False)
+        header = self.table.horizontalHeader()
+        header.setSectionResizeMode(QHeaderView.ResizeMode.ResizeToContents)
+        header.setStretchLastSection(True)
+        self.table.itemSelectionChanged.connect(self._selected)
+        layout.addWidget(self.table, 1)
+        buttons = QHBoxLayout()
+        self.refresh_button = QPushButton("Refresh")
+        self.refresh_button.setToolTip("Read the register again")
+        self.refresh_button.clicked.connect(self.refresh)
+        self.amend_button = QPushButton("Amend / reissue ...")
+        self.amend_button.setToolTip(
+            "Issue a new certificate that replaces the selected one (a reason is required)"
+        )
+        self.amend_button.clicked.connect(self.amend)
+        self.withdraw_button = QPushButton("Withdraw ...")
+        self.withdraw_button.setToolTip("Withdraw the selected certificate (a reason is required)")
+        self.withdraw_button.clicked.connect(self.withdraw)
+        for button in (self.refresh_button, self.amend_button, self.withdraw_button):
+            buttons.addWidget(button)
+        buttons.addStretch(1)
+        layout.addLayout(buttons)
+        self.link.changed.connect(self.refresh)
+        self.refresh()
+
+    # --- reading -------------------------------------------------------------------------
+
+    def refresh(self) -> None:
+        """Read the register (milliseconds, GUI thread) and list it, newest last."""
+        self.status.setText(self.link.describe())
+        lab = self.link.lab
+        rows: list[tuple[str, ...]] = []
+        if lab is not None:
+            try:
+                rows = [self._row(c) for c in lab.register()]
+            except RecordsInputError as exc:
+                self.status.setText(f"register not read: {exc}")
+        selected = self.selected_number()
+        self.table.setRowCount(len(rows))
+        for r, row in enumerate(rows):
+            for c, text in enumerate(row):
+                self.table.setItem(r, c, _item(text, STATE_COLOUR.get(text) if c == 1 else None))
+        if selected is not None:
+            self.select(selected)
+        self._selected()
+
+    @staticmethod
+    def _row(c: Any) -> tuple[str, ...]:
+        """One certificate's cells (read while its session's objects are fresh)."""
+        return (
+            c.number,
+            c.state,
+            c.sensor.serial,
+            c.sensor.owner.name,
+            c.run.run_id,
+            c.issued_utc.strftime("%Y-%m-%d %H:%M"),
+            c.prepared_by,
+            c.approved_by,
+            c.replaces or "",
+            c.reason or "",
+        )
+
+    def cell(self, row: int, column: str) -> str:
+        item = self.table.item(row, COLUMNS.index(column))
+        return item.text() if item is not None else ""
+
+    def numbers(self) -> list[str]:
+        return [self.cell(r, "Number") for r in range(self.table.rowCount())]
+
+    def select(self, number: str) -> bool:
+        """Select the certificate `number`; whether it is listed."""
+        for row in range(self.table.rowCount()):
+            if self.cell(row, "Number") == number:
+                self.table.selectRow(row)
+                return True
+        return False
+
+    def selected_number(self) -> str | None:
+        rows = self.table.selectionModel().selectedRows()
+        return self.cell(rows[0].row(), "Number") if rows else None
+
+    def _selected(self) -> None:
+        rows = self.table.selectionModel().selectedRows()
+        issued = bool(rows) and self.cell(rows[0].row(), "State") == "issued"
+        running = getattr(self.main, "worker", None) is not None
+        self.amend_button.setEnabled(issued and not running)
+        self.withdraw_button.setEnabled(issued)
+
+    # --- amending and withdrawing --------------------------------------------------------
+
+    def _reason(self, title: str, prompt: str) -> str | None:
+        """A reason typed by the user (None when cancelled; a blank one is refused by name)."""
+        text, ok = QInputDialog.getText(self, title, prompt)
+        if not ok:
+            return None
+        if not text.strip():
+            QMessageBox.warning(self, title, "reason: must not be blank")
+            return None
+        return text.strip()
+
+    def amend(self) -> Path | None:
+        """Amend or reissue the selected certificate: reason, run, fields; the new PDF."""
+        number = self.selected_number()
+        lab = self.link.lab
+        if number is None or lab is None:
+            return None
+        row = self.table.selectionModel().selectedRows()[0].row()
+        serial, old_run = self.cell(row, "Sensor"), self.cell(row, "Run")
+        reason = self._reason(
+            f"Amend or reissue {number}",
+            f"Why is {number} amended or reissued? (required; it is kept in the register)",
+        )
+        if reason is None:
+            return None
+        try:
+            runs = lab.complete_runs(serial)
+        except RecordsInputError as exc:
+            QMessageBox.warning(self, "Amendment refused", str(exc))
+            return None
+        choices = {r.run_id: Path(r.folder) for r in runs}
+        names = sorted(choices, key=lambda run_id: run_id != old_run)  # its own run first
+        if len(names) > 1:
+            run_id, ok = QInputDialog.getItem(
+                self, f"Amend {number}", f"Run of {serial} to certify:", names, 0, False
+            )
+            if not ok:
+                return None
+        elif names:
+            run_id = names[0]
+        else:
+            QMessageBox.warning(self, "Amendment refused", f"run: no complete run of {serial}")
+            return None
+        folder = choices[run_id]
+        try:
+            record = load_run(folder)  # verified again
+        except (RunIntegrityError, ValueError) as exc:
+            QMessageBox.warning(self, "Amendment refused", str(exc))
+            return None
+        path = certify.ask(self.main, folder, record, replaces=number, reason=reason)
+        self.refresh()
+        return path
+
+    def withdraw(self) -> bool:
+        """Withdraw the selected certificate with a reason; whether it was withdrawn."""
+        number = self.selected_number()
+        lab = self.link.lab
+        if number is None or lab is None:
+            return False
+        reason = self._reason(
+            f"Withdraw {number}", f"Why is {number} withdrawn? (required; kept in the register)"
+        )
+        if reason is None:
+            return False
+        try:
+            lab.withdraw_certificate(number, reason)
+        except RecordsInputError as exc:
+            QMessageBox.warning(self, "Withdrawal refused", str(exc))
+            return False
+        log.info("certificate %s withdrawn: %s", number, reason)
+        self.refresh()
+        return True
