@@ -76,11 +76,13 @@ class LivePlots:
             labels={"left": "%", "bottom": "Hz"},
         )
         frequency_axis(self.sens_plot)
+        self.sens_plot.getAxis("left").enableAutoSIPrefix(False)  # "%", never "% (x0.001)"
         self.sens_curve = self.sens_plot.plot(pen=pg.mkPen("#2c3e50"), symbol="o", symbolSize=5)
         self.sens_err = pg.ErrorBarItem(beam=0.02, pen=pg.mkPen("#7f8c8d"))
         self.sens_plot.addItem(self.sens_err)
         self.phase_plot = g.addPlot(title="Phase", labels={"left": "degree", "bottom": "Hz"})
         frequency_axis(self.phase_plot)
+        self.phase_plot.getAxis("left").enableAutoSIPrefix(False)
         self.phase_curve = self.phase_plot.plot(pen=pg.mkPen("#8e44ad"), symbol="o", symbolSize=5)
         self.phase_err = pg.ErrorBarItem(beam=0.02, pen=pg.mkPen("#7f8c8d"))
         self.phase_plot.addItem(self.phase_err)

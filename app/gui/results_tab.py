@@ -77,6 +77,7 @@ class ResultsTab(QWidget):
         )
         for plot in (self.result_mag, self.result_phase):
             frequency_axis(plot)
+            plot.getAxis("left").enableAutoSIPrefix(False)  # "%", never "% (x0.001)"
             plot.showGrid(x=True, y=True, alpha=0.3)
         middle.addWidget(charts, 2)
         layout.addLayout(middle, 3)

@@ -138,7 +138,6 @@ def main() -> int:
     window.dut_id.setText("SN-1043")
     window.dut_id.editingFinished.emit()
     window.templates.choose("5 lines, quick")
-    window.nominal.setValue(0.0)  # the simulated piezo is not a 352C33
     loop = QEventLoop()
     window.run_finished.connect(lambda _f: QTimer.singleShot(300, loop.quit))
     while not window.start_button.isEnabled():

@@ -228,3 +228,23 @@ def test_a_real_stand_file_loads_and_start_says_what_is_missing(window, monkeypa
     assert not window.load_stand(bad)
     assert "daq.backend" in shown[-1]
     assert window.load_stand(None) and "simulated" in window.stand_label.text()
+
+
+def test_percent_and_degree_axes_show_their_own_unit_not_a_scale_factor(window, qtbot):
+    """A deviation of +-0.5 % is labelled "%" with ticks 0.5, never "% (x0.001)" with 500."""
+    plots = (  # (tab index, plot): a label is scaled only while it is visible
+        (2, window.results_tab.result_mag),
+        (2, window.results_tab.result_phase),
+        (1, window.live.sens_plot),
+        (1, window.live.phase_plot),
+    )
+    window.show()
+    for tab, plot in plots:
+        window.tabs.setCurrentIndex(tab)
+        plot.plot([1.0, 2.0, 3.0], [0.7, -0.7, 0.2])
+        plot.enableAutoRange()
+        qtbot.wait(50)
+        assert plot.getAxis("left").label.isVisible()
+        axis = plot.getAxis("left")
+        assert axis.autoSIPrefixScale == 1.0
+        assert "x0.001" not in axis.labelString() and "0.001" not in axis.labelString()
