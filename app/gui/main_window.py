@@ -66,6 +66,7 @@ from app.procedure import (
     PeriodBlock,
     PeriodEstimate,
     Progress,
+    State,
     StateChanged,
     WarningRaised,
 )
@@ -639,7 +640,8 @@ class MainWindow(QMainWindow):
         live = self._live
         for event in events:
             if isinstance(event, PeriodBlock):
-                live["block"] = event
+                if event.state != State.FADING_OUT:  # keep showing the last steady period
+                    live["block"] = event
             elif isinstance(event, PeriodEstimate):
                 live["estimate"] = event
             elif isinstance(event, StateChanged):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 
+import numpy as np
 import pytest
 
 os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
@@ -248,3 +249,20 @@ def test_percent_and_degree_axes_show_their_own_unit_not_a_scale_factor(window, 
         axis = plot.getAxis("left")
         assert axis.autoSIPrefixScale == 1.0
         assert "x0.001" not in axis.labelString() and "0.001" not in axis.labelString()
+
+
+def test_the_run_tab_ends_on_the_last_steady_period_not_the_fade_out(window, qtbot):
+    """The fade-out lasts 4 cycles of the lowest line (0.1 s at 40 Hz) and then plays zeros:
+    the Last period plot keeps the last acquired period, which moves over its whole length."""
+    window.frequencies.setText("40,80,160,315,630")
+    window.periods.setValue(3)
+    window.wait_for_plans()
+    qtbot.waitUntil(window.start_button.isEnabled, timeout=10_000)
+    with qtbot.waitSignal(window.run_finished, timeout=60_000) as blocker:
+        qtbot.mouseClick(window.start_button, Qt.MouseButton.LeftButton)
+    assert blocker.args[0].status == "complete"
+    qtbot.wait(200)  # the 25 Hz drawing timer
+    _, y = window.live.wave_ref.getData()
+    assert y is not None and y.size > 0
+    half = y.size // 2
+    assert np.max(np.abs(y[half:])) > 0.5 * np.max(np.abs(y[:half]))
