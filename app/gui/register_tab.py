@@ -12,8 +12,6 @@ import logging
 from pathlib import Path
 from typing import Any
 
-from PySide6.QtCore import Qt
-from PySide6.QtGui import QColor
 from PySide6.QtWidgets import (
     QAbstractItemView,
     QHBoxLayout,
@@ -22,7 +20,6 @@ from PySide6.QtWidgets import (
     QMessageBox,
     QPushButton,
     QTableWidget,
-    QTableWidgetItem,
     QVBoxLayout,
     QWidget,
 )
@@ -30,6 +27,7 @@ from PySide6.QtWidgets import (
 from app.db.errors import RecordsInputError
 from app.gui import certify
 from app.gui.results_tab import wrapping_label
+from app.gui.table_items import read_only_item
 from app.records import RunIntegrityError, load_run
 
 log = logging.getLogger(__name__)
@@ -47,14 +45,6 @@ COLUMNS = (
     "Reason",
 )
 STATE_COLOUR = {"issued": "#1e8449", "replaced": "#7f8c8d", "withdrawn": "#c0392b"}
-
-
-def _item(text: str, colour: str | None = None) -> QTableWidgetItem:
-    item = QTableWidgetItem(text)
-    item.setFlags(item.flags() & ~Qt.ItemFlag.ItemIsEditable)
-    if colour:
-        item.setForeground(QColor(colour))
-    return item
 
 
 class RegisterTab(QWidget):
@@ -112,7 +102,9 @@ class RegisterTab(QWidget):
         self.table.setRowCount(len(rows))
         for r, row in enumerate(rows):
             for c, text in enumerate(row):
-                self.table.setItem(r, c, _item(text, STATE_COLOUR.get(text) if c == 1 else None))
+                self.table.setItem(
+                    r, c, read_only_item(text, STATE_COLOUR.get(text) if c == 1 else None)
+                )
         if selected is not None:
             self.select(selected)
         self._selected()

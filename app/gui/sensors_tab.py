@@ -14,8 +14,6 @@ from typing import Any
 
 import numpy as np
 import pyqtgraph as pg
-from PySide6.QtCore import Qt
-from PySide6.QtGui import QColor
 from PySide6.QtWidgets import (
     QAbstractItemView,
     QGroupBox,
@@ -34,6 +32,7 @@ from PySide6.QtWidgets import (
 from app.db.errors import RecordsInputError
 from app.gui.records_link import RecordsLink
 from app.gui.results_tab import wrapping_label
+from app.gui.table_items import read_only_item
 
 log = logging.getLogger(__name__)
 
@@ -45,14 +44,6 @@ OVERDUE = "#c0392b"
 def _text(table: QTableWidget, row: int, column: int) -> str:
     cell = table.item(row, column)
     return cell.text() if cell is not None else ""
-
-
-def _item(text: str, colour: str | None = None) -> QTableWidgetItem:
-    item = QTableWidgetItem(text)
-    item.setFlags(item.flags() & ~Qt.ItemFlag.ItemIsEditable)
-    if colour:
-        item.setForeground(QColor(colour))
-    return item
 
 
 class SensorsTab(QWidget):
@@ -175,7 +166,9 @@ class SensorsTab(QWidget):
                 str(sensor.due_date) if sensor.due_date else "never calibrated here",
             )
             for column, text_ in enumerate(cells):
-                self.sensors.setItem(row, column, _item(text_, OVERDUE if overdue else None))
+                self.sensors.setItem(
+                    row, column, read_only_item(text_, OVERDUE if overdue else None)
+                )
         self.sensors.blockSignals(False)
         exact = [r for r, s in enumerate(found) if s.serial == text.strip()]
         if exact:
@@ -250,7 +243,7 @@ class SensorsTab(QWidget):
             )
             cells = (item.kind, item.identifier, due_text, item.owner)
             for column, text in enumerate(cells):
-                self.due.setItem(row, column, _item(text, OVERDUE if overdue else None))
+                self.due.setItem(row, column, read_only_item(text, OVERDUE if overdue else None))
 
     def _due_clicked(self, item: QTableWidgetItem) -> None:
         row = item.row()
