@@ -978,7 +978,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         print(
             f"status: {record.status}"
             + (f" ({record.abort_reason})" if record.abort_reason else "")
-            + f"; excitation {record.excitation_time_s:g} s; output now "
+            + f"; excitation {record.excitation_time_s:.1f} s; output now "
             + (f"{record.final_output_v:g} V" if record.final_output_v is not None else "unknown")
         )
     return EXIT_OK if record.complete else EXIT_ABORTED
@@ -1177,7 +1177,7 @@ def cmd_show(args: argparse.Namespace) -> int:
     )
     print(
         f"started {record.started_utc}, finished {record.finished_utc}, "
-        f"excitation {record.excitation_time_s} s, raw data SHA-256 "
+        f"excitation {record.excitation_time_s:.1f} s, raw data SHA-256 "
         f"{record.raw_data_sha256 or 'n/a'}"
     )
     results = record.results_object()
