@@ -73,7 +73,8 @@ class RunRequest:
             preset.reference_frequency_hz,
         )
 
-    def settings(self, backend: str = "sim") -> RunSettings:
+    def settings(self, backend: str) -> RunSettings:
+        """How to run on a stand of `backend` ("sim" or "nidaqmx": it decides the DUT mass)."""
         return RunSettings(
             dut_mass_g=self.mass_g(backend),
             periods=self.periods,
