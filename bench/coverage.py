@@ -20,9 +20,9 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from app.analysis import analyze
-from app.recording import read_recording
-from app.simulate import simulate
+from app.io.hdf5 import read_recording
+from app.procedure.analysis import analyze
+from app.stand.simulate import simulate
 
 
 def one_run(args: tuple[int, str]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -36,9 +36,9 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from app.procedure import PeriodBlock, PeriodEstimate, Procedure, RunSettings
+from app.stand.config import load
+from app.stand.open import open_stand
 from app.stand.response import ResponseStore
-from app.stand_config import load
-from app.stands import open_stand
 from dsp.multisine import PRESETS, Plan, make_plan, preset_plan
 from dsp.spectral import MIN_PERIODS
 

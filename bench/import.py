@@ -5,7 +5,7 @@ Recording: 51.2 kS/s x 2 channels x 30 s (30 periods of 51 200 samples, ISO 266 
 The CSV holds each sample as Python's shortest round-trip repr ("reference_v,dut_v" header);
 a second CSV is numpy.savetxt's '%.18e' (wider numbers). The TDMS file is written with
 npTDMS's writer, one segment per period. Each reader runs in a fresh process (best time of
-`--repeats`): the time of the reader (read + validate, app.recording / app.tdms), its growth
+`--repeats`): the time of the reader (read + validate, app.io.hdf5 / app.io.tdms), its growth
 of the resident set (VmHWM after, reset by /proc/self/clear_refs, less VmRSS before; catches
 what the HDF5 library allocates) and, in a run of its own, its peak traced memory
 (tracemalloc: numpy buffers and Python objects), both as multiples of the float64 data
@@ -34,7 +34,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from app.recording import read_csv, read_recording, write_recording  # noqa: E402
+from app.io.hdf5 import read_csv, read_recording, write_recording  # noqa: E402
 from dsp import iso266  # noqa: E402
 from dsp.calibration import ReferenceChain  # noqa: E402
 from dsp.multisine import Plan, make_plan  # noqa: E402
@@ -88,7 +88,7 @@ def read(kind: str, path: Path, plan: Plan):
         return read_recording(path)
     if kind.startswith("csv"):
         return read_csv(path, plan, chain, budget)
-    from app.tdms import read_tdms
+    from app.io.tdms import read_tdms
 
     return read_tdms(path, plan, chain, budget, reference="reference", dut="dut")
 

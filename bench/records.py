@@ -21,9 +21,9 @@ from pathlib import Path
 
 from sqlalchemy import Engine, insert, text
 
-from app.db.engine import make_engine, resolve_url, upgrade
-from app.db.lab import Lab
-from app.db.models import Customer, Run, Sensor, SensorModel, Stand
+from app.records.db.engine import make_engine, resolve_url, upgrade
+from app.records.db.lab import Lab
+from app.records.db.models import Customer, Run, Sensor, SensorModel, Stand
 
 N_SENSORS = 10_000
 N_RUNS = 100_000

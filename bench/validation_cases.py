@@ -24,10 +24,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from app.analysis import analyze
-from app.recording import Recording, read_recording
-from app.run import RunRequest, execute
-from app.verdict import Band, Tolerances
+from app.io.hdf5 import Recording, read_recording
+from app.procedure.analysis import analyze
+from app.procedure.run import RunRequest, execute
+from app.procedure.verdict import Band, Tolerances
 from dsp.calibration import ReferenceChain, Results
 from dsp.multisine import preset_plan
 from dsp.uncertainty import Budget, Component, Distribution, Quantity

@@ -65,7 +65,7 @@ def _isolated_qt_settings(tmp_path_factory: pytest.TempPathFactory) -> None:
 # here by path, tests of other files by the fixtures they use (a completed calibration run, the
 # Qt window); single tests elsewhere carry @pytest.mark.integration / slow themselves.
 INTEGRATION_PATHS = (
-    "app/db/",  # SQLite and PostgreSQL records databases, migrations, concurrent writers
+    "app/records/db/",  # SQLite and PostgreSQL records databases, migrations, concurrent writers
     "app/test_certificate.py",  # fixture runs, PDFs
     "app/test_dcc.py",  # a fixture run, its certificate and DCC
     "app/test_honest_numbers.py",  # calibration runs and recordings end to end

@@ -13,7 +13,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from app.recording import Recording, write_recording
+from app.io.hdf5 import Recording, write_recording
 from dsp.calibration import ReferenceChain
 from dsp.crestfactor import synthesize
 from dsp.multisine import Plan, preset_plan

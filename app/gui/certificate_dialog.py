@@ -19,9 +19,9 @@ from collections.abc import Callable
 from PySide6.QtWidgets import QDialog, QDialogButtonBox, QFormLayout, QLabel, QLineEdit, QWidget
 
 from app.certificate import CertificateInfo
-from app.db.errors import RecordsInputError
 from app.gui.field_marks import ERROR, FieldMarks, NoteLabel
-from app.run_record import RunRecord
+from app.records.db.errors import RecordsInputError
+from app.records.run_record import RunRecord
 
 Signatories = Callable[[str, str], object]  # (prepared by, approved by): raises when refused
 

@@ -1,5 +1,5 @@
 """Certificates from the window through the lab's register: the run shown (verified again), the
-fields asked afresh, the number allocated by the register (`app.db.certify.issue_registered`,
+fields asked afresh, the number allocated by the register (`app.records.db.certify.issue_registered`,
 the PDF written inside the register's transaction), or a refusal shown and nothing written.
 
 An amendment or reissue (from the Register tab) is the same, with the certificate it replaces
@@ -19,10 +19,10 @@ from PySide6.QtGui import QDesktopServices
 from PySide6.QtWidgets import QDialog, QMessageBox
 
 from app.certificate import CertificateError, CertificateInfo
-from app.db.errors import RecordsInputError
 from app.gui.certificate_dialog import CertificateDialog, run_identity
-from app.records import RunIntegrityError, is_product_name
-from app.run_record import RunRecord
+from app.records.db.errors import RecordsInputError
+from app.records.run_folder import RunIntegrityError, is_product_name
+from app.records.run_record import RunRecord
 
 log = logging.getLogger(__name__)
 
@@ -89,7 +89,7 @@ def issue(
     reason: str | None = None,
 ) -> Path | None:
     """Issue through the register (number, PDF in one transaction); errors shown, not raised."""
-    from app.db.certify import issue_registered
+    from app.records.db.certify import issue_registered
 
     window.records.wait_jobs()  # the run's own indexing (records thread) first: no race
     try:

@@ -3,7 +3,7 @@
 Threads: the procedure runs on a plain worker thread (`app.gui.worker.RunWorker`) that only
 queues copies of its events; a 25 Hz timer on the GUI thread drains the queue and draws, so no
 widget or plot item is ever touched from another thread. The procedure writes the run's record
-itself; the window only reads records, each verified (`app.records`). The Results tab shows one
+itself; the window only reads records, each verified (`app.records.run_folder`). The Results tab shows one
 verified run, and the certificate action certifies exactly that run, after naming it.
 Closing the window during a run fades the drive out first (then 0 V), with a bounded wait.
 """
@@ -43,7 +43,6 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from app import stand_config
 from app.certificate import CertificateError, CertificateInfo, build
 from app.gui import certify, field_marks
 from app.gui.actions import START, WindowActions, with_key
@@ -72,9 +71,10 @@ from app.procedure import (
 )
 from app.procedure.modes import MODES
 from app.procedure.preflight import check_preflight
-from app.records import RunIntegrityError, inspect_run, load_run
-from app.run import RunRequest, start
-from app.run_record import RunRecord
+from app.procedure.run import RunRequest, start
+from app.records.run_folder import RunIntegrityError, inspect_run, load_run
+from app.records.run_record import RunRecord
+from app.stand import config as stand_config
 from dsp.calibration import ReferenceChain, Results
 from dsp.estimators import ESTIMATORS
 from dsp.multisine import PRESETS, Plan, check_lines, make_plan, preset_plan
@@ -864,6 +864,6 @@ class MainWindow(QMainWindow):
 
 def _login_name() -> str:
     """The operating-system user: the technician until one is typed."""
-    from app.db.audit import current_actor
+    from app.records.db.audit import current_actor
 
     return current_actor()

@@ -1,6 +1,6 @@
-"""The window's link to the lab's records (`app.db.lab.Lab`): opened once, off the GUI thread.
+"""The window's link to the lab's records (`app.records.db.lab.Lab`): opened once, off the GUI thread.
 
-The URL is `--db URL`, else $ACCELCAL_DB, else the default SQLite file (`app.db.engine`). Opening
+The URL is `--db URL`, else $ACCELCAL_DB, else the default SQLite file (`app.records.db.engine`). Opening
 may take a while (a PostgreSQL server that does not answer); it runs on its own thread and the
 window polls it. When the records cannot be opened, `error` says why and everything else in the
 window works without them. Queries afterwards take milliseconds and run on the GUI thread;
@@ -19,15 +19,15 @@ from typing import Any
 
 from PySide6.QtCore import QObject, QTimer, Signal
 
-from app.db.errors import RecordsInputError
-from app.run_record import RunRecord
+from app.records.db.errors import RecordsInputError
+from app.records.run_record import RunRecord
 
 log = logging.getLogger(__name__)
 
 
 def _open(url: str | None) -> Any:
-    from app.db.engine import open_engine
-    from app.db.lab import Lab
+    from app.records.db.engine import open_engine
+    from app.records.db.lab import Lab
 
     return Lab(open_engine(url))
 
@@ -100,7 +100,7 @@ class RecordsLink(QObject):
         RecordsInputError only when the records fail."""
         if self.lab is None or not serial.strip():
             return None
-        from app.db.lab import RecordsError
+        from app.records.db.lab import RecordsError
 
         try:
             return self.lab.sensor(serial)

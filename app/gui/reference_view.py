@@ -1,7 +1,7 @@
 """What the Setup tab says about the reference standard: the one the run will use, from the
 stand file loaded (its [reference] table), and what the records know of it (certificate, due
 date, expired). It reads; the due-date rule itself is the records' (`Lab.reference_for_run`,
-through `app.db.runs.reference_due_note`, the CLI's own check): Start refuses a reference
+through `app.records.db.runs.reference_due_note`, the CLI's own check): Start refuses a reference
 standard past its due date unless an override reason is typed, as `run --reference-override`.
 """
 
@@ -14,8 +14,8 @@ from typing import Any
 
 from PySide6.QtWidgets import QInputDialog
 
-from app.db.errors import RecordsInputError
 from app.gui.field_marks import ERROR
+from app.records.db.errors import RecordsInputError
 
 log = logging.getLogger(__name__)
 
@@ -64,7 +64,7 @@ def reference_allows_run(window: Any) -> tuple[bool, str | None]:
     its due date on record: the refusal names the date and asks an override reason; without
     one nothing starts and the refusal is shown at the reference standard. Records not open:
     not checked here (the run still records to its folder), as the CLI."""
-    from app.db.runs import reference_due_note
+    from app.records.db.runs import reference_due_note
 
     lab = window.records.lab
     marks = window.field_marks

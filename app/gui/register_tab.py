@@ -3,7 +3,7 @@ prepared and approved by, what it replaces, the reason). From a selected certifi
 "Amend / reissue ..." asks the reason (required), the run (the sensor's complete runs, the
 certificate's own first) and the certificate's fields, and issues a new certificate that
 replaces it; "Withdraw ..." asks the reason. The rules (which state may be replaced, the two-
-person rule, the numbers) are the records' (`app.db.lab.Lab`); this tab asks and shows.
+person rule, the numbers) are the records' (`app.records.db.lab.Lab`); this tab asks and shows.
 """
 
 from __future__ import annotations
@@ -24,11 +24,11 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from app.db.errors import RecordsInputError
 from app.gui import certify
 from app.gui.results_tab import wrapping_label
 from app.gui.table_items import read_only_item
-from app.records import RunIntegrityError, load_run
+from app.records.db.errors import RecordsInputError
+from app.records.run_folder import RunIntegrityError, load_run
 
 log = logging.getLogger(__name__)
 

@@ -20,7 +20,7 @@ from PySide6.QtWidgets import (
 from app import formatting as fmt
 from app.gui.plots import draw_bands, frequency_axis
 from app.gui.verdict_view import VerdictView, verdict_of
-from app.run_record import RunRecord
+from app.records.run_record import RunRecord
 from dsp.calibration import Results
 from dsp.uncertainty import Budget, Quantity
 

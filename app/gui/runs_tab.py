@@ -1,6 +1,6 @@
 """The Runs tab: every stored run with its verified state.
 
-Each folder is checked with `app.records.inspect_run` (manifest verified, lock looked at):
+Each folder is checked with `app.records.run_folder.inspect_run` (manifest verified, lock looked at):
 
     complete     finished, every file matches its manifest: may be certified
     aborted      finished early (reason stored): kept, never certified
@@ -29,7 +29,7 @@ from PySide6.QtWidgets import (
 
 from app.gui.verdict_view import COLOURS as VERDICT_COLOURS
 from app.gui.verdict_view import verdict_of
-from app.records import RunCheck, inspect_run
+from app.records.run_folder import RunCheck, inspect_run
 
 log = logging.getLogger(__name__)
 

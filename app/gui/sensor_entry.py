@@ -26,8 +26,8 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from app.db.errors import RecordsInputError
 from app.gui.field_marks import INFO, WARNING, FieldMarks
+from app.records.db.errors import RecordsInputError
 from dsp.multisine import PRESETS
 
 log = logging.getLogger(__name__)
@@ -182,7 +182,7 @@ class SerialEntry(QObject):
 
     def fill(self, sensor: Any, how: str = "") -> None:
         """The DUT's settings from its record (exact serial only); `how` it was identified."""
-        from app.db.units import to_mv_per_ms2
+        from app.records.db.units import to_mv_per_ms2
 
         self.sensor = sensor
         model = sensor.model

@@ -1,7 +1,7 @@
 """The Sensors tab: search the lab's sensors by serial, a sensor's history (sensitivity at the
 reference frequency over time with its U bars, drift per year), and what is due.
 
-It reads `app.db.lab.Lab` through the window's `RecordsLink` and draws; it computes nothing
+It reads `app.records.db.lab.Lab` through the window's `RecordsLink` and draws; it computes nothing
 (history and drift come from `Lab.history`, the due list from `Lab.due`). When the records
 cannot be opened the tab says why and the rest of the window works.
 """
@@ -29,10 +29,10 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from app.db.errors import RecordsInputError
 from app.gui.records_link import RecordsLink
 from app.gui.results_tab import wrapping_label
 from app.gui.table_items import read_only_item
+from app.records.db.errors import RecordsInputError
 
 log = logging.getLogger(__name__)
 

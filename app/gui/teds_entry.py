@@ -1,5 +1,5 @@
 """The "Read TEDS" button: the DUT's IEEE 1451.4 TEDS read on the stand (the simulated DUT's
-memory, or the DUT channel through NI-DAQmx: `app.teds_io.open_port`, as `accelcal run --teds`),
+memory, or the DUT channel through NI-DAQmx: `app.stand.teds.open_port`, as `accelcal run --teds`),
 off the GUI thread; the sensor with that TEDS identity is then looked up in the records and the
 fields are filled as for a typed serial. A failed read says why at the serial field and leaves
 entry by hand; an identity not on record fills nothing.
@@ -16,8 +16,8 @@ from typing import Any
 from PySide6.QtCore import QObject, QTimer
 from PySide6.QtWidgets import QPushButton
 
-from app.db.errors import RecordsInputError
 from app.gui.field_marks import WARNING
+from app.records.db.errors import RecordsInputError
 
 log = logging.getLogger(__name__)
 
@@ -34,7 +34,7 @@ class TedsRead:
 def read_teds(stand_file: Path | None, dut: str, seed: int) -> TedsRead:
     """Read and decode the DUT's TEDS (worker thread). TedsError / ConfigError / HardwareError
     say why it failed."""
-    from app import teds_io
+    from app.stand import teds as teds_io
     from hardware.teds import decode
 
     teds = decode(teds_io.open_port(stand_file, dut, seed).read())

@@ -12,8 +12,8 @@ from typing import Any
 from PySide6.QtCore import QObject
 from PySide6.QtWidgets import QComboBox, QInputDialog, QMessageBox, QPushButton
 
-from app.db.errors import RecordsInputError
-from app.run import RunRequest
+from app.procedure.run import RunRequest
+from app.records.db.errors import RecordsInputError
 
 log = logging.getLogger(__name__)
 

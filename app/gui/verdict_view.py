@@ -1,6 +1,6 @@
 """The overall verdict, large and plain: PASS, FAIL or INDETERMINATE with its reasons.
 
-The verdict is computed once (`app.verdict`, stored in results.json as `verdict` and
+The verdict is computed once (`app.procedure.verdict`, stored in results.json as `verdict` and
 `verdict_reasons`); this only shows what the results or the stored record say.
 """
 
@@ -13,8 +13,8 @@ from typing import Any
 from PySide6.QtCore import Qt
 from PySide6.QtWidgets import QLabel, QSizePolicy, QVBoxLayout, QWidget
 
-from app.run_record import RunRecord
-from app.verdict import FAIL, INDETERMINATE, PASS
+from app.procedure.verdict import FAIL, INDETERMINATE, PASS
+from app.records.run_record import RunRecord
 
 COLOURS = {PASS: "#1e8449", FAIL: "#c0392b", INDETERMINATE: "#b9770e"}
 NOT_ASSESSED = "not assessed"

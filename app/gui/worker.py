@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from app.procedure import Event, Finished, PeriodBlock, Procedure
-from app.run_record import RunRecord
+from app.records.run_record import RunRecord
 
 log = logging.getLogger(__name__)
 

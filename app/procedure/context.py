@@ -14,7 +14,7 @@ from app.procedure.errors import ProcedureError
 from app.procedure.events import Event, PeriodEstimate, State, StateChanged, WarningRaised
 from app.procedure.settings import RunSettings
 from app.procedure.stand_io import StandIO
-from app.stands import Stand
+from app.stand.open import Stand
 from dsp.calibration import Results, compute_results
 from dsp.multisine import Plan
 from dsp.spectral import Estimate

@@ -13,7 +13,7 @@ from dsp.calibration import Results
 from dsp.spectral import Estimate
 
 if TYPE_CHECKING:
-    from app.run_record import RunRecord
+    from app.records.run_record import RunRecord
 
 
 class State(StrEnum):
@@ -79,7 +79,7 @@ class WarningRaised:
 
 @dataclass(frozen=True)
 class Finished:
-    """How the run ended; `record` is what results.json holds (app.run_record.RunRecord)."""
+    """How the run ended; `record` is what results.json holds (app.records.run_record.RunRecord)."""
 
     status: str
     abort_reason: str | None

@@ -13,7 +13,7 @@ from app.procedure.errors import PreflightError
 from dsp.multisine import Plan, PredictedPeaks
 
 if TYPE_CHECKING:
-    from app.stand_config import StandConfig
+    from app.stand.config import StandConfig
     from dsp.calibration import ReferenceChain
 
 OVERLOAD_FRACTION = 0.995  # SPEC s.11: a sample within 0.5 % of a channel's range

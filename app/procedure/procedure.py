@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from app.io.hdf5 import DiskFullError, RecordingWriter, Truth, software_version
 from app.procedure.acquisition import Acquisition
 from app.procedure.background import Background, budget_with_background
 from app.procedure.context import RunContext, RunNotes
@@ -37,12 +38,11 @@ from app.procedure.settings import MODE_STEPPED_SINE, RunSettings
 from app.procedure.stand_io import StandIO
 from app.procedure.stand_memory import StandMemory
 from app.procedure.stepped import SteppedSine
-from app.recording import DiskFullError, RecordingWriter, Truth, software_version
-from app.records import STATUS_ABORTED, STATUS_COMPLETE, RunFolder
-from app.run_record import DutIdentity, RunRecord, StandInfo
+from app.procedure.verdict import Tolerances, tolerances_for, with_verdict
+from app.records.run_folder import STATUS_ABORTED, STATUS_COMPLETE, RunFolder
+from app.records.run_record import DutIdentity, RunRecord, StandInfo
+from app.stand.open import Stand
 from app.stand.response import ResponseStore
-from app.stands import Stand
-from app.verdict import Tolerances, tolerances_for, with_verdict
 from dsp.calibration import AnalysisError
 from dsp.multisine import Plan
 from hardware.errors import AmplifierFaultError, HardwareError, OverloadError

@@ -16,12 +16,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from app.io.hdf5 import RecordingWriter
 from app.procedure.errors import Aborted, DriveLimitError, ProcedureError
 from app.procedure.events import Event, PeriodBlock, State
 from app.procedure.preflight import OVERLOAD_FRACTION
 from app.procedure.settings import RunSettings
-from app.recording import RecordingWriter
-from app.stands import Stand
+from app.stand.open import Stand
 from dsp.multisine import Plan, fade_envelope, fade_out_envelope, fade_out_samples
 from dsp.sinefit import sine_fit
 from dsp.spectral import period_spectrum, periods_agree

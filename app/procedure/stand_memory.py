@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from app.procedure.settings import RunSettings
+from app.stand.open import Stand
 from app.stand.response import (
     ResponseStore,
     StoredResponse,
@@ -18,7 +19,6 @@ from app.stand.response import (
     now_utc,
     stand_sha256,
 )
-from app.stands import Stand
 from dsp.multisine import Plan
 
 log = logging.getLogger(__name__)

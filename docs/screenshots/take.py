@@ -22,10 +22,10 @@ from PySide6.QtCore import QCoreApplication, QEventLoop, QTimer
 from PySide6.QtWidgets import QApplication
 
 from app.certificate import CertificateInfo
-from app.db.certify import issue_registered
-from app.db.engine import open_engine
-from app.db.lab import Lab
-from app.db.models import Run, Stand
+from app.records.db.certify import issue_registered
+from app.records.db.engine import open_engine
+from app.records.db.lab import Lab
+from app.records.db.models import Run, Stand
 
 HERE = Path(__file__).resolve().parent
 

@@ -13,8 +13,8 @@ from pypdf import PdfReader
 
 from app import formatting as fmt
 from app.certificate import CertificateError, CertificateInfo, build
-from app.records import load_run
-from app.run import RunRequest, execute
+from app.procedure.run import RunRequest, execute
+from app.records.run_folder import load_run
 
 INFO = CertificateInfo(
     customer="ACME Ltd",
@@ -156,7 +156,7 @@ def test_the_pdf_renders(complete_run, tmp_path):
 def test_sweep_section_with_sensitivity_against_level_and_linearity(tmp_path):
     from pathlib import Path
 
-    from app.sweep import run_sweep
+    from app.procedure.sweep import run_sweep
 
     sweep = run_sweep(
         RunRequest(dut="capacitive", dut_id="SN-7", periods=3, out=tmp_path), [3.0, 6.0]

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from app.cli import main, parse_frequencies
-from app.recording import write_recording
+from app.io.hdf5 import write_recording
 from dsp import iso266
 from dsp.multisine import preset_plan
 from dsp.uncertainty import Budget, Component, Distribution
@@ -270,9 +270,9 @@ def test_help_states_the_bounds(capsys):
 )
 def test_a_bad_request_never_reaches_the_stand(monkeypatch, tmp_path, change, message):
     """The GUI builds RunRequests itself: the same refusals, before the stand is loaded."""
-    from app import run as run_module
     from app.procedure import PreflightError
-    from app.run import RunRequest
+    from app.procedure import run as run_module
+    from app.procedure.run import RunRequest
 
     def no_stand(*args, **kwargs):
         raise AssertionError("the stand was loaded")

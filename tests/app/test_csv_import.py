@@ -10,8 +10,8 @@ import tracemalloc
 import numpy as np
 import pytest
 
-from app import recording as recording_module
-from app.recording import RecordingError, read_csv
+from app.io import hdf5 as recording_module
+from app.io.hdf5 import RecordingError, read_csv
 from dsp.calibration import ReferenceChain
 from dsp.multisine import make_plan
 from dsp.uncertainty import Budget

@@ -12,8 +12,7 @@ from pathlib import Path
 import pytest
 from pypdf import PdfReader
 
-from app import dcc
-from app.certificate import CertificateError, CertificateInfo, issue
+from app.certificate import CertificateError, CertificateInfo, dcc, issue
 from app.cli import main
 
 NS = {"dcc": dcc.DCC_NS, "si": dcc.SI_NS}
@@ -116,7 +115,7 @@ def test_a_stand_without_the_laboratory_country_gets_the_pdf_alone(
         data = json.loads((copy / name).read_text())
         data["stand"]["laboratory"].pop("country")
         (copy / name).write_text(json.dumps(data))
-    from app.records import write_manifest
+    from app.records.run_folder import write_manifest
 
     (copy / "manifest.json").unlink()
     write_manifest(copy)

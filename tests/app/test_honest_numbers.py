@@ -12,11 +12,11 @@ import numpy as np
 import pytest
 from pypdf import PdfReader
 
-from app.analysis import analyze, read_for_analysis, reanalysis
 from app.certificate import CertificateInfo, _charts, _line_table, _statements, build
 from app.cli import main
-from app.recording import RecordingError, read_csv, write_recording
-from app.verdict import (
+from app.io.hdf5 import RecordingError, read_csv, write_recording
+from app.procedure.analysis import analyze, read_for_analysis, reanalysis
+from app.procedure.verdict import (
     FAIL,
     INDETERMINATE,
     PASS,
@@ -396,7 +396,7 @@ def test_loose_mount_is_warned_and_never_passes(capsys, sim_runs, tmp_path):
 
 
 def test_simulate_recording_carries_the_truth_and_a_verdict(tmp_path):
-    from app.simulate import simulate
+    from app.stand.simulate import simulate
 
     run_ = simulate(tmp_path / "rec.h5", dut="piezo", periods=4, seed=2)
     recording = read_for_analysis(run_.path)

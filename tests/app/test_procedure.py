@@ -15,8 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from app import stand_config
-from app.analysis import analyze
+from app.io.hdf5 import RecordingError, read_recording
 from app.procedure import (
     EqualisationStep,
     PeriodBlock,
@@ -27,10 +26,11 @@ from app.procedure import (
     State,
     StateChanged,
 )
-from app.recording import RecordingError, read_recording
-from app.records import RunFolder, load_run
-from app.run import RunRequest, execute
-from app.stands import open_stand
+from app.procedure.analysis import analyze
+from app.procedure.run import RunRequest, execute
+from app.records.run_folder import RunFolder, load_run
+from app.stand import config as stand_config
+from app.stand.open import open_stand
 from dsp.multisine import preset_plan
 from sim.models import ExciterModel, StandModel
 from sim.stand import Fault
@@ -286,7 +286,7 @@ def test_stepped_sine_and_multisine_agree_within_their_uncertainties(tmp_path):
 
 
 def test_amplitude_sweep_resolves_the_mems_compression(tmp_path):
-    from app.sweep import run_sweep
+    from app.procedure.sweep import run_sweep
     from sim.models import DUT_CATALOGUE
 
     request = RunRequest(dut="capacitive", periods=3, seed=2, out=tmp_path)
@@ -307,7 +307,7 @@ def test_amplitude_sweep_resolves_the_mems_compression(tmp_path):
 
 
 def test_sweep_checks_every_level_before_anything_moves(tmp_path):
-    from app.sweep import run_sweep
+    from app.procedure.sweep import run_sweep
 
     with pytest.raises(PreflightError, match="level 8 m/s\\^2: displacement"):
         run_sweep(RunRequest(dut="capacitive", out=tmp_path / "runs"), [4.0, 8.0])

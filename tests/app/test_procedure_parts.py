@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import pytest
 
-from app import stand_config
 from app.procedure import PreflightError, Stop, StoppingRule, check_preflight
-from app.stands import open_stand
+from app.stand import config as stand_config
+from app.stand.open import open_stand
 from dsp.multisine import preset_plan
 
 CONFIG = stand_config.load()

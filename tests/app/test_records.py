@@ -10,7 +10,7 @@ import threading
 import pytest
 
 from app.files import FileExistsRefusal, write_new, write_with
-from app.records import (
+from app.records.run_folder import (
     MANIFEST_NAME,
     STATUS_ABORTED,
     STATUS_INTERRUPTED,
@@ -21,7 +21,7 @@ from app.records import (
     inspect_run,
     load_run,
 )
-from app.run_record import RunRecord
+from app.records.run_record import RunRecord
 
 
 def finished_folder(tmp_path, status=STATUS_ABORTED):

@@ -20,12 +20,12 @@ import pytest
 from pypdf import PdfReader
 
 import app.certificate
-from app.certificate_register import REGISTER_NAME
 from app.cli import main
-from app.recording import RecordingWriter, read_recording, write_recording
-from app.records import MANIFEST_NAME, try_lock, unlock
-from app.run import RunRequest, execute
-from app.simulate import simulate
+from app.io.hdf5 import RecordingWriter, read_recording, write_recording
+from app.procedure.run import RunRequest, execute
+from app.records.register import REGISTER_NAME
+from app.records.run_folder import MANIFEST_NAME, try_lock, unlock
+from app.stand.simulate import simulate
 from sim.stand import Fault
 
 REPO = Path(__file__).resolve().parents[2]
@@ -434,8 +434,8 @@ def test_certificate_numbers_are_never_reused_under_a_runs_root(capsys, root, st
 
 
 def test_the_procedure_marks_its_recording_complete_or_aborted(tmp_path):
-    from app.recording import read_recording
-    from app.run import RunRequest, execute
+    from app.io.hdf5 import read_recording
+    from app.procedure.run import RunRequest, execute
     from sim.stand import Fault
 
     done = execute(RunRequest(dut="piezo", periods=3, out=tmp_path / "ok"))

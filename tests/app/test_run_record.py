@@ -1,4 +1,4 @@
-"""The typed run record (app.run_record): today's results.json reads, newer schemas refused."""
+"""The typed run record (app.records.run_record): today's results.json reads, newer schemas refused."""
 
 from __future__ import annotations
 
@@ -7,8 +7,14 @@ from pathlib import Path
 
 import pytest
 
-from app.records import STATUS_UNSUPPORTED, RunFolder, inspect_run, load_run, write_manifest
-from app.run_record import (
+from app.records.run_folder import (
+    STATUS_UNSUPPORTED,
+    RunFolder,
+    inspect_run,
+    load_run,
+    write_manifest,
+)
+from app.records.run_record import (
     SCHEMA_VERSION,
     DutIdentity,
     RunRecord,

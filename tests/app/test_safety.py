@@ -23,13 +23,13 @@ import pytest
 
 import app.procedure as procedure_module
 import app.procedure.stand_io as gate_module
-from app import stand_config
 from app.cli import main
+from app.io.hdf5 import DiskFullError, RecordingWriter, read_recording
 from app.procedure import PeriodBlock, Procedure, RunSettings, State, StateChanged
-from app.recording import DiskFullError, RecordingWriter, read_recording
-from app.records import RunFolder, inspect_run, load_run
-from app.run_record import RunRecord
-from app.stands import open_stand
+from app.records.run_folder import RunFolder, inspect_run, load_run
+from app.records.run_record import RunRecord
+from app.stand import config as stand_config
+from app.stand.open import open_stand
 from dsp.multisine import make_plan, preset_plan
 from sim.models import ExciterModel, StandModel
 from sim.stand import FAULT_KINDS, Fault
@@ -238,7 +238,7 @@ def test_recording_stops_before_the_disk_is_full_and_stays_readable(tmp_path, mo
     n = plan.period_samples
     x = 0.1 * np.random.default_rng(1).standard_normal((3, n))
     writer.append(*x)
-    monkeypatch.setattr("app.recording.free_bytes", lambda p: 3 * 8 * n * 2.0)
+    monkeypatch.setattr("app.io.hdf5.free_bytes", lambda p: 3 * 8 * n * 2.0)
     with pytest.raises(DiskFullError, match=r"MB left for r\.h5") as caught:
         writer.append(*x)
     assert caught.value.errno == errno.ENOSPC
@@ -275,7 +275,7 @@ def test_a_disk_full_during_a_crossfade_fades_out_from_where_it_ends(
     """The disk fills while a crossfade plays: the run fades out from the crossfade's end, so
     the drive never steps at a period boundary and the last period played ends near 0 V."""
     full = {"now": False}
-    monkeypatch.setattr("app.recording.free_bytes", lambda p: 0.0 if full["now"] else math.inf)
+    monkeypatch.setattr("app.io.hdf5.free_bytes", lambda p: 0.0 if full["now"] else math.inf)
     stand = open_stand(CONFIG, dut="piezo", systematic=False)
     folder = RunFolder.create(tmp_path, "full")
 
@@ -427,7 +427,7 @@ def test_console_script_is_the_interrupt_safe_entry_point():
 
 
 def test_free_bytes_is_the_smaller_of_the_disk_and_the_file_size_limit(tmp_path, monkeypatch):
-    from app import recording
+    from app.io import hdf5 as recording
 
     path = tmp_path / "r.h5"
     path.write_bytes(b"x" * 1000)

@@ -7,10 +7,10 @@ import json
 import numpy as np
 import pytest
 
-from app.analysis import analyze
 from app.cli import main
-from app.recording import read_recording
-from app.simulate import simulate
+from app.io.hdf5 import read_recording
+from app.procedure.analysis import analyze
+from app.stand.simulate import simulate
 
 
 def within(results, truth) -> tuple[np.ndarray, np.ndarray]:

@@ -6,9 +6,9 @@ from pathlib import Path
 
 import pytest
 
-from app import stand_config
-from app.stand_config import ConfigError, parse
-from app.stands import open_stand
+from app.stand import config as stand_config
+from app.stand.config import ConfigError, parse
+from app.stand.open import open_stand
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "stand-pxi6251.toml"
 

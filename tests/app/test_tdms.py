@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from app.cli import main
-from app.recording import RecordingError, write_recording
-from app.tdms import SKEW_PROPERTY, inspect_tdms
+from app.io.hdf5 import RecordingError, write_recording
+from app.io.tdms import SKEW_PROPERTY, inspect_tdms
 from dsp.multisine import preset_plan
 from tests.synthetic import lowpass_response, make_recording, write_tdms
 

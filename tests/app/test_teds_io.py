@@ -10,8 +10,8 @@ from typing import ClassVar
 
 import pytest
 
-from app import teds_io
 from app.cli import main
+from app.stand import teds as teds_io
 from hardware.nidaq import read_teds_bits, write_teds_bits
 from hardware.teds import bitstream_bytes, decode, read_ted_file
 from sim.models import DUT_CATALOGUE

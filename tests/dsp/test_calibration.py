@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 
-from app.analysis import analyze
+from app.procedure.analysis import analyze
 from dsp.calibration import AnalysisError, ReferenceChain, Results
 from dsp.multisine import make_plan
 from dsp.uncertainty import Budget, Component, Distribution, Quantity

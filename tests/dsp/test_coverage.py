@@ -84,7 +84,7 @@ def test_h1_small_sample_type_a_is_not_optimistic_at_l3():
 
 
 def test_analysis_below_the_minimum_states_no_uncertainty_and_says_why():
-    from app.analysis import analyze
+    from app.procedure.analysis import analyze
     from dsp.multisine import make_plan
     from tests.synthetic import lowpass_response, make_recording
 

@@ -13,7 +13,7 @@ import math
 import numpy as np
 import pytest
 
-from app.analysis import analyze
+from app.procedure.analysis import analyze
 from dsp.hum import mains_harmonic_of_lines, mains_hum
 from dsp.multisine import make_plan
 from dsp.uncertainty import Distribution, Quantity

@@ -23,11 +23,11 @@ os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 from PySide6.QtCore import Qt, QTimer
 from PySide6.QtWidgets import QApplication, QDialogButtonBox, QInputDialog, QMessageBox
 
-from app.db.engine import open_engine
-from app.db.lab import Lab
 from app.gui import certify, teds_entry
 from app.gui.certificate_dialog import CertificateDialog
 from app.gui.main_window import MainWindow
+from app.records.db.engine import open_engine
+from app.records.db.lab import Lab
 from hardware.teds import TedsError
 
 MG = 9.80665  # m/s^2 per g

@@ -14,8 +14,8 @@ import pytest
 os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 
 from app.gui.main_window import MainWindow
-from app.recording import read_recording
-from app.records import inspect_run
+from app.io.hdf5 import read_recording
+from app.records.run_folder import inspect_run
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -12,8 +12,8 @@ os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 from PySide6.QtCore import Qt
 
 from app.gui.main_window import MainWindow
-from app.records import load_run
-from app.run import RunRequest, execute
+from app.procedure.run import RunRequest, execute
+from app.records.run_folder import load_run
 
 
 @pytest.fixture()

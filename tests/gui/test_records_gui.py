@@ -15,11 +15,11 @@ os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 from PySide6.QtCore import Qt
 from PySide6.QtWidgets import QDialog, QMessageBox
 
-from app.db.engine import open_engine
-from app.db.lab import Lab
-from app.db.models import Run, Stand
 from app.gui import certificate_dialog, sensor_entry
 from app.gui.main_window import MainWindow
+from app.records.db.engine import open_engine
+from app.records.db.lab import Lab
+from app.records.db.models import Run, Stand
 
 ROOT = Path(__file__).resolve().parents[2]
 TODAY = date(2026, 11, 24)
@@ -279,7 +279,7 @@ def test_the_reference_standard_shown_is_the_stand_files_with_its_record(window,
     assert "REF-8305-SIM" in window.reference_label.text()
     assert "not in the records" in window.reference_label.text()
     example = ROOT / "examples" / "stand-pxi6251.toml"
-    from app import stand_config
+    from app.stand import config as stand_config
 
     ref = stand_config.load(example).reference
     Lab(open_engine(lab_url), actor="t").add_reference(

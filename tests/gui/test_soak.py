@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from app.records import inspect_run, load_run
+from app.records.run_folder import inspect_run, load_run
 
 RUNS = 50
 ROOT = Path(__file__).resolve().parents[2]

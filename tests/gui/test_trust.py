@@ -18,8 +18,8 @@ from app.gui import binding, certificate_dialog, main_window, plots
 from app.gui.main_window import MainWindow
 from app.gui.worker import copied
 from app.procedure import Finished, PeriodBlock, State
-from app.records import RunFolder
-from app.run_record import RunRecord
+from app.records.run_folder import RunFolder
+from app.records.run_record import RunRecord
 from sim.stand import Fault
 
 SHORT_LINES = "40,80,160,315,630"  # a short plan: quick runs

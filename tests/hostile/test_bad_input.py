@@ -19,8 +19,8 @@ import numpy as np
 import pytest
 
 from app.cli import main
-from app.recording import write_recording
-from app.run import RunRequest, execute
+from app.io.hdf5 import write_recording
+from app.procedure.run import RunRequest, execute
 from dsp.multisine import make_plan
 from tests.synthetic import lowpass_response, make_recording
 

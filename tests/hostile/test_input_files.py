@@ -1,4 +1,4 @@
-"""app.input_files: only regular files, no larger than their format can hold, never opened first."""
+"""app.io.checks: only regular files, no larger than their format can hold, never opened first."""
 
 from __future__ import annotations
 
@@ -8,9 +8,10 @@ import h5py
 import numpy as np
 import pytest
 
-from app import input_files, recording
-from app.input_files import InputFileError, check_input_file
-from app.recording import RecordingError, read_csv, read_recording, write_recording
+from app.io import checks as input_files
+from app.io import hdf5 as recording
+from app.io.checks import InputFileError, check_input_file
+from app.io.hdf5 import RecordingError, read_csv, read_recording, write_recording
 from dsp.calibration import ReferenceChain
 from dsp.multisine import make_plan
 from dsp.uncertainty import Budget

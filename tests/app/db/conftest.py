@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 from sqlalchemy import Engine, text
 
-from app.db.engine import make_engine, resolve_url, upgrade
+from app.records.db.engine import make_engine, resolve_url, upgrade
 
 _counter = itertools.count()
 

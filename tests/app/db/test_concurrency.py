@@ -9,13 +9,13 @@ from datetime import UTC, datetime
 from sqlalchemy import Engine, select
 from sqlalchemy.orm import Session
 
-from app.db.lab import Lab
-from app.db.models import Certificate, Run, Sensor, Stand
+from app.records.db.lab import Lab
+from app.records.db.models import Certificate, Run, Sensor, Stand
 
 WORKER = """
 import sys
-from app.db.engine import open_engine
-from app.db.lab import Lab
+from app.records.db.engine import open_engine
+from app.records.db.lab import Lab
 lab = Lab(open_engine(sys.argv[1]), actor=sys.argv[2])
 for _ in range(50):
     lab.issue_certificate(run_id="r1", prepared_by=sys.argv[2], approved_by="QM")

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 from sqlalchemy import inspect, text
 
-from app.db.engine import (
+from app.records.db.engine import (
     DatabaseError,
     current_revision,
     head_revision,
@@ -17,7 +17,7 @@ from app.db.engine import (
     resolve_url,
     upgrade,
 )
-from app.db.lab import Lab
+from app.records.db.lab import Lab
 
 
 def test_urls_resolve_from_option_then_environment_then_the_user_data_dir(

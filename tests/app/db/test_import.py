@@ -14,8 +14,8 @@ from sqlalchemy import Engine, func, select
 from sqlalchemy.orm import Session
 
 from app.cli import main
-from app.db.lab import Lab
-from app.db.models import Run, Stand
+from app.records.db.lab import Lab
+from app.records.db.models import Run, Stand
 
 
 @pytest.fixture(scope="module")

@@ -10,9 +10,9 @@ from pathlib import Path
 import pytest
 
 from app.cli import main
-from app.db.engine import open_engine
-from app.db.lab import Lab
-from app.records import inspect_run
+from app.records.db.engine import open_engine
+from app.records.db.lab import Lab
+from app.records.run_folder import inspect_run
 
 RUN = ["run", "--sim", "--dut", "piezo", "--periods", "3", "--seed", "1"]
 
@@ -169,7 +169,7 @@ def test_a_certificate_through_the_records_takes_customer_sensor_and_number_from
 def test_run_teds_identifies_the_dut_in_the_records(
     lab_url: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    from app.teds_io import open_port
+    from app.stand.teds import open_port
     from hardware.teds import decode
 
     identity = decode(open_port(None, "piezo", seed=1).read()).basic.identity

@@ -1,0 +1,279 @@
+"""The Digital Calibration Certificate (PTB DCC 3.3.0 with D-SI 2.2.1 lists) of a stored run.
+
+Built from the same stored run and certificate items as the PDF, with every number formatted by
+the same functions (app.formatting.round_gum), so the XML, the PDF and the run agree to the last
+printed digit. Validated offline against the schema set shipped in app/data/dcc (PTB, LGPL-3;
+see its LICENSES) before it is written: an invalid DCC is never written.
+
+Layout (see ../shared/dcc/README.md): administrative data (software, core data with the
+certificate number and dates, the item with maker, model and serial, laboratory, responsible
+person, customer, the decision-rule statement with the verdict), one measurement result (method
+ISO 16063-21 comparison with the multisine plan, the reference standard with its certificate,
+the conditions) whose data is a list of parallel D-SI lists: frequency, sensitivity magnitude
+and phase, each with expanded uncertainty, coverage factor and coverage probability per point.
+"""
+
+from __future__ import annotations
+
+import functools
+import xml.etree.ElementTree as ET
+from importlib import resources
+from typing import TYPE_CHECKING, Any
+
+from app import formatting as fmt
+from app.records.run_record import RunRecord
+
+if TYPE_CHECKING:
+    from app.certificate import CertificateInfo, StoredRun
+
+DCC_NS = "https://ptb.de/dcc"
+SI_NS = "https://ptb.de/si"
+XSI_NS = "http://www.w3.org/2001/XMLSchema-instance"
+DS_NS = "http://www.w3.org/2000/09/xmldsig#"
+QUDT_NS = "http://qudt.org/vocab/"
+SCHEMA_VERSION = "3.3.0"
+UNIT_SENSITIVITY = r"\milli\volt\second\tothe{2}\metre\tothe{-1}"
+UNIT_HZ = r"\hertz"
+UNIT_DEGREE = r"\degree"
+UNIT_CELSIUS = r"\degreecelsius"
+UNIT_ACCELERATION = r"\metre\second\tothe{-2}"
+CONFORMITY = {"PASS": "pass", "FAIL": "fail"}  # INDETERMINATE: stated in words, no enum value
+
+ET.register_namespace("dcc", DCC_NS)
+ET.register_namespace("si", SI_NS)
+ET.register_namespace("xsi", XSI_NS)
+
+
+class DccError(ValueError):
+    """A DCC that cannot be made or does not validate; the message says which item."""
+
+
+class DccNotApplicable(DccError):
+    """The stand file lacks what a DCC needs but a PDF does not (the laboratory's country)."""
+
+
+def _d(parent: ET.Element, tag: str, text: str | None = None, **attrs: str) -> ET.Element:
+    element = ET.SubElement(parent, f"{{{DCC_NS}}}{tag}", attrs)
+    if text is not None:
+        element.text = text
+    return element
+
+
+def _s(parent: ET.Element, tag: str, text: str | None = None) -> ET.Element:
+    element = ET.SubElement(parent, f"{{{SI_NS}}}{tag}")
+    if text is not None:
+        element.text = text
+    return element
+
+
+def _text(parent: ET.Element, tag: str, content: str) -> ET.Element:
+    """A dcc textType element: <tag><dcc:content lang="en">content</dcc:content></tag>."""
+    element = _d(parent, tag)
+    _d(element, "content", content, lang="en")
+    return element
+
+
+def _real(parent: ET.Element, value: str, unit: str) -> None:
+    quantity = _d(parent, "quantity")
+    real = _s(quantity, "real")
+    _s(real, "value", value)
+    _s(real, "unit", unit)
+
+
+def _list_quantity(
+    parent: ET.Element,
+    name: str,
+    values: list[str],
+    unit: str,
+    uncertainty: tuple[list[str], list[str], list[str]] | None = None,
+) -> None:
+    quantity = _d(parent, "quantity")
+    _text(quantity, "name", name)
+    real_list = _s(quantity, "realListXMLList")
+    _s(real_list, "valueXMLList", " ".join(values))
+    _s(real_list, "unitXMLList", unit)
+    if uncertainty is not None:
+        expanded_values, factors, probabilities = uncertainty
+        mu = _s(real_list, "measurementUncertaintyUnivariateXMLList")
+        expanded = _s(mu, "expandedMUXMLList")
+        _s(expanded, "valueExpandedMUXMLList", " ".join(expanded_values))
+        _s(expanded, "coverageFactorXMLList", " ".join(factors))
+        _s(expanded, "coverageProbabilityXMLList", " ".join(probabilities))
+
+
+def line_values(results: Any) -> dict[str, list[str]]:
+    """Per line of `results` (dsp.calibration.Results), the strings both the PDF's table and
+    the DCC print: actual frequency, sensitivity and its U, phase and its U, coverage factor."""
+    out: dict[str, list[str]] = {k: [] for k in ("f", "s", "u", "ph", "u_ph", "k")}
+    for ln in results.lines:
+        s, u = fmt.round_gum(ln.sensitivity_mv_per_ms2, ln.expanded_uncertainty_mv_per_ms2)
+        ph, u_ph = fmt.round_gum(ln.phase_deg, ln.phase_expanded_uncertainty_deg)
+        out["f"].append(f"{ln.frequency_hz:g}")
+        out["s"].append(s)
+        out["u"].append(u)
+        out["ph"].append(ph)
+        out["u_ph"].append(u_ph)
+        out["k"].append(f"{ln.coverage_factor:.2f}")
+    return out
+
+
+def build(run: StoredRun, info: CertificateInfo) -> bytes:
+    """The DCC XML of a stored complete run with its (checked, numbered) certificate items."""
+    record, results = run.record, run.results
+    stand = run.config.get("stand", record.stand.to_dict()) or {}
+    lab = stand.get("laboratory", {}) or {}
+    reference = stand.get("reference", {}) or {}
+    country = str(lab.get("country") or "")
+    if len(country) != 2 or not country.isalpha() or not country.isupper():
+        raise DccNotApplicable(
+            "laboratory.country (stand file): the DCC needs the laboratory's ISO 3166-1 "
+            f"two-letter country code, got {country!r}"
+        )
+    started = record.started_utc[:10]
+    finished = (record.finished_utc or started)[:10]
+    root = ET.Element(
+        f"{{{DCC_NS}}}digitalCalibrationCertificate",
+        {
+            "schemaVersion": SCHEMA_VERSION,
+            f"{{{XSI_NS}}}schemaLocation": f"{DCC_NS} https://ptb.de/dcc/v3.3.0/dcc.xsd",
+        },
+    )
+    admin = _d(root, "administrativeData")
+    software = _d(_d(admin, "dccSoftware"), "software")
+    _text(software, "name", "accelcal")
+    _d(software, "release", record.software_version or "unknown")
+    _d(software, "type", "application")
+    core = _d(admin, "coreData")
+    _d(core, "countryCodeISO3166_1", country)
+    _d(core, "usedLangCodeISO639_1", "en")
+    _d(core, "mandatoryLangCodeISO639_1", "en")
+    _d(core, "uniqueIdentifier", str(info.certificate_number))
+    _d(core, "beginPerformanceDate", started)
+    _d(core, "endPerformanceDate", finished)
+    _d(core, "performanceLocation", "laboratory")
+    _d(core, "issueDate", str(info.issue_date))
+    item = _d(_d(admin, "items"), "item")
+    _text(item, "name", str(info.dut_type or "accelerometer"))
+    model = str(info.dut_model or "")
+    if model:
+        _d(item, "model", model)
+    identification = _d(_d(item, "identifications"), "identification")
+    _d(identification, "issuer", "manufacturer")
+    _d(identification, "value", str(info.dut_serial))
+    _text(identification, "name", "Serial number")
+    contact = _d(_d(admin, "calibrationLaboratory"), "contact")
+    _text(contact, "name", str(lab.get("name") or "calibration laboratory"))
+    location = _d(contact, "location")
+    _text(location, "further", str(lab.get("address") or lab.get("name") or "laboratory"))
+    person = _d(_d(admin, "respPersons"), "respPerson")
+    _text(_d(person, "person"), "name", str(info.authorised_by))
+    _d(person, "mainSigner", "true")
+    customer = _d(admin, "customer")
+    _text(customer, "name", str(info.customer))
+    _text(_d(customer, "location"), "further", info.customer_address or str(info.customer))
+    _statements(admin, results)
+
+    result_set = _d(_d(root, "measurementResults"), "measurementResult")
+    _text(result_set, "name", "Comparison calibration per ISO 16063-21 (multisine)")
+    method = _d(_d(result_set, "usedMethods"), "usedMethod")
+    _text(method, "name", _method(record, results))
+    _d(method, "norm", "ISO 16063-21:2003")
+    equipment = _d(_d(result_set, "measuringEquipments"), "measuringEquipment")
+    _text(equipment, "name", f"Reference standard {reference.get('id', '')}".strip())
+    _d(equipment, "model", str(reference.get("model") or "reference accelerometer"))
+    ids = _d(equipment, "identifications")
+    for issuer, label, value in (
+        ("manufacturer", "Serial number", reference.get("serial")),
+        ("calibrationLaboratory", "Calibration certificate", reference.get("certificate_number")),
+    ):
+        if value:
+            ident = _d(ids, "identification")
+            _d(ident, "issuer", issuer)
+            _d(ident, "value", str(value))
+            _text(ident, "name", label)
+    conditions = _d(result_set, "influenceConditions")
+    temperature = _d(conditions, "influenceCondition")
+    _text(temperature, "name", "Ambient temperature")
+    _real(_d(temperature, "data"), f"{float(info.temperature_c or 0.0):.1f}", UNIT_CELSIUS)
+    level = _d(conditions, "influenceCondition")
+    _text(level, "name", "Excitation level, peak per frequency")
+    _real(_d(level, "data"), f"{record.level_ms2 or 0:g}", UNIT_ACCELERATION)
+    mounting = _d(conditions, "influenceCondition")
+    _text(mounting, "name", "Mounting")
+    _text(_d(mounting, "data"), "text", str(info.mounting))
+
+    values = line_values(results)
+    n = len(values["f"])
+    probability = [f"{results.coverage_probability:g}"] * n
+    result = _d(_d(result_set, "results"), "result")
+    _text(result, "name", "Frequency response of the voltage sensitivity")
+    data_list = _d(_d(result, "data"), "list")
+    _list_quantity(data_list, "Excitation frequency", values["f"], UNIT_HZ)
+    _list_quantity(
+        data_list,
+        "Sensitivity magnitude",
+        values["s"],
+        UNIT_SENSITIVITY,
+        (values["u"], values["k"], probability),
+    )
+    if results.phase_corrected_for_skew:
+        _list_quantity(
+            data_list,
+            "Phase shift (DUT relative to the acceleration)",
+            values["ph"],
+            UNIT_DEGREE,
+            (values["u_ph"], values["k"], probability),
+        )
+    xml = ET.tostring(root, encoding="utf-8", xml_declaration=True)
+    problem = validation_error(xml)
+    if problem is not None:
+        raise DccError(f"the DCC does not validate against DCC {SCHEMA_VERSION}: {problem}")
+    return xml
+
+
+def _statements(admin: ET.Element, results: Any) -> None:
+    statements = _d(admin, "statements")
+    statement = _d(statements, "statement")
+    _text(statement, "name", "Statement of conformity")
+    verdict = str(getattr(results, "verdict", "") or "")
+    reasons = "; ".join(getattr(results, "verdict_reasons", ()) or ())
+    words = (
+        f"Overall verdict: {verdict or 'not stated'}. Decision rule: guarded acceptance "
+        "(ILAC-G8:09/2019): a check passes where |deviation| + U <= tolerance and fails where "
+        "|deviation| - U > tolerance; otherwise it is indeterminate."
+        + (f" Reasons: {reasons}." if reasons else "")
+    )
+    _text(statement, "declaration", words)
+    if verdict in CONFORMITY:
+        _d(statement, "conformity", CONFORMITY[verdict])
+
+
+def _method(record: RunRecord, results: Any) -> str:
+    plan = dict(record.plan)
+    lines = len(plan.get("lines", []) or results.lines)
+    return (
+        f"Back-to-back comparison with a reference accelerometer, multisine of {lines} lines, "
+        f"{plan.get('sample_rate_hz', 0):g} S/s, period of {plan.get('period_samples', 0)} "
+        f"samples, {results.periods} periods, estimator {results.estimator}"
+    )
+
+
+@functools.cache
+def _schema() -> Any:
+    import xmlschema
+
+    base = resources.files("app").joinpath("data", "dcc")
+    locations = [
+        (SI_NS, str(base.joinpath("SI_Format.xsd"))),
+        (DS_NS, str(base.joinpath("xmldsig-core-schema.xsd"))),
+        (QUDT_NS, str(base.joinpath("quantitykind.xsd"))),
+    ]
+    return xmlschema.XMLSchema(str(base.joinpath("dcc.xsd")), locations=locations, allow="local")
+
+
+def validation_error(xml: bytes) -> str | None:
+    """The first schema error of a DCC (where and why), or None when it is valid. Offline."""
+    error = next(iter(_schema().iter_errors(xml.decode("utf-8"))), None)
+    if error is None:
+        return None
+    return f"{error.path}: {error.reason or error.message}"

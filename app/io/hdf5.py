@@ -1,0 +1,785 @@
+"""The recording format: raw channels in volts plus everything needed to re-analyse them.
+
+HDF5 layout (format "accelcal-recording", version 1):
+
+    /                 attrs: format, format_version, sample_rate_hz, period_samples,
+                             settle_periods, acquired_periods (optional: periods analysed
+                             after the settle periods; later ones, e.g. a fade-out, are kept
+                             but not analysed), created_utc, software_version,
+                             status ("complete" or "aborted", set when the recording ends;
+                             absent: the run never finished, the recording is "incomplete"),
+                             status_reason (why it was aborted)
+    /signals/reference  float64 V, chunked one period, resizable; attrs unit, range_v (0 = unknown)
+    /signals/dut        idem
+    /signals/drive      idem, optional (the DAQ output)
+    /config           attrs (JSON text): plan, reference_chain, budget
+    /truth            optional (simulated recordings): datasets frequency_hz,
+                      sensitivity_mv_per_ms2, phase_deg at the line frequencies; attrs describe
+                      the simulated DUT and level
+
+CSV import: two columns (reference, DUT) or three (plus drive) in volts, one optional header
+line; the plan comes from options. Lines starting with '#' before the data are comments; one of
+the form `# skew_s = 2e-06` gives the inter-channel delay in s, positive when the DUT channel is
+sampled after the reference (the --skew option's sign; the two must agree when both are given).
+Files that are malformed (missing dataset, wrong length,
+NaN/inf, a flat dead channel, samples at a channel's range limit) are refused with a
+RecordingError that names the file, the channel and the problem.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import errno
+import io
+import json
+import logging
+import math
+import os
+import re
+import resource
+import warnings
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any, BinaryIO
+
+import h5py
+import numpy as np
+
+from app.io.checks import (
+    MAX_CSV_BYTES,
+    MAX_HDF5_BYTES,
+    MAX_RECORDING_SAMPLES,
+    InputFileError,
+    check_dataset_size,
+    check_input_file,
+)
+from app.version import software_version
+from dsp.calibration import ReferenceChain
+from dsp.multisine import Plan, PlanError
+from dsp.uncertainty import Budget
+
+FORMAT_NAME = "accelcal-recording"
+FORMAT_VERSION = 1
+CHANNELS = ("reference", "dut")
+OVERLOAD_FRACTION = 0.995  # a sample within 0.5 % of the range is at its limit (SPEC s.11)
+FLAT_TOP_RUN = 5  # without a known range: this many equal samples at the extreme = clipped
+STATUS_COMPLETE = "complete"
+STATUS_ABORTED = "aborted"
+STATUS_INCOMPLETE = "incomplete"  # no end status: cut off, or written before statuses existed
+STATUSES = (STATUS_COMPLETE, STATUS_ABORTED, STATUS_INCOMPLETE)
+
+log = logging.getLogger(__name__)
+
+HEADROOM_PERIODS = 4  # a recording stops this many periods before the disk or file limit
+HEADROOM_FIXED_BYTES = 256 * 1024  # plus this much (HDF5 metadata, status, results, manifest)
+
+
+class DiskFullError(OSError):
+    """The recording's disk (or the process's file-size limit) has no room for another period.
+
+    Raised before HDF5 is asked to write what it could not, so the file stays readable up to
+    its last flushed period."""
+
+    def __init__(self, message: str):
+        super().__init__(errno.ENOSPC, message)
+
+    def __str__(self) -> str:
+        return str(self.strerror)
+
+
+def _is_disk_full(exc: OSError) -> bool:
+    """ENOSPC or EFBIG, from the OS or quoted in an HDF5 message ("errno = 28")."""
+    codes = (errno.ENOSPC, errno.EFBIG)
+    if getattr(exc, "errno", None) in codes:
+        return True
+    return any(f"errno = {code}," in str(exc) for code in codes)
+
+
+def free_bytes(path: Path) -> float:
+    """Bytes a file at `path` (existing or not) may still grow by: the smaller of the free space
+    of its file system (statvfs, unprivileged) and what RLIMIT_FSIZE leaves it; inf if unknown."""
+    room = math.inf
+    folder = path if path.is_dir() else path.parent
+    try:
+        st = os.statvfs(folder)
+        room = float(st.f_bavail) * float(st.f_frsize)
+    except OSError:
+        pass
+    soft, _ = resource.getrlimit(resource.RLIMIT_FSIZE)
+    if soft != resource.RLIM_INFINITY:
+        try:
+            size = path.stat().st_size
+        except OSError:
+            size = 0
+        room = min(room, float(soft - size))
+    return room
+
+
+class RecordingError(ValueError):
+    """A recording that cannot be analysed; the message names the file and the problem."""
+
+
+@dataclass(frozen=True)
+class Truth:
+    """The true DUT sensitivity at the line frequencies (simulated recordings only)."""
+
+    frequency_hz: np.ndarray
+    sensitivity_mv_per_ms2: np.ndarray
+    phase_deg: np.ndarray
+    attrs: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Recording:
+    """A two-channel recording held in memory (volts), with its analysis context."""
+
+    sample_rate_hz: float
+    period_samples: int
+    reference_v: np.ndarray
+    dut_v: np.ndarray
+    plan: Plan
+    chain: ReferenceChain
+    budget: Budget
+    settle_periods: int = 0
+    drive_v: np.ndarray | None = None
+    ranges_v: dict[str, float] = field(default_factory=dict)
+    source: str = ""
+    truth: Truth | None = None
+    acquired_periods: int | None = None
+    status: str | None = None  # STATUSES; None: not recorded by this program (CSV, in memory)
+
+    @property
+    def periods(self) -> int:
+        """Whole periods in the recording, settle periods included."""
+        return self.reference_v.size // self.period_samples
+
+    def analysis_periods(self) -> tuple[np.ndarray, np.ndarray]:
+        """Reference and DUT as (periods, N) arrays, settle periods skipped (views)."""
+        n = self.period_samples
+        start = self.settle_periods * n
+        stop = None if self.acquired_periods is None else start + self.acquired_periods * n
+        ref = self.reference_v[start:stop].reshape(-1, n)
+        dut = self.dut_v[start:stop].reshape(-1, n)
+        return ref, dut
+
+
+class RecordingWriter:
+    """Appends periods to an HDF5 recording and flushes after each, so a cut run stays readable."""
+
+    def __init__(
+        self,
+        path: str | Path,
+        plan: Plan,
+        chain: ReferenceChain,
+        budget: Budget,
+        *,
+        settle_periods: int = 0,
+        with_drive: bool = False,
+        ranges_v: dict[str, float] | None = None,
+        created_utc: str | None = None,
+    ):
+        self.path = Path(path)
+        self._period_bytes = 8 * 3 * int(plan.period_samples)  # float64, up to three channels
+        self._check_room()
+        self._file = h5py.File(self.path, "w")
+        f = self._file
+        f.attrs["format"] = FORMAT_NAME
+        f.attrs["format_version"] = FORMAT_VERSION
+        f.attrs["sample_rate_hz"] = plan.sample_rate_hz
+        f.attrs["period_samples"] = plan.period_samples
+        f.attrs["settle_periods"] = int(settle_periods)
+        f.attrs["created_utc"] = created_utc or datetime.now(UTC).isoformat(timespec="seconds")
+        f.attrs["software_version"] = software_version()
+        config = f.create_group("config")
+        config.attrs["plan"] = json.dumps(plan.to_dict())
+        config.attrs["reference_chain"] = json.dumps(chain.to_dict())
+        config.attrs["budget"] = json.dumps(budget.to_list())
+        signals = f.create_group("signals")
+        names = (*CHANNELS, "drive") if with_drive else CHANNELS
+        ranges_v = ranges_v or {}
+        self._datasets = {}
+        for name in names:
+            ds = signals.create_dataset(
+                name,
+                shape=(0,),
+                maxshape=(None,),
+                dtype="f8",
+                chunks=(plan.period_samples,),
+            )
+            ds.attrs["unit"] = "V"
+            ds.attrs["range_v"] = float(ranges_v.get(name, 0.0))
+            self._datasets[name] = ds
+
+    def append(self, reference_v: np.ndarray, dut_v: np.ndarray, drive_v=None) -> None:
+        """Append samples (volts) of every channel and flush to disk."""
+        blocks = {"reference": reference_v, "dut": dut_v}
+        if "drive" in self._datasets:
+            if drive_v is None:
+                raise ValueError("recording: this file has a drive channel; give drive_v")
+            blocks["drive"] = drive_v
+        lengths = {np.asarray(b).size for b in blocks.values()}
+        if len(lengths) != 1:
+            raise ValueError("recording: every channel needs the same number of samples")
+        self._period_bytes = max(self._period_bytes, 8 * len(blocks) * lengths.pop())
+        self._check_room()
+        try:
+            for name, block in blocks.items():
+                ds = self._datasets[name]
+                start = ds.shape[0]
+                ds.resize((start + np.asarray(block).size,))
+                ds[start:] = block
+            self._file.flush()
+        except OSError as exc:
+            if _is_disk_full(exc):
+                raise DiskFullError(f"{self.path}: {exc}") from exc
+            raise
+
+    def _check_room(self) -> None:
+        """DiskFullError unless the disk and the file-size limit leave room for a few more
+        periods (`HEADROOM_PERIODS`) plus `HEADROOM_FIXED_BYTES`."""
+        needed = HEADROOM_PERIODS * self._period_bytes + HEADROOM_FIXED_BYTES
+        room = free_bytes(self.path)
+        if room < needed:
+            raise DiskFullError(
+                f"{room / 1e6:.2f} MB left for {self.path.name}, a period needs "
+                f"{self._period_bytes / 1e6:.2f} MB and {needed / 1e6:.2f} MB are kept free; "
+                "the recording stops at its last complete period"
+            )
+
+    def set_settle_periods(self, periods: int) -> None:
+        """Mark how many leading periods the analysis skips (background, fades, settling)."""
+        self._file.attrs["settle_periods"] = int(periods)
+        self._file.flush()
+
+    def set_mode(self, mode: str) -> None:
+        """Mark the excitation ("multisine" by default; "stepped-sine" blocks vary in length)."""
+        self._file.attrs["mode"] = mode
+        self._file.flush()
+
+    def set_acquired_periods(self, periods: int) -> None:
+        """Mark how many periods after the settle periods the analysis uses."""
+        self._file.attrs["acquired_periods"] = int(periods)
+        self._file.flush()
+
+    def set_budget(self, budget: Budget) -> None:
+        """Store the budget as used (e.g. with the background measured at the start)."""
+        self._file["config"].attrs["budget"] = json.dumps(budget.to_list())
+        self._file.flush()
+
+    def set_status(self, status: str, reason: str | None = None) -> bool:
+        """Mark how the recording ended (STATUSES; "aborted" with its reason). Never raises
+        for the file: False (logged) when it cannot take the mark, which leaves the recording
+        "incomplete", the safe reading."""
+        if status not in STATUSES:
+            raise ValueError(f"recording status: {status!r} is not one of {', '.join(STATUSES)}")
+        problem = None if self._file.id.valid else "the recording is closed"
+        if problem is None:
+            try:
+                self._file.attrs["status"] = status
+                self._file.attrs["status_reason"] = reason or ""
+                self._file.flush()
+            except (OSError, KeyError, ValueError, RuntimeError) as exc:  # the disk refused it
+                problem = str(exc)
+        if problem is not None:
+            log.warning("%s: recording status %r not stored: %s", self.path, status, problem)
+            return False
+        return True
+
+    def write_truth(self, truth: Truth) -> None:
+        """Store the simulated truth (group /truth)."""
+        group = self._file.require_group("truth")
+        for name in ("frequency_hz", "sensitivity_mv_per_ms2", "phase_deg"):
+            if name in group:
+                del group[name]
+            group.create_dataset(name, data=np.asarray(getattr(truth, name), dtype=float))
+        for key, value in truth.attrs.items():
+            group.attrs[key] = value
+        self._file.flush()
+
+    def close(self) -> None:
+        if self._file.id.valid:
+            self._file.close()
+
+    def __enter__(self) -> RecordingWriter:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def write_recording(path: str | Path, recording: Recording) -> None:
+    """Write a whole in-memory recording to HDF5."""
+    with RecordingWriter(
+        path,
+        recording.plan,
+        recording.chain,
+        recording.budget,
+        settle_periods=recording.settle_periods,
+        with_drive=recording.drive_v is not None,
+        ranges_v=recording.ranges_v,
+    ) as writer:
+        writer.append(recording.reference_v, recording.dut_v, recording.drive_v)
+        if recording.truth is not None:
+            writer.write_truth(recording.truth)
+        writer.set_status(recording.status or STATUS_COMPLETE)  # written whole
+
+
+def read_recording(path: str | Path) -> Recording:
+    """Read and validate an HDF5 recording of this program."""
+    path = Path(path)
+    name = path.name
+    try:
+        check_input_file(path, MAX_HDF5_BYTES, "HDF5 recording")
+    except InputFileError as exc:
+        raise RecordingError(str(exc)) from None
+    try:
+        handle = h5py.File(path, "r")
+    except FileNotFoundError:
+        raise RecordingError(f"{path}: no such file") from None
+    except OSError as exc:
+        raise RecordingError(f"{name}: not a readable HDF5 file ({exc})") from None
+    with handle as f:
+        if f.attrs.get("format") != FORMAT_NAME:
+            raise RecordingError(f"{name}: not an {FORMAT_NAME} file (attribute 'format')")
+        if f.attrs.get("mode", "multisine") == "stepped-sine":
+            raise RecordingError(
+                f"{name}: a stepped-sine recording (blocks of different lengths per line); its "
+                "results are in the run's results.json, re-analysis is for multisine recordings"
+            )
+        version = int(f.attrs.get("format_version", -1))
+        if version > FORMAT_VERSION:
+            raise RecordingError(
+                f"{name}: format_version {version} is newer than this program's {FORMAT_VERSION}"
+            )
+        attrs = {}
+        for key in ("sample_rate_hz", "period_samples"):
+            if key not in f.attrs:
+                raise RecordingError(f"{name}: missing attribute '{key}'")
+            attrs[key] = f.attrs[key]
+        config = f.get("config")
+        if config is None:
+            raise RecordingError(f"{name}: missing group /config")
+        parsed = {}
+        for key in ("plan", "reference_chain", "budget"):
+            if key not in config.attrs:
+                raise RecordingError(f"{name}: missing /config attribute '{key}'")
+            try:
+                parsed[key] = json.loads(config.attrs[key])
+            except json.JSONDecodeError as exc:
+                raise RecordingError(f"{name}: /config '{key}' is not valid JSON ({exc})") from None
+        signals: dict[str, np.ndarray] = {}
+        ranges: dict[str, float] = {}
+        for channel in (*CHANNELS, "drive"):
+            ds = f.get(f"signals/{channel}")
+            if ds is None:
+                if channel == "drive":
+                    continue
+                raise RecordingError(f"{name}: missing dataset /signals/{channel}")
+            if not isinstance(ds, h5py.Dataset) or ds.ndim != 1:
+                raise RecordingError(f"{name}: /signals/{channel} must be a 1-D dataset")
+            _check_float_dataset(ds, f"{name}: /signals/{channel}")
+            signals[channel] = np.asarray(ds[()], dtype=float)
+            ranges[channel] = float(ds.attrs.get("range_v", 0.0))
+        settle = int(f.attrs.get("settle_periods", 0))
+        acquired = int(f.attrs["acquired_periods"]) if "acquired_periods" in f.attrs else None
+        status = recording_status(f.attrs.get("status"))
+        truth = _read_truth(f, name)
+    try:
+        plan = Plan.from_dict(parsed["plan"])
+    except PlanError as exc:
+        raise RecordingError(f"{name}: {exc}") from None
+    try:
+        chain = ReferenceChain.from_dict(parsed["reference_chain"])
+        budget = Budget.from_list(parsed["budget"])
+    except ValueError as exc:
+        raise RecordingError(f"{name}: {exc}") from None
+    if plan.sample_rate_hz != float(attrs["sample_rate_hz"]) or plan.period_samples != int(
+        attrs["period_samples"]
+    ):
+        raise RecordingError(
+            f"{name}: the stored plan disagrees with the file's sample rate/period"
+        )
+    recording = Recording(
+        sample_rate_hz=float(attrs["sample_rate_hz"]),
+        period_samples=int(attrs["period_samples"]),
+        reference_v=signals["reference"],
+        dut_v=signals["dut"],
+        drive_v=signals.get("drive"),
+        plan=plan,
+        chain=chain,
+        budget=budget,
+        settle_periods=settle,
+        ranges_v=ranges,
+        source=str(path),
+        truth=truth,
+        acquired_periods=acquired,
+        status=status,
+    )
+    validate(recording, name)
+    return recording
+
+
+def recording_status(mark: object) -> str:
+    """A recording's status from its "status" attribute: "complete" or "aborted" as marked,
+    anything else (no mark: the run never finished) "incomplete"."""
+    if isinstance(mark, bytes):
+        mark = mark.decode("utf-8", "replace")
+    return str(mark) if mark in (STATUS_COMPLETE, STATUS_ABORTED) else STATUS_INCOMPLETE
+
+
+def _read_truth(f: h5py.File, name: str) -> Truth | None:
+    group = f.get("truth")
+    if group is None:
+        return None
+    values = {}
+    for key in ("frequency_hz", "sensitivity_mv_per_ms2", "phase_deg"):
+        ds = group.get(key)
+        if not isinstance(ds, h5py.Dataset):
+            raise RecordingError(f"{name}: /truth lacks dataset {key!r}")
+        _check_float_dataset(ds, f"{name}: /truth/{key}")
+        values[key] = np.asarray(ds[()], dtype=float)
+    attrs = {k: (v.item() if hasattr(v, "item") else v) for k, v in group.attrs.items()}
+    return Truth(**values, attrs=attrs)
+
+
+def _check_float_dataset(ds: h5py.Dataset, where: str) -> None:
+    """Refuse a dataset that is not floating point (integers, strings, compound types: not
+    volts as this program writes them) or larger than a recording may hold, before reading."""
+    if ds.dtype.kind != "f":
+        raise RecordingError(f"{where}: dataset of type {ds.dtype}, expected floating point")
+    try:
+        check_dataset_size(int(ds.size), where)
+    except InputFileError as exc:
+        raise RecordingError(str(exc)) from None
+
+
+def read_csv(
+    path: str | Path,
+    plan: Plan,
+    chain: ReferenceChain,
+    budget: Budget,
+    *,
+    settle_periods: int = 0,
+    range_v: float | None = None,
+) -> Recording:
+    """Read a CSV of two (reference, DUT) or three (+ drive) columns in volts and validate it.
+
+    The lines are counted first; float64 columns of that length are filled in place from
+    blocks of about `CSV_BLOCK_BYTES` of text parsed by numpy's C reader, so the peak memory
+    stays about 1.1x the samples' (issue 16 point 7). A block the fast reader refuses is
+    parsed line by line, which names the offending line."""
+    path = Path(path)
+    name = path.name
+    try:
+        check_input_file(path, MAX_CSV_BYTES, "CSV recording")
+    except InputFileError as exc:
+        raise RecordingError(str(exc)) from None
+    try:
+        handle = open(path, "rb")
+    except FileNotFoundError:
+        raise RecordingError(f"{path}: no such file") from None
+    except OSError as exc:
+        raise RecordingError(f"{name}: cannot be read as text ({exc})") from None
+    try:
+        with handle:
+            columns, header_skew_s = _parse_csv(handle, name)
+    except UnicodeDecodeError as exc:
+        raise RecordingError(f"{name}: cannot be read as text ({exc})") from None
+    except OSError as exc:
+        raise RecordingError(f"{name}: cannot be read as text ({exc})") from None
+    chain = merge_skew(chain, header_skew_s, name, "the file's 'skew_s = {:g}' line")
+    ranges = {} if range_v is None else {c: float(range_v) for c in CHANNELS}
+    recording = Recording(
+        sample_rate_hz=plan.sample_rate_hz,
+        period_samples=plan.period_samples,
+        reference_v=columns[0],
+        dut_v=columns[1],
+        drive_v=columns[2] if len(columns) == 3 else None,
+        plan=plan,
+        chain=chain,
+        budget=budget,
+        settle_periods=settle_periods,
+        ranges_v=ranges,
+        source=str(path),
+    )
+    validate(recording, name)
+    return recording
+
+
+def merge_skew(
+    chain: ReferenceChain, file_skew_s: float | None, name: str, where: str
+) -> ReferenceChain:
+    """The chain with the skew a file states (s; None: it states none) when --skew gave none;
+    RecordingError when both are given and disagree. `where` describes the file's statement,
+    with '{:g}' for its value."""
+    if file_skew_s is None:
+        return chain
+    if chain.skew_s is None:
+        return dataclasses.replace(chain, skew_s=file_skew_s)
+    if not math.isclose(chain.skew_s, file_skew_s, rel_tol=1e-9, abs_tol=1e-15):
+        raise RecordingError(
+            f"{name}: --skew {chain.skew_s:g} s disagrees with {where.format(file_skew_s)}; "
+            "give one of them"
+        )
+    return chain
+
+
+SKEW_LINE = re.compile(r"^#\s*skew_s\s*=\s*(\S+)\s*$")
+CSV_BLOCK_BYTES = 1 << 20  # text parsed at a time, bytes (a block ends at a line end)
+# Line breaks str.splitlines knows besides \n and \r\n (ASCII ones; the others are not ASCII):
+# a block holding one is parsed line by line, so line numbers stay those of the text (and of
+# earlier versions). Searched byte by byte (memchr): a regular expression costs more than
+# parsing the numbers.
+_OTHER_BREAKS = (b"\x0b", b"\x0c", b"\x1c", b"\x1d", b"\x1e")
+
+
+def _other_breaks(text: bytes) -> bool:
+    """Whether `text` holds a line break other than \\n and \\r\\n (see _OTHER_BREAKS)."""
+    if b"\r" in text and text.count(b"\r") != text.count(b"\r\n"):
+        return True
+    return any(mark in text for mark in _OTHER_BREAKS)
+
+
+def _parse_csv(handle: BinaryIO, name: str) -> tuple[list[np.ndarray], float | None]:
+    """The columns (float64 V) of the CSV open in `handle` (binary) and the skew (s) of a
+    '# skew_s = ...' comment line, None without one."""
+    number = 0  # lines consumed
+    skew_s = None
+    while True:  # leading comment lines, then one optional header line
+        offset = handle.tell()
+        raw = handle.readline()
+        if not raw:
+            break
+        if _other_breaks(raw):  # lines end with \r alone (or worse): the text whole
+            handle.seek(0)
+            return _parse_text(handle.read().decode("utf-8").splitlines(), name)
+        line = raw.decode("utf-8").rstrip("\r\n")
+        if line.lstrip().startswith("#"):
+            number += 1
+            skew_s = _skew_line(line, number, name, skew_s)
+            continue
+        if _is_numeric_row(line):
+            handle.seek(offset)  # the first data line
+        else:
+            number += 1  # one header line allowed
+        break
+    capacity = _count_lines(handle)  # rows at most: columns allocated once, filled in place
+    columns: list[np.ndarray] = []
+    width: int | None = None
+    rows = 0
+    while block := handle.read(CSV_BLOCK_BYTES):
+        if not block.endswith(b"\n"):
+            block += handle.readline()
+        data = _fast_block(block, width)
+        lines = block.count(b"\n") + (not block.endswith(b"\n"))
+        if data is None:
+            text_lines = block.decode("utf-8").splitlines()
+            data = _parse_lines(text_lines, number, width, name)
+            lines = len(text_lines)
+        number += lines
+        if rows + data.shape[0] > MAX_RECORDING_SAMPLES:
+            raise RecordingError(
+                f"{name}: line {number}: more than {MAX_RECORDING_SAMPLES} rows, more than a "
+                "recording may hold"
+            )
+        if data.shape[0]:
+            width = data.shape[1]
+            if rows + data.shape[0] > capacity:  # more lines than \n counted (other breaks)
+                capacity = max(2 * capacity, rows + data.shape[0])
+                columns = [_grown(c, capacity) for c in columns]
+            if not columns:
+                columns = [np.empty(capacity) for _ in range(width)]
+            for column, values in zip(columns, data.T, strict=True):
+                column[rows : rows + data.shape[0]] = values
+            rows += data.shape[0]
+    if not rows:
+        raise RecordingError(f"{name}: no data rows")
+    if capacity - rows > rows // 64:  # many blank lines: no idle tail kept
+        return [c[:rows].copy() for c in columns], skew_s
+    return [c[:rows] for c in columns], skew_s
+
+
+def _count_lines(handle: BinaryIO) -> int:
+    """Lines from the handle's position to the end (\\n counted, plus a last one without it),
+    at most MAX_RECORDING_SAMPLES + 1; the position is kept."""
+    start = handle.tell()
+    count = 1
+    while (piece := handle.read(CSV_BLOCK_BYTES)) and count <= MAX_RECORDING_SAMPLES:
+        count += piece.count(b"\n")
+    handle.seek(start)
+    return min(count, MAX_RECORDING_SAMPLES + 1)
+
+
+def _grown(column: np.ndarray, capacity: int) -> np.ndarray:
+    """`column` copied into a longer array of `capacity` samples."""
+    longer = np.empty(capacity)
+    longer[: column.size] = column
+    return longer
+
+
+def _parse_text(lines: list[str], name: str) -> tuple[list[np.ndarray], float | None]:
+    """_parse_csv for text split into lines up front (line breaks other than \\n, \\r\\n)."""
+    start = 0
+    skew_s = None
+    while start < len(lines) and lines[start].lstrip().startswith("#"):
+        skew_s = _skew_line(lines[start], start + 1, name, skew_s)
+        start += 1
+    if start < len(lines) and not _is_numeric_row(lines[start]):
+        start += 1  # one header line allowed
+    data = _parse_lines(lines[start:], start, None, name)
+    if not data.shape[0]:
+        raise RecordingError(f"{name}: no data rows")
+    return [np.ascontiguousarray(column) for column in data.T], skew_s
+
+
+def _skew_line(line: str, number: int, name: str, skew_s: float | None) -> float | None:
+    """The skew (s) a comment line states, else `skew_s`; RecordingError naming the line when
+    it is not a delay."""
+    match = SKEW_LINE.match(line.strip())
+    if not match:
+        return skew_s
+    try:
+        value = float(match.group(1))
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and abs(value) <= 1.0):
+        raise RecordingError(
+            f"{name}: line {number}: skew_s {match.group(1)!r} is not a delay in s "
+            "(finite, within +-1 s)"
+        )
+    return value
+
+
+def _fast_block(block: bytes, width: int | None) -> np.ndarray | None:
+    """A block of whole lines as (rows, columns) float64 by numpy's C reader; None when it
+    holds anything but well-formed rows of 2 or 3 numbers (`width` when known), a byte that
+    is not ASCII, or another line break than \\n or \\r\\n (the line-by-line parser then
+    decides, with the messages and line numbers it always gave)."""
+    if not block.isascii() or _other_breaks(block):
+        return None
+    if b";" in block:
+        block = block.replace(b";", b",")
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")  # "input contained no data": an empty block
+            data = np.loadtxt(
+                io.BytesIO(block),
+                delimiter=",",
+                dtype=np.float64,
+                comments=None,
+                ndmin=2,
+                encoding="latin-1",  # bytes 1:1; anything not ASCII fails to convert
+            )
+    except (ValueError, UserWarning):
+        return None
+    if data.shape[1] not in (2, 3) or (width is not None and data.shape[1] != width):
+        return None
+    return data
+
+
+def _parse_lines(lines: list[str], before: int, width: int | None, name: str) -> np.ndarray:
+    """Rows of `lines` (the first is line `before` + 1) as (rows, columns) float64, blank lines
+    skipped; RecordingError naming the line of a wrong column count or a non-number."""
+    rows: list[list[float]] = []
+    for number, raw in enumerate(lines, start=before + 1):
+        if not raw.strip():
+            continue
+        cells = [c.strip() for c in raw.replace(";", ",").split(",")]
+        if width is None:
+            width = len(cells)
+            if width not in (2, 3):
+                raise RecordingError(
+                    f"{name}: line {number}: {width} columns; expected 2 (reference, DUT) "
+                    "or 3 (reference, DUT, drive) in volts"
+                )
+        elif len(cells) != width:
+            raise RecordingError(
+                f"{name}: line {number}: {len(cells)} columns where earlier lines have {width}"
+            )
+        try:
+            rows.append([float(c) for c in cells])
+        except ValueError:
+            raise RecordingError(
+                f"{name}: line {number}: not a number in {raw.strip()!r}"
+            ) from None
+    return np.asarray(rows, dtype=np.float64).reshape(len(rows), width or 0)
+
+
+def _is_numeric_row(line: str) -> bool:
+    try:
+        [float(c) for c in line.replace(";", ",").split(",")]
+    except ValueError:
+        return False
+    return True
+
+
+def validate(recording: Recording, name: str) -> None:
+    """Refuse a malformed recording with a message naming the channel and the problem."""
+    n = recording.period_samples
+    channels = {"reference": recording.reference_v, "dut": recording.dut_v}
+    if recording.drive_v is not None:
+        channels["drive"] = recording.drive_v
+    lengths = {channel: x.size for channel, x in channels.items()}
+    if len(set(lengths.values())) != 1:
+        detail = ", ".join(f"{c} {v}" for c, v in lengths.items())
+        raise RecordingError(f"{name}: channels have different lengths ({detail} samples)")
+    length = lengths["reference"]
+    if length % n:
+        raise RecordingError(
+            f"{name}: {length} samples is not a whole number of periods of {n} samples "
+            f"({length / n:.3f} periods)"
+        )
+    for channel, x in channels.items():
+        bad = np.flatnonzero(~np.isfinite(x))
+        if bad.size:
+            kind = "NaN" if np.isnan(x[bad[0]]) else "inf"
+            raise RecordingError(
+                f"{name}: channel {channel}: {bad.size} non-finite sample(s), first {kind} at "
+                f"sample {bad[0]}"
+            )
+        if channel == "drive":
+            continue
+        if np.ptp(x) == 0.0:
+            raise RecordingError(
+                f"{name}: channel {channel}: flat at {x[0]:g} V: dead channel or not connected"
+            )
+        _check_range(x, recording.ranges_v.get(channel, 0.0), channel, name)
+
+
+def _check_range(x: np.ndarray, range_v: float, channel: str, name: str) -> None:
+    if range_v and math.isfinite(range_v) and range_v > 0:
+        at_limit = np.flatnonzero(np.abs(x) >= OVERLOAD_FRACTION * range_v)
+        if at_limit.size:
+            raise RecordingError(
+                f"{name}: channel {channel}: {at_limit.size} sample(s) at the +-{range_v:g} V "
+                f"range limit, first at sample {at_limit[0]}: overload; lower the level or "
+                "raise the channel range"
+            )
+        return
+    for extreme in (x.max(), x.min()):
+        run = _longest_run(x == extreme)
+        if run >= FLAT_TOP_RUN:
+            raise RecordingError(
+                f"{name}: channel {channel}: {run} consecutive samples at {extreme:g} V: "
+                "clipped at its range limit (overload); lower the level or raise the range"
+            )
+
+
+def _longest_run(mask: np.ndarray) -> int:
+    if not mask.any():
+        return 0
+    padded = np.zeros(mask.size + 2, dtype=np.int8)  # int8 throughout: 2 bytes a sample,
+    padded[1:-1] = mask  # not the 16 of int64 (a recording's memory goes to its samples)
+    edges = np.flatnonzero(np.diff(padded))
+    return int((edges[1::2] - edges[::2]).max())
+
+
+def iter_batches(
+    recording: Recording, periods_per_batch: int = 16
+) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+    """(reference, DUT) batches of whole analysis periods, shape (periods, N)."""
+    ref, dut = recording.analysis_periods()
+    for start in range(0, ref.shape[0], periods_per_batch):
+        yield ref[start : start + periods_per_batch], dut[start : start + periods_per_batch]

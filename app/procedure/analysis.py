@@ -1,0 +1,244 @@
+"""Offline analysis of a recording: the same accumulator and results code as a live run.
+
+A recording carries how it ended (app.io.hdf5): results from an aborted or incomplete one
+say so in their status and warnings and are never certified. A recording inside a run folder
+is analysed only after the folder's manifest verifies (app.records.run_folder).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from app.io.hdf5 import (
+    STATUS_ABORTED,
+    STATUS_INCOMPLETE,
+    Recording,
+    RecordingError,
+    iter_batches,
+    read_recording,
+)
+from app.procedure.verdict import Tolerances, tolerances_for, with_verdict
+from app.records.run_folder import (
+    STATUS_INTERRUPTED,
+    STATUS_MODIFIED,
+    STATUS_RUNNING,
+    STATUS_UNSUPPORTED,
+    inspect_run,
+    is_run_folder,
+)
+from dsp.calibration import Results, compute_results
+from dsp.hum import mains_hum
+from dsp.multisine import Plan, PlanError
+from dsp.segments import segment_line_spectra, segment_plan
+from dsp.spectral import Estimate, SpectralAccumulator
+from dsp.uncertainty import Budget
+
+
+@dataclass(frozen=True)
+class Analysis:
+    """An analysed recording: the final estimate and the results built from it."""
+
+    estimate: Estimate
+    results: Results
+    status: str | None = None  # the recording's (app.io.hdf5.STATUSES); None: CSV, in memory
+
+
+def analyze(
+    recording: Recording,
+    *,
+    estimator: str = "periodic",
+    segments: int | None = None,
+    probability: float = 0.9545,
+    rule: str = "gum",
+    tolerance_percent: float | None = None,
+    tolerances: Tolerances | None = None,
+) -> Analysis:
+    """Analyse whole periods (default) or, with `segments`, the seed's L equal segments.
+
+    The results carry the overall verdict (app.procedure.verdict) against `tolerances`; by default those
+    of the simulated DUT the recording's truth names, else `tolerance_percent` alone."""
+    plan = recording.plan
+    status_note = status_warning(recording.status)
+    warnings: list[str] = [status_note] if status_note else []
+    if recording.periods <= recording.settle_periods or recording.acquired_periods == 0:
+        raise RecordingError(
+            f"{recording.source}: {recording.periods} period(s) recorded, none left after "
+            f"{recording.settle_periods} settle period(s)"
+        )
+    if segments is None:
+        accumulator = SpectralAccumulator(plan.period_samples, plan.bins)
+        for reference, dut in iter_batches(recording):
+            accumulator.add_periods(reference, dut)
+    else:
+        start = recording.settle_periods * recording.period_samples
+        reference = recording.reference_v[start:]
+        dut = recording.dut_v[start:]
+        labels = [f"{f:g} Hz" for f in plan.nominal_frequencies_hz]
+        length, segment_warnings = segment_plan(
+            reference.size, segments, plan.frequencies_hz, labels, plan.sample_rate_hz
+        )
+        warnings.extend(segment_warnings)
+        accumulator = SpectralAccumulator(length, plan.bins, track_floor=False)
+        spectra = [
+            segment_line_spectra(x, segments, length, plan.frequencies_hz, plan.sample_rate_hz)
+            for x in (reference, dut)
+        ]
+        accumulator.add_line_spectra(*spectra)
+    estimate = accumulator.estimate(estimator)
+    budget, hum_warnings = _budget_with_hum(recording)
+    warnings.extend(hum_warnings)
+    results = compute_results(
+        estimate,
+        plan,
+        recording.chain,
+        budget,
+        probability=probability,
+        rule=rule,
+        tolerance_percent=tolerance_percent,
+        extra_warnings=warnings,
+    )
+    if tolerances is None:
+        catalogue = recording.truth.attrs.get("dut") if recording.truth is not None else None
+        tolerances = tolerances_for(
+            str(catalogue) if catalogue else None, plan.reference_frequency_hz, tolerance_percent
+        )
+    results = with_verdict(results, tolerances, recording.status)
+    return Analysis(estimate, results, recording.status)
+
+
+def _budget_with_hum(recording: Recording) -> tuple[Budget, list[str]]:
+    """The recording's budget with a "mains hum at X Hz" component (magnitude and phase) at
+    every line on a mains harmonic (one already stored with the recording, measured by the
+    procedure at run time, is kept as it is), and a warning per such line (issue 13 point 3;
+    dsp.hum). The hum comes from the leading drive-off periods (drive exactly 0 V, among the
+    settle periods) when the recording has a drive channel, else from the neighbouring mains
+    harmonics (flagged as not separable from the line)."""
+    hum = mains_hum(recording.plan, recording.analysis_periods(), _drive_off_periods(recording))
+    if not hum.affected.any():
+        return recording.budget, []
+    stored = {c.name for c in recording.budget.components}
+    new = tuple(c for c in hum.components() if c.name not in stored)
+    return Budget((*recording.budget.components, *new)), hum.warnings()
+
+
+def _drive_off_periods(recording: Recording):
+    """(reference, DUT) of the leading settle periods played at 0 V, or None."""
+    if recording.drive_v is None:
+        return None
+    n = recording.period_samples
+    count = 0
+    while count < recording.settle_periods and (count + 1) * n <= recording.drive_v.size:
+        if np.any(recording.drive_v[count * n : (count + 1) * n] != 0.0):
+            break
+        count += 1
+    if count == 0:
+        return None
+    return (
+        recording.reference_v[: count * n].reshape(count, n),
+        recording.dut_v[: count * n].reshape(count, n),
+    )
+
+
+def reanalysis(
+    recording: Recording,
+    *,
+    reference_frequency_hz: float | None = None,
+    settle_periods: int | None = None,
+    mains_frequency_hz: float | None = None,
+) -> Recording:
+    """A stored recording with re-analysis settings applied, each refused naming its option
+    (RecordingError) when it cannot be: `reference_frequency_hz` must be a planned line (its
+    nominal frequency); `settle_periods` more leading periods are dropped from the analysed
+    ones when at least 2 remain; `mains_frequency_hz` replaces the plan's mains frequency (the
+    mains-harmonic checks and hum logic use it)."""
+    plan = recording.plan
+    changes: dict[str, float] = {}
+    if reference_frequency_hz is not None:
+        if not any(
+            math.isclose(f, reference_frequency_hz, rel_tol=1e-9)
+            for f in plan.nominal_frequencies_hz
+        ):
+            raise RecordingError(
+                f"--reference-frequency: {reference_frequency_hz:g} Hz is not a line of the "
+                f"recording's plan ({', '.join(f'{f:g}' for f in plan.nominal_frequencies_hz)} Hz)"
+            )
+        changes["reference_frequency_hz"] = float(reference_frequency_hz)
+    if mains_frequency_hz is not None:
+        changes["mains_frequency_hz"] = float(mains_frequency_hz)
+    if changes:
+        try:
+            plan = Plan.from_dict({**plan.to_dict(), **changes})
+        except PlanError as exc:
+            option = "--mains" if "mains_frequency_hz" in changes else "--reference-frequency"
+            raise RecordingError(f"{option}: {exc}") from None
+    settle = recording.settle_periods
+    acquired = recording.acquired_periods
+    if settle_periods is not None:
+        if settle_periods < 0:
+            raise RecordingError(f"--settle-periods: must be >= 0, got {settle_periods}")
+        available = recording.analysis_periods()[0].shape[0]
+        if available - settle_periods < 2:
+            raise RecordingError(
+                f"--settle-periods: dropping {settle_periods} of the {available} analysed "
+                "period(s) leaves fewer than 2 (type A needs them)"
+            )
+        settle += settle_periods
+        acquired = None if acquired is None else acquired - settle_periods
+    return dataclasses.replace(
+        recording, plan=plan, settle_periods=settle, acquired_periods=acquired
+    )
+
+
+def status_warning(status: str | None) -> str | None:
+    """The warning results of a recording with `status` carry (None for a complete one)."""
+    if status == STATUS_ABORTED:
+        return "recording of an aborted run: results for review only, never certified"
+    if status == STATUS_INCOMPLETE:
+        return (
+            "incomplete recording (its run never finished, or it predates recording statuses): "
+            "results for review only, never certified"
+        )
+    return None
+
+
+RECORDING_NAME = "recording.h5"
+
+
+def read_for_analysis(path: str | Path) -> Recording:
+    """The HDF5 recording at `path`, a recording file or a run folder (its recording.h5). When
+    it belongs to a run folder the folder is verified first (RecordingError naming the file
+    with "hash mismatch" when it was changed) and the run's status joins the recording's."""
+    path = Path(path)
+    folder, file = (path, path / RECORDING_NAME) if path.is_dir() else (path.parent, path)
+    if not is_run_folder(folder):
+        if path.is_dir():
+            raise RecordingError(f"{path}: a folder but not a run folder (no manifest.json)")
+        return read_recording(file)
+    run_status = _run_status(folder)
+    if not file.exists():
+        raise RecordingError(f"{file}: the run folder has no recording")
+    recording = read_recording(file)
+    return dataclasses.replace(recording, status=_joined(run_status, recording.status))
+
+
+def _run_status(folder: Path) -> str:
+    """complete, aborted or incomplete (interrupted); RecordingError when it does not verify."""
+    try:
+        check = inspect_run(folder)
+    except ValueError as exc:  # unreadable manifest, not a run folder
+        raise RecordingError(str(exc)) from None
+    if check.state in (STATUS_MODIFIED, STATUS_UNSUPPORTED):
+        raise RecordingError("; ".join(check.problems))
+    if check.state == STATUS_RUNNING:
+        raise RecordingError(f"{folder}: the run is still being written; analyse it once it ends")
+    return STATUS_INCOMPLETE if check.state == STATUS_INTERRUPTED else check.state
+
+
+def _joined(run_status: str, recording_status: str | None) -> str:
+    """The verified run's status, unless the recording's own mark says aborted."""
+    return STATUS_ABORTED if recording_status == STATUS_ABORTED else run_status

@@ -1,0 +1,102 @@
+"""Amplitude sweep (SPEC.md section 5, seed Fig. 4): the procedure at several levels on the same
+stand; sensitivity against frequency and level, and a linearity figure.
+
+Linearity per line: the largest relative deviation of the sensitivity at any level from its
+mean over the levels, in %. The sweep summary is written beside the run folders as
+sweep-<id>.json (atomically, never replacing a file, read-only); each level is a run folder of
+its own.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from app.files import write_with
+from app.procedure import Finished, Listener, PreflightError
+from app.procedure.run import RunRequest, execute, prepare
+from app.records.run_folder import READ_ONLY_FILE, new_run_id
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """The runs of a sweep (in level order) and its summary."""
+
+    runs: tuple[Finished, ...]
+    summary: dict[str, Any]
+
+    @property
+    def complete(self) -> bool:
+        return self.summary["status"] == "complete"
+
+
+def linearity(sensitivity: np.ndarray) -> np.ndarray:
+    """Per line (columns), max |S(level) / mean(S) - 1| over levels (rows), as a fraction."""
+    mean = sensitivity.mean(axis=0)
+    return np.max(np.abs(sensitivity / mean - 1.0), axis=0)
+
+
+def run_sweep(request: RunRequest, levels: list[float], listener: Listener | None = None) -> Sweep:
+    """Run `request` at each level (ascending); stop at the first run that does not complete."""
+    if len(levels) < 2:
+        raise ValueError("--levels: a sweep needs at least two levels")
+    if any(not level > 0 for level in levels):
+        raise ValueError("--levels: every level must be > 0 m/s^2")
+    for level in sorted(levels):  # every level is checked before anything moves
+        try:
+            _, stand = prepare(dataclasses.replace(request, level_ms2=level))
+        except PreflightError as exc:
+            raise PreflightError(f"level {level:g} m/s^2: {exc}") from None
+        stand.close()
+    runs = []
+    for level in sorted(levels):
+        finished = execute(dataclasses.replace(request, level_ms2=level), listener)
+        runs.append(finished)
+        if finished.status != "complete":
+            break
+    summary = summarise(runs, sorted(levels))
+    sweep_id = new_run_id(f"sweep-{request.dut_id or request.dut}")
+    path = Path(request.out) / f"{sweep_id}.json"
+    write_with(path, lambda temporary: _write_summary(temporary, summary))
+    summary["path"] = str(path)
+    return Sweep(tuple(runs), summary)
+
+
+def _write_summary(path: Path, summary: dict[str, Any]) -> None:
+    """The sweep summary as JSON, read-only like the run folders it sums up."""
+    path.write_text(json.dumps(summary, indent=2), encoding="utf-8")
+    path.chmod(READ_ONLY_FILE)
+
+
+def summarise(runs: list[Finished], levels: list[float]) -> dict[str, Any]:
+    """Sensitivity against frequency and level, linearity per line and at the reference."""
+    complete = [r for r in runs if r.status == "complete" and r.results is not None]
+    summary: dict[str, Any] = {
+        "status": "complete" if len(complete) == len(levels) else "aborted",
+        "levels_ms2": levels,
+        "run_ids": [r.record.run_id for r in runs],
+        "abort_reason": next((r.abort_reason for r in runs if r.status != "complete"), None),
+    }
+    if len(complete) < 2:
+        return summary
+    results = [r.results for r in complete if r.results is not None]
+    first = results[0]
+    frequencies = [ln.nominal_frequency_hz for ln in first.lines]
+    table = np.array([[ln.sensitivity_mv_per_ms2 for ln in r.lines] for r in results])
+    lin = linearity(table)
+    ref = [ln.nominal_frequency_hz for ln in first.lines].index(first.reference.frequency_hz)
+    summary.update(
+        frequencies_hz=frequencies,
+        sensitivity_mv_per_ms2=table.tolist(),
+        linearity_percent=(100 * lin).tolist(),
+        reference_frequency_hz=first.reference.frequency_hz,
+        reference_linearity_percent=float(100 * lin[ref]),
+        worst_linearity_percent=float(100 * lin.max()),
+        worst_linearity_frequency_hz=float(frequencies[int(np.argmax(lin))]),
+    )
+    return summary

@@ -1,0 +1,411 @@
+"""The records commands of `accelcal`: db, customers, models, sensors, refs, due, history,
+register. Thin: each parses its options, calls app.records.db.lab and prints. SQLAlchemy is imported
+only when one of these commands runs (app.cli stays quick to start)."""
+
+from __future__ import annotations
+
+import argparse
+import csv
+from collections.abc import Callable
+from datetime import UTC, date, datetime
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from app.cli.options import Bounded, numeric_option
+from app.records.db.errors import RecordsInputError
+
+if TYPE_CHECKING:
+    from app.records.db.lab import Lab
+
+Handler = Callable[[argparse.Namespace], int]
+
+NOMINAL = Bounded(float, 0.0, 1e6, open_low=True)
+TOLERANCE = Bounded(float, 0.0, 100.0, open_low=True, unit="%")
+FREQUENCY = Bounded(float, 0.0, 1e6, open_low=True, unit="Hz")
+LEVEL = Bounded(float, 0.0, 1000.0, open_low=True, unit="m/s^2")
+PHASE_TOLERANCE = Bounded(float, 0.0, 180.0, open_low=True, unit="deg")
+INTERVAL = Bounded(int, 1, 120, unit="months")
+DAYS = Bounded(int, 0, 3650, unit="days")
+
+
+class RecordsUsageError(RecordsInputError):
+    """A records option that cannot be used; the message names it."""
+
+
+def _iso_date(field: str) -> Callable[[str], date]:
+    def parse(text: str) -> date:
+        try:
+            return date.fromisoformat(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{field}: not a date yyyy-mm-dd: {text!r}") from None
+
+    return parse
+
+
+def _lab(args: argparse.Namespace) -> Lab:
+    from app.records.db.engine import open_engine
+    from app.records.db.lab import Lab
+
+    return Lab(open_engine(args.db))
+
+
+def _db_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--db", metavar="URL", help="records database (default $ACCELCAL_DB, else SQLite file)"
+    )
+
+
+def add_commands(sub: argparse._SubParsersAction) -> dict[str, Handler]:  # type: ignore[type-arg]
+    """Add the records commands to the top-level subparsers; their handlers by name."""
+    d = sub.add_parser("db", help="records database: upgrade (create or migrate), import runs")
+    dsub = d.add_subparsers(dest="db_command", required=True, metavar="ACTION")
+    up = dsub.add_parser("upgrade", help="create the schema or migrate it to this version")
+    _db_option(up)
+    im = dsub.add_parser("import", help="index run folders (verified ones only)")
+    im.add_argument("folder", type=Path, help="a runs folder or one run folder")
+    _db_option(im)
+
+    c = sub.add_parser("customers", help="customers: add, list")
+    csub = c.add_subparsers(dest="action", required=True, metavar="ACTION")
+    ca = csub.add_parser("add", help="add a customer")
+    ca.add_argument("name")
+    ca.add_argument("--address", default="")
+    _db_option(ca)
+    _db_option(csub.add_parser("list", help="list customers"))
+
+    m = sub.add_parser("models", help="sensor models: add, list")
+    msub = m.add_subparsers(dest="action", required=True, metavar="ACTION")
+    ma = msub.add_parser("add", help="add a sensor model")
+    ma.add_argument("maker")
+    ma.add_argument("model")
+    numeric_option(ma, "--nominal", NOMINAL, "nominal sensitivity in --unit", required=True)
+    ma.add_argument("--unit", required=True, help="mV/(m/s^2), pC/(m/s^2) or mV/g")
+    numeric_option(ma, "--tolerance", TOLERANCE, "tolerance", required=True)
+    numeric_option(ma, "--fmin", FREQUENCY, "lowest frequency", required=True)
+    numeric_option(ma, "--fmax", FREQUENCY, "highest frequency", required=True)
+    ma.add_argument("--preset", default="piezo", help="default plan")
+    numeric_option(ma, "--level", LEVEL, "default level", default=5.0)
+    numeric_option(ma, "--phase-tolerance", PHASE_TOLERANCE, "phase tolerance")
+    _db_option(ma)
+    _db_option(msub.add_parser("list", help="list sensor models"))
+
+    s = sub.add_parser("sensors", help="sensors: add, list, show")
+    ssub = s.add_subparsers(dest="action", required=True, metavar="ACTION")
+    sa = ssub.add_parser("add", help="add a sensor")
+    sa.add_argument("serial")
+    sa.add_argument("--model", required=True, help="'maker model' or the model alone")
+    sa.add_argument("--owner", required=True, help="customer name")
+    numeric_option(sa, "--interval", INTERVAL, "calibration interval", default=12)
+    sa.add_argument("--teds", help="TEDS identity (manufacturer/model/serial)")
+    sa.add_argument(
+        "--check-standard", action="store_true", help="the lab's check standard (control chart)"
+    )
+    _db_option(sa)
+    sl = ssub.add_parser("list", help="list sensors")
+    sl.add_argument("--search", default="", help="part of the serial")
+    _db_option(sl)
+    sw = ssub.add_parser("show", help="one sensor and its last calibration")
+    sw.add_argument("serial")
+    _db_option(sw)
+
+    r = sub.add_parser("refs", help="reference standards: add, list")
+    rsub = r.add_subparsers(dest="action", required=True, metavar="ACTION")
+    ra = rsub.add_parser("add", help="add a reference standard with its calibration table")
+    ra.add_argument("identifier")
+    ra.add_argument("--model", required=True)
+    ra.add_argument("--serial", required=True)
+    ra.add_argument("--certificate", required=True, help="its calibration certificate number")
+    ra.add_argument("--calibrated", type=_iso_date("--calibrated"), required=True)
+    ra.add_argument("--due", type=_iso_date("--due"), required=True)
+    ra.add_argument(
+        "--table",
+        type=Path,
+        required=True,
+        help="CSV: frequency_hz,sensitivity_mv_per_ms2,relative_expanded_uncertainty[,phase_deg]",
+    )
+    _db_option(ra)
+    _db_option(rsub.add_parser("list", help="list reference standards"))
+
+    due = sub.add_parser("due", help="sensors and reference standards due for calibration")
+    numeric_option(due, "--days", DAYS, "horizon (default 30)", default=30)
+    _db_option(due)
+
+    h = sub.add_parser("history", help="a sensor's calibrations over time and its drift")
+    h.add_argument("serial")
+    h.add_argument("--plot", type=Path, help="write a drift chart (PNG) here")
+    _db_option(h)
+
+    k = sub.add_parser("control", help="a check standard's control chart on each stand")
+    k.add_argument("serial")
+    _db_option(k)
+
+    g = sub.add_parser("register", help="the certificate register: list, issue, withdraw")
+    gsub = g.add_subparsers(dest="action", required=True, metavar="ACTION")
+    _db_option(gsub.add_parser("list", help="every certificate, issued, replaced, withdrawn"))
+    gi = gsub.add_parser("issue", help="enter a certificate for an indexed run")
+    gi.add_argument("run_id")
+    gi.add_argument("--prepared-by", required=True)
+    gi.add_argument("--approved-by", required=True)
+    gi.add_argument("--replaces", help="the number this amendment replaces")
+    gi.add_argument("--reason", help="why (required with --replaces)")
+    gi.add_argument("--as-found", metavar="RUN_ID", help="the run before adjustment (as found)")
+    _db_option(gi)
+    gw = gsub.add_parser("withdraw", help="withdraw a certificate")
+    gw.add_argument("number")
+    gw.add_argument("--reason", required=True)
+    _db_option(gw)
+    gs = gsub.add_parser("set", help="lab settings: certificate_pattern, two_person_rule")
+    gs.add_argument("key", choices=("certificate_pattern", "two_person_rule"))
+    gs.add_argument("value")
+    _db_option(gs)
+
+    return {
+        "db": cmd_db,
+        "customers": cmd_customers,
+        "models": cmd_models,
+        "sensors": cmd_sensors,
+        "refs": cmd_refs,
+        "due": cmd_due,
+        "history": cmd_history,
+        "register": cmd_register,
+        "control": cmd_control,
+    }
+
+
+def cmd_db(args: argparse.Namespace) -> int:
+    from app.records.db.engine import make_engine, resolve_url, upgrade
+
+    if args.db_command == "upgrade":
+        url = resolve_url(args.db)
+        engine = make_engine(url)
+        before, after = upgrade(engine)
+        shown = engine.url.render_as_string(hide_password=True)
+        if before == after:
+            print(f"{shown}: schema already at {after}")
+        else:
+            print(f"{shown}: schema {before or 'none'} -> {after}")
+        return 0
+    if not args.folder.is_dir():
+        raise RecordsUsageError(f"folder: no such folder {args.folder}")
+    report = _lab(args).import_runs(args.folder)
+    for run_id in report.imported:
+        print(f"imported  {run_id}")
+    for run_id in report.known:
+        print(f"known     {run_id}")
+    for folder, why in report.refused:
+        print(f"refused   {folder}: {why}")
+    for warning in report.warnings:
+        print(f"WARNING   {warning}")
+    print(
+        f"{len(report.imported)} imported, {len(report.known)} already indexed, "
+        f"{len(report.refused)} refused"
+    )
+    return 0
+
+
+def cmd_customers(args: argparse.Namespace) -> int:
+    lab = _lab(args)
+    if args.action == "add":
+        print(f"customer {lab.add_customer(args.name, args.address).name} added")
+        return 0
+    for customer in lab.customers():
+        print(customer.name)
+    return 0
+
+
+def cmd_models(args: argparse.Namespace) -> int:
+    lab = _lab(args)
+    if args.action == "add":
+        row = lab.add_model(
+            args.maker,
+            args.model,
+            nominal_sensitivity=args.nominal,
+            unit=args.unit,
+            tolerance_percent=args.tolerance,
+            frequency_min_hz=args.fmin,
+            frequency_max_hz=args.fmax,
+            preset=args.preset,
+            level_ms2=args.level,
+            phase_tolerance_deg=args.phase_tolerance,
+        )
+        print(f"model {row.maker} {row.model} added")
+        return 0
+    for m in lab.models():
+        print(
+            f"{m.maker} {m.model}: {m.nominal_sensitivity:g} {m.unit} "
+            f"±{m.tolerance_percent:g} %, {m.frequency_min_hz:g}-{m.frequency_max_hz:g} Hz"
+        )
+    return 0
+
+
+def cmd_sensors(args: argparse.Namespace) -> int:
+    lab = _lab(args)
+    if args.action == "add":
+        row = lab.add_sensor(
+            args.serial,
+            model=args.model,
+            owner=args.owner,
+            interval_months=args.interval,
+            teds_identity=args.teds,
+            check_standard=args.check_standard,
+        )
+        print(f"sensor {row.serial} ({row.model.maker} {row.model.model}) added")
+        return 0
+    if args.action == "list":
+        for row in lab.sensors(args.search):
+            print(f"{row.serial}\t{row.model.maker} {row.model.model}\t{row.owner.name}")
+        return 0
+    row = lab.sensor(args.serial)
+    history = lab.history(args.serial)
+    print(f"serial:     {row.serial}")
+    print(f"model:      {row.model.maker} {row.model.model}")
+    print(f"nominal:    {row.model.nominal_sensitivity:g} {row.model.unit}")
+    print(f"tolerance:  ±{row.model.tolerance_percent:g} %")
+    print(f"owner:      {row.owner.name}")
+    print(f"interval:   {row.interval_months} months")
+    last = history.points[-1] if history.points else None
+    print(f"last run:   {last.run_id if last else 'none on record'}")
+    return 0
+
+
+def cmd_refs(args: argparse.Namespace) -> int:
+    lab = _lab(args)
+    if args.action == "add":
+        table = _read_reference_table(args.table)
+        row = lab.add_reference(
+            args.identifier,
+            model=args.model,
+            serial=args.serial,
+            certificate_number=args.certificate,
+            calibration_date=args.calibrated,
+            due_date=args.due,
+            table=table,
+        )
+        print(f"reference {row.identifier} added ({len(table)} table rows, due {row.due_date})")
+        return 0
+    for ref in lab.references():
+        print(
+            f"{ref.identifier}\t{ref.model} {ref.serial}\t{ref.certificate_number}\t"
+            f"calibrated {ref.calibration_date}\tdue {ref.due_date}\t{len(ref.points)} rows"
+        )
+    return 0
+
+
+def _read_reference_table(path: Path) -> list[tuple[float, float, float, float | None]]:
+    """Rows of a reference calibration table CSV; a bad cell is refused by line."""
+    from app.records.db.lab import RecordsError
+
+    if not path.is_file():
+        raise RecordsUsageError(f"--table: no such file {path}")
+    rows: list[tuple[float, float, float, float | None]] = []
+    with path.open(newline="", encoding="utf-8") as handle:
+        for number, cells in enumerate(csv.reader(handle), 1):
+            if not cells or cells[0].strip().startswith("#") or cells[0].strip().isalpha():
+                continue
+            if cells[0].strip() == "frequency_hz":
+                continue
+            if len(cells) not in (3, 4):
+                raise RecordsError(f"{path} line {number}: expected 3 or 4 columns")
+            try:
+                values = [float(c) for c in cells]
+            except ValueError:
+                raise RecordsError(f"{path} line {number}: not a number") from None
+            phase = values[3] if len(values) == 4 else None
+            rows.append((values[0], values[1], values[2], phase))
+    return rows
+
+
+def cmd_due(args: argparse.Namespace) -> int:
+    today = datetime.now(UTC).date()
+    items = _lab(args).due(today=today, days=args.days)
+    for item in items:
+        when = "never calibrated here" if item.due is None else f"due {item.due}"
+        overdue = " (OVERDUE)" if item.due is not None and item.due < today else ""
+        print(f"{item.kind:9s} {item.identifier}\t{item.owner}\t{when}{overdue}")
+    print(f"{len(items)} due within {args.days} days")
+    return 0
+
+
+def cmd_history(args: argparse.Namespace) -> int:
+    history = _lab(args).history(args.serial)
+    if args.plot is not None and not history.points:
+        raise RecordsUsageError(f"--plot: no calibrations of {args.serial} on record to plot")
+    for p in history.points:
+        u = (
+            "n/a"
+            if p.expanded_uncertainty_mv_per_ms2 is None
+            else f"{p.expanded_uncertainty_mv_per_ms2:.3g}"
+        )
+        print(
+            f"{p.started_utc:%Y-%m-%d}  {p.run_id}  {p.sensitivity_mv_per_ms2:.5g} "
+            f"mV/(m/s^2) at {p.reference_frequency_hz:g} Hz, U = {u}"
+        )
+    if history.drift_percent_per_year is None:
+        print("drift: needs two calibrations at least 30 days apart")
+    else:
+        print(f"drift: {history.drift_percent_per_year:+.3f} % per year")
+    if args.plot is not None:
+        from app.files import check_target
+        from app.records.db.plots import drift_chart
+
+        try:
+            check_target(args.plot)
+        except (ValueError, FileExistsError) as exc:
+            raise RecordsUsageError(f"--plot: {exc}") from None
+
+        drift_chart(history, args.plot)
+        print(f"chart written to {args.plot}")
+    return 0
+
+
+def cmd_register(args: argparse.Namespace) -> int:
+    lab = _lab(args)
+    if args.action == "issue":
+        row = lab.issue_certificate(
+            run_id=args.run_id,
+            prepared_by=args.prepared_by,
+            approved_by=args.approved_by,
+            replaces=args.replaces,
+            reason=args.reason,
+            as_found_run_id=args.as_found,
+        )
+        print(row.number)
+        return 0
+    if args.action == "withdraw":
+        lab.withdraw_certificate(args.number, args.reason)
+        print(f"{args.number} withdrawn")
+        return 0
+    if args.action == "set":
+        lab.set_setting(args.key, args.value)
+        print(f"{args.key} = {args.value}")
+        return 0
+    for c in lab.register():
+        note = f" replaces {c.replaces}" if c.replaces else ""
+        if c.as_found_run is not None:
+            note += f" (as found: run {c.as_found_run.run_id})"
+        why = f" ({c.reason})" if c.reason else ""
+        print(
+            f"{c.number}\t{c.state}{why}\t{c.issued_utc:%Y-%m-%d}\trun {c.run.run_id}\t"
+            f"sensor {c.sensor.serial}\tprepared {c.prepared_by}, approved {c.approved_by}{note}"
+        )
+    return 0
+
+
+def cmd_control(args: argparse.Namespace) -> int:
+    charts = _lab(args).control_chart(args.serial)
+    if not charts:
+        print(f"{args.serial}: no complete runs on record")
+    for chart in charts:
+        print(f"{chart.stand}: {len(chart.points)} runs")
+        if chart.centre is None:
+            print("  limits: need 5 earlier runs on this stand")
+        else:
+            print(
+                f"  centre {chart.centre:.5g}, limits {chart.lower:.5g} to {chart.upper:.5g} "
+                "mV/(m/s^2)"
+            )
+        for run_id, value in chart.points:
+            print(f"  {run_id}  {value:.5g}")
+        if chart.warning:
+            print(f"WARNING {chart.warning}")
+    return 0

@@ -1,0 +1,171 @@
+"""Where the records database is and how it is opened, created and migrated.
+
+The URL comes from `--db URL`, else the environment variable ACCELCAL_DB, else an SQLite file
+`records.sqlite` in the user's data directory (platformdirs). SQLite runs in WAL mode with a
+busy timeout, and every transaction starts with BEGIN IMMEDIATE so two writers queue instead
+of failing half-way. PostgreSQL is reached through psycopg 3 (`postgresql://...` URLs are
+mapped to `postgresql+psycopg://`). A database whose schema is older than this program's is
+refused until `accelcal db upgrade`; only the default SQLite file is created on first use.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from sqlalchemy import Engine, create_engine, event, inspect
+from sqlalchemy.engine import make_url
+from sqlalchemy.exc import ArgumentError
+
+from app.records.db.errors import RecordsInputError
+
+log = logging.getLogger(__name__)
+
+ENV_VAR = "ACCELCAL_DB"
+SQLITE_BUSY_TIMEOUT_S = 30.0
+
+
+class DatabaseError(RecordsInputError):
+    """The records database cannot be used; the message says why and what to do."""
+
+
+def default_url() -> str:
+    """The embedded default: an SQLite file in the user's data directory."""
+    from platformdirs import user_data_dir
+
+    folder = Path(user_data_dir("accelcal", appauthor=False))
+    return f"sqlite:///{folder / 'records.sqlite'}"
+
+
+def resolve_url(explicit: str | None = None) -> str:
+    """The database URL: `explicit`, else $ACCELCAL_DB, else the default SQLite file."""
+    url = explicit or os.environ.get(ENV_VAR) or default_url()
+    try:
+        parsed = make_url(url)
+    except ArgumentError:
+        raise DatabaseError(f"--db: not a database URL: {url!r}") from None
+    if parsed.drivername in ("postgresql", "postgres"):
+        parsed = parsed.set(drivername="postgresql+psycopg")
+    elif parsed.drivername not in ("sqlite", "sqlite+pysqlite", "postgresql+psycopg"):
+        raise DatabaseError(
+            f"--db: unsupported database {parsed.drivername!r} (use sqlite:/// or postgresql://)"
+        )
+    return parsed.render_as_string(hide_password=False)
+
+
+def _sqlite_pragmas(dbapi_connection: Any, _record: Any) -> None:
+    dbapi_connection.isolation_level = None  # SQLAlchemy's "begin" event issues BEGIN itself
+    cursor = dbapi_connection.cursor()
+    cursor.execute(f"PRAGMA busy_timeout = {int(SQLITE_BUSY_TIMEOUT_S * 1000)}")
+    cursor.execute("PRAGMA journal_mode = WAL")
+    cursor.execute("PRAGMA foreign_keys = ON")
+    cursor.close()
+
+
+def make_engine(url: str) -> Engine:
+    """An engine for `url` (already resolved); SQLite gets WAL, busy timeout, IMMEDIATE."""
+    parsed = make_url(url)
+    if parsed.get_backend_name() == "sqlite":
+        database = parsed.database
+        if database and database != ":memory:":
+            Path(database).parent.mkdir(parents=True, exist_ok=True)
+        engine = create_engine(url, connect_args={"timeout": SQLITE_BUSY_TIMEOUT_S})
+        event.listen(engine, "connect", _sqlite_pragmas)
+        event.listen(engine, "begin", lambda conn: conn.exec_driver_sql("BEGIN IMMEDIATE"))
+        return engine
+    return create_engine(url, pool_pre_ping=True)
+
+
+def _alembic_config(engine: Engine) -> Any:
+    from alembic.config import Config
+
+    config = Config()
+    config.set_main_option(
+        "script_location", str(resources.files("app.records.db").joinpath("migrations"))
+    )
+    return config
+
+
+def head_revision(engine: Engine) -> str:
+    """The newest schema revision this program knows."""
+    from alembic.script import ScriptDirectory
+
+    head = ScriptDirectory.from_config(_alembic_config(engine)).get_current_head()
+    assert head is not None
+    return head
+
+
+def current_revision(engine: Engine) -> str | None:
+    """The schema revision the database is at (None: no schema at all)."""
+    from alembic.runtime.migration import MigrationContext
+
+    with engine.connect() as connection:
+        return MigrationContext.configure(connection).get_current_revision()
+
+
+def upgrade(engine: Engine, revision: str = "head") -> tuple[str | None, str | None]:
+    """Migrate the schema to `revision`; returns (revision before, revision after)."""
+    from alembic import command
+
+    before = current_revision(engine)
+    config = _alembic_config(engine)
+    sqlite = engine.dialect.name == "sqlite"
+    with engine.connect() as connection:
+        raw = connection.connection.driver_connection
+        if sqlite and raw is not None:  # batch migrations rebuild tables: keys checked after
+            raw.execute("PRAGMA foreign_keys = OFF")
+        with connection.begin():
+            config.attributes["connection"] = connection
+            command.upgrade(config, revision)
+            if sqlite:
+                broken = connection.exec_driver_sql("PRAGMA foreign_key_check").all()
+                if broken:
+                    raise DatabaseError(f"migration to {revision} broke foreign keys: {broken}")
+        if sqlite and raw is not None:
+            raw.execute("PRAGMA foreign_keys = ON")
+    after = current_revision(engine)
+    if before != after:
+        log.info("records database migrated from %s to %s", before or "nothing", after)
+    return before, after
+
+
+def _has_tables(engine: Engine) -> bool:
+    return bool(inspect(engine).get_table_names())
+
+
+def open_engine(url: str | None = None, *, create: bool | None = None) -> Engine:
+    """An engine on a database whose schema is this program's. The default SQLite file (or
+    any empty database when `create`) is created on first use; a database at an older
+    revision, or one of unknown origin, is refused with what to do."""
+    resolved = resolve_url(url)
+    engine = make_engine(resolved)
+    try:
+        current = current_revision(engine)
+    except Exception as exc:  # unreachable server, bad file
+        engine.dispose()
+        raise DatabaseError(f"records database {_safe(resolved)}: cannot connect ({exc})") from exc
+    head = head_revision(engine)
+    if current == head:
+        return engine
+    if current is None:
+        if create is None:
+            create = url is None and os.environ.get(ENV_VAR) is None
+        if create and not _has_tables(engine):
+            upgrade(engine)
+            return engine
+        engine.dispose()
+        raise DatabaseError(
+            f"records database {_safe(resolved)}: no accelcal schema; run `accelcal db upgrade`"
+        )
+    engine.dispose()
+    raise DatabaseError(
+        f"records database {_safe(resolved)}: schema revision {current}, this program needs "
+        f"{head}; run `accelcal db upgrade` (after a backup)"
+    )
+
+
+def _safe(url: str) -> str:
+    return make_url(url).render_as_string(hide_password=True)

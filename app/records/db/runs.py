@@ -1,0 +1,114 @@
+"""How a run uses the records: the DUT's settings from its sensor record (`run --sensor`), the
+reference standard's due date checked before anything moves, and the finished run indexed.
+
+The run folder is the record: when the database cannot be reached after a run, the run is
+kept complete in its folder, the user is told, and the next `accelcal db import` indexes it.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from datetime import date
+from pathlib import Path
+from typing import Any
+
+from app.records.db.errors import RecordsInputError
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class SensorDefaults:
+    """What a sensor's record sets for its run (sensitivities in mV/(m/s^2), level m/s^2)."""
+
+    serial: str
+    description: str
+    nominal_mv_per_ms2: float
+    tolerance_percent: float
+    level_ms2: float
+    preset: str
+    charge_unit: bool
+
+
+def sensor_defaults(serial: str, url: str | None) -> SensorDefaults:
+    """The run settings of sensor `serial` from the records; RecordsInputError naming --sensor
+    when the sensor is unknown or the records cannot be reached."""
+    from app.records.db.engine import open_engine
+    from app.records.db.lab import Lab
+    from app.records.db.units import CHARGE_UNITS, to_mv_per_ms2
+
+    try:
+        sensor = Lab(open_engine(url)).sensor(serial)
+    except RecordsInputError as exc:
+        raise RecordsInputError(f"--sensor: {exc}") from None
+    model = sensor.model
+    return SensorDefaults(
+        serial=sensor.serial,
+        description=f"{model.maker} {model.model}, owner {sensor.owner.name}",
+        nominal_mv_per_ms2=to_mv_per_ms2(model.nominal_sensitivity, model.unit),
+        tolerance_percent=model.tolerance_percent,
+        level_ms2=model.level_ms2,
+        preset=model.preset,
+        charge_unit=model.unit in CHARGE_UNITS,
+    )
+
+
+def check_reference_due(
+    reference_id: str, url: str | None, *, today: date, override_reason: str | None
+) -> str | None:
+    """Refuse (RecordsInputError) a run whose reference standard is on record and past its due
+    date, unless an override reason is given; returns a note to print (None when nothing to
+    say). A reference standard not on record is the stand file's business, and records that
+    cannot be reached do not stop a run: a note says so."""
+    from app.records.db.engine import DatabaseError, open_engine
+    from app.records.db.lab import Lab
+
+    try:
+        lab = Lab(open_engine(url))
+    except DatabaseError as exc:  # the run still records to its folder
+        return f"records not reachable, reference due date not checked: {exc}"
+    return reference_due_note(lab, reference_id, today=today, override_reason=override_reason)
+
+
+def reference_due_note(
+    lab: Any, reference_id: str, *, today: date, override_reason: str | None
+) -> str | None:
+    """`check_reference_due` on records already open (`app.records.db.lab.Lab`; the GUI's): the
+    records' rule (`Lab.reference_for_run`), RecordsInputError naming the due date when
+    refused, else a note (None when nothing to say)."""
+    from app.records.db.lab import RecordsError
+
+    try:
+        ref = lab.reference_for_run(reference_id, today=today, override_reason=override_reason)
+    except RecordsError as exc:
+        if "no reference standard" in str(exc):
+            return f"reference standard {reference_id} is not in the records (stand file only)"
+        raise
+    if ref.due_date < today:
+        return (
+            f"reference standard {reference_id} was due on {ref.due_date}; used under the "
+            f"override: {override_reason}"
+        )
+    return None
+
+
+def index_finished_run(folder: Path, url: str | None) -> str:
+    """Index a finished run folder into the records; a one-line report, never an exception
+    (the folder is the record: an unreachable database loses nothing)."""
+    try:
+        from app.records.db.engine import open_engine
+        from app.records.db.lab import Lab
+
+        report = Lab(open_engine(url)).import_runs(folder)
+    except Exception as exc:  # any failure of the database must not fail a recorded run
+        log.warning("run %s not indexed: %s", folder, exc)
+        return (
+            f"records: the run is stored in {folder} but was not indexed ({exc}); "
+            "run `accelcal db import` when the database is back"
+        )
+    if report.refused:
+        return f"records: not indexed: {report.refused[0][1]}"
+    lines = [f"records: run indexed ({', '.join(report.imported) or 'already known'})"]
+    lines += [f"WARNING {warning}" for warning in report.warnings]
+    return "\n".join(lines)

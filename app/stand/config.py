@@ -1,0 +1,428 @@
+"""Stand configuration (`stand.toml`): validated on load, every error names its field.
+
+Sections (units in the names):
+
+    [laboratory]  name, address, accreditation (optional)
+    [daq]         backend = "sim" | "nidaqmx", device, skew_s (DUT channel's sampling delay)
+    [daq.output]  physical, range_v
+    [daq.reference] / [daq.dut] / [daq.drive] (optional loopback):
+                  physical, range_v, coupling ("dc"/"ac"), iepe_current_a, terminal
+    [amplifiers]  measuring (VISA resource), reference_channel, power (VISA resource, optional)
+    [limits]      displacement_peak_to_peak_m, velocity_peak_m_per_s, acceleration_peak_ms2,
+                  drive_peak_v
+    [reference]   id, model, serial, certificate_number, certificate_date, gain (conditioning,
+                  V/V), frequencies_hz, sensitivity_mv_per_ms2, phase_deg (its certificate)
+    [dut_channel] gain (V/V between DUT and DAQ)
+    [[component]] the type B budget (dsp.uncertainty.Component fields)
+    [simulation]  simulated stand only: which components it draws its deviations from
+
+With no file, the built-in simulated stand (`sim/stand.toml`) is used.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import tomllib
+from dataclasses import dataclass, field
+from datetime import date
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from app.io.checks import MAX_TEXT_BYTES, InputFileError, check_input_file
+from dsp.calibration import ReferenceChain
+from dsp.uncertainty import Budget
+from hardware.interfaces import InputChannel, OutputChannel
+
+BACKENDS = ("sim", "nidaqmx")
+
+_INPUT_KEYS = frozenset({"physical", "range_v", "coupling", "iepe_current_a", "terminal"})
+# Every key a stand file may hold, per table ("" is the top level). [[component]] entries are
+# checked by dsp.uncertainty.Component and [simulation] by sim.stand; an unknown key anywhere
+# else is refused, naming the nearest known one (a typo such as skew_seconds would otherwise
+# silently mean the default).
+SCHEMA: dict[str, frozenset[str]] = {
+    "": frozenset(
+        {
+            "laboratory",
+            "daq",
+            "amplifiers",
+            "limits",
+            "reference",
+            "dut_channel",
+            "component",
+            "simulation",
+            "certificate",
+        }
+    ),
+    "laboratory": frozenset({"name", "address", "country", "accreditation"}),
+    "daq": frozenset({"backend", "device", "skew_s", "output", "reference", "dut", "drive"}),
+    "daq.output": frozenset({"physical", "range_v"}),
+    "daq.reference": _INPUT_KEYS,
+    "daq.dut": _INPUT_KEYS,
+    "daq.drive": _INPUT_KEYS,
+    "amplifiers": frozenset({"measuring", "reference_channel", "power"}),
+    "limits": frozenset(
+        {
+            "displacement_peak_to_peak_m",
+            "velocity_peak_m_per_s",
+            "acceleration_peak_ms2",
+            "drive_peak_v",
+        }
+    ),
+    "reference": frozenset(
+        {
+            "id",
+            "model",
+            "serial",
+            "certificate_number",
+            "certificate_date",
+            "gain",
+            "frequencies_hz",
+            "sensitivity_mv_per_ms2",
+            "phase_deg",
+        }
+    ),
+    "dut_channel": frozenset({"gain"}),
+    "certificate": frozenset(  # defaults of app.certificate.CertificateInfo
+        {
+            "customer",
+            "customer_address",
+            "authorised_by",
+            "dut_model",
+            "dut_serial",
+            "dut_type",
+            "temperature_c",
+            "mounting",
+            "certificate_number",
+            "issue_date",
+            "notes",
+        }
+    ),
+}
+
+
+class ConfigError(ValueError):
+    """A stand configuration that cannot be used; the message names the file and field."""
+
+
+@dataclass(frozen=True)
+class Limits:
+    """What the exciter and amplifier may be asked for (peaks)."""
+
+    displacement_peak_to_peak_m: float
+    velocity_peak_m_per_s: float
+    acceleration_peak_ms2: float
+    drive_peak_v: float
+
+
+@dataclass(frozen=True)
+class ReferenceStandard:
+    """Identity and certificate of the reference standard (sensitivity table optional for the
+    simulated stand, which issues its own)."""
+
+    id: str
+    model: str
+    serial: str
+    certificate_number: str
+    certificate_date: str
+    gain: float
+    frequencies_hz: tuple[float, ...] = ()
+    sensitivity_mv_per_ms2: tuple[float, ...] = ()
+    phase_deg: tuple[float, ...] = ()
+
+
+@dataclass(frozen=True)
+class StandConfig:
+    """A whole stand: where things are, what they may do, and what is known about them."""
+
+    source: str
+    laboratory: dict[str, str]
+    backend: str
+    device: str
+    skew_s: float
+    output: OutputChannel
+    inputs: tuple[InputChannel, ...]
+    measuring_amplifier: str | None
+    reference_amplifier_channel: int
+    power_amplifier: str | None
+    limits: Limits
+    reference: ReferenceStandard
+    dut_gain: float
+    budget: Budget
+    simulation: dict[str, str] = field(default_factory=dict)
+    raw: dict[str, Any] = field(default_factory=dict, repr=False)
+    text: str = field(default="", repr=False)  # the stand file as read (copied into each run)
+
+    def reference_chain(self) -> ReferenceChain:
+        """The chain the analysis uses: the certificate, nominal gains and the skew."""
+        ref = self.reference
+        if not ref.frequencies_hz:
+            raise ConfigError(f"{self.source}: reference.frequencies_hz: no certificate table")
+        return ReferenceChain(
+            ref.frequencies_hz,
+            ref.sensitivity_mv_per_ms2,
+            ref.phase_deg,
+            reference_gain=ref.gain,
+            dut_gain=self.dut_gain,
+            skew_s=self.skew_s,
+        )
+
+
+class _Reader:
+    """Typed access to nested TOML tables with errors naming `section.key`."""
+
+    def __init__(self, data: dict[str, Any], source: str):
+        self.data = data
+        self.source = source
+
+    def fail(self, where: str, why: str) -> ConfigError:
+        return ConfigError(f"{self.source}: {where}: {why}")
+
+    def table(self, path: str, required: bool = True) -> dict[str, Any]:
+        node: Any = self.data
+        for part in path.split("."):
+            if not isinstance(node, dict) or part not in node:
+                if required:
+                    raise self.fail(path, "missing section")
+                return {}
+            node = node[part]
+        if not isinstance(node, dict):
+            raise self.fail(path, "must be a table")
+        return node
+
+    def value(
+        self, table: dict[str, Any], path: str, key: str, kind: type, default: Any = ...
+    ) -> Any:
+        where = f"{path}.{key}"
+        if key not in table:
+            if default is ...:
+                raise self.fail(where, "missing")
+            return default
+        value = table[key]
+        if kind is float:
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise self.fail(where, f"must be a number, got {value!r}")
+            value = float(value)
+            if not math.isfinite(value):
+                raise self.fail(where, "must be finite")
+        elif kind is int:
+            if isinstance(value, bool) or not isinstance(value, int):
+                raise self.fail(where, f"must be an integer, got {value!r}")
+        elif kind is str:
+            if isinstance(value, date):
+                value = value.isoformat()
+            if not isinstance(value, str) or not value.strip():
+                raise self.fail(where, f"must be a non-empty string, got {value!r}")
+        return value
+
+    def positive(self, table: dict[str, Any], path: str, key: str, default: Any = ...) -> float:
+        value = self.value(table, path, key, float, default)
+        if not value > 0:
+            raise self.fail(f"{path}.{key}", f"must be > 0, got {value:g}")
+        return value
+
+    def floats(self, table: dict[str, Any], path: str, key: str) -> tuple[float, ...]:
+        values = table.get(key, [])
+        if not isinstance(values, list) or not all(
+            isinstance(v, int | float) and not isinstance(v, bool) for v in values
+        ):
+            raise self.fail(f"{path}.{key}", "must be a list of numbers")
+        return tuple(float(v) for v in values)
+
+
+def _channel(r: _Reader, name: str, required: bool = True) -> InputChannel | None:
+    path = f"daq.{name}"
+    t = r.table(path, required)
+    if not t:
+        return None
+    coupling = r.value(t, path, "coupling", str, "dc")
+    if coupling not in ("dc", "ac"):
+        raise r.fail(f"{path}.coupling", f"must be 'dc' or 'ac', got {coupling!r}")
+    terminal = r.value(t, path, "terminal", str, "default")
+    try:
+        return InputChannel(
+            name,  # type: ignore[arg-type]
+            r.value(t, path, "physical", str),
+            r.positive(t, path, "range_v"),
+            coupling,  # type: ignore[arg-type]
+            r.value(t, path, "iepe_current_a", float, 0.0),
+            terminal,  # type: ignore[arg-type]
+        )
+    except ValueError as exc:
+        raise r.fail(path, str(exc)) from None
+
+
+def _unknown_key(data: dict[str, Any]) -> str | None:
+    """The first key not in SCHEMA, named with the nearest known key; None when all are known."""
+    for path, known in SCHEMA.items():
+        table: Any = data
+        for part in path.split(".") if path else ():
+            table = table.get(part) if isinstance(table, dict) else None
+        if not isinstance(table, dict):
+            continue
+        for key in table:
+            if key in known:
+                continue
+            where = f"{path}.{key}" if path else key
+            close = difflib.get_close_matches(key, sorted(known), n=1, cutoff=0.5)
+            hint = f"; did you mean {close[0]!r}?" if close else ""
+            return f"{where}: unknown key{hint}"
+    return None
+
+
+def _distinct_channels(inputs: tuple[InputChannel, ...], r: _Reader) -> None:
+    """ConfigError when two input channels name the same physical channel (the DUT would be
+    compared with itself, or with the drive)."""
+    seen: dict[str, str] = {}
+    for channel in inputs:
+        physical = channel.physical.strip().lower()
+        if physical in seen:
+            raise r.fail(
+                f"daq.{channel.name}.physical",
+                f"{channel.physical!r} is also daq.{seen[physical]}.physical; each input "
+                "needs its own physical channel",
+            )
+        seen[physical] = channel.name
+
+
+def parse(text: str, source: str) -> StandConfig:
+    """Parse and validate a stand configuration given as TOML text. An unknown key is refused,
+    and named beside any other error (a misspelt key is usually why one is missing)."""
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{source}: not valid TOML: {exc}") from None
+    try:
+        config = _parse(data, text, source)
+    except ConfigError as exc:
+        unknown = _unknown_key(data)
+        if unknown:
+            raise ConfigError(f"{exc}; and {unknown}") from None
+        raise
+    unknown = _unknown_key(data)
+    if unknown:
+        raise ConfigError(f"{source}: {unknown}")
+    return config
+
+
+def _parse(data: dict[str, Any], text: str, source: str) -> StandConfig:
+    r = _Reader(data, source)
+    lab = r.table("laboratory")
+    laboratory = {
+        "name": r.value(lab, "laboratory", "name", str),
+        "address": r.value(lab, "laboratory", "address", str),
+        "accreditation": lab.get("accreditation", ""),
+        "country": lab.get("country", ""),
+    }
+    if not isinstance(laboratory["accreditation"], str):
+        raise r.fail("laboratory.accreditation", "must be a string (may be empty)")
+    country = laboratory["country"]
+    if country and not (
+        isinstance(country, str) and len(country) == 2 and country.isascii() and country.isupper()
+    ):
+        raise r.fail(
+            "laboratory.country", f"an ISO 3166-1 two-letter code like 'PL', got {country!r}"
+        )
+    daq = r.table("daq")
+    backend = r.value(daq, "daq", "backend", str)
+    if backend not in BACKENDS:
+        raise r.fail("daq.backend", f"must be one of {', '.join(BACKENDS)}, got {backend!r}")
+    out = r.table("daq.output")
+    output = OutputChannel(
+        r.value(out, "daq.output", "physical", str), r.positive(out, "daq.output", "range_v")
+    )
+    inputs = tuple(
+        c for c in (_channel(r, "reference"), _channel(r, "dut"), _channel(r, "drive", False)) if c
+    )
+    _distinct_channels(inputs, r)
+    skew = r.value(daq, "daq", "skew_s", float, 0.0)
+    if not 0 <= skew < 1e-3:
+        raise r.fail("daq.skew_s", f"must be between 0 and 1 ms, got {skew:g} s")
+    amps = r.table("amplifiers", required=False)
+    lim = r.table("limits")
+    limits = Limits(
+        r.positive(lim, "limits", "displacement_peak_to_peak_m"),
+        r.positive(lim, "limits", "velocity_peak_m_per_s"),
+        r.positive(lim, "limits", "acceleration_peak_ms2"),
+        r.positive(lim, "limits", "drive_peak_v"),
+    )
+    if limits.drive_peak_v > output.range_v:
+        raise r.fail("limits.drive_peak_v", f"exceeds the output range {output.range_v:g} V")
+    ref = r.table("reference")
+    reference = ReferenceStandard(
+        id=r.value(ref, "reference", "id", str),
+        model=r.value(ref, "reference", "model", str),
+        serial=r.value(ref, "reference", "serial", str),
+        certificate_number=r.value(ref, "reference", "certificate_number", str),
+        certificate_date=r.value(ref, "reference", "certificate_date", str),
+        gain=r.positive(ref, "reference", "gain", 1.0),
+        frequencies_hz=r.floats(ref, "reference", "frequencies_hz"),
+        sensitivity_mv_per_ms2=r.floats(ref, "reference", "sensitivity_mv_per_ms2"),
+        phase_deg=r.floats(ref, "reference", "phase_deg"),
+    )
+    if backend != "sim" or reference.frequencies_hz:
+        try:
+            ReferenceChain(
+                reference.frequencies_hz,
+                reference.sensitivity_mv_per_ms2,
+                reference.phase_deg or (0.0,) * len(reference.frequencies_hz),
+            )
+        except ValueError as exc:
+            raise r.fail("reference", str(exc).replace("reference chain: ", "")) from None
+        if not reference.phase_deg:
+            reference = ReferenceStandard(
+                **{**reference.__dict__, "phase_deg": (0.0,) * len(reference.frequencies_hz)}
+            )
+    dut_channel = r.table("dut_channel", required=False)
+    try:
+        budget = Budget.from_list(data.get("component", []))
+    except ValueError as exc:
+        raise r.fail("component", str(exc)) from None
+    simulation = data.get("simulation", {})
+    if backend != "sim" and simulation:
+        raise r.fail("simulation", "only for the simulated stand (daq.backend = 'sim')")
+    measuring = amps.get("measuring")
+    power = amps.get("power")
+    for key, value in (("measuring", measuring), ("power", power)):
+        if value is not None and (not isinstance(value, str) or not value.strip()):
+            raise r.fail(f"amplifiers.{key}", "must be a VISA resource name")
+    return StandConfig(
+        source=source,
+        laboratory=laboratory,
+        backend=backend,
+        device=r.value(daq, "daq", "device", str, "sim"),
+        skew_s=skew,
+        output=output,
+        inputs=inputs,
+        measuring_amplifier=measuring,
+        reference_amplifier_channel=r.value(amps, "amplifiers", "reference_channel", int, 1),
+        power_amplifier=power,
+        limits=limits,
+        reference=reference,
+        dut_gain=r.positive(dut_channel, "dut_channel", "gain", 1.0),
+        budget=budget,
+        simulation=dict(simulation),
+        raw=data,
+        text=text,
+    )
+
+
+def load(path: str | Path | None = None) -> StandConfig:
+    """Load `path`, or the built-in simulated stand when None."""
+    if path is None:
+        text = resources.files("sim").joinpath("stand.toml").read_text(encoding="utf-8")
+        return parse(text, "built-in simulated stand")
+    path = Path(path)
+    try:
+        check_input_file(path, MAX_TEXT_BYTES, "stand file")
+    except InputFileError as exc:
+        raise ConfigError(str(exc)) from None
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ConfigError(f"{path}: no such file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"{path}: cannot be read ({exc})") from None
+    return parse(text, str(path))

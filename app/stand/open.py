@@ -1,0 +1,133 @@
+"""Open the stand a configuration names: the simulated stand or real hardware, never a silent
+fallback from one to the other."""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from app.stand.config import ConfigError, StandConfig
+from dsp.calibration import ReferenceChain
+from dsp.uncertainty import Budget
+from hardware.interfaces import Daq, MeasuringAmplifier, PowerAmplifier
+from sim.models import DUT_CATALOGUE, StandModel
+from sim.stand import POWER_AMPLIFIER_FAULT_KINDS, Fault, SimBudget, SimulatedStand
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class Stand:
+    """What the procedure drives and what the analysis may know about it."""
+
+    config: StandConfig
+    daq: Daq
+    chain: ReferenceChain
+    budget: Budget
+    measuring_amplifier: MeasuringAmplifier | None = None
+    power_amplifier: PowerAmplifier | None = None
+    truth: Callable[[np.ndarray, float], np.ndarray] | None = field(default=None, repr=False)
+    description: str = ""
+    # what else than the stand file makes this stand what it is: the simulated stand's seed
+    realisation: str = ""
+
+    def close(self) -> None:
+        """Stop the drive and release every device (safe to call twice)."""
+        try:
+            self.daq.stop()
+        finally:
+            if self.power_amplifier is not None:  # the drive is at 0 V: output off too
+                try:
+                    self.power_amplifier.set_output_enabled(False)
+                except Exception as exc:
+                    log.error("power amplifier: output could not be switched off: %s", exc)
+            for device in (self.measuring_amplifier, self.power_amplifier):
+                if device is not None:
+                    device.close()
+            self.daq.close()
+
+
+def open_stand(
+    config: StandConfig,
+    *,
+    dut: str = "piezo",
+    seed: int = 0,
+    paced: bool = False,
+    faults: tuple[Fault, ...] = (),
+    systematic: bool = True,
+    model: StandModel | None = None,
+    dut_mass_g: float | None = None,
+) -> Stand:
+    """The stand of `config`; the simulated one needs a catalogue DUT (`dut`), carrying
+    `dut_mass_g` (g) instead of its catalogue mass when given."""
+    if config.backend == "sim":
+        # without a power amplifier only the legacy `amplifier-fault` (raised by the DAQ) works
+        kinds = {f.kind for f in faults} & (set(POWER_AMPLIFIER_FAULT_KINDS) - {"amplifier-fault"})
+        needs_power = sorted(kinds)
+        if needs_power and not config.power_amplifier:
+            raise ConfigError(
+                f"--fault {', '.join(needs_power)}: the stand has no power amplifier "
+                f"(amplifiers.power in {config.source})"
+            )
+        if model is None:
+            model = StandModel(reference_gain=config.reference.gain, skew_s=config.skew_s)
+        sensor = DUT_CATALOGUE.get(dut)
+        if sensor is not None and dut_mass_g is not None:
+            sensor = dataclasses.replace(sensor, mass_g=dut_mass_g)
+        sim = SimulatedStand(
+            sensor if sensor is not None else dut,
+            model=model,
+            sim_budget=SimBudget(config.budget, config.simulation),
+            seed=seed,
+            paced=paced,
+            faults=faults,
+            systematic=systematic,
+        )
+        chain = sim.reference_chain(dut_gain=config.dut_gain)
+        return Stand(
+            config=config,
+            daq=sim,
+            chain=chain,
+            budget=config.budget,
+            measuring_amplifier=sim.measuring_amplifier() if config.measuring_amplifier else None,
+            power_amplifier=sim.power_amplifier() if config.power_amplifier else None,
+            truth=sim.truth,
+            description=f"simulated stand, DUT {dut!r}, seed {seed}",
+            realisation=f"simulated, seed {seed}, {'drawn' if systematic else 'nominal'} values",
+        )
+    if faults:
+        raise ConfigError("--fault: faults can only be injected into the simulated stand")
+    from hardware.discovery import list_ni_devices
+    from hardware.errors import DaqNotFoundError
+    from hardware.nidaq import NiDaq  # real hardware: errors say what is missing, no fallback
+    from hardware.visa_amplifiers import BK2525Amplifier, ScpiPowerAmplifier
+
+    devices = [d["name"] for d in list_ni_devices()]  # "NI-DAQmx is not installed: ..." first
+    if config.device not in devices:
+        raise DaqNotFoundError(
+            f"{config.source}: daq.device {config.device!r} not found; NI-DAQmx sees "
+            f"{', '.join(devices) or 'no device'}"
+        )
+    daq = NiDaq(config.device)
+    measuring = power = None
+    try:
+        if config.measuring_amplifier:
+            measuring = BK2525Amplifier(config.measuring_amplifier)
+        if config.power_amplifier:
+            power = ScpiPowerAmplifier(config.power_amplifier)
+    except BaseException:
+        daq.close()
+        raise
+    return Stand(
+        config=config,
+        daq=daq,
+        chain=config.reference_chain(),
+        budget=config.budget,
+        measuring_amplifier=measuring,
+        power_amplifier=power,
+        description=f"NI-DAQmx device {config.device}",
+    )

@@ -1,0 +1,105 @@
+"""Reading and writing the DUT's TEDS on a stand (simulated or NI-DAQmx), and the new TEDS a
+calibration gives: the sensitivity at the reference frequency and the date of a stored,
+verified, complete run. Writing is never implicit: `accelcal teds write` asks first."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from datetime import date
+from pathlib import Path
+from typing import Any
+
+from app.records.run_record import RunRecord
+from hardware.teds import Teds, TedsError, decode, encode
+
+
+@dataclass(frozen=True)
+class TedsPort:
+    """Where the DUT's TEDS is: the simulated stand's memory, or an NI physical channel."""
+
+    description: str
+    sim: Any = None  # a sim.stand.SimulatedStand
+    physical_channel: str | None = None
+
+    def read(self) -> tuple[int, ...]:
+        if self.sim is not None:
+            return tuple(self.sim.read_teds())
+        from hardware.nidaq import read_teds_bits
+
+        return read_teds_bits(str(self.physical_channel))
+
+    def write(self, bits: tuple[int, ...]) -> None:
+        if self.sim is not None:
+            self.sim.write_teds(bits)
+            return
+        from hardware.nidaq import write_teds_bits
+
+        write_teds_bits(str(self.physical_channel), bits)
+
+
+def open_port(stand_file: Path | None, dut: str = "piezo", seed: int = 0) -> TedsPort:
+    """The DUT channel's TEDS on the stand a stand file names (the simulated stand without one,
+    or when the file says backend "sim")."""
+    from app.stand import config as stand_config
+
+    config = stand_config.load(stand_file)
+    if config.backend == "sim":
+        from sim.stand import SimulatedStand
+
+        return TedsPort(f"simulated stand, DUT {dut!r}", sim=SimulatedStand(dut, seed=seed))
+    channel = next(c for c in config.inputs if c.name == "dut")
+    return TedsPort(f"{config.device} {channel.physical}", physical_channel=channel.physical)
+
+
+def describe(teds: Teds) -> list[str]:
+    """The TEDS in lines for people (units in the text)."""
+    lines = [
+        f"manufacturer id {teds.basic.manufacturer_id}, model {teds.basic.model_number}, "
+        f"version {teds.basic.version_letter}{teds.basic.version_number}, "
+        f"serial {teds.basic.serial_number}",
+        f"template {teds.template_id}"
+        + ("" if teds.selector == 0 else f" (selector {teds.selector})"),
+    ]
+    a = teds.accelerometer
+    if a is None:
+        lines.append("(not an accelerometer template: fields not decoded)")
+        return lines
+    lines += [
+        f"sensitivity {a.sensitivity_mv_per_ms2:.5g} mV/(m/s^2) "
+        f"({a.sensitivity_v_per_ms2 * 9.80665:.5g} V/g) at {a.reference_frequency_hz:.4g} Hz, "
+        f"{a.reference_temperature_c:g} degC",
+        f"high-pass {a.high_pass_hz:.3g} Hz, weight {a.weight_g:.3g} g",
+        f"calibrated {a.calibration_date} by {a.calibration_initials.strip() or '-'}, "
+        f"period {a.calibration_period_days} days",
+    ]
+    return lines
+
+
+def calibrated_teds(
+    current: tuple[int, ...], record: RunRecord | Mapping[str, Any], initials: str
+) -> Teds:
+    """The TEDS `current` with the sensitivity and date of a complete run's record (a
+    RunRecord, or a results.json document)."""
+    if not isinstance(record, RunRecord):
+        record = RunRecord.from_dict(dict(record))
+    teds = decode(current)
+    if teds.accelerometer is None:
+        raise TedsError(f"TEDS: template {teds.template_id} is no accelerometer template (25)")
+    if not record.complete or not record.results:
+        raise TedsError("run: only a complete run's result is written to a TEDS")
+    reference = record.results["reference"]
+    when = date.fromisoformat(record.finished_utc[:10])
+    new = teds.accelerometer.with_sensitivity(
+        float(reference["sensitivity_mv_per_ms2"]), when, initials
+    )
+    return Teds(teds.basic, teds.selector, teds.template_id, new, teds.trailing_bits)
+
+
+def write_checked(port: TedsPort, teds: Teds) -> None:
+    """Write and read back; TedsError when the sensor does not hold what was written."""
+    bits = encode(teds)
+    port.write(bits)
+    back = port.read()
+    if tuple(back[: len(bits)]) != bits:
+        raise TedsError(f"TEDS on {port.description}: read back differs from what was written")
