@@ -180,7 +180,7 @@ class Results:
     tolerance_percent: float | None = None
     warnings: tuple[str, ...] = field(default=())
     phase_corrected_for_skew: bool = True  # False: skew unknown, phase not stated
-    verdict: str | None = None  # PASS, FAIL, INDETERMINATE (app.procedure.verdict); None: not assessed
+    verdict: str | None = None  # PASS, FAIL, INDETERMINATE (app.procedure.verdict); None: n/a
     verdict_reasons: tuple[str, ...] = field(default=())
 
     def to_dict(self) -> dict[str, Any]:

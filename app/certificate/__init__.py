@@ -628,7 +628,8 @@ def _write_pdf(
     signer: Any = None,
 ) -> None:
     """Draw the certificate PDF of `run` with `info` (numbered) to `out`, read-only, with the
-    DCC XML attached when given, signed last with `signer` (app.certificate.sign.Signer) when given."""
+    DCC XML attached when given, signed last with `signer` (app.certificate.sign.Signer) when
+    given."""
     record, results = run.record, run.results
     stand = record.stand
     lab = dict(stand.laboratory)

@@ -1,5 +1,6 @@
 """Certificates from the window through the lab's register: the run shown (verified again), the
-fields asked afresh, the number allocated by the register (`app.records.db.certify.issue_registered`,
+fields asked afresh, the number allocated by the register
+(`app.records.db.certify.issue_registered`,
 the PDF written inside the register's transaction), or a refusal shown and nothing written.
 
 An amendment or reissue (from the Register tab) is the same, with the certificate it replaces

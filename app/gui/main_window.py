@@ -3,7 +3,8 @@
 Threads: the procedure runs on a plain worker thread (`app.gui.worker.RunWorker`) that only
 queues copies of its events; a 25 Hz timer on the GUI thread drains the queue and draws, so no
 widget or plot item is ever touched from another thread. The procedure writes the run's record
-itself; the window only reads records, each verified (`app.records.run_folder`). The Results tab shows one
+itself; the window only reads records, each verified (`app.records.run_folder`). The Results
+tab shows one
 verified run, and the certificate action certifies exactly that run, after naming it.
 Closing the window during a run fades the drive out first (then 0 V), with a bounded wait.
 """

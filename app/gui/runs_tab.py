@@ -1,6 +1,7 @@
 """The Runs tab: every stored run with its verified state.
 
-Each folder is checked with `app.records.run_folder.inspect_run` (manifest verified, lock looked at):
+Each folder is checked with `app.records.run_folder.inspect_run` (manifest verified, lock
+looked at):
 
     complete     finished, every file matches its manifest: may be certified
     aborted      finished early (reason stored): kept, never certified

@@ -60,7 +60,8 @@ def analyze(
 ) -> Analysis:
     """Analyse whole periods (default) or, with `segments`, the seed's L equal segments.
 
-    The results carry the overall verdict (app.procedure.verdict) against `tolerances`; by default those
+    The results carry the overall verdict (app.procedure.verdict) against `tolerances`; by
+    default those
     of the simulated DUT the recording's truth names, else `tolerance_percent` alone."""
     plan = recording.plan
     status_note = status_warning(recording.status)

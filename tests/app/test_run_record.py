@@ -1,4 +1,5 @@
-"""The typed run record (app.records.run_record): today's results.json reads, newer schemas refused."""
+"""The typed run record (app.records.run_record): today's results.json reads, newer schemas
+refused."""
 
 from __future__ import annotations
 
