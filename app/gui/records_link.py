@@ -2,11 +2,12 @@
 thread.
 
 The URL is `--db URL`, else $ACCELCAL_DB, else the default SQLite file
-(`app.records.db.engine`). Opening may take a while (a PostgreSQL server that does not
-answer); it runs on its own thread and the window polls it. When the records cannot be
-opened, `error` says why and everything else in the window works without them. Queries afterwards take milliseconds and run on the GUI thread;
-indexing a finished run (which verifies every file of its folder by SHA-256) runs on the
-records' own thread, and its report comes back to the GUI thread.
+(`app.records.db.engine`). Opening may take a while (a PostgreSQL server that does not answer);
+it runs on its own thread and the window polls it. When the records cannot be opened, `error`
+says why and everything else in the window works without them. Queries afterwards take
+milliseconds and run on the GUI thread; indexing a finished run (which verifies every file of
+its folder by SHA-256) runs on the records' own thread, and its report comes back to the GUI
+thread.
 Nothing here computes: it reads and writes through `Lab` only.
 """
 
