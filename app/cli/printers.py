@@ -12,7 +12,11 @@ from typing import TYPE_CHECKING, Any
 from app import formatting as fmt
 
 if TYPE_CHECKING:
+    from pathlib import Path
+
+    from app.records.run_record import RunRecord
     from dsp.calibration import Results
+    from dsp.multisine import Plan
 
 
 def csv_with_status(text: str, status: str) -> str:
@@ -142,3 +146,73 @@ def print_catalogue(entries: dict[str, Any], as_json: bool) -> None:
     print("DUTs (--dut NAME):")
     for name, entry in entries["duts"].items():
         print(f"  {name:<11} {entry['description']}")
+
+
+def print_plan(plan: Plan, report: dict[str, Any]) -> None:
+    """A plan's lines (Hz, m/s^2 peak, rad), crest factors and predicted peaks (mm, mm/s)."""
+    print(
+        f"Plan: {len(plan.lines)} lines, fs {plan.sample_rate_hz:g} Hz, period "
+        f"{plan.period_samples} samples ({plan.period_s:g} s, bins {plan.resolution_hz:g} Hz), "
+        f"reference {plan.reference_frequency_hz:g} Hz"
+    )
+    rows = [
+        [
+            f"{ln.nominal_frequency_hz:g}",
+            f"{ln.frequency_hz:g}",
+            str(ln.bin),
+            f"{ln.amplitude_ms2:g}",
+            f"{ln.phase_rad:.3f}",
+        ]
+        for ln in plan.lines
+    ]
+    print(fmt.table(["nominal Hz", "actual Hz", "bin", "peak m/s^2", "phase rad"], rows))
+    print(
+        f"Crest factor (acceleration): {report['crest_factor']:.2f} on the samples, "
+        f"{report['continuous_crest_factor']:.2f} between them"
+    )
+    print(
+        f"Predicted peaks: acceleration {report['peak_acceleration_ms2']:.1f} m/s^2, velocity "
+        f"{1e3 * report['peak_velocity_m_per_s']:.1f} mm/s, displacement "
+        f"{1e3 * report['peak_displacement_m']:.3f} mm "
+        f"({1e3 * report['peak_to_peak_displacement_m']:.3f} mm p-p)"
+    )
+    for warning in plan.warnings:
+        print(f"warning: {warning}")
+
+
+def print_sweep(summary: dict[str, Any]) -> None:
+    """An amplitude sweep: sensitivity (mV/(m/s^2)) against frequency and level, linearity."""
+    if "sensitivity_mv_per_ms2" in summary:
+        done = summary["levels_ms2"][: len(summary["sensitivity_mv_per_ms2"])]
+        rows = [
+            [
+                f"{f:g}",
+                *(f"{row[k]:.4f}" for row in summary["sensitivity_mv_per_ms2"]),
+                f"{summary['linearity_percent'][k]:.3f}",
+            ]
+            for k, f in enumerate(summary["frequencies_hz"])
+        ]
+        print("Sensitivity in mV/(m/s^2) against frequency and level (m/s^2 per line)")
+        print(fmt.table(["Hz", *(f"{lv:g}" for lv in done), "linearity %"], rows))
+        print(
+            f"Linearity: {summary['reference_linearity_percent']:.3f} % at "
+            f"{summary['reference_frequency_hz']:g} Hz, worst "
+            f"{summary['worst_linearity_percent']:.3f} % at "
+            f"{summary['worst_linearity_frequency_hz']:g} Hz"
+        )
+    print(f"sweep summary: {summary['path']}; runs: {', '.join(map(str, summary['run_ids']))}")
+    if summary["abort_reason"]:
+        print(f"status: aborted ({summary['abort_reason']})")
+
+
+def print_run_end(record: RunRecord, results: Results | None, folder: Path) -> None:
+    """A finished run: its results, its folder, its status and the drive's last output (V)."""
+    if results is not None:
+        print_results(results, record.run_id or "")
+    print(f"run folder: {folder}")
+    print(
+        f"status: {record.status}"
+        + (f" ({record.abort_reason})" if record.abort_reason else "")
+        + f"; excitation {record.excitation_time_s:.1f} s; output now "
+        + (f"{record.final_output_v:g} V" if record.final_output_v is not None else "unknown")
+    )

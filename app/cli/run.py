@@ -9,7 +9,6 @@ import os
 import sys
 from typing import TYPE_CHECKING
 
-from app import formatting as fmt
 from app.cli.exits import EXIT_ABORTED, EXIT_OK, UsageError
 from app.cli.options import (
     faults_option,
@@ -18,7 +17,7 @@ from app.cli.options import (
     parse_seconds,
     writable_folder,
 )
-from app.cli.printers import TerminalProgress, print_results
+from app.cli.printers import TerminalProgress, print_run_end, print_sweep
 
 if TYPE_CHECKING:
     from app.procedure.run import RunRequest
@@ -84,15 +83,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.json:
         print(record.to_json())
     else:
-        if finished.results is not None:
-            print_results(finished.results, record.run_id or "")
-        print(f"run folder: {args.out / str(record.run_id)}")
-        print(
-            f"status: {record.status}"
-            + (f" ({record.abort_reason})" if record.abort_reason else "")
-            + f"; excitation {record.excitation_time_s:.1f} s; output now "
-            + (f"{record.final_output_v:g} V" if record.final_output_v is not None else "unknown")
-        )
+        print_run_end(record, finished.results, args.out / str(record.run_id))
     return EXIT_OK if record.complete else EXIT_ABORTED
 
 
@@ -109,26 +100,6 @@ def run_levels(request: RunRequest, levels: list[float], args: argparse.Namespac
     summary = sweep.summary
     if args.json:
         print(json.dumps(summary, indent=2))
-    elif "sensitivity_mv_per_ms2" in summary:
-        done = summary["levels_ms2"][: len(summary["sensitivity_mv_per_ms2"])]
-        rows = [
-            [
-                f"{f:g}",
-                *(f"{row[k]:.4f}" for row in summary["sensitivity_mv_per_ms2"]),
-                f"{summary['linearity_percent'][k]:.3f}",
-            ]
-            for k, f in enumerate(summary["frequencies_hz"])
-        ]
-        print("Sensitivity in mV/(m/s^2) against frequency and level (m/s^2 per line)")
-        print(fmt.table(["Hz", *(f"{lv:g}" for lv in done), "linearity %"], rows))
-        print(
-            f"Linearity: {summary['reference_linearity_percent']:.3f} % at "
-            f"{summary['reference_frequency_hz']:g} Hz, worst "
-            f"{summary['worst_linearity_percent']:.3f} % at "
-            f"{summary['worst_linearity_frequency_hz']:g} Hz"
-        )
-    if not args.json:
-        print(f"sweep summary: {summary['path']}; runs: {', '.join(map(str, summary['run_ids']))}")
-        if summary["abort_reason"]:
-            print(f"status: aborted ({summary['abort_reason']})")
+    else:
+        print_sweep(summary)
     return EXIT_OK if sweep.complete else EXIT_ABORTED
