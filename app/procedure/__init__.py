@@ -9,6 +9,8 @@
     stepped.py         stepped-sine mode, one line at a time
     stopping.py        the stopping rule both modes share (periods, type A target, time bound)
     procedure.py       Procedure: the phases in order, every way out, the run record
+    request.py         the run request: the DUT resolved into a DutSpec, the run identity
+    run.py             a request run: the stand opened, the procedure, the run folder
     settings.py, events.py, errors.py, context.py
 
 It drives any `hardware.interfaces.Daq` (and amplifiers), emits typed events to a listener,
