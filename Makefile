@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 DEMO_DIR ?= demo-output
 
-.PHONY: venv test test-fast demo gui bench lint typecheck clean xvfb lock
+.PHONY: venv test test-fast demo gui bench lint typecheck clean xvfb lock browser
 
 venv: $(STAMP)
 
@@ -35,6 +35,18 @@ XVFB_PACKAGES := xvfb libxcb-icccm4 libxcb-keysyms1 libxcb-cursor0 libxcb-image0
 xvfb:
 	@command -v dpkg >/dev/null || { echo "xvfb: not a Debian system; install Xvfb yourself"; exit 0; }; \
 	missing=$$(for p in $(XVFB_PACKAGES); do dpkg -s $$p >/dev/null 2>&1 || echo $$p; done); \
+	if [ -n "$$missing" ]; then \
+	    echo "installing $$missing"; \
+	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing; \
+	fi
+
+# Debian's Chromium and its chromedriver for the web view's browser test (tests/web, Selenium);
+# installed (as root) only when missing
+BROWSER_PACKAGES := chromium chromium-driver
+
+browser:
+	@command -v dpkg >/dev/null || { echo "browser: not a Debian system; install Chromium and chromedriver yourself"; exit 0; }; \
+	missing=$$(for p in $(BROWSER_PACKAGES); do dpkg -s $$p >/dev/null 2>&1 || echo $$p; done); \
 	if [ -n "$$missing" ]; then \
 	    echo "installing $$missing"; \
 	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing; \

@@ -1,0 +1,98 @@
+"""A records database with real certificates for the web view's tests: two simulated runs of
+sensor SN-WEB-1 indexed, certificate 1 issued and then amended by certificate 2 (of the second
+run), certificate 3 withdrawn; a staff user; and the web app over it."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from pathlib import Path
+
+import pytest
+from sqlalchemy import Engine
+
+from app.certificate import CertificateInfo
+from app.cli import main
+from app.records.db.certify import issue_registered
+from app.records.db.engine import make_engine, resolve_url, upgrade
+from app.records.db.lab import Lab
+from app.web.users import add_user
+
+USER, PASSWORD = "qm", "correct horse battery"
+SERIAL = "SN-WEB-1"
+
+
+@dataclass(frozen=True)
+class Records:
+    """The test records: URL, engine, run folders and certificate numbers (old to new)."""
+
+    url: str
+    engine: Engine
+    runs: tuple[Path, ...]
+    numbers: tuple[str, ...]
+
+
+def _run(out: Path, seed: int) -> Path:
+    before = set(out.iterdir()) if out.exists() else set()
+    argv = ["run", "--sim", "--dut", "piezo", "--dut-id", SERIAL, "--periods", "3"]
+    assert main([*argv, "--seed", str(seed), "--out", str(out)]) == 0
+    (folder,) = set(out.iterdir()) - before
+    return folder
+
+
+@pytest.fixture(scope="package")
+def records(tmp_path_factory: pytest.TempPathFactory) -> Records:
+    base = tmp_path_factory.mktemp("web")
+    runs_root = base / "runs"
+    url = resolve_url(f"sqlite:///{base / 'records.sqlite'}")
+    engine = make_engine(url)
+    upgrade(engine)
+    lab = Lab(engine, actor="test")
+    lab.add_customer("ACME Ltd", "1 Test Street, Testville")
+    lab.add_customer("Other GmbH")
+    lab.add_model(
+        "Sim",
+        "P-100",
+        nominal_sensitivity=10.0,
+        unit="mV/(m/s^2)",
+        tolerance_percent=5.0,
+        frequency_min_hz=10.0,
+        frequency_max_hz=10000.0,
+    )
+    lab.add_sensor(SERIAL, model="P-100", owner="ACME Ltd")
+    lab.add_sensor("SN-WEB-2", model="P-100", owner="Other GmbH")
+    runs = (_run(runs_root, 3), _run(runs_root, 4))
+    info = CertificateInfo(
+        authorised_by="J. Smith",
+        dut_type="piezoelectric accelerometer",
+        temperature_c=23.0,
+        mounting="stud-mounted",
+    )
+    numbers = []
+    for index, (run, replaces) in enumerate(((runs[0], None), (runs[1], "first"), (runs[1], None))):
+        issued = issue_registered(
+            run,
+            info,
+            base / f"certificate-{index}.pdf",
+            url=url,
+            prepared_by="A. Preparer",
+            replaces=numbers[0] if replaces else None,
+            reason="typing error in the mounting" if replaces else None,
+        )
+        numbers.append(issued.number)
+    lab.withdraw_certificate(numbers[2], "issued twice")
+    add_user(engine, USER, PASSWORD, display_name="Quality Manager", actor="test")
+    return Records(url, engine, runs, tuple(numbers))
+
+
+@pytest.fixture(scope="package")
+def web_app(records: Records):
+    from app.web.server import WebConfig, create_app
+    from app.web.store import Store, open_read_only
+
+    config = WebConfig(secret_key="k" * 40, verify_url="https://lab.example/verify")
+    return create_app(Store(open_read_only(records.url)), config)
+
+
+def now() -> datetime:
+    return datetime.now(UTC)
