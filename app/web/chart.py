@@ -95,7 +95,9 @@ def history_svg(history: History) -> str:
         dot = ET.SubElement(svg, "circle", cx=f"{x(t):.1f}", cy=f"{y(v):.1f}", r="4")
         dot.set("fill", "#1f4e9c")
         dot.set("class", "point")
-        ET.SubElement(dot, "title").text = (
+        ET.SubElement(
+            dot, "title"
+        ).text = (
             f"{point.run_id}: {v:.6g} ± {u:.2g} mV/(m/s²) at {point.reference_frequency_hz:g} Hz"
         )
     return ET.tostring(svg, encoding="unicode")

@@ -123,10 +123,11 @@ def create_app(store: Store, config: WebConfig) -> Starlette:
     templates = _templates()
     throttle = Throttle()
 
-    def page(request: Request, name: str, status: int = 200, **context: Any) -> Response:
+    def page(request: Request, name: str, http_status: int = 200, **context: Any) -> Response:
         context.setdefault("user", request.session.get("user"))
-        context.setdefault("csrf", _csrf(request))
-        return templates.TemplateResponse(request, name, context, status_code=status)
+        if "csrf" not in context:
+            context["csrf"] = _csrf(request)
+        return templates.TemplateResponse(request, name, context, status_code=http_status)
 
     def not_found(request: Request, what: str) -> Response:
         return page(request, "message.html", 404, title="Not found", message=what)
@@ -271,7 +272,7 @@ def create_app(store: Store, config: WebConfig) -> Starlette:
 
     def verify(request: Request) -> Response:
         number = request.path_params["number"][:100]
-        public = {"public": True, "user": None, "csrf": ""}  # no session for the public
+        public: dict[str, Any] = {"public": True, "user": None, "csrf": ""}  # no session
         status = store.public_status(number, request.query_params.get("code", "")[:64])
         if status is None:
             return page(request, "verify.html", 404, number=number, status=None, **public)
@@ -328,4 +329,3 @@ def _qr(request: Request, config: WebConfig, number: str, manifest: str) -> tupl
     except QrError as exc:
         return str(exc), ""
     return address, qr_svg(address)
-

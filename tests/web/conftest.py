@@ -5,7 +5,6 @@ run), certificate 3 withdrawn; a staff user; and the web app over it."""
 from __future__ import annotations
 
 from dataclasses import dataclass
-from datetime import UTC, datetime
 from pathlib import Path
 
 import pytest
@@ -86,13 +85,19 @@ def records(tmp_path_factory: pytest.TempPathFactory) -> Records:
 
 
 @pytest.fixture(scope="package")
-def web_app(records: Records):
-    from app.web.server import WebConfig, create_app
+def store(records: Records):
+    """The web view's read-only access to the test records."""
     from app.web.store import Store, open_read_only
 
+    engine = open_read_only(records.url)
+    yield Store(engine)
+    engine.dispose()
+
+
+@pytest.fixture
+def web_app(store):
+    """A fresh web app (its own sign-in throttle) over the test records."""
+    from app.web.server import WebConfig, create_app
+
     config = WebConfig(secret_key="k" * 40, verify_url="https://lab.example/verify")
-    return create_app(Store(open_read_only(records.url)), config)
-
-
-def now() -> datetime:
-    return datetime.now(UTC)
+    return create_app(store, config)
