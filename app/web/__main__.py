@@ -55,14 +55,15 @@ def main(argv: list[str] | None = None) -> int:
     except (ValueError, QrError, RecordsInputError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
     if not secret:
         secret = secrets.token_urlsafe(32)
         log.info("web: %s not set: sessions end when this server stops", SECRET_ENV)
     config = WebConfig(secret_key=secret, verify_url=verify_url, https_only=args.https_only)
     import uvicorn
 
-    logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
-    uvicorn.run(create_app(Store(engine), config), host=args.host, port=args.port)
+    app = create_app(Store(engine), config)
+    uvicorn.run(app, host=args.host, port=args.port, server_header=False)
     return 0
 
 

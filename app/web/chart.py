@@ -7,11 +7,12 @@ from __future__ import annotations
 
 import math
 import xml.etree.ElementTree as ET
+from datetime import UTC, datetime
 
 from app.records.db.lab import History
 
 WIDTH, HEIGHT = 720, 360
-LEFT, RIGHT, TOP, BOTTOM = 80, 20, 30, 50  # margins in px
+LEFT, RIGHT, TOP, BOTTOM = 80, 40, 30, 50  # margins in px
 SVG_NS = "http://www.w3.org/2000/svg"
 
 
@@ -53,9 +54,8 @@ def history_svg(history: History) -> str:
     times = [p.started_utc.timestamp() for p in points]
     values = [p.sensitivity_mv_per_ms2 for p in points]
     halves = [p.expanded_uncertainty_mv_per_ms2 or 0.0 for p in points]
-    t0, t1 = min(times), max(times)
-    if t1 == t0:
-        t0, t1 = t0 - 86400.0, t1 + 86400.0
+    span = max(times) - min(times) or 2 * 86400.0
+    t0, t1 = min(times) - 0.05 * span, max(times) + 0.05 * span  # no point on the frame
     v0 = min(v - u for v, u in zip(values, halves, strict=True))
     v1 = max(v + u for v, u in zip(values, halves, strict=True))
     pad = (v1 - v0) * 0.1 or abs(v1) * 0.01 or 1.0
@@ -79,11 +79,13 @@ def history_svg(history: History) -> str:
         )  # fmt: skip
         _text(svg, LEFT - 6, y(tick) + 4, f"{tick:.6g}", anchor="end")
     _text(svg, 14, TOP + plot_h / 2, "sensitivity in mV/(m/s²)", anchor="middle", rotate=True)
-    from datetime import UTC, datetime
-
-    for t in sorted({t0, t1, *times}) if len(times) <= 6 else (t0, (t0 + t1) / 2, t1):
+    labelled = times if len(times) <= 6 else [times[0], times[len(times) // 2], times[-1]]
+    shown: set[str] = set()
+    for t in labelled:
         label = datetime.fromtimestamp(t, UTC).strftime("%Y-%m-%d")
-        _text(svg, x(t), TOP + plot_h + 18, label, anchor="middle")
+        if label not in shown:  # one label per day
+            shown.add(label)
+            _text(svg, x(t), TOP + plot_h + 18, label, anchor="middle")
     _text(svg, LEFT + plot_w / 2, HEIGHT - 8, "calibration date (UTC)", anchor="middle")
     line = " ".join(f"{x(t):.1f},{y(v):.1f}" for t, v in zip(times, values, strict=True))
     ET.SubElement(svg, "polyline", points=line, fill="none", stroke="#1f4e9c")

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 from sqlalchemy import select, text
-from sqlalchemy.exc import OperationalError
+from sqlalchemy.exc import DBAPIError, OperationalError
 
 from app.certificate.qr import QrError, check_verify_url, qr_png, verification_code, verify_address
 from app.records.db.engine import DatabaseError, make_engine, resolve_url, upgrade
@@ -213,3 +213,56 @@ def test_the_secret_must_be_long_enough(capsys, monkeypatch) -> None:
     monkeypatch.setenv("ACCELCAL_WEB_SECRET", "short")
     assert web_main(["--db", "sqlite:////nonexistent/x.sqlite"]) == 2
     assert "ACCELCAL_WEB_SECRET: shorter than 32" in capsys.readouterr().err
+
+
+def test_the_history_chart_places_each_point_inside_the_frame_with_its_u_bar() -> None:
+    import re
+    from datetime import UTC, datetime
+
+    from app.records.db.lab import History, HistoryPoint
+    from app.web.chart import HEIGHT, LEFT, RIGHT, TOP, WIDTH, history_svg
+
+    points = (
+        HistoryPoint("r1", datetime(2025, 1, 1, tzinfo=UTC), 160.0, 10.0, 0.1),
+        HistoryPoint("r2", datetime(2026, 1, 1, tzinfo=UTC), 160.0, 10.2, 0.1),
+    )
+    svg = history_svg(History("SN-1", points, 2.0))
+    xs = [float(v) for v in re.findall(r'<circle cx="([\d.]+)"', svg)]
+    ys = [float(v) for v in re.findall(r'<circle cx="[\d.]+" cy="([\d.]+)"', svg)]
+    assert len(xs) == 2 and LEFT < xs[0] < xs[1] < WIDTH - RIGHT
+    assert TOP < ys[1] < ys[0] < HEIGHT  # the higher sensitivity is drawn higher
+    # the U bar of r1 spans 9.9..10.1: half as tall as the span 10.0..10.2 between the points
+    bar = re.search(rf'x1="{xs[0]:.1f}" x2="{xs[0]:.1f}" y1="([\d.]+)" y2="([\d.]+)"', svg)
+    assert bar is not None
+    assert float(bar.group(1)) - float(bar.group(2)) == pytest.approx(ys[0] - ys[1], abs=0.2)
+    assert "drift +2.000 % per year" in svg and "2025-01-01" in svg and "2026-01-01" in svg
+    assert "no calibrations on record" in history_svg(History("SN-2", (), None))
+
+
+@pytest.mark.integration
+def test_on_postgresql_the_web_views_engine_cannot_write(tmp_path: Path) -> None:
+    import os
+
+    try:
+        import pgserver
+
+        server = pgserver.get_server(tmp_path / "pg", cleanup_mode="stop")
+    except Exception as exc:  # no wheel, no start
+        if os.environ.get("CI") == "true":
+            pytest.fail(f"PostgreSQL could not start in CI: {exc}")
+        pytest.skip(f"PostgreSQL could not start: {exc}")
+    try:
+        url = resolve_url(server.get_uri())
+        writer = make_engine(url)
+        upgrade(writer)
+        add_user(writer, "pg.user", "twelve chars!", display_name="PG")
+        writer.dispose()
+        engine = open_read_only(url)
+        from app.web.store import Store
+
+        assert Store(engine).user("pg.user") is not None  # reads work
+        with pytest.raises(DBAPIError, match="read-only transaction"), engine.begin() as conn:
+            conn.execute(text("INSERT INTO settings (key, value) VALUES ('x', 'y')"))
+        engine.dispose()
+    finally:
+        server.cleanup()
