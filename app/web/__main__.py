@@ -11,6 +11,7 @@ import logging
 import os
 import secrets
 import sys
+from pathlib import Path
 
 from app.certificate.qr import QrError, check_verify_url
 from app.records.db.errors import RecordsInputError
@@ -32,6 +33,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         help="the [laboratory] verify_url printed in QR codes (default: this server's /verify)",
     )
     parser.add_argument(
+        "--trust",
+        type=Path,
+        default=None,
+        help="the lab's CA certificate (PEM or DER): signatures must chain to it",
+    )
+    parser.add_argument(
         "--https-only", action="store_true", help="session cookie only over HTTPS (behind TLS)"
     )
     return parser.parse_args(argv)
@@ -45,6 +52,8 @@ def main(argv: list[str] | None = None) -> int:
         if not 1 <= args.port <= 65535:
             raise ValueError(f"--port: must be 1 to 65535, got {args.port}")
         verify_url = check_verify_url(args.verify_url) if args.verify_url else None
+        if args.trust is not None and not args.trust.is_file():
+            raise ValueError(f"--trust: no such file {args.trust}")
         secret = os.environ.get(SECRET_ENV) or ""
         if secret and len(secret) < MIN_SECRET_LENGTH:
             raise ValueError(f"{SECRET_ENV}: shorter than {MIN_SECRET_LENGTH} characters")
@@ -59,7 +68,9 @@ def main(argv: list[str] | None = None) -> int:
     if not secret:
         secret = secrets.token_urlsafe(32)
         log.info("web: %s not set: sessions end when this server stops", SECRET_ENV)
-    config = WebConfig(secret_key=secret, verify_url=verify_url, https_only=args.https_only)
+    config = WebConfig(
+        secret_key=secret, verify_url=verify_url, https_only=args.https_only, trust=args.trust
+    )
     import uvicorn
 
     app = create_app(Store(engine), config)

@@ -67,12 +67,14 @@ def embedded_dcc(pdf: Path) -> bytes:
     return bytes(found[0])
 
 
-def verify_certificate(number: str, pdf: Path, run_folder: str) -> list[CheckLine]:
-    """Every check of `accelcal verify` on `pdf` with its run folder, and that the DCC in the
-    PDF is certificate `number`."""
+def verify_certificate(
+    number: str, pdf: Path, run_folder: str, trust: Path | None = None
+) -> list[CheckLine]:
+    """Every check of `accelcal verify` on `pdf` with its run folder (and the lab's CA
+    certificate `trust`, when given), and that the DCC in the PDF is certificate `number`."""
     from app.certificate.sign import dcc_values, verify
 
-    report = verify(pdf, Path(run_folder))
+    report = verify(pdf, Path(run_folder), trust)
     lines = [CheckLine(name, ok, detail) for name, ok, detail in report.checks]
     try:
         found = dcc_values(embedded_dcc(pdf))["number"]

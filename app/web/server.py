@@ -16,6 +16,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from importlib import resources
+from pathlib import Path
 from typing import Any
 from urllib.parse import quote
 
@@ -102,11 +103,13 @@ class Throttle:
 @dataclass(frozen=True)
 class WebConfig:
     """How the web view runs: the session key, the base of verification addresses
-    ([laboratory] verify_url; None: this server's own /verify) and cookies only over HTTPS."""
+    ([laboratory] verify_url; None: this server's own /verify), cookies only over HTTPS, and
+    the lab's CA certificate that signatures must chain to (None: intact is enough)."""
 
     secret_key: str
     verify_url: str | None = None
     https_only: bool = False
+    trust: Path | None = None
 
 
 def _templates() -> Jinja2Templates:
@@ -201,7 +204,7 @@ def create_app(store: Store, config: WebConfig) -> Starlette:
         checks, problem = [], None
         try:
             pdf = certificate_pdf(row.number, row.run_id, row.run_folder)
-            checks = verify_certificate(row.number, pdf, row.run_folder)
+            checks = verify_certificate(row.number, pdf, row.run_folder, config.trust)
         except DocumentError as exc:
             problem = str(exc)
         address, qr = _qr(request, config, row.number, row.manifest_sha256)

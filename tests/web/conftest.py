@@ -5,12 +5,19 @@ run), certificate 3 withdrawn; a staff user; and the web app over it."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
 import pytest
+from cryptography import x509
+from cryptography.hazmat.primitives import hashes, serialization
+from cryptography.hazmat.primitives.asymmetric import ec
+from cryptography.hazmat.primitives.serialization import pkcs12
+from cryptography.x509.oid import NameOID
 from sqlalchemy import Engine
 
 from app.certificate import CertificateInfo
+from app.certificate.sign import Signer
 from app.cli import main
 from app.records.db.certify import issue_registered
 from app.records.db.engine import make_engine, resolve_url, upgrade
@@ -29,6 +36,32 @@ class Records:
     engine: Engine
     runs: tuple[Path, ...]
     numbers: tuple[str, ...]
+    lab_certificate: Path  # PEM: the self-signed certificate the valid one is signed with
+
+
+def _lab_key(folder: Path) -> tuple[Path, Path]:
+    """A throwaway self-signed lab key and certificate: (PKCS#12 file, PEM certificate)."""
+    key = ec.generate_private_key(ec.SECP256R1())
+    name = x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, "Web Test Laboratory")])
+    now = datetime.now(UTC)
+    cert = (
+        x509.CertificateBuilder()
+        .subject_name(name)
+        .issuer_name(name)
+        .public_key(key.public_key())
+        .serial_number(x509.random_serial_number())
+        .not_valid_before(now - timedelta(days=1))
+        .not_valid_after(now + timedelta(days=30))
+        .sign(key, hashes.SHA256())
+    )
+    p12, pem = folder / "lab.p12", folder / "lab.pem"
+    p12.write_bytes(
+        pkcs12.serialize_key_and_certificates(
+            b"lab", key, cert, None, serialization.BestAvailableEncryption(b"secret")
+        )
+    )
+    pem.write_bytes(cert.public_bytes(serialization.Encoding.PEM))
+    return p12, pem
 
 
 def _run(out: Path, seed: int) -> Path:
@@ -67,6 +100,8 @@ def records(tmp_path_factory: pytest.TempPathFactory) -> Records:
         temperature_c=23.0,
         mounting="stud-mounted",
     )
+    p12, pem = _lab_key(base)
+    signer = Signer.load(p12, "secret")
     numbers = []
     for index, (run, replaces) in enumerate(((runs[0], None), (runs[1], "first"), (runs[1], None))):
         issued = issue_registered(
@@ -77,11 +112,12 @@ def records(tmp_path_factory: pytest.TempPathFactory) -> Records:
             prepared_by="A. Preparer",
             replaces=numbers[0] if replaces else None,
             reason="typing error in the mounting" if replaces else None,
+            signer=signer if index == 1 else None,  # the valid one is signed
         )
         numbers.append(issued.number)
     lab.withdraw_certificate(numbers[2], "issued twice")
     add_user(engine, USER, PASSWORD, display_name="Quality Manager", actor="test")
-    return Records(url, engine, runs, tuple(numbers))
+    return Records(url, engine, runs, tuple(numbers), pem)
 
 
 @pytest.fixture(scope="package")

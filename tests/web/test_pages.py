@@ -177,7 +177,10 @@ def test_a_certificates_page_states_status_amendment_and_verification(
     assert '<td class="bad">FAIL</td><td>signature</td><td>the PDF is not signed' in page
     code = _code(old, _manifest(records, 0))
     assert f"https://lab.example/verify/{old}?code={code}" in page
-    assert 'class="valid">valid</span>' in staff.get(f"/certificates/{new}").text
+    signed = staff.get(f"/certificates/{new}").text
+    assert 'class="valid">valid</span>' in signed
+    assert '<td class="ok">pass</td><td>signature intact, covering the whole file' in signed
+    assert 'id="verified" class="ok">Every check passed.' in signed
     assert 'class="withdrawn">withdrawn' in staff.get(f"/certificates/{withdrawn}").text
 
 
@@ -256,3 +259,32 @@ def test_every_response_forbids_scripts_framing_and_referrers(web_app) -> None:
     assert response.headers["referrer-policy"] == "no-referrer"
     assert response.headers["x-frame-options"] == "DENY"
     assert "<script" not in response.text
+
+
+def test_with_the_labs_certificate_the_signer_is_checked_too(store, records: Records) -> None:
+    from app.web.server import WebConfig, create_app
+
+    config = WebConfig(secret_key="t" * 40, trust=records.lab_certificate)
+    client = TestClient(create_app(store, config))
+    assert _login(client).status_code == 303
+    signed = client.get(f"/certificates/{records.numbers[1]}").text
+    assert '<td class="ok">pass</td><td>signer trusted by the given CA' in signed
+    unsigned = client.get(f"/certificates/{records.numbers[0]}").text
+    assert "signer trusted" not in unsigned  # no signature to trust
+    assert 'id="verified" class="bad">' in unsigned
+    # without verify_url the QR leads to this server's own /verify page
+    assert f"http://testserver/verify/{records.numbers[0]}?code=" in unsigned
+
+
+def test_what_a_user_typed_is_shown_escaped(staff: TestClient) -> None:
+    page = staff.get("/register", params={"q": '<script>alert(1)</script>"'}).text
+    assert "<script>alert(1)" not in page
+    assert "&lt;script&gt;alert(1)&lt;/script&gt;" in page
+
+
+def test_the_session_cookie_is_http_only_and_same_site(client: TestClient) -> None:
+    response = client.get("/login")
+    cookie = response.headers["set-cookie"]
+    assert cookie.startswith("accelcal_session=")
+    assert "httponly" in cookie.lower() and "samesite=lax" in cookie.lower()
+    assert "max-age=28800" in cookie.lower()  # 8 h

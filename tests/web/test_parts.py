@@ -195,6 +195,7 @@ def test_only_the_registered_unchanged_pdf_is_served(records: Records, tmp_path:
         (["--port", "0"], "--port: must be 1 to 65535"),
         (["--verify-url", "lab/verify"], "laboratory.verify_url"),
         (["--db", "mysql://x/y"], "--db: unsupported database"),
+        (["--trust", "/nonexistent/ca.pem"], "--trust: no such file"),
     ],
 )
 def test_bad_server_options_exit_2_with_one_line(capsys, argv, message) -> None:
@@ -240,14 +241,17 @@ def test_the_history_chart_places_each_point_inside_the_frame_with_its_u_bar() -
 
 
 @pytest.mark.integration
-def test_on_postgresql_the_web_views_engine_cannot_write(tmp_path: Path) -> None:
+def test_on_postgresql_the_web_views_engine_cannot_write() -> None:
     import os
+    import tempfile
 
+    folder = Path(tempfile.mkdtemp(prefix="accelcal-web-pg-"))  # short: the socket lives here
     try:
         import pgserver
 
-        server = pgserver.get_server(tmp_path / "pg", cleanup_mode="stop")
+        server = pgserver.get_server(folder, cleanup_mode="stop")
     except Exception as exc:  # no wheel, no start
+        shutil.rmtree(folder, ignore_errors=True)
         if os.environ.get("CI") == "true":
             pytest.fail(f"PostgreSQL could not start in CI: {exc}")
         pytest.skip(f"PostgreSQL could not start: {exc}")
@@ -266,3 +270,4 @@ def test_on_postgresql_the_web_views_engine_cannot_write(tmp_path: Path) -> None
         engine.dispose()
     finally:
         server.cleanup()
+        shutil.rmtree(folder, ignore_errors=True)
