@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 DEMO_DIR ?= demo-output
 
-.PHONY: venv test test-fast demo gui bench lint typecheck clean xvfb lock browser
+.PHONY: venv test test-fast demo gui bench lint typecheck clean xvfb lock browser validate
 
 venv: $(STAMP)
 
@@ -67,6 +67,11 @@ demo: $(STAMP)
 	$(BIN)/accelcal certificate $$(ls -d $(DEMO_DIR)/runs/*/ | tail -n 1) --customer "ACME Ltd" \
 	    --authorised-by "J. Smith, head of laboratory" --temperature 23 \
 	    --mounting "stud-mounted back-to-back on the reference, 2 N m"
+
+# the ISO/IEC 17025 7.11.2 software validation report of this version (exit 1: a case failed)
+validate: $(STAMP)
+	mkdir -p $(DEMO_DIR)
+	$(BIN)/python -m app.validation --out $(DEMO_DIR)/validation-$$(date -u +%Y%m%dT%H%M%SZ).pdf
 
 gui: $(STAMP)
 	$(BIN)/accelcal gui --sim

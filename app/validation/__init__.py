@@ -53,3 +53,30 @@ def validate(out: Path) -> int:
         "validation: %d of %d cases passed; report %s", len(cases) - len(failed), len(cases), out
     )
     return 0 if not failed else 1
+
+
+def passed_report(folder: Path, software_sha256: str) -> Path | None:
+    """The newest validation report PDF in `folder` whose JSON twin says every case passed for
+    the software with SHA-256 `software_sha256` (app.validation.report.software_identity), or
+    None. For the certificate to name the validation report of its software version. The
+    twin is not signed: whoever can write `folder` can claim a validation, so keep it with the
+    lab's records."""
+    import json
+
+    found: list[tuple[str, Path]] = []
+    for twin in sorted(Path(folder).glob("*.json")):
+        try:
+            record = json.loads(twin.read_text(encoding="utf-8"))
+            ok = (
+                record.get("passed") is True
+                and record["software"]["sha256"] == software_sha256
+                and all(case["passed"] is True for case in record["cases"])
+                and bool(record["cases"])
+            )
+            when = str(record["date_utc"])
+        except (OSError, ValueError, KeyError, TypeError):
+            continue  # not a validation report
+        pdf = twin.with_suffix(".pdf")
+        if ok and pdf.is_file():
+            found.append((when, pdf))
+    return max(found)[1] if found else None

@@ -119,3 +119,38 @@ def test_the_software_hash_covers_every_file_but_bytecode(tmp_path: Path, monkey
     (package / "data.toml").write_text("a = 2\n")
     assert software_identity().sha256 != first.sha256
     sys.modules.pop("validated_pkg", None)
+
+
+def _report(folder: Path, name: str, sha: str, when: str, passed: bool = True) -> Path:
+    record = {
+        "date_utc": when,
+        "software": {"sha256": sha},
+        "passed": passed,
+        "cases": [{"passed": passed}],
+    }
+    (folder / f"{name}.json").write_text(json.dumps(record))
+    pdf = folder / f"{name}.pdf"
+    pdf.write_bytes(b"%PDF-1.4")
+    return pdf
+
+
+def test_the_newest_passed_report_of_the_same_software_is_found(tmp_path: Path) -> None:
+    from app.validation import passed_report
+
+    old = _report(tmp_path, "a", "s1", "2026-01-01T00:00:00+00:00")
+    new = _report(tmp_path, "b", "s1", "2026-02-01T00:00:00+00:00")
+    _report(tmp_path, "c", "s1", "2026-03-01T00:00:00+00:00", passed=False)
+    _report(tmp_path, "d", "s2", "2026-04-01T00:00:00+00:00")
+    (tmp_path / "e.json").write_text("not json")
+    assert passed_report(tmp_path, "s1") == new
+    new.unlink()  # a twin without its PDF names nothing
+    assert passed_report(tmp_path, "s1") == old
+    assert passed_report(tmp_path, "s3") is None
+
+
+def test_the_module_entry_point_refuses_a_bad_path_with_exit_2(tmp_path, capsys) -> None:
+    from app.validation.__main__ import main
+
+    assert main(["--out", str(tmp_path / "report.txt")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: --out:") and err.count("\n") == 1
