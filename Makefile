@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 DEMO_DIR ?= demo-output
 
-.PHONY: venv test test-fast demo gui bench lint typecheck clean xvfb lock
+.PHONY: venv test test-fast demo gui bench lint typecheck clean xvfb lock browser validate
 
 venv: $(STAMP)
 
@@ -40,6 +40,18 @@ xvfb:
 	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing; \
 	fi
 
+# Debian's Chromium and its chromedriver for the web view's browser test (tests/web, Selenium);
+# installed (as root) only when missing
+BROWSER_PACKAGES := chromium chromium-driver
+
+browser:
+	@command -v dpkg >/dev/null || { echo "browser: not a Debian system; install Chromium and chromedriver yourself"; exit 0; }; \
+	missing=$$(for p in $(BROWSER_PACKAGES); do dpkg -s $$p >/dev/null 2>&1 || echo $$p; done); \
+	if [ -n "$$missing" ]; then \
+	    echo "installing $$missing"; \
+	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing; \
+	fi
+
 test: $(STAMP) xvfb
 	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest -q
 
@@ -55,6 +67,11 @@ demo: $(STAMP)
 	$(BIN)/accelcal certificate $$(ls -d $(DEMO_DIR)/runs/*/ | tail -n 1) --customer "ACME Ltd" \
 	    --authorised-by "J. Smith, head of laboratory" --temperature 23 \
 	    --mounting "stud-mounted back-to-back on the reference, 2 N m"
+
+# the ISO/IEC 17025 7.11.2 software validation report of this version (exit 1: a case failed)
+validate: $(STAMP)
+	mkdir -p $(DEMO_DIR)
+	$(BIN)/python -m app.validation --out $(DEMO_DIR)/validation-$$(date -u +%Y%m%dT%H%M%SZ).pdf
 
 gui: $(STAMP)
 	$(BIN)/accelcal gui --sim

@@ -235,3 +235,16 @@ class AuditEntry(Base):
     table_name: Mapped[str] = mapped_column(String(100))
     row_key: Mapped[str] = mapped_column(String(200))
     changes: Mapped[str] = mapped_column(Text)
+
+
+class User(Base):
+    """A member of the lab's staff who may sign in to the web view: a unique user name, a
+    display name and an argon2 password hash (app.web.users); `active` False locks them out."""
+
+    __tablename__ = "users"
+    id: Mapped[int] = mapped_column(primary_key=True)
+    username: Mapped[str] = mapped_column(String(100), unique=True)
+    display_name: Mapped[str] = mapped_column(String(200))
+    password_hash: Mapped[str] = mapped_column(String(200))
+    active: Mapped[bool] = mapped_column(Boolean, default=True)
+    created_utc: Mapped[datetime] = mapped_column(DateTime(timezone=True))

@@ -1,0 +1,28 @@
+"""`python -m app.validation --out REPORT.pdf`: run the validation cases and write the report
+(until `accelcal validate` is wired in the CLI). Exit 0 when every case passed, 1 when any
+failed, 2 (one line on stderr) for a report path that cannot be written."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+from pathlib import Path
+
+from app.validation import ValidationInputError, validate
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m app.validation", description=__doc__)
+    parser.add_argument("--out", type=Path, required=True, help="the report PDF to write")
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
+    try:
+        return validate(args.out)
+    except ValidationInputError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,82 @@
+"""`python -m app.web --db URL --host 127.0.0.1 --port N`: serve the lab's web view (uvicorn).
+
+The session key comes from $ACCELCAL_WEB_SECRET (at least 32 characters; then sessions outlive
+a restart and several workers agree), else a random one for this process.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import secrets
+import sys
+from pathlib import Path
+
+from app.certificate.qr import QrError, check_verify_url
+from app.records.db.errors import RecordsInputError
+
+SECRET_ENV = "ACCELCAL_WEB_SECRET"
+MIN_SECRET_LENGTH = 32
+
+log = logging.getLogger("app.web")
+
+
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(prog="python -m app.web", description=__doc__)
+    parser.add_argument("--db", default=None, help="records database URL (else $ACCELCAL_DB)")
+    parser.add_argument("--host", default="127.0.0.1", help="address to listen on")
+    parser.add_argument("--port", type=int, default=8080, help="TCP port (1 to 65535)")
+    parser.add_argument(
+        "--verify-url",
+        default=None,
+        help="the [laboratory] verify_url printed in QR codes (default: this server's /verify)",
+    )
+    parser.add_argument(
+        "--trust",
+        type=Path,
+        default=None,
+        help="the lab's CA certificate (PEM or DER): signatures must chain to it",
+    )
+    parser.add_argument(
+        "--https-only", action="store_true", help="session cookie only over HTTPS (behind TLS)"
+    )
+    return parser.parse_args(argv)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Serve until interrupted; 2 (one line on stderr) for bad options or an unusable
+    database."""
+    args = parse_args(argv)
+    try:
+        if not 1 <= args.port <= 65535:
+            raise ValueError(f"--port: must be 1 to 65535, got {args.port}")
+        verify_url = check_verify_url(args.verify_url) if args.verify_url else None
+        if args.trust is not None and not args.trust.is_file():
+            raise ValueError(f"--trust: no such file {args.trust}")
+        secret = os.environ.get(SECRET_ENV) or ""
+        if secret and len(secret) < MIN_SECRET_LENGTH:
+            raise ValueError(f"{SECRET_ENV}: shorter than {MIN_SECRET_LENGTH} characters")
+        from app.web.server import WebConfig, create_app
+        from app.web.store import Store, open_read_only
+
+        engine = open_read_only(args.db)
+    except (ValueError, QrError, RecordsInputError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
+    if not secret:
+        secret = secrets.token_urlsafe(32)
+        log.info("web: %s not set: sessions end when this server stops", SECRET_ENV)
+    config = WebConfig(
+        secret_key=secret, verify_url=verify_url, https_only=args.https_only, trust=args.trust
+    )
+    import uvicorn
+
+    app = create_app(Store(engine), config)
+    uvicorn.run(app, host=args.host, port=args.port, server_header=False)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,342 @@
+"""The web view's pages and routes (Starlette, Jinja2 templates rendered on the server).
+
+Staff pages need a signed-in user (a session in a signed cookie, app.web.users for the
+passwords); the one public page, /verify/NUMBER?code=CODE, shows only a certificate's status.
+Every response carries a strict Content-Security-Policy (no script at all) and no Referer.
+"""
+
+from __future__ import annotations
+
+import base64
+import logging
+import secrets
+import time
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from importlib import resources
+from pathlib import Path
+from typing import Any
+from urllib.parse import quote
+
+from starlette.applications import Starlette
+from starlette.concurrency import run_in_threadpool
+from starlette.middleware import Middleware
+from starlette.middleware.sessions import SessionMiddleware
+from starlette.requests import Request
+from starlette.responses import RedirectResponse, Response
+from starlette.routing import Route
+from starlette.templating import Jinja2Templates
+from starlette.types import ASGIApp, Message, Receive, Scope, Send
+
+from app.certificate.qr import QrError, qr_svg, verify_address
+from app.records.db.lab import RecordsError
+from app.web.chart import history_svg
+from app.web.documents import DocumentError, certificate_pdf, embedded_dcc, verify_certificate
+from app.web.store import StaffUser, Store
+from app.web.users import dummy_check, password_matches
+
+log = logging.getLogger(__name__)
+
+SESSION_MAX_AGE_S = 8 * 3600  # a working day; then sign in again
+MAX_FAILURES = 5  # failed sign-ins of one user name or one client within FAILURE_WINDOW_S
+FAILURE_WINDOW_S = 15 * 60
+DUE_DAYS_DEFAULT, DUE_DAYS_MAX = 30, 3650
+SECURITY_HEADERS = (
+    (
+        b"content-security-policy",
+        b"default-src 'none'; img-src 'self' data:; style-src 'self' 'unsafe-inline'; "
+        b"form-action 'self'; frame-ancestors 'none'; base-uri 'none'",
+    ),
+    (b"x-content-type-options", b"nosniff"),
+    (b"referrer-policy", b"no-referrer"),
+    (b"x-frame-options", b"DENY"),
+)
+
+
+class SecurityHeaders:
+    """ASGI middleware adding SECURITY_HEADERS (and no-store caching) to every response."""
+
+    def __init__(self, app: ASGIApp) -> None:
+        self.app = app
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        async def send_with_headers(message: Message) -> None:
+            if message["type"] == "http.response.start":
+                headers = list(message.get("headers", []))
+                headers.extend(SECURITY_HEADERS)
+                headers.append((b"cache-control", b"no-store"))
+                message["headers"] = headers
+            await send(message)
+
+        await self.app(scope, receive, send_with_headers)
+
+
+@dataclass
+class Throttle:
+    """Failed sign-ins per key (user name, client address) in a sliding window."""
+
+    window_s: float = FAILURE_WINDOW_S
+    limit: int = MAX_FAILURES
+    clock: Callable[[], float] = time.monotonic
+    failures: dict[str, deque[float]] = field(default_factory=dict)
+
+    def _recent(self, key: str) -> deque[float]:
+        times = self.failures.setdefault(key, deque())
+        while times and self.clock() - times[0] > self.window_s:
+            times.popleft()
+        return times
+
+    def blocked(self, *keys: str) -> bool:
+        """Whether any key had `limit` failures within the window."""
+        return any(len(self._recent(key)) >= self.limit for key in keys)
+
+    def fail(self, *keys: str) -> None:
+        for key in keys:
+            self._recent(key).append(self.clock())
+
+    def clear(self, key: str) -> None:
+        self.failures.pop(key, None)
+
+
+@dataclass(frozen=True)
+class WebConfig:
+    """How the web view runs: the session key, the base of verification addresses
+    ([laboratory] verify_url; None: this server's own /verify), cookies only over HTTPS, and
+    the lab's CA certificate that signatures must chain to (None: intact is enough)."""
+
+    secret_key: str
+    verify_url: str | None = None
+    https_only: bool = False
+    trust: Path | None = None
+
+
+def _templates() -> Jinja2Templates:
+    folder = resources.files("app.web").joinpath("templates")
+    templates = Jinja2Templates(directory=str(folder))
+    templates.env.filters["mv"] = lambda v: "–" if v is None else f"{v:.5g}"
+    templates.env.filters["when"] = lambda t: t.strftime("%Y-%m-%d %H:%M UTC")
+    templates.env.filters["q"] = lambda s: quote(str(s), safe="")
+    templates.env.filters["b64"] = lambda s: base64.b64encode(str(s).encode()).decode()
+    return templates
+
+
+def create_app(store: Store, config: WebConfig) -> Starlette:
+    """The web view over `store` (read-only records) with `config`."""
+    templates = _templates()
+    throttle = Throttle()
+
+    def page(request: Request, name: str, http_status: int = 200, **context: Any) -> Response:
+        context.setdefault("user", request.session.get("user"))
+        if "csrf" not in context:
+            context["csrf"] = _csrf(request)
+        return templates.TemplateResponse(request, name, context, status_code=http_status)
+
+    def not_found(request: Request, what: str) -> Response:
+        return page(request, "message.html", 404, title="Not found", message=what)
+
+    def staff(endpoint: Callable[[Request], Response]) -> Callable[[Request], Response]:
+        """Only for a signed-in, still active staff user; else to the login page."""
+
+        def guarded(request: Request) -> Response:
+            name = request.session.get("user")
+            account = store.user(name) if isinstance(name, str) else None
+            if account is None or not account.active:
+                request.session.pop("user", None)
+                target = request.url.path + (f"?{request.url.query}" if request.url.query else "")
+                return RedirectResponse(f"/login?next={quote(target, safe='')}", 303)
+            return endpoint(request)
+
+        return guarded
+
+    def home(request: Request) -> Response:
+        return RedirectResponse("/register", 303)
+
+    def login(request: Request) -> Response:
+        target = _local(request.query_params.get("next", "/register"))
+        return page(request, "login.html", target=target, error=None)
+
+    async def login_post(request: Request) -> Response:
+        form = await request.form()
+        username = str(form.get("username", "")).strip()[:100]
+        password = str(form.get("password", ""))[:1000]
+        target = _local(str(form.get("next", "/register")))
+        if not secrets.compare_digest(str(form.get("csrf", "")), _csrf(request)):
+            return page(request, "login.html", 400, target=target, error="Form expired: retry.")
+        client = f"client:{request.client.host if request.client else '?'}"
+        key = f"user:{username.casefold()}"
+        if throttle.blocked(key, client):
+            log.warning("web: sign-in of %r refused: too many failures", username)
+            message = "Too many failed sign-ins: wait 15 minutes."
+            return page(request, "login.html", 429, target=target, error=message)
+        account = await run_in_threadpool(_check_password, store, username, password)
+        ok = account is not None
+        if not ok:
+            throttle.fail(key, client)
+            log.info("web: failed sign-in of %r", username)
+            error = "Unknown user name or wrong password."
+            return page(request, "login.html", 401, target=target, error=error)
+        throttle.clear(key)
+        request.session.clear()  # a new session: nothing carried over from before sign-in
+        assert account is not None
+        request.session["user"] = account.username
+        request.session["name"] = account.display_name
+        log.info("web: %s signed in", username)
+        return RedirectResponse(target, 303)
+
+    async def logout(request: Request) -> Response:
+        form = await request.form()
+        if secrets.compare_digest(str(form.get("csrf", "")), _csrf(request)):
+            request.session.clear()
+        return RedirectResponse("/login", 303)
+
+    def register(request: Request) -> Response:
+        search = request.query_params.get("q", "")[:200]
+        rows = store.register(search)
+        return page(request, "register.html", rows=rows, search=search)
+
+    def certificate(request: Request) -> Response:
+        number = request.path_params["number"]
+        row = store.certificate(number)
+        if row is None:
+            return not_found(request, f"No certificate {number} in the register.")
+        checks, problem = [], None
+        try:
+            pdf = certificate_pdf(row.number, row.run_id, row.run_folder)
+            checks = verify_certificate(row.number, pdf, row.run_folder, config.trust)
+        except DocumentError as exc:
+            problem = str(exc)
+        address, qr = _qr(request, config, row.number, row.manifest_sha256)
+        return page(
+            request,
+            "certificate.html",
+            row=row,
+            checks=checks,
+            verified=bool(checks) and all(c.ok for c in checks),
+            problem=problem,
+            replaced_by=store.replaced_by(row.number),
+            address=address,
+            qr=qr,
+        )
+
+    def certificate_file(request: Request) -> Response:
+        number, kind = request.path_params["number"], request.path_params["kind"]
+        if kind not in ("pdf", "xml"):
+            return not_found(request, f"No document certificate.{kind}.")
+        row = store.certificate(number)
+        if row is None:
+            return not_found(request, f"No certificate {number} in the register.")
+        try:
+            pdf = certificate_pdf(row.number, row.run_id, row.run_folder)
+            if kind == "pdf":
+                data, media = pdf.read_bytes(), "application/pdf"
+            else:
+                data, media = embedded_dcc(pdf), "application/xml"
+        except DocumentError as exc:
+            return not_found(request, str(exc))
+        filename = "".join(c if c.isalnum() or c in "-_." else "_" for c in number)
+        disposition = f'attachment; filename="{filename}.{kind}"'
+        return Response(data, media_type=media, headers={"content-disposition": disposition})
+
+    def due(request: Request) -> Response:
+        try:
+            days = int(request.query_params.get("days", DUE_DAYS_DEFAULT))
+        except ValueError:
+            days = -1
+        if not 0 <= days <= DUE_DAYS_MAX:
+            message = f"days: must be a whole number from 0 to {DUE_DAYS_MAX}"
+            return page(request, "message.html", 400, title="Bad request", message=message)
+        today = datetime.now(UTC).date()
+        items = store.due(today=today, days=days)
+        sensors = [i for i in items if i.kind == "sensor"]
+        references = [i for i in items if i.kind == "reference"]
+        return page(
+            request, "due.html", days=days, today=today, sensors=sensors, references=references
+        )
+
+    def sensor(request: Request) -> Response:
+        serial = request.path_params["serial"]
+        try:
+            history = store.history(serial)
+        except RecordsError:
+            return not_found(request, f"No sensor {serial} in the records.")
+        return page(
+            request,
+            "sensor.html",
+            history=history,
+            chart=history_svg(history),
+            rows=store.sensor_certificates(serial),
+        )
+
+    def verify(request: Request) -> Response:
+        number = request.path_params["number"][:100]
+        public: dict[str, Any] = {"public": True, "user": None, "csrf": ""}  # no session
+        status = store.public_status(number, request.query_params.get("code", "")[:64])
+        if status is None:
+            return page(request, "verify.html", 404, number=number, status=None, **public)
+        return page(request, "verify.html", number=number, status=status, **public)
+
+    routes = [
+        Route("/", home),
+        Route("/login", login, methods=["GET"]),
+        Route("/login", login_post, methods=["POST"]),
+        Route("/logout", logout, methods=["POST"]),
+        Route("/register", staff(register)),
+        Route("/due", staff(due)),
+        Route("/certificates/{number:path}/certificate.{kind:str}", staff(certificate_file)),
+        Route("/certificates/{number:path}", staff(certificate)),
+        Route("/sensors/{serial:path}", staff(sensor)),
+        Route("/verify/{number:path}", verify, name="verify"),
+    ]
+    middleware = [
+        Middleware(SecurityHeaders),
+        Middleware(
+            SessionMiddleware,
+            secret_key=config.secret_key,
+            session_cookie="accelcal_session",
+            max_age=SESSION_MAX_AGE_S,
+            same_site="lax",
+            https_only=config.https_only,
+        ),
+    ]
+    app = Starlette(routes=routes, middleware=middleware)
+    return app
+
+
+def _check_password(store: Store, username: str, password: str) -> StaffUser | None:
+    """The active staff user `username` when `password` is theirs, else None; an unknown
+    user costs the time of a password check too (argon2: run it off the event loop)."""
+    account = store.user(username) if username else None
+    if account is None:
+        dummy_check(password)
+        return None
+    if account.active and password_matches(account.password_hash, password):
+        return account
+    return None
+
+
+def _csrf(request: Request) -> str:
+    """The session's form token (made on first use)."""
+    token = request.session.get("csrf")
+    if not isinstance(token, str):
+        token = secrets.token_urlsafe(24)
+        request.session["csrf"] = token
+    return token
+
+
+def _local(target: str) -> str:
+    """`target` when it is a path on this site, else the register (no open redirect)."""
+    if target.startswith("/") and not target.startswith("//") and "\\" not in target:
+        return target
+    return "/register"
+
+
+def _qr(request: Request, config: WebConfig, number: str, manifest: str) -> tuple[str, str]:
+    """The public verification address of a certificate and its QR code (SVG)."""
+    base = config.verify_url or str(request.base_url).rstrip("/") + "/verify"
+    try:
+        address = verify_address(base, number, manifest)
+    except QrError as exc:
+        return str(exc), ""
+    return address, qr_svg(address)

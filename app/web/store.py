@@ -1,0 +1,234 @@
+"""What the web view reads from the records database, as typed values (no ORM object leaves a
+session): the register, one certificate, due items, a sensor's history, the public status of
+a certificate and staff users. The engine is read-only: SQLite connections are `query_only`,
+PostgreSQL transactions `default_transaction_read_only`; nothing here can write.
+"""
+
+from __future__ import annotations
+
+import hmac
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from datetime import UTC, date, datetime
+from pathlib import Path
+from typing import Any
+
+from sqlalchemy import Engine, create_engine, event, or_, select
+from sqlalchemy.engine import make_url
+from sqlalchemy.orm import Session
+
+from app.certificate.qr import verification_code
+from app.records.db.engine import (
+    SQLITE_BUSY_TIMEOUT_S,
+    DatabaseError,
+    current_revision,
+    head_revision,
+    resolve_url,
+)
+from app.records.db.lab import DueItem, History, Lab
+from app.records.db.models import Certificate, Customer, Run, Sensor, SensorModel, User
+
+SEARCH_LIMIT = 200  # register rows on one page
+STATUS_WORDS = {"issued": "valid", "replaced": "amended", "withdrawn": "withdrawn"}
+
+
+@dataclass(frozen=True)
+class CertificateRow:
+    """One certificate of the register as the web view shows it (sensitivity and U at the
+    reference frequency in mV/(m/s^2), the run folder's path on the lab's disk)."""
+
+    number: str
+    state: str
+    status: str
+    issued_utc: datetime
+    serial: str
+    customer: str
+    model: str
+    run_id: str
+    run_folder: str
+    manifest_sha256: str
+    prepared_by: str
+    approved_by: str
+    replaces: str | None
+    reason: str | None
+    reference_frequency_hz: float | None
+    sensitivity_mv_per_ms2: float | None
+    expanded_uncertainty_mv_per_ms2: float | None
+
+
+@dataclass(frozen=True)
+class StaffUser:
+    """A staff user as the login needs it."""
+
+    username: str
+    display_name: str
+    password_hash: str
+    active: bool
+
+
+def _safe(url: str) -> str:
+    return make_url(url).render_as_string(hide_password=True)
+
+
+def _sqlite_read_only(dbapi_connection: Any, _record: Any) -> None:
+    cursor = dbapi_connection.cursor()
+    cursor.execute(f"PRAGMA busy_timeout = {int(SQLITE_BUSY_TIMEOUT_S * 1000)}")
+    cursor.execute("PRAGMA query_only = ON")
+    cursor.close()
+
+
+def open_read_only(url: str | None) -> Engine:
+    """A read-only engine on the records at `url` (else $ACCELCAL_DB, else the default file),
+    refused (DatabaseError naming why) when the database is missing, unreachable or not at
+    this program's schema revision."""
+    resolved = resolve_url(url)
+    parsed = make_url(resolved)
+    if parsed.get_backend_name() == "sqlite":
+        database = parsed.database or ""
+        if database in ("", ":memory:") or not Path(database).is_file():
+            raise DatabaseError(f"--db: no records database at {_safe(resolved)}")
+        engine = create_engine(resolved, connect_args={"timeout": SQLITE_BUSY_TIMEOUT_S})
+        event.listen(engine, "connect", _sqlite_read_only)
+    else:
+        engine = create_engine(
+            resolved,
+            pool_pre_ping=True,
+            connect_args={"options": "-c default_transaction_read_only=on"},
+        )
+    try:
+        current = current_revision(engine)
+    except Exception as exc:  # unreachable server, damaged file
+        engine.dispose()
+        raise DatabaseError(f"--db: {_safe(resolved)}: cannot connect ({exc})") from exc
+    head = head_revision(engine)
+    if current != head:
+        engine.dispose()
+        raise DatabaseError(
+            f"--db: {_safe(resolved)}: schema revision {current or 'none'}, this program needs "
+            f"{head}; run `accelcal db upgrade`"
+        )
+    return engine
+
+
+class Store:
+    """Read-only queries of the web view over one engine."""
+
+    def __init__(self, engine: Engine) -> None:
+        self.engine = engine
+        self.lab = Lab(engine, actor="web view")
+
+    @contextmanager
+    def _session(self) -> Iterator[Session]:
+        with Session(self.engine) as session:
+            try:
+                yield session
+            finally:
+                session.rollback()  # nothing to keep: read only
+
+    def _rows(self, session: Session, *where: Any) -> list[CertificateRow]:
+        query = (
+            select(Certificate, Run, Sensor, Customer, SensorModel)
+            .join(Run, Certificate.run_id == Run.id)
+            .join(Sensor, Certificate.sensor_id == Sensor.id)
+            .join(Customer, Sensor.owner_id == Customer.id)
+            .join(SensorModel, Sensor.model_id == SensorModel.id)
+            .where(*where)
+            .order_by(Certificate.issued_utc.desc(), Certificate.id.desc())
+            .limit(SEARCH_LIMIT)
+        )
+        return [
+            CertificateRow(
+                number=c.number,
+                state=c.state,
+                status=STATUS_WORDS.get(c.state, c.state),
+                issued_utc=_utc(c.issued_utc),
+                serial=s.serial,
+                customer=o.name,
+                model=f"{m.maker} {m.model}",
+                run_id=r.run_id,
+                run_folder=r.folder,
+                manifest_sha256=r.manifest_sha256,
+                prepared_by=c.prepared_by,
+                approved_by=c.approved_by,
+                replaces=c.replaces,
+                reason=c.reason,
+                reference_frequency_hz=r.reference_frequency_hz,
+                sensitivity_mv_per_ms2=r.sensitivity_mv_per_ms2,
+                expanded_uncertainty_mv_per_ms2=r.expanded_uncertainty_mv_per_ms2,
+            )
+            for c, r, s, o, m in session.execute(query).all()
+        ]
+
+    def register(self, search: str = "") -> list[CertificateRow]:
+        """Certificates, newest first (at most SEARCH_LIMIT), whose number, sensor serial,
+        customer or run id contains `search` (case-insensitive)."""
+        text = search.strip()
+        where = []
+        if text:
+            pattern = f"%{_escape_like(text)}%"
+            where.append(
+                or_(
+                    *(
+                        column.ilike(pattern, escape="\\")
+                        for column in (Certificate.number, Sensor.serial, Customer.name, Run.run_id)
+                    )
+                )
+            )
+        with self._session() as s:
+            return self._rows(s, *where)
+
+    def certificate(self, number: str) -> CertificateRow | None:
+        """The certificate numbered `number` exactly, or None."""
+        with self._session() as s:
+            rows = self._rows(s, Certificate.number == number)
+        return rows[0] if rows else None
+
+    def replaced_by(self, number: str) -> str | None:
+        """The number of the certificate that amends `number`, if any."""
+        with self._session() as s:
+            return s.scalar(select(Certificate.number).where(Certificate.replaces == number))
+
+    def public_status(self, number: str, code: str) -> str | None:
+        """'valid', 'amended' or 'withdrawn' for certificate `number` when `code` is its
+        verification code (app.certificate.qr); None for an unknown number or a wrong code
+        alike (the answer never tells which numbers exist)."""
+        with self._session() as s:
+            row = s.execute(
+                select(Certificate.state, Run.manifest_sha256)
+                .join(Run, Certificate.run_id == Run.id)
+                .where(Certificate.number == number)
+            ).first()
+        expected = verification_code(number, row[1]) if row is not None else "x" * 16
+        if not hmac.compare_digest(expected.encode(), code.strip().lower().encode()):
+            return None
+        return None if row is None else STATUS_WORDS.get(row[0], row[0])
+
+    def due(self, *, today: date, days: int) -> list[DueItem]:
+        """Sensors and reference standards due by today + days (Lab.due)."""
+        return self.lab.due(today=today, days=days)
+
+    def history(self, serial: str) -> History:
+        """A sensor's calibrations and drift (Lab.history); RecordsError when unknown."""
+        return self.lab.history(serial)
+
+    def sensor_certificates(self, serial: str) -> list[CertificateRow]:
+        """The certificates of sensor `serial`, newest first."""
+        with self._session() as s:
+            return self._rows(s, Sensor.serial == serial)
+
+    def user(self, username: str) -> StaffUser | None:
+        """The staff user named `username`, or None."""
+        with self._session() as s:
+            row = s.scalar(select(User).where(User.username == username))
+            if row is None:
+                return None
+            return StaffUser(row.username, row.display_name, row.password_hash, row.active)
+
+
+def _escape_like(text: str) -> str:
+    return text.replace("\\", "\\\\").replace("%", "\\%").replace("_", "\\_")
+
+
+def _utc(moment: datetime) -> datetime:
+    return moment.replace(tzinfo=UTC) if moment.tzinfo is None else moment.astimezone(UTC)

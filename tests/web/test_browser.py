@@ -1,0 +1,130 @@
+"""The web view in a real headless browser (Debian's Chromium through Selenium and its
+chromedriver; `make browser` installs them): sign in, search the register, open a
+certificate's page, read the QR code the browser drew and follow it, signed out, to the
+public status page. Skipped without Chromium, except under CI=true where it fails."""
+
+from __future__ import annotations
+
+import io
+import os
+import shutil
+import socket
+import threading
+import time
+from collections.abc import Iterator
+
+import pytest
+
+from tests.web.conftest import PASSWORD, USER, Records
+
+pytestmark = pytest.mark.integration
+
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+CHROMEDRIVER = shutil.which("chromedriver")
+
+
+def _need_browser() -> None:
+    if CHROMIUM and CHROMEDRIVER:
+        return
+    why = "no chromium/chromedriver (make browser)"
+    if os.environ.get("CI") == "true":
+        pytest.fail(f"the browser test cannot run in CI: {why}")
+    pytest.skip(why)
+
+
+def _free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return int(probe.getsockname()[1])
+
+
+@pytest.fixture
+def server(store) -> Iterator[str]:
+    """The web view served by uvicorn on a free local port, in a thread; its base URL."""
+    import uvicorn
+
+    from app.web.server import WebConfig, create_app
+
+    port = _free_port()
+    base = f"http://127.0.0.1:{port}"
+    config = WebConfig(secret_key="s" * 40, verify_url=f"{base}/verify")
+    server = uvicorn.Server(
+        uvicorn.Config(create_app(store, config), host="127.0.0.1", port=port, log_level="warning")
+    )
+    thread = threading.Thread(target=server.run, daemon=True)
+    thread.start()
+    deadline = time.monotonic() + 20
+    while not server.started:
+        if time.monotonic() > deadline or not thread.is_alive():
+            pytest.fail("the web view did not start")
+        time.sleep(0.05)
+    yield base
+    server.should_exit = True
+    thread.join(timeout=10)
+
+
+@pytest.fixture
+def browser() -> Iterator:
+    _need_browser()
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+
+    options = webdriver.ChromeOptions()
+    options.binary_location = str(CHROMIUM)
+    for argument in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage",
+                     "--window-size=1280,1000", "--disable-gpu"):  # fmt: skip
+        options.add_argument(argument)
+    driver = webdriver.Chrome(service=Service(executable_path=str(CHROMEDRIVER)), options=options)
+    driver.set_page_load_timeout(30)
+    try:
+        yield driver
+    finally:
+        driver.quit()
+
+
+def test_login_search_certificate_and_the_qr_code_to_the_public_status(
+    server: str, browser, records: Records
+) -> None:
+    import zxingcpp
+    from PIL import Image
+    from selenium.webdriver.common.by import By
+
+    old, new, _ = records.numbers
+    browser.get(f"{server}/register")
+    assert "/login" in browser.current_url  # a stranger is sent to sign in
+    browser.find_element(By.ID, "username").send_keys(USER)
+    browser.find_element(By.ID, "password").send_keys(PASSWORD)
+    browser.find_element(By.ID, "sign-in").click()
+    assert browser.current_url == f"{server}/register"
+    assert browser.find_element(By.TAG_NAME, "h1").text == "Certificate register"
+
+    search = browser.find_element(By.ID, "q")
+    search.clear()
+    search.send_keys(new)
+    browser.find_element(By.ID, "search").click()
+    links = browser.find_elements(By.CSS_SELECTOR, "#register tbody a[href^='/certificates/']")
+    assert [link.text for link in links] == [new]
+    links[0].click()
+
+    assert browser.find_element(By.TAG_NAME, "h1").text == f"Certificate {new}"
+    assert browser.find_element(By.ID, "status").text == "valid"
+    assert (
+        browser.find_element(By.ID, "pdf")
+        .get_attribute("href")
+        .endswith(f"/certificates/{new}/certificate.pdf")
+    )
+    picture = browser.find_element(By.ID, "qr").screenshot_as_png  # as the browser drew it
+    (code,) = zxingcpp.read_barcodes(Image.open(io.BytesIO(picture)))
+    address = code.text
+    assert address.startswith(f"{server}/verify/{new}?code=")
+    assert address == browser.find_element(By.ID, "address").text
+
+    browser.find_element(By.ID, "logout").click()
+    browser.delete_all_cookies()
+    browser.get(address)  # the QR round trip, as a customer with no account
+    assert browser.find_element(By.ID, "status").text == "valid"
+    assert browser.find_elements(By.ID, "logout") == []
+    assert "SN-WEB-1" not in browser.page_source and "ACME" not in browser.page_source
+
+    browser.get(address.replace(f"/verify/{new}?", f"/verify/{old}?"))  # code of another
+    assert browser.find_element(By.ID, "status").text == "not found"
