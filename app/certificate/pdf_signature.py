@@ -70,6 +70,18 @@ class SignedLayout:
     last: ByteRange
     earlier: tuple[EarlierSignature, ...]
 
+    def check_is(self, byte_range: Sequence[int], contents: bytes) -> None:
+        """SignatureStructureError unless the checked range is the one of the document's
+        signature field as a PDF parser read it (its /ByteRange and /Contents)."""
+        last = self.last
+        if list(byte_range) != [0, last.length1, last.start2, last.length2] or (
+            last.contents != contents
+        ):
+            raise SignatureStructureError(
+                "the last signed range and its hex string are not the /ByteRange and "
+                "/Contents of the document's signature field"
+            )
+
 
 def byte_ranges(data: bytes) -> list[ByteRange]:
     """Every /ByteRange array in `data` with the /Contents hex string in its gap, by position.
@@ -102,11 +114,11 @@ def _gap_contents(data: bytes, start: int, end: int) -> bytes | None:
     return bytes.fromhex(digits.decode("ascii"))
 
 
-def check_layout(data: bytes, byte_range: Sequence[int], contents: bytes) -> SignedLayout:
+def check_layout(data: bytes) -> SignedLayout:
     """Check that the last signature in `data` covers the whole file except exactly the hex
-    string of its /Contents, and that it is the signature the PDF's signature field holds, as
-    a PDF parser read it (its `byte_range` and `contents`). SignatureStructureError says what
-    is wrong; the earlier signatures are returned for the caller to report."""
+    string of its /Contents, from the bytes alone (before any PDF parser reads the file).
+    SignatureStructureError says what is wrong; the earlier signatures are returned for the
+    caller to report. See `SignedLayout.check_is` for tying it to the signature field."""
     ranges = byte_ranges(data)
     if not ranges:
         raise SignatureStructureError("no /ByteRange in the file: the PDF is not signed")
@@ -123,13 +135,6 @@ def check_layout(data: bytes, byte_range: Sequence[int], contents: bytes) -> Sig
         )
     if last.length1 <= last.at < last.start2:
         raise SignatureStructureError("the /ByteRange lies in the unsigned gap")
-    if list(byte_range) != [0, last.length1, last.start2, last.length2] or (
-        last.contents != contents
-    ):
-        raise SignatureStructureError(
-            "the last signed range and its hex string are not the /ByteRange and /Contents of "
-            "the document's signature field"
-        )
     earlier = tuple(_earlier(data, r) for r in ranges if r is not last)
     return SignedLayout(last, earlier)
 

@@ -141,6 +141,12 @@ def _check_signature(data: bytes, roots: list[Any] | None, report: Verification)
     if not data.startswith(b"%PDF-") or b"%%EOF" not in data[-1024:]:
         report.add("signature", False, "not a PDF file (no %PDF- header or %%EOF marker)")
         return False
+    name = "signature intact, covering the whole file"
+    try:
+        layout = check_layout(data)  # from the bytes, before any parser reads the file
+    except SignatureStructureError as exc:
+        report.add(name, False, str(exc))
+        return False
     try:
         from pyhanko.pdf_utils.reader import PdfFileReader
 
@@ -149,19 +155,19 @@ def _check_signature(data: bytes, roots: list[Any] | None, report: Verification)
         report.add("signature", False, f"cannot be read ({exc})")
         return False
     if not signatures:
-        report.add("signature", False, "the PDF is not signed")
+        report.add("signature", False, "the PDF has no signature field")
         return False
     sig = max(signatures, key=lambda s: _end(s.byte_range))
     try:
-        layout = check_layout(data, [int(v) for v in sig.byte_range], sig.pkcs7_content)
+        layout.check_is([int(v) for v in sig.byte_range], sig.pkcs7_content)
     except (SignatureStructureError, TypeError, ValueError) as exc:
-        report.add("signature intact, covering the whole file", False, str(exc))
+        report.add(name, False, str(exc))
         return False
     signer = SignerInfo.of(sig.signer_cert)
     status = _validate(sig, roots)
     intact = bool(status is not None and status.intact and status.valid)
     report.add(
-        "signature intact, covering the whole file",
+        name,
         intact,
         "" if intact else "the signed bytes or the signature do not match",
     )
