@@ -449,3 +449,100 @@ def test_an_hdf5_dataset_stored_outside_the_file_is_refused(
         )
     with pytest.raises(RecordingError, match=r"/signals/reference: dataset stored outside"):
         read_recording(path)
+
+
+# --- the byte layout, on hand-made files ------------------------------------------------------
+
+
+def _signed_bytes(
+    gap: bytes = b"<3082abcd0000>",
+    tail: bytes = b"",
+    key: bytes = b"/Contents ",
+    before: bytes = b"%PDF-1.7\n",
+) -> bytes:
+    """A minimal 'signed file': `before` (a header, or a whole earlier file and an update), a
+    signature dictionary whose /ByteRange leaves out exactly `gap` (after `key`), a trailer;
+    then `tail`. Numbers are fixed-width, so the offsets fit into the bytes they describe."""
+    head = before + b"1 0 obj\n<< /Type /Sig /ByteRange [0 A B C] " + key
+    head = head.replace(b"A B C", b"%010d %010d %010d" % (0, 0, 0))
+    rest = b" >>\nendobj\ntrailer\n<< >>\n%%EOF\n"
+    length1, start2 = len(head), len(head) + len(gap)
+    numbers = b"%010d %010d %010d" % (length1, start2, len(rest))
+    head = head[: -len(key) - 34] + numbers + b"] " + key
+    return head + gap + rest + tail
+
+
+def test_the_layout_of_a_hand_made_signed_file() -> None:
+    from app.certificate.pdf_signature import check_layout
+
+    data = _signed_bytes()
+    layout = check_layout(data)
+    assert layout.last.contents == bytes.fromhex("3082abcd0000") and layout.earlier == ()
+    assert layout.last.end == len(data)
+    layout.check_is([0, layout.last.length1, layout.last.start2, layout.last.length2],
+                    bytes.fromhex("3082abcd0000"))  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("data", "reason"),
+    [
+        (_signed_bytes(gap=b"(0\\202abcd)"), "not exactly the hex string"),
+        (_signed_bytes(gap=b"<3082abcd> "), "not exactly the hex string"),
+        (_signed_bytes(gap=b" <3082abcd>"), "not exactly the hex string"),
+        (_signed_bytes(gap=b"<3082abc>"), "not exactly the hex string"),  # odd digits
+        (_signed_bytes(gap=b"<3082abcd>", key=b"/Foo "), "not exactly the hex string"),
+        (_signed_bytes(tail=b"\n"), "1 bytes follow the last signature's signed range"),
+        (_signed_bytes().replace(b"[0 ", b"[1 "), "does not describe this"),
+        (b"%PDF-1.7\nno signature\n%%EOF\n", "not signed"),
+    ],
+)
+def test_a_layout_that_proves_nothing_is_refused(data: bytes, reason: str) -> None:
+    from app.certificate.pdf_signature import SignatureStructureError, check_layout
+
+    with pytest.raises(SignatureStructureError, match=reason):
+        check_layout(data)
+
+
+def test_the_signed_range_must_be_the_signature_fields() -> None:
+    from app.certificate.pdf_signature import SignatureStructureError, check_layout
+
+    layout = check_layout(_signed_bytes())
+    r = layout.last
+    for byte_range, contents in (
+        ([0, r.length1, r.start2, r.length2 - 1], r.contents),
+        ([0, r.length1, r.start2, r.length2], b"\x30\x82\xab\xcd"),
+    ):
+        with pytest.raises(SignatureStructureError, match="not the /ByteRange and /Contents"):
+            layout.check_is(byte_range, contents or b"")
+
+
+def test_an_earlier_signature_is_described_with_what_came_after() -> None:
+    from app.certificate.pdf_signature import check_layout
+
+    first = _signed_bytes()
+    update = b"7 0 obj\n<< >>\nendobj\n12 0 obj\n<< >>\nendobj\n"
+    data = _signed_bytes(gap=b"<3082ef00>", before=first + update)
+    layout = check_layout(data)
+    assert layout.last.contents == bytes.fromhex("3082ef00")
+    (earlier,) = layout.earlier
+    assert earlier.covered_bytes == len(first)
+    assert earlier.added_bytes == len(data) - len(first)
+    assert earlier.changed_objects == (1, 7, 12)  # the update's and the new signature's
+    assert f"covers bytes 0-{len(first)}; {len(data) - len(first)} bytes" in earlier.describe()
+
+
+def test_a_check_that_runs_too_long_is_stopped(
+    honest: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import app.certificate.verify as verify_module
+
+    def slow(*args: object) -> bool:
+        time.sleep(5)
+        return True
+
+    monkeypatch.setattr(verify_module, "TIME_LIMIT_S", 0.2)
+    monkeypatch.setattr(verify_module, "_check_signature", slow)
+    started = time.monotonic()
+    code, out, err = _verify(capsys, honest)
+    assert time.monotonic() - started < 3
+    _refused(code, out, err, r"the check took longer than 0.2 s and was stopped")
