@@ -14,6 +14,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from app.certificate.pdf_signature import SignatureStructureError, check_layout
+
 PASSWORD_ENV = "ACCELCAL_SIGN_PASSWORD"
 
 
@@ -68,5 +70,9 @@ class Signer:
             reason=reason,
             subfilter=fields.SigSeedSubFilter.PADES,
         )
-        out = signers.sign_pdf(writer, meta, signer=self.signer)
-        pdf.write_bytes(out.getvalue())
+        signed = signers.sign_pdf(writer, meta, signer=self.signer).getvalue()
+        try:  # what `verify` will require of it, checked before the file is kept
+            check_layout(signed)
+        except SignatureStructureError as exc:
+            raise SigningError(f"--sign: the signed PDF would not verify ({exc})") from None
+        pdf.write_bytes(signed)
