@@ -60,6 +60,7 @@ from app.records.run_folder import (
     writable_folder,
 )
 from app.records.run_record import DutIdentity, RunRecord
+from app.records.seal import named_seal
 from dsp.calibration import NOT_STATED, Results
 from dsp.uncertainty import Budget, Quantity
 
@@ -119,6 +120,7 @@ def load_stored_run(path: str | Path) -> StoredRun:
     path = Path(path)
     try:
         record = load_run(path)
+        named_seal(path)  # a seal that does not match: results and manifest were remade
     except ValueError as exc:
         raise CertificateError(str(exc)) from None
     if record.status != STATUS_COMPLETE or not record.results:
@@ -664,6 +666,7 @@ def _write_pdf(
                 ("Date of calibration", _esc(record.started_utc[:10])),
                 ("Date of issue", _esc(info.issue_date)),
                 ("Calibration run", _esc(record.run_id)),
+                *[("Run seal", seal) for seal in [named_seal(run.path)] if seal],
             ]
         ),
         Paragraph("Method", HEAD),

@@ -149,6 +149,7 @@ def build(run: StoredRun, info: CertificateInfo) -> bytes:
     _d(core, "usedLangCodeISO639_1", "en")
     _d(core, "mandatoryLangCodeISO639_1", "en")
     _d(core, "uniqueIdentifier", str(info.certificate_number))
+    _run_identifications(core, run)
     _d(core, "beginPerformanceDate", started)
     _d(core, "endPerformanceDate", finished)
     _d(core, "performanceLocation", "laboratory")
@@ -230,6 +231,25 @@ def build(run: StoredRun, info: CertificateInfo) -> bytes:
     if problem is not None:
         raise DccError(f"the DCC does not validate against DCC {SCHEMA_VERSION}: {problem}")
     return xml
+
+
+def _run_identifications(core: ET.Element, run: StoredRun) -> None:
+    """The run certified and its seal's hash (app.records.seal), as `verify --run` reads them
+    (app.certificate.printed); no seal entry for a run made before seals."""
+    from app.certificate.printed import RUN_ID_NAME, SEAL_NAME
+    from app.records.seal import SealError, named_seal
+
+    try:
+        seal = named_seal(run.path)
+    except SealError as exc:
+        raise DccError(str(exc)) from None
+    ids = _d(core, "identifications")
+    for label, value in ((RUN_ID_NAME, run.record.run_id), (SEAL_NAME, seal)):
+        if value:
+            ident = _d(ids, "identification")
+            _d(ident, "issuer", "calibrationLaboratory")
+            _d(ident, "value", str(value))
+            _text(ident, "name", label)
 
 
 def _statements(admin: ET.Element, results: Any) -> None:

@@ -21,12 +21,14 @@ import io
 import re
 from urllib.parse import quote, urlsplit
 
+from app.errors import Refusal
+
 QR_SIZE_MM = 22.0  # printed size: 25 modules of a version-2 code at about 0.8 mm each
 CODE_BYTES = 10  # 80 bits: unguessable, short enough to type from a printed page
 _SHA256_HEX = re.compile(r"^[0-9a-f]{64}$")
 
 
-class QrError(ValueError):
+class QrError(Refusal):
     """A verify_url or manifest hash that cannot make a verification address."""
 
 

@@ -3,11 +3,14 @@
 `analyze /dev/zero` would read until the memory is gone and a FIFO blocks forever; a folder
 where a file is expected gives an unhelpful error. Every file this program reads as input
 (recordings, stand files, budgets, sweep summaries) passes `check_input_file` first, which
-looks only at the file's metadata (`os.stat`, following links) and never opens it.
+looks only at the file's metadata (`os.stat`, following links) and never opens it. Files of a
+run folder are read through `open_regular` (lstat, then O_NOFOLLOW | O_NONBLOCK, then fstat):
+no link, FIFO or device there is ever followed or read.
 """
 
 from __future__ import annotations
 
+import hashlib
 import logging
 import os
 import stat
@@ -82,3 +85,62 @@ def check_dataset_size(samples: int, where: str) -> None:
             f"{where}: {samples} samples is more than a recording may hold "
             f"({MAX_RECORDING_SAMPLES} per channel)"
         )
+
+
+def open_regular(path: str | Path, what: str = "file", follow_links: bool = False) -> int:
+    """An open read-only descriptor of the regular file at `path`: looked at first without
+    following a link (lstat), opened with O_NOFOLLOW | O_NONBLOCK (a FIFO swapped in cannot
+    block, a link swapped in is not followed) and checked again on the descriptor (fstat).
+    InputFileError naming the file for a link, FIFO, device, socket or folder. With
+    `follow_links` (a path the user typed) a link to a regular file is read."""
+    path = Path(path)
+    try:
+        info = os.stat(path) if follow_links else os.lstat(path)
+    except FileNotFoundError:
+        raise InputFileError(f"{path}: no such file") from None
+    except OSError as exc:
+        raise InputFileError(f"{path}: cannot be read ({exc.strerror or exc})") from None
+    if stat.S_ISLNK(info.st_mode):
+        raise InputFileError(f"{path}: is a symbolic link; a {what} must be a regular file")
+    if not stat.S_ISREG(info.st_mode):
+        raise InputFileError(f"{path}: is {_kind(info.st_mode)}; a {what} must be a regular file")
+    flags = os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0)
+    if not follow_links:
+        flags |= os.O_NOFOLLOW
+    try:
+        fd = os.open(path, flags)
+    except OSError as exc:
+        raise InputFileError(f"{path}: cannot be read ({exc.strerror or exc})") from None
+    mode = os.fstat(fd).st_mode
+    if not stat.S_ISREG(mode):
+        os.close(fd)
+        raise InputFileError(f"{path}: is {_kind(mode)}; a {what} must be a regular file")
+    return fd
+
+
+def read_regular_bytes(
+    path: str | Path, max_bytes: int, what: str = "file", follow_links: bool = False
+) -> bytes:
+    """The bytes of the regular file at `path` (see `open_regular`), refused when the opened
+    file holds more than `max_bytes` (its size taken from fstat, then at most that many bytes
+    read)."""
+    fd = open_regular(path, what, follow_links)
+    with os.fdopen(fd, "rb") as handle:
+        size = os.fstat(fd).st_size
+        if size > max_bytes:
+            raise InputFileError(
+                f"{path}: {size} bytes is more than a {what} can hold ({max_bytes} bytes)"
+            )
+        data = handle.read(max_bytes + 1)
+    if len(data) > max_bytes:  # grew while being read
+        raise InputFileError(f"{path}: more than a {what} can hold ({max_bytes} bytes)")
+    return data
+
+
+def sha256_regular(path: str | Path, what: str = "file") -> str:
+    """Hex SHA-256 of the regular file at `path` (see `open_regular`)."""
+    digest = hashlib.sha256()
+    with os.fdopen(open_regular(path, what), "rb") as handle:
+        for chunk in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(chunk)
+    return digest.hexdigest()

@@ -447,7 +447,14 @@ def _read_truth(f: h5py.File, name: str) -> Truth | None:
 
 def _check_float_dataset(ds: h5py.Dataset, where: str) -> None:
     """Refuse a dataset that is not floating point (integers, strings, compound types: not
-    volts as this program writes them) or larger than a recording may hold, before reading."""
+    volts as this program writes them), larger than a recording may hold, or stored outside
+    the file (external raw files or a virtual dataset: they could name /etc/passwd or a FIFO),
+    before reading."""
+    if ds.external or ds.is_virtual:
+        raise RecordingError(
+            f"{where}: dataset stored outside the file (external or virtual storage); a "
+            "recording holds its samples itself"
+        )
     if ds.dtype.kind != "f":
         raise RecordingError(f"{where}: dataset of type {ds.dtype}, expected floating point")
     try:

@@ -7,7 +7,10 @@
                   results.json   status, abort reason, identities, timings, SHA-256 of the raw
                                  data, and the results object (null when there are none)
                   results.csv    per-line results (complete runs)
-                  manifest.json  SHA-256 of every file above, written last
+                  manifest.json  SHA-256 of every file above
+                  seal.json      run id, SHA-256 of manifest.json and results.json, software
+                                 version, time (app.records.seal): written last, named by
+                                 the certificates
 
 While a run writes its folder it holds an exclusive lock on it (flock on the folder), so a
 reader can tell a running run from one whose process died (no manifest, no lock: interrupted).
@@ -15,7 +18,8 @@ When the run ends every file and the folder itself are made read-only: a correct
 run. Everything that reads a run verifies the manifest first (`inspect_run`, `load_run`); an
 edited, replaced, missing or added file is refused by name with "hash mismatch" or the reason.
 Certificates issued later (certificate*.pdf / certificate*.xml) are products of the run, not
-part of its record, and carry their own hashes.
+part of its record, and carry their own hashes. Every file of a folder is read as a regular
+file only (app.io.checks.open_regular): a link, FIFO or device is refused by name, never read.
 """
 
 from __future__ import annotations
@@ -23,7 +27,6 @@ from __future__ import annotations
 import contextlib
 import fcntl
 import fnmatch
-import hashlib
 import json
 import os
 import stat
@@ -36,7 +39,9 @@ from typing import Any
 
 from app.errors import Refusal
 from app.files import write_new
+from app.io.checks import InputFileError, read_regular_bytes, sha256_regular
 from app.records.run_record import RunRecord, RunRecordError, UnsupportedSchemaError
+from app.records.seal import SEAL_NAME, write_seal
 from dsp.calibration import Results
 
 STATUS_COMPLETE = "complete"
@@ -50,6 +55,8 @@ MANIFEST_NAME = "manifest.json"
 MANIFEST_VERSION = 1
 # products made from a finished run later, each with hashes of its own: not part of the record
 PRODUCT_PATTERNS = ("certificate*.pdf", "certificate*.xml")
+MAX_MANIFEST_BYTES = 1 << 20  # a few hundred bytes per file listed
+MAX_RESULTS_BYTES = 64 << 20  # results of many thousand lines with their budgets
 READ_ONLY_FILE = stat.S_IRUSR | stat.S_IRGRP | stat.S_IROTH
 READ_ONLY_FOLDER = READ_ONLY_FILE | stat.S_IXUSR | stat.S_IXGRP | stat.S_IXOTH
 
@@ -59,12 +66,9 @@ class RunIntegrityError(Refusal):
 
 
 def sha256_of(path: Path) -> str:
-    """Hex SHA-256 of a file's bytes."""
-    digest = hashlib.sha256()
-    with path.open("rb") as handle:
-        for chunk in iter(lambda: handle.read(1 << 20), b""):
-            digest.update(chunk)
-    return digest.hexdigest()
+    """Hex SHA-256 of a regular file's bytes; InputFileError (a ValueError) naming the file
+    for a link, FIFO, device or folder."""
+    return sha256_regular(path, "run file")
 
 
 def new_run_id(label: str) -> str:
@@ -116,12 +120,14 @@ def writable_folder(path: Path) -> Iterator[None]:
 
 
 def _record_files(path: Path) -> list[Path]:
-    """The files a manifest covers: everything in the folder but the manifest, products and
-    temporary files of an interrupted write (dot files)."""
+    """The files a manifest covers: everything in the folder but the manifest, the seal,
+    products and temporary files of an interrupted write (dot files)."""
     return sorted(
         p
         for p in path.iterdir()
-        if p.name != MANIFEST_NAME and not p.name.startswith(".") and not _is_product(p.name)
+        if p.name not in (MANIFEST_NAME, SEAL_NAME)
+        and not p.name.startswith(".")
+        and not _is_product(p.name)
     )
 
 
@@ -189,7 +195,8 @@ class RunFolder:
             if results is not None:
                 self.write_text("results.csv", results.to_csv())
             write_manifest(self.path)
-            seal(self.path)
+            write_seal(self.path, record.run_id or self.run_id, record.software_version)
+            make_read_only(self.path)
         finally:
             self.release()
         return record
@@ -210,10 +217,10 @@ def write_manifest(path: Path) -> dict[str, Any]:
     return manifest
 
 
-def seal(path: Path) -> None:
+def make_read_only(path: Path) -> None:
     """Make every file of the folder and the folder itself read-only."""
     for item in path.iterdir():
-        if item.is_file():
+        if not item.is_symlink() and item.is_file():
             item.chmod(READ_ONLY_FILE)
     path.chmod(READ_ONLY_FOLDER)
 
@@ -223,12 +230,14 @@ def verify_manifest(path: Path) -> list[str]:
     verified). Raises RunIntegrityError when the manifest itself is missing or unreadable."""
     target = path / MANIFEST_NAME
     try:
-        manifest = json.loads(target.read_text(encoding="utf-8"))
+        manifest = json.loads(read_regular_bytes(target, MAX_MANIFEST_BYTES, "manifest"))
         files = manifest["files"]
         if manifest.get("algorithm") != "sha256" or not isinstance(files, dict):
             raise ValueError("unknown manifest format")
-    except FileNotFoundError:
-        raise RunIntegrityError(f"{target}: no manifest (the run did not finish)") from None
+    except InputFileError as exc:
+        if not os.path.lexists(target):
+            raise RunIntegrityError(f"{target}: no manifest (the run did not finish)") from None
+        raise RunIntegrityError(str(exc)) from None
     except (ValueError, KeyError, TypeError, UnicodeDecodeError) as exc:
         raise RunIntegrityError(f"{target}: unreadable manifest ({exc})") from None
     problems = []
@@ -237,7 +246,13 @@ def verify_manifest(path: Path) -> list[str]:
         file = present.pop(name, None)
         if file is None:
             problems.append(f"{path / name}: missing (listed in the manifest)")
-        elif not isinstance(entry, dict) or sha256_of(file) != entry.get("sha256"):
+            continue
+        try:
+            digest = sha256_of(file)
+        except InputFileError as exc:
+            problems.append(str(exc))
+            continue
+        if not isinstance(entry, dict) or digest != entry.get("sha256"):
             problems.append(f"{path / name}: hash mismatch (changed since the run ended)")
     for name in sorted(present):
         problems.append(f"{path / name}: not in the manifest (added after the run ended)")
@@ -264,7 +279,7 @@ def inspect_run(path: str | Path) -> RunCheck:
     path = Path(path)
     if not path.is_dir():
         raise ValueError(f"{path}: no such run folder")
-    if not (path / MANIFEST_NAME).exists():
+    if not os.path.lexists(path / MANIFEST_NAME):
         lock = try_lock(path)
         if lock is None:
             return RunCheck(path, STATUS_RUNNING, ("the run is still being written",))
@@ -284,8 +299,8 @@ def inspect_run(path: str | Path) -> RunCheck:
         return RunCheck(path, STATUS_MODIFIED, tuple(problems))
     target = path / "results.json"
     try:
-        data = json.loads(target.read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError) as exc:  # verified bytes: written broken
+        data = json.loads(read_regular_bytes(target, MAX_RESULTS_BYTES, "run's results"))
+    except (OSError, ValueError) as exc:  # verified bytes: written broken
         return RunCheck(path, STATUS_MODIFIED, (f"{target}: not readable ({exc})",))
     state = data.get("status") if isinstance(data, dict) else None
     try:

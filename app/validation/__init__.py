@@ -9,12 +9,13 @@ from __future__ import annotations
 import logging
 from pathlib import Path
 
+from app.errors import Refusal
 from app.files import FileExistsRefusal
 
 log = logging.getLogger(__name__)
 
 
-class ValidationInputError(ValueError):
+class ValidationInputError(Refusal):
     """A report path that cannot be written; the message names the option and the reason."""
 
 
