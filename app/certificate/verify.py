@@ -137,10 +137,15 @@ def verify(pdf: Path, run: Path | None = None, trust: Path | None = None) -> Ver
 
 
 def _check_signature(data: bytes, roots: list[Any] | None, report: Verification) -> bool:
-    """Add the signature's checks; False when the file's layout is not a proven signed PDF."""
+    """Add the signature's checks; False when the file is not a PDF or claims a signature whose
+    layout is not proven (nothing it says is parsed further). An unsigned PDF fails the
+    signature check but its DCC and run are still compared (the report stays NOT verified)."""
     if not data.startswith(b"%PDF-") or b"%%EOF" not in data[-1024:]:
         report.add("signature", False, "not a PDF file (no %PDF- header or %%EOF marker)")
         return False
+    if b"/ByteRange" not in data and b"/Sig" not in data:
+        report.add("signature", False, "the PDF is not signed: nothing proves who issued it")
+        return True
     name = "signature intact, covering the whole file"
     try:
         layout = check_layout(data)  # from the bytes, before any parser reads the file

@@ -72,12 +72,13 @@ def verify_certificate(
 ) -> list[CheckLine]:
     """Every check of `accelcal verify` on `pdf` with its run folder (and the lab's CA
     certificate `trust`, when given), and that the DCC in the PDF is certificate `number`."""
-    from app.certificate.sign import dcc_values, verify
+    from app.certificate.printed import items_from_dcc, parse_inert
+    from app.certificate.verify import verify
 
     report = verify(pdf, Path(run_folder), trust)
     lines = [CheckLine(name, ok, detail) for name, ok, detail in report.checks]
     try:
-        found = dcc_values(embedded_dcc(pdf))["number"]
+        found = items_from_dcc(parse_inert(embedded_dcc(pdf))).number
     except (DocumentError, ValueError) as exc:
         lines.append(CheckLine(f"the PDF is certificate {number}", False, str(exc)))
     else:

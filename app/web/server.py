@@ -104,7 +104,7 @@ class Throttle:
 class WebConfig:
     """How the web view runs: the session key, the base of verification addresses
     ([laboratory] verify_url; None: this server's own /verify), cookies only over HTTPS, and
-    the lab's CA certificate that signatures must chain to (None: intact is enough)."""
+    the lab's CA certificate that signatures must chain to (None: never "verified")."""
 
     secret_key: str
     verify_url: str | None = None

@@ -131,9 +131,11 @@ def store(records: Records):
 
 
 @pytest.fixture
-def web_app(store):
+def web_app(store, records):
     """A fresh web app (its own sign-in throttle) over the test records."""
     from app.web.server import WebConfig, create_app
 
-    config = WebConfig(secret_key="k" * 40, verify_url="https://lab.example/verify")
+    config = WebConfig(
+        secret_key="k" * 40, verify_url="https://lab.example/verify", trust=records.pem
+    )
     return create_app(store, config)

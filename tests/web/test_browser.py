@@ -76,6 +76,7 @@ def browser() -> Iterator:
         options.add_argument(argument)
     driver = webdriver.Chrome(service=Service(executable_path=str(CHROMEDRIVER)), options=options)
     driver.set_page_load_timeout(30)
+    driver.implicitly_wait(20)  # a loaded 2-core machine: elements may come late
     try:
         yield driver
     finally:
@@ -88,6 +89,16 @@ def test_login_search_certificate_and_the_qr_code_to_the_public_status(
     import zxingcpp
     from PIL import Image
     from selenium.webdriver.common.by import By
+    from selenium.webdriver.support import expected_conditions as ec
+    from selenium.webdriver.support.ui import WebDriverWait
+
+    def wait_for_url(url: str) -> None:
+        WebDriverWait(browser, 30).until(ec.url_to_be(url))
+
+    def wait_for_heading(text: str) -> None:
+        WebDriverWait(browser, 30).until(
+            ec.text_to_be_present_in_element((By.TAG_NAME, "h1"), text)
+        )
 
     old, new, _ = records.numbers
     browser.get(f"{server}/register")
@@ -95,17 +106,19 @@ def test_login_search_certificate_and_the_qr_code_to_the_public_status(
     browser.find_element(By.ID, "username").send_keys(USER)
     browser.find_element(By.ID, "password").send_keys(PASSWORD)
     browser.find_element(By.ID, "sign-in").click()
-    assert browser.current_url == f"{server}/register"
+    wait_for_url(f"{server}/register")
     assert browser.find_element(By.TAG_NAME, "h1").text == "Certificate register"
 
     search = browser.find_element(By.ID, "q")
     search.clear()
     search.send_keys(new)
     browser.find_element(By.ID, "search").click()
+    WebDriverWait(browser, 30).until(ec.url_contains("q="))
     links = browser.find_elements(By.CSS_SELECTOR, "#register tbody a[href^='/certificates/']")
     assert [link.text for link in links] == [new]
     links[0].click()
 
+    wait_for_heading(f"Certificate {new}")
     assert browser.find_element(By.TAG_NAME, "h1").text == f"Certificate {new}"
     assert browser.find_element(By.ID, "status").text == "valid"
     assert (
