@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 from pypdf import PdfReader
 
-from app.certificate import CertificateInfo, _charts, _line_table, _statements, build
+from app.certificate import CertificateInfo, build
+from app.certificate.pdf import _charts, _line_table, _statements
 from app.cli import main
 from app.io.hdf5 import RecordingError, read_csv, write_recording
 from app.procedure.analysis import analyze, read_for_analysis, reanalysis

@@ -1,0 +1,99 @@
+"""A line of the results as the certificate prints it: the numbers (floats, in the units of
+their names) and their printed strings, rounded once, here, for the PDF's table, the DCC and
+`accelcal verify` alike.
+
+Rounding: a value with its expanded uncertainty per GUM 7.2.6 (app.formatting.round_gum: U to
+two significant digits, the value to the same decimal place); the deviation and its U from
+dsp.characteristic (U(dev) = (1 + dev) * U_rel(S)).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from app import formatting as fmt
+from dsp.calibration import LineResult, Results
+from dsp.characteristic import deviation_expanded_percent
+from dsp.conformity import NOT_STATED
+
+NOT_STATED_SHORT = "n/s"
+ISO_WORDS = {"within": "within", "over": "over", "n/a": "n/a", NOT_STATED: NOT_STATED_SHORT}
+
+
+@dataclass(frozen=True)
+class PrintedLine:
+    """One line: each number as a float and as printed (the string fields, no unit)."""
+
+    nominal_frequency_hz: float
+    frequency_hz: float
+    sensitivity_mv_per_ms2: float
+    expanded_mv_per_ms2: float
+    coverage_factor: float
+    phase_deg: float
+    phase_expanded_deg: float
+    deviation_percent: float
+    deviation_expanded_percent: float
+    deviation_db: float
+    relative_expanded_percent: float
+    frequency: str
+    sensitivity: str
+    expanded: str
+    k: str
+    phase: str
+    phase_expanded: str
+    deviation: str
+    deviation_expanded: str
+    deviation_in_db: str
+    relative_expanded: str
+    iso_verdict: str
+    tolerance_verdict: str | None
+
+
+def round_signed(value: float, uncertainty: float) -> tuple[str, str]:
+    """`value` with a sign and its U, rounded per GUM 7.2.6 (round_gum); without a usable U the
+    value to two decimals and 'n/a'."""
+    if not (math.isfinite(uncertainty) and uncertainty > 0 and math.isfinite(value)):
+        return (fmt.signed(value, 2) if math.isfinite(value) else "n/a"), "n/a"
+    text, u = fmt.round_gum(value, uncertainty)
+    decimals = len(text.partition(".")[2])
+    return fmt.signed(float(text), decimals), u
+
+
+def printed_line(ln: LineResult) -> PrintedLine:
+    """The printed form of one line of dsp.calibration.Results."""
+    s, u = fmt.round_gum(ln.sensitivity_mv_per_ms2, ln.expanded_uncertainty_mv_per_ms2)
+    ph, u_ph = fmt.round_gum(ln.phase_deg, ln.phase_expanded_uncertainty_deg)
+    u_dev = deviation_expanded_percent(ln.deviation_percent, ln.relative_expanded_uncertainty)
+    dev, u_dev_text = round_signed(ln.deviation_percent, u_dev)
+    rel = 100 * ln.relative_expanded_uncertainty
+    return PrintedLine(
+        nominal_frequency_hz=ln.nominal_frequency_hz,
+        frequency_hz=ln.frequency_hz,
+        sensitivity_mv_per_ms2=ln.sensitivity_mv_per_ms2,
+        expanded_mv_per_ms2=ln.expanded_uncertainty_mv_per_ms2,
+        coverage_factor=ln.coverage_factor,
+        phase_deg=ln.phase_deg,
+        phase_expanded_deg=ln.phase_expanded_uncertainty_deg,
+        deviation_percent=ln.deviation_percent,
+        deviation_expanded_percent=u_dev,
+        deviation_db=ln.deviation_db,
+        relative_expanded_percent=rel,
+        frequency=f"{ln.frequency_hz:g}",
+        sensitivity=s,
+        expanded=u,
+        k=f"{ln.coverage_factor:.2f}",
+        phase=ph,
+        phase_expanded=u_ph,
+        deviation=dev,
+        deviation_expanded=u_dev_text,
+        deviation_in_db=fmt.signed(ln.deviation_db, 3),
+        relative_expanded=fmt.significant(rel),
+        iso_verdict=ISO_WORDS.get(ln.iso_verdict, ln.iso_verdict),
+        tolerance_verdict=ln.tolerance_verdict,
+    )
+
+
+def printed_lines(results: Results) -> tuple[PrintedLine, ...]:
+    """Every line of `results` as printed, in order."""
+    return tuple(printed_line(ln) for ln in results.lines)
