@@ -22,10 +22,10 @@ from typing import Any
 
 import numpy as np
 
+from dsp import conformity
 from dsp import uncertainty as unc
 from dsp.characteristic import deviation_expanded_percent
 from dsp.conformity import NOT_STATED as NOT_STATED  # re-exported for its callers
-from dsp.conformity import decide
 from dsp.conformity import uncertainty_stated as uncertainty_stated
 from dsp.multisine import Plan
 from dsp.spectral import MIN_PERIODS, Estimate
@@ -352,7 +352,7 @@ def compute_results(
         tolerance = (
             None
             if tolerance_percent is None
-            else decide(
+            else conformity.decide(  # looked up here: one function, a test can replace it
                 100 * deviation,
                 deviation_expanded_percent(100 * deviation, mag.expanded),
                 tolerance_percent,

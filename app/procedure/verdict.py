@@ -28,6 +28,7 @@ from typing import Any
 
 import numpy as np
 
+from dsp import conformity
 from dsp.calibration import LOW_COHERENCE, Results
 from dsp.characteristic import deviation_expanded_percent
 from dsp.conformity import NOT_STATED, Outcome, Verdict
@@ -173,7 +174,7 @@ def assess(
     if nominal is not None and tolerances.sensitivity_percent is not None:
         deviation = 100 * (r.sensitivity_mv_per_ms2 / nominal - 1)
         u_deviation = deviation_expanded_percent(deviation, r.relative_expanded_uncertainty)
-        outcome = decide(deviation, u_deviation, tolerances.sensitivity_percent)
+        outcome = conformity.decide(deviation, u_deviation, tolerances.sensitivity_percent)
         outcomes.append(outcome)
         reasons.append(
             f"sensitivity at {r.frequency_hz:g} Hz: {outcome} ({deviation:+.2f} % from the "
@@ -196,12 +197,12 @@ def assess(
                 u = deviation_expanded_percent(
                     ln.deviation_percent, ln.relative_expanded_uncertainty
                 )
-                checked.append((decide(ln.deviation_percent, u, band.tolerance), label))
+                checked.append((conformity.decide(ln.deviation_percent, u, band.tolerance), label))
             elif not results.phase_corrected_for_skew:
                 checked.append((NOT_STATED, label))
             else:
                 u = ln.phase_expanded_uncertainty_deg
-                checked.append((decide(ln.phase_deg, u, band.tolerance), label))
+                checked.append((conformity.decide(ln.phase_deg, u, band.tolerance), label))
         if not checked:
             reasons.append(f"{name}: no tolerance given, not checked")
             continue
