@@ -36,7 +36,9 @@ HAND_BAND = [1.0, 3.0, 1.8]
 
 def _results() -> Results:
     lines = []
-    for k, (f, dev, u_rel) in enumerate(zip((160.0, 1000.0, 2500.0), DEVIATIONS, U_REL)):
+    for k, (f, dev, u_rel) in enumerate(
+        zip((160.0, 1000.0, 2500.0), DEVIATIONS, U_REL, strict=True)
+    ):
         s = 10.0 * (1 + dev / 100)
         lines.append(
             LineResult(
