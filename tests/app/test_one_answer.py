@@ -21,6 +21,7 @@ from app.procedure.run import RunRequest, execute
 from app.records.db.engine import open_engine
 from app.records.db.lab import Lab
 from app.records.register import REGISTER_NAME, read_register
+from app.records.run_start import RunStart
 from dsp import conformity
 from dsp.calibration import LineResult, ReferenceResult, Results
 from dsp.multisine import preset_plan
@@ -164,6 +165,9 @@ def test_one_register_the_database_with_records_the_json_file_without(tmp_path):
     finished = execute(RunRequest(dut="piezo", dut_id="SN-42", periods=4, out=root))
     assert finished.status == "complete"
     run = root / str(finished.record.run_id)
+    start = RunStart.read(run)  # the procedure wrote config.json through RunStart
+    assert start.to_json() == (run / "config.json").read_text(encoding="utf-8")
+    assert start.identity["dut"]["id"] == "SN-42" and start.laboratory
     info = CertificateInfo(
         authorised_by="J. Smith",
         dut_type="piezoelectric accelerometer",
