@@ -23,7 +23,7 @@ import xml.etree.ElementTree as ET
 from importlib import resources
 from typing import Any
 
-from app.certificate import text
+import app.certificate.text as text
 from app.certificate.info import CertificateInfo
 from app.certificate.load import StoredRun
 from app.certificate.printed import PrintedLine, printed_lines

@@ -11,12 +11,10 @@ import math
 import re
 from dataclasses import dataclass, fields
 from datetime import date
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-from app.records.run_record import DutIdentity
-
-if TYPE_CHECKING:
-    from app.certificate.load import StoredRun
+from app.records.run_record import DutIdentity, RunRecord
+from app.records.run_start import RunStart
 
 MANDATORY = (
     ("customer", "--customer"),
@@ -58,11 +56,11 @@ class CertificateInfo:
         return CertificateInfo(**values)
 
 
-def default_info(run: StoredRun) -> dict[str, Any]:
-    """Defaults from the run and the stand's [certificate] table (the number is not one: `issue`
-    takes the next free one from the runs root's register)."""
-    defaults: dict[str, Any] = run.start.certificate_defaults()
-    dut = run.record.dut or DutIdentity()
+def default_info(record: RunRecord, start: RunStart) -> dict[str, Any]:
+    """Defaults from the run (its record and config.json) and the stand's [certificate] table
+    (the number is not one: `issue` takes the next free one from the runs root's register)."""
+    defaults: dict[str, Any] = start.certificate_defaults()
+    dut = record.dut or DutIdentity()
     if dut.id:
         defaults.setdefault("dut_serial", dut.id)
     catalogue = dut.catalogue
@@ -73,7 +71,7 @@ def default_info(run: StoredRun) -> dict[str, Any]:
         if model is not None:
             defaults.setdefault("dut_model", f"simulated {model.name} ({model.description})")
             defaults.setdefault("dut_type", f"{model.kind} accelerometer")
-    defaults.setdefault("issue_date", run.record.finished_utc[:10])
+    defaults.setdefault("issue_date", record.finished_utc[:10])
     return defaults
 
 

@@ -72,7 +72,7 @@ def _prepare(
     checked; CertificateError names what stands in the way."""
     run = load_stored_run(run_path)
     sweep = load_sweep(sweep_path, run) if sweep_path is not None else None
-    info = info.merged(default_info(run))
+    info = info.merged(default_info(run.record, run.start))
     missing = missing_items(info)
     if missing:
         raise CertificateError(f"missing mandatory item(s): {', '.join(missing)}")

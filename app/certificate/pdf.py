@@ -28,8 +28,8 @@ from reportlab.platypus import (
     TableStyle,
 )
 
+import app.certificate.text as text
 from app import formatting as fmt
-from app.certificate import text
 from app.certificate.info import CertificateInfo
 from app.certificate.load import StoredRun
 from app.certificate.pdf_charts import FONT, FONT_BOLD, GRID, chart

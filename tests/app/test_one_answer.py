@@ -14,6 +14,7 @@ from app.certificate import CertificateInfo, issue
 from app.certificate.dcc import line_values
 from app.certificate.printed import printed_lines
 from app.certificate.register_issue import issue_registered
+from app.certificate.text import dcc_conformity
 from app.cli import main
 from app.gui.plots import characteristic as gui_characteristic
 from app.io.hdf5 import write_recording
@@ -142,7 +143,7 @@ def test_every_face_follows_the_one_ilac_g8_decision(capsys, monkeypatch, record
     text = _conformity_text(failed)  # the certificate states what was decided
     assert "the item <b>does not conform</b>" in text
     assert conformity.DECISION_RULE in text
-    assert pdf.text.dcc_conformity(failed.verdict) == "fail"
+    assert dcc_conformity(failed.verdict) == "fail"
 
 
 @pytest.mark.integration
