@@ -168,13 +168,15 @@ def _check_run(run: Path, values: dict[str, Any], report: Verification) -> None:
         return
     report.add("run manifest verified", True)
     expected = line_values(printed_lines(stored.results))
-    same = all(expected[key] == values[key] for key in ("f", "s", "u", "k"))
+    keys = ["f", "s", "u", "k"] + (["dev", "u_dev"] if values.get("dev") else [])  # older: none
+    same = all(expected[key] == values[key] for key in keys)
     report.add("DCC numbers equal the run's results", same)
 
 
 def dcc_values(xml: bytes) -> dict[str, Any]:
-    """From a DCC: its number and, per line, frequency, sensitivity, U and k (as printed)."""
-    from app.certificate.dcc import DCC_NS, SI_NS
+    """From a DCC: its number and, per line, frequency, sensitivity, U and k, and the deviation
+    and its U when the DCC states them (as printed)."""
+    from app.certificate.dcc import DCC_NS, DEVIATION_NAME, SI_NS
 
     ns = {"dcc": DCC_NS, "si": SI_NS}
     root = ET.fromstring(xml)
@@ -197,5 +199,10 @@ def dcc_values(xml: bytes) -> dict[str, Any]:
             ).split()
             out["k"] = (
                 quantity.findtext(".//si:coverageFactorXMLList", namespaces=ns) or ""
+            ).split()
+        elif name == DEVIATION_NAME:
+            out["dev"] = values
+            out["u_dev"] = (
+                quantity.findtext(".//si:valueExpandedMUXMLList", namespaces=ns) or ""
             ).split()
     return out

@@ -10,10 +10,11 @@ import math
 import pytest
 
 import app.certificate.pdf as pdf
-from app.certificate import CertificateInfo, issue
+from app.certificate import CertificateInfo, issue, load_stored_run
 from app.certificate.dcc import line_values
 from app.certificate.printed import printed_lines
 from app.certificate.register_issue import issue_registered
+from app.certificate.sign import dcc_values
 from app.certificate.text import dcc_conformity
 from app.cli import main
 from app.gui.plots import characteristic as gui_characteristic
@@ -186,3 +187,8 @@ def test_one_register_the_database_with_records_the_json_file_without(tmp_path):
     assert [e.number for e in read_register(root)] == [without.number]
     assert without.number == f"AC-{finished.record.run_id}"
     assert [c.number for c in Lab(open_engine(url)).register()] == [with_records.number]
+    # the DCC beside it carries the deviation and its U as the PDF's table prints them
+    printed = printed_lines(load_stored_run(run).results)
+    values = dcc_values((tmp_path / "plain.xml").read_bytes())
+    assert values["u_dev"] == [p.deviation_expanded for p in printed] and len(printed) > 10
+    assert values["dev"] == [p.deviation for p in printed]
