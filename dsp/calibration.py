@@ -22,7 +22,11 @@ from typing import Any
 
 import numpy as np
 
+from dsp import conformity
 from dsp import uncertainty as unc
+from dsp.characteristic import deviation_expanded_percent
+from dsp.conformity import NOT_STATED as NOT_STATED  # re-exported for its callers
+from dsp.conformity import uncertainty_stated as uncertainty_stated
 from dsp.errors import InputRefused
 from dsp.multisine import Plan
 from dsp.spectral import MIN_PERIODS, Estimate
@@ -262,28 +266,6 @@ def _wrap_deg(phase_deg: np.ndarray) -> np.ndarray:
     return wrapped
 
 
-NOT_STATED = "not stated"  # a verdict that needs an uncertainty which is 0 or undefined
-
-
-def uncertainty_stated(expanded: float) -> bool:
-    """True when an expanded uncertainty can support a statement: finite and > 0."""
-    return math.isfinite(expanded) and expanded > 0
-
-
-def _tolerance_verdict(deviation: float, expanded: float, tolerance: float) -> str:
-    """Guarded acceptance (ILAC-G8): pass if |dev| + U <= T, fail if |dev| - U > T, otherwise
-    inconclusive; "not stated" when U is 0, negative or not finite (no statement without U)."""
-    if not uncertainty_stated(expanded):
-        return NOT_STATED
-    if not math.isfinite(deviation):
-        return "inconclusive"
-    if abs(deviation) + expanded <= tolerance:
-        return "pass"
-    if abs(deviation) - expanded > tolerance:
-        return "fail"
-    return "inconclusive"
-
-
 def compute_results(
     estimate: Estimate,
     plan: Plan,
@@ -371,7 +353,11 @@ def compute_results(
         tolerance = (
             None
             if tolerance_percent is None
-            else _tolerance_verdict(100 * deviation, 100 * mag.expanded, tolerance_percent)
+            else conformity.decide(  # looked up here: one function, a test can replace it
+                100 * deviation,
+                deviation_expanded_percent(100 * deviation, mag.expanded),
+                tolerance_percent,
+            )
         )
         lines.append(
             LineResult(

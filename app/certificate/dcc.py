@@ -1,16 +1,19 @@
 """The Digital Calibration Certificate (PTB DCC 3.3.0 with D-SI 2.2.1 lists) of a stored run.
 
-Built from the same stored run and certificate items as the PDF, with every number formatted by
-the same functions (app.formatting.round_gum), so the XML, the PDF and the run agree to the last
-printed digit. Validated offline against the schema set shipped in app/data/dcc (PTB, LGPL-3;
-see its LICENSES) before it is written: an invalid DCC is never written.
+Built from the same stored run and certificate items as the PDF, with every number printed by
+the same function (app.certificate.printed), so the XML, the PDF and the run agree to the last
+printed digit; its sentences are app.certificate.text's. Validated offline against the schema
+set shipped in app/data/dcc (PTB, LGPL-3; see its LICENSES) before it is written: an invalid
+DCC is never written.
 
-Layout (see ../shared/dcc/README.md): administrative data (software, core data with the
+Layout: administrative data (software, core data with the
 certificate number and dates, the item with maker, model and serial, laboratory, responsible
 person, customer, the decision-rule statement with the verdict), one measurement result (method
 ISO 16063-21 comparison with the multisine plan, the reference standard with its certificate,
 the conditions) whose data is a list of parallel D-SI lists: frequency, sensitivity magnitude
-and phase, each with expanded uncertainty, coverage factor and coverage probability per point.
+and phase, each with expanded uncertainty, coverage factor and coverage probability per point,
+and the deviation from the sensitivity at the reference frequency (%) with its U
+(dsp.characteristic).
 """
 
 from __future__ import annotations
@@ -18,14 +21,14 @@ from __future__ import annotations
 import functools
 import xml.etree.ElementTree as ET
 from importlib import resources
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-from app import formatting as fmt
+import app.certificate.text as text
+from app.certificate.info import CertificateInfo
+from app.certificate.load import StoredRun
+from app.certificate.printed import PrintedLine, printed_lines
 from app.errors import Refusal
-from app.records.run_record import RunRecord
-
-if TYPE_CHECKING:
-    from app.certificate import CertificateInfo, StoredRun
+from dsp.calibration import Results
 
 DCC_NS = "https://ptb.de/dcc"
 SI_NS = "https://ptb.de/si"
@@ -38,7 +41,8 @@ UNIT_HZ = r"\hertz"
 UNIT_DEGREE = r"\degree"
 UNIT_CELSIUS = r"\degreecelsius"
 UNIT_ACCELERATION = r"\metre\second\tothe{-2}"
-CONFORMITY = {"PASS": "pass", "FAIL": "fail"}  # INDETERMINATE: stated in words, no enum value
+UNIT_PERCENT = r"\percent"
+DEVIATION_NAME = "Deviation from the sensitivity at the reference frequency"
 
 ET.register_namespace("dcc", DCC_NS)
 ET.register_namespace("si", SI_NS)
@@ -102,28 +106,29 @@ def _list_quantity(
         _s(expanded, "coverageProbabilityXMLList", " ".join(probabilities))
 
 
-def line_values(results: Any) -> dict[str, list[str]]:
-    """Per line of `results` (dsp.calibration.Results), the strings both the PDF's table and
-    the DCC print: actual frequency, sensitivity and its U, phase and its U, coverage factor."""
-    out: dict[str, list[str]] = {k: [] for k in ("f", "s", "u", "ph", "u_ph", "k")}
-    for ln in results.lines:
-        s, u = fmt.round_gum(ln.sensitivity_mv_per_ms2, ln.expanded_uncertainty_mv_per_ms2)
-        ph, u_ph = fmt.round_gum(ln.phase_deg, ln.phase_expanded_uncertainty_deg)
-        out["f"].append(f"{ln.frequency_hz:g}")
-        out["s"].append(s)
-        out["u"].append(u)
-        out["ph"].append(ph)
-        out["u_ph"].append(u_ph)
-        out["k"].append(f"{ln.coverage_factor:.2f}")
-    return out
+def line_values(lines: tuple[PrintedLine, ...]) -> dict[str, list[str]]:
+    """The printed strings of the DCC's lists, keyed as `accelcal verify` reads them back
+    (app.certificate.readback.items_from_dcc): f, s, u, k (and ph, u_ph, dev, u_dev)."""
+    return {
+        "f": [ln.frequency for ln in lines],
+        "s": [ln.sensitivity for ln in lines],
+        "u": [ln.expanded for ln in lines],
+        "k": [ln.k for ln in lines],
+        "ph": [ln.phase for ln in lines],
+        "u_ph": [ln.phase_expanded for ln in lines],
+        "dev": [ln.deviation for ln in lines],
+        "u_dev": [ln.deviation_expanded for ln in lines],
+    }
 
 
 def build(run: StoredRun, info: CertificateInfo) -> bytes:
     """The DCC XML of a stored complete run with its (checked, numbered) certificate items."""
     record, results = run.record, run.results
-    stand = run.config.get("stand", record.stand.to_dict()) or {}
-    lab = stand.get("laboratory", {}) or {}
-    reference = stand.get("reference", {}) or {}
+    start = run.start
+    if start.stand is None:  # a folder without config.json: the record's stand
+        lab, reference = dict(record.stand.laboratory), dict(record.stand.reference)
+    else:
+        lab, reference = start.laboratory, start.reference
     country = str(lab.get("country") or "")
     if len(country) != 2 or not country.isalpha() or not country.isupper():
         raise DccNotApplicable(
@@ -178,7 +183,7 @@ def build(run: StoredRun, info: CertificateInfo) -> bytes:
     result_set = _d(_d(root, "measurementResults"), "measurementResult")
     _text(result_set, "name", "Comparison calibration per ISO 16063-21 (multisine)")
     method = _d(_d(result_set, "usedMethods"), "usedMethod")
-    _text(method, "name", _method(record, results))
+    _text(method, "name", text.dcc_method_text(record, results))
     _d(method, "norm", "ISO 16063-21:2003")
     equipment = _d(_d(result_set, "measuringEquipments"), "measuringEquipment")
     _text(equipment, "name", f"Reference standard {reference.get('id', '')}".strip())
@@ -204,7 +209,7 @@ def build(run: StoredRun, info: CertificateInfo) -> bytes:
     _text(mounting, "name", "Mounting")
     _text(_d(mounting, "data"), "text", str(info.mounting))
 
-    values = line_values(results)
+    values = line_values(printed_lines(results))
     n = len(values["f"])
     probability = [f"{results.coverage_probability:g}"] * n
     result = _d(_d(result_set, "results"), "result")
@@ -226,6 +231,14 @@ def build(run: StoredRun, info: CertificateInfo) -> bytes:
             UNIT_DEGREE,
             (values["u_ph"], values["k"], probability),
         )
+    if all(u != "n/a" for u in values["u_dev"]):
+        _list_quantity(
+            data_list,
+            DEVIATION_NAME,
+            values["dev"],
+            UNIT_PERCENT,
+            (values["u_dev"], values["k"], probability),
+        )
     xml = ET.tostring(root, encoding="utf-8", xml_declaration=True)
     problem = validation_error(xml)
     if problem is not None:
@@ -235,8 +248,8 @@ def build(run: StoredRun, info: CertificateInfo) -> bytes:
 
 def _run_identifications(core: ET.Element, run: StoredRun) -> None:
     """The run certified and its seal's hash (app.records.seal), as `verify --run` reads them
-    (app.certificate.printed); no seal entry for a run made before seals."""
-    from app.certificate.printed import RUN_ID_NAME, SEAL_NAME
+    (app.certificate.readback); no seal entry for a run made before seals."""
+    from app.certificate.readback import RUN_ID_NAME, SEAL_NAME
     from app.records.seal import SealError, named_seal
 
     try:
@@ -252,31 +265,15 @@ def _run_identifications(core: ET.Element, run: StoredRun) -> None:
             _text(ident, "name", label)
 
 
-def _statements(admin: ET.Element, results: Any) -> None:
+def _statements(admin: ET.Element, results: Results) -> None:
     statements = _d(admin, "statements")
     statement = _d(statements, "statement")
     _text(statement, "name", "Statement of conformity")
-    verdict = str(getattr(results, "verdict", "") or "")
-    reasons = "; ".join(getattr(results, "verdict_reasons", ()) or ())
-    words = (
-        f"Overall verdict: {verdict or 'not stated'}. Decision rule: guarded acceptance "
-        "(ILAC-G8:09/2019): a check passes where |deviation| + U <= tolerance and fails where "
-        "|deviation| - U > tolerance; otherwise it is indeterminate."
-        + (f" Reasons: {reasons}." if reasons else "")
-    )
-    _text(statement, "declaration", words)
-    if verdict in CONFORMITY:
-        _d(statement, "conformity", CONFORMITY[verdict])
-
-
-def _method(record: RunRecord, results: Any) -> str:
-    plan = dict(record.plan)
-    lines = len(plan.get("lines", []) or results.lines)
-    return (
-        f"Back-to-back comparison with a reference accelerometer, multisine of {lines} lines, "
-        f"{plan.get('sample_rate_hz', 0):g} S/s, period of {plan.get('period_samples', 0)} "
-        f"samples, {results.periods} periods, estimator {results.estimator}"
-    )
+    verdict = results.verdict
+    _text(statement, "declaration", text.dcc_declaration(verdict, results.verdict_reasons))
+    conformity = text.dcc_conformity(verdict)
+    if conformity is not None:
+        _d(statement, "conformity", conformity)
 
 
 @functools.cache

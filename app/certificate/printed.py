@@ -1,241 +1,99 @@
-"""What a certificate prints, as typed values, read back from its DCC, its PDF text or its run,
-so that `verify` compares them value by value (never by searching one text in another).
+"""A line of the results as the certificate prints it: the numbers (floats, in the units of
+their names) and their printed strings, rounded once, here, for the PDF's table, the DCC and
+`accelcal verify` alike.
 
-Every value is the string as printed (numbers rounded per GUM 7.2.6 by app.formatting): a
-frequency in Hz, a sensitivity and its expanded uncertainty U in mV/(m/s^2), a phase and its U
-in degrees, the coverage factor k; "n/s" where a phase is not stated.
+Rounding: a value with its expanded uncertainty per GUM 7.2.6 (app.formatting.round_gum: U to
+two significant digits, the value to the same decimal place); the deviation and its U from
+dsp.characteristic (U(dev) = (1 + dev) * U_rel(S)).
 """
 
 from __future__ import annotations
 
-import re
-from dataclasses import dataclass, fields
-from typing import Any
+import math
+from dataclasses import dataclass
 
-from lxml import etree
+from app import formatting as fmt
+from dsp.calibration import LineResult, Results
+from dsp.characteristic import deviation_expanded_percent
+from dsp.conformity import NOT_STATED
 
-from app.errors import Refusal
-
-NOT_STATED = "n/s"
-MAX_DCC_BYTES = 4 << 20  # a DCC of this program is some 10 kB
-RUN_ID_NAME = "Calibration run"
-SEAL_NAME = "Run seal (SHA-256)"
-
-
-class PrintedError(Refusal):
-    """A DCC that cannot be read safely (too large, a DTD or entity, not well-formed)."""
+NOT_STATED_SHORT = "n/s"
+ISO_WORDS = {"within": "within", "over": "over", "n/a": "n/a", NOT_STATED: NOT_STATED_SHORT}
 
 
 @dataclass(frozen=True)
 class PrintedLine:
-    """One line of the results table: frequency, sensitivity, its U, phase, its U, k."""
+    """One line: each number as a float and as printed (the string fields, no unit)."""
 
-    f: str
-    s: str
-    u: str
-    ph: str
-    u_ph: str
+    nominal_frequency_hz: float
+    frequency_hz: float
+    sensitivity_mv_per_ms2: float
+    expanded_mv_per_ms2: float
+    coverage_factor: float
+    phase_deg: float
+    phase_expanded_deg: float
+    deviation_percent: float
+    deviation_expanded_percent: float
+    deviation_db: float
+    relative_expanded_percent: float
+    frequency: str
+    sensitivity: str
+    expanded: str
     k: str
+    phase: str
+    phase_expanded: str
+    deviation: str
+    deviation_expanded: str
+    deviation_in_db: str
+    relative_expanded: str
+    iso_verdict: str
+    tolerance_verdict: str | None
 
 
-@dataclass(frozen=True)
-class PrintedItems:
-    """The items a certificate states ("" where one is not found) and its lines."""
-
-    number: str = ""
-    customer: str = ""
-    serial: str = ""
-    calibration_date: str = ""
-    issue_date: str = ""
-    run_id: str = ""
-    seal: str = ""
-    verdict: str = ""
-    lines: tuple[PrintedLine, ...] = ()
+def round_signed(value: float, uncertainty: float) -> tuple[str, str]:
+    """`value` with a sign and its U, rounded per GUM 7.2.6 (round_gum); without a usable U the
+    value to two decimals and 'n/a'."""
+    if not (math.isfinite(uncertainty) and uncertainty > 0 and math.isfinite(value)):
+        return (fmt.signed(value, 2) if math.isfinite(value) else "n/a"), "n/a"
+    text, u = fmt.round_gum(value, uncertainty)
+    decimals = len(text.partition(".")[2])
+    return fmt.signed(float(text), decimals), u
 
 
-def differences(a: PrintedItems, b: PrintedItems, a_name: str, b_name: str) -> list[str]:
-    """Each item where `a` and `b` differ, one short line each, naming the item and line."""
-    out = []
-    for item in fields(PrintedItems):
-        if item.name == "lines":
-            continue
-        x, y = getattr(a, item.name), getattr(b, item.name)
-        if x != y:
-            out.append(f"{item.name}: {a_name} {x!r}, {b_name} {y!r}")
-    if len(a.lines) != len(b.lines):
-        out.append(f"lines: {a_name} has {len(a.lines)}, {b_name} {len(b.lines)}")
-    for i, (x, y) in enumerate(zip(a.lines, b.lines, strict=False), start=1):
-        for item in fields(PrintedLine):
-            if getattr(x, item.name) != getattr(y, item.name):
-                out.append(
-                    f"line {i} {item.name}: {a_name} {getattr(x, item.name)!r}, "
-                    f"{b_name} {getattr(y, item.name)!r}"
-                )
-    return out
-
-
-def lines_of(values: dict[str, list[str]], phase_stated: bool) -> tuple[PrintedLine, ...]:
-    """PrintedLines from app.certificate.dcc.line_values (phase "n/s" when not stated)."""
-    return tuple(
-        PrintedLine(
-            values["f"][i],
-            values["s"][i],
-            values["u"][i],
-            values["ph"][i] if phase_stated else NOT_STATED,
-            values["u_ph"][i] if phase_stated else NOT_STATED,
-            values["k"][i],
-        )
-        for i in range(len(values["f"]))
+def printed_line(ln: LineResult) -> PrintedLine:
+    """The printed form of one line of dsp.calibration.Results."""
+    s, u = fmt.round_gum(ln.sensitivity_mv_per_ms2, ln.expanded_uncertainty_mv_per_ms2)
+    ph, u_ph = fmt.round_gum(ln.phase_deg, ln.phase_expanded_uncertainty_deg)
+    u_dev = deviation_expanded_percent(ln.deviation_percent, ln.relative_expanded_uncertainty)
+    dev, u_dev_text = round_signed(ln.deviation_percent, u_dev)
+    rel = 100 * ln.relative_expanded_uncertainty
+    return PrintedLine(
+        nominal_frequency_hz=ln.nominal_frequency_hz,
+        frequency_hz=ln.frequency_hz,
+        sensitivity_mv_per_ms2=ln.sensitivity_mv_per_ms2,
+        expanded_mv_per_ms2=ln.expanded_uncertainty_mv_per_ms2,
+        coverage_factor=ln.coverage_factor,
+        phase_deg=ln.phase_deg,
+        phase_expanded_deg=ln.phase_expanded_uncertainty_deg,
+        deviation_percent=ln.deviation_percent,
+        deviation_expanded_percent=u_dev,
+        deviation_db=ln.deviation_db,
+        relative_expanded_percent=rel,
+        frequency=f"{ln.frequency_hz:g}",
+        sensitivity=s,
+        expanded=u,
+        k=f"{ln.coverage_factor:.2f}",
+        phase=ph,
+        phase_expanded=u_ph,
+        deviation=dev,
+        deviation_expanded=u_dev_text,
+        deviation_in_db=fmt.signed(ln.deviation_db, 3),
+        relative_expanded=fmt.significant(rel),
+        iso_verdict=ISO_WORDS.get(ln.iso_verdict, ln.iso_verdict),
+        tolerance_verdict=ln.tolerance_verdict,
     )
 
 
-# --- the DCC ----------------------------------------------------------------------------------
-
-
-def parse_inert(xml: bytes) -> Any:
-    """The root element of `xml` parsed as bytes by a parser that resolves nothing: no DTD
-    loaded, no entity expanded, no network, no file named by the document opened. A DOCTYPE
-    is refused. PrintedError says why."""
-    if len(xml) > MAX_DCC_BYTES:
-        raise PrintedError(f"{len(xml)} bytes, more than a DCC may hold ({MAX_DCC_BYTES})")
-    parser = etree.XMLParser(
-        resolve_entities=False,
-        no_network=True,
-        load_dtd=False,
-        dtd_validation=False,
-        huge_tree=False,
-        remove_pis=True,
-    )
-    try:
-        root = etree.fromstring(xml, parser=parser)
-    except etree.XMLSyntaxError as exc:
-        raise PrintedError(f"not well-formed XML ({exc})") from None
-    tree = root.getroottree()
-    if tree.docinfo.doctype or tree.docinfo.internalDTD is not None:
-        raise PrintedError("it has a DOCTYPE (a DCC has none; entities are never expanded)")
-    if any(isinstance(node, etree._Entity) for node in root.iter()):
-        raise PrintedError("it has entity references (a DCC has none)")
-    return root
-
-
-def _ns() -> dict[str, str]:
-    from app.certificate.dcc import DCC_NS, SI_NS
-
-    return {"dcc": DCC_NS, "si": SI_NS}
-
-
-def _text(root: Any, path: str) -> str:
-    found = root.xpath(path, namespaces=_ns())
-    if not found:
-        return ""
-    node = found[0]
-    return str(node if isinstance(node, str) else (node.text or "")).strip()
-
-
-def _identification(parent: str, name: str) -> str:
-    return (
-        f"{parent}/dcc:identifications/dcc:identification[dcc:name/dcc:content='{name}']/dcc:value"
-    )
-
-
-def items_from_dcc(root: Any) -> PrintedItems:
-    """The printed items of a DCC (parsed by `parse_inert`)."""
-    admin = "/dcc:digitalCalibrationCertificate/dcc:administrativeData"
-    core = f"{admin}/dcc:coreData"
-    customer = _text(root, f"{admin}/dcc:customer/dcc:name/dcc:content")
-    address = _text(root, f"{admin}/dcc:customer/dcc:location/dcc:further/dcc:content")
-    declaration = _text(root, f"{admin}/dcc:statements/dcc:statement/dcc:declaration/dcc:content")
-    verdict = re.match(r"Overall verdict: (.*?)\. Decision rule", declaration)
-    lists: dict[str, tuple[list[str], list[str], list[str]]] = {}
-    for quantity in root.xpath(
-        "/dcc:digitalCalibrationCertificate/dcc:measurementResults/dcc:measurementResult"
-        "/dcc:results/dcc:result/dcc:data/dcc:list/dcc:quantity",
-        namespaces=_ns(),
-    ):
-        name = _text(quantity, "dcc:name/dcc:content")
-        real = "si:realListXMLList"
-        lists[name] = (
-            _text(quantity, f"{real}/si:valueXMLList").split(),
-            _text(quantity, f"{real}//si:valueExpandedMUXMLList").split(),
-            _text(quantity, f"{real}//si:coverageFactorXMLList").split(),
-        )
-    f = lists.get("Excitation frequency", ([], [], []))[0]
-    s, u, k = lists.get("Sensitivity magnitude", ([], [], []))
-    phase = next((v for n, v in lists.items() if n.startswith("Phase shift")), None)
-    ph, u_ph = (phase[0], phase[1]) if phase else ([NOT_STATED] * len(f), [NOT_STATED] * len(f))
-    count = len(f)
-    if any(len(column) != count for column in (s, u, k, ph, u_ph)):
-        count = -1  # lists of different lengths: no line can be trusted
-    lines = tuple(PrintedLine(f[i], s[i], u[i], ph[i], u_ph[i], k[i]) for i in range(max(count, 0)))
-    return PrintedItems(
-        number=_text(root, f"{core}/dcc:uniqueIdentifier"),
-        customer=customer if address in ("", customer) else f"{customer}, {address}",
-        serial=_text(root, _identification(f"{admin}/dcc:items/dcc:item", "Serial number")),
-        calibration_date=_text(root, f"{core}/dcc:beginPerformanceDate"),
-        issue_date=_text(root, f"{core}/dcc:issueDate"),
-        run_id=_text(root, _identification(core, RUN_ID_NAME)),
-        seal=_text(root, _identification(core, SEAL_NAME)),
-        verdict=verdict.group(1) if verdict else "",
-        lines=lines if count >= 0 else (PrintedLine("", "", "", "", "", ""),),
-    )
-
-
-# --- the PDF's text ---------------------------------------------------------------------------
-
-# The first table of the certificate: label, then its value on the lines up to the next label.
-_LABELS = {
-    "Certificate number": "number",
-    "Customer": "customer",
-    "Item calibrated": "",
-    "Serial number": "serial",
-    "Date of calibration": "calibration_date",
-    "Date of issue": "issue_date",
-    "Calibration run": "run_id",
-    "Run seal": "seal",
-    "Method": "",
-}
-_NUMBER = r"[-+]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][-+]?\d+)?"
-_VALUE = rf"(?:{_NUMBER}|n/s|n/a)"
-_ROW = [_NUMBER, _NUMBER, _VALUE, _VALUE, _VALUE, _VALUE, _VALUE, _VALUE, _VALUE, _VALUE,
-        r"within|over|n/a|n/s"]  # fmt: skip
-_ROW_RE = [re.compile(rf"\A(?:{p})\Z") for p in _ROW]
-
-
-def items_from_pdf(text: str) -> PrintedItems:
-    """The printed items of a certificate from its extracted text (pypdf, all pages)."""
-    lines = [line.strip() for line in text.splitlines()]
-    found: dict[str, str] = {}
-    current = None
-    values: list[str] = []
-    for line in lines:
-        if line in _LABELS:
-            if current and current not in found:  # a hash wraps inside, a name at its blanks
-                found[current] = ("" if current == "seal" else " ").join(values)
-            current, values = _LABELS[line], []
-            if line == "Method":
-                break
-        elif current is not None:
-            values.append(line)
-    verdict = ""
-    for i, line in enumerate(lines[:-1]):
-        if line == "Overall verdict":
-            verdict = lines[i + 1]
-            break
-    return PrintedItems(**found, verdict=verdict, lines=_table_rows(text.split()))
-
-
-def _table_rows(tokens: list[str]) -> tuple[PrintedLine, ...]:
-    """The rows of the results table: each 11 tokens in a row matching its columns (nominal
-    and actual frequency, S, U, deviation % and dB, phase, U phase, U rel., k, ISO)."""
-    rows = []
-    i = 0
-    width = len(_ROW_RE)
-    while i + width <= len(tokens):
-        window = tokens[i : i + width]
-        if all(p.match(t) for p, t in zip(_ROW_RE, window, strict=True)):
-            _, f, s, u, _, _, ph, u_ph, _, k, _ = window
-            rows.append(PrintedLine(f, s, u, ph, u_ph, k))
-            i += width
-        else:
-            i += 1
-    return tuple(rows)
+def printed_lines(results: Results) -> tuple[PrintedLine, ...]:
+    """Every line of `results` as printed, in order."""
+    return tuple(printed_line(ln) for ln in results.lines)

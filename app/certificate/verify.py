@@ -26,14 +26,14 @@ from typing import Any
 
 from app.certificate import CertificateError
 from app.certificate.pdf_signature import SignatureStructureError, check_layout
-from app.certificate.printed import (
+from app.certificate.readback import (
     PrintedError,
     PrintedItems,
     differences,
     items_from_dcc,
     items_from_pdf,
-    lines_of,
     parse_inert,
+    rows_of,
 )
 from app.io.checks import MIB, InputFileError, read_regular_bytes
 
@@ -274,8 +274,8 @@ def _check_dcc(data: bytes, report: Verification) -> PrintedItems | None:
 def _check_run(run: Path, dcc: PrintedItems, report: Verification) -> None:
     """Add the run's checks: its manifest, its seal against the one the certificate names,
     and its results against the DCC's."""
-    from app.certificate import load_stored_run
-    from app.certificate.dcc import line_values
+    from app.certificate.load import load_stored_run
+    from app.certificate.printed import printed_lines
     from app.records.seal import SealError, read_seal
 
     try:
@@ -296,7 +296,7 @@ def _check_run(run: Path, dcc: PrintedItems, report: Verification) -> None:
     expected = PrintedItems(
         run_id=str(stored.record.run_id or ""),
         verdict=str(results.verdict or "not stated"),
-        lines=lines_of(line_values(results), results.phase_corrected_for_skew),
+        lines=rows_of(printed_lines(results), results.phase_corrected_for_skew),
     )
     got = PrintedItems(run_id=dcc.run_id, verdict=dcc.verdict, lines=dcc.lines)
     diff = differences(expected, got, "run", "DCC")

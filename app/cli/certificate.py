@@ -38,8 +38,8 @@ def cmd_certificate(args: argparse.Namespace) -> int:
     if args.out is not None and not is_run_folder(args.out.parent):  # a run's own: see issue()
         writable_folder(args.out.parent, "--out")
     if args.db or os.environ.get("ACCELCAL_DB"):
+        from app.certificate.register_issue import issue_registered
         from app.records.db.audit import current_actor
-        from app.records.db.certify import issue_registered
 
         issued = issue_registered(
             args.run,

@@ -1,6 +1,6 @@
 """Certificates from the window through the lab's register: the run shown (verified again), the
 fields asked afresh, the number allocated by the register
-(`app.records.db.certify.issue_registered`,
+(`app.certificate.register_issue.issue_registered`,
 the PDF written inside the register's transaction), or a refusal shown and nothing written.
 
 An amendment or reissue (from the Register tab) is the same, with the certificate it replaces
@@ -90,7 +90,7 @@ def issue(
     reason: str | None = None,
 ) -> Path | None:
     """Issue through the register (number, PDF in one transaction); errors shown, not raised."""
-    from app.records.db.certify import issue_registered
+    from app.certificate.register_issue import issue_registered
 
     window.records.wait_jobs()  # the run's own indexing (records thread) first: no race
     try:

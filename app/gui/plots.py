@@ -6,10 +6,14 @@ the worker thread never sees a plot item.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pyqtgraph as pg
 
 from dsp.calibration import Results
+from dsp.characteristic import Characteristic
+from dsp.characteristic import characteristic as dsp_characteristic
 from dsp.multisine import Plan
 from dsp.spectral import period_spectrum
 
@@ -36,20 +40,15 @@ def frequency_axis(plot: pg.PlotItem) -> None:
     )
 
 
-def characteristic(results: Results) -> dict[str, np.ndarray]:
-    """Per line: frequency (Hz), deviation and its U (%), phase and its U (degree)."""
-    lines = results.lines
-    return {
-        "f": np.array([ln.frequency_hz for ln in lines], dtype=float),
-        "dev": np.array([ln.deviation_percent for ln in lines], dtype=float),
-        "u_dev": np.nan_to_num(
-            np.array([100 * ln.relative_expanded_uncertainty for ln in lines], dtype=float)
-        ),
-        "phase": np.array([ln.phase_deg for ln in lines], dtype=float),
-        "u_phase": np.nan_to_num(
-            np.array([ln.phase_expanded_uncertainty_deg for ln in lines], dtype=float)
-        ),
-    }
+def characteristic(results: Results) -> Characteristic:
+    """dsp.characteristic's deviation, phase and their U (the numbers the certificate draws),
+    with a U that is not stated drawn as 0."""
+    c = dsp_characteristic(results)
+    return dataclasses.replace(
+        c,
+        deviation_expanded_percent=np.nan_to_num(c.deviation_expanded_percent),
+        phase_expanded_deg=np.nan_to_num(c.phase_expanded_deg),
+    )
 
 
 class LivePlots:
@@ -122,11 +121,12 @@ class LivePlots:
     def draw_characteristic(self, results: Results) -> None:
         """Deviation and phase per line with their expanded uncertainties as error bars."""
         c = characteristic(results)
-        logf = np.log10(c["f"])
-        self.sens_curve.setData(c["f"], c["dev"])
-        self.sens_err.setData(x=logf, y=c["dev"], height=2 * c["u_dev"])
-        self.phase_curve.setData(c["f"], c["phase"])
-        self.phase_err.setData(x=logf, y=c["phase"], height=2 * c["u_phase"])
+        f, dev, phase = c.frequency_hz, c.deviation_percent, c.phase_deg
+        logf = np.log10(f)
+        self.sens_curve.setData(f, dev)
+        self.sens_err.setData(x=logf, y=dev, height=2 * c.deviation_expanded_percent)
+        self.phase_curve.setData(f, phase)
+        self.phase_err.setData(x=logf, y=phase, height=2 * c.phase_expanded_deg)
 
 
 def draw_bands(mag: pg.PlotItem, phase: pg.PlotItem, results: Results | None) -> None:
@@ -136,8 +136,12 @@ def draw_bands(mag: pg.PlotItem, phase: pg.PlotItem, results: Results | None) ->
     if results is None:
         return
     c = characteristic(results)
-    for plot, v, u in ((mag, c["dev"], c["u_dev"]), (phase, c["phase"], c["u_phase"])):
-        lower = plot.plot(c["f"], v - u, pen=pg.mkPen("#9bb7e0"))
-        upper = plot.plot(c["f"], v + u, pen=pg.mkPen("#9bb7e0"))
+    f = c.frequency_hz
+    for plot, v, u in (
+        (mag, c.deviation_percent, c.deviation_expanded_percent),
+        (phase, c.phase_deg, c.phase_expanded_deg),
+    ):
+        lower = plot.plot(f, v - u, pen=pg.mkPen("#9bb7e0"))
+        upper = plot.plot(f, v + u, pen=pg.mkPen("#9bb7e0"))
         plot.addItem(pg.FillBetweenItem(lower, upper, brush=pg.mkBrush(155, 183, 224, 110)))
-        plot.plot(c["f"], v, pen=pg.mkPen("#1f3a68", width=2), symbol="o", symbolSize=5)
+        plot.plot(f, v, pen=pg.mkPen("#1f3a68", width=2), symbol="o", symbolSize=5)

@@ -15,8 +15,9 @@ from PySide6.QtWidgets import QLabel, QSizePolicy, QVBoxLayout, QWidget
 
 from app.procedure.verdict import FAIL, INDETERMINATE, PASS
 from app.records.run_record import RunRecord
+from dsp.conformity import DECISION_RULE_SHORT
 
-COLOURS = {PASS: "#1e8449", FAIL: "#c0392b", INDETERMINATE: "#b9770e"}
+COLOURS: dict[str, str] = {PASS: "#1e8449", FAIL: "#c0392b", INDETERMINATE: "#b9770e"}
 NOT_ASSESSED = "not assessed"
 
 
@@ -80,9 +81,7 @@ class VerdictView(QWidget):
             "padding: 4px 16px; border-radius: 4px"
         )
         self.word.setSizePolicy(QSizePolicy.Policy.Maximum, QSizePolicy.Policy.Fixed)
-        self.word.setToolTip(
-            "Overall verdict by guarded acceptance (ILAC-G8) against the DUT's tolerances"
-        )
+        self.word.setToolTip(f"Overall verdict by {DECISION_RULE_SHORT}")
         if reasons:
             self.reasons.setText(
                 "<ul style='margin:0'>"

@@ -42,6 +42,7 @@ from app.procedure.stepped import SteppedSine
 from app.procedure.verdict import Tolerances, tolerances_for, with_verdict
 from app.records.run_folder import STATUS_ABORTED, STATUS_COMPLETE, RunFolder
 from app.records.run_record import RunRecord, StandInfo
+from app.records.run_start import CONFIG_NAME, RunStart
 from app.stand.open import Stand
 from app.stand.response import ResponseStore
 from dsp.calibration import AnalysisError
@@ -219,16 +220,14 @@ class Procedure:
         if self.folder is None:
             return
         try:
-            self.folder.write_json(
-                "config.json",
-                {
-                    "stand": self.stand.config.raw,
-                    "stand_source": self.stand.config.source,
-                    "plan": self.plan.to_dict(),
-                    "settings": self.settings.__dict__,
-                    "identity": self.identity.to_dict(),
-                },
+            start = RunStart(
+                stand=self.stand.config.raw,
+                stand_source=self.stand.config.source,
+                plan=self.plan.to_dict(),
+                settings=self.settings.__dict__,
+                identity=self.identity.to_dict(),
             )
+            self.folder.write_text(CONFIG_NAME, start.to_json())
             if self.stand.config.text:
                 self.folder.write_text("stand.toml", self.stand.config.text)
         except OSError as exc:  # nothing has moved yet

@@ -2,15 +2,14 @@
 stand; sensitivity against frequency and level, and a linearity figure.
 
 Linearity per line: the largest relative deviation of the sensitivity at any level from its
-mean over the levels, in %. The sweep summary is written beside the run folders as
-sweep-<id>.json (atomically, never replacing a file, read-only); each level is a run folder of
-its own.
+mean over the levels, in %. The sweep summary (app.records.sweep_summary.SweepSummary) is
+written beside the run folders as sweep-<id>.json (atomically, never replacing a file,
+read-only); each level is a run folder of its own.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -20,19 +19,27 @@ import numpy as np
 from app.files import write_with
 from app.procedure import Finished, Listener, PreflightError
 from app.procedure.run import RunRequest, execute, prepare
-from app.records.run_folder import READ_ONLY_FILE, new_run_id
+from app.records.run_folder import STATUS_COMPLETE, new_run_id
+from app.records.sweep_summary import SweepSummary, SweepTable
 
 
 @dataclass(frozen=True)
 class Sweep:
-    """The runs of a sweep (in level order) and its summary."""
+    """The runs of a sweep (in level order), its summary and the file it is written to."""
 
     runs: tuple[Finished, ...]
-    summary: dict[str, Any]
+    result: SweepSummary
+    path: Path
 
     @property
     def complete(self) -> bool:
-        return self.summary["status"] == "complete"
+        return self.result.complete
+
+    @property
+    def summary(self) -> dict[str, Any]:
+        """The summary as its JSON object plus "path", for the CLI's printer (which is to read
+        `result` instead)."""
+        return {**self.result.to_dict(), "path": str(self.path)}
 
 
 def linearity(sensitivity: np.ndarray) -> np.ndarray:
@@ -57,31 +64,24 @@ def run_sweep(request: RunRequest, levels: list[float], listener: Listener | Non
     for level in sorted(levels):
         finished = execute(dataclasses.replace(request, level_ms2=level), listener)
         runs.append(finished)
-        if finished.status != "complete":
+        if finished.status != STATUS_COMPLETE:
             break
     summary = summarise(runs, sorted(levels))
     sweep_id = new_run_id(f"sweep-{request.dut_id or request.dut}")
     path = Path(request.out) / f"{sweep_id}.json"
-    write_with(path, lambda temporary: _write_summary(temporary, summary))
-    summary["path"] = str(path)
-    return Sweep(tuple(runs), summary)
+    write_with(path, summary.write)
+    return Sweep(tuple(runs), summary, path)
 
 
-def _write_summary(path: Path, summary: dict[str, Any]) -> None:
-    """The sweep summary as JSON, read-only like the run folders it sums up."""
-    path.write_text(json.dumps(summary, indent=2), encoding="utf-8")
-    path.chmod(READ_ONLY_FILE)
-
-
-def summarise(runs: list[Finished], levels: list[float]) -> dict[str, Any]:
+def summarise(runs: list[Finished], levels: list[float]) -> SweepSummary:
     """Sensitivity against frequency and level, linearity per line and at the reference."""
-    complete = [r for r in runs if r.status == "complete" and r.results is not None]
-    summary: dict[str, Any] = {
-        "status": "complete" if len(complete) == len(levels) else "aborted",
-        "levels_ms2": levels,
-        "run_ids": [r.record.run_id for r in runs],
-        "abort_reason": next((r.abort_reason for r in runs if r.status != "complete"), None),
-    }
+    complete = [r for r in runs if r.status == STATUS_COMPLETE and r.results is not None]
+    summary = SweepSummary(
+        status=STATUS_COMPLETE if len(complete) == len(levels) else "aborted",
+        levels_ms2=tuple(levels),
+        run_ids=tuple(str(r.record.run_id) for r in runs),
+        abort_reason=next((r.abort_reason for r in runs if r.status != STATUS_COMPLETE), None),
+    )
     if len(complete) < 2:
         return summary
     results = [r.results for r in complete if r.results is not None]
@@ -90,13 +90,15 @@ def summarise(runs: list[Finished], levels: list[float]) -> dict[str, Any]:
     table = np.array([[ln.sensitivity_mv_per_ms2 for ln in r.lines] for r in results])
     lin = linearity(table)
     ref = [ln.nominal_frequency_hz for ln in first.lines].index(first.reference.frequency_hz)
-    summary.update(
-        frequencies_hz=frequencies,
-        sensitivity_mv_per_ms2=table.tolist(),
-        linearity_percent=(100 * lin).tolist(),
-        reference_frequency_hz=first.reference.frequency_hz,
-        reference_linearity_percent=float(100 * lin[ref]),
-        worst_linearity_percent=float(100 * lin.max()),
-        worst_linearity_frequency_hz=float(frequencies[int(np.argmax(lin))]),
+    return dataclasses.replace(
+        summary,
+        table=SweepTable(
+            frequencies_hz=tuple(frequencies),
+            sensitivity_mv_per_ms2=tuple(tuple(row) for row in table.tolist()),
+            linearity_percent=tuple((100 * lin).tolist()),
+            reference_frequency_hz=first.reference.frequency_hz,
+            reference_linearity_percent=float(100 * lin[ref]),
+            worst_linearity_percent=float(100 * lin.max()),
+            worst_linearity_frequency_hz=float(frequencies[int(np.argmax(lin))]),
+        ),
     )
-    return summary

@@ -3,10 +3,9 @@
 One place computes it; the procedure and the offline analysis call `with_verdict`, the CLI,
 the GUI and the certificate only read `Results.verdict` and `Results.verdict_reasons`.
 
-Decision rule: guarded acceptance (ILAC-G8), as the certificate states it: a check passes where
-|deviation| + U <= tolerance, fails where |deviation| - U > tolerance, and is inconclusive
-otherwise (inside the tolerance only without its uncertainty, or outside only with it). A check
-whose U is 0 or undefined is "not stated". Checks, against the DUT model's tolerances:
+Decision rule: dsp.conformity.decide, the one ILAC-G8 guarded acceptance (its wording there
+too); a deviation's U is dsp.characteristic's (1 + dev) * U_rel. Checks, against the DUT
+model's tolerances:
 sensitivity at the reference frequency against its nominal value, the amplitude characteristic
 per band (deviation from the reference frequency's sensitivity, %), and the phase per band
 (|phase|, degrees). Overall: FAIL when any check fails; PASS when every check passes and
@@ -23,13 +22,15 @@ verdict is never PASS.
 from __future__ import annotations
 
 import dataclasses
-import math
 
 from app.stand.dut import Band, Tolerances
-from dsp.calibration import LOW_COHERENCE, NOT_STATED, Results, uncertainty_stated
+from dsp import conformity
+from dsp.calibration import LOW_COHERENCE, Results
+from dsp.characteristic import deviation_expanded_percent
+from dsp.conformity import NOT_STATED, Outcome, Verdict
+from dsp.conformity import decide as decide  # the one ILAC-G8 function (dsp.conformity)
 
-PASS, FAIL, INDETERMINATE = "PASS", "FAIL", "INDETERMINATE"
-VERDICTS = (PASS, FAIL, INDETERMINATE)
+PASS, FAIL, INDETERMINATE = Verdict.PASS, Verdict.FAIL, Verdict.INDETERMINATE
 RESONANCE_RISE = 0.25  # an interior peak more than +25 % (about 2 dB) above the reference
 CLEAN_SNR_DB = 40.0  # above this SNR on both channels, noise cannot explain a coherence drop
 MOUNTING_PREFIX = "mounting: "
@@ -40,7 +41,6 @@ __all__ = [
     "MOUNTING_PREFIX",
     "PASS",
     "RESONANCE_RISE",
-    "VERDICTS",
     "Band",
     "Tolerances",
     "assess",
@@ -63,20 +63,6 @@ def tolerances_for(
 
     spec = catalogue_spec(catalogue).with_options(tolerance_percent=tolerance_percent or None)
     return spec.tolerances(reference_frequency_hz)
-
-
-def decide(deviation: float, expanded: float, tolerance: float) -> str:
-    """Guarded acceptance (ILAC-G8) of |deviation| against `tolerance` with expanded U (same
-    unit): "pass", "fail", "inconclusive", or "not stated" without a usable U."""
-    if not uncertainty_stated(expanded):
-        return NOT_STATED
-    if not math.isfinite(deviation):
-        return "inconclusive"
-    if abs(deviation) + expanded <= tolerance:
-        return "pass"
-    if abs(deviation) - expanded > tolerance:
-        return "fail"
-    return "inconclusive"
 
 
 def mounting_warnings(results: Results) -> list[str]:
@@ -112,16 +98,16 @@ def mounting_warnings(results: Results) -> list[str]:
 def _summary(name: str, outcomes: list[tuple[str, str]]) -> tuple[str, str]:
     """The worst outcome of a check over lines and one reason naming the lines concerned."""
     parts = []
-    for kind in ("fail", "inconclusive", NOT_STATED):
+    for kind in (Outcome.FAIL, Outcome.INCONCLUSIVE, NOT_STATED):
         hit = [label for outcome, label in outcomes if outcome == kind]
         if len(hit) > 4:
             parts.append(f"{kind} at {len(hit)} lines ({hit[0]} to {hit[-1]})")
         elif hit:
             parts.append(f"{kind} at {', '.join(hit)}")
     if not parts:
-        return "pass", f"{name}: pass at all {len(outcomes)} line(s) checked"
+        return Outcome.PASS, f"{name}: pass at all {len(outcomes)} line(s) checked"
     found = {outcome for outcome, _ in outcomes}
-    worst = next(k for k in ("fail", "inconclusive", NOT_STATED) if k in found)
+    worst = next(k for k in (Outcome.FAIL, Outcome.INCONCLUSIVE, NOT_STATED) if k in found)
     return worst, f"{name}: {'; '.join(parts)}"
 
 
@@ -136,13 +122,12 @@ def assess(
     nominal = tolerances.nominal_sensitivity_mv_per_ms2
     if nominal is not None and tolerances.sensitivity_percent is not None:
         deviation = 100 * (r.sensitivity_mv_per_ms2 / nominal - 1)
-        outcome = decide(
-            deviation, 100 * r.relative_expanded_uncertainty, tolerances.sensitivity_percent
-        )
+        u_deviation = deviation_expanded_percent(deviation, r.relative_expanded_uncertainty)
+        outcome = conformity.decide(deviation, u_deviation, tolerances.sensitivity_percent)
         outcomes.append(outcome)
         reasons.append(
             f"sensitivity at {r.frequency_hz:g} Hz: {outcome} ({deviation:+.2f} % from the "
-            f"nominal {nominal:.4g} mV/(m/s^2), U {100 * r.relative_expanded_uncertainty:.2f} %,"
+            f"nominal {nominal:.4g} mV/(m/s^2), U {u_deviation:.2f} %,"
             f" tolerance ±{tolerances.sensitivity_percent:g} %)"
         )
     else:
@@ -158,13 +143,15 @@ def assess(
                 continue  # the reference line's deviation is 0 by definition
             label = f"{ln.nominal_frequency_hz:g} Hz"
             if unit == "%":
-                u = 100 * ln.relative_expanded_uncertainty
-                checked.append((decide(ln.deviation_percent, u, band.tolerance), label))
+                u = deviation_expanded_percent(
+                    ln.deviation_percent, ln.relative_expanded_uncertainty
+                )
+                checked.append((conformity.decide(ln.deviation_percent, u, band.tolerance), label))
             elif not results.phase_corrected_for_skew:
                 checked.append((NOT_STATED, label))
             else:
                 u = ln.phase_expanded_uncertainty_deg
-                checked.append((decide(ln.phase_deg, u, band.tolerance), label))
+                checked.append((conformity.decide(ln.phase_deg, u, band.tolerance), label))
         if not checked:
             reasons.append(f"{name}: no tolerance given, not checked")
             continue
@@ -173,12 +160,12 @@ def assess(
         limits = ", ".join(f"±{b.tolerance:g} {unit}" for b in bands)
         reasons.append(f"{reason} (tolerance {limits})")
     mounting = mounting_warnings(results)
-    if "fail" in outcomes:
+    if Outcome.FAIL in outcomes:
         verdict = FAIL
     elif not outcomes:
         verdict = INDETERMINATE
         reasons.insert(0, "no tolerance is set for this DUT: conformity cannot be decided")
-    elif any(o != "pass" for o in outcomes):
+    elif any(o != Outcome.PASS for o in outcomes):
         verdict = INDETERMINATE
     else:
         verdict = PASS

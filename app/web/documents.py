@@ -72,7 +72,7 @@ def verify_certificate(
 ) -> list[CheckLine]:
     """Every check of `accelcal verify` on `pdf` with its run folder (and the lab's CA
     certificate `trust`, when given), and that the DCC in the PDF is certificate `number`."""
-    from app.certificate.printed import items_from_dcc, parse_inert
+    from app.certificate.readback import items_from_dcc, parse_inert
     from app.certificate.verify import verify
 
     report = verify(pdf, Path(run_folder), trust)

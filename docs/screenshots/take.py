@@ -22,7 +22,7 @@ from PySide6.QtCore import QCoreApplication, QEventLoop, QTimer
 from PySide6.QtWidgets import QApplication
 
 from app.certificate import CertificateInfo
-from app.records.db.certify import issue_registered
+from app.certificate.register_issue import issue_registered
 from app.records.db.engine import open_engine
 from app.records.db.lab import Lab
 from app.records.db.models import Run, Stand

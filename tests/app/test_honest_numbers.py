@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 from pypdf import PdfReader
 
-from app.certificate import CertificateInfo, _charts, _line_table, _statements, build
+from app.certificate import CertificateInfo, build
+from app.certificate.pdf import _charts, _line_table, _statements
 from app.cli import main
 from app.io.hdf5 import RecordingError, read_csv, write_recording
 from app.procedure.analysis import analyze, read_for_analysis, reanalysis
@@ -31,8 +32,8 @@ from dsp.calibration import (
     ReferenceChain,
     ReferenceResult,
     Results,
-    _tolerance_verdict,
 )
+from dsp.conformity import decide as conformity_decide
 from dsp.multisine import preset_plan
 from dsp.uncertainty import Budget
 from tests.synthetic import lowpass_response, make_recording
@@ -204,10 +205,10 @@ def test_level_is_refused_on_a_recording(capsys, stored):
 
 
 def test_conformity_is_not_stated_without_an_uncertainty(tmp_path):
-    assert _tolerance_verdict(1.0, 0.0, 5.0) == "not stated"
-    assert _tolerance_verdict(1.0, math.nan, 5.0) == "not stated"
-    assert _tolerance_verdict(1.0, math.inf, 5.0) == "not stated"
-    assert _tolerance_verdict(4.0, 1.0, 5.0) == "pass"  # 4 + 1 <= 5: the boundary passes
+    assert conformity_decide(1.0, 0.0, 5.0) == "not stated"
+    assert conformity_decide(1.0, math.nan, 5.0) == "not stated"
+    assert conformity_decide(1.0, math.inf, 5.0) == "not stated"
+    assert conformity_decide(4.0, 1.0, 5.0) == "pass"  # 4 + 1 <= 5: the boundary passes
     assert decide(1.0, 0.0, 5.0) == "not stated"
     one_period = make_recording(preset_plan("piezo"), lowpass_response(), periods=1)
     results = analyze(one_period, tolerance_percent=5.0).results  # one period: U undefined
@@ -289,10 +290,18 @@ SPEC = Tolerances(
 
 
 def test_clean_results_pass():
-    verdict, reasons, mounting = assess(_results((1, 1, 0, -1, 4)), SPEC)
-    assert verdict == PASS and not mounting  # 4 % + U 1 % = 5 %: on the limit, passes
+    # 3.9 % with U(dev) = (1 + 0.039) * 1 % = 1.039 %: 4.939 % <= 5 %, passes
+    verdict, reasons, mounting = assess(_results((1, 1, 0, -1, 3.9)), SPEC)
+    assert verdict == PASS and not mounting
     assert any(r.startswith("amplitude characteristic: pass at all 4") for r in reasons)
     assert any(r.startswith("phase: pass at all 5") for r in reasons)
+
+
+def test_the_deviation_is_judged_with_its_own_uncertainty():
+    # dsp.characteristic: U(dev) = (1 + dev) * U_rel(S); at 4 % with U_rel 1 %, U(dev) is
+    # 1.04 % and 4 + 1.04 > 5: inconclusive (with U_rel itself it would be 4 + 1 = 5: pass)
+    verdict, reasons, _ = assess(_results((1, 1, 0, -1, 4)), SPEC)
+    assert verdict == INDETERMINATE and any("inconclusive at 2500 Hz" in r for r in reasons)
 
 
 def test_out_of_tolerance_fails():

@@ -20,6 +20,7 @@ import pytest
 from pypdf import PdfReader
 
 import app.certificate
+import app.certificate.issuing
 from app.cli import main
 from app.io.hdf5 import RecordingWriter, read_recording, write_recording
 from app.procedure.run import RunRequest, execute
@@ -172,13 +173,13 @@ def test_the_run_folder_opens_only_while_its_certificate_is_written(monkeypatch,
     run = run_of(root, stored, "a")
     assert stat.S_IMODE(run.stat().st_mode) == 0o555
     seen = []
-    real = app.certificate._write_pdf
+    real = app.certificate.issuing.write_pdf
 
     def spy(stored_run, info, sweep, path, *rest):  # rest: the DCC XML to attach
         seen.append((stat.S_IMODE(run.stat().st_mode), path.parent == run, path.name))
         real(stored_run, info, sweep, path, *rest)
 
-    monkeypatch.setattr(app.certificate, "_write_pdf", spy)
+    monkeypatch.setattr(app.certificate.issuing, "write_pdf", spy)
     out = app.certificate.build(
         run, app.certificate.CertificateInfo(**INFO), run / "certificate.pdf"
     )
@@ -199,7 +200,7 @@ def test_a_failed_certificate_leaves_the_folder_read_only_and_nothing_behind(
         path.write_bytes(b"%PDF-1.4 half")
         raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr(app.certificate, "_write_pdf", broken)
+    monkeypatch.setattr(app.certificate.issuing, "write_pdf", broken)
     with pytest.raises(OSError, match="No space"):
         app.certificate.build(run, app.certificate.CertificateInfo(**INFO), run / "certificate.pdf")
     assert stat.S_IMODE(run.stat().st_mode) == 0o555

@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 from pypdf import PdfReader
 
-from app.certificate.printed import (
+from app.certificate.readback import (
     PrintedError,
     differences,
     items_from_dcc,

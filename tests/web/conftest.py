@@ -17,9 +17,9 @@ from cryptography.x509.oid import NameOID
 from sqlalchemy import Engine
 
 from app.certificate import CertificateInfo
+from app.certificate.register_issue import issue_registered
 from app.certificate.sign import Signer
 from app.cli import main
-from app.records.db.certify import issue_registered
 from app.records.db.engine import make_engine, resolve_url, upgrade
 from app.records.db.lab import Lab
 from app.web.users import add_user

@@ -13,7 +13,7 @@ import pytest
 from sqlalchemy import text
 from starlette.testclient import TestClient
 
-from app.certificate.printed import items_from_dcc, parse_inert
+from app.certificate.readback import items_from_dcc, parse_inert
 from app.records.register import read_register
 from app.records.run_folder import MANIFEST_NAME, sha256_of
 from app.web.users import add_user

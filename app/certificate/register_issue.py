@@ -1,16 +1,23 @@
 """A certificate issued through the records: customer and sensor data from the sensor's
 record, the number from the lab's register (its pattern, no gap), the PDF written inside the
-register's transaction so a number never exists without its certificate, or the reverse."""
+register's transaction so a number never exists without its certificate, or the reverse.
+
+With records in use the database is the one register: the runs root's JSON register
+(app.records.register) is not written (SPEC.md section 9: "every certificate through the
+register")."""
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 from pathlib import Path
 from typing import Any
 
-from app.certificate import CertificateError, CertificateInfo, Issued, issue
+from app.certificate.info import CertificateError, CertificateInfo
+from app.certificate.issuing import issue_numbered
 from app.records.db.engine import open_engine
 from app.records.db.lab import Lab, RecordsError
+from app.records.register import Issued
 from app.records.run_folder import load_run
 
 
@@ -52,19 +59,14 @@ def issue_registered(
     if info.dut_serial != sensor.serial:
         raise RecordsError(f"--dut-serial: {info.dut_serial!r} is not the run's {sensor.serial!r}")
     issued: list[Issued] = []
+    with contextlib.ExitStack() as written:  # an exception out of it removes the files
 
-    def produce(number: str) -> None:
-        issued.append(
-            issue(
-                run_path,
-                dataclasses.replace(info, certificate_number=number),
-                out,
-                sweep_path,
-                signer,
+        def produce(number: str) -> None:
+            numbered = dataclasses.replace(info, certificate_number=number)
+            issued.append(
+                written.enter_context(issue_numbered(run_path, numbered, out, sweep_path, signer))
             )
-        )
 
-    try:
         lab.issue_certificate(
             run_id=str(record.run_id),
             prepared_by=prepared_by,
@@ -73,10 +75,6 @@ def issue_registered(
             reason=reason,
             produce=produce,
         )
-    except BaseException:
-        if issued:  # written, but the register did not take it: no certificate without entry
-            Path(issued[0].file).unlink(missing_ok=True)
-        raise
     if not issued:
         raise CertificateError("the certificate was not written")
     return issued[0]

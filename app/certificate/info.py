@@ -1,0 +1,116 @@
+"""What a certificate states beyond the run: the items (customer, DUT, conditions, number,
+dates), their defaults from the run and the stand's [certificate] table, and their checks.
+
+Missing mandatory items are refused by name with their option; a temperature is in deg C, a
+date is ISO (yyyy-mm-dd).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, fields
+from datetime import date
+from typing import Any
+
+from app.errors import Refusal
+from app.records.run_record import DutIdentity, RunRecord
+from app.records.run_start import RunStart
+
+MANDATORY = (
+    ("customer", "--customer"),
+    ("authorised_by", "--authorised-by"),
+    ("dut_model", "--dut-model"),
+    ("dut_serial", "--dut-serial (or --dut-id when running)"),
+    ("dut_type", "--dut-type"),
+    ("temperature_c", "--temperature"),
+    ("mounting", "--mounting"),
+)
+
+
+class CertificateError(Refusal):
+    """A certificate that must not be issued; the message says why (missing items by name)."""
+
+
+@dataclass(frozen=True)
+class CertificateInfo:
+    """What the certificate needs beyond the run."""
+
+    customer: str | None = None
+    customer_address: str = ""
+    authorised_by: str | None = None
+    dut_model: str | None = None
+    dut_serial: str | None = None
+    dut_type: str | None = None
+    temperature_c: float | None = None
+    mounting: str | None = None
+    certificate_number: str | None = None
+    issue_date: str | None = None
+    notes: str = ""
+
+    def merged(self, defaults: dict[str, Any]) -> CertificateInfo:
+        """Options win; empty ones take the default."""
+        values = {}
+        for f in fields(self):
+            mine = getattr(self, f.name)
+            values[f.name] = mine if mine not in (None, "") else defaults.get(f.name, mine)
+        return CertificateInfo(**values)
+
+
+def default_info(record: RunRecord, start: RunStart) -> dict[str, Any]:
+    """Defaults from the run (its record and config.json) and the stand's [certificate] table
+    (the number is not one: `issue` takes the next free one from the runs root's register)."""
+    defaults: dict[str, Any] = start.certificate_defaults()
+    dut = record.dut or DutIdentity()
+    if dut.id:
+        defaults.setdefault("dut_serial", dut.id)
+    catalogue = dut.catalogue
+    if catalogue:
+        from sim.models import DUT_CATALOGUE
+
+        model = DUT_CATALOGUE.get(catalogue)
+        if model is not None:
+            defaults.setdefault("dut_model", f"simulated {model.name} ({model.description})")
+            defaults.setdefault("dut_type", f"{model.kind} accelerometer")
+    defaults.setdefault("issue_date", record.finished_utc[:10])
+    return defaults
+
+
+def missing_items(info: CertificateInfo) -> list[str]:
+    """Mandatory items not given (None, empty or only blanks), each with its option."""
+    return [
+        f"{name} ({option})"
+        for name, option in MANDATORY
+        if getattr(info, name) is None or not str(getattr(info, name)).strip()
+    ]
+
+
+TEMPERATURE_RANGE_C = (-50.0, 150.0)  # ambient of a calibration, incl. climatic chambers
+ISO_DATE = re.compile(r"^\d{4}-\d{2}-\d{2}$")
+
+
+def invalid_items(info: CertificateInfo) -> list[str]:
+    """Items given but unusable, each naming its field and option: a temperature that is not a
+    finite number in TEMPERATURE_RANGE_C, an issue date that is not an ISO date (yyyy-mm-dd)."""
+    problems = []
+    t = info.temperature_c
+    if t is not None:
+        low, high = TEMPERATURE_RANGE_C
+        try:
+            value = float(t)
+        except (TypeError, ValueError):
+            value = math.nan
+        if not (math.isfinite(value) and low <= value <= high):
+            problems.append(
+                f"temperature_c (--temperature): {t!r} is not a temperature in "
+                f"[{low:g}, {high:g}] deg C"
+            )
+    d = info.issue_date
+    if d not in (None, ""):
+        try:
+            ok = bool(ISO_DATE.match(str(d))) and date.fromisoformat(str(d)) is not None
+        except ValueError:
+            ok = False
+        if not ok:
+            problems.append(f"issue_date (--issue-date): {d!r} is not a date as yyyy-mm-dd")
+    return problems

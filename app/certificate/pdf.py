@@ -1,0 +1,521 @@
+"""Drawing the PDF calibration certificate (SPEC.md section 10; ISO/IEC 17025 clause 7.8).
+
+From a stored run and its numbered certificate items only: the numbers are the stored results
+as printed by app.certificate.printed, the sentences app.certificate.text's. Reproducible:
+reportlab's invariant mode and dates taken from the run make the same run and items give the
+same bytes. The DCC XML is attached (PDF/A-3 style) and the file signed last when asked.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+from reportlab.lib import colors
+from reportlab.lib.enums import TA_CENTER
+from reportlab.lib.pagesizes import A4
+from reportlab.lib.styles import ParagraphStyle, getSampleStyleSheet
+from reportlab.lib.units import mm
+from reportlab.pdfbase import pdfmetrics
+from reportlab.pdfgen import canvas as pdf_canvas
+from reportlab.platypus import (
+    KeepTogether,
+    Paragraph,
+    SimpleDocTemplate,
+    Spacer,
+    Table,
+    TableStyle,
+)
+
+import app.certificate.text as text
+from app import formatting as fmt
+from app.certificate.info import CertificateInfo
+from app.certificate.load import StoredRun
+from app.certificate.pdf_charts import FONT, FONT_BOLD, GRID, chart
+from app.certificate.printed import NOT_STATED_SHORT, printed_lines
+from app.records.run_record import RunRecord
+from app.records.seal import named_seal
+from app.records.sweep_summary import SweepSummary
+from dsp.calibration import Results
+from dsp.characteristic import characteristic
+from dsp.uncertainty import Quantity
+
+STYLES = getSampleStyleSheet()
+BODY = ParagraphStyle("body", parent=STYLES["BodyText"], fontName=FONT, fontSize=9, leading=11.5)
+SMALL = ParagraphStyle("small", parent=BODY, fontSize=7.5, leading=9.5)
+HEAD = ParagraphStyle(
+    "head",
+    parent=STYLES["Heading2"],
+    fontName=FONT_BOLD,
+    fontSize=11.5,
+    spaceBefore=8,
+    spaceAfter=3,
+)
+TITLE = ParagraphStyle(
+    "title", parent=STYLES["Title"], fontName=FONT_BOLD, fontSize=17, alignment=TA_CENTER
+)
+VERDICT = ParagraphStyle(
+    "verdict",
+    parent=STYLES["Title"],
+    fontName=FONT_BOLD,
+    fontSize=20,
+    leading=24,
+    alignment=TA_CENTER,
+)
+
+
+def _fit(words: str, font: str, size: float, width: float) -> str:
+    """`words` shortened with '…' to fit `width` points in `font` at `size`."""
+    if pdfmetrics.stringWidth(words, font, size) <= width:
+        return words
+    while words and pdfmetrics.stringWidth(words + "…", font, size) > width:
+        words = words[:-1]
+    return words.rstrip() + "…"
+
+
+def _numbered_canvas(number: str, laboratory: str):
+    """A canvas class that writes the header and 'page x of y' once all pages are known."""
+
+    class NumberedCanvas(pdf_canvas.Canvas):
+        def __init__(self, *args: Any, **kwargs: Any):
+            kwargs["invariant"] = True
+            kwargs["initialFontName"] = FONT  # else each page's preamble names Helvetica
+            super().__init__(*args, **kwargs)
+            self._pages: list[dict[str, Any]] = []
+
+        def showPage(self) -> None:
+            self._pages.append(dict(self.__dict__))
+            self._startPage()
+
+        def save(self) -> None:
+            total = len(self._pages)
+            for page in self._pages:
+                self.__dict__.update(page)
+                self._furniture(total)
+                super().showPage()
+            super().save()
+
+        def _furniture(self, total: int) -> None:
+            width, height = A4
+            right = f"Calibration certificate {number}"
+            room = (
+                width
+                - 36 * mm
+                - pdfmetrics.stringWidth(right, FONT, 8.5)
+                - 6 * mm  # a gap between the two
+            )
+            self.setFont(FONT_BOLD, 8.5)
+            self.drawString(18 * mm, height - 12 * mm, _fit(laboratory, FONT_BOLD, 8.5, room))
+            self.setFont(FONT, 8.5)
+            self.drawRightString(width - 18 * mm, height - 12 * mm, right)
+            self.setStrokeColor(GRID)
+            self.line(18 * mm, height - 14 * mm, width - 18 * mm, height - 14 * mm)
+            self.line(18 * mm, 16 * mm, width - 18 * mm, 16 * mm)
+            self.setFont(FONT, 7.5)
+            self.drawString(
+                18 * mm,
+                11.5 * mm,
+                text.FOOTER,
+            )
+            self.drawRightString(
+                width - 18 * mm,
+                7.5 * mm,
+                f"Certificate {number}   page {self._pageNumber} of {total}",
+            )
+
+    return NumberedCanvas
+
+
+def _table(
+    rows: list[list[Any]], widths: list[float], header: bool = True, size: float = 8
+) -> Table:
+    table = Table(rows, colWidths=widths, repeatRows=1 if header else 0, hAlign="LEFT")
+    style = [
+        ("FONTNAME", (0, 0), (-1, -1), FONT),
+        ("FONTSIZE", (0, 0), (-1, -1), size),
+        ("LEADING", (0, 0), (-1, -1), size + 2),
+        ("VALIGN", (0, 0), (-1, -1), "TOP"),
+        ("LINEBELOW", (0, 0), (-1, 0 if header else -1), 0.5, colors.black if header else GRID),
+        ("BOTTOMPADDING", (0, 0), (-1, -1), 1.5),
+        ("TOPPADDING", (0, 0), (-1, -1), 1.5),
+    ]
+    if header:
+        style += [
+            ("FONTNAME", (0, 0), (-1, 0), FONT_BOLD),
+            ("ALIGN", (1, 1), (-1, -1), "RIGHT"),
+        ]
+    table.setStyle(TableStyle(style))
+    return table
+
+
+def _kv(rows: list[tuple[str, str]]) -> Table:
+    data = [[Paragraph(f"<b>{k}</b>", BODY), Paragraph(v, BODY)] for k, v in rows]
+    table = Table(data, colWidths=[48 * mm, 126 * mm], hAlign="LEFT")
+    table.setStyle(
+        TableStyle(
+            [
+                ("FONTNAME", (0, 0), (-1, -1), FONT),
+                ("VALIGN", (0, 0), (-1, -1), "TOP"),
+                ("BOTTOMPADDING", (0, 0), (-1, -1), 1),
+                ("TOPPADDING", (0, 0), (-1, -1), 1),
+            ]
+        )
+    )
+    return table
+
+
+def _dof(value: float) -> str:
+    return "∞" if not math.isfinite(value) or value > 1e4 else f"{value:.0f}"
+
+
+def _esc(words: Any) -> str:
+    return str(words).replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
+
+
+def write_pdf(
+    run: StoredRun,
+    info: CertificateInfo,
+    sweep: SweepSummary | None,
+    out: Path,
+    dcc_xml: bytes | None = None,
+    signer: Any = None,
+) -> None:
+    """Draw the certificate PDF of `run` with `info` (numbered) to `out`, read-only, with the
+    DCC XML attached when given, signed last with `signer` (app.certificate.sign.Signer) when
+    given."""
+    record, results = run.record, run.results
+    stand = record.stand
+    lab = dict(stand.laboratory)
+    reference = dict(stand.reference)
+    plan = dict(record.plan)
+    number = str(info.certificate_number)  # numbered before the PDF is made (_numbered)
+    story: list[Any] = []
+    r = results.reference
+    value, u_value = fmt.round_gum(r.sensitivity_mv_per_ms2, r.expanded_uncertainty_mv_per_ms2)
+    phase, u_phase = fmt.round_gum(r.phase_deg, r.phase_expanded_uncertainty_deg)
+    p_percent = f"{100 * results.coverage_probability:.2f} %"
+
+    story += [
+        Paragraph("CALIBRATION CERTIFICATE", TITLE),
+        Paragraph(
+            f"<b>{_esc(lab.get('name', ''))}</b><br/>{_esc(lab.get('address', ''))}"
+            + (f"<br/>{_esc(lab['accreditation'])}" if lab.get("accreditation") else ""),
+            ParagraphStyle("lab", parent=BODY, alignment=TA_CENTER),
+        ),
+        Spacer(1, 4 * mm),
+        _kv(
+            [
+                ("Certificate number", _esc(number)),
+                (
+                    "Customer",
+                    _esc(info.customer)
+                    + (f", {_esc(info.customer_address)}" if info.customer_address else ""),
+                ),
+                ("Item calibrated", f"{_esc(info.dut_type)}: {_esc(info.dut_model)}"),
+                ("Serial number", _esc(info.dut_serial)),
+                ("Date of calibration", _esc(record.started_utc[:10])),
+                ("Date of issue", _esc(info.issue_date)),
+                ("Calibration run", _esc(record.run_id)),
+                *[("Run seal", seal) for seal in [named_seal(run.path)] if seal],
+            ]
+        ),
+        Paragraph("Method", HEAD),
+        Paragraph(text.method_text(record, results, plan), BODY),
+        Paragraph("Conditions", HEAD),
+        _kv(
+            [
+                ("Ambient temperature", f"{float(info.temperature_c or 0.0):.1f} °C"),
+                ("Mounting", _esc(info.mounting)),
+                ("Excitation level", f"{record.level_ms2 or 0:g} m/s² peak per frequency"),
+            ]
+        ),
+        Paragraph("Reference standard and traceability", HEAD),
+        _kv(
+            [
+                (
+                    "Reference standard",
+                    f"{_esc(reference.get('model', ''))}, "
+                    f"serial {_esc(reference.get('serial', ''))} "
+                    f"(id {_esc(reference.get('id', ''))})",
+                ),
+                (
+                    "Its calibration",
+                    f"certificate {_esc(reference.get('certificate_number', ''))} of "
+                    f"{_esc(reference.get('certificate_date', ''))}, traceable to national "
+                    "standards",
+                ),
+            ]
+        ),
+        Paragraph("Result at the reference frequency", HEAD),
+        _kv(
+            [
+                ("Reference frequency", f"{r.frequency_hz:g} Hz"),
+                (
+                    "Sensitivity",
+                    f"<b>({value} ± {u_value}) mV/(m/s²)</b>, i.e. "
+                    f"{r.sensitivity_db:.2f} dB re 1 mV/(m/s²)",
+                ),
+                (
+                    "Phase",
+                    f"({phase} ± {u_phase})°"
+                    if results.phase_corrected_for_skew
+                    else text.PHASE_NOT_STATED,
+                ),
+                ("Coverage", f"k = {r.coverage_factor:.2f}, coverage probability {p_percent}"),
+            ]
+        ),
+    ]
+    story += _verdict_section(results)
+    story += _line_table(results)
+    story += _charts(results)
+    if sweep is not None:
+        story += _sweep_section(sweep)
+    story += _budget_section(run, results)
+    story += _statements(results, info, p_percent)
+    story += _sign_off(info, record)
+    document = SimpleDocTemplate(
+        str(out),
+        pagesize=A4,
+        leftMargin=18 * mm,
+        rightMargin=18 * mm,
+        topMargin=20 * mm,
+        bottomMargin=22 * mm,
+        title=f"Calibration certificate {number}",
+        author=lab.get("name", ""),
+        subject=f"{info.dut_model} serial {info.dut_serial}",
+        creator=f"accelcal {record.software_version}",
+    )
+    document.build(story, canvasmaker=_numbered_canvas(number, lab.get("name", "")))
+    if dcc_xml is not None:
+        embed(out, "certificate.xml", dcc_xml)
+    if signer is not None:
+        signer.sign_in_place(out, reason=f"Calibration certificate {number}")
+    out.chmod(0o444)
+
+
+def _verdict_section(results: Results) -> list[Any]:
+    """The overall verdict, large and plain, with its reasons (app.procedure.verdict)."""
+    if results.verdict is None:
+        return []
+    reasons = "<br/>".join(f"• {_esc(reason)}" for reason in results.verdict_reasons)
+    return [
+        Paragraph("Overall verdict", HEAD),
+        Paragraph(f"<b>{_esc(results.verdict)}</b>", VERDICT),
+        Paragraph(text.VERDICT_RULE_NOTE, SMALL),
+        Paragraph(reasons, SMALL),
+    ]
+
+
+def _line_table(results: Results) -> list[Any]:
+    header = [
+        "Nominal\nfrequency\nHz",
+        "Actual\nfrequency\nHz",
+        "Sensitivity\nmV/(m/s²)",
+        "U\nmV/(m/s²)",
+        "Deviation\n%",
+        "Deviation\ndB",
+        "Phase\n°",
+        "U phase\n°",
+        "U rel.\n%",
+        "k",
+        "ISO\n16063-21",
+    ]
+    rows = [header]
+    stated = results.phase_corrected_for_skew
+    for line in printed_lines(results):  # the strings the DCC and verify use too
+        rows.append(
+            [
+                f"{line.nominal_frequency_hz:g}",
+                line.frequency,
+                line.sensitivity,
+                line.expanded,
+                line.deviation,
+                line.deviation_in_db,
+                line.phase if stated else NOT_STATED_SHORT,
+                line.phase_expanded if stated else NOT_STATED_SHORT,
+                line.relative_expanded,
+                line.k,
+                line.iso_verdict,
+            ]
+        )
+    widths = [w * mm for w in (15, 15, 19, 16, 16, 16, 15, 14, 13, 11, 16)]
+    table = _table(rows, widths, size=7.3)
+    note = Paragraph(text.line_table_note(results.phase_corrected_for_skew), SMALL)
+    return [Paragraph("Results per frequency", HEAD), table, Spacer(1, 1.5 * mm), note]
+
+
+def _charts(results: Results) -> list[Any]:
+    """The amplitude (deviation, %) and phase (degree) characteristics with their U bands
+    (dsp.characteristic: the same numbers the GUI draws)."""
+    c = characteristic(results)
+    f = c.frequency_hz.tolist()
+    amplitude = chart(
+        f, c.deviation_percent.tolist(), c.deviation_expanded_percent.tolist(), "deviation in %"
+    )
+    if not results.phase_corrected_for_skew:  # no phase characteristic without the skew
+        return [
+            KeepTogether(
+                [
+                    Paragraph("Amplitude-frequency characteristic", HEAD),
+                    amplitude,
+                    Paragraph(f"Phase-frequency characteristic: {text.PHASE_NOT_STATED}.", BODY),
+                    Paragraph(text.CHARTS_NOTE, SMALL),
+                ]
+            )
+        ]
+    return [
+        KeepTogether(
+            [
+                Paragraph("Amplitude-frequency characteristic", HEAD),
+                amplitude,
+                Paragraph("Phase-frequency characteristic", HEAD),
+                chart(f, c.phase_deg.tolist(), c.phase_expanded_deg.tolist(), "phase in degrees"),
+                Paragraph(text.CHARTS_NOTE, SMALL),
+            ]
+        )
+    ]
+
+
+def _sweep_section(sweep: SweepSummary) -> list[Any]:
+    """Sensitivity against frequency and level (mV/(m/s^2)) and linearity per frequency."""
+    t = sweep.table
+    if t is None:  # load_sweep admits complete sweeps only
+        return []
+    levels = sweep.levels_ms2
+    header = ["Frequency\nHz", *(f"{lv:g} m/s²" for lv in levels), "Linearity\n%"]
+    rows = [header]
+    for k, f in enumerate(t.frequencies_hz):
+        rows.append(
+            [
+                f"{f:g}",
+                *(f"{row[k]:.4g}" for row in t.sensitivity_mv_per_ms2),
+                fmt.significant(t.linearity_percent[k]),
+            ]
+        )
+    width = 150 / (len(levels) + 2)
+    return [
+        Paragraph("Sensitivity against excitation level (mV/(m/s²))", HEAD),
+        _table(rows, [width * mm] * (len(levels) + 2), size=7.3),
+        Spacer(1, 1.5 * mm),
+        Paragraph(
+            f"Linearity: largest deviation of the sensitivity at any level from its mean over "
+            f"the levels: {fmt.significant(t.reference_linearity_percent)} % at "
+            f"{t.reference_frequency_hz:g} Hz, at most "
+            f"{fmt.significant(t.worst_linearity_percent)} % (at "
+            f"{t.worst_linearity_frequency_hz:g} Hz). Levels are peak accelerations per "
+            f"frequency; runs {', '.join(sweep.run_ids)}.",
+            SMALL,
+        ),
+    ]
+
+
+def _budget_section(run: StoredRun, results: Results) -> list[Any]:
+    r = results.reference
+    line = next(ln for ln in results.lines if ln.nominal_frequency_hz == r.frequency_hz)
+    rows = [["Component", "Value", "Distribution", "Standard\nuncertainty", "Degrees of\nfreedom"]]
+    rows.append(
+        [
+            "Repeatability (type A, this calibration)",
+            "",
+            "normal (t)",
+            f"{100 * line.relative_type_a:.3g} %",
+            f"{2 * (results.periods - 1)}",
+        ]
+    )
+    for c in run.budget.at(line.frequency_hz, Quantity.MAGNITUDE):
+        rows.append(
+            [
+                Paragraph(_esc(c.name), SMALL),
+                f"{100 * c.value:.3g} %",
+                str(c.distribution),
+                f"{100 * c.standard_uncertainty:.3g} %",
+                _dof(c.dof),
+            ]
+        )
+    rows.append(
+        [
+            "Combined standard uncertainty",
+            "",
+            "",
+            f"{100 * line.relative_standard_uncertainty:.3g} %",
+            _dof(line.effective_dof),
+        ]
+    )
+    rows.append(
+        [
+            f"Expanded uncertainty (k = {line.coverage_factor:.2f})",
+            "",
+            "",
+            f"{fmt.significant(100 * line.relative_expanded_uncertainty)} %",
+            "",
+        ]
+    )
+    table = _table(rows, [w * mm for w in (78, 18, 24, 26, 22)], size=7.5)
+    return [
+        KeepTogether(
+            [
+                Paragraph(f"Uncertainty budget of the sensitivity at {r.frequency_hz:g} Hz", HEAD),
+                table,
+            ]
+        )
+    ]
+
+
+def _statements(results: Results, info: CertificateInfo, p_percent: str) -> list[Any]:
+    out = [
+        Paragraph("Uncertainty statement", HEAD),
+        Paragraph(text.uncertainty_statement(results.uncertainty_rule, p_percent), BODY),
+    ]
+    if results.tolerance_percent is not None:
+        verdicts = [ln.tolerance_verdict for ln in results.lines]
+        out += [
+            Paragraph("Statement of conformity", HEAD),
+            Paragraph(text.conformity_statement(results.tolerance_percent, verdicts), BODY),
+        ]
+    if info.notes:
+        out += [Paragraph("Notes", HEAD), Paragraph(_esc(info.notes), BODY)]
+    return out
+
+
+def _sign_off(info: CertificateInfo, record: RunRecord) -> list[Any]:
+    return [
+        Spacer(1, 6 * mm),
+        KeepTogether(
+            [
+                _kv(
+                    [
+                        (
+                            "Authorised by",
+                            f"{_esc(info.authorised_by)}<br/><br/>"
+                            "signature: ______________________",
+                        ),
+                        ("Date of issue", _esc(info.issue_date)),
+                        ("Software", f"accelcal {_esc(record.software_version)}"),
+                        (
+                            "Raw data SHA-256",
+                            f"<font size=7>{_esc(record.raw_data_sha256 or '')}</font>",
+                        ),
+                    ]
+                ),
+                Spacer(1, 2 * mm),
+                Paragraph(text.RELATE_ONLY, BODY),
+            ]
+        ),
+    ]
+
+
+def embed(pdf: Path, name: str, data: bytes) -> None:
+    """Attach `data` to the PDF as an associated file (PDF/A-3 style: /AF in the catalogue,
+    /AFRelationship /Data on the file specification), in place."""
+    from pypdf import PdfWriter
+    from pypdf.generic import ArrayObject, NameObject
+
+    writer = PdfWriter(clone_from=str(pdf))
+    writer.add_attachment(name, data)
+    names = writer.root_object["/Names"]["/EmbeddedFiles"]["/Names"]  # type: ignore[index]
+    spec = names[-1].get_object()
+    spec[NameObject("/AFRelationship")] = NameObject("/Data")
+    writer.root_object[NameObject("/AF")] = ArrayObject([names[-1]])
+    with pdf.open("wb") as handle:
+        writer.write(handle)

@@ -1,0 +1,104 @@
+"""The start document of a run: config.json in its folder, written before anything moves.
+
+The one reader and writer of config.json: the stand configuration as used (its TOML as a
+table) and where it came from, the plan, the run settings and the run identity. Written with
+the layout of earlier versions (json indent 2, these keys in this order), so the file's bytes do
+not change and old run folders (one without config.json, or with fewer keys) still load.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from app.errors import Refusal
+
+CONFIG_NAME = "config.json"
+_KEYS = ("stand", "stand_source", "plan", "settings", "identity")
+
+
+class RunStartError(Refusal):
+    """A config.json that cannot be read; the message names the file and why."""
+
+
+def _table(value: Any) -> dict[str, Any]:
+    return dict(value) if isinstance(value, dict) else {}
+
+
+@dataclass(frozen=True)
+class RunStart:
+    """What a run started with. `stand` is None when the folder stored none (the run record's
+    stand is then the one to use); `extra` keeps keys this version does not know (written back
+    after the known ones)."""
+
+    stand: dict[str, Any] | None = None
+    stand_source: str | None = None
+    plan: dict[str, Any] = field(default_factory=dict)
+    settings: dict[str, Any] = field(default_factory=dict)
+    identity: dict[str, Any] = field(default_factory=dict)
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def laboratory(self) -> dict[str, Any]:
+        """The stand file's [laboratory] table (name, address, country, accreditation)."""
+        return _table((self.stand or {}).get("laboratory"))
+
+    @property
+    def reference(self) -> dict[str, Any]:
+        """The stand file's [reference] table (id, model, serial, certificate_number, ...)."""
+        return _table((self.stand or {}).get("reference"))
+
+    def certificate_defaults(self) -> dict[str, Any]:
+        """The stand file's [certificate] table: defaults of the certificate's items."""
+        return _table((self.stand or {}).get("certificate"))
+
+    def to_dict(self) -> dict[str, Any]:
+        data: dict[str, Any] = dict(
+            stand=self.stand,
+            stand_source=self.stand_source,
+            plan=self.plan,
+            settings=self.settings,
+            identity=self.identity,
+        )
+        data.update(self.extra)
+        return data
+
+    def to_json(self) -> str:
+        """config.json's text (byte-identical to what earlier versions wrote)."""
+        return json.dumps(self.to_dict(), indent=2, default=str)
+
+    @classmethod
+    def from_json(cls, text: str, name: str = CONFIG_NAME) -> RunStart:
+        """A RunStart from config.json's text; RunStartError names `name` and the fault."""
+        try:
+            data = json.loads(text)
+        except ValueError as exc:
+            raise RunStartError(f"{name}: not JSON ({exc})") from None
+        if not isinstance(data, dict):
+            raise RunStartError(f"{name}: not a JSON object")
+        stand = data.get("stand")
+        if stand is not None and not isinstance(stand, dict):
+            raise RunStartError(f"{name}: stand: not a table")
+        source = data.get("stand_source")
+        return cls(
+            stand=stand,
+            stand_source=None if source is None else str(source),
+            plan=_table(data.get("plan")),
+            settings=_table(data.get("settings")),
+            identity=_table(data.get("identity")),
+            extra={k: v for k, v in data.items() if k not in _KEYS},
+        )
+
+    @classmethod
+    def read(cls, folder: Path) -> RunStart:
+        """The RunStart of a run folder (an empty one when it has no config.json)."""
+        path = folder / CONFIG_NAME
+        try:
+            text = path.read_text(encoding="utf-8")
+        except FileNotFoundError:
+            return cls()
+        except OSError as exc:
+            raise RunStartError(f"{path}: cannot be read ({exc.strerror or exc})") from None
+        return cls.from_json(text, str(path))
