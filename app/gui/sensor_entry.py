@@ -82,27 +82,27 @@ class SerialEntry(QObject):
 
     sensor_changed = Signal(object)
 
-    def __init__(self, window: Any, link: Any, marks: FieldMarks) -> None:
-        super().__init__(window)
-        self.window, self.link, self.marks = window, link, marks
+    def __init__(self, setup: Any, link: Any, marks: FieldMarks) -> None:
+        super().__init__(setup)
+        self.setup, self.link, self.marks = setup, link, marks
         self.sensor: Any = None
         self._looked_up: str | None = None
         self._busy = False
-        window.dut_id.editingFinished.connect(self.look_up)
-        window.dut_id.textEdited.connect(self._edited)
+        setup.dut_id.editingFinished.connect(self.look_up)
+        setup.dut_id.textEdited.connect(self._edited)
 
     def _edited(self, _text: str) -> None:
         """Typing again forgets the last look-up (the fields it filled stay until next sensor)."""
         had = self.sensor is not None
         self._looked_up = None
         self.sensor = None
-        self.marks.note(self.window.dut_id, None)
+        self.marks.note(self.setup.dut_id, None)
         if had:
             self.sensor_changed.emit(None)
 
     def reset(self) -> None:
         self._looked_up, self.sensor = None, None
-        self.marks.note(self.window.dut_id, None)
+        self.marks.note(self.setup.dut_id, None)
         self.sensor_changed.emit(None)
 
     def take(self, sensor: Any, how: str) -> None:
@@ -112,7 +112,7 @@ class SerialEntry(QObject):
 
     def look_up(self) -> Any:
         """The sensor on record for the serial typed (None: unknown or no records)."""
-        serial = self.window.dut_id.text().strip()
+        serial = self.setup.dut_id.text().strip()
         if self._busy or serial == self._looked_up:
             return self.sensor
         had = self.sensor is not None
@@ -120,11 +120,11 @@ class SerialEntry(QObject):
         if had:
             self.sensor_changed.emit(None)
         if not serial:
-            self.marks.note(self.window.dut_id, None)
+            self.marks.note(self.setup.dut_id, None)
             return None
         if self.link.lab is None:
             self.marks.note(
-                self.window.dut_id,
+                self.setup.dut_id,
                 f"not checked: {self.link.describe()}; the run is stored under this serial",
                 WARNING,
             )
@@ -134,7 +134,7 @@ class SerialEntry(QObject):
             sensor = self.link.sensor(serial)
             if sensor is None:
                 self.marks.note(
-                    self.window.dut_id,
+                    self.setup.dut_id,
                     f"{serial} is not in the records: nothing filled in; register it, or the run "
                     "is stored under this serial only",
                     WARNING,
@@ -142,7 +142,7 @@ class SerialEntry(QObject):
                 if self.offer_registration(serial):
                     sensor = self.link.sensor(serial)
         except RecordsInputError as exc:
-            self.marks.note(self.window.dut_id, f"records: {exc}", WARNING)
+            self.marks.note(self.setup.dut_id, f"records: {exc}", WARNING)
             sensor = None
         finally:
             self._busy = False
@@ -154,7 +154,7 @@ class SerialEntry(QObject):
         """Ask; register through the records when accepted. Whether the sensor now exists."""
         lab = self.link.lab
         answer = QMessageBox.question(
-            self.window,
+            self.setup,
             "Unknown sensor",
             f"{serial} is not in the records.\n\nRegister it now? Nothing is filled in from "
             "another sensor.",
@@ -164,19 +164,19 @@ class SerialEntry(QObject):
         models, owners = lab.models(), lab.customers()
         if not models or not owners:
             QMessageBox.information(
-                self.window,
+                self.setup,
                 "Register sensor",
                 "The records have no sensor model or no customer yet: add them first "
                 "(accelcal models add ..., accelcal customers add ...).",
             )
             return False
-        dialog = RegisterSensorDialog(self.window, serial, models, owners)
+        dialog = RegisterSensorDialog(self.setup, serial, models, owners)
         if dialog.exec() != QDialog.DialogCode.Accepted:
             return False
         try:
             lab.add_sensor(serial, **dialog.values())
         except RecordsInputError as exc:
-            QMessageBox.warning(self.window, "Sensor not registered", str(exc))
+            QMessageBox.warning(self.setup, "Sensor not registered", str(exc))
             return False
         return True
 
@@ -186,7 +186,7 @@ class SerialEntry(QObject):
 
         self.sensor = sensor
         model = sensor.model
-        w = self.window
+        w = self.setup
         w.nominal.setValue(to_mv_per_ms2(model.nominal_sensitivity, model.unit))
         w.tolerance.setValue(model.tolerance_percent)
         w.level.setValue(model.level_ms2)
