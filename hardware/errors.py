@@ -3,6 +3,11 @@
 from __future__ import annotations
 
 
+class InputRefused(ValueError):
+    """Bad input to a driver or codec (a TEDS file, an instrument's configuration), refused
+    before any device is touched; the application treats it as bad input (app.errors)."""
+
+
 class HardwareError(Exception):
     """Any failure of the DAQ or an amplifier."""
 

@@ -18,7 +18,7 @@ import tempfile
 import tomllib
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 # Only light modules at the top (numpy at most): `accelcal --help` and the parser stay quick
 # (bench/startup.py, tests/app/test_startup.py). Every command imports what it uses.
@@ -26,23 +26,23 @@ from app import formatting as fmt
 from app import lines
 from app.cli.options import Bounded
 from app.cli.options import numeric_option as _numeric
+from app.errors import REFUSALS
 from app.files import FileExistsRefusal, check_target, write_new
 from app.io.checks import MAX_TEXT_BYTES, InputFileError, check_input_file
 from app.procedure.modes import MODE_MULTISINE, MODES
 from app.records.db.cli import Handler
 from app.records.db.cli import add_commands as add_records_commands
 from app.records.db.errors import RecordsInputError
+from app.stand.simulated import CATALOGUE, FAULT_KINDS, catalogue_entries, parse_faults
 from dsp.estimators import DEFAULT_ESTIMATOR, ESTIMATORS
 from dsp.multisine import PRESETS, Plan, PlanError, make_plan
 from hardware.errors import HardwareError
-from sim.faults import FAULT_KINDS
-from sim.models import DUT_CATALOGUE, StandModel
 
 if TYPE_CHECKING:
     from app.procedure.run import RunRequest
+    from app.stand.simulated import Fault
     from dsp.calibration import ReferenceChain, Results
     from dsp.uncertainty import Budget
-    from sim.stand import Fault
 
 EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT, EXIT_ABORTED = 0, 1, 2, 3
 EXIT_BROKEN_PIPE = 128 + 13  # SIGPIPE: the reader of stdout went away (`| head`)
@@ -116,12 +116,12 @@ MAX_TIME_S = 24 * 3600.0  # --max-time: (0, 24 h]
 
 def _dut_name(text: str) -> str:
     """--dut: a DUT of the simulated stand's catalogue (argparse type)."""
-    if text in DUT_CATALOGUE:
+    if text in CATALOGUE:
         return text
-    close = difflib.get_close_matches(text, list(DUT_CATALOGUE), n=1)
+    close = difflib.get_close_matches(text, list(CATALOGUE), n=1)
     hint = f"; did you mean {close[0]!r}?" if close else ""
     raise argparse.ArgumentTypeError(
-        f"{text!r} is not in the DUT catalogue ({', '.join(DUT_CATALOGUE)}){hint}"
+        f"{text!r} is not in the DUT catalogue ({', '.join(CATALOGUE)}){hint}"
     )
 
 
@@ -420,7 +420,13 @@ def _run_command(args: argparse.Namespace) -> int:
         raise
     # the lazily imported modules' error classes are looked up when an error is matched (the
     # command has imported them by then), so this tuple is built in the except clause
-    except (UsageError, PlanError, RecordsInputError, *_loaded(_BAD_INPUT_ERRORS)) as exc:  # type: ignore[misc]
+    except (
+        UsageError,
+        PlanError,
+        RecordsInputError,
+        *REFUSALS,
+        *_loaded(_BAD_INPUT_ERRORS),
+    ) as exc:  # type: ignore[misc]
         print(f"accelcal {args.command}: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except HardwareError as exc:
@@ -854,42 +860,14 @@ def parse_seconds(text: str, option: str) -> float:
 
 def _faults(texts: list[str]) -> tuple[Fault, ...]:
     """--fault KIND@SECONDS options as faults of the simulated stand."""
-    from sim.stand import Fault
-
     try:
-        return tuple(Fault.parse(text) for text in texts)
+        return parse_faults(texts)
     except ValueError as exc:
         raise UsageError(str(exc)) from None
 
 
-def _dut_from_teds(args: argparse.Namespace, use_records: bool, notes: list[str]) -> str | None:
-    """run --teds: the DUT's TEDS read on the stand; the records' sensor of that identity
-    (its serial, for --sensor), else the TEDS serial and nominal sensitivity."""
-    from app.stand import teds as teds_io
-    from hardware.teds import TedsError, decode
-
-    try:
-        teds = decode(teds_io.open_port(args.stand, args.dut, args.seed).read())
-    except TedsError as exc:
-        raise UsageError(f"--teds: {exc}") from None
-    identity = teds.basic.identity
-    notes.append(f"TEDS identity {identity}")
-    if use_records:
-        from app.records.db.engine import open_engine
-        from app.records.db.lab import Lab
-
-        sensor = Lab(open_engine(args.db)).sensor_by_teds(identity)
-        if args.sensor and args.sensor != sensor.serial:
-            raise UsageError(f"--sensor: {args.sensor!r} is not the TEDS sensor {sensor.serial!r}")
-        return sensor.serial
-    args.dut_id = args.dut_id or f"TEDS-{identity.replace('/', '-')}"
-    if teds.accelerometer is not None and args.nominal_sensitivity is None:
-        args.nominal_sensitivity = teds.accelerometer.sensitivity_mv_per_ms2
-    return args.sensor
-
-
 def cmd_run(args: argparse.Namespace) -> int:
-    from app.procedure.run import RunRequest, execute
+    from app.procedure.run import DutChoice, build_request, execute
     from dsp.spectral import check_periods
 
     if args.sim and args.stand:
@@ -904,60 +882,36 @@ def cmd_run(args: argparse.Namespace) -> int:
     max_time = parse_seconds(args.max_time, "--max-time") if args.max_time else None
     _writable_folder(args.out, "--out")
     use_records = bool(args.sensor or args.db or os.environ.get("ACCELCAL_DB"))
-    notes: list[str] = []
-    if args.teds:
-        args.sensor = _dut_from_teds(args, use_records, notes)
-    if args.sensor:
-        from app.records.db.runs import sensor_defaults
-
-        sensor = sensor_defaults(args.sensor, args.db)
-        if args.dut_id is not None and args.dut_id != sensor.serial:
-            raise UsageError(f"--dut-id: {args.dut_id!r} differs from --sensor {sensor.serial!r}")
-        args.dut_id = sensor.serial
-        args.nominal_sensitivity = args.nominal_sensitivity or sensor.nominal_mv_per_ms2
-        args.tolerance = args.tolerance if args.tolerance is not None else sensor.tolerance_percent
-        args.level = args.level if args.level is not None else sensor.level_ms2
-        args.preset = args.preset or (sensor.preset if sensor.preset in PRESETS else None)
-        notes.append(f"sensor {sensor.serial}: {sensor.description}")
-    if use_records:
-        from datetime import UTC, datetime
-
-        from app.records.db.runs import check_reference_due
-        from app.stand import config as stand_config
-
-        reference_id = stand_config.load(args.stand).reference.id
-        note = check_reference_due(
-            reference_id,
-            args.db,
-            today=datetime.now(UTC).date(),
-            override_reason=args.reference_override,
-        )
-        if note:
-            notes.append(note)
-    if args.level is None:
-        args.level = 5.0
-    for note in notes:
-        print(note, file=sys.stderr)
-    request = RunRequest(
+    choice = DutChoice(
         stand_file=args.stand,
         dut=args.dut,
         dut_id=args.dut_id,
-        preset=args.preset,
+        sensor=args.sensor,
+        db=args.db,
+        records=use_records,
+        teds=args.teds,
+        seed=args.seed,
+        nominal_mv_per_ms2=args.nominal_sensitivity,
+        tolerance_percent=args.tolerance,
         level_ms2=args.level,
+        preset=args.preset,
+        dut_mass_g=args.dut_mass,
+        reference_override=args.reference_override,
+    )
+    request, notes = build_request(
+        choice,
         periods=args.periods,
         target_type_a=target,
         max_acquisition_s=max_time,
         estimator=args.estimator,
         mode=args.mode,
-        tolerance_percent=args.tolerance,
-        nominal_mv_per_ms2=args.nominal_sensitivity,
-        seed=args.seed,
         paced=args.paced,
         faults=faults,
         out=args.out,
-        dut_mass_g=args.dut_mass,
         stored_response=not args.fresh_response,
     )
+    for note in notes:
+        print(note, file=sys.stderr)
     progress = None if args.json else TerminalProgress()
     if levels is not None:
         return run_levels(request, levels, args, progress)
@@ -1239,29 +1193,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
 def print_catalogue(as_json: bool) -> int:
     """The simulated stand's exciter, reference and DUTs."""
-    stand = StandModel()
-    entries: dict[str, Any] = {
-        "exciter": {
-            "name": stand.exciter.name,
-            "suspension_resonance_hz": stand.exciter.suspension_hz,
-            "axial_resonance_hz": stand.exciter.axial_resonance_hz,
-            "stroke_peak_to_peak_mm": 1e3 * stand.exciter.stroke_peak_to_peak_m,
-            "midband_ms2_per_v": stand.exciter.midband_ms2_per_v,
-        },
-        "reference": {
-            "description": stand.reference.description,
-            "sensitivity_mv_per_ms2": stand.reference.sensitivity_mv_per_ms2,
-            "conditioning_gain": stand.reference_gain,
-        },
-        "duts": {
-            name: {
-                "description": model.description,
-                "kind": model.kind,
-                "sensitivity_mv_per_ms2": 0.0 if model.dead else model.sensitivity_mv_per_ms2,
-            }
-            for name, model in DUT_CATALOGUE.items()
-        },
-    }
+    entries = catalogue_entries()
     if as_json:
         print(json.dumps(entries, indent=2))
         return EXIT_OK
@@ -1271,7 +1203,7 @@ def print_catalogue(as_json: bool) -> int:
         f"axial resonance {ex['axial_resonance_hz']:g} Hz, stroke "
         f"{ex['stroke_peak_to_peak_mm']:g} mm p-p"
     )
-    print(f"reference: {stand.reference.description}")
+    print(f"reference: {entries['reference']['description']}")
     print("DUTs (--dut NAME):")
     for name, entry in entries["duts"].items():
         print(f"  {name:<11} {entry['description']}")

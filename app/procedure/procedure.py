@@ -34,13 +34,14 @@ from app.procedure.errors import (
 from app.procedure.events import Event, Finished, Listener, State
 from app.procedure.identification import Identification
 from app.procedure.preflight import check_preflight
+from app.procedure.request import RunIdentity
 from app.procedure.settings import MODE_STEPPED_SINE, RunSettings
 from app.procedure.stand_io import StandIO
 from app.procedure.stand_memory import StandMemory
 from app.procedure.stepped import SteppedSine
 from app.procedure.verdict import Tolerances, tolerances_for, with_verdict
 from app.records.run_folder import STATUS_ABORTED, STATUS_COMPLETE, RunFolder
-from app.records.run_record import DutIdentity, RunRecord, StandInfo
+from app.records.run_record import RunRecord, StandInfo
 from app.stand.open import Stand
 from app.stand.response import ResponseStore
 from dsp.calibration import AnalysisError
@@ -72,15 +73,17 @@ class Procedure:
         folder: RunFolder | None = None,
         listener: Listener | None = None,
         *,
-        identity: dict[str, Any] | None = None,
+        identity: RunIdentity | None = None,
         response_store: ResponseStore | None = None,
+        tolerances: Tolerances | None = None,
     ):
         self.stand = stand
         self.plan = plan
         self.settings = settings
         self.folder = folder
         self.listener = listener
-        self.identity = identity or {}
+        self.identity = identity or RunIdentity()
+        self.tolerances = tolerances  # None: the catalogue DUT's the identity names, if any
         self.io = StandIO(stand, plan, settings, self._emit, self._log, self._announce)
         self.notes = RunNotes(budget=stand.budget)
         self.ctx = RunContext(stand, plan, settings, self.io, self.notes, self._emit, self._log)
@@ -223,7 +226,7 @@ class Procedure:
                     "stand_source": self.stand.config.source,
                     "plan": self.plan.to_dict(),
                     "settings": self.settings.__dict__,
-                    "identity": self.identity,
+                    "identity": self.identity.to_dict(),
                 },
             )
             if self.stand.config.text:
@@ -287,7 +290,9 @@ class Procedure:
                 sensitivity_mv_per_ms2=1.0,
                 gain=ref.gain,
             )
-            self.identity["measuring_amplifier"] = {**settings.__dict__}
+            self.identity = dataclasses.replace(
+                self.identity, measuring_amplifier={**settings.__dict__}
+            )
             if not math.isclose(settings.gain, self.stand.chain.reference_gain, rel_tol=1e-6):
                 raise ProcedureError(
                     f"measuring amplifier reads back gain {settings.gain:g}, the chain assumes "
@@ -321,26 +326,31 @@ class Procedure:
             )
         else:
             values = truth(plan.frequencies_hz, rms)
-        dut = self.identity.get("dut") or {}
+        dut = self.identity.dut
         writer.write_truth(
             Truth(
                 plan.frequencies_hz,
                 np.abs(values),
                 np.degrees(np.angle(values)),
                 {
-                    "dut": str(dut.get("catalogue") or ""),
+                    "dut": str((dut.catalogue if dut else None) or ""),
                     "description": self.stand.description,
-                    "level_ms2": float(self.identity.get("level_ms2") or 0.0),
+                    "level_ms2": float(self.identity.level_ms2 or 0.0),
                     "rms_ms2": rms,
                 },
             )
         )
 
     def _tolerances(self) -> Tolerances:
-        """The DUT model's tolerances (simulated catalogue DUT) and the run's --tolerance."""
-        dut = self.identity.get("dut") or {}
+        """The tolerances the request's DUT spec gave; else those of the simulated catalogue
+        DUT the identity names, with the run's --tolerance."""
+        if self.tolerances is not None:
+            return self.tolerances
+        dut = self.identity.dut
         return tolerances_for(
-            dut.get("catalogue"), self.plan.reference_frequency_hz, self.settings.tolerance_percent
+            dut.catalogue if dut else None,
+            self.plan.reference_frequency_hz,
+            self.settings.tolerance_percent,
         )
 
     def _record(
@@ -349,8 +359,7 @@ class Procedure:
         """The run record without results (RunFolder.finish adds them and the raw data's
         hash)."""
         budget = self.notes.budget or self.stand.budget
-        identity = dict(self.identity)
-        dut = identity.pop("dut", None)
+        identity = self.identity
         config = self.stand.config
         return RunRecord(
             run_id=self.folder.run_id if self.folder else None,
@@ -375,11 +384,11 @@ class Procedure:
                 _plain(config.laboratory),
                 _plain(config.reference),
             ),
-            dut=DutIdentity.from_dict(dut),
-            level_ms2=identity.pop("level_ms2", None),
-            measuring_amplifier=identity.pop("measuring_amplifier", None),
+            dut=identity.dut,
+            level_ms2=identity.level_ms2,
+            measuring_amplifier=identity.measuring_amplifier,
             stand_response=self.notes.stand_response,
-            extra=identity,
+            extra=dict(identity.extra),
         )
 
     # --- telling -----------------------------------------------------------------------------

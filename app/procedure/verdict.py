@@ -24,11 +24,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass
-from typing import Any
 
-import numpy as np
-
+from app.stand.dut import Band, Tolerances
 from dsp.calibration import LOW_COHERENCE, NOT_STATED, Results, uncertainty_stated
 
 PASS, FAIL, INDETERMINATE = "PASS", "FAIL", "INDETERMINATE"
@@ -36,57 +33,22 @@ VERDICTS = (PASS, FAIL, INDETERMINATE)
 RESONANCE_RISE = 0.25  # an interior peak more than +25 % (about 2 dB) above the reference
 CLEAN_SNR_DB = 40.0  # above this SNR on both channels, noise cannot explain a coherence drop
 MOUNTING_PREFIX = "mounting: "
-
-
-@dataclass(frozen=True)
-class Band:
-    """A tolerance over a frequency range (inclusive), in % (characteristic) or degrees (phase)."""
-
-    min_hz: float
-    max_hz: float
-    tolerance: float
-
-    def covers(self, frequency_hz: float) -> bool:
-        return self.min_hz <= frequency_hz <= self.max_hz
-
-
-@dataclass(frozen=True)
-class Tolerances:
-    """A DUT model's tolerances; a missing one is not checked (and named in the reasons)."""
-
-    nominal_sensitivity_mv_per_ms2: float | None = None
-    sensitivity_percent: float | None = None
-    characteristic: tuple[Band, ...] = ()
-    phase: tuple[Band, ...] = ()
-    source: str = ""
-
-    @property
-    def empty(self) -> bool:
-        sensitivity = (
-            self.nominal_sensitivity_mv_per_ms2 is not None and self.sensitivity_percent is not None
-        )
-        return not (sensitivity or self.characteristic or self.phase)
-
-    def to_dict(self) -> dict[str, Any]:
-        return dataclasses.asdict(self)
-
-
-# The simulated catalogue's data sheets: sensitivity +-5 % of the model's nominal value at the
-# reference frequency; characteristic and phase per band (capacitive: sensitivity only, its
-# 200 Hz low-pass is the sensor's own and not a tolerance).
-CATALOGUE_TOLERANCES: dict[str, dict[str, Any]] = {
-    "piezo": {
-        "sensitivity_percent": 5.0,
-        "characteristic": (Band(0.5, 5000.0, 5.0),),
-        "phase": (Band(5.0, 5000.0, 5.0),),
-    },
-    "loose": {  # the same sensor as "piezo", badly mounted
-        "sensitivity_percent": 5.0,
-        "characteristic": (Band(0.5, 5000.0, 5.0),),
-        "phase": (Band(5.0, 5000.0, 5.0),),
-    },
-    "capacitive": {"sensitivity_percent": 5.0},
-}
+__all__ = [
+    "CLEAN_SNR_DB",
+    "FAIL",
+    "INDETERMINATE",
+    "MOUNTING_PREFIX",
+    "PASS",
+    "RESONANCE_RISE",
+    "VERDICTS",
+    "Band",
+    "Tolerances",
+    "assess",
+    "decide",
+    "mounting_warnings",
+    "tolerances_for",
+    "with_verdict",
+]
 
 
 def tolerances_for(
@@ -95,23 +57,12 @@ def tolerances_for(
     tolerance_percent: float | None = None,
 ) -> Tolerances:
     """The tolerances of a simulated catalogue DUT (None: none known), with `tolerance_percent`
-    (the --tolerance option) replacing the characteristic's bands by one over every line."""
-    override = (Band(0.0, math.inf, float(tolerance_percent)),) if tolerance_percent else None
-    spec = CATALOGUE_TOLERANCES.get(catalogue or "")
-    if spec is None:
-        return Tolerances(characteristic=override or (), source="--tolerance" if override else "")
-    from sim.models import DUT_CATALOGUE
+    (the --tolerance option) replacing the characteristic's bands by one over every line (a
+    recording's truth names its DUT; a run carries its DutSpec instead)."""
+    from app.stand.simulated import catalogue_spec
 
-    model = dataclasses.replace(DUT_CATALOGUE[str(catalogue)], mount_resonance_hz=None)
-    nominal = float(abs(model.sensitivity(np.array([reference_frequency_hz]))[0]))
-    return Tolerances(
-        nominal_sensitivity_mv_per_ms2=nominal,
-        sensitivity_percent=spec.get("sensitivity_percent"),
-        characteristic=override or spec.get("characteristic", ()),
-        phase=spec.get("phase", ()),
-        source=f"data sheet of the simulated {catalogue!r} model"
-        + (" with --tolerance" if override else ""),
-    )
+    spec = catalogue_spec(catalogue).with_options(tolerance_percent=tolerance_percent or None)
+    return spec.tolerances(reference_frequency_hz)
 
 
 def decide(deviation: float, expanded: float, tolerance: float) -> str:

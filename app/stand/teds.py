@@ -45,9 +45,9 @@ def open_port(stand_file: Path | None, dut: str = "piezo", seed: int = 0) -> Ted
 
     config = stand_config.load(stand_file)
     if config.backend == "sim":
-        from sim.stand import SimulatedStand
+        from app.stand.simulated import open_simulated
 
-        return TedsPort(f"simulated stand, DUT {dut!r}", sim=SimulatedStand(dut, seed=seed))
+        return TedsPort(f"simulated stand, DUT {dut!r}", sim=open_simulated(dut, seed))
     channel = next(c for c in config.inputs if c.name == "dut")
     return TedsPort(f"{config.device} {channel.physical}", physical_channel=channel.physical)
 

@@ -29,6 +29,11 @@ class SensorDefaults:
     level_ms2: float
     preset: str
     charge_unit: bool
+    maker: str = ""
+    model: str = ""
+    frequency_min_hz: float = 0.0
+    frequency_max_hz: float = float("inf")
+    phase_tolerance_deg: float | None = None  # the phase's tolerance over the model's range
 
 
 def sensor_defaults(serial: str, url: str | None) -> SensorDefaults:
@@ -51,6 +56,11 @@ def sensor_defaults(serial: str, url: str | None) -> SensorDefaults:
         level_ms2=model.level_ms2,
         preset=model.preset,
         charge_unit=model.unit in CHARGE_UNITS,
+        maker=model.maker,
+        model=model.model,
+        frequency_min_hz=model.frequency_min_hz,
+        frequency_max_hz=model.frequency_max_hz,
+        phase_tolerance_deg=model.phase_tolerance_deg,
     )
 
 

@@ -1,0 +1,352 @@
+"""The run request and the one way the faces build it: the DUT resolved (records, TEDS, stand
+file or simulated catalogue) into a DutSpec, the operator's choices over its defaults, the
+run's identity as stored in config.json. The CLI and the GUI both call `build_request`.
+
+Units in the names: levels in m/s^2 peak per line, sensitivities in mV/(m/s^2), masses in g.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from app.errors import Refusal
+from app.procedure.errors import PreflightError
+from app.procedure.modes import MODE_MULTISINE
+from app.records.run_record import DutIdentity
+from app.stand.dut import DutSpec, Tolerances, spec_from_record, spec_from_stand, spec_from_teds
+from app.stand.response import ResponseStore
+from app.stand.simulated import CATALOGUE, catalogue_spec, plan_preset_for
+from dsp.estimators import DEFAULT_ESTIMATOR
+from dsp.multisine import PRESETS, Plan, make_plan, preset_plan
+
+if TYPE_CHECKING:
+    from app.procedure.settings import RunSettings
+    from app.stand.simulated import Fault
+
+DEFAULT_LEVEL_MS2 = 5.0
+
+__all__ = [
+    "DEFAULT_LEVEL_MS2",
+    "DutChoice",
+    "DutSpec",
+    "RequestError",
+    "RunIdentity",
+    "RunRequest",
+    "build_request",
+    "check_request",
+    "resolve_dut",
+]
+
+
+class RequestError(Refusal):
+    """The DUT or the run cannot be resolved as asked; the message names the option."""
+
+
+@dataclass(frozen=True)
+class RunIdentity:
+    """Who and what the run is about: the DUT as the run knew it, the level (m/s^2), the
+    measuring amplifier's read-back settings; stored as config.json's "identity"."""
+
+    dut: DutIdentity | None = None
+    level_ms2: float | None = None
+    measuring_amplifier: Mapping[str, Any] | None = None
+    extra: Mapping[str, Any] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON object config.json has always held (keys absent when not known)."""
+        out: dict[str, Any] = {}
+        if self.dut is not None:
+            out["dut"] = self.dut.to_dict()
+        if self.level_ms2 is not None:
+            out["level_ms2"] = self.level_ms2
+        if self.measuring_amplifier is not None:
+            out["measuring_amplifier"] = dict(self.measuring_amplifier)
+        out.update(self.extra)
+        return out
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any] | None) -> RunIdentity:
+        data = dict(data or {})
+        dut = DutIdentity.from_dict(data.pop("dut", None))
+        level = data.pop("level_ms2", None)
+        amplifier = data.pop("measuring_amplifier", None)
+        return cls(dut, None if level is None else float(level), amplifier, data)
+
+
+@dataclass(frozen=True)
+class RunRequest:
+    """What the operator asked for (units in the names); `dut_spec` is the DUT's specification
+    (None: the simulated catalogue DUT `dut` on the simulated stand, else an unknown DUT)."""
+
+    stand_file: Path | None = None
+    dut: str = "piezo"
+    dut_id: str | None = None
+    preset: str | None = None
+    frequencies_hz: tuple[float, ...] | None = None  # custom lines on the preset's fs/period
+    level_ms2: float = DEFAULT_LEVEL_MS2
+    periods: int = 8
+    target_type_a: float | None = None
+    max_acquisition_s: float | None = None
+    estimator: str = DEFAULT_ESTIMATOR
+    mode: str = MODE_MULTISINE
+    tolerance_percent: float | None = None
+    nominal_mv_per_ms2: float | None = None
+    seed: int = 0
+    paced: bool = False
+    faults: tuple[Fault, ...] = ()
+    out: Path = Path("runs")
+    dut_mass_g: float | None = None  # None: the DUT spec's, on the simulated stand its catalogue's
+    stored_response: bool = True  # start equalisation from the stand's stored response
+    response_store: Path | None = None  # where stored responses live (None: user data dir)
+    dut_spec: DutSpec | None = None
+
+    def spec(self, backend: str) -> DutSpec:
+        """The DUT's specification on a stand of `backend`, with what the request states
+        (serial, nominal, tolerance, mass) over it."""
+        base = self.dut_spec
+        if base is None:
+            base = catalogue_spec(self.dut) if backend == "sim" else DutSpec()
+        return base.with_options(
+            serial=self.dut_id,
+            nominal_mv_per_ms2=self.nominal_mv_per_ms2,
+            tolerance_percent=self.tolerance_percent,
+            mass_g=self.dut_mass_g,
+        )
+
+    def tolerances(self, backend: str, reference_frequency_hz: float) -> Tolerances:
+        """What the verdict checks, from the DUT's specification (see `spec`)."""
+        return self.spec(backend).tolerances(reference_frequency_hz)
+
+    def mass_g(self, backend: str) -> float | None:
+        """The DUT mass the run states (g): given, else the DUT spec's, else (simulated stand)
+        the catalogue DUT's; on real hardware without one, not stated."""
+        mass = self.spec(backend).mass_g
+        if mass is None and backend == "sim":
+            return catalogue_spec(self.dut).mass_g
+        return mass
+
+    def identity(self, backend: str) -> RunIdentity:
+        """The run's identity as config.json and the run record store it."""
+        return RunIdentity(
+            DutIdentity(
+                self.dut if backend == "sim" else None, self.dut_id, self.nominal_mv_per_ms2
+            ),
+            self.level_ms2,
+        )
+
+    def store(self) -> ResponseStore | None:
+        """The stored-response store the run reads and refreshes, or None (--fresh-response)."""
+        if not self.stored_response:
+            return None
+        if self.response_store is not None:
+            return ResponseStore(self.response_store)
+        return ResponseStore.default()
+
+    def plan(self) -> Plan:
+        """The plan: the preset asked for, else the DUT's, with any custom lines (Hz)."""
+        spec_preset = self.dut_spec.preset if self.dut_spec is not None else None
+        name = self.preset or spec_preset or plan_preset_for(self.dut)
+        if self.frequencies_hz is None:
+            return preset_plan(name, level_ms2=self.level_ms2)
+        preset = PRESETS[name]
+        return make_plan(
+            self.frequencies_hz,
+            preset.sample_rate_hz,
+            preset.period_samples,
+            self.level_ms2,
+            preset.reference_frequency_hz,
+        )
+
+    def settings(self, backend: str) -> RunSettings:
+        """How to run on a stand of `backend` ("sim" or "nidaqmx": it decides the DUT mass)."""
+        from app.procedure.settings import RunSettings
+
+        return RunSettings(
+            dut_mass_g=self.mass_g(backend),
+            periods=self.periods,
+            target_type_a=self.target_type_a,
+            max_acquisition_s=self.max_acquisition_s,
+            estimator=self.estimator,
+            mode=self.mode,
+            tolerance_percent=self.tolerance_percent,
+            dut_nominal_mv_per_ms2=self.nominal_mv_per_ms2,
+        )
+
+
+def check_request(request: RunRequest) -> None:
+    """Refuse (PreflightError, naming the field) what must never reach a stand: a DUT not in the
+    simulated stand's catalogue, a nominal DUT sensitivity that is not a finite positive
+    number, a level or period count out of range."""
+    if request.dut not in CATALOGUE:
+        raise PreflightError(
+            f"dut: {request.dut!r} is not in the DUT catalogue ({', '.join(CATALOGUE)})"
+        )
+    nominal = request.nominal_mv_per_ms2
+    if nominal is not None and not (math.isfinite(nominal) and nominal > 0):
+        raise PreflightError(f"nominal sensitivity: must be > 0 mV/(m/s^2), got {nominal:g}")
+    if not (math.isfinite(request.level_ms2) and request.level_ms2 > 0):
+        raise PreflightError(f"level: must be > 0 m/s^2, got {request.level_ms2:g}")
+    if request.periods < 2:
+        raise PreflightError(f"periods: at least 2, got {request.periods}")
+    mass = request.dut_mass_g
+    if mass is not None and not (math.isfinite(mass) and 0 <= mass <= 100_000):
+        raise PreflightError(f"DUT mass: must be between 0 and 100000 g, got {mass:g}")
+
+
+@dataclass(frozen=True)
+class DutChoice:
+    """How the operator named the DUT and its settings (None: not given). `dut` is the
+    simulated stand's catalogue DUT; `sensor` a serial in the records; `teds`: read the DUT's
+    TEDS; `records`: the records are in use (a sensor, a URL or $ACCELCAL_DB)."""
+
+    stand_file: Path | None = None
+    dut: str = "piezo"
+    dut_id: str | None = None
+    sensor: str | None = None
+    db: str | None = None
+    records: bool = False
+    teds: bool = False
+    seed: int = 0
+    nominal_mv_per_ms2: float | None = None
+    tolerance_percent: float | None = None
+    level_ms2: float | None = None
+    preset: str | None = None
+    dut_mass_g: float | None = None
+    reference_override: str | None = None
+
+
+@dataclass(frozen=True)
+class ResolvedDut:
+    """The DUT a choice names: its specification, the settings it leads to, notes to show."""
+
+    spec: DutSpec
+    dut_id: str | None
+    nominal_mv_per_ms2: float | None
+    tolerance_percent: float | None
+    level_ms2: float
+    preset: str | None
+    notes: tuple[str, ...] = ()
+
+
+def _from_teds(choice: DutChoice, notes: list[str]) -> tuple[DutSpec | None, str | None]:
+    """The DUT's TEDS read on the stand: with the records, the serial of the sensor of that
+    identity (for `sensor`); without, a spec from the TEDS itself."""
+    from app.stand import teds as teds_io
+    from hardware.teds import TedsError, decode
+
+    try:
+        teds = decode(teds_io.open_port(choice.stand_file, choice.dut, choice.seed).read())
+    except TedsError as exc:
+        raise RequestError(f"--teds: {exc}") from None
+    identity = teds.basic.identity
+    notes.append(f"TEDS identity {identity}")
+    if choice.records:
+        from app.records.db.engine import open_engine
+        from app.records.db.lab import Lab
+
+        sensor = Lab(open_engine(choice.db)).sensor_by_teds(identity)
+        if choice.sensor and choice.sensor != sensor.serial:
+            raise RequestError(
+                f"--sensor: {choice.sensor!r} is not the TEDS sensor {sensor.serial!r}"
+            )
+        return None, sensor.serial
+    nominal = teds.accelerometer.sensitivity_mv_per_ms2 if teds.accelerometer else None
+    return spec_from_teds(identity, nominal, choice.dut_id), choice.sensor
+
+
+def _from_records(serial: str, db: str | None) -> DutSpec:
+    """The sensor `serial`'s specification from the records (RecordsInputError naming
+    --sensor when unknown or not reachable)."""
+    from app.records.db.runs import sensor_defaults
+
+    sensor = sensor_defaults(serial, db)
+    return spec_from_record(
+        serial=sensor.serial,
+        manufacturer=sensor.maker,
+        model=sensor.model,
+        description=sensor.description,
+        nominal_mv_per_ms2=sensor.nominal_mv_per_ms2,
+        tolerance_percent=sensor.tolerance_percent,
+        frequency_min_hz=sensor.frequency_min_hz,
+        frequency_max_hz=sensor.frequency_max_hz,
+        phase_tolerance_deg=sensor.phase_tolerance_deg,
+        preset=sensor.preset if sensor.preset in PRESETS else None,
+        level_ms2=sensor.level_ms2,
+    )
+
+
+def resolve_dut(choice: DutChoice, backend: str, certificate: Mapping[str, Any]) -> ResolvedDut:
+    """The DUT `choice` names on a stand of `backend` whose stand file's [certificate] table is
+    `certificate`: from the records (a sensor, or the TEDS identity on record), else the TEDS,
+    else the simulated catalogue (simulated stand) or the stand file; what the operator gave
+    wins over what the source says (RequestError when the serials disagree)."""
+    notes: list[str] = []
+    spec: DutSpec | None = None
+    sensor_serial = choice.sensor
+    if choice.teds:
+        spec, sensor_serial = _from_teds(choice, notes)
+    known = spec is not None  # the DUT itself told (TEDS) or is on record
+    if sensor_serial:
+        known = True
+        spec = _from_records(sensor_serial, choice.db)
+        if choice.dut_id is not None and choice.dut_id != spec.serial:
+            raise RequestError(f"--dut-id: {choice.dut_id!r} differs from --sensor {spec.serial!r}")
+        notes.append(f"sensor {spec.serial}: {spec.description}")
+    if spec is None:
+        spec = catalogue_spec(choice.dut) if backend == "sim" else spec_from_stand(certificate)
+    nominal = choice.nominal_mv_per_ms2 or (spec.nominal_mv_per_ms2 if known else None)
+    tolerance = choice.tolerance_percent
+    if tolerance is None and known:
+        tolerance = spec.tolerance_percent
+    level = choice.level_ms2 if choice.level_ms2 is not None else spec.level_ms2
+    return ResolvedDut(
+        spec=spec,
+        dut_id=spec.serial if known else choice.dut_id,
+        nominal_mv_per_ms2=nominal,
+        tolerance_percent=tolerance,
+        level_ms2=DEFAULT_LEVEL_MS2 if level is None else level,
+        preset=choice.preset or (spec.preset if known else None),
+        notes=tuple(notes),
+    )
+
+
+def build_request(choice: DutChoice, **run: Any) -> tuple[RunRequest, tuple[str, ...]]:
+    """The run request of `choice` and the run's other settings `run` (RunRequest's fields:
+    periods, estimator, mode, out, faults...), and notes for the operator. Refuses (a Refusal)
+    a DUT that cannot be resolved, a reference standard past its due date without an
+    override; a stand file that cannot be read (ConfigError)."""
+    from app.stand import config as stand_config
+
+    config = stand_config.load(choice.stand_file)
+    resolved = resolve_dut(choice, config.backend, config.raw.get("certificate") or {})
+    notes = list(resolved.notes)
+    if choice.records:
+        from app.records.db.runs import check_reference_due
+
+        note = check_reference_due(
+            config.reference.id,
+            choice.db,
+            today=datetime.now(UTC).date(),
+            override_reason=choice.reference_override,
+        )
+        if note:
+            notes.append(note)
+    request = RunRequest(
+        stand_file=choice.stand_file,
+        dut=choice.dut,
+        dut_id=resolved.dut_id,
+        preset=resolved.preset,
+        level_ms2=resolved.level_ms2,
+        tolerance_percent=resolved.tolerance_percent,
+        nominal_mv_per_ms2=resolved.nominal_mv_per_ms2,
+        seed=choice.seed,
+        dut_mass_g=choice.dut_mass_g,
+        dut_spec=resolved.spec,
+        **run,
+    )
+    return request, tuple(notes)
