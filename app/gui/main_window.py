@@ -140,9 +140,15 @@ class MainWindow(QMainWindow):
             return
         self.settings.setValue("dut", setup.dut.currentText())
         self.settings.setValue("stand_file", str(setup.stand_file or ""))
-        request = setup.request()
+        try:
+            request, notes = setup.request_and_notes()  # as the CLI builds it
+        except ValueError as exc:  # a refusal naming the field (records, stand file)
+            QMessageBox.warning(self, "Cannot start", str(exc))
+            self.run_tab.messages.setText(html.escape(f"Cannot start: {exc}"))
+            return
         ranges: dict[str, float] = {c.name: c.range_v for c in setup.config.inputs}
-        if not self.run_tab.begin(request, ranges, note):
+        said = "; ".join(n for n in (*notes, note) if n) or None
+        if not self.run_tab.begin(request, ranges, said):
             return
         setup.last_request = request
         setup.set_running(True)

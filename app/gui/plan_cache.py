@@ -7,9 +7,9 @@ block the window.
 from __future__ import annotations
 
 from concurrent.futures import Future, ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
-from app.procedure.run import RunRequest
+from app.procedure.request import RunRequest
 from dsp.multisine import PRESETS, Plan, make_plan, preset_plan
 
 PlanKey = tuple[str, tuple[float, ...]]  # (preset name, line frequencies in Hz)
@@ -22,10 +22,16 @@ class PlannedRequest(RunRequest):
 
     phases_rad: tuple[float, ...] | None = None
 
+    @classmethod
+    def of(cls, request: RunRequest, phases_rad: tuple[float, ...] | None) -> PlannedRequest:
+        """`request` with these phases (None: the run optimises them)."""
+        values = {f.name: getattr(request, f.name) for f in fields(RunRequest)}
+        return cls(**values, phases_rad=phases_rad)
+
     def plan(self) -> Plan:
-        if self.phases_rad is None:
+        if self.phases_rad is None or self.preset is None:
             return super().plan()
-        preset = PRESETS[self.preset or "piezo"]
+        preset = PRESETS[self.preset]
         lines = self.frequencies_hz or tuple(preset.nominal_frequencies_hz)
         return make_plan(
             lines,

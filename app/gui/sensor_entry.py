@@ -181,17 +181,29 @@ class SerialEntry(QObject):
         return True
 
     def fill(self, sensor: Any, how: str = "") -> None:
-        """The DUT's settings from its record (exact serial only); `how` it was identified."""
-        from app.records.db.units import to_mv_per_ms2
+        """The DUT's settings from its record (exact serial only), resolved as a run resolves
+        them (`app.procedure.request.resolve_dut`); `how` it was identified."""
+        from app.procedure.request import DutChoice, resolve_dut
 
+        w = self.setup
+        try:
+            resolved = resolve_dut(
+                DutChoice(sensor=sensor.serial, db=self.link.url),
+                w.config.backend,
+                w.config.raw.get("certificate") or {},
+            )
+        except RecordsInputError as exc:
+            self.marks.note(w.dut_id, f"records: {exc}", WARNING)
+            return
         self.sensor = sensor
         model = sensor.model
-        w = self.setup
-        w.nominal.setValue(to_mv_per_ms2(model.nominal_sensitivity, model.unit))
-        w.tolerance.setValue(model.tolerance_percent)
-        w.level.setValue(model.level_ms2)
-        if model.preset in PRESETS:
-            w.preset.setCurrentText(model.preset)
+        if resolved.nominal_mv_per_ms2 is not None:
+            w.nominal.setValue(resolved.nominal_mv_per_ms2)
+        if resolved.tolerance_percent is not None:
+            w.tolerance.setValue(resolved.tolerance_percent)
+        w.level.setValue(resolved.level_ms2)
+        if resolved.preset in PRESETS:
+            w.preset.setCurrentText(resolved.preset)
         due = f", due {sensor.due_date}" if sensor.due_date else ""
         self.marks.note(
             w.dut_id,

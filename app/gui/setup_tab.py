@@ -39,12 +39,12 @@ from app.gui.templates import TemplatePicker
 from app.lines import parse_frequencies
 from app.procedure.modes import MODES
 from app.procedure.preflight import check_preflight
-from app.procedure.run import RunRequest
+from app.procedure.request import DutChoice, RunRequest, build_request
 from app.stand import config as stand_config
+from app.stand.simulated import CATALOGUE
 from dsp.calibration import ReferenceChain
 from dsp.estimators import ESTIMATORS
 from dsp.multisine import PRESETS, check_lines
-from sim.models import DUT_CATALOGUE
 
 log = logging.getLogger(__name__)
 
@@ -138,7 +138,7 @@ class SetupTab(QWidget):
         )
         form.addRow("Technician", self.technician)
         self.dut = QComboBox()
-        self.dut.addItems(list(DUT_CATALOGUE))
+        self.dut.addItems(list(CATALOGUE))
         self.dut.setCurrentText(str(self.settings.value("dut", "piezo")))
         self.dut.setToolTip("DUT of the simulated stand's catalogue")
         # never restored from the last session: another day's sensor is another serial
@@ -252,33 +252,50 @@ class SetupTab(QWidget):
         text = self.frequencies.text().strip()
         return tuple(parse_frequencies(text)) if text else None
 
-    def request(self) -> RunRequest:
-        """The run the fields describe, with the phases already optimised off this thread
-        (the same phases the CLI computes: they do not depend on the level)."""
+    def dut_choice(self) -> DutChoice:
+        """How the fields name the DUT: the catalogue DUT (simulated stand), the serial (on
+        record when its look-up found it) and what the operator states over its record."""
+        on_record = self.serial_entry.sensor
+        return DutChoice(
+            stand_file=self.stand_file,
+            dut=self.dut.currentText(),
+            dut_id=self.dut_id.text().strip() or None,
+            sensor=on_record.serial if on_record is not None else None,
+            db=self.records.url,
+            seed=self.options.seed,
+            nominal_mv_per_ms2=self.nominal.value() or None,
+            tolerance_percent=self.tolerance.value() or None,
+            level_ms2=self.level.value(),
+            preset=self.preset.currentText(),
+        )
+
+    def request_and_notes(self) -> tuple[RunRequest, tuple[str, ...]]:
+        """The run the fields describe, built as the CLI builds it (`build_request`: the DUT
+        resolved into its DutSpec), with the phases already optimised off this thread (the
+        same phases the CLI computes: they do not depend on the level); notes to show. The
+        reference standard's due date is the window's check (it asks an override reason).
+        Refuses (a Refusal naming the field) what cannot be resolved."""
         preset = PRESETS[self.preset.currentText()]
         custom = self.custom_lines()
         lines = tuple(custom if custom is not None else preset.nominal_frequencies_hz)
         options = self.options
-        return PlannedRequest(
-            phases_rad=self.plans.phases(preset.name, lines),
-            stand_file=self.stand_file,
-            dut=self.dut.currentText(),
-            dut_id=self.dut_id.text().strip() or None,
-            preset=self.preset.currentText(),
+        request, notes = build_request(
+            self.dut_choice(),
             frequencies_hz=custom,
-            level_ms2=self.level.value(),
             periods=self.periods.value(),
             target_type_a=self.target.value() / 100 or None,
             max_acquisition_s=float(self.max_time.value()) or None,
             estimator=self.estimator.currentText(),
             mode=self.mode.currentText(),
-            tolerance_percent=self.tolerance.value() or None,
-            nominal_mv_per_ms2=self.nominal.value() or None,
-            seed=options.seed,
             paced=options.paced,
             faults=options.faults,
             out=options.out,
         )
+        return PlannedRequest.of(request, self.plans.phases(preset.name, lines)), notes
+
+    def request(self) -> RunRequest:
+        """The run the fields describe (see `request_and_notes`)."""
+        return self.request_and_notes()[0]
 
     # --- the stand ----------------------------------------------------------------------
 

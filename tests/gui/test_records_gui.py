@@ -336,3 +336,51 @@ def test_gui_takes_the_records_url():
     args = build_parser().parse_args(["gui", "--sim", "--db", "sqlite:///x.sqlite"])
     assert args.db == "sqlite:///x.sqlite"
     assert build_parser().parse_args(["gui"]).db is None
+
+
+def test_the_window_builds_its_request_as_the_cli_from_the_sensors_record(window, lab_url):
+    """The GUI resolves a sensor on record into its DutSpec through `build_request`, as the
+    CLI does: the record's phase tolerance over the model's range reaches the verdict, and
+    the nominal in mV/g is converted by the records (100 mV/g = 100/9.80665 mV/(m/s^2))."""
+    from app.stand.dut import Band
+
+    Lab(open_engine(lab_url), actor="t").add_model(
+        "PCB",
+        "352C33",
+        nominal_sensitivity=10.2,
+        unit="mV/(m/s^2)",
+        tolerance_percent=4,
+        frequency_min_hz=5,
+        frequency_max_hz=4000,
+        level_ms2=6.0,
+        phase_tolerance_deg=3.0,
+    )
+    Lab(open_engine(lab_url), actor="t").add_sensor("SN-PH", model="352C33", owner="ACME Ltd")
+    setup = window.setup_tab
+    setup.dut_id.setText("SN-PH")
+    setup.dut_id.editingFinished.emit()
+    assert setup.nominal.value() == pytest.approx(10.2)
+    assert setup.tolerance.value() == 4.0 and setup.level.value() == 6.0
+    request = setup.request()
+    spec = request.dut_spec
+    assert spec is not None and spec.serial == "SN-PH" and "PCB 352C33" in spec.source
+    assert spec.phase == (Band(5.0, 4000.0, 3.0),)
+    tolerances = request.tolerances("sim", 160.0)
+    assert tolerances.phase == (Band(5.0, 4000.0, 3.0),)
+    assert tolerances.nominal_sensitivity_mv_per_ms2 == pytest.approx(10.2)
+    assert tolerances.sensitivity_percent == 4.0
+    # the operator's tolerance wins over the record's, over every line
+    setup.tolerance.setValue(2.5)
+    assert setup.request().tolerances("sim", 160.0).characteristic[0].tolerance == 2.5
+    # a serial typed but not on record: no spec of the records, the catalogue DUT's instead
+    setup.dut_id.setText("SN-7")
+    setup.dut_id.textEdited.emit("SN-7")  # typing forgets the look-up
+    request = setup.request()
+    assert request.dut_id == "SN-7" and request.dut_spec is not None
+    assert request.dut_spec.phase != (Band(5.0, 4000.0, 3.0),)
+    assert request.dut_spec.catalogue == "piezo"
+    # the B&K model in mV/g: 100 mV/g is 10.197 mV/(m/s^2)
+    setup.dut_id.setText("SN-8")
+    setup.dut_id.editingFinished.emit()
+    assert setup.nominal.value() == pytest.approx(100 / 9.80665, abs=1e-3)
+    assert setup.request().dut_spec.nominal_mv_per_ms2 == pytest.approx(100 / 9.80665)
