@@ -14,12 +14,14 @@ import tempfile
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
+from app.errors import Refusal
 
-class FileExistsRefusal(FileExistsError):
+
+class FileExistsRefusal(FileExistsError, Refusal):
     """The target exists and overwriting was not asked for."""
 
 
-class TargetRefusal(ValueError):
+class TargetRefusal(Refusal):
     """A target that must not be written: an input of the same command, or a folder."""
 
 

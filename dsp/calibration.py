@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from dsp import uncertainty as unc
+from dsp.errors import InputRefused
 from dsp.multisine import Plan
 from dsp.spectral import MIN_PERIODS, Estimate
 
@@ -33,7 +34,7 @@ DEAD_SNR_DB = 6.0  # a channel whose median line SNR is below this is dead / not
 DUT_DISTORTION_LIMIT = 0.01  # warn when the DUT adds more than 1 % harmonic distortion
 
 
-class AnalysisError(ValueError):
+class AnalysisError(InputRefused):
     """The data cannot give a calibration result (dead channel, no periods, ...)."""
 
 

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from dsp import crestfactor, iso266
+from dsp.errors import InputRefused
 
 MAX_FREQUENCY_FRACTION = 0.45  # of fs: multiplexed boards have no anti-alias filter (SPEC s.3)
 HARMONICS_CHECKED = (2, 3, 4, 5)  # SPEC s.3: 2nd..5th harmonic of a line
@@ -27,7 +28,7 @@ PEAK_OVERSAMPLING = 8  # predicted peaks are taken on an 8x oversampled waveform
 PLAN_FORMAT_VERSION = 1
 
 
-class PlanError(ValueError):
+class PlanError(InputRefused):
     """A plan that must not be run; `problems` lists every reason, each naming its line/field."""
 
     def __init__(self, problems: Sequence[str]):

@@ -12,10 +12,11 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from dsp.errors import InputRefused
 from dsp.spectral import dft_at
 
 
-class SegmentError(ValueError):
+class SegmentError(InputRefused):
     """The record cannot be split as asked (lines not separable, too short)."""
 
 

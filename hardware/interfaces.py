@@ -13,6 +13,8 @@ from typing import Literal, Protocol, runtime_checkable
 
 import numpy as np
 
+from hardware.errors import InputRefused
+
 ChannelName = Literal["reference", "dut", "drive"]
 
 
@@ -29,9 +31,9 @@ class InputChannel:
 
     def __post_init__(self) -> None:
         if not self.range_v > 0:
-            raise ValueError(f"input channel {self.name}: range_v must be > 0 V")
+            raise InputRefused(f"input channel {self.name}: range_v must be > 0 V")
         if self.iepe_current_a < 0 or self.iepe_current_a > 0.02:
-            raise ValueError(f"input channel {self.name}: iepe_current_a must be 0..0.02 A")
+            raise InputRefused(f"input channel {self.name}: iepe_current_a must be 0..0.02 A")
 
 
 @dataclass(frozen=True)
@@ -43,7 +45,7 @@ class OutputChannel:
 
     def __post_init__(self) -> None:
         if not self.range_v > 0:
-            raise ValueError("output channel: range_v must be > 0 V")
+            raise InputRefused("output channel: range_v must be > 0 V")
 
 
 @dataclass(frozen=True)
@@ -58,11 +60,11 @@ class DaqConfig:
     def __post_init__(self) -> None:
         names = [c.name for c in self.inputs]
         if "reference" not in names or "dut" not in names:
-            raise ValueError("DAQ configuration: needs a 'reference' and a 'dut' input channel")
+            raise InputRefused("DAQ configuration: needs a 'reference' and a 'dut' input channel")
         if len(set(names)) != len(names):
-            raise ValueError("DAQ configuration: input channel names must be unique")
+            raise InputRefused("DAQ configuration: input channel names must be unique")
         if not self.sample_rate_hz > 0 or self.period_samples < 4:
-            raise ValueError("DAQ configuration: sample rate > 0 Hz and period >= 4 samples")
+            raise InputRefused("DAQ configuration: sample rate > 0 Hz and period >= 4 samples")
 
 
 @dataclass(frozen=True)

@@ -45,6 +45,7 @@ from hardware.errors import (
     DaqTimeoutError,
     DeviceLostError,
     HardwareError,
+    InputRefused,
 )
 from hardware.interfaces import DaqConfig, DaqStatus, checked_output_period
 
@@ -151,7 +152,7 @@ class NiDaq:
         system: Any = None,
     ):
         if not device or "/" in device:
-            raise ValueError(f"NI-DAQ: device name must be like 'Dev1', got {device!r}")
+            raise InputRefused(f"NI-DAQ: device name must be like 'Dev1', got {device!r}")
         self.device = device
         self._task_factory = task_factory
         self._system = system

@@ -24,6 +24,8 @@ from dataclasses import dataclass
 from datetime import date, timedelta
 from pathlib import Path
 
+from hardware.errors import InputRefused
+
 TED_FILE_HEADER = tuple(int(c) for c in "1101101001101110000011001100110010111010")
 TEDS_EPOCH = date(1998, 1, 1)
 STANDARD_GRAVITY_MS2 = 9.80665
@@ -31,7 +33,7 @@ TEMPLATE_ACCELEROMETER = 25
 MAX_TEDS_BITS = 8 * 1024  # a 1451.4 memory is at most a few hundred bytes
 
 
-class TedsError(ValueError):
+class TedsError(InputRefused):
     """A bitstream or value that is no TEDS we can read or write; the message names the field."""
 
 

@@ -44,6 +44,7 @@ from reportlab.platypus import (
 
 from app import formatting as fmt
 from app.certificate.dcc import line_values
+from app.errors import Refusal
 from app.files import FileExistsRefusal, write_with
 from app.io.checks import MAX_TEXT_BYTES, InputFileError, check_input_file
 from app.procedure.modes import MODE_MULTISINE
@@ -73,7 +74,7 @@ MANDATORY = (
 )
 
 
-class CertificateError(ValueError):
+class CertificateError(Refusal):
     """A certificate that must not be issued; the message says why (missing items by name)."""
 
 

@@ -21,6 +21,7 @@ from importlib import resources
 from typing import TYPE_CHECKING, Any
 
 from app import formatting as fmt
+from app.errors import Refusal
 from app.records.run_record import RunRecord
 
 if TYPE_CHECKING:
@@ -44,7 +45,7 @@ ET.register_namespace("si", SI_NS)
 ET.register_namespace("xsi", XSI_NS)
 
 
-class DccError(ValueError):
+class DccError(Refusal):
     """A DCC that cannot be made or does not validate; the message says which item."""
 
 

@@ -15,10 +15,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from app.errors import Refusal
+
 PASSWORD_ENV = "ACCELCAL_SIGN_PASSWORD"
 
 
-class SigningError(ValueError):
+class SigningError(Refusal):
     """A key that cannot be used or a PDF that cannot be signed; the message says why."""
 
 

@@ -1,11 +1,24 @@
-"""Command-line option types shared by every `accelcal` command: bounded numbers whose
---help states their range (issue 12 point 7)."""
+"""Command-line option types and values shared by the `accelcal` commands: bounded numbers
+whose --help states their range (issue 12 point 7), and the checks of option values that
+argparse cannot make (a UsageError naming the option)."""
 
 from __future__ import annotations
 
 import argparse
+import difflib
 import math
-from typing import Any
+import tempfile
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from app import lines
+from app.cli.exits import UsageError
+from app.files import FileExistsRefusal, check_target
+from app.stand.simulated import CATALOGUE, parse_faults
+from dsp.multisine import PRESETS, Plan, make_plan
+
+if TYPE_CHECKING:
+    from app.stand.simulated import Fault
 
 
 class Bounded:
@@ -60,3 +73,180 @@ def numeric_option(
     """Add a numeric option whose --help states its bounds."""
     bounds = bounded.describe().replace("%", "%%")  # argparse %-formats help texts
     p.add_argument(flag, type=bounded, help=f"{help}; {bounds}", **kwargs)
+
+
+# The bounds of every numeric option (also in docs/reliability.md).
+SAMPLE_RATE = Bounded(float, 1.0, 1e7, unit="Hz")
+
+PERIOD = Bounded(int, 4, 2**22, unit="samples")
+
+LEVEL = Bounded(float, 0.0, 1000.0, open_low=True, unit="m/s^2")
+
+FREQUENCY = Bounded(float, 0.0, 1e6, open_low=True, unit="Hz")
+
+MAINS = Bounded(float, 1.0, 1000.0, unit="Hz")
+
+SEGMENTS = Bounded(int, 1, 10_000)
+
+COVERAGE = Bounded(float, 0.0, 1.0, open_low=True, open_high=True)
+
+TOLERANCE = Bounded(float, 0.0, 100.0, open_low=True, unit="%")
+
+SENSITIVITY = Bounded(float, 0.0, 1e6, open_low=True, unit="mV/(m/s^2)")
+
+DUT_MASS = Bounded(float, 0.0, 100_000.0, unit="g")
+
+GAIN = Bounded(float, 0.0, 1e6, open_low=True, unit="V/V")
+
+SKEW = Bounded(float, -1e-3, 1e-3, unit="s")
+
+SETTLE_PERIODS = Bounded(int, 0, 10_000)
+
+RANGE = Bounded(float, 0.0, 1000.0, open_low=True, unit="V")
+
+RUN_PERIODS = Bounded(int, 2, 10_000)
+
+SIM_PERIODS = Bounded(int, 1, 10_000)
+
+SIM_SETTLE = Bounded(int, 0, 1000)
+
+SEED = Bounded(int, 0, 2**32 - 1)
+
+TEMPERATURE = Bounded(float, -50.0, 150.0, unit="deg C")
+
+TARGET_UA = (0.0, 1.0)  # --target-ua: (0, 100 %]
+
+MAX_TIME_S = 24 * 3600.0  # --max-time: (0, 24 h]
+
+
+def parse_frequencies(text: str) -> list[float]:
+    """--frequencies: a line list (see app.lines.parse_frequencies)."""
+    try:
+        return lines.parse_frequencies(text)
+    except ValueError as exc:
+        raise UsageError(f"--frequencies: {exc}") from None
+
+
+def positive(name: str, value: float | None) -> None:
+    if value is not None and not (math.isfinite(value) and value > 0):
+        raise UsageError(f"{name}: must be > 0, got {value:g}")
+
+
+def plan_from_options(args: argparse.Namespace, *, optimise: bool) -> Plan:
+    """The plan the options describe: a preset, with any of its fields overridden."""
+    preset = PRESETS[args.preset or "piezo"]
+    freqs = (
+        parse_frequencies(args.frequencies)
+        if args.frequencies is not None
+        else list(preset.nominal_frequencies_hz)
+    )
+    for name in ("sample_rate", "level", "reference_frequency", "mains"):
+        positive("--" + name.replace("_", "-"), getattr(args, name))
+    if args.period is not None and args.period < 4:
+        raise UsageError(f"--period: must be >= 4 samples, got {args.period}")
+    return make_plan(
+        freqs,
+        args.sample_rate or preset.sample_rate_hz,
+        args.period or preset.period_samples,
+        args.level or preset.level_ms2,
+        args.reference_frequency or preset.reference_frequency_hz,
+        mains_frequency_hz=args.mains if args.mains is not None else 50.0,
+        shift_mains_lines=getattr(args, "shift_mains", False),
+        phases_rad=None if optimise else [0.0] * len(freqs),
+    )
+
+
+def dut_name(text: str) -> str:
+    """--dut: a DUT of the simulated stand's catalogue (argparse type)."""
+    if text in CATALOGUE:
+        return text
+    close = difflib.get_close_matches(text, list(CATALOGUE), n=1)
+    hint = f"; did you mean {close[0]!r}?" if close else ""
+    raise argparse.ArgumentTypeError(
+        f"{text!r} is not in the DUT catalogue ({', '.join(CATALOGUE)}){hint}"
+    )
+
+
+def parse_percent(text: str, option: str) -> float:
+    """'0.2%' -> 0.002; '0.002' -> 0.002."""
+    try:
+        value = float(text[:-1]) / 100 if text.strip().endswith("%") else float(text)
+    except ValueError:
+        raise UsageError(f"{option}: {text!r} is not a number or percentage") from None
+    low, high = TARGET_UA
+    if not (math.isfinite(value) and low < value <= high):
+        raise UsageError(f"{option}: must be in (0, 100 %], got {text!r}")
+    return value
+
+
+def parse_seconds(text: str, option: str) -> float:
+    """'30s', '2min', '45' -> seconds."""
+    value = text.strip().lower()
+    scale = 1.0
+    for suffix, factor in (("min", 60.0), ("ms", 1e-3), ("s", 1.0), ("h", 3600.0)):
+        if value.endswith(suffix):
+            value, scale = value[: -len(suffix)], factor
+            break
+    try:
+        seconds = float(value) * scale
+    except ValueError:
+        raise UsageError(f"{option}: {text!r} is not a duration (e.g. 30s)") from None
+    if not (math.isfinite(seconds) and 0 < seconds <= MAX_TIME_S):
+        raise UsageError(f"{option}: must be in (0, 24 h], got {text!r}")
+    return seconds
+
+
+def faults_option(texts: list[str]) -> tuple[Fault, ...]:
+    """--fault KIND@SECONDS options as faults of the simulated stand."""
+    try:
+        return parse_faults(texts)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+
+
+def levels_option(text: str) -> list[float]:
+    """--levels: a comma-separated list, every item within the bounds of --level."""
+    levels = []
+    for item in text.split(","):
+        if not item.strip():
+            raise UsageError(f"--levels: {text!r} has an empty item")
+        try:
+            levels.append(LEVEL(item.strip()))
+        except argparse.ArgumentTypeError as exc:
+            raise UsageError(f"--levels: {item.strip()!r}: {exc}") from None
+    return levels
+
+
+def writable_folder(folder: Path, option: str) -> None:
+    """UsageError naming `option` unless files can be created in `folder` (made if missing):
+    its nearest existing ancestor must be a folder in which a file can really be created (a
+    probe, so that read-only file systems are caught even when running as root)."""
+    probe = folder
+    while not probe.exists():
+        if probe.parent == probe:
+            break
+        probe = probe.parent
+    if not probe.is_dir():
+        raise UsageError(f"{option}: {folder}: cannot be created ({probe} is not a folder)")
+    try:
+        with tempfile.TemporaryFile(dir=probe):
+            pass
+    except OSError as exc:
+        reason = exc.strerror or type(exc).__name__
+        raise UsageError(f"{option}: {folder}: not writable ({reason})") from None
+
+
+def output_target(
+    target: Path, option: str, inputs: tuple[Path | None, ...], overwrite: bool
+) -> None:
+    """UsageError naming `option` when `target` is an input, inside a run folder, or exists
+    without --overwrite."""
+    from app.records.run_folder import refuse_in_run_folder
+
+    try:
+        check_target(target, inputs=inputs, overwrite=overwrite)
+        refuse_in_run_folder(target)
+    except FileExistsRefusal as exc:
+        raise UsageError(f"{option}: {exc} (--overwrite replaces it)") from None
+    except ValueError as exc:
+        raise UsageError(f"{option}: {exc}") from None

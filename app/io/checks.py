@@ -13,6 +13,8 @@ import os
 import stat
 from pathlib import Path
 
+from app.errors import Refusal
+
 log = logging.getLogger(__name__)
 
 MIB = 1 << 20
@@ -35,7 +37,7 @@ MAX_TDMS_BYTES = 3 * 8 * MAX_RECORDING_SAMPLES + 64 * MIB
 MAX_TEXT_BYTES = 4 * MIB
 
 
-class InputFileError(ValueError):
+class InputFileError(Refusal):
     """An input that must not be read; the message names the file and why."""
 
 

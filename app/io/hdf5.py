@@ -47,6 +47,7 @@ from typing import Any, BinaryIO
 import h5py
 import numpy as np
 
+from app.errors import Refusal
 from app.io.checks import (
     MAX_CSV_BYTES,
     MAX_HDF5_BYTES,
@@ -117,7 +118,7 @@ def free_bytes(path: Path) -> float:
     return room
 
 
-class RecordingError(ValueError):
+class RecordingError(Refusal):
     """A recording that cannot be analysed; the message names the file and the problem."""
 
 

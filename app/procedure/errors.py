@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from app.errors import Refusal
 from hardware.errors import (
     AmplifierFaultError,
     DeviceLostError,
@@ -15,7 +16,7 @@ class ProcedureError(RuntimeError):
     """The run cannot go on; the message says what and what to do."""
 
 
-class PreflightError(ProcedureError):
+class PreflightError(ProcedureError, Refusal):
     """The plan or level asks for more than the stand may do: refused before anything moves."""
 
 

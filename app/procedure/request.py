@@ -26,6 +26,7 @@ from dsp.multisine import PRESETS, Plan, make_plan, preset_plan
 
 if TYPE_CHECKING:
     from app.procedure.settings import RunSettings
+    from app.records.db.runs import SensorDefaults
     from app.stand.simulated import Fault
 
 DEFAULT_LEVEL_MS2 = 5.0
@@ -40,6 +41,7 @@ __all__ = [
     "build_request",
     "check_request",
     "resolve_dut",
+    "spec_from_sensor",
 ]
 
 
@@ -104,6 +106,9 @@ class RunRequest:
     stored_response: bool = True  # start equalisation from the stand's stored response
     response_store: Path | None = None  # where stored responses live (None: user data dir)
     dut_spec: DutSpec | None = None
+    # the multisine's phases (rad), optimised already for these lines (the GUI does it as the
+    # lines are typed); None: optimised when the plan is made (about 1 s)
+    phases_rad: tuple[float, ...] | None = None
 
     def spec(self, backend: str) -> DutSpec:
         """The DUT's specification on a stand of `backend`, with what the request states
@@ -151,15 +156,16 @@ class RunRequest:
         """The plan: the preset asked for, else the DUT's, with any custom lines (Hz)."""
         spec_preset = self.dut_spec.preset if self.dut_spec is not None else None
         name = self.preset or spec_preset or plan_preset_for(self.dut)
-        if self.frequencies_hz is None:
+        if self.frequencies_hz is None and self.phases_rad is None:
             return preset_plan(name, level_ms2=self.level_ms2)
         preset = PRESETS[name]
         return make_plan(
-            self.frequencies_hz,
+            self.frequencies_hz or tuple(preset.nominal_frequencies_hz),
             preset.sample_rate_hz,
             preset.period_samples,
             self.level_ms2,
             preset.reference_frequency_hz,
+            phases_rad=self.phases_rad,
         )
 
     def settings(self, backend: str) -> RunSettings:
@@ -218,6 +224,7 @@ class DutChoice:
     preset: str | None = None
     dut_mass_g: float | None = None
     reference_override: str | None = None
+    spec: DutSpec | None = None  # resolved already by the face (the GUI's records link)
 
 
 @dataclass(frozen=True)
@@ -264,7 +271,11 @@ def _from_records(serial: str, db: str | None) -> DutSpec:
     --sensor when unknown or not reachable)."""
     from app.records.db.runs import sensor_defaults
 
-    sensor = sensor_defaults(serial, db)
+    return spec_from_sensor(sensor_defaults(serial, db))
+
+
+def spec_from_sensor(sensor: SensorDefaults) -> DutSpec:
+    """The DutSpec of a sensor on record (app.records.db.runs.defaults_of a Sensor)."""
     return spec_from_record(
         serial=sensor.serial,
         manufacturer=sensor.maker,
@@ -286,9 +297,9 @@ def resolve_dut(choice: DutChoice, backend: str, certificate: Mapping[str, Any])
     else the simulated catalogue (simulated stand) or the stand file; what the operator gave
     wins over what the source says (RequestError when the serials disagree)."""
     notes: list[str] = []
-    spec: DutSpec | None = None
-    sensor_serial = choice.sensor
-    if choice.teds:
+    spec: DutSpec | None = choice.spec
+    sensor_serial = None if spec is not None else choice.sensor
+    if choice.teds and spec is None:
         spec, sensor_serial = _from_teds(choice, notes)
     known = spec is not None  # the DUT itself told (TEDS) or is on record
     if sensor_serial:
@@ -306,7 +317,7 @@ def resolve_dut(choice: DutChoice, backend: str, certificate: Mapping[str, Any])
     level = choice.level_ms2 if choice.level_ms2 is not None else spec.level_ms2
     return ResolvedDut(
         spec=spec,
-        dut_id=spec.serial if known else choice.dut_id,
+        dut_id=(choice.dut_id or spec.serial) if known else choice.dut_id,
         nominal_mv_per_ms2=nominal,
         tolerance_percent=tolerance,
         level_ms2=DEFAULT_LEVEL_MS2 if level is None else level,

@@ -19,6 +19,7 @@ from dataclasses import asdict, dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 
+from app.errors import Refusal
 from app.files import write_with
 from app.records.run_folder import READ_ONLY_FILE
 
@@ -27,7 +28,7 @@ REGISTER_VERSION = 1
 DEFAULT_PREFIX = "AC-"
 
 
-class RegisterError(ValueError):
+class RegisterError(Refusal):
     """The register cannot be read; the message names its file."""
 
 

@@ -34,6 +34,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
+from app.errors import Refusal
 from app.files import write_new
 from app.records.run_record import RunRecord, RunRecordError, UnsupportedSchemaError
 from dsp.calibration import Results
@@ -53,7 +54,7 @@ READ_ONLY_FILE = stat.S_IRUSR | stat.S_IRGRP | stat.S_IROTH
 READ_ONLY_FOLDER = READ_ONLY_FILE | stat.S_IXUSR | stat.S_IXGRP | stat.S_IXOTH
 
 
-class RunIntegrityError(ValueError):
+class RunIntegrityError(Refusal):
     """A stored run that does not verify; the message names the file and the reason."""
 
 

@@ -18,6 +18,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
+from app.errors import Refusal
+
 if TYPE_CHECKING:
     from dsp.calibration import Results
 
@@ -25,7 +27,7 @@ SCHEMA_VERSION = 1
 UNVERSIONED = 1  # results.json written before `schema_version`: the same layout as version 1
 
 
-class RunRecordError(ValueError):
+class RunRecordError(Refusal):
     """A results.json that cannot be read as a run record; the message says why."""
 
 

@@ -30,6 +30,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from app.errors import Refusal
 from app.io.checks import MAX_TEXT_BYTES, InputFileError, check_input_file
 from dsp.calibration import ReferenceChain
 from dsp.uncertainty import Budget
@@ -103,7 +104,7 @@ SCHEMA: dict[str, frozenset[str]] = {
 }
 
 
-class ConfigError(ValueError):
+class ConfigError(Refusal):
     """A stand configuration that cannot be used; the message names the file and field."""
 
 

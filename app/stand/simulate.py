@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from app.errors import Refusal
 from app.files import FileExistsRefusal, check_target, staged
 from app.io.hdf5 import STATUS_ABORTED, STATUS_COMPLETE, RecordingWriter, Truth
 from app.records.run_folder import refuse_in_run_folder
@@ -28,7 +29,7 @@ AO_RANGE_V = 10.0
 AI_RANGES_V = (0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0)  # an M-series board's input ranges
 
 
-class SimulationError(ValueError):
+class SimulationError(Refusal):
     """The simulation cannot be run as asked (level beyond the drive range, ...)."""
 
 

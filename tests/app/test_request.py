@@ -152,3 +152,20 @@ def test_run_identity_serialises_as_config_json_always_did() -> None:
     again = RunIdentity.from_dict({**expected, "measuring_amplifier": {"gain": 10.0}})
     assert again.dut == DutIdentity("piezo", "SN-1", 10.0)
     assert again.to_dict() == {**expected, "measuring_amplifier": {"gain": 10.0}}
+
+
+def test_a_spec_the_face_resolved_is_used_as_it_is() -> None:
+    # the GUI's records link read the sensor already: no second look-up (this URL would fail)
+    choice = DutChoice(sensor="SN-1", db="sqlite:////nonexistent/lab.sqlite", spec=RECORDED)
+    resolved = resolve_dut(choice, "sim", {})
+    assert resolved.spec is RECORDED and resolved.dut_id == "SN-1"
+    assert resolved.nominal_mv_per_ms2 == 9.8 and resolved.tolerance_percent == 4.0
+    assert resolved.level_ms2 == 4.0 and resolved.preset == "piezo"
+
+
+def test_phases_given_with_the_request_are_the_plans() -> None:
+    phases = tuple(0.1 * k for k in range(3))
+    request = RunRequest(preset="piezo", frequencies_hz=(40.0, 80.0, 160.0), phases_rad=phases)
+    plan = request.plan()
+    assert tuple(plan.phases_rad) == pytest.approx(phases)
+    assert tuple(plan.nominal_frequencies_hz) == (40.0, 80.0, 160.0)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from app.errors import Refusal
 
-class RecordsInputError(ValueError):
+
+class RecordsInputError(Refusal):
     """A refused records operation or option; the message names the field and the reason."""

@@ -41,12 +41,19 @@ def sensor_defaults(serial: str, url: str | None) -> SensorDefaults:
     when the sensor is unknown or the records cannot be reached."""
     from app.records.db.engine import open_engine
     from app.records.db.lab import Lab
-    from app.records.db.units import CHARGE_UNITS, to_mv_per_ms2
 
     try:
         sensor = Lab(open_engine(url)).sensor(serial)
     except RecordsInputError as exc:
         raise RecordsInputError(f"--sensor: {exc}") from None
+    return defaults_of(sensor)
+
+
+def defaults_of(sensor: Any) -> SensorDefaults:
+    """The run settings of a sensor read from the records (an app.records.db.models.Sensor
+    with its model and owner loaded)."""
+    from app.records.db.units import CHARGE_UNITS, to_mv_per_ms2
+
     model = sensor.model
     return SensorDefaults(
         serial=sensor.serial,

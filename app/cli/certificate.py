@@ -1,0 +1,66 @@
+"""`accelcal certificate`: the PDF certificate (and DCC) of a stored complete run."""
+
+from __future__ import annotations
+
+import argparse
+import os
+
+from app.cli.exits import EXIT_OK, UsageError
+from app.cli.options import writable_folder
+
+
+def cmd_certificate(args: argparse.Namespace) -> int:
+    from app.certificate import CertificateInfo, issue
+    from app.records.run_folder import is_run_folder
+
+    info = CertificateInfo(
+        customer=args.customer,
+        customer_address=args.customer_address,
+        authorised_by=args.authorised_by,
+        dut_model=args.dut_model,
+        dut_serial=args.dut_serial,
+        dut_type=args.dut_type,
+        temperature_c=args.temperature,
+        mounting=args.mounting,
+        certificate_number=args.certificate_number,
+        issue_date=args.issue_date,
+        notes=args.notes,
+    )
+    out = args.out or (args.run / "certificate.pdf")
+    signer = None
+    if args.sign is not None:
+        from app.certificate.sign import Signer, SigningError
+
+        try:
+            signer = Signer.load(args.sign)
+        except SigningError as exc:
+            raise UsageError(str(exc)) from None
+    if args.out is not None and not is_run_folder(args.out.parent):  # a run's own: see issue()
+        writable_folder(args.out.parent, "--out")
+    if args.db or os.environ.get("ACCELCAL_DB"):
+        from app.records.db.audit import current_actor
+        from app.records.db.certify import issue_registered
+
+        issued = issue_registered(
+            args.run,
+            info,
+            out,
+            url=args.db,
+            prepared_by=args.prepared_by or current_actor(),
+            sweep_path=args.sweep,
+            replaces=args.replaces,
+            reason=args.reason,
+            signer=signer,
+        )
+    elif args.prepared_by or args.replaces or args.reason:
+        raise UsageError("--prepared-by, --replaces, --reason: need the records (--db URL)")
+    else:
+        issued = issue(args.run, info, out, args.sweep, signer)
+    print(f"certificate {issued.number}: {out}")
+    from app.certificate import dcc_path
+
+    if dcc_path(out).exists():
+        print(f"digital calibration certificate (DCC 3.3.0, in the PDF too): {dcc_path(out)}")
+    else:
+        print("no digital calibration certificate: the stand file names no laboratory.country")
+    return EXIT_OK

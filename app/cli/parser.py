@@ -1,0 +1,289 @@
+"""The `accelcal` argument parser: every command's options, their bounds and help (the
+commands themselves live in one module each)."""
+
+from __future__ import annotations
+
+import argparse
+import re
+import sys
+from pathlib import Path
+
+from app.cli.options import (
+    COVERAGE,
+    DUT_MASS,
+    FREQUENCY,
+    GAIN,
+    LEVEL,
+    MAINS,
+    PERIOD,
+    RANGE,
+    RUN_PERIODS,
+    SAMPLE_RATE,
+    SEED,
+    SEGMENTS,
+    SENSITIVITY,
+    SETTLE_PERIODS,
+    SIM_PERIODS,
+    SIM_SETTLE,
+    SKEW,
+    TEMPERATURE,
+    TOLERANCE,
+    dut_name,
+    numeric_option,
+)
+from app.cli.records import Handler
+from app.cli.records import add_commands as add_records_commands
+from app.procedure.modes import MODE_MULTISINE, MODES
+from app.stand.simulated import FAULT_KINDS
+from dsp.estimators import DEFAULT_ESTIMATOR, ESTIMATORS
+from dsp.multisine import PRESETS
+
+RECORDS_COMMANDS: dict[str, Handler] = {}  # filled by build_parser (app.cli.records)
+
+
+class _Parser(argparse.ArgumentParser):
+    """ArgumentParser that takes an argument starting with a minus and a digit as a value, never
+    an option: a negative number in any float notation (-2e-06, -.5, -1.5E3) or a list that
+    starts with one (-10,160); argparse's own rule misses the exponent form and lists. No
+    option of this program starts with a digit."""
+
+    def __init__(self, *args: object, **kwargs: object) -> None:
+        super().__init__(*args, **kwargs)  # type: ignore[arg-type]
+        self._negative_number_matcher = NEGATIVE_NUMBER
+
+
+NEGATIVE_NUMBER = re.compile(r"^-\.?\d")
+
+
+class _Version(argparse.Action):
+    """--version: the version (which asks git) is looked up only when asked for, not at every
+    start-up."""
+
+    def __init__(self, option_strings: list[str], dest: str, **kwargs: object) -> None:
+        kwargs.pop("default", None)
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, **kwargs)  # type: ignore[arg-type]
+
+    def __call__(self, parser, namespace, values, option_string=None) -> None:  # type: ignore[no-untyped-def]
+        from app.version import software_version
+
+        parser._print_message(f"accelcal {software_version()}\n", sys.stdout)
+        parser.exit()
+
+
+def _add_plan_options(p: argparse.ArgumentParser | argparse._ArgumentGroup) -> None:
+    p.add_argument("--preset", choices=sorted(PRESETS), help="named plan (default piezo)")
+    p.add_argument("--frequencies", help="line list in Hz, e.g. 10,12.5,...,2500 (ISO 266 fill)")
+    numeric_option(p, "--sample-rate", SAMPLE_RATE, "sample rate in Hz")
+    numeric_option(p, "--period", PERIOD, "period length in samples")
+    numeric_option(p, "--level", LEVEL, "target peak acceleration per line, m/s^2")
+    numeric_option(p, "--reference-frequency", FREQUENCY, "reference frequency in Hz")
+    numeric_option(p, "--mains", MAINS, "mains frequency in Hz (50)", default=None)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(
+        prog="accelcal",
+        description="Accelerometer calibration by comparison, multisine excitation.",
+    )
+    parser.add_argument("--version", action=_Version, help="show the version and exit")
+    parser.add_argument(
+        "--verbose",
+        action="store_true",
+        help="also show what a run writes to its run.log, and information messages, on stderr",
+    )
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    p = sub.add_parser("plan", help="show a frequency plan, its checks and predicted peaks")
+    _add_plan_options(p)
+    p.add_argument("--shift-mains", action="store_true", help="move lines off mains harmonics")
+    p.add_argument("--json", action="store_true", help="machine-readable output")
+
+    a = sub.add_parser("analyze", help="re-analyse a recording (HDF5 of this program, CSV or TDMS)")
+    a.add_argument(
+        "file", type=Path, help="recording.h5, recording.csv, recording.tdms or a run folder"
+    )
+    a.add_argument("--estimator", choices=ESTIMATORS, default=DEFAULT_ESTIMATOR)
+    numeric_option(a, "--segments", SEGMENTS, "the seed's protocol: L equal segments")
+    numeric_option(a, "--coverage", COVERAGE, "coverage probability", default=0.9545)
+    a.add_argument("--seed-rule", action="store_true", help="the seed's coverage factor rule")
+    numeric_option(a, "--tolerance", TOLERANCE, "DUT tolerance of the characteristic, %%")
+    a.add_argument("--json", action="store_true", help="results as JSON")
+    a.add_argument("--csv", type=Path, help="also write the per-line results as CSV here")
+    a.add_argument("--overwrite", action="store_true", help="--csv may replace an existing file")
+    csv_group = a.add_argument_group(
+        "CSV and TDMS recordings (an HDF5 recording carries these; on one, "
+        "--reference-frequency, --settle-periods and --mains re-analyse it, the others are "
+        "refused; a TDMS file gives the sample rate, 1/wf_increment)"
+    )
+    _add_plan_options(csv_group)
+    numeric_option(csv_group, "--reference-sensitivity", SENSITIVITY, "mV/(m/s^2)")
+    numeric_option(csv_group, "--reference-gain", GAIN, "V/V", default=None)
+    numeric_option(csv_group, "--dut-gain", GAIN, "V/V", default=None)
+    numeric_option(
+        csv_group,
+        "--skew",
+        SKEW,
+        "inter-channel delay in s, positive when the DUT channel is sampled after the "
+        "reference (e.g. 2e-06 or -2e-06); or a '# skew_s = ...' line in the CSV, the "
+        "property accelcal_skew_s in the TDMS (DUT channel, its group or the file). Without "
+        "either the phase is not corrected for skew and not stated",
+        default=None,
+        metavar="SECONDS",
+    )
+    numeric_option(
+        csv_group,
+        "--settle-periods",
+        SETTLE_PERIODS,
+        "leading periods to skip (CSV, TDMS: of the file, default 0; HDF5: of the analysed ones)",
+        default=None,
+    )
+    numeric_option(csv_group, "--range", RANGE, "channel range, V", dest="range_v")
+    csv_group.add_argument("--budget", type=Path, help="type B budget, TOML [[component]]")
+    tdms_group = a.add_argument_group("TDMS recordings (channels in volts)")
+    tdms_group.add_argument(
+        "--reference", metavar="CHANNEL", help="reference channel: group/channel or its name"
+    )
+    tdms_group.add_argument(
+        "--dut", metavar="CHANNEL", help="DUT channel: group/channel or its name"
+    )
+
+    r = sub.add_parser("run", help="run a calibration (simulated stand unless --stand)")
+    r.add_argument("--sim", action="store_true", help="the built-in simulated stand (default)")
+    r.add_argument("--stand", type=Path, help="stand configuration (stand.toml)")
+    r.add_argument("--dut", type=dut_name, default="piezo", help="simulated DUT from the catalogue")
+    r.add_argument("--dut-id", default=None, help="serial number / identification of the DUT")
+    numeric_option(r, "--nominal-sensitivity", SENSITIVITY, "DUT nominal, mV/(m/s^2)")
+    r.add_argument("--preset", choices=sorted(PRESETS), help="plan (default: by DUT kind)")
+    numeric_option(r, "--level", LEVEL, "peak acceleration per line, m/s^2 (default 5)")
+    r.add_argument(
+        "--levels", help=f"amplitude sweep: levels in m/s^2, e.g. 4,5,6,7,8; {LEVEL.describe()}"
+    )
+    numeric_option(r, "--periods", RUN_PERIODS, "periods to acquire", default=8)
+    r.add_argument("--target-ua", help="stop at this relative type A, e.g. 0.2%%; (0, 100 %%]")
+    r.add_argument("--max-time", help="bound on the acquisition time, e.g. 30s; (0, 24 h]")
+    r.add_argument("--estimator", choices=ESTIMATORS, default=DEFAULT_ESTIMATOR)
+    r.add_argument("--mode", choices=MODES, default=MODE_MULTISINE)
+    numeric_option(r, "--tolerance", TOLERANCE, "DUT tolerance of the characteristic, %%")
+    numeric_option(
+        r,
+        "--dut-mass",
+        DUT_MASS,
+        "DUT mass in g: its class picks the stand's stored response (default: the simulated "
+        "DUT's catalogue mass; on real hardware not stated)",
+    )
+    r.add_argument(
+        "--fresh-response",
+        action="store_true",
+        help="identify the stand's response anew instead of starting from the stored one",
+    )
+    numeric_option(r, "--seed", SEED, "simulated stand: random seed", default=0)
+    r.add_argument("--paced", action="store_true", help="simulated stand: real time")
+    r.add_argument(
+        "--fault",
+        action="append",
+        default=[],
+        help=f"simulated: KIND@SECONDS, KIND one of {', '.join(FAULT_KINDS)}",
+    )
+    r.add_argument("--out", type=Path, default=Path("runs"), help="folder for run folders")
+    r.add_argument("--json", action="store_true", help="the run record as JSON")
+    records = r.add_argument_group("records (accelcal db)")
+    records.add_argument(
+        "--sensor",
+        metavar="SERIAL",
+        help="the DUT from the records: its serial, nominal, tolerance, level and plan",
+    )
+    records.add_argument(
+        "--db", metavar="URL", help="records database (default $ACCELCAL_DB, else SQLite file)"
+    )
+    records.add_argument(
+        "--teds",
+        action="store_true",
+        help="identify the DUT by its TEDS (the records' sensor with that identity, else the "
+        "TEDS serial and nominal sensitivity)",
+    )
+    records.add_argument(
+        "--reference-override",
+        metavar="REASON",
+        help="use a reference standard past its due date, for this stated reason",
+    )
+
+    w = sub.add_parser("show", help="print a stored run")
+    w.add_argument("run", type=Path, help="run folder")
+    w.add_argument("--json", action="store_true", help="the run record as JSON")
+
+    sub.add_parser("devices", help="NI-DAQmx devices and VISA resources found, or why none")
+
+    g = sub.add_parser("gui", help="the technician's window")
+    g.add_argument("--sim", action="store_true", help="the built-in simulated stand (default)")
+    g.add_argument("--stand", type=Path, help="stand configuration (stand.toml)")
+    g.add_argument("--dut", type=dut_name, help="simulated DUT to preselect")
+    g.add_argument("--unpaced", action="store_true", help="simulated stand faster than real time")
+    numeric_option(g, "--seed", SEED, "simulated stand: random seed", default=0)
+    g.add_argument("--out", type=Path, default=Path("runs"), help="folder for run folders")
+    g.add_argument("--autorun", action="store_true", help="start a run at once")
+    g.add_argument("--screenshot", type=Path, help="save a PNG of the window (after the run)")
+    g.add_argument("--quit-after-run", action="store_true", help="close when the run ends")
+    g.add_argument("--db", help="records database URL (default: $ACCELCAL_DB, else the local file)")
+
+    c = sub.add_parser("certificate", help="the PDF certificate of a stored complete run")
+    c.add_argument("run", type=Path, help="run folder")
+    c.add_argument("--out", type=Path, help="PDF to write (default: <run>/certificate.pdf)")
+    c.add_argument("--customer", help="customer name (mandatory)")
+    c.add_argument("--customer-address", default="", help="customer address")
+    c.add_argument("--authorised-by", help="name and function of the signatory (mandatory)")
+    c.add_argument("--dut-model", help="DUT manufacturer and model")
+    c.add_argument("--dut-serial", help="DUT serial number (default: the run's --dut-id)")
+    c.add_argument("--dut-type", help="DUT type, e.g. 'piezoelectric accelerometer'")
+    numeric_option(c, "--temperature", TEMPERATURE, "ambient temperature, deg C")
+    c.add_argument("--mounting", help="how the DUT was mounted")
+    c.add_argument("--certificate-number", help="default: AC-<run id>")
+    c.add_argument("--issue-date", help="YYYY-MM-DD (default: the run's date)")
+    c.add_argument("--notes", default="", help="free text printed under Notes")
+    c.add_argument("--sweep", type=Path, help="sweep summary (sweep-*.json) the run belongs to")
+    c.add_argument(
+        "--sign",
+        type=Path,
+        metavar="P12",
+        help="sign the PDF (PAdES) with the lab's key; password from $ACCELCAL_SIGN_PASSWORD",
+    )
+    cr = c.add_argument_group("records (accelcal db): customer, sensor and number from there")
+    cr.add_argument("--db", metavar="URL", help="records database (default $ACCELCAL_DB)")
+    cr.add_argument("--prepared-by", help="who prepared it (default: the login name)")
+    cr.add_argument("--replaces", metavar="NUMBER", help="the certificate this one amends")
+    cr.add_argument("--reason", help="why it amends the one it replaces")
+
+    s = sub.add_parser("simulate", help="record a calibration on the simulated stand")
+    s.add_argument("--list", action="store_true", help="print the simulated catalogue")
+    s.add_argument("--dut", type=dut_name, default="piezo", help="catalogue DUT (see --list)")
+    numeric_option(s, "--level", LEVEL, "peak acceleration per line, m/s^2", default=5.0)
+    numeric_option(s, "--periods", SIM_PERIODS, "periods to record after settling", default=8)
+    numeric_option(s, "--settle", SIM_SETTLE, "settling periods after the fade-in", default=2)
+    numeric_option(s, "--seed", SEED, "random seed (noise, stand deviations)", default=0)
+    s.add_argument(
+        "--fault",
+        action="append",
+        default=[],
+        help=f"inject KIND@SECONDS, KIND one of {', '.join(FAULT_KINDS)}",
+    )
+    s.add_argument("--out", type=Path, help="recording to write (.h5)")
+    s.add_argument("--overwrite", action="store_true", help="--out may replace an existing file")
+    s.add_argument("--json", action="store_true", help="machine-readable output")
+    t = sub.add_parser("teds", help="a sensor's TEDS (IEEE 1451.4): decode a file, read, write")
+    tsub = t.add_subparsers(dest="teds_command", required=True, metavar="ACTION")
+    tsub.add_parser("decode", help="decode an NI .ted file").add_argument("file", type=Path)
+    tr = tsub.add_parser("read", help="read the DUT channel's TEDS on a stand")
+    tw = tsub.add_parser("write", help="write a complete run's sensitivity and date to the TEDS")
+    tw.add_argument("run", type=Path, help="the run folder whose result is written")
+    tw.add_argument("--initials", default="", help="calibrator's initials, up to 3 letters")
+    tw.add_argument("--yes", action="store_true", help="write without asking (scripts)")
+    for p in (tr, tw):
+        p.add_argument("--stand", type=Path, help="stand configuration (default: simulated)")
+        p.add_argument("--dut", type=dut_name, default="piezo", help="simulated DUT")
+        numeric_option(p, "--seed", SEED, "simulated stand: random seed", default=0)
+
+    v = sub.add_parser("verify", help="check a certificate PDF: signature, DCC, run")
+    v.add_argument("pdf", type=Path, help="certificate PDF")
+    v.add_argument("--run", type=Path, help="the run folder it certifies (manifest and numbers)")
+    v.add_argument("--trust", type=Path, help="the CA certificate (PEM or DER) to trust")
+    RECORDS_COMMANDS.update(add_records_commands(sub))
+    return parser
