@@ -1,46 +1,16 @@
 """Multisine plans optimised off the GUI thread (the phase optimisation takes about a second):
 one future per (preset, line list in Hz), optimised at 1 m/s^2 per line (the phases do not
-depend on the level), and the run request that carries the optimised phases so Start does not
-block the window.
+depend on the level): the run request carries them (`RunRequest.phases_rad`), so Start does
+not block the window.
 """
 
 from __future__ import annotations
 
 from concurrent.futures import Future, ThreadPoolExecutor
-from dataclasses import dataclass, fields
 
-from app.procedure.request import RunRequest
 from dsp.multisine import PRESETS, Plan, make_plan, preset_plan
 
 PlanKey = tuple[str, tuple[float, ...]]  # (preset name, line frequencies in Hz)
-
-
-@dataclass(frozen=True)
-class PlannedRequest(RunRequest):
-    """A RunRequest whose multisine phases (rad) were optimised already (the window does it on
-    a worker pool as the lines are typed): Start does not block the GUI for a second."""
-
-    phases_rad: tuple[float, ...] | None = None
-
-    @classmethod
-    def of(cls, request: RunRequest, phases_rad: tuple[float, ...] | None) -> PlannedRequest:
-        """`request` with these phases (None: the run optimises them)."""
-        values = {f.name: getattr(request, f.name) for f in fields(RunRequest)}
-        return cls(**values, phases_rad=phases_rad)
-
-    def plan(self) -> Plan:
-        if self.phases_rad is None or self.preset is None:
-            return super().plan()
-        preset = PRESETS[self.preset]
-        lines = self.frequencies_hz or tuple(preset.nominal_frequencies_hz)
-        return make_plan(
-            lines,
-            preset.sample_rate_hz,
-            preset.period_samples,
-            self.level_ms2,
-            preset.reference_frequency_hz,
-            phases_rad=self.phases_rad,
-        )
 
 
 class PlanCache:

@@ -252,11 +252,12 @@ class RunTab(QWidget):
         if frame.warnings:
             self.messages.setText("<br/>".join(f"⚠ {html.escape(w)}" for w in frame.warnings[-4:]))
         block, frame.block = frame.block, None
-        if block is not None and frame.plan is not None:
+        if block is not None:
             names = list(block.channels)
             ref = block.samples[names.index("reference")]
             dut = block.samples[names.index("dut")]
-            self.live.draw_period(ref, dut, frame.plan)
+            if frame.plan is not None:
+                self.live.draw_period(ref, dut, frame.plan)
             for name, x in (("reference", ref), ("dut", dut)):
                 fill = int(100 * np.max(np.abs(x)) / self.ranges_v[name])
                 bar = self.meters[name]

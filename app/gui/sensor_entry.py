@@ -27,7 +27,10 @@ from PySide6.QtWidgets import (
 )
 
 from app.gui.field_marks import INFO, WARNING, FieldMarks
+from app.procedure.request import DutChoice, resolve_dut, spec_from_sensor
 from app.records.db.errors import RecordsInputError
+from app.records.db.runs import defaults_of
+from app.stand.dut import DutSpec
 from dsp.multisine import PRESETS
 
 log = logging.getLogger(__name__)
@@ -180,21 +183,20 @@ class SerialEntry(QObject):
             return False
         return True
 
+    @property
+    def spec(self) -> DutSpec | None:
+        """The specification of the sensor on record now (None: none looked up)."""
+        return spec_from_sensor(defaults_of(self.sensor)) if self.sensor is not None else None
+
     def fill(self, sensor: Any, how: str = "") -> None:
         """The DUT's settings from its record (exact serial only), resolved as a run resolves
         them (`app.procedure.request.resolve_dut`); `how` it was identified."""
-        from app.procedure.request import DutChoice, resolve_dut
-
         w = self.setup
-        try:
-            resolved = resolve_dut(
-                DutChoice(sensor=sensor.serial, db=self.link.url),
-                w.config.backend,
-                w.config.raw.get("certificate") or {},
-            )
-        except RecordsInputError as exc:
-            self.marks.note(w.dut_id, f"records: {exc}", WARNING)
-            return
+        resolved = resolve_dut(
+            DutChoice(spec=spec_from_sensor(defaults_of(sensor))),
+            w.config.backend,
+            w.config.raw.get("certificate") or {},
+        )
         self.sensor = sensor
         model = sensor.model
         if resolved.nominal_mv_per_ms2 is not None:

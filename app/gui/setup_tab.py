@@ -30,7 +30,7 @@ from PySide6.QtWidgets import (
 
 from app.gui import field_marks
 from app.gui.actions import START, with_key
-from app.gui.plan_cache import PlanCache, PlannedRequest
+from app.gui.plan_cache import PlanCache
 from app.gui.reference_view import describe_reference
 from app.gui.results_tab import wrapping_label
 from app.gui.sensor_entry import SerialEntry
@@ -253,15 +253,14 @@ class SetupTab(QWidget):
         return tuple(parse_frequencies(text)) if text else None
 
     def dut_choice(self) -> DutChoice:
-        """How the fields name the DUT: the catalogue DUT (simulated stand), the serial (on
-        record when its look-up found it) and what the operator states over its record."""
-        on_record = self.serial_entry.sensor
+        """How the fields name the DUT: the catalogue DUT (simulated stand), the serial and,
+        when its look-up found it on record, its specification; what the operator states over
+        the record."""
         return DutChoice(
             stand_file=self.stand_file,
             dut=self.dut.currentText(),
             dut_id=self.dut_id.text().strip() or None,
-            sensor=on_record.serial if on_record is not None else None,
-            db=self.records.url,
+            spec=self.serial_entry.spec,
             seed=self.options.seed,
             nominal_mv_per_ms2=self.nominal.value() or None,
             tolerance_percent=self.tolerance.value() or None,
@@ -290,8 +289,9 @@ class SetupTab(QWidget):
             paced=options.paced,
             faults=options.faults,
             out=options.out,
+            phases_rad=self.plans.phases(preset.name, lines),
         )
-        return PlannedRequest.of(request, self.plans.phases(preset.name, lines)), notes
+        return request, notes
 
     def request(self) -> RunRequest:
         """The run the fields describe (see `request_and_notes`)."""
