@@ -152,5 +152,4 @@ class TemplatePicker(QObject):
         return name
 
     def show_for_model_again(self) -> None:
-        sensor = getattr(self.setup.serial_entry, "sensor", None)
-        self.show_for(sensor)
+        self.show_for(self.setup.serial_entry.sensor)

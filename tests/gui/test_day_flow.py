@@ -469,6 +469,13 @@ def test_withdraw_from_the_register_needs_a_reason(window, qtbot, lab_url):
     tab = window.register_tab
     tab.refresh()
     assert tab.select(number) and tab.withdraw_button.isEnabled()
+    assert tab.amend_button.isEnabled()
+    tab.table.clearSelection()
+    window.run_tab.worker = object()  # a run going (no event loop turns before it is undone)
+    try:
+        assert tab.select(number) and not tab.amend_button.isEnabled()  # no amendment now
+    finally:
+        window.run_tab.worker = None
     notices: list[str] = []
 
     def blank(dialog: QInputDialog) -> None:
