@@ -121,7 +121,11 @@ class TemplatePicker(QObject):
                 self.setup, "Template", "Look a sensor up first: a template belongs to a model."
             )
             return None
-        request, what = self.source()
+        try:
+            request, what = self.source()
+        except ValueError as exc:  # a refusal of the fields (lines, stand file), named
+            QMessageBox.warning(self.setup, "Template not saved", str(exc))
+            return None
         name, ok = QInputDialog.getText(
             self.setup,
             "Save as template",

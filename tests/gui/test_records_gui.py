@@ -384,3 +384,15 @@ def test_the_window_builds_its_request_as_the_cli_from_the_sensors_record(window
     setup.dut_id.editingFinished.emit()
     assert setup.nominal.value() == pytest.approx(100 / 9.80665, abs=1e-3)
     assert setup.request().dut_spec.nominal_mv_per_ms2 == pytest.approx(100 / 9.80665)
+
+
+def test_a_template_of_fields_that_do_not_parse_is_refused_by_name(window, monkeypatch):
+    shown: list[str] = []
+    monkeypatch.setattr(QMessageBox, "warning", lambda parent, title, text, *a: shown.append(text))
+    setup = window.setup_tab
+    setup.dut_id.setText("SN-7")
+    setup.dut_id.editingFinished.emit()
+    setup.frequencies.setText("10,abc")
+    assert setup.templates.save() is None
+    assert len(shown) == 1 and "is not a number" in shown[0]
+    assert Lab(open_engine(window.records.url)).templates("4533-B") == []
