@@ -43,7 +43,7 @@ def run_gui(
         stand_file = Path(last) if last and Path(last).exists() else None
     window = MainWindow(stand_file=stand_file, out=out, paced=paced, seed=seed, db=db)
     if dut:
-        window.dut.setCurrentText(dut)
+        window.setup_tab.dut.setCurrentText(dut)
     if screenshot is not None:
         window.resize(1400, 900)  # the documented size, whatever the last session left
     window.show()
@@ -60,7 +60,7 @@ def run_gui(
         window.wait_for_plans()
         window.run_finished.connect(after_run)
         window.start_run()
-        if window.worker is None and quit_after_run:
+        if window.run_tab.worker is None and quit_after_run:
             outcome["code"] = 2
             app.quit()
 

@@ -33,9 +33,10 @@ class WindowActions(QObject):
         bar = window.menuBar()
         run_menu = bar.addMenu("&Run")
         self.start = self._action("&Start", START, window.start_run, "Start the calibration")
-        self.stop = self._action("S&top (fade out)", STOP, window.stop_run, "Fade out and stop")
+        run_tab, setup_tab = window.run_tab, window.setup_tab
+        self.stop = self._action("S&top (fade out)", STOP, run_tab.stop, "Fade out and stop")
         self.abort = self._action(
-            "&Abort: drive to 0 V now", ABORT, window.emergency_stop, "Zero the drive at once"
+            "&Abort: drive to 0 V now", ABORT, run_tab.emergency_stop, "Zero the drive at once"
         )
         self.abort.setShortcutContext(Qt.ShortcutContext.ApplicationShortcut)
         self.next_sensor = self._action(
@@ -56,15 +57,15 @@ class WindowActions(QObject):
         )
         results_menu.addActions([self.certificate, self.export])
         stand_menu = bar.addMenu("S&tand")
-        stand_menu.addAction(self._action("Stand &file ...", None, window.choose_stand, None))
+        stand_menu.addAction(self._action("Stand &file ...", None, setup_tab.choose_stand, None))
         stand_menu.addAction(
-            self._action("&Simulated stand", None, lambda: window.load_stand(None), None)
+            self._action("&Simulated stand", None, lambda: setup_tab.load_stand(None), None)
         )
         for action in (self.start, self.stop, self.abort, self.next_sensor, self.certificate):
             window.addAction(action)  # shortcuts work whichever widget has the focus
 
-        window.stop_button.setToolTip(with_key("Fade the drive out and stop", STOP))
-        window.stop_button.setText("Stop (fade out)  Ctrl+.")
+        run_tab.stop_button.setToolTip(with_key("Fade the drive out and stop", STOP))
+        run_tab.stop_button.setText("Stop (fade out)  Ctrl+.")
         window.results_tab.certificate_button.setText("Certificate ...  (Ctrl+Shift+C)")
         window.results_tab.certificate_button.setToolTip(
             with_key("Issue the certificate of the run shown here", CERTIFICATE)
@@ -88,8 +89,8 @@ class WindowActions(QObject):
     def refresh(self) -> None:
         """Enabled as the buttons are; Esc and Stop only while a run is going."""
         w = self.window
-        running = w.worker is not None
-        self.start.setEnabled(w.start_button.isEnabled())
+        running = w.run_tab.worker is not None
+        self.start.setEnabled(w.setup_tab.start_button.isEnabled())
         self.stop.setEnabled(running)
         self.abort.setEnabled(running)
         self.next_sensor.setEnabled(not running)

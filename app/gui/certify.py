@@ -57,7 +57,7 @@ def ask(
         window,
         record,
         window.records.certificate_defaults(record),
-        prepared_by=window.technician.text().strip(),
+        prepared_by=window.setup_tab.technician.text().strip(),
         check=lab.check_signatories,
         heading=html.escape(heading),
     )
@@ -106,15 +106,15 @@ def issue(
         )
     except (RecordsInputError, CertificateError, RunIntegrityError, ValueError, OSError) as exc:
         QMessageBox.warning(window, "Certificate refused", str(exc))
-        window.messages.setText(html.escape(f"certificate refused: {exc}"))
+        window.run_tab.messages.setText(html.escape(f"certificate refused: {exc}"))
         return None
     path = Path(issued.file)
     log.info("certificate %s of %s written: %s", issued.number, folder.name, path)
     window.last_certificate = issued.number
-    window.messages.setText(html.escape(f"certificate {issued.number} written: {path}"))
+    window.run_tab.messages.setText(html.escape(f"certificate {issued.number} written: {path}"))
     if window.results_tab.folder == folder:
-        window.summary.setText(
-            window.summary.text()
+        window.results_tab.summary.setText(
+            window.results_tab.summary.text()
             + f"<br/>Certificate {html.escape(issued.number)}: {html.escape(str(path))}"
         )
     window.register_tab.refresh()

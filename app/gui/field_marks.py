@@ -1,5 +1,5 @@
 """Bad input marked at its field: a red frame and the reason in a line right under the field
-(and in its tooltip), before Start is enabled. The window's plan checks (`MainWindow.validate`)
+(and in its tooltip), before Start is enabled. The window's plan checks (`SetupTab.validate`)
 already refuse Start while anything fails; this says *where*.
 
 Each problem of the checks is given to the field it is about (the lines field for a line, the
@@ -147,12 +147,12 @@ class FieldMarks:
         }
 
 
-def install(window: Any) -> FieldMarks:
-    """The marks of the window's setup fields."""
+def install(setup: Any) -> FieldMarks:
+    """The marks of the Setup tab's fields."""
     return FieldMarks(
         {
-            "frequencies": window.frequencies,
-            "level": window.level,
-            "dut_id": window.dut_id,
+            "frequencies": setup.frequencies,
+            "level": setup.level,
+            "dut_id": setup.dut_id,
         }
     )

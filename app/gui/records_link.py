@@ -102,7 +102,7 @@ class RecordsLink(QObject):
         RecordsInputError only when the records fail."""
         if self.lab is None or not serial.strip():
             return None
-        from app.records.db.lab import RecordsError
+        from app.records.db.store import RecordsError
 
         try:
             return self.lab.sensor(serial)

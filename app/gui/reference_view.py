@@ -59,37 +59,36 @@ def describe_reference(config: Any, link: Any = None, today: date | None = None)
     return "<br/>".join(lines)
 
 
-def reference_allows_run(window: Any) -> tuple[bool, str | None]:
-    """Whether Start may go on with the stand's reference standard, and a note to show. Past
-    its due date on record: the refusal names the date and asks an override reason; without
-    one nothing starts and the refusal is shown at the reference standard. Records not open:
-    not checked here (the run still records to its folder), as the CLI."""
+def reference_allows_run(setup: Any, today: date) -> tuple[bool, str | None]:
+    """Whether Start may go on with the Setup tab's reference standard on `today`, and a note
+    to show (when refused: the refusal). Past its due date on record: the refusal names the
+    date and asks an override reason; without one nothing starts and the refusal is shown at
+    the reference standard. Records not open: not checked here (the run still records to its
+    folder), as the CLI."""
     from app.records.db.runs import reference_due_note
 
-    lab = window.records.lab
-    marks = window.field_marks
-    marks.note(window.reference_label, None)
+    lab = setup.records.lab
+    marks = setup.field_marks
+    marks.note(setup.reference_label, None)
     if lab is None:
         return True, None
-    reference_id = window.config.reference.id
-    today = window.today_utc()
+    reference_id = setup.config.reference.id
     try:
         return True, reference_due_note(lab, reference_id, today=today, override_reason=None)
     except RecordsInputError as exc:
         refusal = str(exc)
     reason, ok = QInputDialog.getText(
-        window,
+        setup,
         "Reference standard past its due date",
         f"{refusal}.\n\nOverride reason (required to run; kept in the log):",
     )
     if not ok or not reason.strip():
-        marks.note(window.reference_label, f"Start refused: {refusal}", ERROR)
-        window.messages.setText(html.escape(f"Start refused: {refusal}"))
-        return False, None
+        marks.note(setup.reference_label, f"Start refused: {refusal}", ERROR)
+        return False, f"Start refused: {refusal}"
     try:
         note = reference_due_note(lab, reference_id, today=today, override_reason=reason.strip())
     except RecordsInputError as exc:  # the records changed meanwhile
-        marks.note(window.reference_label, f"Start refused: {exc}", ERROR)
+        marks.note(setup.reference_label, f"Start refused: {exc}", ERROR)
         return False, None
     log.warning("%s", note)
     return True, note

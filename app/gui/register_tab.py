@@ -147,7 +147,7 @@ class RegisterTab(QWidget):
     def _selected(self) -> None:
         rows = self.table.selectionModel().selectedRows()
         issued = bool(rows) and self.cell(rows[0].row(), "State") == "issued"
-        running = getattr(self.main, "worker", None) is not None
+        running = self.main.run_tab.worker is not None  # no amendment while a run goes
         self.amend_button.setEnabled(issued and not running)
         self.withdraw_button.setEnabled(issued)
 

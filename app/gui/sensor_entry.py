@@ -27,7 +27,10 @@ from PySide6.QtWidgets import (
 )
 
 from app.gui.field_marks import INFO, WARNING, FieldMarks
+from app.procedure.request import DutChoice, resolve_dut, spec_from_sensor
 from app.records.db.errors import RecordsInputError
+from app.records.db.runs import defaults_of
+from app.stand.dut import DutSpec
 from dsp.multisine import PRESETS
 
 log = logging.getLogger(__name__)
@@ -82,27 +85,27 @@ class SerialEntry(QObject):
 
     sensor_changed = Signal(object)
 
-    def __init__(self, window: Any, link: Any, marks: FieldMarks) -> None:
-        super().__init__(window)
-        self.window, self.link, self.marks = window, link, marks
+    def __init__(self, setup: Any, link: Any, marks: FieldMarks) -> None:
+        super().__init__(setup)
+        self.setup, self.link, self.marks = setup, link, marks
         self.sensor: Any = None
         self._looked_up: str | None = None
         self._busy = False
-        window.dut_id.editingFinished.connect(self.look_up)
-        window.dut_id.textEdited.connect(self._edited)
+        setup.dut_id.editingFinished.connect(self.look_up)
+        setup.dut_id.textEdited.connect(self._edited)
 
     def _edited(self, _text: str) -> None:
         """Typing again forgets the last look-up (the fields it filled stay until next sensor)."""
         had = self.sensor is not None
         self._looked_up = None
         self.sensor = None
-        self.marks.note(self.window.dut_id, None)
+        self.marks.note(self.setup.dut_id, None)
         if had:
             self.sensor_changed.emit(None)
 
     def reset(self) -> None:
         self._looked_up, self.sensor = None, None
-        self.marks.note(self.window.dut_id, None)
+        self.marks.note(self.setup.dut_id, None)
         self.sensor_changed.emit(None)
 
     def take(self, sensor: Any, how: str) -> None:
@@ -112,7 +115,7 @@ class SerialEntry(QObject):
 
     def look_up(self) -> Any:
         """The sensor on record for the serial typed (None: unknown or no records)."""
-        serial = self.window.dut_id.text().strip()
+        serial = self.setup.dut_id.text().strip()
         if self._busy or serial == self._looked_up:
             return self.sensor
         had = self.sensor is not None
@@ -120,11 +123,11 @@ class SerialEntry(QObject):
         if had:
             self.sensor_changed.emit(None)
         if not serial:
-            self.marks.note(self.window.dut_id, None)
+            self.marks.note(self.setup.dut_id, None)
             return None
         if self.link.lab is None:
             self.marks.note(
-                self.window.dut_id,
+                self.setup.dut_id,
                 f"not checked: {self.link.describe()}; the run is stored under this serial",
                 WARNING,
             )
@@ -134,7 +137,7 @@ class SerialEntry(QObject):
             sensor = self.link.sensor(serial)
             if sensor is None:
                 self.marks.note(
-                    self.window.dut_id,
+                    self.setup.dut_id,
                     f"{serial} is not in the records: nothing filled in; register it, or the run "
                     "is stored under this serial only",
                     WARNING,
@@ -142,7 +145,7 @@ class SerialEntry(QObject):
                 if self.offer_registration(serial):
                     sensor = self.link.sensor(serial)
         except RecordsInputError as exc:
-            self.marks.note(self.window.dut_id, f"records: {exc}", WARNING)
+            self.marks.note(self.setup.dut_id, f"records: {exc}", WARNING)
             sensor = None
         finally:
             self._busy = False
@@ -154,7 +157,7 @@ class SerialEntry(QObject):
         """Ask; register through the records when accepted. Whether the sensor now exists."""
         lab = self.link.lab
         answer = QMessageBox.question(
-            self.window,
+            self.setup,
             "Unknown sensor",
             f"{serial} is not in the records.\n\nRegister it now? Nothing is filled in from "
             "another sensor.",
@@ -164,34 +167,45 @@ class SerialEntry(QObject):
         models, owners = lab.models(), lab.customers()
         if not models or not owners:
             QMessageBox.information(
-                self.window,
+                self.setup,
                 "Register sensor",
                 "The records have no sensor model or no customer yet: add them first "
                 "(accelcal models add ..., accelcal customers add ...).",
             )
             return False
-        dialog = RegisterSensorDialog(self.window, serial, models, owners)
+        dialog = RegisterSensorDialog(self.setup, serial, models, owners)
         if dialog.exec() != QDialog.DialogCode.Accepted:
             return False
         try:
             lab.add_sensor(serial, **dialog.values())
         except RecordsInputError as exc:
-            QMessageBox.warning(self.window, "Sensor not registered", str(exc))
+            QMessageBox.warning(self.setup, "Sensor not registered", str(exc))
             return False
         return True
 
-    def fill(self, sensor: Any, how: str = "") -> None:
-        """The DUT's settings from its record (exact serial only); `how` it was identified."""
-        from app.records.db.units import to_mv_per_ms2
+    @property
+    def spec(self) -> DutSpec | None:
+        """The specification of the sensor on record now (None: none looked up)."""
+        return spec_from_sensor(defaults_of(self.sensor)) if self.sensor is not None else None
 
+    def fill(self, sensor: Any, how: str = "") -> None:
+        """The DUT's settings from its record (exact serial only), resolved as a run resolves
+        them (`app.procedure.request.resolve_dut`); `how` it was identified."""
+        w = self.setup
+        resolved = resolve_dut(
+            DutChoice(spec=spec_from_sensor(defaults_of(sensor))),
+            w.config.backend,
+            w.config.raw.get("certificate") or {},
+        )
         self.sensor = sensor
         model = sensor.model
-        w = self.window
-        w.nominal.setValue(to_mv_per_ms2(model.nominal_sensitivity, model.unit))
-        w.tolerance.setValue(model.tolerance_percent)
-        w.level.setValue(model.level_ms2)
-        if model.preset in PRESETS:
-            w.preset.setCurrentText(model.preset)
+        if resolved.nominal_mv_per_ms2 is not None:
+            w.nominal.setValue(resolved.nominal_mv_per_ms2)
+        if resolved.tolerance_percent is not None:
+            w.tolerance.setValue(resolved.tolerance_percent)
+        w.level.setValue(resolved.level_ms2)
+        if resolved.preset in PRESETS:
+            w.preset.setCurrentText(resolved.preset)
         due = f", due {sensor.due_date}" if sensor.due_date else ""
         self.marks.note(
             w.dut_id,

@@ -45,9 +45,9 @@ def read_teds(stand_file: Path | None, dut: str, seed: int) -> TedsRead:
 class TedsEntry(QObject):
     """The button and its read, one at a time."""
 
-    def __init__(self, window: Any, link: Any) -> None:
-        super().__init__(window)
-        self.window, self.link = window, link
+    def __init__(self, setup: Any, link: Any) -> None:
+        super().__init__(setup)
+        self.setup, self.link = setup, link
         self.button = QPushButton("Read TEDS")
         self.button.setToolTip("Identify the DUT by its TEDS (IEEE 1451.4) and look it up")
         self.button.clicked.connect(self.read)
@@ -62,15 +62,17 @@ class TedsEntry(QObject):
         return self._future is not None
 
     def read(self) -> None:
-        """Start a read on the stand the window has (never while a run uses it)."""
-        w = self.window
-        if self.busy or w.worker is not None:
+        """Start a read on the stand the Setup tab has (never while a run uses it)."""
+        w = self.setup
+        if self.busy or w.running:
             return
         self.last = None
         self.button.setEnabled(False)
         self.button.setText("Reading TEDS ...")
-        self.window.field_marks.note(w.dut_id, None)
-        self._future = self._pool.submit(read_teds, w.stand_file, w.dut.currentText(), int(w.seed))
+        w.field_marks.note(w.dut_id, None)
+        self._future = self._pool.submit(
+            read_teds, w.stand_file, w.dut.currentText(), int(w.options.seed)
+        )
         self._timer.start()
 
     def wait(self, timeout_s: float = 30.0) -> None:
@@ -94,8 +96,8 @@ class TedsEntry(QObject):
             read = future.result()
         except Exception as exc:  # TEDS, stand file or hardware: said, entry by hand
             log.warning("TEDS not read: %s", exc)
-            self.window.field_marks.note(
-                self.window.dut_id,
+            self.setup.field_marks.note(
+                self.setup.dut_id,
                 f"TEDS not read: {exc}; type or scan the serial instead",
                 WARNING,
             )
@@ -105,7 +107,7 @@ class TedsEntry(QObject):
 
     def show(self, read: TedsRead) -> None:
         """Look the identity up and fill as for a typed serial (GUI thread)."""
-        w = self.window
+        w = self.setup
         nominal = (
             f", nominal {read.sensitivity_mv_per_ms2:.4g} mV/(m/s²) in its TEDS"
             if read.sensitivity_mv_per_ms2 is not None
@@ -113,7 +115,7 @@ class TedsEntry(QObject):
         )
         lab = self.link.lab
         if lab is None:
-            self.window.field_marks.note(
+            w.field_marks.note(
                 w.dut_id,
                 f"TEDS identity {read.identity}{nominal}; {self.link.describe()}: type the serial",
                 WARNING,
@@ -123,14 +125,14 @@ class TedsEntry(QObject):
             serial = lab.sensor_by_teds(read.identity).serial
             sensor = self.link.sensor(serial)  # with its model and owner
         except RecordsInputError as exc:
-            self.window.field_marks.note(
+            w.field_marks.note(
                 w.dut_id,
                 f"{exc}{nominal}; nothing filled in: type the serial or register the sensor",
                 WARNING,
             )
             return
         w.dut_id.setText(sensor.serial)
-        self.window.serial_entry.take(sensor, f"TEDS identity {read.identity}")
+        w.serial_entry.take(sensor, f"TEDS identity {read.identity}")
 
     def close(self) -> None:
         self._pool.shutdown(wait=False, cancel_futures=True)

@@ -7,6 +7,7 @@ made (or the fields as they are). Templates live in the records (`Lab.add_templa
 from __future__ import annotations
 
 import logging
+from dataclasses import replace
 from typing import Any
 
 from PySide6.QtCore import QObject
@@ -26,11 +27,11 @@ def model_name(sensor: Any) -> str:
 
 
 class TemplatePicker(QObject):
-    """The template list and the save button of the window's plan form."""
+    """The template list and the save button of the Setup tab's plan form."""
 
-    def __init__(self, window: Any, link: Any) -> None:
-        super().__init__(window)
-        self.window, self.link = window, link
+    def __init__(self, setup: Any, link: Any) -> None:
+        super().__init__(setup)
+        self.setup, self.link = setup, link
         self.combo = QComboBox()
         self.combo.setToolTip("Run templates of the sensor's model (from the records)")
         self.combo.activated.connect(self._chosen)
@@ -82,24 +83,31 @@ class TemplatePicker(QObject):
 
     def apply(self, template: Any) -> None:
         """The plan fields from `template` (tolerance only when the template sets one)."""
-        w = self.window
-        w.preset.setCurrentText(template.preset)
+        now = self.setup.plan_settings()
         lines = template.lines_hz()
-        w.frequencies.setText(",".join(f"{f:g}" for f in lines) if lines else "")
-        w.level.setValue(template.level_ms2)
-        w.periods.setValue(template.periods)
-        w.target.setValue(100 * (template.target_type_a or 0.0))
-        w.max_time.setValue(int(template.max_acquisition_s or 0))
-        w.estimator.setCurrentText(template.estimator)
-        if template.tolerance_percent is not None:
-            w.tolerance.setValue(template.tolerance_percent)
-        w.validate()
+        self.setup.apply_plan(
+            replace(
+                now,
+                preset=template.preset,
+                frequencies=",".join(f"{f:g}" for f in lines) if lines else "",
+                level_ms2=template.level_ms2,
+                periods=template.periods,
+                target_percent=100 * (template.target_type_a or 0.0),
+                max_time_s=int(template.max_acquisition_s or 0),
+                estimator=template.estimator,
+                tolerance_percent=(
+                    now.tolerance_percent
+                    if template.tolerance_percent is None
+                    else template.tolerance_percent
+                ),
+            )
+        )
 
     def source(self) -> tuple[RunRequest, str]:
         """The settings a new template takes: the run just made when it was of this serial,
         else the fields; with a word saying which."""
-        w = self.window
-        last: RunRequest | None = getattr(w, "last_request", None)
+        w = self.setup
+        last: RunRequest | None = w.last_request
         serial = w.dut_id.text().strip()
         if last is not None and last.dut_id == serial:
             return last, f"the settings of the run just made on {serial}"
@@ -110,12 +118,16 @@ class TemplatePicker(QObject):
         lab = self.link.lab
         if lab is None or self.model is None:
             QMessageBox.information(
-                self.window, "Template", "Look a sensor up first: a template belongs to a model."
+                self.setup, "Template", "Look a sensor up first: a template belongs to a model."
             )
             return None
-        request, what = self.source()
+        try:
+            request, what = self.source()
+        except ValueError as exc:  # a refusal of the fields (lines, stand file), named
+            QMessageBox.warning(self.setup, "Template not saved", str(exc))
+            return None
         name, ok = QInputDialog.getText(
-            self.window,
+            self.setup,
             "Save as template",
             f"Name of the template for {self.model} ({what}):",
         )
@@ -135,7 +147,7 @@ class TemplatePicker(QObject):
                 estimator=request.estimator,
             )
         except RecordsInputError as exc:
-            QMessageBox.warning(self.window, "Template not saved", str(exc))
+            QMessageBox.warning(self.setup, "Template not saved", str(exc))
             return None
         name = name.strip()
         log.info("template %r saved for %s", name, self.model)
@@ -144,5 +156,4 @@ class TemplatePicker(QObject):
         return name
 
     def show_for_model_again(self) -> None:
-        sensor = getattr(self.window.serial_entry, "sensor", None)
-        self.show_for(sensor)
+        self.show_for(self.setup.serial_entry.sensor)

@@ -35,23 +35,23 @@ def main(out: Path, runs: int, summary: Path) -> int:
     window = MainWindow(out=out, paced=False, seed=11)
     window.show()
     window.wait_for_plans()
-    window.frequencies.setText(SHORT_LINES)
-    window.periods.setValue(3)  # the fewest with a stated type A
+    window.setup_tab.frequencies.setText(SHORT_LINES)
+    window.setup_tab.periods.setValue(3)  # the fewest with a stated type A
     deadline = time.monotonic() + 30
-    while not window.start_button.isEnabled() and time.monotonic() < deadline:
+    while not window.setup_tab.start_button.isEnabled() and time.monotonic() < deadline:
         app.processEvents(QEventLoop.ProcessEventsFlag.AllEvents, 50)
     screen = window.screen().availableGeometry()
     started = time.monotonic()
     ended: list[dict] = []
     for index in range(runs):
-        window.dut_id.setText(f"SOAK-{index:03d}")
+        window.setup_tab.dut_id.setText(f"SOAK-{index:03d}")
         loop = QEventLoop()
         finished: list = []
         window.run_finished.connect(lambda f, fs=finished, lp=loop: (fs.append(f), lp.quit()))
         QTimer.singleShot(RUN_TIMEOUT_MS, loop.quit)
         window.start_run()
-        if window.worker is None and not finished:
-            log.error("run %d did not start: %s", index, window.messages.text())
+        if window.run_tab.worker is None and not finished:
+            log.error("run %d did not start: %s", index, window.run_tab.messages.text())
             return 1
         if not finished:
             loop.exec()

@@ -149,21 +149,21 @@ def window(qtbot, tmp_path, lab_url, monkeypatch):
     qtbot.addWidget(w)
     w.records.wait()
     w.wait_for_plans()
-    w.technician.setText("A. Tech")
+    w.setup_tab.technician.setText("A. Tech")
     return w
 
 
 def type_serial(qtbot, window: MainWindow, serial: str) -> None:
     """As a barcode scanner: the characters, then Enter."""
-    window.dut_id.setFocus()
-    qtbot.keyClicks(window.dut_id, serial)
-    qtbot.keyClick(window.dut_id, Qt.Key.Key_Return)
+    window.setup_tab.dut_id.setFocus()
+    qtbot.keyClicks(window.setup_tab.dut_id, serial)
+    qtbot.keyClick(window.setup_tab.dut_id, Qt.Key.Key_Return)
 
 
 def run_now(qtbot, window: MainWindow):
-    qtbot.waitUntil(window.start_button.isEnabled, timeout=30_000)
+    qtbot.waitUntil(window.setup_tab.start_button.isEnabled, timeout=30_000)
     with qtbot.waitSignal(window.run_finished, timeout=90_000) as blocker:
-        qtbot.mouseClick(window.start_button, Qt.MouseButton.LeftButton)
+        qtbot.mouseClick(window.setup_tab.start_button, Qt.MouseButton.LeftButton)
     window.records.wait_jobs()  # indexed into the records (records thread)
     return blocker.args[0]
 
@@ -210,19 +210,22 @@ def test_a_whole_day_three_sensors_two_customers_register_and_an_amendment(windo
     ):
         type_serial(qtbot, window, serial)
         # from the records: the model's nominal (converted from mV/g) and tolerance
-        assert window.nominal.value() == pytest.approx(nominal, abs=1e-3)
-        assert window.tolerance.value() == tol
-        assert customer in window.field_marks.reason(window.dut_id)
+        assert window.setup_tab.nominal.value() == pytest.approx(nominal, abs=1e-3)
+        assert window.setup_tab.tolerance.value() == tol
+        assert customer in window.setup_tab.field_marks.reason(window.setup_tab.dut_id)
         listed = ["after run 1", "quick A"] if n == 2 else [template]  # by name
-        assert window.templates.names() == listed  # its model's templates only
-        assert window.templates.choose(template)
-        assert window.frequencies.text() == lines and window.periods.value() == periods
-        assert window.tolerance.value() == run_tol
+        assert window.setup_tab.templates.names() == listed  # its model's templates only
+        assert window.setup_tab.templates.choose(template)
+        assert (
+            window.setup_tab.frequencies.text() == lines
+            and window.setup_tab.periods.value() == periods
+        )
+        assert window.setup_tab.tolerance.value() == run_tol
         finished = run_now(qtbot, window)
         assert finished.status == "complete"
         assert finished.record.dut.id == serial
         runs[serial] = str(finished.record.run_id)
-        folders[serial] = window.out / runs[serial]
+        folders[serial] = window.options.out / runs[serial]
         assert window.results_tab.folder == folders[serial]
         assert finished.results.verdict == "PASS"
         assert window.results_tab.verdict.word.text() == "PASS"
@@ -232,7 +235,7 @@ def test_a_whole_day_three_sensors_two_customers_register_and_an_amendment(windo
             modal = Modal().then(
                 QInputDialog, lambda d: (d.setTextValue("after run 1"), d.accept())
             )
-            assert window.templates.save() == "after run 1"
+            assert window.setup_tab.templates.save() == "after run 1"
             modal.check()
             saved = {t.name: t for t in lab.templates("SimCo PZ-10")}
             assert set(saved) == {"quick A", "after run 1"}
@@ -251,7 +254,7 @@ def test_a_whole_day_three_sensors_two_customers_register_and_an_amendment(windo
         assert seen[n]["notes"] == ""
         assert window.last_certificate is not None
         assert (folders[serial] / "certificate.pdf").is_file()
-        assert window.last_certificate in window.summary.text()
+        assert window.last_certificate in window.results_tab.summary.text()
 
         # Ctrl+N: the next sensor, nothing of this one left
         window.show()
@@ -260,22 +263,31 @@ def test_a_whole_day_three_sensors_two_customers_register_and_an_amendment(windo
         qtbot.waitUntil(window.isActiveWindow, timeout=5_000)
         focus = window.focusWidget() or window
         qtbot.keyClick(focus, Qt.Key.Key_N, Qt.KeyboardModifier.ControlModifier)
-        assert window.dut_id.text() == ""
-        assert window.nominal.value() == 0.0 and window.tolerance.value() == 5.0
-        assert window.frequencies.text() == "" and window.periods.value() == 8
-        assert window.level.value() == 5.0 and window.estimator.currentText() == "periodic"
-        assert window.field_marks.reason(window.dut_id) == ""
-        assert window.templates.names() == [] and not window.templates.combo.isEnabled()
-        assert window.results_tab.folder is None and window.results is None
+        assert window.setup_tab.dut_id.text() == ""
+        assert window.setup_tab.nominal.value() == 0.0 and window.setup_tab.tolerance.value() == 5.0
+        assert window.setup_tab.frequencies.text() == "" and window.setup_tab.periods.value() == 8
+        assert (
+            window.setup_tab.level.value() == 5.0
+            and window.setup_tab.estimator.currentText() == "periodic"
+        )
+        assert window.setup_tab.field_marks.reason(window.setup_tab.dut_id) == ""
+        assert (
+            window.setup_tab.templates.names() == []
+            and not window.setup_tab.templates.combo.isEnabled()
+        )
+        assert window.results_tab.folder is None and window.results_tab.results is None
         assert window.results_tab.table.rowCount() == 0
         assert window.results_tab.budget.rowCount() == 0
         assert window.results_tab.verdict.word.text() == ""
         assert not window.results_tab.certificate_button.isEnabled()
-        assert serial not in window.summary.text() and runs[serial] not in window.summary.text()
-        assert window.last_certificate is None and window.last_request is None
-        assert window.progress.value() == 0 and window.coherence.text() == ""
-        assert window.messages.text() == "" and window.state.text() == "idle"
-        for curve in window.live.curves:
+        assert (
+            serial not in window.results_tab.summary.text()
+            and runs[serial] not in window.results_tab.summary.text()
+        )
+        assert window.last_certificate is None and window.setup_tab.last_request is None
+        assert window.run_tab.progress.value() == 0 and window.run_tab.coherence.text() == ""
+        assert window.run_tab.messages.text() == "" and window.run_tab.state.text() == "idle"
+        for curve in window.run_tab.live.curves:
             x, _ = curve.getData()
             assert x is None or len(x) == 0
         assert window.tabs.currentIndex() == 0
@@ -350,20 +362,20 @@ def test_read_teds_finds_the_sensor_by_its_teds_identity_or_says_why_not(
     window, qtbot, monkeypatch
 ):
     # the simulated piezo of seed 4 carries TEDS identity 43/1/A1/10004 (sim/teds.py): PZ-0003
-    qtbot.mouseClick(window.teds.button, Qt.MouseButton.LeftButton)
-    window.teds.wait()
-    assert window.dut_id.text() == "PZ-0003"
-    assert window.nominal.value() == pytest.approx(10.2, abs=1e-9)
-    reason = window.field_marks.reason(window.dut_id)
+    qtbot.mouseClick(window.setup_tab.teds.button, Qt.MouseButton.LeftButton)
+    window.setup_tab.teds.wait()
+    assert window.setup_tab.dut_id.text() == "PZ-0003"
+    assert window.setup_tab.nominal.value() == pytest.approx(10.2, abs=1e-9)
+    reason = window.setup_tab.field_marks.reason(window.setup_tab.dut_id)
     assert "TEDS identity 43/1/A1/10004" in reason and "ACME Ltd" in reason
-    assert window.templates.names() == ["quick A"]
+    assert window.setup_tab.templates.names() == ["quick A"]
 
     window.next_sensor()
-    window.dut.setCurrentText("capacitive")  # identity 43/2/A1/10004: not on record
-    qtbot.mouseClick(window.teds.button, Qt.MouseButton.LeftButton)
-    window.teds.wait()
-    assert window.dut_id.text() == "" and window.nominal.value() == 0.0
-    reason = window.field_marks.reason(window.dut_id)
+    window.setup_tab.dut.setCurrentText("capacitive")  # identity 43/2/A1/10004: not on record
+    qtbot.mouseClick(window.setup_tab.teds.button, Qt.MouseButton.LeftButton)
+    window.setup_tab.teds.wait()
+    assert window.setup_tab.dut_id.text() == "" and window.setup_tab.nominal.value() == 0.0
+    reason = window.setup_tab.field_marks.reason(window.setup_tab.dut_id)
     assert "no sensor with TEDS identity &#x27;43/2/A1/10004&#x27;" in reason
     assert "nothing filled in" in reason
 
@@ -371,19 +383,21 @@ def test_read_teds_finds_the_sensor_by_its_teds_identity_or_says_why_not(
         raise TedsError("TEDS: the basic TEDS checksum does not match")
 
     monkeypatch.setattr(teds_entry, "read_teds", broken)
-    qtbot.mouseClick(window.teds.button, Qt.MouseButton.LeftButton)
-    window.teds.wait()
-    reason = window.field_marks.reason(window.dut_id)
+    qtbot.mouseClick(window.setup_tab.teds.button, Qt.MouseButton.LeftButton)
+    window.setup_tab.teds.wait()
+    reason = window.setup_tab.field_marks.reason(window.setup_tab.dut_id)
     assert "TEDS not read: TEDS: the basic TEDS checksum does not match" in reason
     assert "type or scan the serial instead" in reason
-    assert window.dut_id.text() == "" and window.teds.button.isEnabled()
-    assert window.dut_id.isEnabled() and not window.dut_id.isReadOnly()  # entry by hand
+    assert window.setup_tab.dut_id.text() == "" and window.setup_tab.teds.button.isEnabled()
+    assert (
+        window.setup_tab.dut_id.isEnabled() and not window.setup_tab.dut_id.isReadOnly()
+    )  # entry by hand
 
 
 def test_start_refuses_a_reference_standard_past_its_due_date_unless_a_reason_is_given(
     window, qtbot, lab_url, caplog
 ):
-    reference = window.config.reference.id  # the simulated stand's
+    reference = window.setup_tab.config.reference.id  # the simulated stand's
     Lab(open_engine(lab_url)).add_reference(
         reference,
         model="B&K 8305",
@@ -394,9 +408,9 @@ def test_start_refuses_a_reference_standard_past_its_due_date_unless_a_reason_is
         table=[(160.0, 1.0, 0.005, None)],
     )
     window.today = date(2026, 11, 24)
-    window.frequencies.setText(LINES_A)
-    window.periods.setValue(3)
-    qtbot.waitUntil(window.start_button.isEnabled, timeout=30_000)
+    window.setup_tab.frequencies.setText(LINES_A)
+    window.setup_tab.periods.setValue(3)
+    qtbot.waitUntil(window.setup_tab.start_button.isEnabled, timeout=30_000)
     asked: list[str] = []
 
     def cancel(dialog: QInputDialog) -> None:
@@ -404,11 +418,11 @@ def test_start_refuses_a_reference_standard_past_its_due_date_unless_a_reason_is
         dialog.reject()
 
     modal = Modal().then(QInputDialog, cancel)
-    qtbot.mouseClick(window.start_button, Qt.MouseButton.LeftButton)
+    qtbot.mouseClick(window.setup_tab.start_button, Qt.MouseButton.LeftButton)
     modal.check()
     assert "was due for calibration on 2025-01-10" in asked[0]
-    assert window.worker is None  # nothing started
-    mark = window.field_marks.reason(window.reference_label)
+    assert window.run_tab.worker is None  # nothing started
+    mark = window.setup_tab.field_marks.reason(window.setup_tab.reference_label)
     assert "Start refused" in mark and "2025-01-10" in mark
 
     def override(dialog: QInputDialog) -> None:
@@ -416,9 +430,9 @@ def test_start_refuses_a_reference_standard_past_its_due_date_unless_a_reason_is
         dialog.accept()
 
     modal = Modal().then(QInputDialog, override)
-    qtbot.mouseClick(window.start_button, Qt.MouseButton.LeftButton)
+    qtbot.mouseClick(window.setup_tab.start_button, Qt.MouseButton.LeftButton)
     modal.check()
-    assert window.worker is None
+    assert window.run_tab.worker is None
 
     def reason(dialog: QInputDialog) -> None:
         dialog.setTextValue("recalibration booked for 2026-12-01")
@@ -426,10 +440,10 @@ def test_start_refuses_a_reference_standard_past_its_due_date_unless_a_reason_is
 
     modal = Modal().then(QInputDialog, reason)
     with qtbot.waitSignal(window.run_finished, timeout=90_000) as blocker:
-        qtbot.mouseClick(window.start_button, Qt.MouseButton.LeftButton)
+        qtbot.mouseClick(window.setup_tab.start_button, Qt.MouseButton.LeftButton)
         modal.check()
     assert blocker.args[0].status == "complete"
-    assert window.field_marks.reason(window.reference_label) == ""
+    assert window.setup_tab.field_marks.reason(window.setup_tab.reference_label) == ""
     assert any(
         "used under the override: recalibration booked for 2026-12-01" in r.getMessage()
         for r in caplog.records
@@ -438,15 +452,15 @@ def test_start_refuses_a_reference_standard_past_its_due_date_unless_a_reason_is
     window.today = date(2024, 6, 1)
     modal = Modal()
     with qtbot.waitSignal(window.run_finished, timeout=90_000):
-        qtbot.mouseClick(window.start_button, Qt.MouseButton.LeftButton)
+        qtbot.mouseClick(window.setup_tab.start_button, Qt.MouseButton.LeftButton)
     modal.check()
 
 
 def test_withdraw_from_the_register_needs_a_reason(window, qtbot, lab_url):
-    window.frequencies.setText(LINES_A)
-    window.periods.setValue(3)
+    window.setup_tab.frequencies.setText(LINES_A)
+    window.setup_tab.periods.setValue(3)
     type_serial(qtbot, window, "PZ-0001")
-    window.nominal.setValue(0.0)
+    window.setup_tab.nominal.setValue(0.0)
     finished = run_now(qtbot, window)
     lab = Lab(open_engine(lab_url))
     number = lab.issue_certificate(
@@ -455,6 +469,13 @@ def test_withdraw_from_the_register_needs_a_reason(window, qtbot, lab_url):
     tab = window.register_tab
     tab.refresh()
     assert tab.select(number) and tab.withdraw_button.isEnabled()
+    assert tab.amend_button.isEnabled()
+    tab.table.clearSelection()
+    window.run_tab.worker = object()  # a run going (no event loop turns before it is undone)
+    try:
+        assert tab.select(number) and not tab.amend_button.isEnabled()  # no amendment now
+    finally:
+        window.run_tab.worker = None
     notices: list[str] = []
 
     def blank(dialog: QInputDialog) -> None:
@@ -483,7 +504,7 @@ def test_withdraw_from_the_register_needs_a_reason(window, qtbot, lab_url):
 
 
 def test_a_disabled_stop_button_looks_disabled(window, qtbot):
-    button = window.stop_button
+    button = window.run_tab.stop_button
     window.show()
     qtbot.waitExposed(window)
     window.tabs.setCurrentIndex(1)
@@ -505,8 +526,8 @@ def test_a_disabled_stop_button_looks_disabled(window, qtbot):
 def test_a_reissue_from_the_register_may_certify_a_later_run_of_the_same_sensor(
     window, qtbot, lab_url
 ):
-    window.frequencies.setText(LINES_A)
-    window.periods.setValue(3)
+    window.setup_tab.frequencies.setText(LINES_A)
+    window.setup_tab.periods.setValue(3)
     type_serial(qtbot, window, "PZ-0001")
     first = run_now(qtbot, window)
     second = run_now(qtbot, window)  # e.g. after the sensor was remounted
@@ -542,4 +563,4 @@ def test_a_reissue_from_the_register_may_certify_a_later_run_of_the_same_sensor(
     old, new = lab.register()
     assert (old.number, old.state) == (number, "replaced")
     assert new.replaces == number and new.run.run_id == str(second.record.run_id)
-    assert (window.out / str(second.record.run_id) / "certificate.pdf").is_file()
+    assert (window.options.out / str(second.record.run_id) / "certificate.pdf").is_file()

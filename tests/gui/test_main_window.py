@@ -25,16 +25,16 @@ def window(qtbot, tmp_path):
 
 
 def test_a_run_through_the_gui_equals_the_same_run_through_the_cli(window, qtbot, tmp_path):
-    window.dut.setCurrentText("piezo")
-    window.periods.setValue(4)
-    assert window.start_button.isEnabled()
+    window.setup_tab.dut.setCurrentText("piezo")
+    window.setup_tab.periods.setValue(4)
+    assert window.setup_tab.start_button.isEnabled()
     with qtbot.waitSignal(window.run_finished, timeout=60_000) as blocker:
-        qtbot.mouseClick(window.start_button, Qt.MouseButton.LeftButton)
+        qtbot.mouseClick(window.setup_tab.start_button, Qt.MouseButton.LeftButton)
     finished = blocker.args[0]
     assert finished.status == "complete"
     assert (
         window.tabs.currentIndex() == 2
-        and "Reference sensitivity at 160 Hz" in window.summary.text()
+        and "Reference sensitivity at 160 Hz" in window.results_tab.summary.text()
     )
     cli = execute(
         RunRequest(
@@ -53,28 +53,34 @@ def test_a_run_through_the_gui_equals_the_same_run_through_the_cli(window, qtbot
     for a, b in zip(finished.results.lines, cli.results.lines, strict=True):
         assert a.sensitivity_mv_per_ms2 == pytest.approx(b.sensitivity_mv_per_ms2, rel=1e-12)
         assert a.phase_deg == pytest.approx(b.phase_deg, abs=1e-9)
-    assert window.table.rowCount() == 25
-    assert window.table.item(12, 1).text() in window.summary.text()
-    assert window.runs.count() == 1 and "complete" in window.runs.item(0).text()
+    assert window.results_tab.table.rowCount() == 25
+    assert window.results_tab.table.item(12, 1).text() in window.results_tab.summary.text()
+    assert window.runs_tab.count() == 1 and "complete" in window.runs_tab.item(0).text()
 
 
 def test_start_is_disabled_for_a_plan_over_the_shakers_limits(window):
-    window.preset.setCurrentText("capacitive")
-    window.level.setValue(8.0)
-    assert not window.start_button.isEnabled()
-    assert "displacement" in window.checks.text() and "exceeds" in window.checks.text()
-    assert "displacement" in window.start_button.toolTip()
-    window.level.setValue(5.0)
-    assert window.start_button.isEnabled()
-    assert "the plan can run" in window.checks.text()
-    window.frequencies.setText("10,20")
-    assert not window.start_button.isEnabled()
-    window.frequencies.setText("")
-    assert window.request().target_type_a is None and window.request().max_acquisition_s is None
-    window.target.setValue(0.2)
-    window.max_time.setValue(30)
-    assert window.request().target_type_a == pytest.approx(0.002)
-    assert window.request().max_acquisition_s == 30.0
+    window.setup_tab.preset.setCurrentText("capacitive")
+    window.setup_tab.level.setValue(8.0)
+    assert not window.setup_tab.start_button.isEnabled()
+    assert (
+        "displacement" in window.setup_tab.checks.text()
+        and "exceeds" in window.setup_tab.checks.text()
+    )
+    assert "displacement" in window.setup_tab.start_button.toolTip()
+    window.setup_tab.level.setValue(5.0)
+    assert window.setup_tab.start_button.isEnabled()
+    assert "the plan can run" in window.setup_tab.checks.text()
+    window.setup_tab.frequencies.setText("10,20")
+    assert not window.setup_tab.start_button.isEnabled()
+    window.setup_tab.frequencies.setText("")
+    assert (
+        window.setup_tab.request().target_type_a is None
+        and window.setup_tab.request().max_acquisition_s is None
+    )
+    window.setup_tab.target.setValue(0.2)
+    window.setup_tab.max_time.setValue(30)
+    assert window.setup_tab.request().target_type_a == pytest.approx(0.002)
+    assert window.setup_tab.request().max_acquisition_s == 30.0
 
 
 def test_closing_the_window_during_a_run_fades_out_to_0_v(qtbot, tmp_path):
@@ -83,11 +89,12 @@ def test_closing_the_window_during_a_run_fades_out_to_0_v(qtbot, tmp_path):
     w.wait_for_plans()
     w.start_run()
     qtbot.waitUntil(
-        lambda: "acquiring" in w.state.text() or "equalising" in w.state.text(), timeout=30_000
+        lambda: "acquiring" in w.run_tab.state.text() or "equalising" in w.run_tab.state.text(),
+        timeout=30_000,
     )
-    stand = w.worker.stand
+    stand = w.run_tab.worker.stand
     w.close()
-    assert w.worker is None
+    assert w.run_tab.worker is None
     assert stand.daq.output_v == 0.0 and stand.daq.output.stopped
     folder = next((tmp_path / "runs").iterdir())
     record = load_run(folder)
@@ -104,14 +111,15 @@ def test_emergency_stop_zeroes_at_once(qtbot, tmp_path):
     w.wait_for_plans()
     w.start_run()
     qtbot.waitUntil(
-        lambda: "identifying" in w.state.text() or "equalising" in w.state.text(), timeout=30_000
+        lambda: "identifying" in w.run_tab.state.text() or "equalising" in w.run_tab.state.text(),
+        timeout=30_000,
     )
-    stand = w.worker.stand
+    stand = w.run_tab.worker.stand
     with qtbot.waitSignal(w.run_finished, timeout=30_000) as blocker:
         qtbot.keyClick(w, Qt.Key.Key_Escape)
     assert blocker.args[0].abort_reason == "emergency stop"
     assert stand.daq.output_v == 0.0
-    assert "ABORTED" in w.state.text()
+    assert "ABORTED" in w.run_tab.state.text()
 
 
 def test_from_an_empty_window_to_a_certificate(window, qtbot, monkeypatch):
@@ -119,12 +127,12 @@ def test_from_an_empty_window_to_a_certificate(window, qtbot, monkeypatch):
     from app.gui import main_window
 
     monkeypatch.setattr(main_window.QDesktopServices, "openUrl", lambda url: True)
-    window.dut_id.setText("SN-GUI-1")
-    window.periods.setValue(3)
+    window.setup_tab.dut_id.setText("SN-GUI-1")
+    window.setup_tab.periods.setValue(3)
     with qtbot.waitSignal(window.run_finished, timeout=60_000):
         window.start_run()
     folder = window.results_tab.folder
-    assert folder is not None and folder.parent == window.out
+    assert folder is not None and folder.parent == window.options.out
     path = window.issue_certificate(
         folder,
         CertificateInfo(
@@ -132,7 +140,7 @@ def test_from_an_empty_window_to_a_certificate(window, qtbot, monkeypatch):
         ),
     )
     assert path is not None and path.exists() and path.name == "certificate.pdf"
-    assert "Certificate:" in window.summary.text()
+    assert "Certificate:" in window.results_tab.summary.text()
     refused = []
     monkeypatch.setattr(main_window.QMessageBox, "warning", lambda *a: refused.append(a[2]))
     assert window.issue_certificate(folder, CertificateInfo(customer="ACME Ltd")) is None
@@ -151,24 +159,27 @@ def test_a_fault_shows_its_message_and_the_window_stays_usable(qtbot, tmp_path):
         w.start_run()
     assert blocker.args[0].status == "aborted"
     assert (
-        "AmplifierFaultError" in w.messages.text()
-        and "Check the power amplifier" in w.messages.text()
+        "AmplifierFaultError" in w.run_tab.messages.text()
+        and "Check the power amplifier" in w.run_tab.messages.text()
     )
-    assert "ABORTED" in w.state.text() and w.start_button.isEnabled()
-    w.faults = ()
+    assert "ABORTED" in w.run_tab.state.text() and w.setup_tab.start_button.isEnabled()
+    w.options.faults = ()
     with qtbot.waitSignal(w.run_finished, timeout=60_000) as blocker:
         w.start_run()
     assert blocker.args[0].status == "complete"
 
 
 def test_custom_lines_are_checked_as_typed_and_run(window, qtbot):
-    window.frequencies.setText("10,abc")
-    assert not window.start_button.isEnabled() and "is not a number" in window.checks.text()
-    window.frequencies.setText("20,40,80")
-    assert "reference frequency 160 Hz: not among the lines" in window.checks.text()
-    window.frequencies.setText("20,25,...,315")
-    qtbot.waitUntil(window.start_button.isEnabled, timeout=20_000)
-    window.periods.setValue(3)
+    window.setup_tab.frequencies.setText("10,abc")
+    assert (
+        not window.setup_tab.start_button.isEnabled()
+        and "is not a number" in window.setup_tab.checks.text()
+    )
+    window.setup_tab.frequencies.setText("20,40,80")
+    assert "reference frequency 160 Hz: not among the lines" in window.setup_tab.checks.text()
+    window.setup_tab.frequencies.setText("20,25,...,315")
+    qtbot.waitUntil(window.setup_tab.start_button.isEnabled, timeout=20_000)
+    window.setup_tab.periods.setValue(3)
     with qtbot.waitSignal(window.run_finished, timeout=60_000) as blocker:
         window.start_run()
     results = blocker.args[0].results
@@ -188,27 +199,27 @@ def test_custom_lines_are_checked_as_typed_and_run(window, qtbot):
         250.0,
         315.0,
     ]
-    assert window.budget.rowCount() >= 4  # type A, the budget, combined, expanded
-    assert window.result_mag.listDataItems()  # the band and the curve are drawn
+    assert window.results_tab.budget.rowCount() >= 4  # type A, the budget, combined, expanded
+    assert window.results_tab.result_mag.listDataItems()  # the band and the curve are drawn
 
 
 def test_stop_fades_out_to_0_v_and_keeps_an_aborted_run(qtbot, tmp_path):
     w = MainWindow(out=tmp_path / "runs", paced=True, seed=5)
     qtbot.addWidget(w)
     w.wait_for_plans()
-    w.periods.setValue(100)  # a long acquisition: Stop comes first
+    w.setup_tab.periods.setValue(100)  # a long acquisition: Stop comes first
     w.start_run()
-    qtbot.waitUntil(lambda: "acquiring" in w.state.text(), timeout=40_000)
+    qtbot.waitUntil(lambda: "acquiring" in w.run_tab.state.text(), timeout=40_000)
     # the first live estimate comes once MIN_PERIODS periods are in (maybe a few periods on)
-    qtbot.waitUntil(lambda: "coherence" in w.coherence.text(), timeout=40_000)
-    stand = w.worker.stand
+    qtbot.waitUntil(lambda: "coherence" in w.run_tab.coherence.text(), timeout=40_000)
+    stand = w.run_tab.worker.stand
     with qtbot.waitSignal(w.run_finished, timeout=30_000) as blocker:
-        qtbot.mouseClick(w.stop_button, Qt.MouseButton.LeftButton)
+        qtbot.mouseClick(w.run_tab.stop_button, Qt.MouseButton.LeftButton)
     finished = blocker.args[0]
     assert finished.status == "aborted" and finished.abort_reason == "stopped by the operator"
     assert stand.daq.output_v == 0.0 and finished.record.final_output_v == 0.0
     assert stand.daq.output.periods[-1].last_v == 0.0  # the fade-out's last sample
-    assert "coherence" in w.coherence.text()
+    assert "coherence" in w.run_tab.coherence.text()
 
 
 def test_a_real_stand_file_loads_and_start_says_what_is_missing(window, monkeypatch, tmp_path):
@@ -219,16 +230,16 @@ def test_a_real_stand_file_loads_and_start_says_what_is_missing(window, monkeypa
     example = Path(__file__).resolve().parents[2] / "examples" / "stand-pxi6251.toml"
     shown = []
     monkeypatch.setattr(main_window.QMessageBox, "warning", lambda *a: shown.append(a[2]))
-    assert window.load_stand(example)
-    assert "nidaqmx" in window.stand_label.text()
+    assert window.setup_tab.load_stand(example)
+    assert "nidaqmx" in window.setup_tab.stand_label.text()
     window.start_run()
-    assert window.procedure is None  # nothing started, nothing moved
+    assert window.run_tab.procedure is None  # nothing started, nothing moved
     assert "NI-DAQmx is not installed" in shown[-1]
     bad = tmp_path / "bad.toml"
     bad.write_text(example.read_text().replace('backend = "nidaqmx"', 'backend = "x"'))
-    assert not window.load_stand(bad)
+    assert not window.setup_tab.load_stand(bad)
     assert "daq.backend" in shown[-1]
-    assert window.load_stand(None) and "simulated" in window.stand_label.text()
+    assert window.setup_tab.load_stand(None) and "simulated" in window.setup_tab.stand_label.text()
 
 
 def test_percent_and_degree_axes_show_their_own_unit_not_a_scale_factor(window, qtbot):
@@ -236,8 +247,8 @@ def test_percent_and_degree_axes_show_their_own_unit_not_a_scale_factor(window, 
     plots = (  # (tab index, plot): a label is scaled only while it is visible
         (2, window.results_tab.result_mag),
         (2, window.results_tab.result_phase),
-        (1, window.live.sens_plot),
-        (1, window.live.phase_plot),
+        (1, window.run_tab.live.sens_plot),
+        (1, window.run_tab.live.phase_plot),
     )
     window.show()
     for tab, plot in plots:
@@ -254,15 +265,15 @@ def test_percent_and_degree_axes_show_their_own_unit_not_a_scale_factor(window, 
 def test_the_run_tab_ends_on_the_last_steady_period_not_the_fade_out(window, qtbot):
     """The fade-out lasts 4 cycles of the lowest line (0.1 s at 40 Hz) and then plays zeros:
     the Last period plot keeps the last acquired period, which moves over its whole length."""
-    window.frequencies.setText("40,80,160,315,630")
-    window.periods.setValue(3)
+    window.setup_tab.frequencies.setText("40,80,160,315,630")
+    window.setup_tab.periods.setValue(3)
     window.wait_for_plans()
-    qtbot.waitUntil(window.start_button.isEnabled, timeout=10_000)
+    qtbot.waitUntil(window.setup_tab.start_button.isEnabled, timeout=10_000)
     with qtbot.waitSignal(window.run_finished, timeout=60_000) as blocker:
-        qtbot.mouseClick(window.start_button, Qt.MouseButton.LeftButton)
+        qtbot.mouseClick(window.setup_tab.start_button, Qt.MouseButton.LeftButton)
     assert blocker.args[0].status == "complete"
     qtbot.wait(200)  # the 25 Hz drawing timer
-    _, y = window.live.wave_ref.getData()
+    _, y = window.run_tab.live.wave_ref.getData()
     assert y is not None and y.size > 0
     half = y.size // 2
     assert np.max(np.abs(y[half:])) > 0.5 * np.max(np.abs(y[:half]))

@@ -111,20 +111,22 @@ def test_records_that_cannot_be_opened_leave_the_window_working(qtbot, tmp_path)
     assert "no accelcal schema" in w.sensors_tab.status.text()
     assert not w.sensors_tab.search.isEnabled()
     w.wait_for_plans()
-    assert w.start_button.isEnabled()
+    assert w.setup_tab.start_button.isEnabled()
 
 
 def test_a_clean_run_shows_pass_large_and_in_the_runs_list_and_the_certificate_is_prefilled(
     window, qtbot, monkeypatch
 ):
-    window.dut_id.setText("SN-7")
-    window.dut_id.editingFinished.emit()
-    assert window.nominal.value() == pytest.approx(100 / 9.80665, abs=1e-3)  # from the records
-    assert window.tolerance.value() == 3.0 and window.level.value() == 4.0
-    window.periods.setValue(4)
+    window.setup_tab.dut_id.setText("SN-7")
+    window.setup_tab.dut_id.editingFinished.emit()
+    assert window.setup_tab.nominal.value() == pytest.approx(
+        100 / 9.80665, abs=1e-3
+    )  # from the records
+    assert window.setup_tab.tolerance.value() == 3.0 and window.setup_tab.level.value() == 4.0
+    window.setup_tab.periods.setValue(4)
     # the simulated piezo's own nominal value for a clean PASS (the records' model is not it)
-    window.nominal.setValue(0.0)
-    window.tolerance.setValue(5.0)
+    window.setup_tab.nominal.setValue(0.0)
+    window.setup_tab.tolerance.setValue(5.0)
     with qtbot.waitSignal(window.run_finished, timeout=60_000) as blocker:
         window.start_run()
     finished = blocker.args[0]
@@ -164,9 +166,10 @@ def test_esc_aborts_a_run_through_the_menu_action_to_0_v(qtbot, tmp_path):
     qtbot.waitUntil(w.window_actions.abort.isEnabled, timeout=5_000)
     assert w.window_actions.abort.shortcut().toString() == "Esc"
     qtbot.waitUntil(
-        lambda: "identifying" in w.state.text() or "equalising" in w.state.text(), timeout=30_000
+        lambda: "identifying" in w.run_tab.state.text() or "equalising" in w.run_tab.state.text(),
+        timeout=30_000,
     )
-    stand = w.worker.stand
+    stand = w.run_tab.worker.stand
     with qtbot.waitSignal(w.run_finished, timeout=30_000) as blocker:
         qtbot.keyClick(w.focusWidget() or w, Qt.Key.Key_Escape)
     assert blocker.args[0].abort_reason == "emergency stop"
@@ -185,38 +188,44 @@ def test_shortcuts_are_in_the_menus_and_tooltips_and_every_field_is_reached_by_t
     for action, key in shortcuts.items():
         assert action in menu_actions and action.shortcut().toString() == key
         assert key in action.toolTip()
-    assert "Ctrl+R" in window.start_button.toolTip() and "Ctrl+R" in window.start_button.text()
+    assert (
+        "Ctrl+R" in window.setup_tab.start_button.toolTip()
+        and "Ctrl+R" in window.setup_tab.start_button.text()
+    )
     assert "Ctrl+Shift+C" in window.results_tab.certificate_button.toolTip()
-    assert "Ctrl+." in window.stop_button.toolTip()
+    assert "Ctrl+." in window.run_tab.stop_button.toolTip()
     fields = [
-        window.dut,
-        window.dut_id,
-        window.nominal,
-        window.tolerance,
-        window.preset,
-        window.frequencies,
-        window.level,
-        window.periods,
-        window.target,
-        window.max_time,
-        window.estimator,
-        window.mode,
-        window.start_button,
+        window.setup_tab.dut,
+        window.setup_tab.dut_id,
+        window.setup_tab.nominal,
+        window.setup_tab.tolerance,
+        window.setup_tab.preset,
+        window.setup_tab.frequencies,
+        window.setup_tab.level,
+        window.setup_tab.periods,
+        window.setup_tab.target,
+        window.setup_tab.max_time,
+        window.setup_tab.estimator,
+        window.setup_tab.mode,
+        window.setup_tab.start_button,
     ]
-    reached, widget = set(), window.dut
+    reached, widget = set(), window.setup_tab.dut
     for _ in range(60):
         reached.add(widget)
         widget = widget.nextInFocusChain()
     assert all(f in reached for f in fields)
     assert all(f.focusPolicy() & Qt.FocusPolicy.TabFocus for f in fields)
-    for spin in (window.nominal, window.tolerance, window.level):
+    for spin in (window.setup_tab.nominal, window.setup_tab.tolerance, window.setup_tab.level):
         assert spin.suffix().strip()  # units in the field
     # next sensor: nothing of the last one carried over
-    window.dut_id.setText("SN-7")
-    window.dut_id.editingFinished.emit()
+    window.setup_tab.dut_id.setText("SN-7")
+    window.setup_tab.dut_id.editingFinished.emit()
     actions.next_sensor.trigger()
-    assert window.dut_id.text() == "" and window.nominal.value() == 0.0
-    assert window.tabs.currentIndex() == 0 and window.field_marks.reason(window.dut_id) == ""
+    assert window.setup_tab.dut_id.text() == "" and window.setup_tab.nominal.value() == 0.0
+    assert (
+        window.tabs.currentIndex() == 0
+        and window.setup_tab.field_marks.reason(window.setup_tab.dut_id) == ""
+    )
 
 
 def test_an_unknown_serial_offers_registration_and_fills_nothing(window, monkeypatch):
@@ -226,13 +235,21 @@ def test_an_unknown_serial_offers_registration_and_fills_nothing(window, monkeyp
         "question",
         lambda *a, **k: asked.append(a[2]) or QMessageBox.StandardButton.No,
     )
-    before = (window.nominal.value(), window.tolerance.value(), window.level.value())
-    window.dut_id.setText("SN-77")  # near SN-7: never guessed
-    window.dut_id.editingFinished.emit()
+    before = (
+        window.setup_tab.nominal.value(),
+        window.setup_tab.tolerance.value(),
+        window.setup_tab.level.value(),
+    )
+    window.setup_tab.dut_id.setText("SN-77")  # near SN-7: never guessed
+    window.setup_tab.dut_id.editingFinished.emit()
     assert asked and "SN-77 is not in the records" in asked[0]
-    assert (window.nominal.value(), window.tolerance.value(), window.level.value()) == before
-    assert "not in the records" in window.field_marks.reason(window.dut_id)
-    assert "border" in window.dut_id.styleSheet()
+    assert (
+        window.setup_tab.nominal.value(),
+        window.setup_tab.tolerance.value(),
+        window.setup_tab.level.value(),
+    ) == before
+    assert "not in the records" in window.setup_tab.field_marks.reason(window.setup_tab.dut_id)
+    assert "border" in window.setup_tab.dut_id.styleSheet()
 
     # accepted this time: the dialog registers it with the model and owner chosen
     monkeypatch.setattr(
@@ -248,36 +265,36 @@ def test_an_unknown_serial_offers_registration_and_fills_nothing(window, monkeyp
         return QDialog.DialogCode.Accepted
 
     monkeypatch.setattr(sensor_entry.RegisterSensorDialog, "exec", fake_exec)
-    window.dut_id.setText("SN-99")
-    window.dut_id.textEdited.emit("SN-99")
-    window.dut_id.editingFinished.emit()
+    window.setup_tab.dut_id.setText("SN-99")
+    window.setup_tab.dut_id.textEdited.emit("SN-99")
+    window.setup_tab.dut_id.editingFinished.emit()
     assert shown == ["SN-99"]
     sensor = window.records.lab.sensor("SN-99")
     assert sensor.owner.name == "Other GmbH"
-    assert "from the records" in window.field_marks.reason(window.dut_id)
-    assert window.tolerance.value() == 3.0
+    assert "from the records" in window.setup_tab.field_marks.reason(window.setup_tab.dut_id)
+    assert window.setup_tab.tolerance.value() == 3.0
 
 
 def test_a_bad_field_is_marked_with_its_reason_and_blocks_start(window):
-    assert window.start_button.isEnabled() and window.field_marks.marked() == {}
-    window.frequencies.setText("10, 20 kHz")
-    assert not window.start_button.isEnabled()
-    reason = window.field_marks.reason(window.frequencies)
+    assert window.setup_tab.start_button.isEnabled() and window.setup_tab.field_marks.marked() == {}
+    window.setup_tab.frequencies.setText("10, 20 kHz")
+    assert not window.setup_tab.start_button.isEnabled()
+    reason = window.setup_tab.field_marks.reason(window.setup_tab.frequencies)
     assert "'20 kHz' is not a number of Hz" in reason.replace("&#x27;", "'")
-    assert "border" in window.frequencies.styleSheet()
-    window.frequencies.setText("")
-    window.preset.setCurrentText("capacitive")
-    window.level.setValue(8.0)
-    assert not window.start_button.isEnabled()
-    assert "displacement" in window.field_marks.reason(window.level)
-    assert window.field_marks.reason(window.frequencies) == ""
-    window.level.setValue(5.0)
-    assert window.start_button.isEnabled() and window.field_marks.marked() == {}
+    assert "border" in window.setup_tab.frequencies.styleSheet()
+    window.setup_tab.frequencies.setText("")
+    window.setup_tab.preset.setCurrentText("capacitive")
+    window.setup_tab.level.setValue(8.0)
+    assert not window.setup_tab.start_button.isEnabled()
+    assert "displacement" in window.setup_tab.field_marks.reason(window.setup_tab.level)
+    assert window.setup_tab.field_marks.reason(window.setup_tab.frequencies) == ""
+    window.setup_tab.level.setValue(5.0)
+    assert window.setup_tab.start_button.isEnabled() and window.setup_tab.field_marks.marked() == {}
 
 
 def test_the_reference_standard_shown_is_the_stand_files_with_its_record(window, lab_url):
-    assert "REF-8305-SIM" in window.reference_label.text()
-    assert "not in the records" in window.reference_label.text()
+    assert "REF-8305-SIM" in window.setup_tab.reference_label.text()
+    assert "not in the records" in window.setup_tab.reference_label.text()
     example = ROOT / "examples" / "stand-pxi6251.toml"
     from app.stand import config as stand_config
 
@@ -291,8 +308,8 @@ def test_the_reference_standard_shown_is_the_stand_files_with_its_record(window,
         due_date=date(2025, 1, 10),
         table=[(160.0, 1.0, 0.005, None)],
     )
-    assert window.load_stand(example)
-    text = window.reference_label.text()
+    assert window.setup_tab.load_stand(example)
+    text = window.setup_tab.reference_label.text()
     assert ref.id in text and ref.serial in text and "stand-pxi6251.toml" in text
     assert "EXPIRED, due on 2025-01-10" in text
     assert "simulated" not in text
@@ -319,3 +336,63 @@ def test_gui_takes_the_records_url():
     args = build_parser().parse_args(["gui", "--sim", "--db", "sqlite:///x.sqlite"])
     assert args.db == "sqlite:///x.sqlite"
     assert build_parser().parse_args(["gui"]).db is None
+
+
+def test_the_window_builds_its_request_as_the_cli_from_the_sensors_record(window, lab_url):
+    """The GUI resolves a sensor on record into its DutSpec through `build_request`, as the
+    CLI does: the record's phase tolerance over the model's range reaches the verdict, and
+    the nominal in mV/g is converted by the records (100 mV/g = 100/9.80665 mV/(m/s^2))."""
+    from app.stand.dut import Band
+
+    Lab(open_engine(lab_url), actor="t").add_model(
+        "PCB",
+        "352C33",
+        nominal_sensitivity=10.2,
+        unit="mV/(m/s^2)",
+        tolerance_percent=4,
+        frequency_min_hz=5,
+        frequency_max_hz=4000,
+        level_ms2=6.0,
+        phase_tolerance_deg=3.0,
+    )
+    Lab(open_engine(lab_url), actor="t").add_sensor("SN-PH", model="352C33", owner="ACME Ltd")
+    setup = window.setup_tab
+    setup.dut_id.setText("SN-PH")
+    setup.dut_id.editingFinished.emit()
+    assert setup.nominal.value() == pytest.approx(10.2)
+    assert setup.tolerance.value() == 4.0 and setup.level.value() == 6.0
+    request = setup.request()
+    spec = request.dut_spec
+    assert spec is not None and spec.serial == "SN-PH" and "PCB 352C33" in spec.source
+    assert spec.phase == (Band(5.0, 4000.0, 3.0),)
+    tolerances = request.tolerances("sim", 160.0)
+    assert tolerances.phase == (Band(5.0, 4000.0, 3.0),)
+    assert tolerances.nominal_sensitivity_mv_per_ms2 == pytest.approx(10.2)
+    assert tolerances.sensitivity_percent == 4.0
+    # the operator's tolerance wins over the record's, over every line
+    setup.tolerance.setValue(2.5)
+    assert setup.request().tolerances("sim", 160.0).characteristic[0].tolerance == 2.5
+    # a serial typed but not on record: no spec of the records, the catalogue DUT's instead
+    setup.dut_id.setText("SN-7")
+    setup.dut_id.textEdited.emit("SN-7")  # typing forgets the look-up
+    request = setup.request()
+    assert request.dut_id == "SN-7" and request.dut_spec is not None
+    assert request.dut_spec.phase != (Band(5.0, 4000.0, 3.0),)
+    assert request.dut_spec.catalogue == "piezo"
+    # the B&K model in mV/g: 100 mV/g is 10.197 mV/(m/s^2)
+    setup.dut_id.setText("SN-8")
+    setup.dut_id.editingFinished.emit()
+    assert setup.nominal.value() == pytest.approx(100 / 9.80665, abs=1e-3)
+    assert setup.request().dut_spec.nominal_mv_per_ms2 == pytest.approx(100 / 9.80665)
+
+
+def test_a_template_of_fields_that_do_not_parse_is_refused_by_name(window, monkeypatch):
+    shown: list[str] = []
+    monkeypatch.setattr(QMessageBox, "warning", lambda parent, title, text, *a: shown.append(text))
+    setup = window.setup_tab
+    setup.dut_id.setText("SN-7")
+    setup.dut_id.editingFinished.emit()
+    setup.frequencies.setText("10,abc")
+    assert setup.templates.save() is None
+    assert len(shown) == 1 and "is not a number" in shown[0]
+    assert Lab(open_engine(window.records.url)).templates("4533-B") == []

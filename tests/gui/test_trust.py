@@ -31,15 +31,15 @@ def window(qtbot, tmp_path, monkeypatch):
     w = MainWindow(out=tmp_path / "runs", paced=False, seed=7)
     qtbot.addWidget(w)
     w.wait_for_plans()
-    w.frequencies.setText(SHORT_LINES)
-    qtbot.waitUntil(w.start_button.isEnabled, timeout=30_000)
-    w.periods.setValue(3)  # the fewest with a stated type A
+    w.setup_tab.frequencies.setText(SHORT_LINES)
+    qtbot.waitUntil(w.setup_tab.start_button.isEnabled, timeout=30_000)
+    w.setup_tab.periods.setValue(3)  # the fewest with a stated type A
     return w
 
 
 def run(window, qtbot, dut_id: str, faults: tuple = ()) -> Finished:
-    window.faults = faults
-    window.dut_id.setText(dut_id)
+    window.options.faults = faults
+    window.setup_tab.dut_id.setText(dut_id)
     with qtbot.waitSignal(window.run_finished, timeout=60_000) as blocker:
         window.start_run()
     return blocker.args[0]
@@ -86,8 +86,8 @@ def test_an_aborted_run_opened_in_the_runs_tab_is_never_certified_nor_another(
     good = run(window, qtbot, "SN-GOOD")
     bad = run(window, qtbot, "SN-BAD", (Fault("amplifier-fault", 0.5),))
     assert good.status == "complete" and bad.status == "aborted"
-    good_folder = window.out / good.record.run_id
-    bad_folder = window.out / bad.record.run_id
+    good_folder = window.options.out / good.record.run_id
+    bad_folder = window.options.out / bad.record.run_id
     assert window.runs_tab.state_of(good_folder.name) == "complete"
     assert window.runs_tab.state_of(bad_folder.name) == "aborted"
     answers = Answers(
@@ -95,12 +95,17 @@ def test_an_aborted_run_opened_in_the_runs_tab_is_never_certified_nor_another(
     )
     # the complete run was shown last; now the technician opens the aborted one
     row = next(
-        r for r in range(window.runs.count()) if bad_folder.name in window.runs.item(r).text()
+        r
+        for r in range(window.runs_tab.count())
+        if bad_folder.name in window.runs_tab.item(r).text()
     )
-    item = window.runs.item(row)
+    item = window.runs_tab.item(row)
     window.runs_tab.runs.itemDoubleClicked.emit(item)
     assert window.tabs.currentIndex() == main_window.RESULTS_TAB
-    assert "aborted" in window.summary.text() and "never certified" in window.summary.text()
+    assert (
+        "aborted" in window.results_tab.summary.text()
+        and "never certified" in window.results_tab.summary.text()
+    )
     assert not window.results_tab.certificate_button.isEnabled()
     assert window.certificate_action() is None
     assert answers.seen == [] and answers.questions == []  # nothing asked for the wrong run
@@ -141,15 +146,15 @@ def test_modified_and_interrupted_runs_are_listed_so_and_never_certified(
     window, qtbot, monkeypatch
 ):
     done = run(window, qtbot, "SN-EDIT")
-    folder = window.out / done.record.run_id
+    folder = window.options.out / done.record.run_id
     target = folder / "results.json"
     folder.chmod(0o755)
     target.chmod(0o644)
     target.write_text(target.read_text().replace('"SN-EDIT"', '"SN-FORGED"'))
-    dead = RunFolder.create(window.out, "died")  # a process that died mid-run
+    dead = RunFolder.create(window.options.out, "died")  # a process that died mid-run
     dead.log("state: acquiring")
     dead.release()
-    window.refresh_runs()
+    window.runs_tab.refresh()
     assert window.runs_tab.state_of(folder.name) == "modified"
     assert window.runs_tab.state_of(dead.path.name) == "interrupted"
     answers = Answers(monkeypatch, {"customer": "X", "authorised_by": "Y", "mounting": "Z"})
@@ -157,13 +162,16 @@ def test_modified_and_interrupted_runs_are_listed_so_and_never_certified(
         assert not window.open_run(path)
         assert not window.results_tab.certificate_button.isEnabled()
         assert window.certificate_action() is None
-    assert "hash mismatch" in window.summary.text() or "interrupted" in window.summary.text()
+    assert (
+        "hash mismatch" in window.results_tab.summary.text()
+        or "interrupted" in window.results_tab.summary.text()
+    )
     assert answers.questions == [] and certificates(folder) == []
 
 
 def test_a_run_shown_then_tampered_is_refused_at_the_certificate(window, qtbot, monkeypatch):
     done = run(window, qtbot, "SN-LATE")
-    folder = window.out / done.record.run_id
+    folder = window.options.out / done.record.run_id
     assert window.results_tab.folder == folder
     folder.chmod(0o755)
     (folder / "results.csv").chmod(0o644)
@@ -176,20 +184,20 @@ def test_a_run_shown_then_tampered_is_refused_at_the_certificate(window, qtbot, 
 
 def test_the_run_tab_is_cleared_when_a_new_run_starts(window, qtbot):
     run(window, qtbot, "SN-A")
-    assert window.live.wave_ref.getData()[0] is not None  # the first run drew
-    assert "coherence" in window.coherence.text()
-    window.paced = True  # the second run is still at its start when we look
-    window.periods.setValue(50)
+    assert window.run_tab.live.wave_ref.getData()[0] is not None  # the first run drew
+    assert "coherence" in window.run_tab.coherence.text()
+    window.options.paced = True  # the second run is still at its start when we look
+    window.setup_tab.periods.setValue(50)
     window.start_run()
     try:
-        for curve in window.live.curves:
+        for curve in window.run_tab.live.curves:
             x, _ = curve.getData()
             assert x is None or len(x) == 0, curve
-        assert window.coherence.text() == "" and window.progress.value() == 0
-        assert window.meters["reference"].value() == 0
+        assert window.run_tab.coherence.text() == "" and window.run_tab.progress.value() == 0
+        assert window.run_tab.meters["reference"].value() == 0
     finally:
         with qtbot.waitSignal(window.run_finished, timeout=60_000):
-            window.stop_run()
+            window.run_tab.stop()
 
 
 def test_a_long_abort_message_never_widens_the_window(window, qtbot):
@@ -204,14 +212,14 @@ def test_a_long_abort_message_never_widens_the_window(window, qtbot):
     )
     assert len(reason) > 2000
     record = RunRecord(run_id=None, status="aborted", abort_reason=reason, final_output_v=0.0)
-    window._on_done(Finished("aborted", reason, None, record))
+    window.run_tab.finish(Finished("aborted", reason, None, record))
     for _ in range(5):
         QApplication.processEvents()
     assert window.width() == before <= screen.width()
     assert window.minimumSizeHint().width() <= screen.width()
     assert window.frameGeometry().width() <= screen.width() + 20  # frame: a few pixels
-    assert "ABORTED" in window.state.text() and reason in window.state.toolTip()
-    assert reason[:200] in window.messages.text()  # the whole message, wrapped below
+    assert "ABORTED" in window.run_tab.state.text() and reason in window.run_tab.state.toolTip()
+    assert reason[:200] in window.run_tab.messages.text()  # the whole message, wrapped below
 
 
 def test_the_worker_never_draws_and_copies_what_it_queues(window, qtbot, monkeypatch):
@@ -271,4 +279,4 @@ def test_the_dut_serial_is_not_carried_into_the_next_session(qtbot, tmp_path):
     QSettings(main_window.ORGANISATION, main_window.APPLICATION).setValue("dut_id", "SN-OLD")
     w = MainWindow(out=tmp_path / "runs", paced=False)
     qtbot.addWidget(w)
-    assert w.dut_id.text() == "" and w.request().dut_id is None
+    assert w.setup_tab.dut_id.text() == "" and w.setup_tab.request().dut_id is None

@@ -9,15 +9,10 @@ import pytest
 from sqlalchemy import Engine, select, text
 from sqlalchemy.orm import Session
 
-from app.records.db.lab import (
-    DAYS_PER_YEAR,
-    HistoryPoint,
-    Lab,
-    RecordsError,
-    add_months,
-    drift_percent_per_year,
-)
+from app.records.db.lab import Lab
 from app.records.db.models import AuditEntry, Run, Sensor, Stand
+from app.records.db.run_index import DAYS_PER_YEAR, HistoryPoint, drift_percent_per_year
+from app.records.db.store import RecordsError, add_months
 from app.records.db.units import STANDARD_GRAVITY_MS2, from_mv_per_ms2, to_mv_per_ms2
 
 TODAY = date(2026, 11, 23)
@@ -280,7 +275,7 @@ def test_two_person_rule_and_run_checks(lab: Lab) -> None:
 
 
 def test_a_check_standard_outside_its_control_limits_is_a_warning() -> None:
-    from app.records.db.lab import individuals_chart
+    from app.records.db.run_index import individuals_chart
 
     values = [10.00, 10.02, 9.99, 10.01, 10.00]
     # hand: mean 10.004; moving ranges 0.02, 0.03, 0.02, 0.01 -> mean 0.02; sigma 0.02/1.128

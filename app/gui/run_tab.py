@@ -1,0 +1,308 @@
+"""The Run tab: one run live (state, equalisation, coherence, progress, input meters in % of
+range, the last period and the characteristic so far) and its Stop button.
+
+The procedure runs on a plain worker thread (`app.gui.worker.RunWorker`) that only queues copies
+of its events; a FRAME_HZ timer on the GUI thread drains the queue into a `LiveFrame` (the latest
+of each kind) and draws it, so no widget or plot item is touched from another thread. When the
+worker is done the tab says how the run ended and emits `ended` with the `Finished` (or None).
+"""
+
+from __future__ import annotations
+
+import html
+import logging
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from PySide6.QtCore import Qt, QTimer, Signal
+from PySide6.QtGui import QFontMetrics
+from PySide6.QtWidgets import (
+    QHBoxLayout,
+    QLabel,
+    QMessageBox,
+    QProgressBar,
+    QPushButton,
+    QSizePolicy,
+    QVBoxLayout,
+    QWidget,
+)
+
+from app.gui.plots import FRAME_HZ, LivePlots
+from app.gui.results_tab import wrapping_label
+from app.gui.worker import RunWorker
+from app.procedure import (
+    EqualisationStep,
+    Finished,
+    PeriodBlock,
+    PeriodEstimate,
+    Progress,
+    State,
+    StateChanged,
+    WarningRaised,
+)
+from app.procedure.run import RunRequest, start
+from dsp.calibration import Results
+from dsp.multisine import Plan
+from hardware.errors import HardwareError
+
+log = logging.getLogger(__name__)
+
+STOP_STYLE = (  # flat colours (a border makes Qt draw the background as given)
+    "QPushButton { background: #c0392b; color: white; font-weight: bold; padding: 8px;"
+    " border: 1px solid #922b21; border-radius: 4px; }"
+    "QPushButton:disabled { background: #e5e7e9; color: #a6acaf; font-weight: normal;"
+    " border: 1px solid #ccd1d1; }"
+)
+METERED = ("reference", "dut")  # the input channels with a level meter
+
+
+@dataclass
+class LiveFrame:
+    """What the next frame draws: the latest event of each kind since the last frame (None:
+    nothing new), the run's plan, and the warnings so far."""
+
+    plan: Plan | None = None
+    block: PeriodBlock | None = None
+    estimate: PeriodEstimate | None = None
+    state: str | None = None
+    equalisation: str | None = None
+    progress: tuple[float, float | None] | None = None  # (fraction done, seconds left or None)
+    warnings: list[str] = field(default_factory=list)
+
+    def take(self, events: list[Any]) -> None:
+        """Keep only what the next frame draws."""
+        for event in events:
+            if isinstance(event, PeriodBlock):
+                if event.state != State.FADING_OUT:  # keep showing the last steady period
+                    self.block = event
+            elif isinstance(event, PeriodEstimate):
+                self.estimate = event
+            elif isinstance(event, StateChanged):
+                self.state = f"{event.state}  {event.message}"
+            elif isinstance(event, EqualisationStep):
+                self.equalisation = (
+                    f"equalisation {event.iteration}: worst line {100 * event.worst:.2f} %"
+                )
+            elif isinstance(event, Progress):
+                self.progress = (event.fraction, event.remaining_s)
+            elif isinstance(event, WarningRaised):
+                self.warnings.append(event.text)
+
+
+class ElidedLabel(QLabel):
+    """One line of text, elided to the width it is given (the whole text in the tooltip);
+    it never widens its window."""
+
+    def __init__(self, text: str = "") -> None:
+        super().__init__()
+        self._full = ""
+        self.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Preferred)
+        self.setMinimumWidth(1)
+        self.setText(text)
+
+    def setText(self, text: str) -> None:
+        self._full = text
+        self.setToolTip(text if len(text) > 60 else "")
+        self._elide()
+
+    def text(self) -> str:
+        return self._full
+
+    def resizeEvent(self, event: Any) -> None:
+        super().resizeEvent(event)
+        self._elide()
+
+    def _elide(self) -> None:
+        width = max(self.width(), 40)
+        shown = QFontMetrics(self.font()).elidedText(self._full, Qt.TextElideMode.ElideRight, width)
+        super().setText(shown)
+
+
+class RunTab(QWidget):
+    """The live view of one run and the worker that runs it."""
+
+    ended = Signal(object)  # Finished | None, on the GUI thread, once per run
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.worker: RunWorker | None = None
+        self.out: Path | None = None  # the runs root of the run going or last run
+        self.frame = LiveFrame()
+        self.ranges_v: dict[str, float] = {}  # input range (V) of each metered channel
+        layout = QVBoxLayout(self)
+        top = QHBoxLayout()
+        self.state = ElidedLabel("idle")
+        self.state.setStyleSheet("font-size: 15px; font-weight: bold")
+        self.equalisation = ElidedLabel("")
+        self.coherence = ElidedLabel("")
+        self.progress = QProgressBar()
+        self.stop_button = QPushButton("Stop (fade out)  Ctrl+.")
+        self.stop_button.setStyleSheet(STOP_STYLE)  # disabled: grey, visibly not active
+        self.stop_button.clicked.connect(self.stop)
+        self.stop_button.setEnabled(False)
+        top.addWidget(self.state, 2)
+        top.addWidget(self.equalisation, 2)
+        top.addWidget(self.coherence, 2)
+        top.addWidget(self.progress, 2)
+        top.addWidget(self.stop_button, 1)
+        layout.addLayout(top)
+        meters = QHBoxLayout()
+        self.meters: dict[str, QProgressBar] = {}
+        for name in METERED:
+            bar = QProgressBar(maximum=100, format=f"{name} %p % of range")
+            meters.addWidget(bar)
+            self.meters[name] = bar
+        layout.addLayout(meters)
+        self.live = LivePlots()
+        layout.addWidget(self.live.widget, 1)
+        self.messages = wrapping_label("")
+        self.messages.setTextFormat(Qt.TextFormat.RichText)
+        layout.addWidget(self.messages)
+        self.timer = QTimer(self, interval=int(1000 / FRAME_HZ))
+        self.timer.timeout.connect(self.tick)
+        self.timer.start()
+
+    @property
+    def procedure(self) -> Any:
+        """The running procedure (None when idle)."""
+        return self.worker.procedure if self.worker is not None else None
+
+    def begin(self, request: RunRequest, ranges_v: Mapping[str, float], note: str | None) -> bool:
+        """Open the stand and start `request` on a worker; `ranges_v` the input range (V) of
+        each metered channel, `note` a word to show. Whether it started (why not: shown)."""
+        if self.worker is not None:
+            return False
+        try:
+            procedure, stand = start(request)
+        except (ValueError, HardwareError) as exc:  # config, plan, missing driver or device
+            QMessageBox.warning(self, "Cannot start", f"{type(exc).__name__}: {exc}")
+            self.messages.setText(html.escape(f"Cannot start: {exc}"))
+            return False
+        self.clear()
+        if note:
+            self.messages.setText(html.escape(note))
+        self.state.setText("starting ...")
+        self.ranges_v = dict(ranges_v)
+        self.out = request.out
+        self.frame = LiveFrame(plan=procedure.plan)
+        self.worker = RunWorker(procedure, stand)
+        self.stop_button.setEnabled(True)
+        self.worker.start()
+        return True
+
+    def stop(self) -> None:
+        """Fade the drive out and end the run (kept as aborted)."""
+        if self.worker is not None:
+            self.worker.procedure.abort("stopped by the operator")
+            self.state.setText("stopping: fading out ...")
+
+    def emergency_stop(self) -> None:
+        """The drive to 0 V at once."""
+        if self.worker is not None:
+            self.worker.procedure.emergency_stop()
+            self.state.setText("EMERGENCY STOP: drive at 0 V")
+
+    def shut_down(self, reason: str) -> None:
+        """Abort a running calibration with `reason` and wait for it, bounded: a fade-out, then
+        an emergency stop if the fade-out does not end (closing the window)."""
+        worker = self.worker
+        if worker is not None:
+            period = worker.procedure.plan.period_s
+            worker.procedure.abort(reason)
+            if not worker.join(3 * period + 5):
+                worker.procedure.emergency_stop()
+                worker.join(period + 5)
+            if worker.done:
+                self.finish(worker.finished)
+        self.timer.stop()
+
+    def tick(self) -> None:
+        """At most FRAME_HZ times a second, on the GUI thread: take the worker's events,
+        draw the latest of each kind, and end the run in the tab once the worker has."""
+        worker = self.worker
+        if worker is None:
+            return
+        events = worker.drain()
+        if events:
+            self.frame.take(events)
+            self.draw()
+        if worker.done:
+            self.frame.take(worker.drain())
+            self.draw()
+            self.finish(worker.finished)
+
+    def draw(self) -> None:
+        """Draw what the frame holds new (each piece once)."""
+        frame = self.frame
+        if frame.state is not None:
+            self.state.setText(frame.state)
+            frame.state = None
+        if frame.equalisation is not None:
+            self.equalisation.setText(frame.equalisation)
+            frame.equalisation = None
+        if frame.progress is not None:
+            fraction, remaining = frame.progress
+            frame.progress = None
+            self.progress.setValue(int(100 * fraction))
+            left = "" if remaining is None else f", about {remaining:.0f} s left"
+            self.progress.setFormat(f"%p %{left}")
+        if frame.warnings:
+            self.messages.setText("<br/>".join(f"⚠ {html.escape(w)}" for w in frame.warnings[-4:]))
+        block, frame.block = frame.block, None
+        if block is not None:
+            names = list(block.channels)
+            ref = block.samples[names.index("reference")]
+            dut = block.samples[names.index("dut")]
+            if frame.plan is not None:
+                self.live.draw_period(ref, dut, frame.plan)
+            for name, x in (("reference", ref), ("dut", dut)):
+                fill = int(100 * np.max(np.abs(x)) / self.ranges_v[name])
+                bar = self.meters[name]
+                bar.setValue(min(fill, 100))
+                bar.setStyleSheet(
+                    "QProgressBar::chunk {background: %s}"
+                    % ("#c0392b" if fill >= 95 else "#27ae60")
+                )
+        estimate, frame.estimate = frame.estimate, None
+        if estimate is not None:
+            self.draw_characteristic(estimate.results)
+
+    def draw_characteristic(self, results: Results) -> None:
+        worst = min(results.lines, key=lambda ln: ln.coherence)
+        self.coherence.setText(
+            f"coherence >= {worst.coherence:.4f} (lowest at {worst.nominal_frequency_hz:g} Hz)"
+        )
+        self.live.draw_characteristic(results)
+
+    def finish(self, finished: Finished | None) -> None:
+        """The run has ended (GUI thread): say how, then emit `ended`."""
+        self.worker = None
+        self.frame = LiveFrame()
+        self.stop_button.setEnabled(False)
+        if finished is not None and finished.status == "complete":
+            self.state.setText("finished: results on tab 3")
+        elif finished is not None:
+            run_id = finished.record.run_id
+            folder = self.out / str(run_id) if run_id and self.out is not None else None
+            self.state.setText(f"ABORTED: {finished.abort_reason}")
+            self.messages.setText(
+                f"<b>The run was aborted:</b> {html.escape(str(finished.abort_reason))}<br/>"
+                f"The drive is at {finished.record.final_output_v} V. The data so far is "
+                f"kept in {html.escape(str(folder))}."
+            )
+        self.ended.emit(finished)
+
+    def clear(self) -> None:
+        """A new run starts from an empty Run tab: no curve, meter or word of the last run."""
+        self.live.clear()
+        for label in (self.equalisation, self.coherence):
+            label.setText("")
+        self.messages.setText("")
+        self.progress.setValue(0)
+        self.progress.resetFormat()
+        for bar in self.meters.values():
+            bar.setValue(0)
+            bar.setStyleSheet("")

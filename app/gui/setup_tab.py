@@ -1,0 +1,411 @@
+"""The Setup & plan tab: the stand (file or simulated) and its reference standard, the
+technician, the DUT (serial looked up in the records, or its TEDS), and the plan (preset or
+typed lines in Hz, level in m/s^2 peak per line, periods, type A target in %, time bound in s,
+estimator, mode) with the same preflight checks as the CLI beside the fields. Start is enabled
+only when nothing fails; the tab builds the run request the fields describe.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from PySide6.QtCore import QSettings, Qt, QTimer, Signal
+from PySide6.QtWidgets import (
+    QComboBox,
+    QDoubleSpinBox,
+    QFileDialog,
+    QFormLayout,
+    QGroupBox,
+    QHBoxLayout,
+    QLabel,
+    QLineEdit,
+    QMessageBox,
+    QPushButton,
+    QSpinBox,
+    QWidget,
+)
+
+from app.gui import field_marks
+from app.gui.actions import START, with_key
+from app.gui.plan_cache import PlanCache
+from app.gui.reference_view import describe_reference
+from app.gui.results_tab import wrapping_label
+from app.gui.sensor_entry import SerialEntry
+from app.gui.teds_entry import TedsEntry
+from app.gui.templates import TemplatePicker
+from app.lines import parse_frequencies
+from app.procedure.modes import MODES
+from app.procedure.preflight import check_preflight
+from app.procedure.request import DutChoice, RunRequest, build_request
+from app.stand import config as stand_config
+from app.stand.simulated import CATALOGUE
+from dsp.calibration import ReferenceChain
+from dsp.estimators import ESTIMATORS
+from dsp.multisine import PRESETS, check_lines
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class RunOptions:
+    """How this window runs, from its command line: the runs root, paced in real time or not,
+    the simulated stand's seed and faults (demonstrations and tests)."""
+
+    out: Path
+    paced: bool = True
+    seed: int = 0
+    faults: tuple = ()
+
+
+@dataclass(frozen=True)
+class PlanSettings:
+    """The plan fields of the tab (Next sensor puts the first ones back; templates fill them).
+    Zero means "not given" where the field says so."""
+
+    nominal_mv_per_ms2: float  # 0: not given
+    tolerance_percent: float
+    preset: str
+    frequencies: str  # the lines as typed (Hz); "": the preset's
+    level_ms2: float  # peak per line
+    periods: int
+    target_percent: float  # type A target in %; 0: off
+    max_time_s: int  # 0: no time bound
+    estimator: str
+    mode: str
+
+
+class SetupTab(QWidget):
+    """The stand, DUT and plan fields, their checks and the run request they describe."""
+
+    start_requested = Signal()  # the Start button
+    said = Signal(str)  # a word for the operator (shown on the Run tab)
+
+    def __init__(
+        self,
+        config: stand_config.StandConfig,
+        stand_file: Path | None,
+        records: Any,
+        settings: QSettings,
+        options: RunOptions,
+    ) -> None:
+        super().__init__()
+        self.config, self.stand_file, self.records = config, stand_file, records
+        self.settings, self.options = settings, options
+        self.running = False  # a run is going: Start stays disabled
+        self.last_request: RunRequest | None = None  # the settings of the run just made
+        self.plans = PlanCache()
+        layout = QHBoxLayout(self)
+        layout.addWidget(self._stand_box(), 1)
+        layout.addWidget(self._plan_box(), 2)
+        self.plan_defaults = self.plan_settings()
+        self.field_marks = field_marks.install(self)  # bad input marked at its field
+        self.serial_entry = SerialEntry(self, records, self.field_marks)
+        self.serial_entry.sensor_changed.connect(self.templates.show_for)
+        for widget in (self.preset, self.estimator, self.mode, self.dut):
+            widget.currentTextChanged.connect(self.validate)
+        for spin in (self.level, self.nominal, self.tolerance):
+            spin.valueChanged.connect(self.validate)
+        self.periods.valueChanged.connect(self.validate)
+        self.frequencies.textChanged.connect(self.validate)
+
+    def _stand_box(self) -> QGroupBox:
+        stand = QGroupBox("Stand and DUT")
+        form = QFormLayout(stand)
+        form.setRowWrapPolicy(QFormLayout.RowWrapPolicy.WrapLongRows)
+        self.stand_label = QLabel(f"{self.config.source} ({self.config.backend})")
+        self.stand_label.setWordWrap(True)
+        choose = QPushButton("Stand file ...")
+        choose.clicked.connect(self.choose_stand)
+        simulated = QPushButton("Simulated stand")
+        simulated.clicked.connect(lambda: self.load_stand(None))
+        stand_row = QHBoxLayout()
+        stand_row.addWidget(self.stand_label, 1)
+        stand_row.addWidget(choose)
+        stand_row.addWidget(simulated)
+        form.addRow("Stand", stand_row)
+        self.reference_label = wrapping_label(describe_reference(self.config))
+        self.reference_label.setTextFormat(Qt.TextFormat.RichText)
+        form.addRow("Reference standard", self.reference_label)
+        self.technician = QLineEdit(str(self.settings.value("technician", "")) or _login_name())
+        self.technician.setToolTip(
+            "who is working at the stand today: 'Prepared by' on the certificates"
+        )
+        self.technician.editingFinished.connect(
+            lambda: self.settings.setValue("technician", self.technician.text().strip())
+        )
+        form.addRow("Technician", self.technician)
+        self.dut = QComboBox()
+        self.dut.addItems(list(CATALOGUE))
+        self.dut.setCurrentText(str(self.settings.value("dut", "piezo")))
+        self.dut.setToolTip("DUT of the simulated stand's catalogue")
+        # never restored from the last session: another day's sensor is another serial
+        self.dut_id = QLineEdit()
+        self.dut_id.setPlaceholderText("serial number of the sensor on the stand")
+        self.nominal = QDoubleSpinBox(decimals=3, maximum=10000.0, suffix=" mV/(m/s²)")
+        self.nominal.setSpecialValueText("not given, mV/(m/s²)")
+        self.tolerance = QDoubleSpinBox(decimals=1, maximum=50.0, value=5.0, suffix=" %")
+        form.addRow("DUT", self.dut)
+        form.addRow("DUT serial", self.dut_id)
+        self.teds = TedsEntry(self, self.records)
+        form.addRow("", self.teds.button)
+        form.addRow("Nominal sensitivity", self.nominal)
+        form.addRow("Tolerance of the characteristic", self.tolerance)
+        return stand
+
+    def _plan_box(self) -> QGroupBox:
+        plan = QGroupBox("Plan")
+        pform = QFormLayout(plan)
+        pform.setRowWrapPolicy(QFormLayout.RowWrapPolicy.WrapLongRows)
+        self.preset = QComboBox()
+        self.preset.addItems(list(PRESETS))
+        self.frequencies = QLineEdit()
+        self.frequencies.setPlaceholderText("preset lines; or e.g. 10,12.5,...,1000 (Hz)")
+        self.level = QDoubleSpinBox(
+            decimals=2, minimum=0.01, maximum=1000.0, value=5.0, suffix=" m/s² peak per line"
+        )
+        self.periods = QSpinBox(minimum=3, maximum=10000, value=8, suffix=" periods")
+        self.target = QDoubleSpinBox(decimals=3, maximum=10.0, suffix=" % type A target")
+        self.target.setSpecialValueText("off (% type A): acquire the periods above")
+        self.max_time = QSpinBox(maximum=100_000, suffix=" s at most")
+        self.max_time.setSpecialValueText("no time bound (s)")
+        self.estimator = QComboBox()
+        self.estimator.addItems(list(ESTIMATORS))
+        self.mode = QComboBox()
+        self.mode.addItems(list(MODES))
+        self.templates = TemplatePicker(self, self.records)
+        template_row = QHBoxLayout()
+        template_row.addWidget(self.templates.combo, 1)
+        template_row.addWidget(self.templates.save_button)
+        pform.addRow("Template", template_row)
+        pform.addRow("Preset", self.preset)
+        pform.addRow("Lines", self.frequencies)
+        pform.addRow("Level", self.level)
+        pform.addRow("Acquire", self.periods)
+        pform.addRow("Or until", self.target)
+        pform.addRow("Time bound", self.max_time)
+        pform.addRow("Estimator", self.estimator)
+        pform.addRow("Mode", self.mode)
+        self.peaks = QLabel()
+        self.peaks.setWordWrap(True)
+        self.peaks.setMinimumHeight(48)
+        pform.addRow("Predicted", self.peaks)
+        self.checks = QLabel()
+        self.checks.setWordWrap(True)
+        self.checks.setTextFormat(Qt.TextFormat.RichText)
+        pform.addRow("Checks", self.checks)
+        self.start_button = QPushButton("Start  (Ctrl+R)")
+        self.start_button.clicked.connect(self.start_requested)
+        pform.addRow(self.start_button)
+        return plan
+
+    # --- the plan fields ----------------------------------------------------------------
+
+    def plan_settings(self) -> PlanSettings:
+        """The plan fields as they are now."""
+        return PlanSettings(
+            nominal_mv_per_ms2=self.nominal.value(),
+            tolerance_percent=self.tolerance.value(),
+            preset=self.preset.currentText(),
+            frequencies=self.frequencies.text(),
+            level_ms2=self.level.value(),
+            periods=self.periods.value(),
+            target_percent=self.target.value(),
+            max_time_s=self.max_time.value(),
+            estimator=self.estimator.currentText(),
+            mode=self.mode.currentText(),
+        )
+
+    def apply_plan(self, plan: PlanSettings) -> None:
+        """Put `plan` into the fields (and check them)."""
+        self.nominal.setValue(plan.nominal_mv_per_ms2)
+        self.tolerance.setValue(plan.tolerance_percent)
+        self.preset.setCurrentText(plan.preset)
+        self.frequencies.setText(plan.frequencies)
+        self.level.setValue(plan.level_ms2)
+        self.periods.setValue(plan.periods)
+        self.target.setValue(plan.target_percent)
+        self.max_time.setValue(plan.max_time_s)
+        self.estimator.setCurrentText(plan.estimator)
+        self.mode.setCurrentText(plan.mode)
+        self.validate()
+
+    def reset(self) -> None:
+        """Nothing of the last sensor: no serial, no look-up, the plan as the tab opened."""
+        self.dut_id.clear()
+        self.serial_entry.reset()
+        self.apply_plan(self.plan_defaults)
+        self.last_request = None
+        self.field_marks.note(self.reference_label, None)
+        self.dut_id.setFocus(Qt.FocusReason.ShortcutFocusReason)
+        self.validate()
+
+    def set_running(self, running: bool) -> None:
+        """A run started or ended: Start follows."""
+        self.running = running
+        self.validate()
+
+    def custom_lines(self) -> tuple[float, ...] | None:
+        """The typed line list (Hz), None for the preset's; ValueError says what is wrong."""
+        text = self.frequencies.text().strip()
+        return tuple(parse_frequencies(text)) if text else None
+
+    def dut_choice(self) -> DutChoice:
+        """How the fields name the DUT: the catalogue DUT (simulated stand), the serial and,
+        when its look-up found it on record, its specification; what the operator states over
+        the record."""
+        return DutChoice(
+            stand_file=self.stand_file,
+            dut=self.dut.currentText(),
+            dut_id=self.dut_id.text().strip() or None,
+            spec=self.serial_entry.spec,
+            seed=self.options.seed,
+            nominal_mv_per_ms2=self.nominal.value() or None,
+            tolerance_percent=self.tolerance.value() or None,
+            level_ms2=self.level.value(),
+            preset=self.preset.currentText(),
+        )
+
+    def request_and_notes(self) -> tuple[RunRequest, tuple[str, ...]]:
+        """The run the fields describe, built as the CLI builds it (`build_request`: the DUT
+        resolved into its DutSpec), with the phases already optimised off this thread (the
+        same phases the CLI computes: they do not depend on the level); notes to show. The
+        reference standard's due date is the window's check (it asks an override reason).
+        Refuses (a Refusal naming the field) what cannot be resolved."""
+        preset = PRESETS[self.preset.currentText()]
+        custom = self.custom_lines()
+        lines = tuple(custom if custom is not None else preset.nominal_frequencies_hz)
+        options = self.options
+        request, notes = build_request(
+            self.dut_choice(),
+            frequencies_hz=custom,
+            periods=self.periods.value(),
+            target_type_a=self.target.value() / 100 or None,
+            max_acquisition_s=float(self.max_time.value()) or None,
+            estimator=self.estimator.currentText(),
+            mode=self.mode.currentText(),
+            paced=options.paced,
+            faults=options.faults,
+            out=options.out,
+            phases_rad=self.plans.phases(preset.name, lines),
+        )
+        return request, notes
+
+    def request(self) -> RunRequest:
+        """The run the fields describe (see `request_and_notes`)."""
+        return self.request_and_notes()[0]
+
+    # --- the stand ----------------------------------------------------------------------
+
+    def choose_stand(self) -> None:
+        path, _ = QFileDialog.getOpenFileName(self, "Stand configuration", "", "TOML (*.toml)")
+        if path:
+            self.load_stand(Path(path))
+
+    def load_stand(self, path: Path | None) -> bool:
+        """Switch to the stand of `path` (None: the simulated one); errors name the field."""
+        if self.running:
+            return False
+        try:
+            config = stand_config.load(path)
+        except stand_config.ConfigError as exc:
+            QMessageBox.warning(self, "Stand configuration", str(exc))
+            self.said.emit(str(exc))
+            return False
+        self.config, self.stand_file = config, path
+        self.stand_label.setText(f"{config.source} ({config.backend})")
+        self.show_reference()
+        self.settings.setValue("stand_file", str(path or ""))
+        self.validate()
+        return True
+
+    def show_reference(self) -> None:
+        """The reference standard the run will use: the stand file's, with its record."""
+        self.reference_label.setText(describe_reference(self.config, self.records))
+
+    def config_chain(self) -> ReferenceChain | None:
+        """The stand file's reference chain, None when it has no certificate table (the
+        simulated stand's chain comes with the stand when the run opens it)."""
+        try:
+            return self.config.reference_chain()
+        except stand_config.ConfigError:
+            return None
+
+    # --- the checks ---------------------------------------------------------------------
+
+    def validate(self) -> list[str]:
+        """Plan checks and stand limits beside the fields; Start only when nothing fails."""
+        problems: list[str] = []
+        warnings: list[str] = []
+        preset = PRESETS[self.preset.currentText()]
+        try:
+            custom = self.custom_lines()
+        except ValueError as exc:
+            custom = None
+            problems.append(f"lines: {exc}")
+        freqs = tuple(custom if custom is not None else preset.nominal_frequencies_hz)
+        check = check_lines(
+            freqs, preset.sample_rate_hz, preset.period_samples, preset.reference_frequency_hz
+        )
+        problems += list(check.errors)
+        warnings += [w for w in check.warnings if "mains" in w]
+        # a new line list is optimised off this thread, once it passes the line checks
+        future = self.plans.get(preset.name, freqs) if problems else None
+        if not problems:
+            future = self.plans.ask(preset.name, freqs)
+        if future is None:
+            self.peaks.setText("")
+        elif not future.done():
+            problems.append("optimising the multisine phases ...")
+            self.peaks.setText("")
+            QTimer.singleShot(200, self, self.validate)  # look again when it may be ready
+        else:
+            plan = future.result()  # optimised at 1 m/s^2 per line: scaled to the level
+            report = check_preflight(  # the same preflight as the CLI and the run itself
+                plan,
+                self.config,
+                self.config_chain(),
+                self.nominal.value() or None,
+                level_scale=self.level.value(),
+            )
+            peaks, limits = report.peaks, self.config.limits
+            self.peaks.setText(
+                f"acceleration {peaks.acceleration_ms2:.1f} m/s² (limit "
+                f"{limits.acceleration_peak_ms2:g}), velocity "
+                f"{1e3 * peaks.velocity_m_per_s:.0f} mm/s (limit "
+                f"{1e3 * limits.velocity_peak_m_per_s:g}), displacement "
+                f"{1e3 * peaks.displacement_peak_to_peak_m:.2f} mm p-p (limit "
+                f"{1e3 * limits.displacement_peak_to_peak_m:g}); crest factor "
+                f"{report.crest_factor:.2f}"
+            )
+            problems += list(report.problems)
+        text = "".join(f"<div style='color:#c0392b'>✖ {p}</div>" for p in problems)
+        if not problems:
+            text = "<div style='color:#1e8449'>✔ the plan can run</div>"
+        text += "".join(f"<div style='color:#b9770e'>⚠ {w}</div>" for w in warnings[:4])
+        self.checks.setText(text)
+        self.start_button.setEnabled(not problems and not self.running)
+        self.start_button.setToolTip(
+            "; ".join(problems) or with_key("Start the calibration", START)
+        )
+        self.field_marks.show_problems(problems)
+        return problems
+
+    def wait_for_plans(self) -> None:
+        """Block until the plans asked for are optimised (tests, screenshots)."""
+        self.plans.wait()
+        self.validate()
+
+    def close_pools(self) -> None:
+        """The plan and TEDS worker pools end (the window closes)."""
+        self.plans.close()
+        self.teds.close()
+
+
+def _login_name() -> str:
+    """The operating-system user: the technician until one is typed."""
+    from app.records.db.audit import current_actor
+
+    return current_actor()

@@ -1,0 +1,222 @@
+"""The certificate register in the records: lab settings (number pattern, two-person rule),
+numbers allocated in the issuing transaction (no gap, no duplicate), amendments, withdrawals
+and the register itself.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable
+from datetime import UTC, datetime
+
+from sqlalchemy import select
+from sqlalchemy.orm import Session, joinedload
+
+from app.records.db.models import Certificate, RegisterCounter, Run, Sensor, Setting
+from app.records.db.sensors import SensorRecords
+from app.records.db.store import RecordsError, text_field, utc
+from app.records.run_folder import STATUS_COMPLETE
+
+DEFAULT_PATTERN = "ACC-{year}-{seq:04d}"
+SETTING_PATTERN = "certificate_pattern"
+SETTING_TWO_PERSON = "two_person_rule"
+
+
+class CertificateRegister(SensorRecords):
+    """Lab settings and the certificate register."""
+
+    # ---- lab settings --------------------------------------------------------------------
+    def set_setting(self, key: str, value: str) -> None:
+        """Set a lab setting (certificate_pattern, two_person_rule), checked first."""
+        if key == SETTING_PATTERN:
+            check_pattern(value)
+        elif key == SETTING_TWO_PERSON:
+            if value not in ("on", "off"):
+                raise RecordsError(f"{key}: must be 'on' or 'off', got {value!r}")
+        else:
+            raise RecordsError(f"setting: unknown key {key!r}")
+        with self.session() as s:
+            row = s.get(Setting, key)
+            if row is None:
+                s.add(Setting(key=key, value=value))
+            else:
+                row.value = value
+
+    def setting(self, key: str, default: str) -> str:
+        with self.session() as s:
+            row = s.get(Setting, key)
+            return default if row is None else row.value
+
+    # ---- certificate register ------------------------------------------------------------
+    def check_signatories(self, prepared_by: str, approved_by: str) -> tuple[str, str]:
+        """Prepared by and approved by as the register takes them (stripped); RecordsError
+        naming the field when one is blank or, under the lab's two-person rule, when both are
+        the same person (case-insensitive)."""
+        prepared_by = text_field(prepared_by, "prepared by")
+        approved_by = text_field(approved_by, "approved by")
+        if (
+            self.setting(SETTING_TWO_PERSON, "off") == "on"
+            and prepared_by.casefold() == approved_by.casefold()
+        ):
+            raise RecordsError(
+                "approved by: the lab's two-person rule needs someone other than the preparer"
+            )
+        return prepared_by, approved_by
+
+    def complete_runs(self, serial: str) -> list[Run]:
+        """The indexed complete runs of sensor `serial`, newest first (what a certificate or
+        its amendment may be issued for)."""
+        sensor = self.sensor(serial)
+        with self.session() as s:
+            query = (
+                select(Run)
+                .where(Run.sensor_id == sensor.id, Run.status == STATUS_COMPLETE)
+                .order_by(Run.started_utc.desc(), Run.id.desc())
+            )
+            return list(s.scalars(query).all())
+
+    def issue_certificate(
+        self,
+        *,
+        run_id: str,
+        prepared_by: str,
+        approved_by: str,
+        when: datetime | None = None,
+        replaces: str | None = None,
+        reason: str | None = None,
+        as_found_run_id: str | None = None,
+        produce: Callable[[str], None] | None = None,
+    ) -> Certificate:
+        """Enter a certificate for a complete, indexed run of a known sensor in the register.
+        Its number is the next in the lab's pattern, allocated in the same transaction (no gap,
+        no duplicate, whichever stand issues at the same time). With `replaces` it is an
+        amendment: the replaced certificate is marked replaced with the reason. With
+        `as_found_run_id` the sensor was adjusted: that earlier complete run of the same sensor
+        is the as-found result and the certified run the as-left one. `produce(number)`, when
+        given, makes the certificate itself inside the transaction: if it fails, the number is
+        not taken (no gap, no entry without its certificate)."""
+        prepared_by, approved_by = self.check_signatories(prepared_by, approved_by)
+        when = when or datetime.now(UTC)
+        pattern = self.setting(SETTING_PATTERN, DEFAULT_PATTERN)
+        with self.session() as s:
+            run = s.scalar(select(Run).where(Run.run_id == run_id))
+            if run is None:
+                raise RecordsError(f"run: {run_id!r} is not indexed (accelcal db import)")
+            if run.status != STATUS_COMPLETE:
+                raise RecordsError(f"run: {run_id} is {run.status}, not complete")
+            if run.sensor_id is None:
+                raise RecordsError(f"run: {run_id}'s DUT {run.dut_id!r} is no sensor on record")
+            as_found = None
+            if as_found_run_id is not None:
+                as_found = s.scalar(select(Run).where(Run.run_id == as_found_run_id))
+                if as_found is None:
+                    raise RecordsError(f"as found: run {as_found_run_id!r} is not indexed")
+                if as_found.sensor_id != run.sensor_id or as_found.status != STATUS_COMPLETE:
+                    raise RecordsError(
+                        f"as found: run {as_found_run_id} is no complete run of {run.dut_id}"
+                    )
+                if utc(as_found.started_utc) >= utc(run.started_utc):
+                    raise RecordsError(
+                        f"as found: run {as_found_run_id} is not before the as-left run {run_id}"
+                    )
+            old = None
+            if replaces is not None:
+                old = s.scalar(
+                    select(Certificate).where(Certificate.number == replaces).with_for_update()
+                )
+                if old is None:
+                    raise RecordsError(f"replaces: no certificate {replaces!r}")
+                if old.state != "issued":
+                    raise RecordsError(f"replaces: {replaces} is already {old.state}")
+                text_field(reason, "reason")
+                old.state = "replaced"
+                old.reason = reason
+            prefix = split_pattern(pattern, when.year)
+            self._ensure_counter(s, prefix)
+            counter = s.scalar(
+                select(RegisterCounter).where(RegisterCounter.prefix == prefix).with_for_update()
+            )
+            assert counter is not None
+            counter.last += 1
+            number = pattern.format(year=when.year, seq=counter.last)
+            certificate = Certificate(
+                number=number,
+                prefix=prefix,
+                sequence=counter.last,
+                run_id=run.id,
+                sensor_id=run.sensor_id,
+                state="issued",
+                replaces=replaces,
+                reason=reason if replaces else None,
+                prepared_by=prepared_by,
+                approved_by=approved_by,
+                issued_utc=when,
+                as_found_run=as_found,
+            )
+            s.add(certificate)
+            if produce is not None:
+                s.flush()  # the number is ours (unique) before anything is written
+                produce(number)
+        return certificate
+
+    @staticmethod
+    def _ensure_counter(s: Session, prefix: str) -> None:
+        """Create the counter row of `prefix` at 0 unless it exists (race-free on both
+        engines: INSERT ... ON CONFLICT DO NOTHING)."""
+        if s.get_bind().dialect.name == "postgresql":
+            from sqlalchemy.dialects.postgresql import insert
+        else:
+            from sqlalchemy.dialects.sqlite import insert  # type: ignore[assignment]
+        s.execute(insert(RegisterCounter).values(prefix=prefix, last=0).on_conflict_do_nothing())
+
+    def withdraw_certificate(self, number: str, reason: str) -> None:
+        """Withdraw an issued certificate; the reason is required and kept."""
+        reason = text_field(reason, "reason")
+        with self.session() as s:
+            row = s.scalar(select(Certificate).where(Certificate.number == number))
+            if row is None:
+                raise RecordsError(f"number: no certificate {number!r}")
+            if row.state != "issued":
+                raise RecordsError(f"number: {number} is already {row.state}")
+            row.state, row.reason = "withdrawn", reason
+
+    def register(self) -> list[Certificate]:
+        """Every certificate in the register, in issue order, with run and sensor."""
+        with self.session() as s:
+            return list(
+                s.scalars(
+                    select(Certificate)
+                    .options(
+                        joinedload(Certificate.run),
+                        joinedload(Certificate.sensor).joinedload(Sensor.owner),
+                        joinedload(Certificate.as_found_run),
+                    )
+                    .order_by(Certificate.issued_utc, Certificate.id)
+                ).all()
+            )
+
+
+_PATTERN_SEQ = re.compile(r"\{seq:0?(\d+)d\}")
+
+
+def check_pattern(pattern: str) -> str:
+    """A certificate-number pattern: text with {year} optional and {seq:0Nd} once, at the end."""
+    match = _PATTERN_SEQ.search(pattern)
+    if pattern.count("{seq") != 1 or match is None:
+        raise RecordsError(
+            f"certificate_pattern: needs exactly one {{seq:04d}}-style field, got {pattern!r}"
+        )
+    if match.end() != len(pattern):
+        raise RecordsError("certificate_pattern: {seq:...} must end the pattern")
+    try:
+        pattern.format(year=2026, seq=1)
+    except (KeyError, ValueError, IndexError) as exc:
+        raise RecordsError(f"certificate_pattern: {pattern!r} ({exc})") from None
+    return pattern
+
+
+def split_pattern(pattern: str, year: int) -> str:
+    """The fixed prefix of a pattern for `year` (numbers sharing it share one sequence)."""
+    match = _PATTERN_SEQ.search(check_pattern(pattern))
+    assert match is not None
+    return pattern[: match.start()].format(year=year)

@@ -1,0 +1,133 @@
+"""The lab's reference standards (calibration table: frequency in Hz, sensitivity in
+mV/(m/s^2), relative expanded uncertainty, phase in degrees), the due-date rule a run meets
+before using one, and the list of sensors and reference standards due for calibration.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from datetime import date, timedelta
+
+from sqlalchemy import or_, select
+from sqlalchemy.orm import joinedload
+
+from app.records.db.models import Customer, ReferencePoint, ReferenceStandard, Sensor
+from app.records.db.store import RecordsError, Store, number_field, text_field
+
+
+@dataclass(frozen=True)
+class DueItem:
+    """A sensor or reference standard due for calibration by `due` (None: never calibrated)."""
+
+    kind: str
+    identifier: str
+    due: date | None
+    owner: str
+
+
+class ReferenceRecords(Store):
+    """Reference standards and the due list."""
+
+    # ---- reference standards -------------------------------------------------------------
+    def add_reference(
+        self,
+        identifier: str,
+        *,
+        model: str,
+        serial: str,
+        certificate_number: str,
+        calibration_date: date,
+        due_date: date,
+        table: Sequence[tuple[float, float, float, float | None]],
+    ) -> ReferenceStandard:
+        """A reference standard with its calibration table: rows of (frequency Hz,
+        sensitivity mV/(m/s^2), relative expanded uncertainty, phase deg or None)."""
+        identifier = text_field(identifier, "reference id", max_len=100)
+        if due_date <= calibration_date:
+            raise RecordsError(
+                f"due date: {due_date} is not after the calibration date {calibration_date}"
+            )
+        if not table:
+            raise RecordsError("table: a reference standard needs its calibration table")
+        points = []
+        for row_number, (freq, sens, rel_u, phase) in enumerate(table, 1):
+            where = f"table row {row_number}"
+            number_field(freq, f"{where} frequency", low=0, high=1e6)
+            number_field(sens, f"{where} sensitivity", low=0, high=1e6)
+            number_field(rel_u, f"{where} uncertainty", low=0, high=1)
+            points.append(
+                ReferencePoint(
+                    frequency_hz=freq,
+                    sensitivity_mv_per_ms2=sens,
+                    relative_expanded_uncertainty=rel_u,
+                    phase_deg=phase,
+                )
+            )
+        row = ReferenceStandard(
+            identifier=identifier,
+            model=text_field(model, "model", max_len=100),
+            serial=text_field(serial, "serial", max_len=100),
+            certificate_number=text_field(certificate_number, "certificate number", max_len=100),
+            calibration_date=calibration_date,
+            due_date=due_date,
+            points=points,
+        )
+        with self.session() as s:
+            if s.scalar(
+                select(ReferenceStandard).where(ReferenceStandard.identifier == identifier)
+            ):
+                raise RecordsError(f"reference id: {identifier!r} already exists")
+            s.add(row)
+        return row
+
+    def references(self) -> list[ReferenceStandard]:
+        """Every reference standard with its table, by identifier."""
+        with self.session() as s:
+            query = (
+                select(ReferenceStandard)
+                .options(joinedload(ReferenceStandard.points))
+                .order_by(ReferenceStandard.identifier)
+            )
+            return list(s.scalars(query).unique().all())
+
+    def reference_for_run(
+        self, identifier: str, *, today: date, override_reason: str | None = None
+    ) -> ReferenceStandard:
+        """The reference standard a run may use today: an expired one is refused naming its
+        due date, unless an override reason is given (it then belongs on the certificate)."""
+        with self.session() as s:
+            ref = s.scalar(
+                select(ReferenceStandard)
+                .options(joinedload(ReferenceStandard.points))
+                .where(ReferenceStandard.identifier == identifier)
+            )
+            if ref is None:
+                raise RecordsError(f"reference: no reference standard {identifier!r}")
+        if ref.due_date < today and not (override_reason and override_reason.strip()):
+            raise RecordsError(
+                f"reference: {identifier} was due for calibration on {ref.due_date}; "
+                "recalibrate it, or give an override reason (it is printed on the certificate)"
+            )
+        return ref
+
+    # ---- due list ------------------------------------------------------------------------
+    def due(self, *, today: date, days: int) -> list[DueItem]:
+        """Sensors and reference standards due on or before today + days, soonest first;
+        sensors never calibrated here come first with no date."""
+        horizon = today + timedelta(days=days)
+        items: list[DueItem] = []
+        with self.session() as s:
+            rows = s.execute(
+                select(Sensor.serial, Sensor.due_date, Customer.name)
+                .join(Customer, Sensor.owner_id == Customer.id)
+                .where(or_(Sensor.due_date.is_(None), Sensor.due_date <= horizon))
+            ).all()
+            items.extend(
+                DueItem("sensor", serial, due_day, owner) for serial, due_day, owner in rows
+            )
+            for ref in s.scalars(
+                select(ReferenceStandard).where(ReferenceStandard.due_date <= horizon)
+            ):
+                items.append(DueItem("reference", ref.identifier, ref.due_date, "lab"))
+        return sorted(items, key=lambda i: (i.due is not None, i.due or today, i.identifier))
