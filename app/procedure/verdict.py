@@ -32,7 +32,6 @@ import numpy as np
 from dsp.calibration import LOW_COHERENCE, NOT_STATED, Results, uncertainty_stated
 
 PASS, FAIL, INDETERMINATE = "PASS", "FAIL", "INDETERMINATE"
-VERDICTS = (PASS, FAIL, INDETERMINATE)
 RESONANCE_RISE = 0.25  # an interior peak more than +25 % (about 2 dB) above the reference
 CLEAN_SNR_DB = 40.0  # above this SNR on both channels, noise cannot explain a coherence drop
 MOUNTING_PREFIX = "mounting: "
