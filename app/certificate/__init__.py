@@ -46,6 +46,7 @@ from app import formatting as fmt
 from app.certificate.dcc import line_values
 from app.files import FileExistsRefusal, write_with
 from app.io.checks import MAX_TEXT_BYTES, InputFileError, check_input_file
+from app.io.vocabulary import RunStatus
 from app.procedure.modes import MODE_MULTISINE
 from app.records.register import Issued, Register, RegisterError, locked_register
 from app.records.run_folder import (
@@ -446,7 +447,7 @@ def load_sweep(path: str | Path, run: StoredRun) -> dict[str, Any]:
         sweep = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, json.JSONDecodeError) as exc:
         raise CertificateError(f"--sweep {path}: cannot be read ({exc})") from None
-    if sweep.get("status") != "complete" or "sensitivity_mv_per_ms2" not in sweep:
+    if sweep.get("status") != RunStatus.COMPLETE or "sensitivity_mv_per_ms2" not in sweep:
         raise CertificateError(f"--sweep {path}: the sweep is not complete")
     if run.record.run_id not in sweep.get("run_ids", []):
         raise CertificateError(f"--sweep {path}: does not include run {run.record.run_id}")

@@ -28,6 +28,7 @@ from app.cli.options import Bounded
 from app.cli.options import numeric_option as _numeric
 from app.files import FileExistsRefusal, check_target, write_new
 from app.io.checks import MAX_TEXT_BYTES, InputFileError, check_input_file
+from app.io.vocabulary import RunStatus
 from app.procedure.modes import MODE_MULTISINE, MODES
 from app.records.db.cli import Handler
 from app.records.db.cli import add_commands as add_records_commands
@@ -765,7 +766,7 @@ def print_results(results: Results, source: str = "", status: str | None = None)
     the recording analysed) shown unless complete or unknown."""
     r = results.reference
     value, u = fmt.round_gum(r.sensitivity_mv_per_ms2, r.expanded_uncertainty_mv_per_ms2)
-    shown = f" ({status} recording)" if status not in (None, "complete") else ""
+    shown = f" ({status} recording)" if status not in (None, RunStatus.COMPLETE) else ""
     print(
         f"{source}{shown}: {results.periods} {'periods' if results.periods != 1 else 'period'}, "
         f"estimator {results.estimator}"

@@ -59,6 +59,7 @@ from app.gui.sensors_tab import SensorsTab
 from app.gui.teds_entry import TedsEntry
 from app.gui.templates import TemplatePicker
 from app.gui.worker import RunWorker
+from app.io.vocabulary import RunStatus
 from app.lines import parse_frequencies
 from app.procedure import (
     EqualisationStep,
@@ -709,7 +710,7 @@ class MainWindow(QMainWindow):
             return
         run_id = finished.record.run_id
         folder = self.out / str(run_id) if run_id else None
-        if finished.status == "complete" and folder is not None:
+        if finished.status == RunStatus.COMPLETE and folder is not None:
             self.open_run(folder, switch=False)
             self.tabs.setCurrentIndex(RESULTS_TAB)
             self.state.setText("finished: results on tab 3")

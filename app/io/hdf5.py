@@ -46,6 +46,7 @@ from app.io.checks import (
     check_dataset_size,
     check_input_file,
 )
+from app.io.vocabulary import Mode, RunStatus
 from app.version import software_version
 from dsp.calibration import ReferenceChain
 from dsp.multisine import Plan, PlanError
@@ -56,10 +57,6 @@ FORMAT_VERSION = 1
 CHANNELS = ("reference", "dut")
 OVERLOAD_FRACTION = 0.995  # a sample within 0.5 % of the range is at its limit (SPEC s.11)
 FLAT_TOP_RUN = 5  # without a known range: this many equal samples at the extreme = clipped
-STATUS_COMPLETE = "complete"
-STATUS_ABORTED = "aborted"
-STATUS_INCOMPLETE = "incomplete"  # no end status: cut off, or written before statuses existed
-STATUSES = (STATUS_COMPLETE, STATUS_ABORTED, STATUS_INCOMPLETE)
 
 log = logging.getLogger(__name__)
 
@@ -139,7 +136,7 @@ class Recording:
     source: str = ""
     truth: Truth | None = None
     acquired_periods: int | None = None
-    status: str | None = None  # STATUSES; None: not recorded by this program (CSV, in memory)
+    status: RunStatus | None = None  # None: not recorded by this program (CSV, in memory)
 
     @property
     def periods(self) -> int:
@@ -244,9 +241,9 @@ class RecordingWriter:
         self._file.attrs["settle_periods"] = int(periods)
         self._file.flush()
 
-    def set_mode(self, mode: str) -> None:
-        """Mark the excitation ("multisine" by default; "stepped-sine" blocks vary in length)."""
-        self._file.attrs["mode"] = mode
+    def set_mode(self, mode: Mode) -> None:
+        """Mark the excitation (multisine by default; stepped-sine blocks vary in length)."""
+        self._file.attrs["mode"] = Mode(mode).value
         self._file.flush()
 
     def set_acquired_periods(self, periods: int) -> None:
@@ -259,22 +256,23 @@ class RecordingWriter:
         self._file["config"].attrs["budget"] = json.dumps(budget.to_list())
         self._file.flush()
 
-    def set_status(self, status: str, reason: str | None = None) -> bool:
-        """Mark how the recording ended (STATUSES; "aborted" with its reason). Never raises
+    def set_status(self, status: RunStatus, reason: str | None = None) -> bool:
+        """Mark how the recording ended (a RunStatus; aborted with its reason). Never raises
         for the file: False (logged) when it cannot take the mark, which leaves the recording
         "incomplete", the safe reading."""
-        if status not in STATUSES:
-            raise ValueError(f"recording status: {status!r} is not one of {', '.join(STATUSES)}")
+        if status not in tuple(RunStatus):
+            raise ValueError(f"recording status: {status!r} is not one of {', '.join(RunStatus)}")
+        status = RunStatus(status)
         problem = None if self._file.id.valid else "the recording is closed"
         if problem is None:
             try:
-                self._file.attrs["status"] = status
+                self._file.attrs["status"] = status.value
                 self._file.attrs["status_reason"] = reason or ""
                 self._file.flush()
             except (OSError, KeyError, ValueError, RuntimeError) as exc:  # the disk refused it
                 problem = str(exc)
         if problem is not None:
-            log.warning("%s: recording status %r not stored: %s", self.path, status, problem)
+            log.warning("%s: recording status %r not stored: %s", self.path, status.value, problem)
             return False
         return True
 
@@ -314,7 +312,7 @@ def write_recording(path: str | Path, recording: Recording) -> None:
         writer.append(recording.reference_v, recording.dut_v, recording.drive_v)
         if recording.truth is not None:
             writer.write_truth(recording.truth)
-        writer.set_status(recording.status or STATUS_COMPLETE)  # written whole
+        writer.set_status(recording.status or RunStatus.COMPLETE)  # written whole
 
 
 def read_recording(path: str | Path) -> Recording:
@@ -334,7 +332,7 @@ def read_recording(path: str | Path) -> Recording:
     with handle as f:
         if f.attrs.get("format") != FORMAT_NAME:
             raise RecordingError(f"{name}: not an {FORMAT_NAME} file (attribute 'format')")
-        if f.attrs.get("mode", "multisine") == "stepped-sine":
+        if f.attrs.get("mode", Mode.MULTISINE) == Mode.STEPPED_SINE:
             raise RecordingError(
                 f"{name}: a stepped-sine recording (blocks of different lengths per line); its "
                 "results are in the run's results.json, re-analysis is for multisine recordings"
@@ -412,12 +410,14 @@ def read_recording(path: str | Path) -> Recording:
     return recording
 
 
-def recording_status(mark: object) -> str:
+def recording_status(mark: object) -> RunStatus:
     """A recording's status from its "status" attribute: "complete" or "aborted" as marked,
     anything else (no mark: the run never finished) "incomplete"."""
     if isinstance(mark, bytes):
         mark = mark.decode("utf-8", "replace")
-    return str(mark) if mark in (STATUS_COMPLETE, STATUS_ABORTED) else STATUS_INCOMPLETE
+    if mark in (RunStatus.COMPLETE, RunStatus.ABORTED):
+        return RunStatus(str(mark))
+    return RunStatus.INCOMPLETE
 
 
 def _read_truth(f: h5py.File, name: str) -> Truth | None:

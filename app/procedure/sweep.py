@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from app.files import write_with
+from app.io.vocabulary import RunStatus
 from app.procedure import Finished, Listener, PreflightError
 from app.procedure.run import RunRequest, execute, prepare
 from app.records.run_folder import READ_ONLY_FILE, new_run_id
@@ -32,7 +33,7 @@ class Sweep:
 
     @property
     def complete(self) -> bool:
-        return self.summary["status"] == "complete"
+        return self.summary["status"] == RunStatus.COMPLETE
 
 
 def linearity(sensitivity: np.ndarray) -> np.ndarray:
@@ -57,7 +58,7 @@ def run_sweep(request: RunRequest, levels: list[float], listener: Listener | Non
     for level in sorted(levels):
         finished = execute(dataclasses.replace(request, level_ms2=level), listener)
         runs.append(finished)
-        if finished.status != "complete":
+        if finished.status != RunStatus.COMPLETE:
             break
     summary = summarise(runs, sorted(levels))
     sweep_id = new_run_id(f"sweep-{request.dut_id or request.dut}")
@@ -75,12 +76,14 @@ def _write_summary(path: Path, summary: dict[str, Any]) -> None:
 
 def summarise(runs: list[Finished], levels: list[float]) -> dict[str, Any]:
     """Sensitivity against frequency and level, linearity per line and at the reference."""
-    complete = [r for r in runs if r.status == "complete" and r.results is not None]
+    complete = [r for r in runs if r.status == RunStatus.COMPLETE and r.results is not None]
     summary: dict[str, Any] = {
-        "status": "complete" if len(complete) == len(levels) else "aborted",
+        "status": RunStatus.COMPLETE if len(complete) == len(levels) else RunStatus.ABORTED,
         "levels_ms2": levels,
         "run_ids": [r.record.run_id for r in runs],
-        "abort_reason": next((r.abort_reason for r in runs if r.status != "complete"), None),
+        "abort_reason": next(
+            (r.abort_reason for r in runs if r.status != RunStatus.COMPLETE), None
+        ),
     }
     if len(complete) < 2:
         return summary

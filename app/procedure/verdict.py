@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from app.io.vocabulary import RunStatus
 from dsp.calibration import LOW_COHERENCE, NOT_STATED, Results, uncertainty_stated
 
 PASS, FAIL, INDETERMINATE = "PASS", "FAIL", "INDETERMINATE"
@@ -234,7 +235,7 @@ def assess(
         reasons += mounting
         if verdict == PASS:
             verdict = INDETERMINATE
-    if status not in (None, "complete"):
+    if status not in (None, RunStatus.COMPLETE):
         reasons.append(f"the recording is {status}: results for review only")
         if verdict == PASS:
             verdict = INDETERMINATE
