@@ -85,7 +85,9 @@ INTEGRATION_PATHS = (
     "app/test_certificate.py",  # fixture runs, PDFs
     "app/test_dcc.py",  # a fixture run, its certificate and DCC
     "app/test_honest_numbers.py",  # calibration runs and recordings end to end
+    "app/test_legacy_formats.py",  # a stored run certified, a stored database upgraded
     "app/test_procedure.py",  # procedure runs, SIGTERM on a subprocess
+    "app/test_readme_examples.py",  # simulations and analyses of the README's examples
     "app/test_records.py",  # run folders of real runs
     "app/test_run_integrity.py",  # runs, concurrent subprocesses
     "app/test_safety.py",  # runs with faults, signals to subprocesses
