@@ -35,6 +35,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from app.io.vocabulary import Mode, RunStatus
 from app.procedure import PeriodBlock, PeriodEstimate, Procedure, RunSettings
 from app.stand.config import load
 from app.stand.open import open_stand
@@ -97,7 +98,7 @@ def one(
         finished = Procedure(stand, plan, settings, listener=phases, response_store=store).run()
     finally:
         stand.close()
-    if finished.status != "complete":
+    if finished.status != RunStatus.COMPLETE:
         raise SystemExit(f"{mode} at {target}: {finished.abort_reason}")
     return finished, phases
 
@@ -111,7 +112,7 @@ def table_phases(root: Path) -> None:
         store = ResponseStore(root / f"phases-{period}")
         plan = plan_of(5.0, period)
         for run in ("cold", "warm"):
-            finished, p = one(store, plan, 0.002, "multisine")
+            finished, p = one(store, plan, 0.002, Mode.MULTISINE)
             s = p.seconds
             print(
                 f"| {label} | {run} | {s['identifying']:.1f} s | {s['equalising']:.1f} s | "
@@ -130,7 +131,8 @@ def table_modes(root: Path) -> None:
     )
     print("| --- | --- | --- | --- | --- | --- | --- |")
     # (mode, block): the multisine has one setting, the stepped sine one per block length
-    variants = [("multisine", 0.25)] + [("stepped-sine", b) for b in STEPPED_BLOCKS_S]
+    variants = [(Mode.MULTISINE.value, 0.25)]
+    variants += [(Mode.STEPPED_SINE.value, b) for b in STEPPED_BLOCKS_S]
     for level in LEVELS:
         plan = plan_of(level)
         stores = {v: ResponseStore(root / f"{v[0]}-{v[1]:g}-{level:g}") for v in variants}
@@ -145,7 +147,7 @@ def table_modes(root: Path) -> None:
                     cold[variant] = finished.record.excitation_time_s  # type: ignore[attr-defined]
                 finished, p = one(store, plan, target, mode, block)
                 warm[variant] = finished.record.excitation_time_s  # type: ignore[attr-defined]
-                if mode == "multisine" and p.first_type_a is not None:
+                if mode == Mode.MULTISINE and p.first_type_a is not None:
                     binds = int(np.sum(p.first_type_a > target))
             multi = warm[variants[0]]
             best = min(variants[1:], key=lambda v: warm[v])

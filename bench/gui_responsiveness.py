@@ -29,6 +29,7 @@ from PySide6.QtWidgets import QApplication
 
 from app.gui.main_window import MainWindow
 from app.gui.worker import RunWorker
+from app.io.vocabulary import RunStatus
 from app.procedure import Finished, PeriodBlock, PeriodEstimate, State
 from dsp import iso266
 from dsp.calibration import ReferenceChain, compute_results
@@ -73,7 +74,7 @@ class FeedingProcedure:
                 results = compute_results(estimate, plan, chain, Budget(()))
                 emit(PeriodEstimate(k, estimate, results))
             time.sleep(max(0.0, N / FS - (time.perf_counter() - t0)))
-        return Finished("aborted", "bench over", None, {})
+        return Finished(RunStatus.ABORTED, "bench over", None, {})
 
 
 class NoStand:

@@ -21,6 +21,7 @@ from pathlib import Path
 
 from sqlalchemy import Engine, insert, text
 
+from app.io.vocabulary import RunStatus
 from app.records.db.engine import make_engine, resolve_url, upgrade
 from app.records.db.lab import Lab
 from app.records.db.models import Customer, Run, Sensor, SensorModel, Stand
@@ -76,7 +77,7 @@ def fill(engine: Engine) -> None:
                     run_id=f"r{k}",
                     manifest_sha256=f"{k:064d}",
                     folder=f"/runs/r{k}",
-                    status="complete",
+                    status=RunStatus.COMPLETE.value,
                     started_utc=started,
                     dut_id=f"SN-{sensor - 1:05d}",
                     stand_id=1,

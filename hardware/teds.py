@@ -1,6 +1,6 @@
 """IEEE 1451.4 TEDS: Basic TEDS and Template 25 (IEPE accelerometer), bit-exact both ways.
 
-The layout and the data types are those of ../shared/teds/README.md (checked there against NI's
+The layout and the data types are those of docs/teds.md (checked there against NI's
 test files and nidaqmx-python): every field is an unsigned integer sent least significant bit
 first, with no byte alignment. Physical values are stored as codes:
 

@@ -52,11 +52,6 @@ def lowpass1(frequency_hz: float) -> Stage:
     return np.array([wc]), np.array([1.0, wc])
 
 
-def integrator() -> Stage:
-    """1/s."""
-    return np.array([1.0]), np.array([1.0, 0.0])
-
-
 @dataclass(frozen=True)
 class Model:
     """A continuous SISO model: a gain times a series of stages."""

@@ -302,7 +302,7 @@ def plan_preset_for(dut: str) -> str:
 @dataclass(frozen=True)
 class StandModel:
     """Everything physical about a simulated stand (nominal values; systematic deviations are
-    drawn per seed from the budget by sim.stand)."""
+    drawn per seed from the budget by sim.budget)."""
 
     exciter: ExciterModel = field(default_factory=ExciterModel)
     amplifier: PowerAmplifierModel = field(default_factory=PowerAmplifierModel)

@@ -15,10 +15,8 @@ from __future__ import annotations
 
 import math
 import time
-import tomllib
 from collections import deque
 from dataclasses import dataclass, field
-from importlib import resources
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -28,7 +26,6 @@ import pyvisa.errors
 
 from dsp import iso266
 from dsp.calibration import ReferenceChain
-from dsp.uncertainty import Budget, Component, Distribution
 from hardware.errors import (
     AmplifierFaultError,
     DaqTimeoutError,
@@ -38,139 +35,31 @@ from hardware.errors import (
 )
 from hardware.interfaces import DaqConfig, DaqStatus, checked_output_period
 from hardware.visa_amplifiers import BK2525Amplifier, ScpiPowerAmplifier
-from sim.faults import FAULT_KINDS, POWER_AMPLIFIER_FAULT_KINDS
+from sim.budget import Deviations, SimBudget, draw_deviations
+from sim.faults import FAULT_KINDS, POWER_AMPLIFIER_FAULT_KINDS, Fault
 from sim.lti import MultiZoh, Network, ZohFilter
 from sim.models import DUT_CATALOGUE, G_N, SensorModel, StandModel
 from sim.visa import (
     SIM_MEASURING_AMPLIFIER,
     SIM_MEASURING_AMPLIFIER_CHANNELS,
     SIM_POWER_AMPLIFIER,
+    FailingResource,
     simulated_resource_manager,
 )
 
+# Fault, SimBudget and the fault kinds are imported from here too (their homes: sim.faults,
+# sim.budget)
+__all__ = [
+    "FAULT_KINDS",
+    "POWER_AMPLIFIER_FAULT_KINDS",
+    "Fault",
+    "OutputPeriod",
+    "OutputRecord",
+    "SimBudget",
+    "SimulatedStand",
+]
+
 _FAULT_ANSWERS = {"amplifier-fault": '2,"Over-temperature"', "over-current": '3,"Over-current"'}
-TARGETS = (
-    "reference_certificate",
-    "reference_gain",
-    "daq_gain_reference",
-    "daq_gain_dut",
-    "dut_motion",
-    "reference_phase",
-)
-
-
-@dataclass(frozen=True)
-class Fault:
-    """A fault of kind FAULT_KINDS at a simulated time in s after start."""
-
-    kind: str
-    at_s: float
-
-    def __post_init__(self) -> None:
-        if self.kind not in FAULT_KINDS:
-            raise ValueError(f"fault: unknown kind {self.kind!r}; one of {', '.join(FAULT_KINDS)}")
-        if not (math.isfinite(self.at_s) and self.at_s >= 0):
-            raise ValueError(f"fault: time must be >= 0 s, got {self.at_s!r}")
-
-    @classmethod
-    def parse(cls, text: str) -> Fault:
-        """'device-lost@3.5' -> Fault('device-lost', 3.5)."""
-        kind, _, at = text.partition("@")
-        try:
-            return cls(kind.strip(), float(at))
-        except ValueError as exc:
-            raise ValueError(f"--fault {text!r}: expected KIND@SECONDS ({exc})") from None
-
-
-@dataclass(frozen=True)
-class SimBudget:
-    """The simulated stand's budget and which components it draws its deviations from."""
-
-    budget: Budget
-    targets: dict[str, str]
-
-    @classmethod
-    def load(cls, text: str | None = None, source: str = "sim/stand.toml") -> SimBudget:
-        """Parse the stand TOML (default: the shipped sim/stand.toml)."""
-        if text is None:
-            text = resources.files("sim").joinpath("stand.toml").read_text(encoding="utf-8")
-        try:
-            data = tomllib.loads(text)
-        except tomllib.TOMLDecodeError as exc:
-            raise ValueError(f"{source}: {exc}") from None
-        budget = Budget.from_list(data.get("component", []))
-        names = {c.name for c in budget.components}
-        targets = dict(data.get("simulation", {}))
-        for name, target in targets.items():
-            if name not in names:
-                raise ValueError(f"{source}: [simulation] names no component {name!r}")
-            if target not in TARGETS:
-                raise ValueError(
-                    f"{source}: [simulation] {name!r}: unknown target {target!r}; "
-                    f"one of {', '.join(TARGETS)}"
-                )
-        return cls(budget, targets)
-
-
-def draw(component: Component, rng: np.random.Generator) -> float:
-    """One draw of a component's error from its distribution (relative or degrees)."""
-    a = component.value
-    match component.distribution:
-        case Distribution.RECTANGULAR:
-            return float(rng.uniform(-a, a))
-        case Distribution.TRIANGULAR:
-            return float(rng.triangular(-a, 0.0, a))
-        case Distribution.U_SHAPED:
-            return float(a * math.sin(rng.uniform(0, 2 * math.pi)))
-        case _:  # normal or standard
-            return float(rng.normal(0.0, component.standard_uncertainty))
-
-
-@dataclass(frozen=True)
-class Deviations:
-    """The stand's true deviations from nominal for one seed."""
-
-    reference_gain: float = 1.0
-    daq_gain_reference: float = 1.0
-    daq_gain_dut: float = 1.0
-    dut_motion: float = 1.0
-    reference_phase_deg: float = 0.0
-    certificate: tuple[tuple[float, float | None, float | None], ...] = ()  # (e, fmin, fmax)
-    transverse_cos: float = 0.0
-
-    def certificate_factor(self, frequency_hz: np.ndarray) -> np.ndarray:
-        """Certificate value / true value of the reference sensitivity, per frequency."""
-        f = np.asarray(frequency_hz, dtype=float)
-        factor = np.ones_like(f)
-        for e, lo, hi in self.certificate:
-            inside = np.ones(f.shape, bool)
-            if lo is not None:
-                inside &= f >= lo
-            if hi is not None:
-                inside &= f <= hi
-            factor = np.where(inside, factor * (1.0 + e), factor)
-        return factor
-
-
-def draw_deviations(sim_budget: SimBudget, rng: np.random.Generator) -> Deviations:
-    """Draw every mapped component once (relative factors, phase in degrees)."""
-    values: dict[str, Any] = {"certificate": []}
-    for component in sim_budget.budget.components:
-        target = sim_budget.targets.get(component.name)
-        e = draw(component, rng)
-        if target is None:
-            continue
-        if target == "reference_certificate":
-            values["certificate"].append(
-                (e, component.min_frequency_hz, component.max_frequency_hz)
-            )
-        elif target == "reference_phase":
-            values["reference_phase_deg"] = values.get("reference_phase_deg", 0.0) + e
-        else:
-            values[target] = values.get(target, 1.0) * (1.0 + e)
-    values["certificate"] = tuple(values["certificate"])
-    values["transverse_cos"] = float(math.cos(rng.uniform(0, 2 * math.pi)))
-    return Deviations(**values)
 
 
 EDGE_S = 0.1  # the output's local level is taken over this long at each end of a period
@@ -307,7 +196,7 @@ class SimulatedStand:
         )
         at = next((f.at_s for f in self.faults if f.kind == "visa-timeout"), None)
         return BK2525Amplifier(
-            _FailingResource(resource, lambda: at is not None and self.sim_time_s >= at),
+            FailingResource(resource, lambda: at is not None and self.sim_time_s >= at),
             channels=SIM_MEASURING_AMPLIFIER_CHANNELS,
         )
 
@@ -321,7 +210,7 @@ class SimulatedStand:
             SIM_POWER_AMPLIFIER, read_termination="\n", write_termination="\n"
         )
         lost = pyvisa.constants.StatusCode.error_connection_lost
-        return ScpiPowerAmplifier(_FailingResource(self._power, lambda: self._power_lost, lost))
+        return ScpiPowerAmplifier(FailingResource(self._power, lambda: self._power_lost, lost))
 
     @property
     def power_output_on(self) -> bool | None:
@@ -620,42 +509,3 @@ def _hum_span(fs: float, mains_hz: float, max_cycles: int = 50) -> int | None:
         if abs(samples - round(samples)) < 1e-9 * samples and round(samples) >= 1:
             return round(samples)
     return None
-
-
-class _FailingResource:
-    """A pyvisa resource that raises a genuine VISA error (`code`) while `failing()` is true."""
-
-    def __init__(
-        self,
-        resource: Any,
-        failing: Any,
-        code: pyvisa.constants.StatusCode = pyvisa.constants.StatusCode.error_timeout,
-    ):
-        self._resource = resource
-        self._failing = failing
-        self._code = code
-
-    def _check(self) -> None:
-        if self._failing():
-            raise pyvisa.errors.VisaIOError(self._code)
-
-    def write(self, message: str) -> Any:
-        self._check()
-        return self._resource.write(message)
-
-    def query(self, message: str) -> str:
-        self._check()
-        return self._resource.query(message)
-
-    def read(self) -> str:
-        self._check()
-        return self._resource.read()
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self._resource, name)
-
-    def __setattr__(self, name: str, value: Any) -> None:
-        if name.startswith("_"):
-            object.__setattr__(self, name, value)
-        else:
-            setattr(self._resource, name, value)

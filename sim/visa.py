@@ -16,6 +16,7 @@ import importlib.resources
 import shutil
 import tempfile
 from pathlib import Path
+from typing import Any
 
 import pyvisa
 
@@ -47,3 +48,42 @@ def simulated_resource_manager(*, fresh: bool = False) -> pyvisa.ResourceManager
             copy = Path(tmp) / SIM_DEFINITIONS
             shutil.copyfile(path, copy)
             return pyvisa.ResourceManager(f"{copy}@sim")
+
+
+class FailingResource:
+    """A pyvisa resource that raises a genuine VISA error (`code`) while `failing()` is true."""
+
+    def __init__(
+        self,
+        resource: Any,
+        failing: Any,
+        code: pyvisa.constants.StatusCode = pyvisa.constants.StatusCode.error_timeout,
+    ):
+        self._resource = resource
+        self._failing = failing
+        self._code = code
+
+    def _check(self) -> None:
+        if self._failing():
+            raise pyvisa.errors.VisaIOError(self._code)
+
+    def write(self, message: str) -> Any:
+        self._check()
+        return self._resource.write(message)
+
+    def query(self, message: str) -> str:
+        self._check()
+        return self._resource.query(message)
+
+    def read(self) -> str:
+        self._check()
+        return self._resource.read()
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._resource, name)
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        if name.startswith("_"):
+            object.__setattr__(self, name, value)
+        else:
+            setattr(self._resource, name, value)

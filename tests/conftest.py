@@ -60,6 +60,22 @@ def _isolated_qt_settings(tmp_path_factory: pytest.TempPathFactory) -> None:
         QSettings.setPath(fmt, QSettings.Scope.UserScope, str(folder))
 
 
+@pytest.fixture(scope="session")
+def complete_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """One complete simulated run for the whole session (piezo DUT SN-42, 4 periods, tolerance
+    5 %): its run folder. Tests that need a runs root of their own (a fresh certificate
+    register) copy it; nothing else may change it."""
+    from app.io.vocabulary import RunStatus
+    from app.procedure.run import RunRequest, execute
+
+    out = tmp_path_factory.mktemp("runs")
+    finished = execute(
+        RunRequest(dut="piezo", dut_id="SN-42", periods=4, tolerance_percent=5.0, out=out)
+    )
+    assert finished.status == RunStatus.COMPLETE
+    return out / str(finished.record.run_id)
+
+
 # The fast tier (`make test-fast`: dsp, units, CLI parsing) leaves out whatever runs a
 # calibration, a subprocess, the GUI, a database or a Monte Carlo study. Whole files are marked
 # here by path, tests of other files by the fixtures they use (a completed calibration run, the
@@ -69,7 +85,9 @@ INTEGRATION_PATHS = (
     "app/test_certificate.py",  # fixture runs, PDFs
     "app/test_dcc.py",  # a fixture run, its certificate and DCC
     "app/test_honest_numbers.py",  # calibration runs and recordings end to end
+    "app/test_legacy_formats.py",  # a stored run certified, a stored database upgraded
     "app/test_procedure.py",  # procedure runs, SIGTERM on a subprocess
+    "app/test_readme_examples.py",  # simulations and analyses of the README's examples
     "app/test_records.py",  # run folders of real runs
     "app/test_run_integrity.py",  # runs, concurrent subprocesses
     "app/test_safety.py",  # runs with faults, signals to subprocesses

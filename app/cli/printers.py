@@ -10,6 +10,7 @@ import sys
 from typing import TYPE_CHECKING, Any
 
 from app import formatting as fmt
+from app.io.vocabulary import RunStatus
 
 if TYPE_CHECKING:
     from pathlib import Path
@@ -34,7 +35,7 @@ def print_results(results: Results, source: str = "", status: str | None = None)
     the recording analysed) shown unless complete or unknown."""
     r = results.reference
     value, u = fmt.round_gum(r.sensitivity_mv_per_ms2, r.expanded_uncertainty_mv_per_ms2)
-    shown = f" ({status} recording)" if status not in (None, "complete") else ""
+    shown = f" ({status} recording)" if status not in (None, RunStatus.COMPLETE) else ""
     print(
         f"{source}{shown}: {results.periods} {'periods' if results.periods != 1 else 'period'}, "
         f"estimator {results.estimator}"

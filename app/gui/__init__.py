@@ -7,6 +7,8 @@ import os
 import sys
 from pathlib import Path
 
+from app.io.vocabulary import RunStatus
+
 log = logging.getLogger(__name__)
 
 
@@ -52,7 +54,7 @@ def run_gui(
     def after_run(finished) -> None:
         if screenshot is not None:
             window.grab().save(str(screenshot))
-        outcome["code"] = 0 if finished.status == "complete" else 3
+        outcome["code"] = 0 if finished.status == RunStatus.COMPLETE else 3
         if quit_after_run:
             QTimer.singleShot(0, app.quit)
 

@@ -32,6 +32,7 @@ from app.gui.run_tab import RunTab
 from app.gui.runs_tab import RunsTab
 from app.gui.sensors_tab import SensorsTab
 from app.gui.setup_tab import RunOptions, SetupTab
+from app.io.vocabulary import RunStatus
 from app.procedure import Finished
 from app.records.run_folder import RunIntegrityError, inspect_run, load_run
 from app.records.run_record import RunRecord
@@ -163,7 +164,7 @@ class MainWindow(QMainWindow):
         if finished is None:  # the worker ended without a result (its error is shown)
             return
         run_id = finished.record.run_id
-        if finished.status == "complete" and run_id:
+        if finished.status == RunStatus.COMPLETE and run_id:
             self.open_run(self.options.out / str(run_id), switch=False)
             self.tabs.setCurrentIndex(RESULTS_TAB)
         self.run_finished.emit(finished)

@@ -33,6 +33,7 @@ from PySide6.QtWidgets import (
 from app.gui.plots import FRAME_HZ, LivePlots
 from app.gui.results_tab import wrapping_label
 from app.gui.worker import RunWorker
+from app.io.vocabulary import RunStatus
 from app.procedure import (
     EqualisationStep,
     Finished,
@@ -282,7 +283,7 @@ class RunTab(QWidget):
         self.worker = None
         self.frame = LiveFrame()
         self.stop_button.setEnabled(False)
-        if finished is not None and finished.status == "complete":
+        if finished is not None and finished.status == RunStatus.COMPLETE:
             self.state.setText("finished: results on tab 3")
         elif finished is not None:
             run_id = finished.record.run_id

@@ -30,16 +30,16 @@ from PySide6.QtWidgets import (
 
 from app.gui.verdict_view import COLOURS as VERDICT_COLOURS
 from app.gui.verdict_view import verdict_of
-from app.records.run_folder import RunCheck, inspect_run
+from app.records.run_folder import FolderState, RunCheck, inspect_run
 
 log = logging.getLogger(__name__)
 
 STATE_COLOURS = {
-    "complete": "#1e8449",
-    "aborted": "#b9770e",
-    "running": "#2471a3",
-    "interrupted": "#c0392b",
-    "modified": "#c0392b",
+    FolderState.COMPLETE: "#1e8449",
+    FolderState.ABORTED: "#b9770e",
+    FolderState.RUNNING: "#2471a3",
+    FolderState.INTERRUPTED: "#c0392b",
+    FolderState.MODIFIED: "#c0392b",
 }
 FOLDER_ROLE = Qt.ItemDataRole.UserRole
 STATE_ROLE = Qt.ItemDataRole.UserRole + 1
@@ -123,7 +123,7 @@ class RunsTab(QWidget):
             verdict, reasons = (
                 verdict_of(None, check.record) if check.record is not None else ("", [])
             )
-            if check.state != "complete":
+            if check.state != FolderState.COMPLETE:
                 verdict, reasons = "", []  # only a verified complete run has a verdict
             verdict_item = QTableWidgetItem(verdict)
             verdict_item.setForeground(QColor(VERDICT_COLOURS.get(verdict, "#555555")))
@@ -146,7 +146,7 @@ class RunsTab(QWidget):
         if cached is not None and cached[0] == key:
             return cached[1]
         check = check_folder(folder)
-        if check is not None and check.state not in ("running", "interrupted"):
+        if check is not None and check.state not in (FolderState.RUNNING, FolderState.INTERRUPTED):
             self._verified[folder] = (key, check)  # finished: only a change can change it
         return check
 

@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from app.io.vocabulary import RunStatus
 from app.procedure import Event, Finished, PeriodBlock, Procedure
 from app.records.run_record import RunRecord
 
@@ -80,8 +81,8 @@ class RunWorker:
         except BaseException as exc:  # the procedure catches its own; this is a last resort
             log.exception("the run ended with an unexpected error")
             reason = f"internal error: {type(exc).__name__}: {exc}"
-            record = RunRecord(run_id=None, status="aborted", abort_reason=reason)
-            finished = Finished("aborted", reason, None, record)
+            record = RunRecord(run_id=None, status=RunStatus.ABORTED, abort_reason=reason)
+            finished = Finished(RunStatus.ABORTED, reason, None, record)
         finally:
             try:
                 self.stand.close()

@@ -17,45 +17,37 @@ HDF5 layout (format "accelcal-recording", version 1):
                       sensitivity_mv_per_ms2, phase_deg at the line frequencies; attrs describe
                       the simulated DUT and level
 
-CSV import: two columns (reference, DUT) or three (plus drive) in volts, one optional header
-line; the plan comes from options. Lines starting with '#' before the data are comments; one of
-the form `# skew_s = 2e-06` gives the inter-channel delay in s, positive when the DUT channel is
-sampled after the reference (the --skew option's sign; the two must agree when both are given).
-Files that are malformed (missing dataset, wrong length,
-NaN/inf, a flat dead channel, samples at a channel's range limit) are refused with a
-RecordingError that names the file, the channel and the problem.
+A malformed recording (missing dataset, wrong length, NaN/inf, a flat dead channel, samples at
+a channel's range limit) is refused with a RecordingError that names the file, the channel and
+the problem. CSV import lives in app.io.csv, TDMS in app.io.tdms; both give a Recording.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import errno
-import io
 import json
 import logging
 import math
 import os
-import re
 import resource
-import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any, BinaryIO
+from typing import Any
 
 import h5py
 import numpy as np
 
 from app.errors import Refusal
 from app.io.checks import (
-    MAX_CSV_BYTES,
     MAX_HDF5_BYTES,
-    MAX_RECORDING_SAMPLES,
     InputFileError,
     check_dataset_size,
     check_input_file,
 )
+from app.io.vocabulary import Mode, RunStatus
 from app.version import software_version
 from dsp.calibration import ReferenceChain
 from dsp.multisine import Plan, PlanError
@@ -66,10 +58,6 @@ FORMAT_VERSION = 1
 CHANNELS = ("reference", "dut")
 OVERLOAD_FRACTION = 0.995  # a sample within 0.5 % of the range is at its limit (SPEC s.11)
 FLAT_TOP_RUN = 5  # without a known range: this many equal samples at the extreme = clipped
-STATUS_COMPLETE = "complete"
-STATUS_ABORTED = "aborted"
-STATUS_INCOMPLETE = "incomplete"  # no end status: cut off, or written before statuses existed
-STATUSES = (STATUS_COMPLETE, STATUS_ABORTED, STATUS_INCOMPLETE)
 
 log = logging.getLogger(__name__)
 
@@ -149,7 +137,7 @@ class Recording:
     source: str = ""
     truth: Truth | None = None
     acquired_periods: int | None = None
-    status: str | None = None  # STATUSES; None: not recorded by this program (CSV, in memory)
+    status: RunStatus | None = None  # None: not recorded by this program (CSV, in memory)
 
     @property
     def periods(self) -> int:
@@ -254,9 +242,9 @@ class RecordingWriter:
         self._file.attrs["settle_periods"] = int(periods)
         self._file.flush()
 
-    def set_mode(self, mode: str) -> None:
-        """Mark the excitation ("multisine" by default; "stepped-sine" blocks vary in length)."""
-        self._file.attrs["mode"] = mode
+    def set_mode(self, mode: Mode) -> None:
+        """Mark the excitation (multisine by default; stepped-sine blocks vary in length)."""
+        self._file.attrs["mode"] = Mode(mode).value
         self._file.flush()
 
     def set_acquired_periods(self, periods: int) -> None:
@@ -269,22 +257,23 @@ class RecordingWriter:
         self._file["config"].attrs["budget"] = json.dumps(budget.to_list())
         self._file.flush()
 
-    def set_status(self, status: str, reason: str | None = None) -> bool:
-        """Mark how the recording ended (STATUSES; "aborted" with its reason). Never raises
+    def set_status(self, status: RunStatus, reason: str | None = None) -> bool:
+        """Mark how the recording ended (a RunStatus; aborted with its reason). Never raises
         for the file: False (logged) when it cannot take the mark, which leaves the recording
         "incomplete", the safe reading."""
-        if status not in STATUSES:
-            raise ValueError(f"recording status: {status!r} is not one of {', '.join(STATUSES)}")
+        if status not in tuple(RunStatus):
+            raise ValueError(f"recording status: {status!r} is not one of {', '.join(RunStatus)}")
+        status = RunStatus(status)
         problem = None if self._file.id.valid else "the recording is closed"
         if problem is None:
             try:
-                self._file.attrs["status"] = status
+                self._file.attrs["status"] = status.value
                 self._file.attrs["status_reason"] = reason or ""
                 self._file.flush()
             except (OSError, KeyError, ValueError, RuntimeError) as exc:  # the disk refused it
                 problem = str(exc)
         if problem is not None:
-            log.warning("%s: recording status %r not stored: %s", self.path, status, problem)
+            log.warning("%s: recording status %r not stored: %s", self.path, status.value, problem)
             return False
         return True
 
@@ -324,7 +313,7 @@ def write_recording(path: str | Path, recording: Recording) -> None:
         writer.append(recording.reference_v, recording.dut_v, recording.drive_v)
         if recording.truth is not None:
             writer.write_truth(recording.truth)
-        writer.set_status(recording.status or STATUS_COMPLETE)  # written whole
+        writer.set_status(recording.status or RunStatus.COMPLETE)  # written whole
 
 
 def read_recording(path: str | Path) -> Recording:
@@ -344,7 +333,7 @@ def read_recording(path: str | Path) -> Recording:
     with handle as f:
         if f.attrs.get("format") != FORMAT_NAME:
             raise RecordingError(f"{name}: not an {FORMAT_NAME} file (attribute 'format')")
-        if f.attrs.get("mode", "multisine") == "stepped-sine":
+        if f.attrs.get("mode", Mode.MULTISINE) == Mode.STEPPED_SINE:
             raise RecordingError(
                 f"{name}: a stepped-sine recording (blocks of different lengths per line); its "
                 "results are in the run's results.json, re-analysis is for multisine recordings"
@@ -422,12 +411,14 @@ def read_recording(path: str | Path) -> Recording:
     return recording
 
 
-def recording_status(mark: object) -> str:
+def recording_status(mark: object) -> RunStatus:
     """A recording's status from its "status" attribute: "complete" or "aborted" as marked,
     anything else (no mark: the run never finished) "incomplete"."""
     if isinstance(mark, bytes):
         mark = mark.decode("utf-8", "replace")
-    return str(mark) if mark in (STATUS_COMPLETE, STATUS_ABORTED) else STATUS_INCOMPLETE
+    if mark in (RunStatus.COMPLETE, RunStatus.ABORTED):
+        return RunStatus(str(mark))
+    return RunStatus.INCOMPLETE
 
 
 def _read_truth(f: h5py.File, name: str) -> Truth | None:
@@ -463,59 +454,6 @@ def _check_float_dataset(ds: h5py.Dataset, where: str) -> None:
         raise RecordingError(str(exc)) from None
 
 
-def read_csv(
-    path: str | Path,
-    plan: Plan,
-    chain: ReferenceChain,
-    budget: Budget,
-    *,
-    settle_periods: int = 0,
-    range_v: float | None = None,
-) -> Recording:
-    """Read a CSV of two (reference, DUT) or three (+ drive) columns in volts and validate it.
-
-    The lines are counted first; float64 columns of that length are filled in place from
-    blocks of about `CSV_BLOCK_BYTES` of text parsed by numpy's C reader, so the peak memory
-    stays about 1.1x the samples' (issue 16 point 7). A block the fast reader refuses is
-    parsed line by line, which names the offending line."""
-    path = Path(path)
-    name = path.name
-    try:
-        check_input_file(path, MAX_CSV_BYTES, "CSV recording")
-    except InputFileError as exc:
-        raise RecordingError(str(exc)) from None
-    try:
-        handle = open(path, "rb")
-    except FileNotFoundError:
-        raise RecordingError(f"{path}: no such file") from None
-    except OSError as exc:
-        raise RecordingError(f"{name}: cannot be read as text ({exc})") from None
-    try:
-        with handle:
-            columns, header_skew_s = _parse_csv(handle, name)
-    except UnicodeDecodeError as exc:
-        raise RecordingError(f"{name}: cannot be read as text ({exc})") from None
-    except OSError as exc:
-        raise RecordingError(f"{name}: cannot be read as text ({exc})") from None
-    chain = merge_skew(chain, header_skew_s, name, "the file's 'skew_s = {:g}' line")
-    ranges = {} if range_v is None else {c: float(range_v) for c in CHANNELS}
-    recording = Recording(
-        sample_rate_hz=plan.sample_rate_hz,
-        period_samples=plan.period_samples,
-        reference_v=columns[0],
-        dut_v=columns[1],
-        drive_v=columns[2] if len(columns) == 3 else None,
-        plan=plan,
-        chain=chain,
-        budget=budget,
-        settle_periods=settle_periods,
-        ranges_v=ranges,
-        source=str(path),
-    )
-    validate(recording, name)
-    return recording
-
-
 def merge_skew(
     chain: ReferenceChain, file_skew_s: float | None, name: str, where: str
 ) -> ReferenceChain:
@@ -532,195 +470,6 @@ def merge_skew(
             "give one of them"
         )
     return chain
-
-
-SKEW_LINE = re.compile(r"^#\s*skew_s\s*=\s*(\S+)\s*$")
-CSV_BLOCK_BYTES = 1 << 20  # text parsed at a time, bytes (a block ends at a line end)
-# Line breaks str.splitlines knows besides \n and \r\n (ASCII ones; the others are not ASCII):
-# a block holding one is parsed line by line, so line numbers stay those of the text (and of
-# earlier versions). Searched byte by byte (memchr): a regular expression costs more than
-# parsing the numbers.
-_OTHER_BREAKS = (b"\x0b", b"\x0c", b"\x1c", b"\x1d", b"\x1e")
-
-
-def _other_breaks(text: bytes) -> bool:
-    """Whether `text` holds a line break other than \\n and \\r\\n (see _OTHER_BREAKS)."""
-    if b"\r" in text and text.count(b"\r") != text.count(b"\r\n"):
-        return True
-    return any(mark in text for mark in _OTHER_BREAKS)
-
-
-def _parse_csv(handle: BinaryIO, name: str) -> tuple[list[np.ndarray], float | None]:
-    """The columns (float64 V) of the CSV open in `handle` (binary) and the skew (s) of a
-    '# skew_s = ...' comment line, None without one."""
-    number = 0  # lines consumed
-    skew_s = None
-    while True:  # leading comment lines, then one optional header line
-        offset = handle.tell()
-        raw = handle.readline()
-        if not raw:
-            break
-        if _other_breaks(raw):  # lines end with \r alone (or worse): the text whole
-            handle.seek(0)
-            return _parse_text(handle.read().decode("utf-8").splitlines(), name)
-        line = raw.decode("utf-8").rstrip("\r\n")
-        if line.lstrip().startswith("#"):
-            number += 1
-            skew_s = _skew_line(line, number, name, skew_s)
-            continue
-        if _is_numeric_row(line):
-            handle.seek(offset)  # the first data line
-        else:
-            number += 1  # one header line allowed
-        break
-    capacity = _count_lines(handle)  # rows at most: columns allocated once, filled in place
-    columns: list[np.ndarray] = []
-    width: int | None = None
-    rows = 0
-    while block := handle.read(CSV_BLOCK_BYTES):
-        if not block.endswith(b"\n"):
-            block += handle.readline()
-        data = _fast_block(block, width)
-        lines = block.count(b"\n") + (not block.endswith(b"\n"))
-        if data is None:
-            text_lines = block.decode("utf-8").splitlines()
-            data = _parse_lines(text_lines, number, width, name)
-            lines = len(text_lines)
-        number += lines
-        if rows + data.shape[0] > MAX_RECORDING_SAMPLES:
-            raise RecordingError(
-                f"{name}: line {number}: more than {MAX_RECORDING_SAMPLES} rows, more than a "
-                "recording may hold"
-            )
-        if data.shape[0]:
-            width = data.shape[1]
-            if rows + data.shape[0] > capacity:  # more lines than \n counted (other breaks)
-                capacity = max(2 * capacity, rows + data.shape[0])
-                columns = [_grown(c, capacity) for c in columns]
-            if not columns:
-                columns = [np.empty(capacity) for _ in range(width)]
-            for column, values in zip(columns, data.T, strict=True):
-                column[rows : rows + data.shape[0]] = values
-            rows += data.shape[0]
-    if not rows:
-        raise RecordingError(f"{name}: no data rows")
-    if capacity - rows > rows // 64:  # many blank lines: no idle tail kept
-        return [c[:rows].copy() for c in columns], skew_s
-    return [c[:rows] for c in columns], skew_s
-
-
-def _count_lines(handle: BinaryIO) -> int:
-    """Lines from the handle's position to the end (\\n counted, plus a last one without it),
-    at most MAX_RECORDING_SAMPLES + 1; the position is kept."""
-    start = handle.tell()
-    count = 1
-    while (piece := handle.read(CSV_BLOCK_BYTES)) and count <= MAX_RECORDING_SAMPLES:
-        count += piece.count(b"\n")
-    handle.seek(start)
-    return min(count, MAX_RECORDING_SAMPLES + 1)
-
-
-def _grown(column: np.ndarray, capacity: int) -> np.ndarray:
-    """`column` copied into a longer array of `capacity` samples."""
-    longer = np.empty(capacity)
-    longer[: column.size] = column
-    return longer
-
-
-def _parse_text(lines: list[str], name: str) -> tuple[list[np.ndarray], float | None]:
-    """_parse_csv for text split into lines up front (line breaks other than \\n, \\r\\n)."""
-    start = 0
-    skew_s = None
-    while start < len(lines) and lines[start].lstrip().startswith("#"):
-        skew_s = _skew_line(lines[start], start + 1, name, skew_s)
-        start += 1
-    if start < len(lines) and not _is_numeric_row(lines[start]):
-        start += 1  # one header line allowed
-    data = _parse_lines(lines[start:], start, None, name)
-    if not data.shape[0]:
-        raise RecordingError(f"{name}: no data rows")
-    return [np.ascontiguousarray(column) for column in data.T], skew_s
-
-
-def _skew_line(line: str, number: int, name: str, skew_s: float | None) -> float | None:
-    """The skew (s) a comment line states, else `skew_s`; RecordingError naming the line when
-    it is not a delay."""
-    match = SKEW_LINE.match(line.strip())
-    if not match:
-        return skew_s
-    try:
-        value = float(match.group(1))
-    except ValueError:
-        value = math.nan
-    if not (math.isfinite(value) and abs(value) <= 1.0):
-        raise RecordingError(
-            f"{name}: line {number}: skew_s {match.group(1)!r} is not a delay in s "
-            "(finite, within +-1 s)"
-        )
-    return value
-
-
-def _fast_block(block: bytes, width: int | None) -> np.ndarray | None:
-    """A block of whole lines as (rows, columns) float64 by numpy's C reader; None when it
-    holds anything but well-formed rows of 2 or 3 numbers (`width` when known), a byte that
-    is not ASCII, or another line break than \\n or \\r\\n (the line-by-line parser then
-    decides, with the messages and line numbers it always gave)."""
-    if not block.isascii() or _other_breaks(block):
-        return None
-    if b";" in block:
-        block = block.replace(b";", b",")
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("error")  # "input contained no data": an empty block
-            data = np.loadtxt(
-                io.BytesIO(block),
-                delimiter=",",
-                dtype=np.float64,
-                comments=None,
-                ndmin=2,
-                encoding="latin-1",  # bytes 1:1; anything not ASCII fails to convert
-            )
-    except (ValueError, UserWarning):
-        return None
-    if data.shape[1] not in (2, 3) or (width is not None and data.shape[1] != width):
-        return None
-    return data
-
-
-def _parse_lines(lines: list[str], before: int, width: int | None, name: str) -> np.ndarray:
-    """Rows of `lines` (the first is line `before` + 1) as (rows, columns) float64, blank lines
-    skipped; RecordingError naming the line of a wrong column count or a non-number."""
-    rows: list[list[float]] = []
-    for number, raw in enumerate(lines, start=before + 1):
-        if not raw.strip():
-            continue
-        cells = [c.strip() for c in raw.replace(";", ",").split(",")]
-        if width is None:
-            width = len(cells)
-            if width not in (2, 3):
-                raise RecordingError(
-                    f"{name}: line {number}: {width} columns; expected 2 (reference, DUT) "
-                    "or 3 (reference, DUT, drive) in volts"
-                )
-        elif len(cells) != width:
-            raise RecordingError(
-                f"{name}: line {number}: {len(cells)} columns where earlier lines have {width}"
-            )
-        try:
-            rows.append([float(c) for c in cells])
-        except ValueError:
-            raise RecordingError(
-                f"{name}: line {number}: not a number in {raw.strip()!r}"
-            ) from None
-    return np.asarray(rows, dtype=np.float64).reshape(len(rows), width or 0)
-
-
-def _is_numeric_row(line: str) -> bool:
-    try:
-        [float(c) for c in line.replace(";", ",").split(",")]
-    except ValueError:
-        return False
-    return True
 
 
 def validate(recording: Recording, name: str) -> None:
@@ -791,3 +540,13 @@ def iter_batches(
     ref, dut = recording.analysis_periods()
     for start in range(0, ref.shape[0], periods_per_batch):
         yield ref[start : start + periods_per_batch], dut[start : start + periods_per_batch]
+
+
+def __getattr__(name: str) -> Any:
+    """`read_csv` under its old path (app.io.hdf5, before app.io.csv): kept for one release,
+    imported on use (app.io.csv imports this module)."""
+    if name == "read_csv":
+        from app.io.csv import read_csv
+
+        return read_csv
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

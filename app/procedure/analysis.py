@@ -14,23 +14,10 @@ from pathlib import Path
 
 import numpy as np
 
-from app.io.hdf5 import (
-    STATUS_ABORTED,
-    STATUS_INCOMPLETE,
-    Recording,
-    RecordingError,
-    iter_batches,
-    read_recording,
-)
+from app.io.hdf5 import Recording, RecordingError, iter_batches, read_recording
+from app.io.vocabulary import RunStatus
 from app.procedure.verdict import Tolerances, tolerances_for, with_verdict
-from app.records.run_folder import (
-    STATUS_INTERRUPTED,
-    STATUS_MODIFIED,
-    STATUS_RUNNING,
-    STATUS_UNSUPPORTED,
-    inspect_run,
-    is_run_folder,
-)
+from app.records.run_folder import FolderState, inspect_run, is_run_folder
 from dsp.calibration import Results, compute_results
 from dsp.hum import mains_hum
 from dsp.multisine import Plan, PlanError
@@ -45,7 +32,7 @@ class Analysis:
 
     estimate: Estimate
     results: Results
-    status: str | None = None  # the recording's (app.io.hdf5.STATUSES); None: CSV, in memory
+    status: RunStatus | None = None  # the recording's; None: CSV, in memory
 
 
 def analyze(
@@ -195,11 +182,11 @@ def reanalysis(
     )
 
 
-def status_warning(status: str | None) -> str | None:
+def status_warning(status: RunStatus | None) -> str | None:
     """The warning results of a recording with `status` carry (None for a complete one)."""
-    if status == STATUS_ABORTED:
+    if status == RunStatus.ABORTED:
         return "recording of an aborted run: results for review only, never certified"
-    if status == STATUS_INCOMPLETE:
+    if status == RunStatus.INCOMPLETE:
         return (
             "incomplete recording (its run never finished, or it predates recording statuses): "
             "results for review only, never certified"
@@ -227,19 +214,21 @@ def read_for_analysis(path: str | Path) -> Recording:
     return dataclasses.replace(recording, status=_joined(run_status, recording.status))
 
 
-def _run_status(folder: Path) -> str:
+def _run_status(folder: Path) -> RunStatus:
     """complete, aborted or incomplete (interrupted); RecordingError when it does not verify."""
     try:
         check = inspect_run(folder)
     except ValueError as exc:  # unreadable manifest, not a run folder
         raise RecordingError(str(exc)) from None
-    if check.state in (STATUS_MODIFIED, STATUS_UNSUPPORTED):
+    if check.state in (FolderState.MODIFIED, FolderState.UNSUPPORTED):
         raise RecordingError("; ".join(check.problems))
-    if check.state == STATUS_RUNNING:
+    if check.state == FolderState.RUNNING:
         raise RecordingError(f"{folder}: the run is still being written; analyse it once it ends")
-    return STATUS_INCOMPLETE if check.state == STATUS_INTERRUPTED else check.state
+    if check.state == FolderState.INTERRUPTED:
+        return RunStatus.INCOMPLETE
+    return RunStatus(check.state)  # complete or aborted
 
 
-def _joined(run_status: str, recording_status: str | None) -> str:
+def _joined(run_status: RunStatus, recording_status: RunStatus | None) -> RunStatus:
     """The verified run's status, unless the recording's own mark says aborted."""
-    return STATUS_ABORTED if recording_status == STATUS_ABORTED else run_status
+    return RunStatus.ABORTED if recording_status == RunStatus.ABORTED else run_status

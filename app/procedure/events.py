@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from app.io.vocabulary import RunStatus
 from dsp.calibration import Results
 from dsp.spectral import Estimate
 
@@ -81,7 +82,7 @@ class WarningRaised:
 class Finished:
     """How the run ended; `record` is what results.json holds (app.records.run_record.RunRecord)."""
 
-    status: str
+    status: RunStatus
     abort_reason: str | None
     results: Results | None
     record: RunRecord

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from app.io.hdf5 import DiskFullError, RecordingWriter, Truth, software_version
+from app.io.vocabulary import Mode, RunStatus
 from app.procedure.acquisition import Acquisition
 from app.procedure.background import Background, budget_with_background
 from app.procedure.context import RunContext, RunNotes
@@ -35,12 +36,12 @@ from app.procedure.events import Event, Finished, Listener, State
 from app.procedure.identification import Identification
 from app.procedure.preflight import check_preflight
 from app.procedure.request import RunIdentity
-from app.procedure.settings import MODE_STEPPED_SINE, RunSettings
+from app.procedure.settings import RunSettings
 from app.procedure.stand_io import StandIO
 from app.procedure.stand_memory import StandMemory
 from app.procedure.stepped import SteppedSine
 from app.procedure.verdict import Tolerances, tolerances_for, with_verdict
-from app.records.run_folder import STATUS_ABORTED, STATUS_COMPLETE, RunFolder
+from app.records.run_folder import RunFolder
 from app.records.run_record import RunRecord, StandInfo
 from app.records.run_start import CONFIG_NAME, RunStart
 from app.stand.open import Stand
@@ -113,7 +114,7 @@ class Procedure:
     def run(self) -> Finished:
         """The whole run, to its end (complete or aborted): the drive at 0 V afterwards."""
         started = datetime.now(UTC)
-        status, reason = STATUS_COMPLETE, None
+        status, reason = RunStatus.COMPLETE, None
         io = self.io
         self._store_config()
         try:
@@ -122,37 +123,37 @@ class Procedure:
             self._configure()
             self._phases()
         except Aborted as exc:
-            status, reason = STATUS_ABORTED, str(exc)
+            status, reason = RunStatus.ABORTED, str(exc)
             io.try_fade_out()
         except DiskFullError as exc:
             io.recording_full = True
-            status, reason = STATUS_ABORTED, f"disk full: {exc}"
+            status, reason = RunStatus.ABORTED, f"disk full: {exc}"
             io.try_fade_out()
         except PreflightError as exc:
-            status, reason = STATUS_ABORTED, f"refused before anything moved: {exc}"
+            status, reason = RunStatus.ABORTED, f"refused before anything moved: {exc}"
         except (ProcedureError, AnalysisError) as exc:
-            status, reason = STATUS_ABORTED, str(exc)
+            status, reason = RunStatus.ABORTED, str(exc)
             io.try_fade_out()
         except HardwareError as exc:
             if io.emergency:
-                status, reason = STATUS_ABORTED, "emergency stop"
+                status, reason = RunStatus.ABORTED, "emergency stop"
             else:
-                status, reason = STATUS_ABORTED, f"{type(exc).__name__}: {exc}. {advice(exc)}"
+                status, reason = RunStatus.ABORTED, f"{type(exc).__name__}: {exc}. {advice(exc)}"
                 if io.power_failed or isinstance(exc, (AmplifierFaultError, OverloadError)):
                     io.try_fade_out()  # the DAQ still works: fade its drive out
         except KeyboardInterrupt:
-            status, reason = STATUS_ABORTED, "interrupted (Ctrl-C)"
+            status, reason = RunStatus.ABORTED, "interrupted (Ctrl-C)"
         except Exception as exc:
             log.debug("run: internal error", exc_info=True)
-            status, reason = STATUS_ABORTED, f"internal error: {type(exc).__name__}: {exc}"
+            status, reason = RunStatus.ABORTED, f"internal error: {type(exc).__name__}: {exc}"
         finally:
             final_output = io.stop_drive()
             io.disable_power()
             if io.writer is not None:
                 escaping = sys.exc_info()[0] is not None  # e.g. SystemExit: not complete
-                io.writer.set_status(STATUS_ABORTED if escaping else status, reason)
+                io.writer.set_status(RunStatus.ABORTED if escaping else status, reason)
                 io.writer.close()
-        if status == STATUS_ABORTED:
+        if status == RunStatus.ABORTED:
             self.ctx.state(State.ABORTED, reason or "")
         else:
             self.ctx.state(State.FINISHED)
@@ -161,7 +162,7 @@ class Procedure:
     def _phases(self) -> None:
         """Background, then the mode's phases; results end in `self.notes`."""
         background = Background(self.ctx).run()
-        if self.settings.mode == MODE_STEPPED_SINE:
+        if self.settings.mode == Mode.STEPPED_SINE:
             SteppedSine(self.ctx, background, self.memory.recall(), self.memory.describe).run()
             return
         equalised = self._equalise(background.noise())
@@ -238,13 +239,13 @@ class Procedure:
             ) from exc
 
     def _finish(
-        self, started: datetime, status: str, reason: str | None, final_output: float | None
+        self, started: datetime, status: RunStatus, reason: str | None, final_output: float | None
     ) -> Finished:
         """Verdict, run record, results.json: the Finished event."""
-        results = self.notes.results if status == STATUS_COMPLETE else None
+        results = self.notes.results if status == RunStatus.COMPLETE else None
         if results is not None:
             results = with_verdict(results, self._tolerances())
-        if status == STATUS_COMPLETE and self.notes.measured_response is not None:
+        if status == RunStatus.COMPLETE and self.notes.measured_response is not None:
             self.memory.keep(
                 self.notes.measured_response,
                 self.notes.measured_response_error or 0.0,
@@ -316,7 +317,7 @@ class Procedure:
             return
         plan, truth = self.plan, self.stand.truth
         rms = float(np.sqrt(np.sum(plan.amplitudes_ms2**2) / 2))
-        if self.settings.mode == MODE_STEPPED_SINE:  # one line at a time: its own rms
+        if self.settings.mode == Mode.STEPPED_SINE:  # one line at a time: its own rms
             values = np.array(
                 [
                     truth(np.array([f]), a / np.sqrt(2))[0]
@@ -353,7 +354,7 @@ class Procedure:
         )
 
     def _record(
-        self, started: datetime, status: str, reason: str | None, final_output: float | None
+        self, started: datetime, status: RunStatus, reason: str | None, final_output: float | None
     ) -> RunRecord:
         """The run record without results (RunFolder.finish adds them and the raw data's
         hash)."""

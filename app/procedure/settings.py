@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from app.procedure.modes import MODE_MULTISINE, MODE_STEPPED_SINE, MODES
+from app.procedure.modes import MODE_MULTISINE, MODE_STEPPED_SINE, MODES, Mode
 from dsp.spectral import check_periods
 
 __all__ = ["MODES", "MODE_MULTISINE", "MODE_STEPPED_SINE", "RunSettings"]
@@ -30,7 +30,7 @@ class RunSettings:
     tolerance_percent: float | None = None
     dut_nominal_mv_per_ms2: float | None = None
     plausible_ratio: float = 2.0
-    mode: str = MODE_MULTISINE
+    mode: str = Mode.MULTISINE  # a Mode
     stepped_block_s: float = 0.25
     dut_mass_g: float | None = None  # its mass class picks the stored stand response
     stored_response_max_age_days: float = 30.0  # an older stored response is not used

@@ -9,12 +9,12 @@ from typing import Any
 
 import numpy as np
 
+from app.io.vocabulary import Mode
 from app.procedure.background import BackgroundLevels, budget_with_background
 from app.procedure.context import RunContext
 from app.procedure.equalisation import Equalisation, Equalised
 from app.procedure.events import Progress, State
 from app.procedure.identification import Identification
-from app.procedure.settings import MODE_STEPPED_SINE
 from app.procedure.stand_io import Segment
 from app.procedure.stopping import StoppingRule
 from app.stand.response import StoredResponse
@@ -51,7 +51,7 @@ class SteppedSine:
         ctx, plan, s, io = self.ctx, self.ctx.plan, self.ctx.settings, self.ctx.io
         fs = plan.sample_rate_hz
         if io.writer is not None:
-            io.writer.set_mode(MODE_STEPPED_SINE)
+            io.writer.set_mode(Mode.STEPPED_SINE)
         estimates: list[Estimate] = []
         settled_ref: list[complex] = []
         settled_dut: list[complex] = []

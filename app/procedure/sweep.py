@@ -17,9 +17,10 @@ from typing import Any
 import numpy as np
 
 from app.files import write_with
+from app.io.vocabulary import RunStatus
 from app.procedure import Finished, Listener, PreflightError
 from app.procedure.run import RunRequest, execute, prepare
-from app.records.run_folder import STATUS_COMPLETE, new_run_id
+from app.records.run_folder import new_run_id
 from app.records.sweep_summary import SweepSummary, SweepTable
 
 
@@ -64,7 +65,7 @@ def run_sweep(request: RunRequest, levels: list[float], listener: Listener | Non
     for level in sorted(levels):
         finished = execute(dataclasses.replace(request, level_ms2=level), listener)
         runs.append(finished)
-        if finished.status != STATUS_COMPLETE:
+        if finished.status != RunStatus.COMPLETE:
             break
     summary = summarise(runs, sorted(levels))
     sweep_id = new_run_id(f"sweep-{request.dut_id or request.dut}")
@@ -75,12 +76,12 @@ def run_sweep(request: RunRequest, levels: list[float], listener: Listener | Non
 
 def summarise(runs: list[Finished], levels: list[float]) -> SweepSummary:
     """Sensitivity against frequency and level, linearity per line and at the reference."""
-    complete = [r for r in runs if r.status == STATUS_COMPLETE and r.results is not None]
+    complete = [r for r in runs if r.status == RunStatus.COMPLETE and r.results is not None]
     summary = SweepSummary(
-        status=STATUS_COMPLETE if len(complete) == len(levels) else "aborted",
+        status=RunStatus.COMPLETE if len(complete) == len(levels) else RunStatus.ABORTED,
         levels_ms2=tuple(levels),
         run_ids=tuple(str(r.record.run_id) for r in runs),
-        abort_reason=next((r.abort_reason for r in runs if r.status != STATUS_COMPLETE), None),
+        abort_reason=next((r.abort_reason for r in runs if r.status != RunStatus.COMPLETE), None),
     )
     if len(complete) < 2:
         return summary

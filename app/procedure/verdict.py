@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import dataclasses
 
+from app.io.vocabulary import RunStatus
 from app.stand.dut import Band, Tolerances
 from dsp import conformity
 from dsp.calibration import LOW_COHERENCE, Results
@@ -173,7 +174,7 @@ def assess(
         reasons += mounting
         if verdict == PASS:
             verdict = INDETERMINATE
-    if status not in (None, "complete"):
+    if status not in (None, RunStatus.COMPLETE):
         reasons.append(f"the recording is {status}: results for review only")
         if verdict == PASS:
             verdict = INDETERMINATE

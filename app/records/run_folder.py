@@ -34,22 +34,37 @@ import uuid
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
+from enum import StrEnum
 from pathlib import Path
 from typing import Any
 
 from app.errors import Refusal
 from app.files import write_new
 from app.io.checks import InputFileError, read_regular_bytes, sha256_regular
+from app.io.vocabulary import RunStatus
 from app.records.run_record import RunRecord, RunRecordError, UnsupportedSchemaError
 from app.records.seal import SEAL_NAME, write_seal
 from dsp.calibration import Results
 
-STATUS_COMPLETE = "complete"
-STATUS_ABORTED = "aborted"
-STATUS_RUNNING = "running"  # a live process holds the folder's lock
-STATUS_INTERRUPTED = "interrupted"  # no manifest and nobody writing: the process died
-STATUS_MODIFIED = "modified"  # a stored file does not match the manifest
-STATUS_UNSUPPORTED = "unsupported"  # results.json of a newer schema version than this code
+
+class FolderState(StrEnum):
+    """What a run folder is when read: a finished run (its RunStatus) or why it is none."""
+
+    COMPLETE = RunStatus.COMPLETE.value
+    ABORTED = RunStatus.ABORTED.value
+    RUNNING = "running"  # a live process holds the folder's lock
+    INTERRUPTED = "interrupted"  # no manifest and nobody writing: the process died
+    MODIFIED = "modified"  # a stored file does not match the manifest
+    UNSUPPORTED = "unsupported"  # results.json of a newer schema version than this code
+
+
+# the old names of the states, kept for one release
+STATUS_COMPLETE = FolderState.COMPLETE
+STATUS_ABORTED = FolderState.ABORTED
+STATUS_RUNNING = FolderState.RUNNING
+STATUS_INTERRUPTED = FolderState.INTERRUPTED
+STATUS_MODIFIED = FolderState.MODIFIED
+STATUS_UNSUPPORTED = FolderState.UNSUPPORTED
 
 MANIFEST_NAME = "manifest.json"
 MANIFEST_VERSION = 1
@@ -265,13 +280,13 @@ class RunCheck:
     problems found (each naming a file) and its record (None unless it verified)."""
 
     path: Path
-    state: str
+    state: FolderState
     problems: tuple[str, ...] = ()
     record: RunRecord | None = None
 
     @property
     def certifiable(self) -> bool:
-        return self.state == STATUS_COMPLETE
+        return self.state == FolderState.COMPLETE
 
 
 def inspect_run(path: str | Path) -> RunCheck:
@@ -282,13 +297,13 @@ def inspect_run(path: str | Path) -> RunCheck:
     if not os.path.lexists(path / MANIFEST_NAME):
         lock = try_lock(path)
         if lock is None:
-            return RunCheck(path, STATUS_RUNNING, ("the run is still being written",))
+            return RunCheck(path, FolderState.RUNNING, ("the run is still being written",))
         unlock(lock)
         if not any(path.iterdir()):
             raise ValueError(f"{path}: empty folder, not a run folder")
         return RunCheck(
             path,
-            STATUS_INTERRUPTED,
+            FolderState.INTERRUPTED,
             (
                 f"{path}: no manifest: the run was interrupted before it finished (its "
                 "recording is readable up to the last period written)",
@@ -296,22 +311,22 @@ def inspect_run(path: str | Path) -> RunCheck:
         )
     problems = verify_manifest(path)
     if problems:
-        return RunCheck(path, STATUS_MODIFIED, tuple(problems))
+        return RunCheck(path, FolderState.MODIFIED, tuple(problems))
     target = path / "results.json"
     try:
         data = json.loads(read_regular_bytes(target, MAX_RESULTS_BYTES, "run's results"))
     except (OSError, ValueError) as exc:  # verified bytes: written broken
-        return RunCheck(path, STATUS_MODIFIED, (f"{target}: not readable ({exc})",))
+        return RunCheck(path, FolderState.MODIFIED, (f"{target}: not readable ({exc})",))
     state = data.get("status") if isinstance(data, dict) else None
     try:
         record = RunRecord.from_dict(data)
     except UnsupportedSchemaError as exc:
-        return RunCheck(path, STATUS_UNSUPPORTED, (f"{path}: {exc}",))
+        return RunCheck(path, FolderState.UNSUPPORTED, (f"{path}: {exc}",))
     except RunRecordError as exc:
-        return RunCheck(path, STATUS_MODIFIED, (f"{path}: {exc}",))
-    if state not in (STATUS_COMPLETE, STATUS_ABORTED):
-        return RunCheck(path, STATUS_MODIFIED, (f"{target}: unknown status {state!r}",))
-    return RunCheck(path, state, (), record)
+        return RunCheck(path, FolderState.MODIFIED, (f"{path}: {exc}",))
+    if state not in (FolderState.COMPLETE, FolderState.ABORTED):
+        return RunCheck(path, FolderState.MODIFIED, (f"{target}: unknown status {state!r}",))
+    return RunCheck(path, FolderState(state), (), record)
 
 
 def load_run(path: str | Path) -> RunRecord:
@@ -319,9 +334,9 @@ def load_run(path: str | Path) -> RunRecord:
     when it does not verify; UnsupportedSchemaError (a ValueError) for a newer schema version;
     ValueError when it is no finished run."""
     check = inspect_run(path)
-    if check.state == STATUS_MODIFIED:
+    if check.state == FolderState.MODIFIED:
         raise RunIntegrityError("; ".join(check.problems))
-    if check.state == STATUS_UNSUPPORTED:
+    if check.state == FolderState.UNSUPPORTED:
         raise UnsupportedSchemaError("; ".join(check.problems))
     if check.record is None:
         raise ValueError(check.problems[0] if check.problems else f"{path}: not a finished run")

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 from app.errors import Refusal
+from app.io.vocabulary import Mode, RunStatus
 
 if TYPE_CHECKING:
     from dsp.calibration import Results
@@ -103,9 +104,9 @@ class RunRecord:
     """What results.json holds about one run (units in the names)."""
 
     run_id: str | None
-    status: str
+    status: str  # a RunStatus (complete or aborted) as written; any text as read
     abort_reason: str | None = None
-    mode: str = "multisine"
+    mode: str = Mode.MULTISINE  # a Mode
     started_utc: str = ""
     finished_utc: str = ""
     excitation_time_s: float = 0.0
@@ -136,7 +137,7 @@ class RunRecord:
 
     @property
     def complete(self) -> bool:
-        return self.status == "complete"
+        return self.status == RunStatus.COMPLETE
 
     def results_object(self) -> Results | None:
         """The stored results rebuilt (dsp.calibration.Results), or None."""
@@ -223,7 +224,7 @@ class RunRecord:
                 run_id=data.get("run_id"),
                 status=str(data["status"]),
                 abort_reason=data.get("abort_reason"),
-                mode=str(data.get("mode") or "multisine"),
+                mode=str(data.get("mode") or Mode.MULTISINE),
                 started_utc=str(data.get("started_utc") or ""),
                 finished_utc=str(data.get("finished_utc") or ""),
                 excitation_time_s=float(data.get("excitation_time_s") or 0.0),

@@ -16,7 +16,8 @@ import numpy as np
 
 from app.errors import Refusal
 from app.files import FileExistsRefusal, check_target, staged
-from app.io.hdf5 import STATUS_ABORTED, STATUS_COMPLETE, RecordingWriter, Truth
+from app.io.hdf5 import RecordingWriter, Truth
+from app.io.vocabulary import RunStatus
 from app.records.run_folder import refuse_in_run_folder
 from dsp.crestfactor import synthesize
 from dsp.multisine import Plan, fade_envelope, preset_plan
@@ -194,9 +195,9 @@ def _record(
             if index == 0:
                 stand.write_period(drive)
     except HardwareError as exc:
-        writer.set_status(STATUS_ABORTED, f"{type(exc).__name__}: {exc}")
+        writer.set_status(RunStatus.ABORTED, f"{type(exc).__name__}: {exc}")
         return exc
     finally:
         stand.stop()
-    writer.set_status(STATUS_COMPLETE)
+    writer.set_status(RunStatus.COMPLETE)
     return None

@@ -24,24 +24,22 @@ INFO = CertificateInfo(
 )
 
 
-@pytest.fixture(scope="module")
-def complete_run(tmp_path_factory):
-    out = tmp_path_factory.mktemp("runs")
-    finished = execute(
-        RunRequest(dut="piezo", dut_id="SN-42", periods=4, tolerance_percent=5.0, out=out)
-    )
-    assert finished.status == "complete"
-    return out / finished.record.run_id
-
-
 def text_of(path) -> str:
     return "\n".join(page.extract_text() for page in PdfReader(path).pages)
 
 
+def fresh_root(run, tmp_path):
+    """The shared run copied under a runs root of its own (a register that issued nothing)."""
+    copy = tmp_path / "runs" / run.name
+    shutil.copytree(run, copy, ignore=shutil.ignore_patterns("certificate*"))
+    return copy
+
+
 def test_every_mandatory_item_and_the_stored_numbers(complete_run, tmp_path):
-    pdf = build(complete_run, INFO, tmp_path / "c.pdf")
+    run = fresh_root(complete_run, tmp_path)
+    pdf = build(run, INFO, tmp_path / "c.pdf")
     text = text_of(pdf)
-    record = load_run(complete_run)
+    record = load_run(run)
     results = record.results_object()
     value, u = fmt.round_gum(
         results.reference.sensitivity_mv_per_ms2, results.reference.expanded_uncertainty_mv_per_ms2

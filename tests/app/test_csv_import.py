@@ -10,8 +10,9 @@ import tracemalloc
 import numpy as np
 import pytest
 
-from app.io import hdf5 as recording_module
-from app.io.hdf5 import RecordingError, read_csv
+from app.io import csv as recording_module
+from app.io.csv import read_csv
+from app.io.hdf5 import RecordingError
 from dsp.calibration import ReferenceChain
 from dsp.multisine import make_plan
 from dsp.uncertainty import Budget
@@ -185,3 +186,11 @@ def test_peak_memory_at_most_twice_the_samples(tmp_path, monkeypatch):
         tracemalloc.stop()
     np.testing.assert_array_equal(rec.drive_v, data[:, 2])
     assert peak <= 1.25 * data.nbytes, f"peak {peak / data.nbytes:.2f}x the samples"
+
+
+def test_the_old_import_path_gives_the_same_reader() -> None:
+    from app.io import hdf5
+
+    assert hdf5.read_csv is read_csv
+    with pytest.raises(AttributeError, match="no attribute 'read_tsv'"):
+        hdf5.read_tsv  # noqa: B018

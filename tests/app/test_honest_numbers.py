@@ -15,7 +15,8 @@ from pypdf import PdfReader
 from app.certificate import CertificateInfo, build
 from app.certificate.pdf import _charts, _line_table, _statements
 from app.cli import main
-from app.io.hdf5 import RecordingError, read_csv, write_recording
+from app.io.csv import read_csv
+from app.io.hdf5 import RecordingError, write_recording
 from app.procedure.analysis import analyze, read_for_analysis, reanalysis
 from app.procedure.verdict import (
     FAIL,

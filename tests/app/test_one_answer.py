@@ -13,8 +13,8 @@ import app.certificate.pdf as pdf
 from app.certificate import CertificateInfo, issue, load_stored_run
 from app.certificate.dcc import line_values
 from app.certificate.printed import printed_lines
-from app.certificate.register_issue import issue_registered
 from app.certificate.readback import items_from_dcc, parse_inert
+from app.certificate.register_issue import issue_registered
 from app.certificate.text import dcc_conformity
 from app.cli import main
 from app.gui.plots import characteristic as gui_characteristic

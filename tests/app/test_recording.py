@@ -6,7 +6,8 @@ import h5py
 import numpy as np
 import pytest
 
-from app.io.hdf5 import RecordingError, RecordingWriter, read_csv, read_recording, write_recording
+from app.io.csv import read_csv
+from app.io.hdf5 import RecordingError, RecordingWriter, read_recording, write_recording
 from app.procedure.analysis import analyze
 from dsp.calibration import ReferenceChain
 from dsp.multisine import make_plan

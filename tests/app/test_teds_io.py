@@ -19,15 +19,6 @@ from sim.models import DUT_CATALOGUE
 VOLTAGE_TED = Path(__file__).resolve().parents[1] / "data" / "teds" / "Voltage.ted"
 
 
-@pytest.fixture(scope="module")
-def complete_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    out = tmp_path_factory.mktemp("runs")
-    argv = ["run", "--sim", "--dut", "piezo", "--dut-id", "SN-5", "--periods", "3", "--seed", "5"]
-    assert main([*argv, "--out", str(out)]) == 0
-    (folder,) = out.iterdir()
-    return folder
-
-
 def test_the_simulated_dut_carries_its_nominal_sensitivity_in_teds() -> None:
     port = teds_io.open_port(None, "capacitive", seed=7)
     teds = decode(port.read())

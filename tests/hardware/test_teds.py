@@ -1,4 +1,4 @@
-"""The TEDS codec against NI's test files (values from ../shared/teds/README.md, computed there
+"""The TEDS codec against NI's test files (values from docs/teds.md, computed there
 by hand and checked against nidaqmx-python's own tests) and property-based round trips."""
 
 from __future__ import annotations

@@ -20,7 +20,6 @@ import pytest
 
 from app.cli import main
 from app.io.hdf5 import write_recording
-from app.procedure.run import RunRequest, execute
 from dsp.multisine import make_plan
 from tests.synthetic import lowpass_response, make_recording
 
@@ -293,14 +292,6 @@ CERTIFICATE_CASES: list[tuple[str, dict[str, str], str]] = [
     ("issue-date-us-order", {"--issue-date": "11/23/2026"}, "issue_date (--issue-date)"),
     ("issue-date-compact", {"--issue-date": "20261123"}, "issue_date (--issue-date)"),
 ]
-
-
-@pytest.fixture(scope="module")
-def complete_run(tmp_path_factory):
-    out = tmp_path_factory.mktemp("runs")
-    finished = execute(RunRequest(dut="piezo", dut_id="SN-7", periods=3, out=out))
-    assert finished.status == "complete"
-    return out / finished.record.run_id
 
 
 @pytest.mark.parametrize(

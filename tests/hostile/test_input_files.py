@@ -9,9 +9,10 @@ import numpy as np
 import pytest
 
 from app.io import checks as input_files
-from app.io import hdf5 as recording
+from app.io import csv as csv_import
 from app.io.checks import InputFileError, check_input_file
-from app.io.hdf5 import RecordingError, read_csv, read_recording, write_recording
+from app.io.csv import read_csv
+from app.io.hdf5 import RecordingError, read_recording, write_recording
 from dsp.calibration import ReferenceChain
 from dsp.multisine import make_plan
 from dsp.uncertainty import Budget
@@ -47,7 +48,7 @@ def test_anything_else_is_refused_naming_the_file(tmp_path, make, message):
 def test_a_csv_larger_than_the_cap_is_refused_before_reading(tmp_path, monkeypatch):
     path = tmp_path / "big.csv"
     path.write_text("0.1,0.2\n" * 100)
-    monkeypatch.setattr(recording, "MAX_CSV_BYTES", 100)
+    monkeypatch.setattr(csv_import, "MAX_CSV_BYTES", 100)
     chain = ReferenceChain.flat(1.0)
     with pytest.raises(RecordingError, match=r"800 bytes is more than a CSV recording can hold"):
         read_csv(path, PLAN, chain, Budget(()))
