@@ -66,12 +66,12 @@ def default_info(record: RunRecord, start: RunStart) -> dict[str, Any]:
         defaults.setdefault("dut_serial", dut.id)
     catalogue = dut.catalogue
     if catalogue:
-        from sim.models import DUT_CATALOGUE
+        from app.stand.simulated import catalogue_spec
 
-        model = DUT_CATALOGUE.get(catalogue)
-        if model is not None:
-            defaults.setdefault("dut_model", f"simulated {model.name} ({model.description})")
-            defaults.setdefault("dut_type", f"{model.kind} accelerometer")
+        spec = catalogue_spec(catalogue)
+        if spec.catalogue:
+            defaults.setdefault("dut_model", spec.model)
+            defaults.setdefault("dut_type", f"{spec.kind} accelerometer")
     defaults.setdefault("issue_date", record.finished_utc[:10])
     return defaults
 
