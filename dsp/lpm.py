@@ -236,7 +236,8 @@ class LpmEstimate:
 
     @property
     def neighbour_correlation(self) -> np.ndarray:
-        """Correlation of the relative magnitude (= phase) errors of consecutive lines."""
+        """Correlation of the relative magnitude (= phase) errors of consecutive lines (for
+        circular noise Re(cov)/2 over var/2; it depends on the lines' phase difference)."""
         c = self.relative_covariance
         d = np.sqrt(np.real(np.diag(c)))
         return np.array([np.real(c[i, i + 1]) / (d[i] * d[i + 1]) for i in range(c.shape[0] - 1)])
