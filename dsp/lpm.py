@@ -79,7 +79,7 @@ class LpmSettings:
 
     order: int = 2
     bins: int = 12
-    reach: int = 40
+    reach: int = 12
     min_dof: int = 8
 
     @property
