@@ -69,6 +69,7 @@ def test_noise_variance_and_dof_recovered():
     assert np.all(np.isnan(e.nonlinear_variance))
 
 
+@pytest.mark.slow
 def test_coverage_with_student_t_at_the_stated_dof():
     from scipy import stats
 
@@ -95,6 +96,7 @@ def test_usual_settings_leave_too_few_dof_and_are_refused():
         lpm.estimate(u, u, [10, 12, 14, 16], settings=lpm.LpmSettings(reach=3))
 
 
+@pytest.mark.slow
 def test_neighbouring_lines_share_bins_and_their_errors_correlate():
     """Order 0, 4 bins: line 20 uses 18, 19, 21, 22 and line 23 uses 21, 22, 24, 25, so
     weights 1/4, shared 21 and 22: cov = 2/16 sigma^2, var = (1 + 4/16) sigma^2, rho = 0.1
