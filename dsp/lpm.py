@@ -28,10 +28,13 @@ here (no toolbox code used):
       distortion products, amplifier noise) is not: at the line it moves both channels by
       H_l and cancels, at a window bin by H(k), so with H sloping it would leak into C. The
       "1" term is therefore taken from the residuals of Y(k) - H(k) U(k), H(k) interpolated
-      between the lines (the line's own noise), the |w_l|^2 term from C with H_l (what the
-      transient interpolation carries to the line). Found on the simulated piezo stand,
-      whose channel noise is 1e-5 of the line and the exciter's products 5e-3: with the
-      single formula 20-25 Hz covered 99-99.7 %.
+      between the lines (the line's own noise), the |w_l|^2 term from the residuals with H_l
+      (what the transient interpolation carries to the line), each bin weighted by its
+      |w_i|^2 and corrected for its leverage h_ii (sum |w_i|^2 |a^T e_i|^2 / (1 - h_ii),
+      unbiased for white noise; the leak grows with the distance from the line, where the
+      weights are small, so a plain |w_l|^2 C doubled it in a synthetic check). Found on
+      the simulated piezo stand, whose channel noise is 1e-5 of the line and the exciter's
+      products 5e-3: with the single formula 20-25 Hz covered 99-99.7 %.
   (5) d is circular: Re d (relative magnitude) and Im d (phase, rad) each have variance s2/2,
       estimated from q complex residuals: s2_hat ~ s2 chi2(2q)/(2q), so the interval uses
       Student's t at 2 q real degrees of freedom (issue 26: the usual order 2, 7-bin window
@@ -199,7 +202,10 @@ def _one(
         local = _interpolate(lines, response, bins.astype(float))
         own = proj @ (y_spec[bins] - local * u_spec[bins])
         own_variance = float(np.sum(np.abs(own) ** 2)) / q / abs(y_hat[i]) ** 2
-        share = float(np.sum(np.abs(w) ** 2)) * float(np.real(a @ c @ a.conj()))
+        # HC2 form: sum |w_i|^2 |a^T e_i|^2 / (1 - h_ii); unbiased for |w|^2 s2 with white
+        # noise, and it follows table motion that leaks more the farther a bin lies
+        combined = residual @ a
+        share = float(np.sum(np.abs(w) ** 2 * np.abs(combined) ** 2 / np.diag(proj).real))
         variance[i] = own_variance + share
     return _Realisation(response, y_hat, u_hat, cov, variance, t_y, t_u)
 
