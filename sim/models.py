@@ -114,6 +114,8 @@ class ExciterModel:
     rocking_q: float = 8.0
     moving_mass_g: float = 100.0  # armature, table and reference standard
     rated_load_g: float = 10.0  # the DUT mass the figures above hold for
+    # poles (Hz) of the slightly leaky double integrator giving the table displacement
+    displacement_leak_hz: tuple[float, float] = (0.2, 0.3)
 
     def loaded(self, dut_mass_g: float) -> ExciterModel:
         """The exciter carrying a DUT of `dut_mass_g` (g) instead of its rated load: a force
@@ -149,9 +151,11 @@ class ExciterModel:
 
     def displacement_stage(self) -> Model:
         """Table displacement (m) per m/s^2 of table acceleration: a double integrator made
-        slightly leaky (poles at 0.2 and 0.3 Hz, far below any line) so that it has no
-        defective pole; within 0.1 % of 1/(j w)^2 from 10 Hz up."""
-        return Model((lowpass1(0.2), lowpass1(0.3)), 1.0 / ((2 * np.pi) ** 2 * 0.2 * 0.3))
+        slightly leaky (poles at `displacement_leak_hz`, 0.2 and 0.3 Hz for the small exciter,
+        far below any line) so that it has no defective pole; within 0.1 % of 1/(j w)^2 from
+        about 50 times the higher pole up (10 Hz for the small exciter)."""
+        a, b = self.displacement_leak_hz
+        return Model((lowpass1(a), lowpass1(b)), 1.0 / ((2 * np.pi) ** 2 * a * b))
 
     def nonlinearity(self, v: np.ndarray) -> np.ndarray:
         """v + c2 v^2/V0 - c3 v^3/V0^2 (V0 = 10 V), in Horner form."""
@@ -161,6 +165,29 @@ class ExciterModel:
         out += 1.0
         out *= v
         return out
+
+
+#: The simulated stand's exciters by name (SPEC.md s.13; issue 26: ISO 16063-21 from 0.4 Hz).
+EXCITER_CATALOGUE: dict[str, ExciterModel] = {
+    "small": ExciterModel(),
+    "long-stroke": ExciterModel(
+        name="long-stroke exciter (APS 129-like), 150 mm stroke, 0.4-200 Hz",
+        midband_ms2_per_v=5.0,
+        suspension_hz=1.0,
+        suspension_q=0.7,
+        electrical_corner_hz=250.0,
+        axial_resonance_hz=900.0,
+        axial_q=10.0,
+        stroke_peak_to_peak_m=0.15,
+        quadratic=0.002,
+        cubic=0.002,
+        transverse_ratio=0.005,
+        rocking_hz=60.0,
+        rocking_q=5.0,
+        moving_mass_g=1500.0,
+        displacement_leak_hz=(0.004, 0.006),  # within 0.1 % of 1/(j w)^2 from 0.3 Hz
+    ),
+}
 
 
 @dataclass(frozen=True)

@@ -19,3 +19,21 @@ def test_non_preferred_values_are_refused(bad):
     with pytest.raises(ValueError, match="ISO 266"):
         iso266.band_number(bad)
     assert not iso266.is_preferred(bad)
+
+
+def test_the_table_starts_at_0_4_hz_as_iso_16063_21_does():
+    """Band -4 is 10^-0.4 = 0.398 Hz, nominal 0.4; then 0.5, 0.63, 0.8, 1 Hz (R10 series)."""
+    below_one = iso266.nominal_frequencies(0.4, 1.0)
+    assert below_one == (0.4, 0.5, 0.63, 0.8, 1.0)
+    low = iso266.nominal_frequencies(0.4, 8)
+    assert low[:5] == (0.4, 0.5, 0.63, 0.8, 1.0) and low[-1] == 8.0 and len(low) == 14
+    assert iso266.band_number(0.4) == -4
+    assert iso266.band_number(0.63) == -2
+    assert iso266.exact_frequency(-4) == pytest.approx(0.398107, rel=1e-5)
+    assert iso266.nominal_frequencies(0.1, 0.45) == (0.4,)
+    assert len(iso266.nominal_frequencies()) == 44  # the default still starts at 1 Hz
+    assert iso266.is_preferred(0.5) and not iso266.is_preferred(0.315)
+    with pytest.raises(ValueError, match=r"band number must be -4\.\.43"):
+        iso266.nominal_frequency(-5)
+    with pytest.raises(ValueError, match=r"0\.4 Hz-20 kHz"):
+        iso266.band_number(0.6)
