@@ -22,7 +22,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from app.io.hdf5 import read_recording
 from app.procedure.analysis import analyze
-from app.stand.simulate import simulate
+from app.procedure.simulate import simulate
 
 
 def one_run(args: tuple[int, str]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -34,7 +34,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from app.io.hdf5 import read_csv, read_recording, write_recording  # noqa: E402
+from app.io.csv import read_csv  # noqa: E402
+from app.io.hdf5 import read_recording, write_recording  # noqa: E402
 from dsp import iso266  # noqa: E402
 from dsp.calibration import ReferenceChain  # noqa: E402
 from dsp.multisine import Plan, make_plan  # noqa: E402

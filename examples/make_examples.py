@@ -50,7 +50,7 @@ def write_recordings(out: Path) -> None:
     from nptdms import ChannelObject, GroupObject, RootObject, TdmsWriter
 
     from app.io.hdf5 import read_recording
-    from app.stand.simulate import simulate
+    from app.procedure.simulate import simulate
 
     h5 = out / "recording.h5"
     simulate(h5, dut="piezo", level_ms2=LEVEL_MS2, periods=8, seed=SEED, plan=small_plan())

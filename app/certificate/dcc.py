@@ -43,6 +43,8 @@ UNIT_CELSIUS = r"\degreecelsius"
 UNIT_ACCELERATION = r"\metre\second\tothe{-2}"
 UNIT_PERCENT = r"\percent"
 DEVIATION_NAME = "Deviation from the sensitivity at the reference frequency"
+RUN_ID_NAME = "Calibration run"  # the run certified, an identification of the core data
+SEAL_NAME = "Run seal (SHA-256)"  # its seal's hash (app.records.seal)
 
 ET.register_namespace("dcc", DCC_NS)
 ET.register_namespace("si", SI_NS)
@@ -249,7 +251,6 @@ def build(run: StoredRun, info: CertificateInfo) -> bytes:
 def _run_identifications(core: ET.Element, run: StoredRun) -> None:
     """The run certified and its seal's hash (app.records.seal), as `verify --run` reads them
     (app.certificate.readback); no seal entry for a run made before seals."""
-    from app.certificate.readback import RUN_ID_NAME, SEAL_NAME
     from app.records.seal import SealError, named_seal
 
     try:

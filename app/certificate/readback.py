@@ -16,13 +16,12 @@ from typing import Any
 
 from lxml import etree
 
+from app.certificate.dcc import DCC_NS, DEVIATION_NAME, RUN_ID_NAME, SEAL_NAME, SI_NS
 from app.certificate.printed import PrintedLine
 from app.errors import Refusal
 
 NOT_STATED = "n/s"
 MAX_DCC_BYTES = 4 << 20  # a DCC of this program is some 10 kB
-RUN_ID_NAME = "Calibration run"
-SEAL_NAME = "Run seal (SHA-256)"
 
 
 class PrintedError(Refusal):
@@ -128,8 +127,6 @@ def parse_inert(xml: bytes) -> Any:
 
 
 def _ns() -> dict[str, str]:
-    from app.certificate.dcc import DCC_NS, SI_NS
-
     return {"dcc": DCC_NS, "si": SI_NS}
 
 
@@ -149,8 +146,6 @@ def _identification(parent: str, name: str) -> str:
 
 def items_from_dcc(root: Any) -> PrintedItems:
     """The printed items of a DCC (parsed by `parse_inert`)."""
-    from app.certificate.dcc import DEVIATION_NAME
-
     admin = "/dcc:digitalCalibrationCertificate/dcc:administrativeData"
     core = f"{admin}/dcc:coreData"
     customer = _text(root, f"{admin}/dcc:customer/dcc:name/dcc:content")

@@ -10,7 +10,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
-from app.procedure.modes import MODE_MULTISINE
+from app.io.vocabulary import Mode
 from app.records.run_record import RunRecord
 from dsp.calibration import Results
 from dsp.conformity import DECISION_RULE, DECISION_RULE_SHORT, NOT_STATED, Outcome, Verdict
@@ -44,7 +44,7 @@ def method_text(record: RunRecord, results: Results, plan: dict[str, Any]) -> st
         f"values, {span}), each on a DFT bin of a {period_s:g} s "
         f"period sampled at {plan.get('sample_rate_hz', 0):g} Hz, phases optimised for a low "
         "crest factor, table acceleration equalised per frequency in closed loop"
-        if record.mode == MODE_MULTISINE
+        if record.mode == Mode.MULTISINE
         else f"stepped-sine excitation: {len(freqs)} frequencies one at a time ({span}), "
         "three-parameter sine fits (IEEE 1057)"
     )

@@ -20,7 +20,7 @@ if TYPE_CHECKING:
 
 
 def load_recording(args: argparse.Namespace):
-    from app.io.hdf5 import read_csv
+    from app.io.csv import read_csv
     from app.procedure.analysis import read_for_analysis, reanalysis
     from app.records.run_folder import is_run_folder
 

@@ -14,7 +14,7 @@ from hardware.errors import HardwareError
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
-    import app.stand.simulate as simulation  # h5py: only when recording
+    import app.procedure.simulate as simulation  # h5py: only when recording
 
     if args.list:
         print_catalogue(catalogue_entries(), args.json)

@@ -540,13 +540,3 @@ def iter_batches(
     ref, dut = recording.analysis_periods()
     for start in range(0, ref.shape[0], periods_per_batch):
         yield ref[start : start + periods_per_batch], dut[start : start + periods_per_batch]
-
-
-def __getattr__(name: str) -> Any:
-    """`read_csv` under its old path (app.io.hdf5, before app.io.csv): kept for one release,
-    imported on use (app.io.csv imports this module)."""
-    if name == "read_csv":
-        from app.io.csv import read_csv
-
-        return read_csv
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

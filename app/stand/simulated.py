@@ -1,6 +1,6 @@
 """The simulated stand's catalogue as the application sees it: DUT names, their specifications
 (data sheets: sensitivity in mV/(m/s^2), tolerances in % and degrees), default plan presets,
-fault kinds. With open.py and simulate.py, the only modules of app/ that import sim.
+fault kinds. With open.py and app/procedure/simulate.py, the only modules of app/ that import sim.
 
 Light: sim.models and sim.faults only (numpy); the simulated stand itself is imported by the
 functions that need it.

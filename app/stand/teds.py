@@ -4,13 +4,14 @@ verified, complete run. Writing is never implicit: `accelcal teds write` asks fi
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from dataclasses import dataclass
 from datetime import date
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from app.records.run_record import RunRecord
+if TYPE_CHECKING:
+    from app.records.run_record import RunRecord
+
 from hardware.teds import Teds, TedsError, decode, encode
 
 
@@ -76,13 +77,8 @@ def describe(teds: Teds) -> list[str]:
     return lines
 
 
-def calibrated_teds(
-    current: tuple[int, ...], record: RunRecord | Mapping[str, Any], initials: str
-) -> Teds:
-    """The TEDS `current` with the sensitivity and date of a complete run's record (a
-    RunRecord, or a results.json document)."""
-    if not isinstance(record, RunRecord):
-        record = RunRecord.from_dict(dict(record))
+def calibrated_teds(current: tuple[int, ...], record: RunRecord, initials: str) -> Teds:
+    """The TEDS `current` with the sensitivity and date of a complete run's record."""
     teds = decode(current)
     if teds.accelerometer is None:
         raise TedsError(f"TEDS: template {teds.template_id} is no accelerometer template (25)")

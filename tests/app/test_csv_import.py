@@ -186,11 +186,3 @@ def test_peak_memory_at_most_twice_the_samples(tmp_path, monkeypatch):
         tracemalloc.stop()
     np.testing.assert_array_equal(rec.drive_v, data[:, 2])
     assert peak <= 1.25 * data.nbytes, f"peak {peak / data.nbytes:.2f}x the samples"
-
-
-def test_the_old_import_path_gives_the_same_reader() -> None:
-    from app.io import hdf5
-
-    assert hdf5.read_csv is read_csv
-    with pytest.raises(AttributeError, match="no attribute 'read_tsv'"):
-        hdf5.read_tsv  # noqa: B018

@@ -406,7 +406,7 @@ def test_loose_mount_is_warned_and_never_passes(capsys, sim_runs, tmp_path):
 
 
 def test_simulate_recording_carries_the_truth_and_a_verdict(tmp_path):
-    from app.stand.simulate import simulate
+    from app.procedure.simulate import simulate
 
     run_ = simulate(tmp_path / "rec.h5", dut="piezo", periods=4, seed=2)
     recording = read_for_analysis(run_.path)

@@ -24,9 +24,9 @@ import app.certificate.issuing
 from app.cli import main
 from app.io.hdf5 import RecordingWriter, read_recording, write_recording
 from app.procedure.run import RunRequest, execute
+from app.procedure.simulate import simulate
 from app.records.register import REGISTER_NAME
 from app.records.run_folder import MANIFEST_NAME, try_lock, unlock
-from app.stand.simulate import simulate
 from sim.stand import Fault
 
 REPO = Path(__file__).resolve().parents[2]

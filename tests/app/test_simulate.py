@@ -10,7 +10,7 @@ import pytest
 from app.cli import main
 from app.io.hdf5 import read_recording
 from app.procedure.analysis import analyze
-from app.stand.simulate import simulate
+from app.procedure.simulate import simulate
 
 
 def within(results, truth) -> tuple[np.ndarray, np.ndarray]:

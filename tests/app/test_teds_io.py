@@ -3,7 +3,6 @@ bytes, and writing only after a confirmation."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from types import SimpleNamespace
 from typing import ClassVar
@@ -11,6 +10,7 @@ from typing import ClassVar
 import pytest
 
 from app.cli import main
+from app.records.run_folder import load_run
 from app.stand import teds as teds_io
 from hardware.nidaq import read_teds_bits, write_teds_bits
 from hardware.teds import bitstream_bytes, decode, read_ted_file
@@ -29,7 +29,7 @@ def test_the_simulated_dut_carries_its_nominal_sensitivity_in_teds() -> None:
 
 
 def test_a_complete_run_is_written_to_the_teds_and_read_back(complete_run: Path) -> None:
-    record = json.loads((complete_run / "results.json").read_text())
+    record = load_run(complete_run)
     port = teds_io.open_port(None, "piezo", seed=5)
     new = teds_io.calibrated_teds(port.read(), record, "js")
     teds_io.write_checked(port, new)
