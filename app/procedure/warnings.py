@@ -16,9 +16,9 @@ from enum import StrEnum
 
 __all__ = [
     "POLICY",
+    "SEED_RULE_WARNING",
     "Policy",
     "RunWarning",
-    "SEED_RULE_WARNING",
     "WarningKind",
     "blocking",
     "classify",

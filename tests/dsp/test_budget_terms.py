@@ -147,8 +147,10 @@ def test_a_stand_file_without_components_is_missing_all_of_them():
 
 
 def test_a_bad_skew_tolerance_names_the_field():
-    text = (ROOT / "sim" / "stand.toml").read_text().replace(
-        "skew_tolerance_s = 1e-7", "skew_tolerance_s = 0.5"
+    text = (
+        (ROOT / "sim" / "stand.toml")
+        .read_text()
+        .replace("skew_tolerance_s = 1e-7", "skew_tolerance_s = 0.5")
     )
     with pytest.raises(config.ConfigError, match=r"daq\.skew_tolerance_s: must be between"):
         config.parse(text, "bad.toml")
