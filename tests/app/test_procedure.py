@@ -443,19 +443,22 @@ def test_without_a_drive_loopback_the_recording_holds_the_drive_as_played(tmp_pa
 
 def test_the_budget_carries_the_mains_hum_measured_with_the_drive_off(tmp_path):
     """Issue 13 point 3: every line of the piezo plan on a mains harmonic (50, 100, 200, 250 Hz)
-    gets "mains hum at X Hz" (U-shaped, half-width sqrt(r_u^2 + r_y^2), r = background at the
-    line bin / settled line; dsp.hum), computed here by hand from the raw recording: the
-    drive-off periods at its start and the settled period that opens the acquisition."""
+    gets "mains hum at X Hz" (U-shaped, half-width sqrt(r_u^2 + r_y^2), r = coherent
+    background at the line bin / settled line; dsp.hum), computed here by hand from the raw
+    recording: the drive-off periods at its start and the settled period that opens the acquisition."""
     finished, _stand, plan, folder = run(tmp_path, "piezo", seed=1, systematic=False)
     assert finished.status == "complete", finished.abort_reason
     record = load_run(folder.path)
     budget = {c["name"]: c for c in record.budget}
     recording = read_recording(folder.recording)
     n = plan.period_samples
+    # issue 25: the hum's per-period size (rms over the two drive-off periods) less the
+    # per-period noise the run stored (background_v), so noise is not counted twice
     background = [
-        np.fft.rfft(x[: 2 * n].reshape(2, n).mean(axis=0)) * 2 / n
+        np.sqrt(np.mean(np.abs(np.fft.rfft(x[: 2 * n].reshape(2, n), axis=1) * 2 / n) ** 2, 0))
         for x in (recording.reference_v, recording.dut_v)
     ]
+    noise = [np.asarray(record.background_v[k]) for k in ("reference_noise", "dut_noise")]
     assert np.all(recording.drive_v[: 2 * n] == 0.0)  # the two background periods
     start = (recording.settle_periods + 1) * n  # the second settled period: the settled lines
     settled = [
@@ -465,8 +468,12 @@ def test_the_budget_carries_the_mains_hum_measured_with_the_drive_off(tmp_path):
     assert mains == [50.0, 100.0, 200.0, 250.0]
     for f in mains:
         m = plan.bins[list(plan.nominal_frequencies_hz).index(f)]
-        r_u = abs(background[0][m]) / abs(settled[0][m])
-        r_y = abs(background[1][m]) / abs(settled[1][m])
+        i = list(plan.nominal_frequencies_hz).index(f)
+        h_u, h_y = (
+            np.sqrt(max(b[m] ** 2 - w[i] ** 2, 0.0)) for b, w in zip(background, noise, strict=True)
+        )
+        r_u = h_u / abs(settled[0][m])
+        r_y = h_y / abs(settled[1][m])
         component = budget[f"mains hum at {f:g} Hz"]
         assert component["distribution"] == "u-shaped"
         assert component["value"] == pytest.approx(np.hypot(r_u, r_y), rel=1e-6), f
