@@ -445,7 +445,8 @@ def test_the_budget_carries_the_mains_hum_measured_with_the_drive_off(tmp_path):
     """Issue 13 point 3: every line of the piezo plan on a mains harmonic (50, 100, 200, 250 Hz)
     gets "mains hum at X Hz" (U-shaped, half-width sqrt(r_u^2 + r_y^2), r = coherent
     background at the line bin / settled line; dsp.hum), computed here by hand from the raw
-    recording: the drive-off periods at its start and the settled period that opens the acquisition."""
+    recording: the drive-off periods at its start and the settled period that opens the
+    acquisition."""
     finished, _stand, plan, folder = run(tmp_path, "piezo", seed=1, systematic=False)
     assert finished.status == "complete", finished.abort_reason
     record = load_run(folder.path)
