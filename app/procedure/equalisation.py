@@ -110,11 +110,12 @@ class Equalisation:
     def _check_stored(
         self, stored: np.ndarray, target: np.ndarray, tolerance: float
     ) -> np.ndarray | None:
-        """Play the stored response's drive at CHECK_LEVEL of the level, settle, and compare.
-        Agreeing within `tolerance` at every line: the response measured there (to drive the
-        level with). Disagreeing: None (the caller re-identifies; the error is noted), unless
-        the drive the stored response asks for at level would take the table past a limit
-        through the measured response (the stand changed: a gain knob turned up): then
+        """Play the stored response's drive at CHECK_LEVEL of the level for one period after
+        its crossfade, and compare. Agreeing within `tolerance` at every line: the stored
+        response (it holds the exciter's compression at the level, which the reduced period
+        does not). Disagreeing: None (the caller re-identifies; the error is noted), unless the
+        drive the stored response asks for at level would take the table past a limit through
+        the measured response (the stand changed: a gain knob turned up): then a fade-out and
         PreflightError naming the predicted displacement. The level is never played with it."""
         ctx = self.ctx
         plan = ctx.io.segment.plan
@@ -123,18 +124,20 @@ class Equalisation:
         reduced = CHECK_LEVEL * at_level
         check_drive(plan, reduced, stored, limits, "stored-response check period")
         ctx.io.crossfade(self._drive(reduced))
-        measured = ctx.io.settle(self.noise).acceleration / reduced
+        reference, _ = ctx.io.period(State.EQUALISING)  # one period after the crossfade
+        measured = ctx.io.to_acceleration(reference) / reduced
         error = float(np.max(np.abs(np.abs(measured / stored) - 1.0)))
         ctx.log(
             f"stand response: stored one checked at {100 * CHECK_LEVEL:g} % of the level: "
             f"worst line {100 * error:.2f} % off"
         )
         if error <= tolerance:
-            return measured
+            return stored
         ctx.notes.equalisation.append(error)
         peaks = predict_drive_peaks(plan, at_level, measured)
         problems = limit_problems(peaks, limits)
         if problems:
+            ctx.io.fade_out()  # from the reduced check level, before the refusal
             raise PreflightError(
                 f"stored stand response off by {100 * error:.0f} % at its check: its drive at "
                 f"level would give a predicted displacement of "
