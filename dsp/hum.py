@@ -31,9 +31,13 @@ Hum amplitude at the line bin, per channel (issue 25 point 3):
   largest periodic content found at the non-excited mains-harmonic bins (the neighbouring
   harmonics, h = 1..mains_harmonics, or up to 2 mains_harmonics when none is free) stands in
   for it, leaving out every bin that is a harmonic (2nd..10th) of a line: there the DUT's or
-  the exciter's distortion sits (the 3rd harmonic of a 50 Hz line at 150 Hz is not hum). The
-  line is flagged as not separable (`separable` False): a drive-off background or a line
-  shifted off the mains harmonic (plan option shift_mains_lines) settles it.
+  the exciter's distortion sits (the 3rd harmonic of a 50 Hz line at 150 Hz is not hum). When
+  every free mains bin is such a harmonic (a line on 50 Hz), the table motion is removed there
+  first: |Y_j - H(f_j) U_j| with H interpolated from the lines cancels the exciter's harmonics
+  (on both channels in the ratio H) and leaves the hum's effect on the ratio (carried as the
+  combined half-width). The line is flagged as not separable (`separable` False): a
+  drive-off background or a line shifted off the mains harmonic (plan option
+  shift_mains_lines) settles it.
 """
 
 from __future__ import annotations
@@ -198,6 +202,9 @@ def mains_hum(
     with np.errstate(divide="ignore", invalid="ignore"):
         r_u = np.where(affected, hum[0] / lines[0], 0.0)
         r_y = np.where(affected, hum[1] / lines[1], 0.0)
+        if source == SOURCE_NEIGHBOURS and not free.size:
+            a = _motion_free_residual(plan, mean_acq) / lines[1]
+            r_u = r_y = np.where(affected, a / math.sqrt(2.0), 0.0)
     return MainsHum(
         mains_frequency_hz=plan.mains_frequency_hz,
         nominal_frequencies_hz=np.asarray(plan.nominal_frequencies_hz, dtype=float),
@@ -289,6 +296,34 @@ def _mean_spectrum(x: np.ndarray, n: int) -> np.ndarray:
     """Peak-scaled spectrum of the mean period (the periodic part; dsp.spectral)."""
     blocks = np.asarray(x, dtype=float).reshape(-1, n)
     return period_spectrum(blocks.mean(axis=0))
+
+
+def _motion_free_residual(plan: Plan, spectra: list[np.ndarray]) -> float:
+    """Largest |Y_j - H(f_j) U_j| (V, DUT channel) over the mains-harmonic bins that are line
+    harmonics, H interpolated from the lines' Y/U (magnitude and unwrapped phase against
+    frequency). Table motion (the exciter's harmonics) shows on both channels in the ratio H
+    and cancels; what is left is the hum's effect on the ratio, h_y - H h_u (and any harmonic
+    the DUT adds itself, kept: conservative). NaN when there is no such bin."""
+    resolution = plan.sample_rate_hz / plan.period_samples
+    nyquist = plan.period_samples // 2
+    line_bins = {int(b) for b in plan.bins}
+    top = 2 * max(plan.mains_harmonics, 1)
+    candidates = sorted(
+        {round(h * plan.mains_frequency_hz / resolution) for h in range(1, top + 1)} - line_bins
+    )
+    candidates = [j for j in candidates if 0 < j < nyquist]
+    if not candidates:
+        return math.nan
+    u, y = spectra
+    bins = np.asarray(plan.bins)
+    ratio = y[bins] / u[bins]
+    f = bins * resolution
+    order = np.argsort(f)
+    fj = np.asarray(candidates) * resolution
+    magnitude = np.interp(fj, f[order], np.abs(ratio[order]))
+    phase = np.interp(fj, f[order], np.unwrap(np.angle(ratio[order])))
+    h = magnitude * np.exp(1j * phase)
+    return float(np.max(np.abs(y[candidates] - h * u[candidates])))
 
 
 LINE_HARMONICS = range(2, 11)  # a line's harmonics that are distortion, never hum
