@@ -21,14 +21,15 @@ digits of u(y) (8.2). Pure numpy, no I/O.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
 
-from dsp.uncertainty import Budget, Combined, Component, Distribution, Quantity
+from dsp.uncertainty import Budget, Combined, Component, Distribution, Quantity, combine
 
-__all__ = ["McmLine", "numerical_tolerance", "propagate", "validate_line"]
+__all__ = ["McmLine", "numerical_tolerance", "propagate", "validate_line", "validate_lines"]
 
 DEFAULT_TRIALS = 1_000_000  # JCGM 101 7.2.2: 10^6 for a 95 % interval
 _CHUNK = 200_000  # draws summed per block (bounded memory)
@@ -210,3 +211,39 @@ def validate_line(
         d_high=d_high,
         validated=bool(d_low <= delta and d_high <= delta),
     )
+
+
+def validate_lines(
+    frequencies_hz: Sequence[float],
+    type_a: Sequence[float],
+    type_a_dof: Sequence[float] | float,
+    budget: Budget,
+    quantity: Quantity = Quantity.MAGNITUDE,
+    *,
+    probability: float = 0.9545,
+    trials: int = DEFAULT_TRIALS,
+    seed: int = 0,
+) -> list[McmLine]:
+    """`validate_line` at every line (type A relative or in degrees, per line; dof per line
+    or one for all), each against the GUM statement dsp.uncertainty.combine gives; lines
+    whose type A is not finite are skipped (no GUM statement to check). For the run record:
+    one McmLine per line, stored with its `to_dict`."""
+    dofs = np.broadcast_to(np.asarray(type_a_dof, dtype=float), (len(frequencies_hz),))
+    out = []
+    for k, (f, u_a, dof) in enumerate(zip(frequencies_hz, type_a, dofs, strict=True)):
+        if not math.isfinite(u_a):
+            continue
+        gum = combine(float(u_a), float(dof), budget, float(f), quantity, probability=probability)
+        out.append(
+            validate_line(
+                float(u_a),
+                float(dof),
+                budget,
+                float(f),
+                gum,
+                quantity,
+                trials=trials,
+                seed=seed + k,
+            )
+        )
+    return out

@@ -14,6 +14,9 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from enum import StrEnum
 
+from dsp.annex_a import missing_components
+from dsp.uncertainty import Budget
+
 __all__ = [
     "POLICY",
     "SEED_RULE_WARNING",
@@ -21,6 +24,7 @@ __all__ = [
     "RunWarning",
     "WarningKind",
     "blocking",
+    "budget_warning",
     "classify",
     "incomplete_budget_warning",
     "iso_over_warning",
@@ -191,6 +195,13 @@ def incomplete_budget_warning(missing: Iterable[str]) -> RunWarning:
         WarningKind.INCOMPLETE_BUDGET,
         f"incomplete budget: results for review only; the stand's budget does not state {names}",
     )
+
+
+def budget_warning(budget: Budget) -> RunWarning | None:
+    """The blocking "incomplete budget" warning when `budget` (the stand's, before the
+    procedure adds its measured terms) lacks Annex A components; None for a full one."""
+    missing = missing_components(budget)
+    return incomplete_budget_warning(missing) if missing else None
 
 
 def iso_over_warning(frequency_hz: float, relative_expanded: float, limit: float) -> RunWarning:

@@ -110,3 +110,12 @@ def test_the_issue_lists_these_as_blocking():
 def test_docs_state_the_same_table():
     doc = (Path(__file__).resolve().parents[2] / "docs" / "validation.md").read_text()
     assert table_markdown() in doc
+
+
+def test_budget_warning_for_the_shipped_and_an_empty_stand_budget():
+    from app.procedure.warnings import budget_warning
+    from app.stand import config
+
+    assert budget_warning(config.load().budget) is None
+    w = budget_warning(Budget())
+    assert w is not None and w.kind is K.INCOMPLETE_BUDGET and w.policy is Policy.BLOCKS

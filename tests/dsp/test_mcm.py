@@ -89,3 +89,17 @@ def test_bad_inputs_are_refused():
         propagate(0.001, 3.0, Budget(), 10.0, trials=10)
     with pytest.raises(ValueError, match="type_a must be finite"):
         propagate(math.nan, 3.0, Budget(), 10.0)
+
+
+def test_validate_lines_checks_each_line_against_its_own_gum_statement():
+    from dsp.mcm import validate_lines
+
+    c = Component("t", 0.004, law="power-above", law_frequency_hz=1000.0, law_exponent=1.0)
+    lines = validate_lines(
+        [100.0, 4000.0, 200.0], [0.002, 0.002, math.nan], 3.0, Budget((c,)), trials=100_000
+    )
+    assert [ln.frequency_hz for ln in lines] == [100.0, 4000.0]  # NaN type A: skipped
+    # at 4 kHz the rectangular term is 4 x 0.4 %: the GUM U there is the larger one
+    gum_4k = combine(0.002, 3.0, Budget((c,)), 4000.0)
+    assert lines[1].gum_high == pytest.approx(gum_4k.expanded)
+    assert lines[1].gum_high > 2 * lines[0].gum_high
