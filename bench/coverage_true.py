@@ -33,8 +33,9 @@ from sim.true_stand import TrueStand
 
 DUTS = ("piezo", "capacitive")
 PERIODS = 4  # L = 4: type A with 3 dof meets the rectangular terms
-# the deliberately missing term: the channels' phase match (anti-alias filters), and its truth
-MISSING = ComponentKind.CHANNEL_PHASE_MATCH
+# the deliberately missing term: transverse motion, which the true stand has growing as
+# (f / 2 kHz)^1.5 above 2 kHz (the stand file states it growing as f / 2 kHz)
+MISSING = ComponentKind.TRANSVERSE_MOTION
 
 
 def stated_budget(missing: ComponentKind | None = None) -> Budget:
@@ -107,23 +108,26 @@ def report(dut: str, outcomes: list[dict[str, np.ndarray]], trials: int) -> None
         if key.endswith(("_magnitude", "_phase"))
     }
     print(f"\n{dut}: {runs} runs, L = {PERIODS}, true stand from sim/true_stand.py")
-    print("| line | magnitude | phase | phase without the channel phase match term |")
+    print(f"| line | magnitude | phase | magnitude without the {MISSING.value} term |")
     print("| --- | --- | --- | --- |")
     for k, f in enumerate(freqs):
         print(
             f"| {f:g} Hz | {100 * cov['full_magnitude'][k]:.1f} % | "
-            f"{100 * cov['full_phase'][k]:.1f} % | {100 * cov['missing_phase'][k]:.1f} % |"
+            f"{100 * cov['full_phase'][k]:.1f} % | {100 * cov['missing_magnitude'][k]:.1f} % |"
         )
-    for key in ("full_magnitude", "full_phase", "missing_phase"):
+    for key in ("full_magnitude", "full_phase", "missing_magnitude"):
         c = cov[key]
         inside = np.mean((c >= 0.93) & (c <= 0.975))
         print(
             f"{key}: min {100 * c.min():.1f} %, max {100 * c.max():.1f} %, "
             f"{100 * inside:.0f} % of lines in 93-97.5 %"
         )
-    high = freqs >= 1000.0
-    drop = cov["full_phase"][high].mean() - cov["missing_phase"][high].mean()
-    print(f"missing term caught: phase coverage at >= 1 kHz drops by {100 * drop:.1f} points")
+    high = freqs >= 2000.0
+    drop = cov["full_magnitude"][high].mean() - cov["missing_magnitude"][high].mean()
+    print(
+        f"missing term: magnitude coverage at >= 2 kHz drops by {100 * drop:.1f} points "
+        f"(lowest {100 * cov['missing_magnitude'][high].min():.1f} %)"
+    )
     worst = np.argsort(cov["full_magnitude"])[:3]
     print("GUM/MCM (JCGM 101 clause 8) at the three worst magnitude lines:")
     mcm_comparison(outcomes, worst, trials)
