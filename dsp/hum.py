@@ -19,15 +19,25 @@ channels' hum independent, the relative standard uncertainty of the sensitivity 
 carried as one U-shaped component of half-width a = sqrt(r_u^2 + r_y^2) (magnitude, relative)
 and one of a in degrees (phase).
 
-Hum amplitude at the line bin, per channel:
-- from drive-off background periods (SPEC s.5 step 2) when given: |mean_n X_n[m]| at the line
-  bin over the background periods (peak-scaled DFT, dsp.spectral.period_spectrum); noise that
-  survives the average is kept in it, a conservative bound;
+Hum amplitude at the line bin, per channel (issue 25 point 3):
+- from drive-off background periods (SPEC s.5 step 2) when given: the coherent part only. Per
+  period the DFT at the line bin holds hum plus noise; the noise power per period sigma^2
+  comes from the neighbouring bins that carry neither a line nor a mains harmonic, and
+  |hum|^2 = mean_n |X_n|^2 - sigma^2 (floored at 0): random noise is left to type A, not
+  counted twice. The per-period size is used, not |mean_n X_n|: a hum whose phase drifts
+  little per period does not average down over the L analysed periods, so it is carried at
+  its full measured size (a fast-drifting one is then over-, never under-stated);
 - otherwise from the acquisition itself: the hum there cannot be told from the line, so the
   largest periodic content found at the non-excited mains-harmonic bins (the neighbouring
   harmonics, h = 1..mains_harmonics, or up to 2 mains_harmonics when none is free) stands in
-  for it, and the line is flagged as not separable (`separable` False): a drive-off background
-  or a line shifted off the mains harmonic (plan option shift_mains_lines) settles it.
+  for it, leaving out every bin that is a harmonic (2nd..10th) of a line: there the DUT's or
+  the exciter's distortion sits (the 3rd harmonic of a 50 Hz line at 150 Hz is not hum). When
+  every free mains bin is such a harmonic (a line on 50 Hz), the table motion is removed there
+  first: |Y_j - H(f_j) U_j| with H interpolated from the lines cancels the exciter's harmonics
+  (on both channels in the ratio H) and leaves the hum's effect on the ratio (carried as the
+  combined half-width). The line is flagged as not separable (`separable` False): a
+  drive-off background or a line shifted off the mains harmonic (plan option
+  shift_mains_lines) settles it.
 """
 
 from __future__ import annotations
@@ -65,6 +75,7 @@ class MainsHum:
     dut_relative: np.ndarray  # r_y = |h_y| / |Y0|
     source: str
     background_periods: int = 0
+    bin_width_hz: float = 0.0  # the plan's resolution: a component applies within half of it
 
     @property
     def affected(self) -> np.ndarray:
@@ -96,10 +107,11 @@ class MainsHum:
             if not math.isfinite(a):
                 continue
             note = f"{self.harmonic[k]}. mains harmonic, hum from the {self.source}"
+            line, half = float(self.frequencies_hz[k]), 0.5 * self.bin_width_hz
             common: dict[str, Any] = dict(
                 distribution=Distribution.U_SHAPED,
-                min_frequency_hz=float(self.frequencies_hz[k]),
-                max_frequency_hz=float(self.frequencies_hz[k]),
+                min_frequency_hz=max(line - half, 0.0),  # the line's bin, not an exact float
+                max_frequency_hz=line + half,
                 note=note,
             )
             out.append(Component(f"mains hum at {f:g} Hz", a, **common))
@@ -119,6 +131,14 @@ class MainsHum:
         for k in np.flatnonzero(self.affected):
             f = float(self.nominal_frequencies_hz[k])
             mains = self.harmonic[k] * self.mains_frequency_hz
+            if not math.isfinite(float(self.half_width[k])):
+                out.append(
+                    f"line {f:g} Hz: mains hum at {mains:g} Hz: not separable from the line and "
+                    "not estimated (every free mains-harmonic bin holds a line's harmonic); "
+                    "record background periods or shift the line off the mains harmonic "
+                    "(--shift-mains)"
+                )
+                continue
             text = (
                 f"line {f:g} Hz: mains hum at {mains:g} Hz: {100 * self.half_width[k]:.3g} % of "
                 f"the line (reference {100 * self.reference_relative[k]:.3g} %, DUT "
@@ -169,8 +189,7 @@ def mains_hum(
     mean_acq = [_mean_spectrum(x, n) for x in acquisition]
     lines = [np.abs(s[bins]) for s in mean_acq]
     if background is not None and np.asarray(background[0]).size:
-        mean_bg = [_mean_spectrum(x, n) for x in background]
-        hum = [np.abs(s[bins]) for s in mean_bg]
+        hum = [coherent_hum(x, plan) for x in background]
         source, count = SOURCE_BACKGROUND, int(np.asarray(background[0]).reshape(-1, n).shape[0])
     else:
         free = _free_mains_bins(plan)
@@ -183,6 +202,9 @@ def mains_hum(
     with np.errstate(divide="ignore", invalid="ignore"):
         r_u = np.where(affected, hum[0] / lines[0], 0.0)
         r_y = np.where(affected, hum[1] / lines[1], 0.0)
+        if source == SOURCE_NEIGHBOURS and not free.size:
+            a = _motion_free_residual(plan, mean_acq) / lines[1]
+            r_u = r_y = np.where(affected, a / math.sqrt(2.0), 0.0)
     return MainsHum(
         mains_frequency_hz=plan.mains_frequency_hz,
         nominal_frequencies_hz=np.asarray(plan.nominal_frequencies_hz, dtype=float),
@@ -194,7 +216,36 @@ def mains_hum(
         dut_relative=r_y,
         source=source,
         background_periods=count,
+        bin_width_hz=plan.sample_rate_hz / n,
     )
+
+
+def coherent_hum(background_v: np.ndarray, plan: Plan) -> np.ndarray:
+    """Per line (V, peak): the coherent content at the line bin of drive-off periods,
+    sqrt(max(0, mean_n |X_n|^2 - sigma^2)), sigma^2 the per-period noise power from the
+    neighbouring bins (module docstring). `background_v` has shape (periods, N) or is flat."""
+    n = plan.period_samples
+    spectra = period_spectrum(np.asarray(background_v, dtype=float).reshape(-1, n))
+    bins = np.asarray(plan.bins)
+    power = np.mean(np.abs(spectra[:, bins]) ** 2, axis=0)
+    noise = np.array([_noise_power(spectra, int(m), plan) for m in bins])
+    return np.sqrt(np.maximum(power - noise, 0.0))
+
+
+def _noise_power(spectra: np.ndarray, m: int, plan: Plan, reach: int = 8) -> float:
+    """Mean |X|^2 per period over up to `reach` bins each side of bin m that carry no line and
+    no mains harmonic (volts^2); 0 when there are none."""
+    resolution = plan.sample_rate_hz / plan.period_samples
+    busy = {int(b) for b in plan.bins}
+    busy |= {
+        round(h * plan.mains_frequency_hz / resolution)
+        for h in range(1, 2 * max(plan.mains_harmonics, 1) + 1)
+    }
+    nyquist = plan.period_samples // 2
+    near = [j for j in range(m - reach, m + reach + 1) if 0 < j < nyquist and j not in busy]
+    if not near:
+        return 0.0
+    return float(np.mean(np.abs(spectra[:, near]) ** 2))
 
 
 def mains_hum_from_lines(
@@ -204,14 +255,17 @@ def mains_hum_from_lines(
     line_reference_v: np.ndarray,
     line_dut_v: np.ndarray,
     background_periods: int,
+    reference_noise_v: np.ndarray | None = None,
+    dut_noise_v: np.ndarray | None = None,
 ) -> MainsHum:
     """As `mains_hum` from per-line amplitudes already at hand (volts, peak-scaled): the
-    background's |mean X| at the line bins and the lines' |U0|, |Y0| (the procedure's
-    background and settled periods, SPEC s.5)."""
+    background's per-period rms |X_n| at the line bins, the per-period noise there (from the
+    neighbouring bins; subtracted in power, so noise stays in type A) and the lines' |U0|,
+    |Y0| (the procedure's background and settled periods, SPEC s.5)."""
     harmonic = mains_harmonic_of_lines(plan)
     affected = harmonic > 0
-    hum_u = np.abs(np.asarray(background_reference_v))
-    hum_y = np.abs(np.asarray(background_dut_v))
+    hum_u = _debiased(background_reference_v, reference_noise_v)
+    hum_y = _debiased(background_dut_v, dut_noise_v)
     with np.errstate(divide="ignore", invalid="ignore"):
         r_u = np.where(affected, hum_u / np.abs(line_reference_v), 0.0)
         r_y = np.where(affected, hum_y / np.abs(line_dut_v), 0.0)
@@ -226,7 +280,16 @@ def mains_hum_from_lines(
         dut_relative=r_y,
         source=SOURCE_BACKGROUND,
         background_periods=int(background_periods),
+        bin_width_hz=plan.sample_rate_hz / plan.period_samples,
     )
+
+
+def _debiased(amplitude_v: np.ndarray, noise_v: np.ndarray | None) -> np.ndarray:
+    """sqrt(max(0, |a|^2 - noise^2)) per line; |a| when no noise is given (volts)."""
+    a = np.abs(np.asarray(amplitude_v, dtype=float))
+    if noise_v is None:
+        return a
+    return np.sqrt(np.maximum(a**2 - np.asarray(noise_v, dtype=float) ** 2, 0.0))
 
 
 def _mean_spectrum(x: np.ndarray, n: int) -> np.ndarray:
@@ -235,11 +298,44 @@ def _mean_spectrum(x: np.ndarray, n: int) -> np.ndarray:
     return period_spectrum(blocks.mean(axis=0))
 
 
-def _free_mains_bins(plan: Plan) -> np.ndarray:
-    """Bins of mains harmonics that carry no line (h = 1..mains_harmonics, else up to twice)."""
+def _motion_free_residual(plan: Plan, spectra: list[np.ndarray]) -> float:
+    """Largest |Y_j - H(f_j) U_j| (V, DUT channel) over the mains-harmonic bins that are line
+    harmonics, H interpolated from the lines' Y/U (magnitude and unwrapped phase against
+    frequency). Table motion (the exciter's harmonics) shows on both channels in the ratio H
+    and cancels; what is left is the hum's effect on the ratio, h_y - H h_u (and any harmonic
+    the DUT adds itself, kept: conservative). NaN when there is no such bin."""
     resolution = plan.sample_rate_hz / plan.period_samples
-    lines = set(int(b) for b in plan.bins)
     nyquist = plan.period_samples // 2
+    line_bins = {int(b) for b in plan.bins}
+    top = 2 * max(plan.mains_harmonics, 1)
+    candidates = sorted(
+        {round(h * plan.mains_frequency_hz / resolution) for h in range(1, top + 1)} - line_bins
+    )
+    candidates = [j for j in candidates if 0 < j < nyquist]
+    if not candidates:
+        return math.nan
+    u, y = spectra
+    bins = np.asarray(plan.bins)
+    ratio = y[bins] / u[bins]
+    f = bins * resolution
+    order = np.argsort(f)
+    fj = np.asarray(candidates) * resolution
+    magnitude = np.interp(fj, f[order], np.abs(ratio[order]))
+    phase = np.interp(fj, f[order], np.unwrap(np.angle(ratio[order])))
+    h = magnitude * np.exp(1j * phase)
+    return float(np.max(np.abs(y[candidates] - h * u[candidates])))
+
+
+LINE_HARMONICS = range(2, 11)  # a line's harmonics that are distortion, never hum
+
+
+def _free_mains_bins(plan: Plan) -> np.ndarray:
+    """Bins of mains harmonics that carry no line and no line's harmonic (h = 1..
+    mains_harmonics, else up to twice; module docstring)."""
+    resolution = plan.sample_rate_hz / plan.period_samples
+    nyquist = plan.period_samples // 2
+    lines = {int(b) for b in plan.bins}
+    lines |= {int(b) * h for b in plan.bins for h in LINE_HARMONICS}
     for top in (plan.mains_harmonics, 2 * max(plan.mains_harmonics, 1)):
         free = sorted(
             {

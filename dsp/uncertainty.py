@@ -22,11 +22,14 @@ from typing import Any
 import numpy as np
 from scipy import stats
 
+from dsp.annex_a import ComponentKind
+
 __all__ = [
     "Budget",
     "Combined",
     "Component",
     "Distribution",
+    "Law",
     "Quantity",
     "Verdict",
     "combine",
@@ -46,6 +49,16 @@ class Distribution(StrEnum):
     TRIANGULAR = "triangular"  # value is the half-width a
     U_SHAPED = "u-shaped"  # value is the half-width a (arcsine distribution)
     STANDARD = "standard"  # value is already a standard uncertainty u
+
+
+class Law(StrEnum):
+    """How a component's value depends on frequency f (Hz); f0 = `law_frequency_hz`, n =
+    `law_exponent` (issue 25 point 3: mounting and transverse motion grow with frequency,
+    the skew's phase term is 360 f u(tau))."""
+
+    CONSTANT = "constant"  # value at every f
+    POWER_ABOVE = "power-above"  # value below f0, value (f/f0)^n above
+    POWER = "power"  # value (f/f0)^n at every f
 
 
 class Quantity(StrEnum):
@@ -107,7 +120,9 @@ class Component:
     uncertainty u (standard). Unit: relative (fraction) for magnitude, degrees for phase.
     `dof` are its degrees of freedom (GUM G.4.2; default infinite, i.e. exactly known).
     The component applies from `min_frequency_hz` to `max_frequency_hz` inclusive (Hz;
-    None = unbounded).
+    None = unbounded). `law` (with `law_frequency_hz` f0 and `law_exponent` n) scales the
+    value with frequency; `kind` names the ISO 16063-21 Annex A component(s) it states
+    (dsp.annex_a; empty for terms the procedure measures itself).
     """
 
     name: str
@@ -119,6 +134,10 @@ class Component:
     min_frequency_hz: float | None = None
     max_frequency_hz: float | None = None
     note: str = ""
+    kind: tuple[ComponentKind, ...] = ()
+    law: Law = Law.CONSTANT
+    law_frequency_hz: float | None = None
+    law_exponent: float = 0.0
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name.strip():
@@ -162,6 +181,50 @@ class Component:
 
         if not isinstance(self.note, str):
             raise ValueError(f"{where}: note must be a string, got {self.note!r}")
+        self._check_kind_and_law(where)
+
+    def _check_kind_and_law(self, where: str) -> None:
+        """Validate and normalise `kind` (a name or a list of names) and the law fields."""
+        set_ = object.__setattr__
+        raw = self.kind
+        kinds = [raw] if isinstance(raw, str) else raw
+        if not isinstance(kinds, list | tuple):
+            raise ValueError(f"{where}: kind must be a name or a list of names, got {raw!r}")
+        set_(self, "kind", tuple(_enum(where, "kind", ComponentKind, k) for k in kinds))
+        law = _enum(where, "law", Law, self.law)
+        set_(self, "law", law)
+        n = _real(where, "law_exponent", self.law_exponent)
+        if not (math.isfinite(n) and 0 <= n <= 4):
+            raise ValueError(f"{where}: law_exponent must be between 0 and 4, got {n!r}")
+        set_(self, "law_exponent", n)
+        f0 = self.law_frequency_hz
+        if law is Law.CONSTANT:
+            if f0 is not None or n != 0:
+                raise ValueError(f"{where}: law_frequency_hz/law_exponent need law 'power*'")
+            return
+        if f0 is None:
+            raise ValueError(f"{where}: law {law.value!r} needs law_frequency_hz (f0, Hz)")
+        f0 = _real(where, "law_frequency_hz", f0)
+        if not (math.isfinite(f0) and f0 > 0):
+            raise ValueError(f"{where}: law_frequency_hz must be finite and > 0 Hz, got {f0!r}")
+        set_(self, "law_frequency_hz", f0)
+
+    def scale_at(self, frequency_hz: float) -> float:
+        """The law's factor at `frequency_hz` (Hz): 1, or (f/f0)^n (above f0 only for
+        'power-above')."""
+        if self.law is Law.CONSTANT:
+            return 1.0
+        f = _check_frequency(f"component {self.name!r}", frequency_hz)
+        assert self.law_frequency_hz is not None
+        ratio = f / self.law_frequency_hz
+        if self.law is Law.POWER_ABOVE and ratio <= 1.0:
+            return 1.0
+        return float(ratio**self.law_exponent)
+
+    def standard_uncertainty_at(self, frequency_hz: float) -> float:
+        """Standard uncertainty at `frequency_hz` (Hz): `standard_uncertainty` times the law's
+        factor, in the component's unit."""
+        return self.standard_uncertainty * self.scale_at(frequency_hz)
 
     @property
     def standard_uncertainty(self) -> float:
@@ -193,7 +256,19 @@ class Component:
             "min_frequency_hz": self.min_frequency_hz,
             "max_frequency_hz": self.max_frequency_hz,
             "note": self.note,
+            **self._law_dict(),
         }
+
+    def _law_dict(self) -> dict[str, Any]:
+        """kind and law keys, only when set (records without them stay as they were)."""
+        out: dict[str, Any] = {}
+        if self.kind:
+            out["kind"] = [k.value for k in self.kind]
+        if self.law is not Law.CONSTANT:
+            out["law"] = self.law.value
+            out["law_frequency_hz"] = self.law_frequency_hz
+            out["law_exponent"] = self.law_exponent
+        return out
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> Component:
@@ -251,7 +326,7 @@ class Budget:
         degrees (phase). No applying component gives (0.0, inf).
         """
         comps = self.at(frequency_hz, quantity)
-        us = [c.standard_uncertainty for c in comps]
+        us = [c.standard_uncertainty_at(frequency_hz) for c in comps]
         u_b = math.hypot(*us)  # sqrt(sum u_i^2) without under- or overflow
         return u_b, welch_satterthwaite(us, [c.dof for c in comps])
 
@@ -421,7 +496,7 @@ def combine(
             raise ValueError(f"combine: type_a_dof must be > 0 (inf allowed), got {type_a_dof!r}")
 
     comps = budget.at(frequency_hz, q)
-    u_bi = [c.standard_uncertainty for c in comps]
+    u_bi = [c.standard_uncertainty_at(frequency_hz) for c in comps]
     u_b = math.hypot(*u_bi)  # sqrt(sum u_Bi^2) without under- or overflow
     if a_known:
         u_c = math.hypot(u_a, *u_bi)

@@ -1,5 +1,6 @@
 """Background phase: periods with the drive at 0 V (noise and hum at every line), and the
-budget terms they give once the lines have settled (SPEC s.5 step 2)."""
+budget terms they give once the lines have settled (SPEC s.5 step 2): hum only, at the lines
+on mains harmonics; random noise is in type A already (issue 25 point 3)."""
 
 from __future__ import annotations
 
@@ -12,19 +13,23 @@ from app.procedure.events import State
 from app.procedure.stand_io import Segment
 from dsp.hum import mains_hum_from_lines
 from dsp.multisine import Plan
-from dsp.spectral import SpectralAccumulator
-from dsp.uncertainty import Budget, Component, Distribution
+from dsp.spectral import SpectralAccumulator, period_spectrum
+from dsp.uncertainty import Budget
 
 
 @dataclass(frozen=True)
 class BackgroundLevels:
-    """Per line (V): the background amplitude of each channel and the per-period noise from
-    the many non-excited bins around the line (well determined from one or two periods)."""
+    """Per line (V): the background amplitude of each channel (|mean X|), the per-period noise
+    from the many non-excited bins around the line (well determined from one or two periods)
+    and the per-period rms |X_n| at the line (the hum's full size before it averages down;
+    not stored, the run's budget is)."""
 
     reference: np.ndarray
     dut: np.ndarray
     reference_noise: np.ndarray
     dut_noise: np.ndarray
+    reference_rms: np.ndarray | None = None
+    dut_rms: np.ndarray | None = None
 
     def noise(self) -> np.ndarray:
         """Per-period noise, rows (reference, DUT): the settle test's scale."""
@@ -51,14 +56,24 @@ class Background:
         ctx.io.begin(Segment(plan))
         ctx.io.enable_power()
         accumulator = SpectralAccumulator(plan.period_samples, plan.bins)
-        for _ in range(max(1, ctx.settings.background_periods)):
-            accumulator.add_period(*ctx.io.split_channels(ctx.io.read(State.BACKGROUND)))
+        bins = np.asarray(plan.bins)
+        power = np.zeros((2, bins.size))
+        count = max(1, ctx.settings.background_periods)
+        for _ in range(count):
+            reference, dut = ctx.io.split_channels(ctx.io.read(State.BACKGROUND))
+            accumulator.add_period(reference, dut)
+            power += [
+                np.abs(period_spectrum(np.asarray(x, float))[bins]) ** 2 for x in (reference, dut)
+            ]
         estimate = accumulator.estimate()
+        rms = np.sqrt(power / count)
         levels = BackgroundLevels(
             estimate.reference_amplitude_v,
             estimate.dut_amplitude_v,
             estimate.reference_noise_v,
             estimate.dut_noise_v,
+            rms[0],
+            rms[1],
         )
         ctx.notes.background = levels.to_dict()
         return levels
@@ -71,29 +86,21 @@ def budget_with_background(
     settled_lines: tuple[np.ndarray, np.ndarray],
     background_periods: int,
 ) -> Budget:
-    """The stand's budget plus, per line, the background found with the drive at 0 V (hum,
-    which a periodic average does not remove) relative to the settled line (SPEC s.5 step
-    2): at a line on a mains harmonic the "mains hum at X Hz" components of dsp.hum
-    (U-shaped, magnitude and phase; issue 13 point 3), elsewhere a rectangular bound on the
-    background's bias, left out when negligible (< 1e-4)."""
-    components = list(budget.components)
+    """The stand's budget plus, at every line on a mains harmonic, the "mains hum at X Hz"
+    components of dsp.hum (U-shaped, magnitude and phase) relative to the settled line (SPEC
+    s.5 step 2; issue 13 point 3). The hum is the coherent part only: its per-period size less
+    the noise, so a hum that does not average down is carried at its full size and random
+    noise, already in type A, is not counted twice (issue 25 point 3). Lines off the mains
+    harmonics get no background term."""
     ref_lines, dut_lines = settled_lines
     hum = mains_hum_from_lines(
-        plan, background.reference, background.dut, ref_lines, dut_lines, max(1, background_periods)
+        plan,
+        background.reference if background.reference_rms is None else background.reference_rms,
+        background.dut if background.dut_rms is None else background.dut_rms,
+        ref_lines,
+        dut_lines,
+        max(1, background_periods),
+        reference_noise_v=background.reference_noise,
+        dut_noise_v=background.dut_noise,
     )
-    components.extend(hum.components())
-    with np.errstate(divide="ignore", invalid="ignore"):
-        bound = background.reference / np.abs(ref_lines) + background.dut / np.abs(dut_lines)
-    for f, b, on_mains in zip(plan.frequencies_hz, bound, hum.affected, strict=True):
-        if not on_mains and np.isfinite(b) and b >= 1e-4:
-            components.append(
-                Component(
-                    f"background (hum, noise) at {f:g} Hz",
-                    float(b),
-                    Distribution.RECTANGULAR,
-                    min_frequency_hz=float(f),
-                    max_frequency_hz=float(f),
-                    note="measured with the drive at 0 V",
-                )
-            )
-    return Budget(tuple(components))
+    return Budget((*budget.components, *hum.components()))

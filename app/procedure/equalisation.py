@@ -1,4 +1,10 @@
-"""Equalisation phase: closed loop on the table acceleration per line (SPEC s.5 step 4)."""
+"""Equalisation phase: closed loop on the table acceleration per line (SPEC s.5 step 4).
+
+Safety from the computed drive (issue 25 point 7): every drive is checked before it is played
+against the stand's limits through the latest response (app.procedure.preflight.check_drive);
+a stored response is first played at `CHECK_LEVEL` of the level only, and trusted for the level
+only when that reduced period agrees with it within the tolerance.
+"""
 
 from __future__ import annotations
 
@@ -10,8 +16,11 @@ import numpy as np
 from app.procedure.context import RunContext
 from app.procedure.errors import PreflightError, ProcedureError
 from app.procedure.events import EqualisationStep, State
+from app.procedure.preflight import check_drive, limit_problems, predict_drive_peaks
 from app.procedure.stand_io import Settled
 from dsp.crestfactor import synthesize
+
+CHECK_LEVEL = 0.2  # a stored response is first played at this fraction of the level
 
 
 @dataclass(frozen=True)
@@ -45,23 +54,23 @@ class Equalisation:
         ctx.state(State.EQUALISING, f"closed loop, tolerance {100 * s.equalisation_tolerance:g} %")
         plan = ctx.io.segment.plan
         target = plan.amplitudes_ms2 * np.exp(1j * (plan.phases_rad - np.pi / 2))
+        if give_up_above is not None:
+            checked = self._check_stored(response, target, give_up_above)
+            if checked is None:
+                return None
+            response = checked
         drive_lines = target / response
-        limit = ctx.io.drive_limit_v
         worst = math.inf
         settled: Settled | None = None
         for iteration in range(1, s.max_equalisation_iterations + 1):
-            drive = synthesize(
-                plan.bins,
-                np.abs(drive_lines),
-                np.angle(drive_lines) + np.pi / 2,
-                plan.period_samples,
+            drive = self._drive(drive_lines)
+            check_drive(
+                plan,
+                drive_lines,
+                response,
+                ctx.stand.config.limits,
+                f"equalisation step {iteration}",
             )
-            peak = float(np.max(np.abs(drive)))
-            if peak > limit:
-                raise PreflightError(
-                    f"the level needs a {peak:.2f} V drive peak, over the stand's {limit:g} V "
-                    "limit: lower the level or raise the power amplifier's gain"
-                )
             ctx.io.crossfade(drive)
             settled = ctx.io.settle(self.noise)
             measured = settled.acceleration
@@ -73,8 +82,6 @@ class Equalisation:
             ctx.log(f"equalisation {iteration}: worst line {100 * worst:.2f} %")
             if worst <= s.equalisation_tolerance:
                 return Equalised(response, settled, True)
-            if iteration == 1 and give_up_above is not None and worst > give_up_above:
-                return None
             drive_lines = drive_lines * target / measured
         if settled is None:
             raise ProcedureError("equalisation: max_equalisation_iterations must be at least 1")
@@ -84,3 +91,59 @@ class Equalisation:
             "and stays valid; the level is less exact)"
         )
         return Equalised(response, settled, False)
+
+    def _drive(self, drive_lines: np.ndarray) -> np.ndarray:
+        """One period of the drive (V) for the complex drive per line; PreflightError over the
+        stand's drive limit."""
+        plan, limit = self.ctx.io.segment.plan, self.ctx.io.drive_limit_v
+        drive = synthesize(
+            plan.bins, np.abs(drive_lines), np.angle(drive_lines) + np.pi / 2, plan.period_samples
+        )
+        peak = float(np.max(np.abs(drive)))
+        if peak > limit:
+            raise PreflightError(
+                f"the level needs a {peak:.2f} V drive peak, over the stand's {limit:g} V "
+                "limit: lower the level or raise the power amplifier's gain"
+            )
+        return drive
+
+    def _check_stored(
+        self, stored: np.ndarray, target: np.ndarray, tolerance: float
+    ) -> np.ndarray | None:
+        """Play the stored response's drive at CHECK_LEVEL of the level for one period after
+        its crossfade, and compare. Agreeing within `tolerance` at every line: the stored
+        response (it holds the exciter's compression at the level, which the reduced period
+        does not). Disagreeing: None (the caller re-identifies; the error is noted), unless the
+        drive the stored response asks for at level would take the table past a limit through
+        the measured response (the stand changed: a gain knob turned up): then a fade-out and
+        PreflightError naming the predicted displacement. The level is never played with it."""
+        ctx = self.ctx
+        plan = ctx.io.segment.plan
+        limits = ctx.stand.config.limits
+        at_level = target / stored
+        reduced = CHECK_LEVEL * at_level
+        check_drive(plan, reduced, stored, limits, "stored-response check period")
+        ctx.io.crossfade(self._drive(reduced))
+        reference, _ = ctx.io.period(State.EQUALISING)  # one period after the crossfade
+        measured = ctx.io.to_acceleration(reference) / reduced
+        error = float(np.max(np.abs(np.abs(measured / stored) - 1.0)))
+        ctx.log(
+            f"stand response: stored one checked at {100 * CHECK_LEVEL:g} % of the level: "
+            f"worst line {100 * error:.2f} % off"
+        )
+        if error <= tolerance:
+            return stored
+        ctx.notes.equalisation.append(error)
+        peaks = predict_drive_peaks(plan, at_level, measured)
+        problems = limit_problems(peaks, limits)
+        if problems:
+            ctx.io.fade_out()  # from the reduced check level, before the refusal
+            raise PreflightError(
+                f"stored stand response off by {100 * error:.0f} % at its check: its drive at "
+                f"level would give a predicted displacement of "
+                f"{1e3 * peaks.displacement_peak_to_peak_m:.2f} mm p-p ("
+                + "; ".join(problems)
+                + "): refused before it is played; the stand changed (power amplifier gain?): "
+                "check it, then run without the stored response"
+            )
+        return None

@@ -1,7 +1,9 @@
 """Preflight: the one check made before anything moves, for the CLI, the GUI and the run.
 
 The plan's predicted peaks (stroke, velocity, acceleration) against the stand's limits and the
-channels' predicted peaks against their ranges: refused, never clipped.
+channels' predicted peaks against their ranges: refused, never clipped. Before every drive is
+played at level (issue 25 point 7), the peaks the drive itself will give through the stand's
+response (the latest measured one) are checked against the same limits: `check_drive`.
 """
 
 from __future__ import annotations
@@ -9,11 +11,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+import numpy as np
+
 from app.procedure.errors import PreflightError
-from dsp.multisine import Plan, PredictedPeaks
+from dsp.crestfactor import synthesize
+from dsp.multisine import PEAK_OVERSAMPLING, Plan, PredictedPeaks
 
 if TYPE_CHECKING:
-    from app.stand.config import StandConfig
+    from app.stand.config import Limits, StandConfig
     from dsp.calibration import ReferenceChain
 
 OVERLOAD_FRACTION = 0.995  # SPEC s.11: a sample within 0.5 % of a channel's range
@@ -70,23 +75,7 @@ def check_preflight(
         displacement_m=raw.displacement_m * level_scale,
         displacement_peak_to_peak_m=raw.displacement_peak_to_peak_m * level_scale,
     )
-    problems = []
-    if peaks.displacement_peak_to_peak_m > limits.displacement_peak_to_peak_m:
-        problems.append(
-            f"displacement {1e3 * peaks.displacement_peak_to_peak_m:.2f} mm p-p exceeds the "
-            f"exciter's {1e3 * limits.displacement_peak_to_peak_m:g} mm (lower the level at "
-            "low frequencies)"
-        )
-    if peaks.velocity_m_per_s > limits.velocity_peak_m_per_s:
-        problems.append(
-            f"velocity {peaks.velocity_m_per_s:.3g} m/s exceeds "
-            f"{limits.velocity_peak_m_per_s:g} m/s"
-        )
-    if peaks.acceleration_ms2 > limits.acceleration_peak_ms2:
-        problems.append(
-            f"acceleration {peaks.acceleration_ms2:.1f} m/s^2 exceeds "
-            f"{limits.acceleration_peak_ms2:g} m/s^2"
-        )
+    problems = limit_problems(peaks, limits)
     if chain is not None:
         ref_s, _ = chain.sensitivity_at(plan.frequencies_hz)
         ref_peak = peaks.acceleration_ms2 * float(ref_s.max()) * 1e-3 * chain.reference_gain
@@ -105,3 +94,68 @@ def check_preflight(
                 "(raise the range or lower the level)"
             )
     return PreflightReport(peaks, plan.crest_factor(), tuple(problems))
+
+
+def limit_problems(peaks: PredictedPeaks, limits: Limits) -> list[str]:
+    """The stand's motion limits that `peaks` exceed, one message each (SI units)."""
+    problems = []
+    if peaks.displacement_peak_to_peak_m > limits.displacement_peak_to_peak_m:
+        problems.append(
+            f"displacement {1e3 * peaks.displacement_peak_to_peak_m:.2f} mm p-p exceeds the "
+            f"exciter's {1e3 * limits.displacement_peak_to_peak_m:g} mm (lower the level at "
+            "low frequencies)"
+        )
+    if peaks.velocity_m_per_s > limits.velocity_peak_m_per_s:
+        problems.append(
+            f"velocity {peaks.velocity_m_per_s:.3g} m/s exceeds "
+            f"{limits.velocity_peak_m_per_s:g} m/s"
+        )
+    if peaks.acceleration_ms2 > limits.acceleration_peak_ms2:
+        problems.append(
+            f"acceleration {peaks.acceleration_ms2:.1f} m/s^2 exceeds "
+            f"{limits.acceleration_peak_ms2:g} m/s^2"
+        )
+    return problems
+
+
+def predict_drive_peaks(
+    plan: Plan, drive_lines_v: np.ndarray, response: np.ndarray
+) -> PredictedPeaks:
+    """Peaks of the table motion the drive (complex volts per line, phasor convention of the
+    procedure: x(t) = Re sum X_k e^{j w_k t}) will give through `response` ((m/s^2)/V per
+    line): acceleration A_k = R_k D_k, velocity A_k/(j w_k), displacement -A_k/w_k^2,
+    synthesised on an oversampled grid (as Plan.predicted_peaks)."""
+    acceleration = np.asarray(response, complex) * np.asarray(drive_lines_v, complex)
+    if acceleration.shape != (len(plan.bins),) or not np.all(np.isfinite(acceleration)):
+        raise PreflightError("predicted motion: the drive or the response is not finite")
+    omega = 2 * np.pi * np.asarray(plan.frequencies_hz, float)
+    n = plan.period_samples * PEAK_OVERSAMPLING
+
+    def wave(phasors: np.ndarray) -> np.ndarray:
+        return synthesize(plan.bins, np.abs(phasors), np.angle(phasors) + np.pi / 2, n)
+
+    displacement = wave(-acceleration / omega**2)
+    return PredictedPeaks(
+        acceleration_ms2=float(np.max(np.abs(wave(acceleration)))),
+        velocity_m_per_s=float(np.max(np.abs(wave(acceleration / (1j * omega))))),
+        displacement_m=float(np.max(np.abs(displacement))),
+        displacement_peak_to_peak_m=float(np.ptp(displacement)),
+    )
+
+
+def check_drive(
+    plan: Plan, drive_lines_v: np.ndarray, response: np.ndarray, limits: Limits, what: str
+) -> PredictedPeaks:
+    """PreflightError (exit 2) naming the predicted displacement when the drive about to be
+    played (`what` says which) would take the table past a limit through `response`; else the
+    predicted peaks. Nothing has been played with this drive when it refuses."""
+    peaks = predict_drive_peaks(plan, drive_lines_v, response)
+    problems = limit_problems(peaks, limits)
+    if problems:
+        raise PreflightError(
+            f"{what}: refused before it is played: predicted displacement "
+            f"{1e3 * peaks.displacement_peak_to_peak_m:.2f} mm p-p, velocity "
+            f"{peaks.velocity_m_per_s:.3g} m/s, acceleration {peaks.acceleration_ms2:.1f} m/s^2: "
+            + "; ".join(problems)
+        )
+    return peaks

@@ -3,7 +3,8 @@
 Sections (units in the names):
 
     [laboratory]  name, address, accreditation (optional)
-    [daq]         backend = "sim" | "nidaqmx", device, skew_s (DUT channel's sampling delay)
+    [daq]         backend = "sim" | "nidaqmx", device, skew_s (DUT channel's sampling delay),
+                  skew_tolerance_s (its tolerance, half-width: the phase term 360 f tau deg)
     [daq.output]  physical, range_v
     [daq.reference] / [daq.dut] / [daq.drive] (optional loopback):
                   physical, range_v, coupling ("dc"/"ac"), iepe_current_a, terminal
@@ -13,7 +14,9 @@ Sections (units in the names):
     [reference]   id, model, serial, certificate_number, certificate_date, gain (conditioning,
                   V/V), frequencies_hz, sensitivity_mv_per_ms2, phase_deg (its certificate)
     [dut_channel] gain (V/V between DUT and DAQ)
-    [[component]] the type B budget (dsp.uncertainty.Component fields)
+    [[component]] the type B budget (dsp.uncertainty.Component fields, with `kind`: the
+                  ISO 16063-21 Annex A component(s) it states, dsp.annex_a, and `law`,
+                  `law_frequency_hz`, `law_exponent` for terms growing with frequency)
     [simulation]  simulated stand only: which components it draws its deviations from
 
 With no file, the built-in simulated stand (`sim/stand.toml`) is used.
@@ -32,6 +35,8 @@ from typing import Any
 
 from app.errors import Refusal
 from app.io.checks import MAX_TEXT_BYTES, InputFileError, check_input_file
+from dsp.annex_a import missing_components
+from dsp.budget_terms import skew_phase_component
 from dsp.calibration import ReferenceChain
 from dsp.uncertainty import Budget
 from hardware.interfaces import InputChannel, OutputChannel
@@ -58,7 +63,9 @@ SCHEMA: dict[str, frozenset[str]] = {
         }
     ),
     "laboratory": frozenset({"name", "address", "country", "accreditation"}),
-    "daq": frozenset({"backend", "device", "skew_s", "output", "reference", "dut", "drive"}),
+    "daq": frozenset(
+        {"backend", "device", "skew_s", "skew_tolerance_s", "output", "reference", "dut", "drive"}
+    ),
     "daq.output": frozenset({"physical", "range_v"}),
     "daq.reference": _INPUT_KEYS,
     "daq.dut": _INPUT_KEYS,
@@ -155,6 +162,11 @@ class StandConfig:
     simulation: dict[str, str] = field(default_factory=dict)
     raw: dict[str, Any] = field(default_factory=dict, repr=False)
     text: str = field(default="", repr=False)  # the stand file as read (copied into each run)
+
+    def missing_components(self) -> list[str]:
+        """ISO 16063-21 Annex A components the stand's budget does not state (dsp.annex_a);
+        empty for a full budget. A run on a stand with any missing is for review only."""
+        return missing_components(self.budget)
 
     def reference_chain(self) -> ReferenceChain:
         """The chain the analysis uses: the certificate, nominal gains and the skew."""
@@ -381,6 +393,15 @@ def _parse(data: dict[str, Any], text: str, source: str) -> StandConfig:
         budget = Budget.from_list(data.get("component", []))
     except ValueError as exc:
         raise r.fail("component", str(exc)) from None
+    if "skew_tolerance_s" in daq:
+        tolerance = r.value(daq, "daq", "skew_tolerance_s", float)
+        try:
+            skew_term = skew_phase_component(tolerance)
+        except ValueError as exc:
+            raise r.fail("daq.skew_tolerance_s", str(exc).replace("skew tolerance: ", "")) from None
+        if any(c.name == skew_term.name for c in budget.components):
+            raise r.fail("daq.skew_tolerance_s", f"a component is already named {skew_term.name!r}")
+        budget = Budget((*budget.components, skew_term))
     simulation = data.get("simulation", {})
     if backend != "sim" and simulation:
         raise r.fail("simulation", "only for the simulated stand (daq.backend = 'sim')")

@@ -20,6 +20,7 @@ import json
 import logging
 import math
 import os
+import stat
 import tempfile
 from dataclasses import dataclass
 from datetime import UTC, datetime
@@ -33,6 +34,7 @@ from dsp.multisine import Plan
 log = logging.getLogger(__name__)
 
 FORMAT_VERSION = 1
+MAX_STORE_BYTES = 8 * 1024 * 1024  # a store file is a few kB per level; larger is not ours
 # DUT mass classes (g): the exciter's response changes with the moving mass (sim.models
 # ExciterModel.loaded); a response is only reused for a DUT of the same class
 MASS_CLASSES: tuple[tuple[float, str], ...] = (
@@ -181,7 +183,7 @@ class ResponseStore:
     def _entries(self, path: Path) -> list[StoredResponse]:
         """The entries of `path`; none when it is missing, and none (logged) when unreadable."""
         try:
-            data = json.loads(path.read_text(encoding="utf-8"))
+            data = json.loads(read_store_file(path).decode("utf-8"))
         except FileNotFoundError:
             return []
         except (OSError, ValueError) as exc:
@@ -280,6 +282,45 @@ class ResponseStore:
                 os.unlink(temporary)
             raise
         return path
+
+
+def read_store_file(path: Path, max_bytes: int = MAX_STORE_BYTES) -> bytes:
+    """The bytes of a stored-response file, read safely (issue 25 point 7): lstat first (a
+    regular file, not a symlink, FIFO or device, at most `max_bytes`), then opened with
+    O_NONBLOCK and O_NOFOLLOW (a FIFO swapped in cannot block the run with the power amplifier
+    on), fstat checked to be the same regular file, and at most `max_bytes` + 1 read.
+    FileNotFoundError when missing; ValueError naming the file and the reason otherwise."""
+    before = os.lstat(path)
+    if not stat.S_ISREG(before.st_mode):
+        raise ValueError(f"{path}: not a regular file")
+    if before.st_size > max_bytes:
+        raise ValueError(f"{path}: {before.st_size} bytes, over the {max_bytes} byte bound")
+    flags = os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_CLOEXEC", 0)
+    try:
+        fd = os.open(path, flags)
+    except OSError as exc:
+        if isinstance(exc, FileNotFoundError):
+            raise
+        raise ValueError(f"{path}: cannot be opened safely ({exc.strerror})") from None
+    try:
+        after = os.fstat(fd)
+        if not stat.S_ISREG(after.st_mode) or (after.st_dev, after.st_ino) != (
+            before.st_dev,
+            before.st_ino,
+        ):
+            raise ValueError(f"{path}: changed while being opened")
+        chunks, total = [], 0
+        while total <= max_bytes:
+            chunk = os.read(fd, min(1 << 20, max_bytes + 1 - total))
+            if not chunk:
+                break
+            chunks.append(chunk)
+            total += len(chunk)
+        if total > max_bytes:
+            raise ValueError(f"{path}: over the {max_bytes} byte bound")
+        return b"".join(chunks)
+    finally:
+        os.close(fd)
 
 
 def now_utc() -> datetime:

@@ -443,19 +443,23 @@ def test_without_a_drive_loopback_the_recording_holds_the_drive_as_played(tmp_pa
 
 def test_the_budget_carries_the_mains_hum_measured_with_the_drive_off(tmp_path):
     """Issue 13 point 3: every line of the piezo plan on a mains harmonic (50, 100, 200, 250 Hz)
-    gets "mains hum at X Hz" (U-shaped, half-width sqrt(r_u^2 + r_y^2), r = background at the
-    line bin / settled line; dsp.hum), computed here by hand from the raw recording: the
-    drive-off periods at its start and the settled period that opens the acquisition."""
+    gets "mains hum at X Hz" (U-shaped, half-width sqrt(r_u^2 + r_y^2), r = coherent
+    background at the line bin / settled line; dsp.hum), computed here by hand from the raw
+    recording: the drive-off periods at its start and the settled period that opens the
+    acquisition."""
     finished, _stand, plan, folder = run(tmp_path, "piezo", seed=1, systematic=False)
     assert finished.status == "complete", finished.abort_reason
     record = load_run(folder.path)
     budget = {c["name"]: c for c in record.budget}
     recording = read_recording(folder.recording)
     n = plan.period_samples
+    # issue 25: the hum's per-period size (rms over the two drive-off periods) less the
+    # per-period noise the run stored (background_v), so noise is not counted twice
     background = [
-        np.fft.rfft(x[: 2 * n].reshape(2, n).mean(axis=0)) * 2 / n
+        np.sqrt(np.mean(np.abs(np.fft.rfft(x[: 2 * n].reshape(2, n), axis=1) * 2 / n) ** 2, 0))
         for x in (recording.reference_v, recording.dut_v)
     ]
+    noise = [np.asarray(record.background_v[k]) for k in ("reference_noise", "dut_noise")]
     assert np.all(recording.drive_v[: 2 * n] == 0.0)  # the two background periods
     start = (recording.settle_periods + 1) * n  # the second settled period: the settled lines
     settled = [
@@ -465,8 +469,12 @@ def test_the_budget_carries_the_mains_hum_measured_with_the_drive_off(tmp_path):
     assert mains == [50.0, 100.0, 200.0, 250.0]
     for f in mains:
         m = plan.bins[list(plan.nominal_frequencies_hz).index(f)]
-        r_u = abs(background[0][m]) / abs(settled[0][m])
-        r_y = abs(background[1][m]) / abs(settled[1][m])
+        i = list(plan.nominal_frequencies_hz).index(f)
+        h_u, h_y = (
+            np.sqrt(max(b[m] ** 2 - w[i] ** 2, 0.0)) for b, w in zip(background, noise, strict=True)
+        )
+        r_u = h_u / abs(settled[0][m])
+        r_y = h_y / abs(settled[1][m])
         component = budget[f"mains hum at {f:g} Hz"]
         assert component["distribution"] == "u-shaped"
         assert component["value"] == pytest.approx(np.hypot(r_u, r_y), rel=1e-6), f
@@ -507,10 +515,12 @@ def test_the_stored_response_brings_the_seed_characteristic_under_10_s(tmp_path)
     assert cold.record.excitation_time_s > 15.0
     warm, stand, plan = _run_with_store(store)
     assert warm.status == "complete", warm.abort_reason
-    # by hand: 4 periods of 12000 samples from sample 1, then the 2400-sample ramp's 2399
-    # non-zero samples: (48000 - 1 + 2399) / 6000 Hz = 8.39967 s
-    assert warm.record.excitation_time_s == pytest.approx((48000 - 1 + 2399) / 6000.0, abs=1e-9)
-    assert warm.record.periods_read == 2 + 4 + 1  # background, 4 moving, the fade-out
+    # issue 25 point 7: the stored response is first played at 20 % of the level (its
+    # crossfade and one check period), then crossfaded to the level. By hand: 6 periods of
+    # 12000 samples from sample 1, then the 2400-sample ramp's 2399 non-zero samples:
+    # (72000 - 1 + 2399) / 6000 Hz = 12.39967 s (8.39967 s before the check period)
+    assert warm.record.excitation_time_s == pytest.approx((72000 - 1 + 2399) / 6000.0, abs=1e-9)
+    assert warm.record.periods_read == 2 + 6 + 1  # background, 6 moving, the fade-out
     assert len(warm.record.equalisation_worst) == 1 and warm.record.equalisation_worst[0] < 0.01
     note = warm.record.stand_response
     assert note["source"] == "stored" and note["mass_class"] == "up to 25 g"
@@ -607,3 +617,43 @@ def test_the_cli_keeps_the_stand_response_and_fresh_response_identifies_anew(tmp
     assert heavy["stand_response"]["source"] == "identified"
     assert main(["run", "--sim", "--dut-mass", "-3", "--out", str(tmp_path)]) == 2
     assert "--dut-mass" in capsys.readouterr().err
+
+
+def _tamper_store(store, scale_per_line):
+    """Scale every stored response (the stand changed behind the store's back: a power
+    amplifier gain knob turned up makes the stored response too small)."""
+    for path in store.root.rglob("*.json"):
+        data = json.loads(path.read_text())
+        for e in data["entries"]:
+            e["response_real"] = (np.asarray(e["response_real"]) * scale_per_line).tolist()
+            e["response_imag"] = (np.asarray(e["response_imag"]) * scale_per_line).tolist()
+        path.write_text(json.dumps(data))
+
+
+@pytest.mark.parametrize("where", ["all lines x 0.3", "10 Hz line x 0.2"])
+def test_a_wrong_stored_response_is_refused_before_the_level_is_played(tmp_path, where):
+    """Issue 25 point 7: the piezo plan needs 5.30 mm p-p of the 8 mm stroke. A stored
+    response 0.3 times the stand's asks for 3.3 times the drive (17.7 mm p-p), one 0.2 times
+    at 10 Hz for 5 times the 10 Hz line (its 1.27 mm peak alone becomes 6.3 mm). The check
+    period at 20 % of the level measures the real response; the level is refused, naming the
+    predicted displacement, and the over-travel interlock never trips."""
+    from app.stand.response import ResponseStore
+
+    store = ResponseStore(tmp_path / "responses")
+    first, _, plan = _run_with_store(store)
+    assert first.status == "complete", first.abort_reason
+    scale = np.ones(len(plan.lines))
+    if where.startswith("all"):
+        scale[:] = 0.3
+    else:
+        assert plan.frequencies_hz[0] == 10.0
+        scale[0] = 0.2
+    _tamper_store(store, scale)
+    refused, stand, _ = _run_with_store(store)
+    assert refused.status == "aborted"
+    assert "predicted displacement" in refused.abort_reason
+    assert "refused before it is played" in refused.abort_reason
+    assert "interlock" not in refused.abort_reason
+    assert not stand.daq._amp_tripped  # never stopped by the over-travel switch
+    assert max(p.peak_v for p in stand.daq.output.periods) < stand.config.limits.drive_peak_v
+    assert stand.daq.output.periods[-1].last_v == 0.0

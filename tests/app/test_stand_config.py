@@ -22,7 +22,8 @@ def test_built_in_simulated_stand_and_the_example_load():
     chain = real.reference_chain()
     assert chain.reference_gain == 10.0 and chain.skew_s == 4e-6
     assert real.reference.certificate_date == "2026-03-15"
-    assert len(real.budget.components) == 6
+    assert len(real.budget.components) == 13  # 12 stated, the skew tolerance's phase term
+    assert real.missing_components() == [] and sim.missing_components() == []
 
 
 def test_real_backend_is_never_replaced_by_the_simulator():

@@ -142,3 +142,82 @@ def test_saving_leaves_no_temporary_file(tmp_path):
     store.save(entry(6.0))
     names = [p.name for p in tmp_path.rglob("*") if p.is_file()]
     assert len(names) == 1 and not names[0].startswith(".response-")
+
+
+# --- issue 25 point 7: the store file is read with stat-before-open and a size bound --------
+
+
+def _store_path(store: ResponseStore):
+    path = store.save(entry())
+    good = path.read_bytes()
+    path.unlink()
+    return path, good
+
+
+def _no_hang(seconds: int = 5):
+    import signal
+
+    def fail(*_):
+        raise AssertionError("the read blocked")
+
+    signal.signal(signal.SIGALRM, fail)
+    signal.alarm(seconds)
+
+
+def test_a_fifo_in_place_of_the_store_file_is_refused_without_blocking(tmp_path, caplog):
+    import os
+    import signal
+
+    store = ResponseStore(tmp_path)
+    path, _ = _store_path(store)
+    os.mkfifo(path)  # nobody writes: a plain open() would block forever
+    _no_hang()
+    try:
+        found = lookup(store)
+    finally:
+        signal.alarm(0)
+    assert found.entry is None
+    assert "not a regular file" in caplog.text
+
+
+def test_dev_zero_in_place_of_the_store_file_is_refused(tmp_path, caplog):
+    store = ResponseStore(tmp_path)
+    path, _ = _store_path(store)
+    path.symlink_to("/dev/zero")  # read() would return zeros without end
+    _no_hang()
+    try:
+        found = lookup(store)
+    finally:
+        import signal
+
+        signal.alarm(0)
+    assert found.entry is None
+    assert "not a regular file" in caplog.text
+
+
+def test_a_symlink_to_a_good_store_file_is_refused(tmp_path, caplog):
+    store = ResponseStore(tmp_path)
+    path, good = _store_path(store)
+    elsewhere = tmp_path / "elsewhere.json"
+    elsewhere.write_bytes(good)
+    path.symlink_to(elsewhere)
+    assert lookup(store).entry is None
+    assert "not a regular file" in caplog.text
+    path.unlink()
+    path.write_bytes(good)  # the same bytes as a regular file are read
+    found = lookup(store).entry
+    assert found is not None and np.array_equal(found.response, entry().response)
+
+
+def test_an_oversized_store_file_is_refused_by_its_size(tmp_path, caplog):
+    from app.stand.response import MAX_STORE_BYTES, read_store_file
+
+    store = ResponseStore(tmp_path)
+    path, good = _store_path(store)
+    path.write_bytes(good + b" " * (MAX_STORE_BYTES + 1 - len(good)))
+    assert lookup(store).entry is None
+    assert f"over the {MAX_STORE_BYTES} byte bound" in caplog.text
+    path.write_bytes(good)
+    assert read_store_file(path) == good
+    with pytest.raises(ValueError, match="over the 10 byte bound"):
+        read_store_file(path, max_bytes=10)

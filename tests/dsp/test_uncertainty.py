@@ -695,7 +695,7 @@ def test_hand_budget_phase_uses_only_the_phase_term() -> None:
 
 _KNOWN_KEYS = (
     "name, value, distribution, coverage_factor, dof, quantity, min_frequency_hz, "
-    "max_frequency_hz, note"
+    "max_frequency_hz, note, kind, law, law_frequency_hz, law_exponent"
 )
 
 

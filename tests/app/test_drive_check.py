@@ -1,0 +1,48 @@
+"""Issue 25 point 7: the peaks predicted from the drive about to be played (preflight)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from app.procedure.errors import PreflightError
+from app.procedure.preflight import check_drive, predict_drive_peaks
+from app.stand.config import Limits
+from dsp.multisine import make_plan, preset_plan
+
+LIMITS = Limits(8e-3, 0.5, 300.0, 5.0)
+
+
+def target(plan):
+    return plan.amplitudes_ms2 * np.exp(1j * (plan.phases_rad - np.pi / 2))
+
+
+def test_the_drive_through_its_own_response_gives_the_plans_peaks():
+    plan = preset_plan("piezo")
+    response = np.linspace(2.0, 40.0, len(plan.lines)) * np.exp(1j * 0.3)  # (m/s^2)/V
+    peaks = predict_drive_peaks(plan, target(plan) / response, response)
+    expected = plan.predicted_peaks()
+    assert peaks.displacement_peak_to_peak_m == pytest.approx(expected.displacement_peak_to_peak_m)
+    assert peaks.velocity_m_per_s == pytest.approx(expected.velocity_m_per_s)
+    assert peaks.acceleration_ms2 == pytest.approx(expected.acceleration_ms2)
+
+
+def test_one_line_by_hand():
+    """One 10 Hz line: 1 V through 5 (m/s^2)/V is 5 m/s^2 peak, 5/(2 pi 10) = 79.6 mm/s,
+    displacement 5/(2 pi 10)^2 = 1.2665 mm peak, 2.533 mm p-p."""
+    plan = make_plan([10.0], 1000.0, 1000, 5.0, 10.0)
+    peaks = predict_drive_peaks(plan, np.array([1.0 + 0j]), np.array([5.0 + 0j]))
+    w = 2 * np.pi * 10.0
+    assert peaks.acceleration_ms2 == pytest.approx(5.0, rel=1e-4)
+    assert peaks.velocity_m_per_s == pytest.approx(5.0 / w, rel=1e-4)
+    assert peaks.displacement_peak_to_peak_m == pytest.approx(2 * 5.0 / w**2, rel=1e-4)
+
+
+def test_a_drive_past_the_stroke_is_refused_naming_the_predicted_displacement():
+    plan = make_plan([10.0], 1000.0, 1000, 5.0, 10.0)
+    drive = np.array([4.0 + 0j])  # 20 m/s^2 at 10 Hz: 10.13 mm p-p > 8 mm
+    with pytest.raises(PreflightError, match=r"predicted displacement 10\.13 mm p-p"):
+        check_drive(plan, drive, np.array([5.0 + 0j]), LIMITS, "step 1")
+    assert check_drive(
+        plan, drive / 2, np.array([5.0 + 0j]), LIMITS, "step 1"
+    ).acceleration_ms2 == (pytest.approx(10.0, rel=1e-4))
