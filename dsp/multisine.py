@@ -158,6 +158,24 @@ class Plan:
             self.bins, amplitudes, phases, self.period_samples * PEAK_OVERSAMPLING
         )
 
+    def with_amplitudes(self, amplitudes_ms2: Sequence[float] | float) -> Plan:
+        """The same plan with new per-line target amplitudes (phases kept)."""
+        values = np.broadcast_to(np.asarray(amplitudes_ms2, dtype=float), (len(self.lines),))
+        lines = tuple(
+            Line(ln.nominal_frequency_hz, ln.frequency_hz, ln.bin, float(a), ln.phase_rad)
+            for ln, a in zip(self.lines, values, strict=True)
+        )
+        return Plan(
+            self.sample_rate_hz,
+            self.period_samples,
+            lines,
+            self.reference_frequency_hz,
+            self.mains_frequency_hz,
+            self.mains_harmonics,
+            self.warnings,
+        )
+
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready description (all numbers in the units their names carry)."""
         return {
