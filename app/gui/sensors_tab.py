@@ -71,6 +71,24 @@ class SensorsTab(QWidget):
         search_row.addWidget(self.search, 1)
         search_row.addWidget(refresh)
         left.addLayout(search_row)
+        edit_row = QHBoxLayout()
+        self.edit_buttons: dict[str, QPushButton] = {}
+        for key, text, tip in (
+            ("customers", "Customers ...", "Add or edit the lab's customers"),
+            ("models", "Sensor models ...", "Add or edit sensor models (nominal, tolerance)"),
+            (
+                "references",
+                "Reference standards ...",
+                "Add a reference standard or enter its recalibration (table from a CSV file)",
+            ),
+        ):
+            button = QPushButton(text)
+            button.setToolTip(tip)
+            button.clicked.connect(lambda _checked=False, k=key: self.edit_records(k))
+            edit_row.addWidget(button)
+            self.edit_buttons[key] = button
+        edit_row.addStretch(1)
+        left.addLayout(edit_row)
         self.sensors = QTableWidget(0, len(SENSOR_COLUMNS))
         self.sensors.setHorizontalHeaderLabels(list(SENSOR_COLUMNS))
         self.sensors.setSelectionBehavior(QAbstractItemView.SelectionBehavior.SelectRows)
@@ -132,13 +150,36 @@ class SensorsTab(QWidget):
         enabled = self.link.lab is not None
         for widget in (self.search, self.sensors, self.days, self.due, self.chart):
             widget.setEnabled(enabled)
+        for button in self.edit_buttons.values():
+            button.setEnabled(enabled)
         if enabled:
+            shown = self.serial
             self.search_sensors(self.search.text())
             self.show_due()
+            if shown is not None and self.serial == shown:
+                self.show_history(shown)  # a run since may have added a point
         else:
             self.sensors.setRowCount(0)
             self.due.setRowCount(0)
             self.show_history(None)
+
+    def records_list(self, kind: str) -> Any:
+        """The list dialog of `kind` ('customers', 'models', 'references') over the records."""
+        from app.gui import records_dialogs
+
+        make = {
+            "customers": records_dialogs.customers_list,
+            "models": records_dialogs.models_list,
+            "references": records_dialogs.references_list,
+        }[kind]
+        return make(self, self.link.lab)
+
+    def edit_records(self, kind: str) -> None:
+        """Open the list of `kind`; afterwards every view of the records reads them again."""
+        if self.link.lab is None:
+            return
+        self.records_list(kind).exec()
+        self.link.changed.emit()  # the Setup tab's reference standard, this tab
 
     def _failed(self, exc: Exception) -> None:
         self.status.setText(f"records: {exc}")

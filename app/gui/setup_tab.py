@@ -411,4 +411,3 @@ class SetupTab(QWidget):
         """The plan and TEDS worker pools end (the window closes)."""
         self.plans.close()
         self.teds.close()
-
