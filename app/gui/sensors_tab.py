@@ -29,6 +29,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
+from app.gui.plots import ChartStack
 from app.gui.records_link import RecordsLink
 from app.gui.results_tab import wrapping_label
 from app.gui.table_items import read_only_item
@@ -128,7 +129,8 @@ class SensorsTab(QWidget):
         self.bars = pg.ErrorBarItem(beam=0.0, pen=pg.mkPen("#2471a3"))
         for item in (self.line, self.bars, self.points):
             self.chart.addItem(item)
-        right.addWidget(self.chart, 1)
+        self.chart_stack = ChartStack(self.chart, "Select a sensor to see its history.")
+        right.addWidget(self.chart_stack, 1)
         self.history_text = wrapping_label("Select a sensor to see its history.")
         right.addWidget(self.history_text)
         body.addLayout(right, 3)
@@ -230,6 +232,7 @@ class SensorsTab(QWidget):
             item.setData([], [])
         self.bars.setData(x=np.zeros(0), y=np.zeros(0), height=np.zeros(0))
         lab = self.link.lab
+        self.chart_stack.show_chart(False, "Select a sensor to see its history.")
         if serial is None or lab is None:
             self.history_text.setText("Select a sensor to see its history.")
             return
@@ -242,7 +245,9 @@ class SensorsTab(QWidget):
         points = history.points
         if not points:
             self.history_text.setText(f"{serial}: no complete calibration on record yet.")
+            self.chart_stack.show_chart(False, f"{serial}: no complete calibration on record yet.")
             return
+        self.chart_stack.show_chart(True)
         x = np.array([p.started_utc.timestamp() for p in points])
         y = np.array([p.sensitivity_mv_per_ms2 for p in points])
         u = np.array([p.expanded_uncertainty_mv_per_ms2 or 0.0 for p in points])
