@@ -27,7 +27,8 @@ FRAME_HZ = 40  # live frames per second (>= 30 updates per second at 2 x 51.2 kS
 DECADE_TICKS_HZ = (1, 10, 100, 1000, 10000)
 MINOR_TICKS_HZ = (2, 5, 20, 50, 200, 500, 2000, 5000, 20000)
 MIN_COLUMNS = 200  # pixel columns a period is decimated to at the least (plot not shown yet)
-REF_COLOUR, DUT_COLOUR = "#1f77b4", "#d62728"
+REF_COLOUR, DUT_COLOUR = "#4a9ee0", "#d62728"
+LEGEND_BRUSH = (0, 0, 0, 200)  # the legend readable over the traces it names
 
 
 def hz_label(frequency_hz: float) -> str:
@@ -123,14 +124,15 @@ class LivePlots:
         self.wave_plot = g.addPlot(title="Last period")
         self.wave_plot.setLabel("left", "voltage", units="V")  # auto SI prefix: mV, not x0.001
         self.wave_plot.setLabel("bottom", "time", units="s")
-        self.wave_plot.addLegend(offset=(-10, 10))
+        self.wave_plot.addLegend(offset=(-10, 10), brush=LEGEND_BRUSH)
         self.wave_ref = self.wave_plot.plot(pen=pg.mkPen(REF_COLOUR), name="reference")
         self.wave_dut = self.wave_plot.plot(pen=pg.mkPen(DUT_COLOUR), name="DUT")
+        self.wave_ref.setZValue(1)  # the reference over the DUT where they overlap
         self.spec_plot = g.addPlot(
             title="Spectra (lines marked)", labels={"left": "dB re 1 V", "bottom": "Hz"}
         )
         frequency_axis(self.spec_plot)
-        self.spec_plot.addLegend(offset=(-10, 10))
+        self.spec_plot.addLegend(offset=(-10, 10), brush=LEGEND_BRUSH)
         self.spec_ref = self.spec_plot.plot(pen=pg.mkPen(REF_COLOUR, width=1), name="reference")
         self.spec_dut = self.spec_plot.plot(pen=pg.mkPen(DUT_COLOUR, width=1), name="DUT")
         self.spec_lines = self.spec_plot.plot(

@@ -35,7 +35,7 @@ COLUMNS = (  # name over unit: the table fits its half of a 1366 px window unscr
     "U rel.\n%",
     "k",
     "ISO",
-    "toler-\nance",
+    "tolerance",
 )
 
 
@@ -92,6 +92,7 @@ class ResultsTab(QWidget):
             ["Component (at the reference frequency)", "value", "distribution", "standard u"]
         )
         self.budget.horizontalHeader().setStretchLastSection(True)
+        self.budget.verticalHeader().setVisible(False)
         self.budget.setColumnWidth(0, 420)
         layout.addWidget(self.budget, 1)
         buttons = QHBoxLayout()

@@ -32,6 +32,7 @@ from PySide6.QtWidgets import (
 
 from app.gui.plots import FRAME_HZ, LivePlots
 from app.gui.results_tab import wrapping_label
+from app.gui.table_items import shown_unit
 from app.gui.worker import RunWorker
 from app.io.vocabulary import RunStatus
 from app.procedure import (
@@ -312,7 +313,9 @@ class RunTab(QWidget):
             self.progress.setFormat(text)
             self.progress.setToolTip(text)
         if frame.warnings:
-            self.messages.setText("<br/>".join(f"⚠ {html.escape(w)}" for w in frame.warnings[-4:]))
+            self.messages.setText(
+                "<br/>".join(f"⚠ {html.escape(shown_unit(w))}" for w in frame.warnings[-4:])
+            )
         block, frame.block = frame.block, None
         if block is not None:
             names = list(block.channels)

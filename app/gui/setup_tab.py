@@ -34,6 +34,7 @@ from app.gui.plan_cache import PlanCache
 from app.gui.reference_view import describe_reference
 from app.gui.results_tab import wrapping_label
 from app.gui.sensor_entry import SerialEntry
+from app.gui.table_items import shown_unit
 from app.gui.teds_entry import TedsEntry
 from app.gui.templates import TemplatePicker
 from app.lines import parse_frequencies
@@ -387,12 +388,12 @@ class SetupTab(QWidget):
                 f"{report.crest_factor:.2f}"
             )
             problems += list(report.problems)
-        text = "".join(f"<div style='color:#c0392b'>✖ {p}</div>" for p in problems)
+        text = "".join(f"<div style='color:#c0392b'>✖ {shown_unit(p)}</div>" for p in problems)
         if pending:
             text += f"<div style='color:#2e4053'>⏳ {pending}</div>"
         elif not problems:
             text = "<div style='color:#1e8449'>✔ the plan can run</div>"
-        text += "".join(f"<div style='color:#b9770e'>⚠ {w}</div>" for w in warnings[:4])
+        text += "".join(f"<div style='color:#b9770e'>⚠ {shown_unit(w)}</div>" for w in warnings[:4])
         self.checks.setText(text)
         blocking = [*problems, pending] if pending else problems
         self.start_button.setEnabled(not blocking and not self.running)

@@ -17,6 +17,7 @@ def read_only_item(text: str, colour: str | None = None) -> QTableWidgetItem:
     return item
 
 
-def shown_unit(unit: str) -> str:
-    """A records unit ("mV/(m/s^2)") as the GUI writes it ("mV/(m/s²)")."""
-    return unit.replace("^2", "²")
+def shown_unit(text: str) -> str:
+    """A unit, or a message of the layers below naming units ("m/s^2", "mV/(m/s^2)"), as the
+    GUI writes them ("m/s²", "mV/(m/s²)")."""
+    return text.replace("/s^2", "/s²")
