@@ -55,6 +55,38 @@ class FieldError(ValueError):
         self.field, self.reason = field, reason
 
 
+class FieldErrors(ValueError):
+    """Every field the dialog refuses itself at once (each marked at its field)."""
+
+    def __init__(self, errors: list[FieldError]) -> None:
+        super().__init__("; ".join(str(e) for e in errors))
+        self.errors = errors
+
+
+class Checked:
+    """Reads fields, collecting what is wrong with each instead of stopping at the first."""
+
+    def __init__(self) -> None:
+        self.errors: list[FieldError] = []
+
+    def number(self, edit: QLineEdit, field: str, *, optional: bool = False) -> Any:
+        try:
+            return number(edit, field, optional=optional)
+        except FieldError as exc:
+            self.errors.append(exc)
+            return None
+
+    def text(self, edit: QLineEdit, field: str) -> str:
+        if not edit.text().strip():
+            self.errors.append(FieldError(field, "must not be blank"))
+        return edit.text()
+
+    def done(self) -> None:
+        """FieldErrors when anything was wrong."""
+        if self.errors:
+            raise FieldErrors(self.errors)
+
+
 def number(edit: QLineEdit, field: str, *, optional: bool = False) -> float | None:
     """The number typed in `edit` (None when blank and `optional`); FieldError naming `field`."""
     text = edit.text().strip().replace(",", ".")
@@ -97,6 +129,7 @@ class RecordDialog(QDialog):
         self.error = QLabel("")  # a refusal that names no field of the form
         self.error.setWordWrap(True)
         self.saved: Any = None  # what the records hold after OK
+        self.setMinimumWidth(480)
 
     def add(self, key: str, label: str, widget: W) -> W:
         self.fields[key] = widget
@@ -148,6 +181,10 @@ class RecordDialog(QDialog):
             self.saved = self.save()
         except FieldError as exc:
             self.refuse(exc.field, exc.reason)
+            return
+        except FieldErrors as many:
+            for problem in many.errors:
+                self.refuse(problem.field, problem.reason)
             return
         except RecordsInputError as exc:
             self.refuse(self.field_of(str(exc)), str(exc))
@@ -242,18 +279,22 @@ class ModelDialog(RecordDialog):
         self.finish()
 
     def save(self) -> Any:
+        read = Checked()
         values = {
-            "maker": self.maker.text(),
-            "model": self.model.text(),
-            "nominal_sensitivity": number(self.nominal, "nominal"),
+            "maker": read.text(self.maker, "maker"),
+            "model": read.text(self.model, "model"),
+            "nominal_sensitivity": read.number(self.nominal, "nominal"),
             "unit": self.unit.currentData(),
-            "tolerance_percent": number(self.tolerance, "tolerance"),
-            "frequency_min_hz": number(self.frequency_min, "frequency_min"),
-            "frequency_max_hz": number(self.frequency_max, "frequency_max"),
+            "tolerance_percent": read.number(self.tolerance, "tolerance"),
+            "frequency_min_hz": read.number(self.frequency_min, "frequency_min"),
+            "frequency_max_hz": read.number(self.frequency_max, "frequency_max"),
             "preset": self.preset.currentText(),
-            "level_ms2": number(self.level, "level"),
-            "phase_tolerance_deg": number(self.phase_tolerance, "phase_tolerance", optional=True),
+            "level_ms2": read.number(self.level, "level"),
+            "phase_tolerance_deg": read.number(
+                self.phase_tolerance, "phase_tolerance", optional=True
+            ),
         }
+        read.done()
         if self.current is None:
             return self.lab.add_model(values.pop("maker"), values.pop("model"), **values)
         name = f"{self.current.maker} {self.current.model}"

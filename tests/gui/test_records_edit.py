@@ -84,6 +84,12 @@ def test_a_customer_is_added_and_edited_and_bad_names_are_refused_at_the_field(w
 def test_a_sensor_model_is_added_and_edited_each_bad_field_marked(window, url):
     listing = window.sensors_tab.records_list("models")
     dialog = listing.open_editor(None)
+    assert not accepted(dialog)  # every blank field marked at once, nothing written
+    assert {"maker", "model", "nominal", "frequency_min", "frequency_max"} <= {
+        key for key in dialog.fields if "must not be blank" in marked(dialog, key)
+    }
+    assert marked(dialog, "tolerance") == "" and marked(dialog, "phase_tolerance") == ""
+    assert fresh(dialog.lab.engine.url.render_as_string(hide_password=False)).models() == []
     dialog.maker.setText("PCB")
     dialog.model.setText("352C33")
     dialog.nominal.setText("abc")
