@@ -66,3 +66,35 @@ def test_at_1366_by_768_results_fit_unscrolled_and_the_state_is_whole(
     state.setText(text)
     settle()
     assert super(type(state), state).text() == text and state.toolTip() == ""
+
+
+def test_the_technician_starts_empty_and_is_remembered_never_the_login_name(qtbot, tmp_path):
+    first = MainWindow(out=tmp_path / "runs", paced=False)
+    qtbot.addWidget(first)
+    assert first.setup_tab.technician.text() == ""
+    assert "remembered" in first.setup_tab.technician.placeholderText()
+    first.setup_tab.technician.setText("B. Tech")
+    first.setup_tab.technician.editingFinished.emit()
+    second = MainWindow(out=tmp_path / "runs", paced=False)
+    qtbot.addWidget(second)
+    assert second.setup_tab.technician.text() == "B. Tech"
+
+
+def test_optimising_phases_is_progress_not_an_error_and_holds_start(qtbot, tmp_path):
+    from concurrent.futures import Future
+
+    w = MainWindow(out=tmp_path / "runs", paced=False)
+    qtbot.addWidget(w)
+    setup = w.setup_tab
+    pending: Future = Future()  # a plan still being optimised
+    original = setup.plans.ask
+    setup.plans.ask = lambda *_a: pending  # type: ignore[method-assign]
+    blocking = setup.validate()
+    checks = setup.checks.text()
+    assert "optimising the multisine phases" in checks
+    assert "✖" not in checks and "#c0392b" not in checks  # not shown as an error
+    assert not setup.start_button.isEnabled() and blocking  # but Start waits for it
+    assert setup.field_marks.marked() == {}  # and no field is marked for it
+    setup.plans.ask = original  # type: ignore[method-assign]
+    w.wait_for_plans()
+    assert setup.start_button.isEnabled() and "the plan can run" in setup.checks.text()
