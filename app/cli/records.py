@@ -5,7 +5,6 @@ only when one of these commands runs (app.cli stays quick to start)."""
 from __future__ import annotations
 
 import argparse
-import csv
 from collections.abc import Callable
 from datetime import UTC, date, datetime
 from pathlib import Path
@@ -292,27 +291,13 @@ def cmd_refs(args: argparse.Namespace) -> int:
 
 
 def _read_reference_table(path: Path) -> list[tuple[float, float, float, float | None]]:
-    """Rows of a reference calibration table CSV; a bad cell is refused by line."""
-    from app.records.db.lab import RecordsError
+    """Rows of a reference calibration table CSV (the records' reader); a bad cell is refused
+    by line."""
+    from app.records.db.reference_table import read_reference_table
 
     if not path.is_file():
         raise RecordsUsageError(f"--table: no such file {path}")
-    rows: list[tuple[float, float, float, float | None]] = []
-    with path.open(newline="", encoding="utf-8") as handle:
-        for number, cells in enumerate(csv.reader(handle), 1):
-            if not cells or cells[0].strip().startswith("#") or cells[0].strip().isalpha():
-                continue
-            if cells[0].strip() == "frequency_hz":
-                continue
-            if len(cells) not in (3, 4):
-                raise RecordsError(f"{path} line {number}: expected 3 or 4 columns")
-            try:
-                values = [float(c) for c in cells]
-            except ValueError:
-                raise RecordsError(f"{path} line {number}: not a number") from None
-            phase = values[3] if len(values) == 4 else None
-            rows.append((values[0], values[1], values[2], phase))
-    return rows
+    return read_reference_table(path, "--table")
 
 
 def cmd_due(args: argparse.Namespace) -> int:

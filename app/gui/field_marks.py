@@ -15,6 +15,8 @@ from typing import Any
 from PySide6.QtCore import Qt
 from PySide6.QtWidgets import QFormLayout, QLabel, QSizePolicy, QWidget
 
+from app.gui.table_items import shown_unit
+
 ERROR, WARNING, INFO = "error", "warning", "info"
 STYLE = {ERROR: "#c0392b", WARNING: "#b9770e", INFO: "#1e8449"}
 SYMBOL = {ERROR: "✖", WARNING: "⚠", INFO: "✔"}
@@ -101,7 +103,8 @@ class FieldMarks:
         severity, reason = mark
         colour = STYLE[severity]
         label.setText(
-            f"<span style='color:{colour}'>{SYMBOL[severity]} {html.escape(reason)}</span>"
+            f"<span style='color:{colour}'>{SYMBOL[severity]} "
+            f"{html.escape(shown_unit(reason))}</span>"
         )
         if severity != INFO:
             name = type(widget).__name__

@@ -16,7 +16,7 @@ from datetime import UTC, date, datetime
 from pathlib import Path
 from typing import Any
 
-from PySide6.QtCore import QSettings, QUrl, Signal, Slot
+from PySide6.QtCore import QSettings, QSize, QUrl, Signal, Slot
 from PySide6.QtGui import QDesktopServices
 from PySide6.QtWidgets import QDialog, QMainWindow, QMessageBox, QTabWidget
 
@@ -41,6 +41,7 @@ from app.stand import config as stand_config
 log = logging.getLogger(__name__)
 
 ORGANISATION, APPLICATION = "accelcal", "accelcal"
+DEFAULT_SIZE = QSize(1280, 820)  # px, the window's first size (then its last, remembered)
 SETUP_TAB, RUN_TAB, RESULTS_TAB, RUNS_TAB, SENSORS_TAB, REGISTER_TAB = 0, 1, 2, 3, 4, 5
 
 
@@ -101,9 +102,17 @@ class MainWindow(QMainWindow):
         if geometry is not None:
             self.restoreGeometry(geometry)
         else:
-            self.resize(1280, 820)
+            self.resize(self.default_size())
         self.fit_screen()
         self.setup_tab.validate()
+
+    def default_size(self) -> QSize:
+        """1280 x 820 px, or more where a tab (the Setup tab's form) asks for more: no tab is
+        drawn under the size its layout asks for (`fit_screen` then bounds it by the screen)."""
+        hint = self.sizeHint()
+        return QSize(
+            max(DEFAULT_SIZE.width(), hint.width()), max(DEFAULT_SIZE.height(), hint.height())
+        )
 
     def fit_screen(self) -> None:
         """Never wider or taller than the available area of the screen the window is on."""

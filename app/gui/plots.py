@@ -1,7 +1,10 @@
 """pyqtgraph plots of the window: the live Run tab and the Results tab's charts.
 
-Everything here is called on the GUI thread only (from the window's 25 Hz timer or a slot);
-the worker thread never sees a plot item.
+Everything here is called on the GUI thread only (from the Run tab's FRAME_HZ timer or a slot);
+the worker thread never sees a plot item. Charts with nothing to show are replaced by a line
+saying why (`ChartStack`), never drawn as empty frames with placeholder axes. The live plots
+draw at most a few points per pixel of their width (min/max per pixel column, so no peak is
+lost) and move their axes only when the data leaves them (a steady axis is not redrawn).
 """
 
 from __future__ import annotations
@@ -10,6 +13,8 @@ import dataclasses
 
 import numpy as np
 import pyqtgraph as pg
+from PySide6.QtCore import Qt
+from PySide6.QtWidgets import QLabel, QStackedWidget, QWidget
 
 from dsp.calibration import Results
 from dsp.characteristic import Characteristic
@@ -17,11 +22,13 @@ from dsp.characteristic import characteristic as dsp_characteristic
 from dsp.multisine import Plan
 from dsp.spectral import period_spectrum
 
-FRAME_HZ = 25
+FRAME_HZ = 40  # live frames per second (>= 30 updates per second at 2 x 51.2 kS/s)
 # labelled ticks of the logarithmic frequency axes (Hz): decades, then 2 and 5 between them
 DECADE_TICKS_HZ = (1, 10, 100, 1000, 10000)
 MINOR_TICKS_HZ = (2, 5, 20, 50, 200, 500, 2000, 5000, 20000)
-MAX_POINTS = 4000  # enough points of a period for the eye
+MIN_COLUMNS = 200  # pixel columns a period is decimated to at the least (plot not shown yet)
+REF_COLOUR, DUT_COLOUR = "#4a9ee0", "#d62728"
+LEGEND_BRUSH = (0, 0, 0, 200)  # the legend readable over the traces it names
 
 
 def hz_label(frequency_hz: float) -> str:
@@ -40,6 +47,59 @@ def frequency_axis(plot: pg.PlotItem) -> None:
     )
 
 
+class ChartStack(QStackedWidget):
+    """A chart, or in its place a line saying why there is none yet."""
+
+    def __init__(self, chart: QWidget, message: str) -> None:
+        super().__init__()
+        self.message = QLabel(message)
+        self.message.setAlignment(Qt.AlignmentFlag.AlignCenter)
+        self.message.setWordWrap(True)
+        self.message.setStyleSheet("color: #7f8c8d; font-size: 14px")
+        self.chart = chart
+        self.addWidget(self.message)
+        self.addWidget(chart)
+
+    def show_chart(self, shown: bool, message: str | None = None) -> None:
+        """The chart (True) or the message (False; `message` replaces the text)."""
+        if message is not None:
+            self.message.setText(message)
+        self.setCurrentWidget(self.chart if shown else self.message)
+
+    @property
+    def showing_chart(self) -> bool:
+        return self.currentWidget() is self.chart
+
+
+def peak_decimated(x: np.ndarray, y: np.ndarray, columns: int) -> tuple[np.ndarray, np.ndarray]:
+    """`y` over uniformly spaced `x` as at most 2 points per column (each column's minimum and
+    maximum, in order), so a trace drawn `columns` pixels wide loses no peak."""
+    n = y.size
+    per = n // max(1, columns)
+    if per < 4:
+        return x, y
+    used = per * (n // per)
+    blocks = y[:used].reshape(-1, per)
+    low, high = blocks.argmin(axis=1), blocks.argmax(axis=1)
+    first = np.minimum(low, high) + np.arange(blocks.shape[0]) * per
+    second = np.maximum(low, high) + np.arange(blocks.shape[0]) * per
+    index = np.column_stack([first, second]).ravel()
+    return x[index], y[index]
+
+
+def follow_y(plot: pg.PlotItem, low: float, high: float) -> bool:
+    """Move the y axis of `plot` only when [low, high] leaves it or fills under a quarter of
+    it (with a 10 % margin): a steady axis is not regenerated every frame. Whether it moved."""
+    if not (np.isfinite(low) and np.isfinite(high)):
+        return False
+    span = high - low or max(abs(high), 1e-12)
+    now_low, now_high = plot.getViewBox().viewRange()[1]
+    if now_low <= low and high <= now_high and (now_high - now_low) <= 4 * span * 1.2:
+        return False
+    plot.setYRange(low - 0.1 * span, high + 0.1 * span, padding=0)
+    return True
+
+
 def characteristic(results: Results) -> Characteristic:
     """dsp.characteristic's deviation, phase and their U (the numbers the certificate draws),
     with a U that is not stated drawn as 0."""
@@ -52,23 +112,32 @@ def characteristic(results: Results) -> Characteristic:
 
 
 class LivePlots:
-    """The Run tab's four plots: last period, spectra, deviation and phase converging."""
+    """The Run tab's four plots: last period, spectra, deviation and phase converging (a line
+    saying there is no run yet until the first period)."""
 
     def __init__(self) -> None:
-        self.widget = pg.GraphicsLayoutWidget()
-        g = self.widget
+        self.graphics = pg.GraphicsLayoutWidget()
+        self.widget = ChartStack(
+            self.graphics, "No run yet: the live plots appear when a run starts (tab 1, Start)."
+        )
+        g = self.graphics
         self.wave_plot = g.addPlot(title="Last period")
         self.wave_plot.setLabel("left", "voltage", units="V")  # auto SI prefix: mV, not x0.001
         self.wave_plot.setLabel("bottom", "time", units="s")
-        self.wave_ref = self.wave_plot.plot(pen=pg.mkPen("#1f77b4"), name="reference")
-        self.wave_dut = self.wave_plot.plot(pen=pg.mkPen("#d62728"), name="DUT")
+        self.wave_plot.addLegend(offset=(-10, 10), brush=LEGEND_BRUSH)
+        self.wave_ref = self.wave_plot.plot(pen=pg.mkPen(REF_COLOUR), name="reference")
+        self.wave_dut = self.wave_plot.plot(pen=pg.mkPen(DUT_COLOUR), name="DUT")
+        self.wave_ref.setZValue(1)  # the reference over the DUT where they overlap
         self.spec_plot = g.addPlot(
             title="Spectra (lines marked)", labels={"left": "dB re 1 V", "bottom": "Hz"}
         )
         frequency_axis(self.spec_plot)
-        self.spec_ref = self.spec_plot.plot(pen=pg.mkPen("#1f77b4", width=1))
-        self.spec_dut = self.spec_plot.plot(pen=pg.mkPen("#d62728", width=1))
-        self.spec_lines = self.spec_plot.plot(pen=None, symbol="t", symbolSize=6, symbolBrush="k")
+        self.spec_plot.addLegend(offset=(-10, 10), brush=LEGEND_BRUSH)
+        self.spec_ref = self.spec_plot.plot(pen=pg.mkPen(REF_COLOUR, width=1), name="reference")
+        self.spec_dut = self.spec_plot.plot(pen=pg.mkPen(DUT_COLOUR, width=1), name="DUT")
+        self.spec_lines = self.spec_plot.plot(
+            pen=None, symbol="t", symbolSize=6, symbolBrush="k", name="plan lines"
+        )
         g.nextRow()
         self.sens_plot = g.addPlot(
             title="Sensitivity deviation from reference frequency",
@@ -85,6 +154,15 @@ class LivePlots:
         self.phase_curve = self.phase_plot.plot(pen=pg.mkPen("#8e44ad"), symbol="o", symbolSize=5)
         self.phase_err = pg.ErrorBarItem(beam=0.02, pen=pg.mkPen("#7f8c8d"))
         self.phase_plot.addItem(self.phase_err)
+        for plot in self.plots:
+            plot.disableAutoRange()  # the axes follow the data in steps (follow_y)
+            # no grid: a grid is drawn by the axes over the whole plot, so every new curve
+            # would repaint (and re-render the text of) all eight axes
+        self._ranges: dict[int, tuple[float, float]] = {}  # x range set per plot
+
+    @property
+    def plots(self) -> tuple[pg.PlotItem, ...]:
+        return (self.wave_plot, self.spec_plot, self.sens_plot, self.phase_plot)
 
     @property
     def curves(self) -> tuple[pg.PlotDataItem, ...]:
@@ -104,19 +182,43 @@ class LivePlots:
             curve.setData([], [])
         for bars in (self.sens_err, self.phase_err):
             bars.setData(x=np.array([]), y=np.array([]), height=np.array([]))
+        for plot in self.plots:
+            plot.setYRange(0, 1, padding=0)  # the first data sets its own range
+        self._ranges.clear()
+        self.widget.show_chart(False)
+
+    def _x_range(self, plot: pg.PlotItem, low: float, high: float) -> None:
+        """Set the x range once per run (and again only when it changes)."""
+        if self._ranges.get(id(plot)) != (low, high):
+            self._ranges[id(plot)] = (low, high)
+            plot.setXRange(low, high, padding=0.02)
+
+    def columns(self) -> int:
+        """Pixel columns of the period plot (MIN_COLUMNS before it is laid out)."""
+        return max(MIN_COLUMNS, int(self.wave_plot.getViewBox().width()))
 
     def draw_period(self, reference: np.ndarray, dut: np.ndarray, plan: Plan) -> None:
-        """The last period of both channels and their spectra, the plan's lines marked."""
+        """The last period of both channels (decimated to the plot's width) and their spectra,
+        the plan's lines marked."""
+        self.widget.show_chart(True)
         t = np.arange(reference.size) / plan.sample_rate_hz
-        step = max(1, reference.size // MAX_POINTS)
-        self.wave_ref.setData(t[::step], reference[::step])
-        self.wave_dut.setData(t[::step], dut[::step])
+        columns = self.columns()
+        self.wave_ref.setData(*peak_decimated(t, reference, columns), skipFiniteCheck=True)
+        self.wave_dut.setData(*peak_decimated(t, dut, columns), skipFiniteCheck=True)
+        self._x_range(self.wave_plot, 0.0, float(t[-1]) if t.size else 1.0)
+        both = np.concatenate([reference, dut])
+        if both.size:
+            follow_y(self.wave_plot, float(both.min()), float(both.max()))
         spectra = np.abs(period_spectrum(np.vstack([reference, dut]))) + 1e-12
         f = np.arange(spectra.shape[1]) * plan.sample_rate_hz / reference.size
-        self.spec_ref.setData(f[1:], 20 * np.log10(spectra[0, 1:]))
-        self.spec_dut.setData(f[1:], 20 * np.log10(spectra[1, 1:]))
+        db = 20 * np.log10(spectra[:, 1:])
+        self.spec_ref.setData(f[1:], db[0], skipFiniteCheck=True)
+        self.spec_dut.setData(f[1:], db[1], skipFiniteCheck=True)
         if reference.size == plan.period_samples:
             self.spec_lines.setData(plan.frequencies_hz, 20 * np.log10(spectra[0, plan.bins]))
+        if f.size > 1:
+            self._x_range(self.spec_plot, float(np.log10(f[1])), float(np.log10(f[-1])))
+            follow_y(self.spec_plot, max(float(db.min()), float(db.max()) - 160.0), float(db.max()))
 
     def draw_characteristic(self, results: Results) -> None:
         """Deviation and phase per line with their expanded uncertainties as error bars."""
@@ -127,6 +229,16 @@ class LivePlots:
         self.sens_err.setData(x=logf, y=dev, height=2 * c.deviation_expanded_percent)
         self.phase_curve.setData(f, phase)
         self.phase_err.setData(x=logf, y=phase, height=2 * c.phase_expanded_deg)
+        if f.size:
+            for plot in (self.sens_plot, self.phase_plot):
+                self._x_range(plot, float(logf.min()) - 0.05, float(logf.max()) + 0.05)
+            u_dev, u_phase = c.deviation_expanded_percent, c.phase_expanded_deg
+            follow_y(self.sens_plot, float(np.nanmin(dev - u_dev)), float(np.nanmax(dev + u_dev)))
+            follow_y(
+                self.phase_plot,
+                float(np.nanmin(phase - u_phase)),
+                float(np.nanmax(phase + u_phase)),
+            )
 
 
 def draw_bands(mag: pg.PlotItem, phase: pg.PlotItem, results: Results | None) -> None:

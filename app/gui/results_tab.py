@@ -8,6 +8,7 @@ import pyqtgraph as pg
 from PySide6.QtCore import Qt
 from PySide6.QtWidgets import (
     QHBoxLayout,
+    QHeaderView,
     QLabel,
     QPushButton,
     QSizePolicy,
@@ -18,20 +19,20 @@ from PySide6.QtWidgets import (
 )
 
 from app import formatting as fmt
-from app.gui.plots import draw_bands, frequency_axis
+from app.gui.plots import ChartStack, draw_bands, frequency_axis
 from app.gui.verdict_view import VerdictView, verdict_of
 from app.records.run_record import RunRecord
 from dsp.calibration import Results
 from dsp.uncertainty import Budget, Quantity
 
-COLUMNS = (
-    "f Hz",
-    "S mV/(m/s²)",
-    "U mV/(m/s²)",
-    "dev. %",
-    "phase °",
-    "U °",
-    "U rel. %",
+COLUMNS = (  # name over unit: the table fits its half of a 1366 px window unscrolled
+    "f\nHz",
+    "S\nmV/(m/s²)",
+    "U\nmV/(m/s²)",
+    "dev.\n%",
+    "phase\n°",
+    "U\n°",
+    "U rel.\n%",
     "k",
     "ISO",
     "tolerance",
@@ -64,6 +65,10 @@ class ResultsTab(QWidget):
         layout.addWidget(self.summary)
         self.table = QTableWidget(0, len(COLUMNS))
         self.table.setHorizontalHeaderLabels(list(COLUMNS))
+        header = self.table.horizontalHeader()
+        header.setSectionResizeMode(QHeaderView.ResizeMode.ResizeToContents)
+        header.setStretchLastSection(True)
+        self.table.verticalHeader().setVisible(False)
         middle = QHBoxLayout()
         middle.addWidget(self.table, 3)
         charts = pg.GraphicsLayoutWidget()
@@ -79,13 +84,15 @@ class ResultsTab(QWidget):
             frequency_axis(plot)
             plot.getAxis("left").enableAutoSIPrefix(False)  # "%", never "% (x0.001)"
             plot.showGrid(x=True, y=True, alpha=0.3)
-        middle.addWidget(charts, 2)
+        self.charts = ChartStack(charts, "No results yet: a finished run shows its charts here.")
+        middle.addWidget(self.charts, 2)
         layout.addLayout(middle, 3)
         self.budget = QTableWidget(0, 4)
         self.budget.setHorizontalHeaderLabels(
             ["Component (at the reference frequency)", "value", "distribution", "standard u"]
         )
         self.budget.horizontalHeader().setStretchLastSection(True)
+        self.budget.verticalHeader().setVisible(False)
         self.budget.setColumnWidth(0, 420)
         layout.addWidget(self.budget, 1)
         buttons = QHBoxLayout()
@@ -105,6 +112,7 @@ class ResultsTab(QWidget):
         self.table.setRowCount(0)
         self.budget.setRowCount(0)
         draw_bands(self.result_mag, self.result_phase, None)
+        self.charts.show_chart(False)
         self.export_button.setEnabled(False)
         self.certificate_button.setEnabled(False)
 
@@ -139,6 +147,7 @@ class ResultsTab(QWidget):
             for column, text in enumerate(cells):
                 self.table.setItem(row, column, QTableWidgetItem(text))
         draw_bands(self.result_mag, self.result_phase, results)
+        self.charts.show_chart(True)
         self._fill_budget(results, record)
         self.export_button.setEnabled(True)
         self.certificate_button.setEnabled(folder is not None)

@@ -32,6 +32,7 @@ from PySide6.QtWidgets import (
 
 from app.gui.plots import FRAME_HZ, LivePlots
 from app.gui.results_tab import wrapping_label
+from app.gui.table_items import shown_unit
 from app.gui.worker import RunWorker
 from app.io.vocabulary import RunStatus
 from app.procedure import (
@@ -60,18 +61,43 @@ STOP_STYLE = (  # flat colours (a border makes Qt draw the background as given)
 METERED = ("reference", "dut")  # the input channels with a level meter
 
 
+@dataclass(frozen=True)
+class PhaseSteps:
+    """How many steps the phases before acquisition take (the run's settings): background
+    periods and at most so many equalisation iterations."""
+
+    background_periods: int = 2
+    equalisation_iterations: int = 8
+
+    @classmethod
+    def of(cls, procedure: Any) -> PhaseSteps:
+        """The steps of `procedure`'s settings (the defaults when it has none)."""
+        settings = getattr(procedure, "settings", None)
+        if settings is None:
+            return cls()
+        return cls(
+            max(1, int(settings.background_periods)),
+            max(1, int(settings.max_equalisation_iterations)),
+        )
+
+
 @dataclass
 class LiveFrame:
     """What the next frame draws: the latest event of each kind since the last frame (None:
-    nothing new), the run's plan, and the warnings so far."""
+    nothing new), the run's plan, and the warnings so far. The progress bar shows the phase
+    the run is in and how far it is through it: background periods read of those planned,
+    equalisation iterations of at most so many, acquisition's own fraction and time left."""
 
     plan: Plan | None = None
+    steps: PhaseSteps = field(default_factory=PhaseSteps)
     block: PeriodBlock | None = None
     estimate: PeriodEstimate | None = None
     state: str | None = None
     equalisation: str | None = None
-    progress: tuple[float, float | None] | None = None  # (fraction done, seconds left or None)
+    progress: tuple[float, str] | None = None  # (fraction of the phase done, what it says)
     warnings: list[str] = field(default_factory=list)
+    phase: State | None = None
+    phase_blocks: int = 0  # periods read in this phase
 
     def take(self, events: list[Any]) -> None:
         """Keep only what the next frame draws."""
@@ -79,18 +105,43 @@ class LiveFrame:
             if isinstance(event, PeriodBlock):
                 if event.state != State.FADING_OUT:  # keep showing the last steady period
                     self.block = event
+                if event.state == State.BACKGROUND and self.phase == State.BACKGROUND:
+                    self.phase_blocks += 1
+                    n = self.steps.background_periods
+                    done = min(self.phase_blocks, n)
+                    self.progress = (done / n, f"background: period {done} of {n}")
             elif isinstance(event, PeriodEstimate):
                 self.estimate = event
             elif isinstance(event, StateChanged):
-                self.state = f"{event.state}  {event.message}"
+                self.state = f"{event.state}: {event.message}" if event.message else event.state
+                self.phase, self.phase_blocks = event.state, 0
+                self.progress = self.phase_start(event.state)
             elif isinstance(event, EqualisationStep):
                 self.equalisation = (
                     f"equalisation {event.iteration}: worst line {100 * event.worst:.2f} %"
                 )
+                n = self.steps.equalisation_iterations
+                self.progress = (
+                    min(event.iteration / n, 1.0),
+                    f"equalisation {event.iteration} of at most {n}",
+                )
             elif isinstance(event, Progress):
-                self.progress = (event.fraction, event.remaining_s)
+                left = (
+                    "" if event.remaining_s is None else f", about {event.remaining_s:.0f} s left"
+                )
+                self.progress = (event.fraction, f"acquiring {100 * event.fraction:.0f} %{left}")
             elif isinstance(event, WarningRaised):
                 self.warnings.append(event.text)
+
+    def phase_start(self, state: State) -> tuple[float, str]:
+        """The bar as a phase begins."""
+        if state == State.BACKGROUND:
+            return 0.0, f"background: period 0 of {self.steps.background_periods}"
+        if state == State.EQUALISING:
+            return 0.0, f"equalisation 0 of at most {self.steps.equalisation_iterations}"
+        if state == State.ACQUIRING:
+            return 0.0, "acquiring"
+        return (1.0 if state == State.FINISHED else 0.0), str(state)
 
 
 class ElidedLabel(QLabel):
@@ -106,7 +157,6 @@ class ElidedLabel(QLabel):
 
     def setText(self, text: str) -> None:
         self._full = text
-        self.setToolTip(text if len(text) > 60 else "")
         self._elide()
 
     def text(self) -> str:
@@ -120,6 +170,14 @@ class ElidedLabel(QLabel):
         width = max(self.width(), 40)
         shown = QFontMetrics(self.font()).elidedText(self._full, Qt.TextElideMode.ElideRight, width)
         super().setText(shown)
+        # the whole text in the tooltip whenever any of it is cut (or it is long)
+        self.setToolTip(self._full if shown != self._full or len(self._full) > 60 else "")
+
+    def sizeHint(self) -> Any:
+        """As wide as the whole text (the layout gives it that when it can)."""
+        hint = super().sizeHint()
+        hint.setWidth(QFontMetrics(self.font()).horizontalAdvance(self._full) + 8)
+        return hint
 
 
 class RunTab(QWidget):
@@ -144,12 +202,15 @@ class RunTab(QWidget):
         self.stop_button.setStyleSheet(STOP_STYLE)  # disabled: grey, visibly not active
         self.stop_button.clicked.connect(self.stop)
         self.stop_button.setEnabled(False)
-        top.addWidget(self.state, 2)
-        top.addWidget(self.equalisation, 2)
-        top.addWidget(self.coherence, 2)
-        top.addWidget(self.progress, 2)
-        top.addWidget(self.stop_button, 1)
+        # the state on a row of its own, as wide as the window: never cut at 1366 px
+        top.addWidget(self.state, 1)
+        top.addWidget(self.stop_button)
         layout.addLayout(top)
+        details = QHBoxLayout()
+        details.addWidget(self.equalisation, 2)
+        details.addWidget(self.coherence, 3)
+        details.addWidget(self.progress, 3)
+        layout.addLayout(details)
         meters = QHBoxLayout()
         self.meters: dict[str, QProgressBar] = {}
         for name in METERED:
@@ -188,7 +249,7 @@ class RunTab(QWidget):
         self.state.setText("starting ...")
         self.ranges_v = dict(ranges_v)
         self.out = request.out
-        self.frame = LiveFrame(plan=procedure.plan)
+        self.frame = LiveFrame(plan=procedure.plan, steps=PhaseSteps.of(procedure))
         self.worker = RunWorker(procedure, stand)
         self.stop_button.setEnabled(True)
         self.worker.start()
@@ -199,6 +260,7 @@ class RunTab(QWidget):
         if self.worker is not None:
             self.worker.procedure.abort("stopped by the operator")
             self.state.setText("stopping: fading out ...")
+            self.progress.setFormat("stopping: fading out")
 
     def emergency_stop(self) -> None:
         """The drive to 0 V at once."""
@@ -245,13 +307,15 @@ class RunTab(QWidget):
             self.equalisation.setText(frame.equalisation)
             frame.equalisation = None
         if frame.progress is not None:
-            fraction, remaining = frame.progress
+            fraction, text = frame.progress
             frame.progress = None
-            self.progress.setValue(int(100 * fraction))
-            left = "" if remaining is None else f", about {remaining:.0f} s left"
-            self.progress.setFormat(f"%p %{left}")
+            self.progress.setValue(round(100 * fraction))
+            self.progress.setFormat(text)
+            self.progress.setToolTip(text)
         if frame.warnings:
-            self.messages.setText("<br/>".join(f"⚠ {html.escape(w)}" for w in frame.warnings[-4:]))
+            self.messages.setText(
+                "<br/>".join(f"⚠ {html.escape(shown_unit(w))}" for w in frame.warnings[-4:])
+            )
         block, frame.block = frame.block, None
         if block is not None:
             names = list(block.channels)
@@ -285,7 +349,13 @@ class RunTab(QWidget):
         self.stop_button.setEnabled(False)
         if finished is not None and finished.status == RunStatus.COMPLETE:
             self.state.setText("finished: results on tab 3")
-        elif finished is not None:
+            self.progress.setValue(100)
+            self.progress.setFormat("complete")
+        elif finished is None:
+            self.progress.setFormat("ended without a result")
+        else:
+            self.progress.setFormat("aborted")  # never a stale "37 %, about 10 s left"
+            self.progress.setToolTip(f"aborted: {finished.abort_reason}")
             run_id = finished.record.run_id
             folder = self.out / str(run_id) if run_id and self.out is not None else None
             self.state.setText(f"ABORTED: {finished.abort_reason}")

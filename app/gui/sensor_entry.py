@@ -27,6 +27,7 @@ from PySide6.QtWidgets import (
 )
 
 from app.gui.field_marks import INFO, WARNING, FieldMarks
+from app.gui.table_items import shown_unit
 from app.procedure.request import DutChoice, resolve_dut, spec_from_sensor
 from app.records.db.errors import RecordsInputError
 from app.records.db.runs import defaults_of
@@ -54,7 +55,8 @@ class RegisterSensorDialog(QDialog):
         self.model = QComboBox()
         for m in models:
             self.model.addItem(
-                f"{m.maker} {m.model} ({m.nominal_sensitivity:g} {m.unit})", f"{m.maker} {m.model}"
+                f"{m.maker} {m.model} ({m.nominal_sensitivity:g} {shown_unit(m.unit)})",
+                f"{m.maker} {m.model}",
             )
         self.owner = QComboBox()
         for c in owners:
@@ -170,7 +172,7 @@ class SerialEntry(QObject):
                 self.setup,
                 "Register sensor",
                 "The records have no sensor model or no customer yet: add them first "
-                "(accelcal models add ..., accelcal customers add ...).",
+                "(tab 5 Sensors: Customers ..., Models ...).",
             )
             return False
         dialog = RegisterSensorDialog(self.setup, serial, models, owners)
@@ -211,7 +213,7 @@ class SerialEntry(QObject):
             w.dut_id,
             f"from the records{f' ({how})' if how else ''}: {model.maker} {model.model}, "
             f"owner {sensor.owner.name}{due}; "
-            f"nominal {model.nominal_sensitivity:g} {model.unit}, tolerance "
+            f"nominal {model.nominal_sensitivity:g} {shown_unit(model.unit)}, tolerance "
             f"{model.tolerance_percent:g} %",
             INFO,
         )

@@ -29,6 +29,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
+from app.gui.plots import ChartStack
 from app.gui.records_link import RecordsLink
 from app.gui.results_tab import wrapping_label
 from app.gui.table_items import read_only_item
@@ -71,6 +72,24 @@ class SensorsTab(QWidget):
         search_row.addWidget(self.search, 1)
         search_row.addWidget(refresh)
         left.addLayout(search_row)
+        edit_row = QHBoxLayout()
+        self.edit_buttons: dict[str, QPushButton] = {}
+        for key, text, tip in (
+            ("customers", "Customers ...", "Add or edit the lab's customers"),
+            ("models", "Sensor models ...", "Add or edit sensor models (nominal, tolerance)"),
+            (
+                "references",
+                "Reference standards ...",
+                "Add a reference standard or enter its recalibration (table from a CSV file)",
+            ),
+        ):
+            button = QPushButton(text)
+            button.setToolTip(tip)
+            button.clicked.connect(lambda _checked=False, k=key: self.edit_records(k))
+            edit_row.addWidget(button)
+            self.edit_buttons[key] = button
+        edit_row.addStretch(1)
+        left.addLayout(edit_row)
         self.sensors = QTableWidget(0, len(SENSOR_COLUMNS))
         self.sensors.setHorizontalHeaderLabels(list(SENSOR_COLUMNS))
         self.sensors.setSelectionBehavior(QAbstractItemView.SelectionBehavior.SelectRows)
@@ -110,7 +129,8 @@ class SensorsTab(QWidget):
         self.bars = pg.ErrorBarItem(beam=0.0, pen=pg.mkPen("#2471a3"))
         for item in (self.line, self.bars, self.points):
             self.chart.addItem(item)
-        right.addWidget(self.chart, 1)
+        self.chart_stack = ChartStack(self.chart, "Select a sensor to see its history.")
+        right.addWidget(self.chart_stack, 1)
         self.history_text = wrapping_label("Select a sensor to see its history.")
         right.addWidget(self.history_text)
         body.addLayout(right, 3)
@@ -132,13 +152,36 @@ class SensorsTab(QWidget):
         enabled = self.link.lab is not None
         for widget in (self.search, self.sensors, self.days, self.due, self.chart):
             widget.setEnabled(enabled)
+        for button in self.edit_buttons.values():
+            button.setEnabled(enabled)
         if enabled:
+            shown = self.serial
             self.search_sensors(self.search.text())
             self.show_due()
+            if shown is not None and self.serial == shown:
+                self.show_history(shown)  # a run since may have added a point
         else:
             self.sensors.setRowCount(0)
             self.due.setRowCount(0)
             self.show_history(None)
+
+    def records_list(self, kind: str) -> Any:
+        """The list dialog of `kind` ('customers', 'models', 'references') over the records."""
+        from app.gui import records_dialogs
+
+        make = {
+            "customers": records_dialogs.customers_list,
+            "models": records_dialogs.models_list,
+            "references": records_dialogs.references_list,
+        }[kind]
+        return make(self, self.link.lab)
+
+    def edit_records(self, kind: str) -> None:
+        """Open the list of `kind`; afterwards every view of the records reads them again."""
+        if self.link.lab is None:
+            return
+        self.records_list(kind).exec()
+        self.link.changed.emit()  # the Setup tab's reference standard, this tab
 
     def _failed(self, exc: Exception) -> None:
         self.status.setText(f"records: {exc}")
@@ -189,6 +232,7 @@ class SensorsTab(QWidget):
             item.setData([], [])
         self.bars.setData(x=np.zeros(0), y=np.zeros(0), height=np.zeros(0))
         lab = self.link.lab
+        self.chart_stack.show_chart(False, "Select a sensor to see its history.")
         if serial is None or lab is None:
             self.history_text.setText("Select a sensor to see its history.")
             return
@@ -201,7 +245,9 @@ class SensorsTab(QWidget):
         points = history.points
         if not points:
             self.history_text.setText(f"{serial}: no complete calibration on record yet.")
+            self.chart_stack.show_chart(False, f"{serial}: no complete calibration on record yet.")
             return
+        self.chart_stack.show_chart(True)
         x = np.array([p.started_utc.timestamp() for p in points])
         y = np.array([p.sensitivity_mv_per_ms2 for p in points])
         u = np.array([p.expanded_uncertainty_mv_per_ms2 or 0.0 for p in points])

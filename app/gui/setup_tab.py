@@ -34,6 +34,7 @@ from app.gui.plan_cache import PlanCache
 from app.gui.reference_view import describe_reference
 from app.gui.results_tab import wrapping_label
 from app.gui.sensor_entry import SerialEntry
+from app.gui.table_items import shown_unit
 from app.gui.teds_entry import TedsEntry
 from app.gui.templates import TemplatePicker
 from app.lines import parse_frequencies
@@ -47,6 +48,8 @@ from dsp.estimators import ESTIMATORS
 from dsp.multisine import PRESETS, check_lines
 
 log = logging.getLogger(__name__)
+
+OPTIMISING = "optimising the multisine phases ..."  # progress shown while the plan is made
 
 
 @dataclass
@@ -129,7 +132,10 @@ class SetupTab(QWidget):
         self.reference_label = wrapping_label(describe_reference(self.config))
         self.reference_label.setTextFormat(Qt.TextFormat.RichText)
         form.addRow("Reference standard", self.reference_label)
-        self.technician = QLineEdit(str(self.settings.value("technician", "")) or _login_name())
+        # empty until typed once, then the last entry (never the login name: a shared
+        # account at the stand would sign for whoever is working)
+        self.technician = QLineEdit(str(self.settings.value("technician", "") or ""))
+        self.technician.setPlaceholderText("your name (remembered for next time)")
         self.technician.setToolTip(
             "who is working at the stand today: 'Prepared by' on the certificates"
         )
@@ -339,6 +345,7 @@ class SetupTab(QWidget):
         """Plan checks and stand limits beside the fields; Start only when nothing fails."""
         problems: list[str] = []
         warnings: list[str] = []
+        pending = ""  # work in progress (not an error): Start waits for it
         preset = PRESETS[self.preset.currentText()]
         try:
             custom = self.custom_lines()
@@ -358,7 +365,7 @@ class SetupTab(QWidget):
         if future is None:
             self.peaks.setText("")
         elif not future.done():
-            problems.append("optimising the multisine phases ...")
+            pending = OPTIMISING
             self.peaks.setText("")
             QTimer.singleShot(200, self, self.validate)  # look again when it may be ready
         else:
@@ -381,17 +388,20 @@ class SetupTab(QWidget):
                 f"{report.crest_factor:.2f}"
             )
             problems += list(report.problems)
-        text = "".join(f"<div style='color:#c0392b'>✖ {p}</div>" for p in problems)
-        if not problems:
+        text = "".join(f"<div style='color:#c0392b'>✖ {shown_unit(p)}</div>" for p in problems)
+        if pending:
+            text += f"<div style='color:#2e4053'>⏳ {pending}</div>"
+        elif not problems:
             text = "<div style='color:#1e8449'>✔ the plan can run</div>"
-        text += "".join(f"<div style='color:#b9770e'>⚠ {w}</div>" for w in warnings[:4])
+        text += "".join(f"<div style='color:#b9770e'>⚠ {shown_unit(w)}</div>" for w in warnings[:4])
         self.checks.setText(text)
-        self.start_button.setEnabled(not problems and not self.running)
+        blocking = [*problems, pending] if pending else problems
+        self.start_button.setEnabled(not blocking and not self.running)
         self.start_button.setToolTip(
-            "; ".join(problems) or with_key("Start the calibration", START)
+            "; ".join(blocking) or with_key("Start the calibration", START)
         )
         self.field_marks.show_problems(problems)
-        return problems
+        return blocking
 
     def wait_for_plans(self) -> None:
         """Block until the plans asked for are optimised (tests, screenshots)."""
@@ -402,10 +412,3 @@ class SetupTab(QWidget):
         """The plan and TEDS worker pools end (the window closes)."""
         self.plans.close()
         self.teds.close()
-
-
-def _login_name() -> str:
-    """The operating-system user: the technician until one is typed."""
-    from app.records.db.audit import current_actor
-
-    return current_actor()

@@ -1,4 +1,5 @@
-"""Table cells the GUI's tabs share: read-only text, optionally coloured."""
+"""Table cells the GUI's tabs share (read-only text, optionally coloured) and the one way the GUI
+writes a sensitivity unit ("mV/(m/s²)", never "mV/(m/s^2)")."""
 
 from __future__ import annotations
 
@@ -14,3 +15,9 @@ def read_only_item(text: str, colour: str | None = None) -> QTableWidgetItem:
     if colour:
         item.setForeground(QColor(colour))
     return item
+
+
+def shown_unit(text: str) -> str:
+    """A unit, or a message of the layers below naming units ("m/s^2", "mV/(m/s^2)"), as the
+    GUI writes them ("m/s²", "mV/(m/s²)")."""
+    return text.replace("/s^2", "/s²")

@@ -13,6 +13,7 @@ from typing import Any
 from PySide6.QtCore import Qt
 from PySide6.QtWidgets import QLabel, QSizePolicy, QVBoxLayout, QWidget
 
+from app.gui.table_items import shown_unit
 from app.procedure.verdict import FAIL, INDETERMINATE, PASS
 from app.records.run_record import RunRecord
 from dsp.conformity import DECISION_RULE_SHORT
@@ -85,7 +86,7 @@ class VerdictView(QWidget):
         if reasons:
             self.reasons.setText(
                 "<ul style='margin:0'>"
-                + "".join(f"<li>{html.escape(r)}</li>" for r in reasons)
+                + "".join(f"<li>{html.escape(shown_unit(r))}</li>" for r in reasons)
                 + "</ul>"
             )
         else:

@@ -130,17 +130,19 @@ def main() -> int:
     from app.gui.main_window import MainWindow
 
     window = MainWindow(out=work / "runs", paced=False, seed=4, db=url)
-    window.resize(width, height)
+    window.setGeometry(0, 0, width, height)  # the whole screen of that size
     window.show()
     window.records.wait()
     window.wait_for_plans()
-    window.technician.setText("A. Tech")
-    window.dut_id.setText("SN-1043")
-    window.dut_id.editingFinished.emit()
-    window.templates.choose("5 lines, quick")
+    setup = window.setup_tab
+    setup.technician.setText("A. Tech")
+    setup.dut_id.setText("SN-1043")
+    setup.dut_id.editingFinished.emit()
+    setup.templates.choose("5 lines, quick")
+    window.wait_for_plans()
     loop = QEventLoop()
     window.run_finished.connect(lambda _f: QTimer.singleShot(300, loop.quit))
-    while not window.start_button.isEnabled():
+    while not setup.start_button.isEnabled():
         QCoreApplication.processEvents(QEventLoop.ProcessEventsFlag.AllEvents, 50)
     window.start_run()
     loop.exec()
@@ -161,6 +163,7 @@ def main() -> int:
     window.register_tab.select(issued.number)
     names = ["1-setup", "2-run", "3-results", "4-runs", "5-sensors", "6-register"]
     window.sensors_tab.search.setText("SN-1042")
+    window.setup_tab.dut_id.setText("SN-1043")  # the next sensor would be typed here
     for index, name in enumerate(names):
         window.tabs.setCurrentIndex(index)
         for _ in range(5):

@@ -10,7 +10,9 @@ import pytest
 
 os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 
-from app.gui.run_tab import LiveFrame, RunTab
+from PySide6.QtWidgets import QLabel
+
+from app.gui.run_tab import ElidedLabel, LiveFrame, PhaseSteps, RunTab
 from app.procedure import (
     EqualisationStep,
     Finished,
@@ -45,9 +47,9 @@ def test_a_frame_keeps_the_latest_of_each_kind_and_every_warning():
             WarningRaised("second"),
         ]
     )
-    assert frame.state == f"{State.ACQUIRING}  "
+    assert frame.state == "acquiring"
     assert frame.equalisation == "equalisation 2: worst line 0.56 %"
-    assert frame.progress == (0.5, None)
+    assert frame.progress == (0.0, "acquiring")  # the new phase starts from its beginning
     assert frame.warnings == ["first", "second"]
     assert frame.block is not None and frame.block.index == 2
     frame.take([block(4, State.FADING_OUT, 0.0)])
@@ -60,7 +62,7 @@ def test_the_tab_draws_a_frame_once_and_meters_in_percent_of_range(qtbot):
     tab.ranges_v = {"reference": 2.0, "dut": 10.0}
     tab.frame = LiveFrame(
         state="acquiring  period 3",
-        progress=(0.4, 12.0),
+        progress=(0.4, "acquiring 40 %, about 12 s left"),
         block=block(1, State.ACQUIRING, 1.5),  # 1.5 V: 75 % of 2 V, 15 % of 10 V
         warnings=["<hum>"],
     )
@@ -87,6 +89,66 @@ def test_an_aborted_run_says_why_and_where_its_data_is(qtbot, tmp_path):
     assert str(tmp_path / "r-1") in tab.messages.text() and "0.0 V" in tab.messages.text()
 
 
+def test_progress_moves_through_background_and_equalisation_and_says_aborted(qtbot, tmp_path):
+    """Each phase has its own progress (not 0 % until acquisition), and an abort never leaves
+    a stale acquisition estimate on the bar."""
+    tab = RunTab()
+    qtbot.addWidget(tab)
+    tab.ranges_v = {"reference": 2.0, "dut": 2.0}
+    tab.out = tmp_path
+    tab.frame = LiveFrame(steps=PhaseSteps(background_periods=4, equalisation_iterations=8))
+    shown = []
+
+    def feed(*events):
+        tab.frame.take(list(events))
+        tab.draw()
+        shown.append((tab.progress.value(), tab.progress.format()))
+
+    feed(StateChanged(State.BACKGROUND, "drive at 0 V"))
+    feed(block(1, State.BACKGROUND, 0.0))
+    feed(block(2, State.BACKGROUND, 0.0), block(3, State.BACKGROUND, 0.0))
+    feed(StateChanged(State.EQUALISING, "closed loop, tolerance 1 %"))
+    feed(block(4, State.EQUALISING, 0.1), EqualisationStep(1, np.zeros(3), 0.2))
+    feed(EqualisationStep(2, np.zeros(3), 0.02))
+    feed(StateChanged(State.ACQUIRING, ""), Progress(0.37, 3.0, 10.0))
+    assert shown == [
+        (0, "background: period 0 of 4"),
+        (25, "background: period 1 of 4"),
+        (75, "background: period 3 of 4"),
+        (0, "equalisation 0 of at most 8"),
+        (12, "equalisation 1 of at most 8"),
+        (25, "equalisation 2 of at most 8"),
+        (37, "acquiring 37 %, about 10 s left"),
+    ]
+    record = RunRecord(run_id="r-2", status="aborted", abort_reason="operator", final_output_v=0.0)
+    tab.finish(Finished("aborted", "operator", None, record))
+    assert tab.progress.format() == "aborted" and "left" not in tab.progress.text()
+
+
+def test_phase_steps_come_from_the_procedures_settings():
+    from app.procedure.settings import RunSettings
+
+    class Stub:
+        settings = RunSettings(background_periods=5, max_equalisation_iterations=3)
+
+    assert PhaseSteps.of(Stub()) == PhaseSteps(5, 3)
+    assert PhaseSteps.of(object()) == PhaseSteps()
+
+
+def test_a_long_state_is_cut_only_with_the_whole_text_in_its_tooltip(qtbot):
+    label = ElidedLabel()
+    qtbot.addWidget(label)
+    label.show()
+    label.resize(120, 20)
+    text = "equalising: closed loop, tolerance 0.5 %"
+    label.setText(text)
+    assert label.text() == text and label.toolTip() == text  # cut: the tooltip has it all
+    assert QLabel.text(label) != text
+    label.resize(2000, 20)
+    qtbot.waitUntil(lambda: label.width() == 2000)
+    assert QLabel.text(label) == text and label.toolTip() == ""  # whole: no tooltip needed
+
+
 @pytest.mark.parametrize("fill_v, colour", [(1.89, "#27ae60"), (1.9, "#c0392b")])
 def test_a_meter_turns_red_from_95_percent_of_range(qtbot, fill_v, colour):
     tab = RunTab()
@@ -95,3 +157,51 @@ def test_a_meter_turns_red_from_95_percent_of_range(qtbot, fill_v, colour):
     tab.frame = LiveFrame(block=block(1, State.ACQUIRING, fill_v))
     tab.draw()
     assert colour in tab.meters["reference"].styleSheet()
+
+
+def test_the_live_plots_say_no_run_yet_until_a_period_and_name_their_traces(qtbot):
+    from dsp.multisine import make_plan
+
+    tab = RunTab()
+    qtbot.addWidget(tab)
+    live = tab.live
+    assert not live.widget.showing_chart and "No run yet" in live.widget.message.text()
+    legend = [label.text for _sample, label in live.wave_plot.legend.items]
+    assert legend == ["reference", "DUT"]
+    assert [label.text for _s, label in live.spec_plot.legend.items][:2] == ["reference", "DUT"]
+    plan = make_plan([100.0, 200.0], 1000.0, 1000, 1.0, 100.0, phases_rad=np.zeros(2))
+    x = np.sin(2 * np.pi * 100 * np.arange(1000) / 1000)
+    live.draw_period(x, 0.5 * x, plan)
+    assert live.widget.showing_chart
+    tab.clear()  # a new run (or the next sensor): no plots of the last one, the line again
+    assert not live.widget.showing_chart
+
+
+def test_a_period_is_drawn_at_two_points_per_pixel_column_keeping_every_peak():
+    from app.gui.plots import peak_decimated
+
+    n = 51_200
+    t = np.arange(n) / 51_200.0
+    y = np.zeros(n)
+    y[12_345], y[40_000] = 3.0, -2.0  # single-sample peaks
+    xd, yd = peak_decimated(t, y, 640)
+    assert yd.size <= 2 * 640 and yd.max() == 3.0 and yd.min() == -2.0
+    assert np.all(np.diff(xd) >= 0)  # in time order
+    assert xd[np.argmax(yd)] == t[12_345]
+    _small_x, small_y = peak_decimated(t[:1000], y[:1000], 640)  # fewer than 4 per column
+    assert small_y.size == 1000
+
+
+def test_an_axis_moves_only_when_the_data_leaves_it_or_shrinks_far_inside():
+    import pyqtgraph as pg
+
+    from app.gui.plots import follow_y
+
+    plot = pg.PlotItem()
+    plot.disableAutoRange()
+    assert follow_y(plot, -1.0, 1.0)
+    low, high = plot.getViewBox().viewRange()[1]
+    assert low == pytest.approx(-1.2) and high == pytest.approx(1.2)
+    assert not follow_y(plot, -0.9, 1.05)  # inside: the axis (and its text) stays
+    assert follow_y(plot, -0.9, 1.5)  # out: it follows
+    assert follow_y(plot, -0.01, 0.01)  # far inside: it zooms in

@@ -16,6 +16,27 @@ from app.records.db.models import Customer, ReferencePoint, ReferenceStandard, S
 from app.records.db.store import RecordsError, Store, number_field, text_field
 
 
+def _points(table: Sequence[tuple[float, float, float, float | None]]) -> list[ReferencePoint]:
+    """The rows of a calibration table, each field checked (a refusal names row and field)."""
+    if not table:
+        raise RecordsError("table: a reference standard needs its calibration table")
+    points = []
+    for row_number, (freq, sens, rel_u, phase) in enumerate(table, 1):
+        where = f"table row {row_number}"
+        number_field(freq, f"{where} frequency", low=0, high=1e6)
+        number_field(sens, f"{where} sensitivity", low=0, high=1e6)
+        number_field(rel_u, f"{where} uncertainty", low=0, high=1)
+        points.append(
+            ReferencePoint(
+                frequency_hz=freq,
+                sensitivity_mv_per_ms2=sens,
+                relative_expanded_uncertainty=rel_u,
+                phase_deg=phase,
+            )
+        )
+    return points
+
+
 @dataclass(frozen=True)
 class DueItem:
     """A sensor or reference standard due for calibration by `due` (None: never calibrated)."""
@@ -48,22 +69,7 @@ class ReferenceRecords(Store):
             raise RecordsError(
                 f"due date: {due_date} is not after the calibration date {calibration_date}"
             )
-        if not table:
-            raise RecordsError("table: a reference standard needs its calibration table")
-        points = []
-        for row_number, (freq, sens, rel_u, phase) in enumerate(table, 1):
-            where = f"table row {row_number}"
-            number_field(freq, f"{where} frequency", low=0, high=1e6)
-            number_field(sens, f"{where} sensitivity", low=0, high=1e6)
-            number_field(rel_u, f"{where} uncertainty", low=0, high=1)
-            points.append(
-                ReferencePoint(
-                    frequency_hz=freq,
-                    sensitivity_mv_per_ms2=sens,
-                    relative_expanded_uncertainty=rel_u,
-                    phase_deg=phase,
-                )
-            )
+        points = _points(table)
         row = ReferenceStandard(
             identifier=identifier,
             model=text_field(model, "model", max_len=100),
@@ -79,6 +85,48 @@ class ReferenceRecords(Store):
             ):
                 raise RecordsError(f"reference id: {identifier!r} already exists")
             s.add(row)
+        return row
+
+    def update_reference(
+        self,
+        identifier: str,
+        *,
+        model: str,
+        serial: str,
+        certificate_number: str,
+        calibration_date: date,
+        due_date: date,
+        table: Sequence[tuple[float, float, float, float | None]] | None = None,
+    ) -> ReferenceStandard:
+        """Change reference standard `identifier` (a recalibration: its certificate, dates and,
+        unless None, its whole calibration table, in `add_reference`'s units), checked as
+        `add_reference` checks them; the old values stay in the audit trail."""
+        if due_date <= calibration_date:
+            raise RecordsError(
+                f"due date: {due_date} is not after the calibration date {calibration_date}"
+            )
+        fields = {
+            "model": text_field(model, "model", max_len=100),
+            "serial": text_field(serial, "serial", max_len=100),
+            "certificate_number": text_field(certificate_number, "certificate number", max_len=100),
+        }
+        points = _points(table) if table is not None else None
+        with self.session() as s:
+            row = s.scalar(
+                select(ReferenceStandard)
+                .options(joinedload(ReferenceStandard.points))
+                .where(ReferenceStandard.identifier == identifier.strip())
+            )
+            if row is None:
+                raise RecordsError(f"reference: no reference standard {identifier!r}")
+            row.model, row.serial = fields["model"], fields["serial"]
+            row.certificate_number = fields["certificate_number"]
+            row.calibration_date, row.due_date = calibration_date, due_date
+            if points is not None:
+                for old in list(row.points):
+                    s.delete(old)
+                s.flush()
+                row.points = points
         return row
 
     def references(self) -> list[ReferenceStandard]:

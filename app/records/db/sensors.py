@@ -28,6 +28,47 @@ def find_model(s: Session, text: str) -> SensorModel:
     return matches[0]
 
 
+def _set_model_fields(
+    row: SensorModel,
+    *,
+    maker: str,
+    model: str,
+    nominal_sensitivity: float,
+    unit: str,
+    tolerance_percent: float,
+    frequency_min_hz: float,
+    frequency_max_hz: float,
+    preset: str,
+    level_ms2: float,
+    phase_tolerance_deg: float | None,
+) -> None:
+    """Check every field of a sensor model (a refusal names the field), then set them on `row`:
+    nominal sensitivity in `unit`, tolerance in %, range in Hz, level in m/s^2 peak, phase
+    tolerance in degrees (None: not assessed)."""
+    maker, model = (
+        text_field(maker, "maker", max_len=100),
+        text_field(model, "model", max_len=100),
+    )
+    try:
+        check_unit(unit)
+    except ValueError as exc:
+        raise RecordsError(str(exc)) from None
+    number_field(nominal_sensitivity, "nominal sensitivity", low=0, high=1e6)
+    number_field(tolerance_percent, "tolerance", low=0, high=100)
+    number_field(frequency_min_hz, "frequency min", low=0, high=1e6)
+    number_field(frequency_max_hz, "frequency max", low=frequency_min_hz, high=1e6)
+    number_field(level_ms2, "level", low=0, high=1000)
+    if phase_tolerance_deg is not None:
+        number_field(phase_tolerance_deg, "phase tolerance", low=0, high=180)
+    row.maker, row.model, row.unit, row.preset = maker, model, unit, preset
+    row.nominal_sensitivity = float(nominal_sensitivity)
+    row.tolerance_percent = float(tolerance_percent)
+    row.frequency_min_hz = float(frequency_min_hz)
+    row.frequency_max_hz = float(frequency_max_hz)
+    row.level_ms2 = float(level_ms2)
+    row.phase_tolerance_deg = phase_tolerance_deg
+
+
 class SensorRecords(Store):
     """Customers, models, sensors and run templates."""
 
@@ -57,33 +98,21 @@ class SensorRecords(Store):
         phase_tolerance_deg: float | None = None,
     ) -> SensorModel:
         """A new sensor model, every field checked and named when refused."""
-        maker, model = (
-            text_field(maker, "maker", max_len=100),
-            text_field(model, "model", max_len=100),
-        )
-        try:
-            check_unit(unit)
-        except ValueError as exc:
-            raise RecordsError(str(exc)) from None
-        number_field(nominal_sensitivity, "nominal sensitivity", low=0, high=1e6)
-        number_field(tolerance_percent, "tolerance", low=0, high=100)
-        number_field(frequency_min_hz, "frequency min", low=0, high=1e6)
-        number_field(frequency_max_hz, "frequency max", low=frequency_min_hz, high=1e6)
-        number_field(level_ms2, "level", low=0, high=1000)
-        if phase_tolerance_deg is not None:
-            number_field(phase_tolerance_deg, "phase tolerance", low=0, high=180)
-        row = SensorModel(
+        row = SensorModel()
+        _set_model_fields(
+            row,
             maker=maker,
             model=model,
-            nominal_sensitivity=float(nominal_sensitivity),
+            nominal_sensitivity=nominal_sensitivity,
             unit=unit,
-            tolerance_percent=float(tolerance_percent),
-            frequency_min_hz=float(frequency_min_hz),
-            frequency_max_hz=float(frequency_max_hz),
+            tolerance_percent=tolerance_percent,
+            frequency_min_hz=frequency_min_hz,
+            frequency_max_hz=frequency_max_hz,
             preset=preset,
-            level_ms2=float(level_ms2),
+            level_ms2=level_ms2,
             phase_tolerance_deg=phase_tolerance_deg,
         )
+        maker, model = row.maker, row.model
         with self.session() as s:
             if s.scalar(
                 select(SensorModel).where(SensorModel.maker == maker, SensorModel.model == model)
@@ -169,6 +198,63 @@ class SensorRecords(Store):
         with self.session() as s:
             query = select(SensorModel).order_by(SensorModel.maker, SensorModel.model)
             return list(s.scalars(query).all())
+
+    def update_customer(self, name: str, *, new_name: str, address: str) -> Customer:
+        """Rename customer `name` and/or change its address (audited); an unknown customer or a
+        new name another customer has is refused."""
+        new_name = text_field(new_name, "customer")
+        with self.session() as s:
+            row = s.scalar(select(Customer).where(Customer.name == name.strip()))
+            if row is None:
+                raise RecordsError(f"customer: no customer named {name!r}")
+            if new_name != row.name and s.scalar(select(Customer).where(Customer.name == new_name)):
+                raise RecordsError(f"customer: {new_name!r} already exists")
+            row.name, row.address = new_name, address.strip()
+        return row
+
+    def update_model(
+        self,
+        name: str,
+        *,
+        maker: str,
+        model: str,
+        nominal_sensitivity: float,
+        unit: str,
+        tolerance_percent: float,
+        frequency_min_hz: float,
+        frequency_max_hz: float,
+        preset: str = "piezo",
+        level_ms2: float = 5.0,
+        phase_tolerance_deg: float | None = None,
+    ) -> SensorModel:
+        """Change every field of the model `name` ('maker model'), checked as `add_model` checks
+        them (audited); a maker and model another model has are refused."""
+        with self.session() as s:
+            row = find_model(s, name)
+            _set_model_fields(
+                row,
+                maker=maker,
+                model=model,
+                nominal_sensitivity=nominal_sensitivity,
+                unit=unit,
+                tolerance_percent=tolerance_percent,
+                frequency_min_hz=frequency_min_hz,
+                frequency_max_hz=frequency_max_hz,
+                preset=preset,
+                level_ms2=level_ms2,
+                phase_tolerance_deg=phase_tolerance_deg,
+            )
+            with s.no_autoflush:
+                other = s.scalar(
+                    select(SensorModel).where(
+                        SensorModel.maker == row.maker,
+                        SensorModel.model == row.model,
+                        SensorModel.id != row.id,
+                    )
+                )
+            if other is not None:
+                raise RecordsError(f"model: {row.maker} {row.model} already exists")
+        return row
 
     # ---- run templates per sensor model ---------------------------------------------------
     def add_template(
