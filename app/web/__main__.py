@@ -22,8 +22,8 @@ MIN_SECRET_LENGTH = 32
 log = logging.getLogger("app.web")
 
 
-def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(prog="python -m app.web", description=__doc__)
+def add_options(parser: argparse.ArgumentParser) -> None:
+    """The web view's options (this module and `accelcal web` share them)."""
     parser.add_argument("--db", default=None, help="records database URL (else $ACCELCAL_DB)")
     parser.add_argument("--host", default="127.0.0.1", help="address to listen on")
     parser.add_argument("--port", type=int, default=8080, help="TCP port (1 to 65535)")
@@ -41,13 +41,23 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument(
         "--https-only", action="store_true", help="session cookie only over HTTPS (behind TLS)"
     )
+
+
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(prog="python -m app.web", description=__doc__)
+    add_options(parser)
     return parser.parse_args(argv)
 
 
 def main(argv: list[str] | None = None) -> int:
     """Serve until interrupted; 2 (one line on stderr) for bad options or an unusable
     database."""
-    args = parse_args(argv)
+    return serve(parse_args(argv))
+
+
+def serve(args: argparse.Namespace) -> int:
+    """Serve the web view with parsed options until interrupted; 2 (one line on stderr) for
+    bad options or an unusable database."""
     try:
         if not 1 <= args.port <= 65535:
             raise ValueError(f"--port: must be 1 to 65535, got {args.port}")
