@@ -13,7 +13,7 @@ from app.cli.exits import EXIT_OK, UsageError
 
 def add_web_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     """Add `web` and `records user add` to the top-level subparsers."""
-    from app.web.__main__ import add_options
+    from app.web.options import add_options
 
     w = sub.add_parser("web", help="the lab's read-only web view (register, verification)")
     add_options(w)

@@ -11,36 +11,15 @@ import logging
 import os
 import secrets
 import sys
-from pathlib import Path
 
 from app.certificate.qr import QrError, check_verify_url
 from app.records.db.errors import RecordsInputError
+from app.web.options import add_options
 
 SECRET_ENV = "ACCELCAL_WEB_SECRET"
 MIN_SECRET_LENGTH = 32
 
 log = logging.getLogger("app.web")
-
-
-def add_options(parser: argparse.ArgumentParser) -> None:
-    """The web view's options (this module and `accelcal web` share them)."""
-    parser.add_argument("--db", default=None, help="records database URL (else $ACCELCAL_DB)")
-    parser.add_argument("--host", default="127.0.0.1", help="address to listen on")
-    parser.add_argument("--port", type=int, default=8080, help="TCP port (1 to 65535)")
-    parser.add_argument(
-        "--verify-url",
-        default=None,
-        help="the [laboratory] verify_url printed in QR codes (default: this server's /verify)",
-    )
-    parser.add_argument(
-        "--trust",
-        type=Path,
-        default=None,
-        help="the lab's CA certificate (PEM or DER): signatures must chain to it",
-    )
-    parser.add_argument(
-        "--https-only", action="store_true", help="session cookie only over HTTPS (behind TLS)"
-    )
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
