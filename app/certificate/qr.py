@@ -19,9 +19,11 @@ import hashlib
 import hmac
 import io
 import re
-from urllib.parse import quote, urlsplit
+from urllib.parse import quote
 
 from app.errors import Refusal
+from app.stand.config import ConfigError
+from app.stand.config import check_verify_url as stand_check_verify_url
 
 QR_SIZE_MM = 22.0  # printed size: 25 modules of a version-2 code at about 0.8 mm each
 CODE_BYTES = 10  # 80 bits: unguessable, short enough to type from a printed page
@@ -44,13 +46,11 @@ def verification_code(number: str, manifest_sha256: str) -> str:
 
 def check_verify_url(verify_url: str) -> str:
     """`verify_url` without a trailing slash; QrError unless it is an absolute http(s) URL
-    with no query or fragment (the number and code are appended to it)."""
-    parts = urlsplit(verify_url.strip())
-    if parts.scheme not in ("http", "https") or not parts.netloc:
-        raise QrError(f"laboratory.verify_url: not an http(s) address: {verify_url!r}")
-    if parts.query or parts.fragment:
-        raise QrError(f"laboratory.verify_url: must have no ?query or #fragment: {verify_url!r}")
-    return verify_url.strip().rstrip("/")
+    with no query or fragment (the rule of app.stand.config.check_verify_url, its one home)."""
+    try:
+        return stand_check_verify_url(verify_url)
+    except ConfigError as exc:
+        raise QrError(f"laboratory.verify_url: {exc}") from None
 
 
 def verify_address(verify_url: str, number: str, manifest_sha256: str) -> str:
