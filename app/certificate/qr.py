@@ -6,10 +6,9 @@ number keyed with the run's manifest SHA-256 (which never leaves the lab), 80 bi
 The web view recomputes the code from the records (runs.manifest_sha256) and shows the status
 only when it matches, so certificate numbers, which are sequential, cannot be walked.
 
-For the PDF drawing (app/certificate pdf code, wave 2): `verify_address(verify_url, number,
-sha256_of(run.path / MANIFEST_NAME))`, then `qr_png(address)` (bytes, PNG) into a reportlab
-Image of QR_SIZE_MM square, beside the certificate number on page 1, with the address printed
-under it in small type; nothing is drawn when the stand file has no verify_url.
+The certificate (app.certificate.pdf `verification_qr`, app.certificate.dcc) takes the run's
+address from `verification_address(run, number)`: QR_SIZE_MM square on page 1 with the address
+beside it, and a DCC statement; nothing when the stand file has no verify_url.
 """
 
 from __future__ import annotations
@@ -19,11 +18,15 @@ import hashlib
 import hmac
 import io
 import re
+from typing import TYPE_CHECKING
 from urllib.parse import quote
 
 from app.errors import Refusal
 from app.stand.config import ConfigError
 from app.stand.config import check_verify_url as stand_check_verify_url
+
+if TYPE_CHECKING:
+    from app.certificate.load import StoredRun
 
 QR_SIZE_MM = 22.0  # printed size: 25 modules of a version-2 code at about 0.8 mm each
 CODE_BYTES = 10  # 80 bits: unguessable, short enough to type from a printed page
@@ -77,3 +80,14 @@ def qr_svg(address: str, *, scale: int = 4) -> str:
     buffer = io.BytesIO()
     segno.make_qr(address, error="m").save(buffer, kind="svg", scale=scale, border=4)
     return buffer.getvalue().decode("utf-8")
+
+
+def verification_address(run: StoredRun, number: str) -> str | None:
+    """The certificate's public verification address (app.certificate.qr) from the run's
+    [laboratory] verify_url, keyed with its manifest's SHA-256; None without a verify_url."""
+    from app.records.run_folder import MANIFEST_NAME, sha256_of
+
+    url = run.record.stand.laboratory.get("verify_url") or run.start.laboratory.get("verify_url")
+    if not url:
+        return None
+    return verify_address(str(url), number, sha256_of(run.path / MANIFEST_NAME))

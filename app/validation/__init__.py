@@ -23,8 +23,8 @@ def validate(out: Path) -> int:
     """Run every validation case and write the report to `out` (and its .json twin): 0 when
     every case passed, 1 when any failed. ValidationInputError (nothing run) when `out` or its
     twin exists, is not a .pdf, or its folder is missing."""
-    from app.validation.cases import run_all
     from app.certificate.validated import software_identity
+    from app.validation.cases import run_all
     from app.validation.report import environment, now_utc, write_report
 
     out = Path(out)
