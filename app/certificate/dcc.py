@@ -307,7 +307,7 @@ def duty_statements(admin: ET.Element, run: StoredRun, info: CertificateInfo) ->
     file has a verify_url) and the software validation report (when one passed for this
     software), each a statement named as the PDF names it."""
     from app.certificate.qr import verification_address
-    from app.certificate.validated import current_claim
+    from app.certificate.validated import STATEMENT_NAME, current_claim
 
     statements = admin.find(f"{{{DCC_NS}}}statements")
     if statements is None:
@@ -320,9 +320,8 @@ def duty_statements(admin: ET.Element, run: StoredRun, info: CertificateInfo) ->
     claim = current_claim()
     if claim is not None:
         statement = _d(statements, "statement")
-        _text(statement, "name", VALIDATION_NAME)
+        _text(statement, "name", STATEMENT_NAME)
         _text(statement, "declaration", claim.line())
 
 
 VERIFY_NAME = "Verification address"
-VALIDATION_NAME = "Software validation"

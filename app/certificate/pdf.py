@@ -564,9 +564,9 @@ def validation_statement() -> list[Any]:
     """The software validation report of the installed software, when the lab's validation
     folder holds a passed one whose PDF still has its recorded SHA-256 (app.certificate
     .validated); nothing otherwise."""
-    from app.certificate.validated import current_claim
+    from app.certificate.validated import STATEMENT_NAME, current_claim
 
     claim = current_claim()
     if claim is None:
         return []
-    return [Paragraph("Software validation", HEAD), Paragraph(_esc(claim.line()), SMALL)]
+    return [Paragraph(STATEMENT_NAME, HEAD), Paragraph(_esc(claim.line()), SMALL)]

@@ -293,6 +293,7 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument("pdf", type=Path, help="certificate PDF")
     v.add_argument("--run", type=Path, help="the run folder it certifies (manifest and numbers)")
     v.add_argument("--trust", type=Path, help="the CA certificate (PEM or DER) to trust")
+    v.add_argument("--validation-report", type=Path, help="the validation report PDF it names")
     im = sub.add_parser("impact", help="impact of a corrected reference standard (17025 7.10)")
     im.add_argument("serial", help="the reference standard's serial or id")
     im.add_argument("--table", type=Path, required=True, help="corrected table CSV (refs layout)")

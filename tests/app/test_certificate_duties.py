@@ -154,3 +154,22 @@ def test_a_report_of_other_software_or_failed_is_not_named(complete_run, tmp_pat
         pdf = build(run, INFO, tmp_path / f"c-{folder}.pdf")
         text = " ".join(p.extract_text() for p in PdfReader(pdf).pages)
         assert "Software validation" not in text and "Software validation" not in _dcc(pdf)
+
+
+def test_verify_recomputes_the_named_validation_report(complete_run, tmp_path, monkeypatch, capsys):
+    import shutil
+
+    from app.cli import main
+
+    folder = tmp_path / "validation"
+    monkeypatch.setenv("ACCELCAL_VALIDATION_DIR", str(folder))
+    report = _validation_report(folder, software_identity().sha256)
+    run = tmp_path / "runs" / complete_run.name
+    shutil.copytree(complete_run, run, ignore=shutil.ignore_patterns("certificate*"))
+    pdf = build(run, INFO, tmp_path / "c.pdf")
+    main(["verify", str(pdf), "--validation-report", str(report)])
+    assert "validation report: ok" in capsys.readouterr().out
+    other = tmp_path / "other.pdf"
+    other.write_bytes(b"%PDF-1.4 not the report")
+    assert main(["verify", str(pdf), "--validation-report", str(other)]) == 2
+    assert "the certificate names" in capsys.readouterr().err

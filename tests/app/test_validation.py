@@ -12,8 +12,8 @@ import pytest
 from pypdf import PdfReader
 
 import app.validation.cases as cases
-from app.validation import ValidationInputError, validate
 from app.certificate.validated import software_identity
+from app.validation import ValidationInputError, validate
 from dsp.uncertainty import Budget
 
 pytestmark = pytest.mark.integration
