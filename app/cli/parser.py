@@ -306,7 +306,7 @@ def build_parser() -> argparse.ArgumentParser:
     im.add_argument("--no-flag", action="store_true", help="report only: flag no certificate")
     im.add_argument("--db", metavar="URL", help="records database (default $ACCELCAL_DB)")
     va = sub.add_parser("validate", help="the 17025 7.11.2 software validation report")
-    va.add_argument("--out", type=Path, help="the report PDF (default validation-TIME.pdf)")
+    va.add_argument("--out", type=Path, help="the report PDF (default: the lab validation folder)")
     from app.cli.web import add_web_commands
 
     add_web_commands(sub)
