@@ -1,7 +1,7 @@
-"""Issue 27 wiring in the CLI: `accelcal validate` (the report, exit 0; a failed case exit 1; removing a budget term:
-tests/app/test_validation.py),
-`accelcal web` (the options of python -m app.web, bad ones exit 2) and `accelcal records user
-add NAME` (the password from stdin or a prompt, never from argv; audited without the hash)."""
+"""Issue 27 wiring in the CLI: `accelcal validate` (the report, exit 0; a failed case exit 1;
+removing a budget term: tests/app/test_validation.py), `accelcal web` (the options of python -m
+app.web, bad ones exit 2) and `accelcal records user add NAME` (the password from stdin or a
+prompt, never from argv; audited without the hash)."""
 
 from __future__ import annotations
 
