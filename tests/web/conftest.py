@@ -136,6 +136,6 @@ def web_app(store, records):
     from app.web.server import WebConfig, create_app
 
     config = WebConfig(
-        secret_key="k" * 40, verify_url="https://lab.example/verify", trust=records.pem
+        secret_key="k" * 40, verify_url="https://lab.example/verify", trust=records.lab_certificate
     )
     return create_app(store, config)
