@@ -24,7 +24,8 @@ def cmd_verify(args: argparse.Namespace) -> int:
 def _validation_report(args: argparse.Namespace) -> int:
     """--validation-report: the report's SHA-256 recomputed against the one the (verified)
     certificate names."""
-    from app.certificate.validated import stated_report_sha256, verify_report
+    from app.certificate.validated import verify_report
+    from app.certificate.validated_check import stated_report_sha256
 
     stated = stated_report_sha256(args.pdf)
     if stated is None:

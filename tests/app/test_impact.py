@@ -20,7 +20,7 @@ from app.cli import main
 from app.procedure import impact
 from app.procedure.run import RunRequest, execute
 from app.records.db.engine import open_engine
-from app.records.db.lab import Lab
+from app.records.db.lab import Lab, RecordsError
 from app.records.db.models import AuditEntry, Run
 from app.records.run_folder import MANIFEST_NAME
 
@@ -215,3 +215,20 @@ def test_a_bad_table_is_refused_by_line(tmp_path: Path, text: str, message: str,
 def test_progress_line_counts_and_time_left() -> None:
     assert impact.progress_line(1, 4, 2.0) == "impact: 1/4 runs, 2 s, about 6 s left"
     assert impact.progress_line(4, 4, 8.0) == "impact: 4/4 runs, 8 s"
+
+
+def test_a_review_is_closed_as_amended_or_confirmed_once(lab_runs) -> None:
+    url, _, made = lab_runs
+    lab = Lab(open_engine(url), actor="qm")
+    number = next(c.number for c in lab.register() if c.run.run_id == made["b"])
+    assert lab.open_review(number, subject="impact of reference X", reason="check it")
+    assert not lab.open_review(number, subject="impact of reference X", reason="again")
+    with pytest.raises(RecordsError, match="outcome: must be one of amended, confirmed"):
+        lab.close_review(number, subject="impact of reference X", outcome="ignored")
+    lab.close_review(number, subject="impact of reference X", outcome="confirmed")
+    closed = [r for r in lab.reviews() if r.number == number]
+    assert [(r.outcome, r.closed_utc is not None) for r in closed] == [("confirmed", True)]
+    with pytest.raises(RecordsError, match="has no open review"):
+        lab.close_review(number, subject="impact of reference X", outcome="amended")
+    with pytest.raises(RecordsError, match="number: no certificate"):
+        lab.open_review("NOPE-1", subject="s", reason="r")
