@@ -34,7 +34,7 @@ def cmd_impact(args: argparse.Namespace) -> int:
     from app.cli.records import _lab
     from app.procedure import impact, impact_report
 
-    if args.workers is not None and not 1 <= args.workers <= 64:
+    if args.workers is not None and not 1 <= args.workers <= 64:  # also bounded by the parser
         raise UsageError(f"--workers: must be 1 to 64, got {args.workers}")
     table = impact.read_table(args.table)
     out = args.out or _default_out(args.serial)

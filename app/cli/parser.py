@@ -29,6 +29,7 @@ from app.cli.options import (
     SKEW,
     TEMPERATURE,
     TOLERANCE,
+    Bounded,
     dut_name,
     numeric_option,
 )
@@ -39,6 +40,7 @@ from app.stand.simulated import FAULT_KINDS
 from dsp.estimators import DEFAULT_ESTIMATOR, ESTIMATORS
 from dsp.multisine import PRESETS
 
+WORKERS = Bounded(int, 1, 64)
 RECORDS_COMMANDS: dict[str, Handler] = {}  # filled by build_parser (app.cli.records)
 
 
@@ -302,7 +304,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     im.add_argument("--until", type=_iso_day, help="window end yyyy-mm-dd (default: now)")
     im.add_argument("--out", type=Path, help="report folder (default ./impact-SERIAL-TIME)")
-    im.add_argument("--workers", type=int, help="processes (default: one per core)")
+    numeric_option(im, "--workers", WORKERS, "worker processes (default: one per core)")
     im.add_argument("--no-flag", action="store_true", help="report only: flag no certificate")
     im.add_argument("--db", metavar="URL", help="records database (default $ACCELCAL_DB)")
     va = sub.add_parser("validate", help="the 17025 7.11.2 software validation report")

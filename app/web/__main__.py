@@ -11,6 +11,7 @@ import logging
 import os
 import secrets
 import sys
+from typing import NoReturn
 
 from app.certificate.qr import QrError, check_verify_url
 from app.records.db.errors import RecordsInputError
@@ -22,8 +23,16 @@ MIN_SECRET_LENGTH = 32
 log = logging.getLogger("app.web")
 
 
+class _OneLineParser(argparse.ArgumentParser):
+    """An option refused in one line on stderr ("error: ..."), exit status 2."""
+
+    def error(self, message: str) -> NoReturn:
+        print(f"error: {message}", file=sys.stderr)
+        raise SystemExit(2)
+
+
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(prog="python -m app.web", description=__doc__)
+    parser = _OneLineParser(prog="python -m app.web", description=__doc__)
     add_options(parser)
     return parser.parse_args(argv)
 
@@ -31,7 +40,11 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
 def main(argv: list[str] | None = None) -> int:
     """Serve until interrupted; 2 (one line on stderr) for bad options or an unusable
     database."""
-    return serve(parse_args(argv))
+    try:
+        args = parse_args(argv)
+    except SystemExit as exc:  # --help (0) or a refused option (2, said in one line)
+        return exc.code if isinstance(exc.code, int) else 2
+    return serve(args)
 
 
 def serve(args: argparse.Namespace) -> int:
