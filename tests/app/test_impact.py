@@ -232,3 +232,36 @@ def test_a_review_is_closed_as_amended_or_confirmed_once(lab_runs) -> None:
         lab.close_review(number, subject="impact of reference X", outcome="amended")
     with pytest.raises(RecordsError, match="number: no certificate"):
         lab.open_review("NOPE-1", subject="s", reason="r")
+
+
+def test_the_window_starts_at_the_references_calibration_by_default(
+    lab_runs, tmp_path: Path, capsys
+) -> None:
+    """No --since: the window opens at the calibration date of the reference on record (its
+    last good calibration), so the 2025 run stays out; --no-flag opens no review."""
+    from datetime import date
+
+    url, runs, made = lab_runs
+    lab = Lab(open_engine(url))
+    if not any(r.identifier == "REF-8305-SIM" for r in lab.references()):
+        lab.add_reference(
+            "REF-8305-SIM",
+            model="8305",
+            serial="SIM-0001",
+            certificate_number="C-1",
+            calibration_date=date(2026, 1, 1),
+            due_date=date(2027, 1, 1),
+            table=[(160.0, 1.0, 0.005, 0.0)],
+        )
+    before = len(lab.reviews())
+    table = tmp_path / "corrected.csv"
+    _corrected_table(runs / made["a"], table)
+    out = tmp_path / "report"
+    argv = ["impact", "REF-8305-SIM", "--table", str(table), "--db", url, "--out", str(out)]
+    assert main([*argv, "--workers", "1", "--no-flag"]) == 0
+    captured = capsys.readouterr()
+    assert "Window: 2026-01-01 to now; 3 indexed run(s) checked, 2 used this reference" in (
+        captured.out
+    )
+    assert made["old"] not in captured.out and made["a"] in captured.out
+    assert len(Lab(open_engine(url)).reviews()) == before
