@@ -71,7 +71,7 @@ demo: $(STAMP)
 # the ISO/IEC 17025 7.11.2 software validation report of this version (exit 1: a case failed)
 validate: $(STAMP)
 	mkdir -p $(DEMO_DIR)
-	$(BIN)/python -m app.validation --out $(DEMO_DIR)/validation-$$(date -u +%Y%m%dT%H%M%SZ).pdf
+	$(BIN)/accelcal validate --out $(DEMO_DIR)/validation-$$(date -u +%Y%m%dT%H%M%SZ).pdf
 
 gui: $(STAMP)
 	$(BIN)/accelcal gui --sim
@@ -86,6 +86,7 @@ bench: $(STAMP)
 	$(BIN)/python bench/excitation_time.py
 	$(BIN)/python bench/records.py
 	$(BIN)/python bench/import.py
+	$(BIN)/python bench/impact.py 10000
 	QT_QPA_PLATFORM=offscreen $(BIN)/python bench/gui_responsiveness.py
 
 typecheck: $(STAMP)

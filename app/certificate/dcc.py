@@ -181,6 +181,7 @@ def build(run: StoredRun, info: CertificateInfo) -> bytes:
     _text(customer, "name", str(info.customer))
     _text(_d(customer, "location"), "further", info.customer_address or str(info.customer))
     _statements(admin, results)
+    duty_statements(admin, run, info)
 
     result_set = _d(_d(root, "measurementResults"), "measurementResult")
     _text(result_set, "name", "Comparison calibration per ISO 16063-21 (multisine)")
@@ -296,3 +297,31 @@ def validation_error(xml: bytes) -> str | None:
     if error is None:
         return None
     return f"{error.path}: {error.reason or error.message}"
+
+
+# ---- issue 27: the verification address and the software validation statement -----------
+
+
+def duty_statements(admin: ET.Element, run: StoredRun, info: CertificateInfo) -> None:
+    """After the statement of conformity: the public verification address (when the stand
+    file has a verify_url) and the software validation report (when one passed for this
+    software), each a statement named as the PDF names it."""
+    from app.certificate.qr import verification_address
+    from app.certificate.validated import STATEMENT_NAME, current_claim
+
+    statements = admin.find(f"{{{DCC_NS}}}statements")
+    if statements is None:
+        return
+    address = verification_address(run, str(info.certificate_number))
+    if address is not None:
+        statement = _d(statements, "statement")
+        _text(statement, "name", VERIFY_NAME)
+        _text(statement, "declaration", address)
+    claim = current_claim()
+    if claim is not None:
+        statement = _d(statements, "statement")
+        _text(statement, "name", STATEMENT_NAME)
+        _text(statement, "declaration", claim.line())
+
+
+VERIFY_NAME = "Verification address"

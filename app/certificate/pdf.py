@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from reportlab.lib import colors
-from reportlab.lib.enums import TA_CENTER
+from reportlab.lib.enums import TA_CENTER, TA_RIGHT
 from reportlab.lib.pagesizes import A4
 from reportlab.lib.styles import ParagraphStyle, getSampleStyleSheet
 from reportlab.lib.units import mm
@@ -220,6 +220,7 @@ def write_pdf(
                 *[("Run seal", seal) for seal in [named_seal(run.path)] if seal],
             ]
         ),
+        *verification_qr(run, number),
         Paragraph("Method", HEAD),
         Paragraph(text.method_text(record, results, plan), BODY),
         Paragraph("Conditions", HEAD),
@@ -273,6 +274,7 @@ def write_pdf(
         story += _sweep_section(sweep)
     story += _budget_section(run, results)
     story += _statements(results, info, p_percent)
+    story += validation_statement()
     story += _sign_off(info, record)
     document = SimpleDocTemplate(
         str(out),
@@ -519,3 +521,52 @@ def embed(pdf: Path, name: str, data: bytes) -> None:
     writer.root_object[NameObject("/AF")] = ArrayObject([names[-1]])
     with pdf.open("wb") as handle:
         writer.write(handle)
+
+
+# ---- issue 27: the verification QR code and the software validation statement ------------
+
+
+def verification_qr(run: StoredRun, number: str) -> list[Any]:
+    """Page 1's QR code (QR_SIZE_MM square, right-aligned) with its address under it in small
+    type; nothing when the stand file has no verify_url."""
+    import io
+
+    from reportlab.platypus import Image
+
+    from app.certificate.qr import QR_SIZE_MM, qr_png, verification_address
+
+    address = verification_address(run, number)
+    if address is None:
+        return []
+    size = QR_SIZE_MM * mm
+    image = Image(io.BytesIO(qr_png(address)), width=size, height=size)
+    caption = Paragraph(
+        f"Verify this certificate at<br/>{_esc(address)}",
+        ParagraphStyle("qr", parent=SMALL, fontSize=6.5, leading=8, alignment=TA_RIGHT),
+    )
+    block = Table([[image], [caption]], colWidths=[80 * mm])  # the address under the code
+    block.setStyle(
+        TableStyle(
+            [
+                ("ALIGN", (0, 0), (-1, -1), "RIGHT"),
+                ("LEFTPADDING", (0, 0), (-1, -1), 0),
+                ("RIGHTPADDING", (0, 0), (-1, -1), 0),
+                ("TOPPADDING", (0, 0), (-1, -1), 1),
+                ("BOTTOMPADDING", (0, 0), (-1, -1), 1),
+            ]
+        )
+    )
+    block.hAlign = "RIGHT"
+    return [Spacer(1, 2 * mm), block]
+
+
+def validation_statement() -> list[Any]:
+    """The software validation report of the installed software, when the lab's validation
+    folder holds a passed one whose PDF still has its recorded SHA-256 (app.certificate
+    .validated); nothing otherwise."""
+    from app.certificate.validated import STATEMENT_NAME, current_claim
+
+    claim = current_claim()
+    if claim is None:
+        return []
+    return [Paragraph(STATEMENT_NAME, HEAD), Paragraph(_esc(claim.line()), SMALL)]

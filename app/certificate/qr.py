@@ -6,10 +6,9 @@ number keyed with the run's manifest SHA-256 (which never leaves the lab), 80 bi
 The web view recomputes the code from the records (runs.manifest_sha256) and shows the status
 only when it matches, so certificate numbers, which are sequential, cannot be walked.
 
-For the PDF drawing (app/certificate pdf code, wave 2): `verify_address(verify_url, number,
-sha256_of(run.path / MANIFEST_NAME))`, then `qr_png(address)` (bytes, PNG) into a reportlab
-Image of QR_SIZE_MM square, beside the certificate number on page 1, with the address printed
-under it in small type; nothing is drawn when the stand file has no verify_url.
+The certificate (app.certificate.pdf `verification_qr`, app.certificate.dcc) takes the run's
+address from `verification_address(run, number)`: QR_SIZE_MM square on page 1 with the address
+beside it, and a DCC statement; nothing when the stand file has no verify_url.
 """
 
 from __future__ import annotations
@@ -19,9 +18,15 @@ import hashlib
 import hmac
 import io
 import re
-from urllib.parse import quote, urlsplit
+from typing import TYPE_CHECKING
+from urllib.parse import quote
 
 from app.errors import Refusal
+from app.stand.config import ConfigError
+from app.stand.config import check_verify_url as stand_check_verify_url
+
+if TYPE_CHECKING:
+    from app.certificate.load import StoredRun
 
 QR_SIZE_MM = 22.0  # printed size: 25 modules of a version-2 code at about 0.8 mm each
 CODE_BYTES = 10  # 80 bits: unguessable, short enough to type from a printed page
@@ -44,13 +49,11 @@ def verification_code(number: str, manifest_sha256: str) -> str:
 
 def check_verify_url(verify_url: str) -> str:
     """`verify_url` without a trailing slash; QrError unless it is an absolute http(s) URL
-    with no query or fragment (the number and code are appended to it)."""
-    parts = urlsplit(verify_url.strip())
-    if parts.scheme not in ("http", "https") or not parts.netloc:
-        raise QrError(f"laboratory.verify_url: not an http(s) address: {verify_url!r}")
-    if parts.query or parts.fragment:
-        raise QrError(f"laboratory.verify_url: must have no ?query or #fragment: {verify_url!r}")
-    return verify_url.strip().rstrip("/")
+    with no query or fragment (the rule of app.stand.config.check_verify_url, its one home)."""
+    try:
+        return stand_check_verify_url(verify_url)
+    except ConfigError as exc:
+        raise QrError(f"laboratory.verify_url: {exc}") from None
 
 
 def verify_address(verify_url: str, number: str, manifest_sha256: str) -> str:
@@ -77,3 +80,14 @@ def qr_svg(address: str, *, scale: int = 4) -> str:
     buffer = io.BytesIO()
     segno.make_qr(address, error="m").save(buffer, kind="svg", scale=scale, border=4)
     return buffer.getvalue().decode("utf-8")
+
+
+def verification_address(run: StoredRun, number: str) -> str | None:
+    """The certificate's public verification address (app.certificate.qr) from the run's
+    [laboratory] verify_url, keyed with its manifest's SHA-256; None without a verify_url."""
+    from app.records.run_folder import MANIFEST_NAME, sha256_of
+
+    url = run.record.stand.laboratory.get("verify_url") or run.start.laboratory.get("verify_url")
+    if not url:
+        return None
+    return verify_address(str(url), number, sha256_of(run.path / MANIFEST_NAME))

@@ -30,6 +30,7 @@ from app.cli.exits import (
     run_command,
     silence_stdout,
 )
+from app.cli.impact import cmd_impact
 from app.cli.options import Bounded, parse_frequencies
 from app.cli.parser import RECORDS_COMMANDS, build_parser
 from app.cli.plan import cmd_plan, plan_report
@@ -39,7 +40,9 @@ from app.cli.run import cmd_run
 from app.cli.show import cmd_show
 from app.cli.simulate import cmd_simulate
 from app.cli.teds import cmd_teds
+from app.cli.validate import cmd_validate
 from app.cli.verify import cmd_verify
+from app.cli.web import cmd_records, cmd_web
 
 __all__ = [
     "COMMANDS",
@@ -68,6 +71,10 @@ COMMANDS: dict[str, Handler] = {
     "gui": cmd_gui,
     "verify": cmd_verify,
     "teds": cmd_teds,
+    "impact": cmd_impact,
+    "validate": cmd_validate,
+    "web": cmd_web,
+    "records": cmd_records,
 }
 
 

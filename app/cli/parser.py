@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import re
 import sys
+from datetime import date
 from pathlib import Path
 
 from app.cli.options import (
@@ -28,6 +29,7 @@ from app.cli.options import (
     SKEW,
     TEMPERATURE,
     TOLERANCE,
+    Bounded,
     dut_name,
     numeric_option,
 )
@@ -38,6 +40,7 @@ from app.stand.simulated import FAULT_KINDS
 from dsp.estimators import DEFAULT_ESTIMATOR, ESTIMATORS
 from dsp.multisine import PRESETS
 
+WORKERS = Bounded(int, 1, 64)
 RECORDS_COMMANDS: dict[str, Handler] = {}  # filled by build_parser (app.cli.records)
 
 
@@ -53,6 +56,13 @@ class _Parser(argparse.ArgumentParser):
 
 
 NEGATIVE_NUMBER = re.compile(r"^-\.?\d")
+
+
+def _iso_day(text: str) -> date:
+    try:
+        return date.fromisoformat(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a date yyyy-mm-dd: {text!r}") from None
 
 
 class _Version(argparse.Action):
@@ -285,5 +295,22 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument("pdf", type=Path, help="certificate PDF")
     v.add_argument("--run", type=Path, help="the run folder it certifies (manifest and numbers)")
     v.add_argument("--trust", type=Path, help="the CA certificate (PEM or DER) to trust")
+    v.add_argument("--validation-report", type=Path, help="the validation report PDF it names")
+    im = sub.add_parser("impact", help="impact of a corrected reference standard (17025 7.10)")
+    im.add_argument("serial", help="the reference standard's serial or id")
+    im.add_argument("--table", type=Path, required=True, help="corrected table CSV (refs layout)")
+    im.add_argument(
+        "--since", type=_iso_day, help="window start yyyy-mm-dd (default: its calibration)"
+    )
+    im.add_argument("--until", type=_iso_day, help="window end yyyy-mm-dd (default: now)")
+    im.add_argument("--out", type=Path, help="report folder (default ./impact-SERIAL-TIME)")
+    numeric_option(im, "--workers", WORKERS, "worker processes (default: one per core)")
+    im.add_argument("--no-flag", action="store_true", help="report only: flag no certificate")
+    im.add_argument("--db", metavar="URL", help="records database (default $ACCELCAL_DB)")
+    va = sub.add_parser("validate", help="the 17025 7.11.2 software validation report")
+    va.add_argument("--out", type=Path, help="the report PDF (default: the lab validation folder)")
+    from app.cli.web import add_web_commands
+
+    add_web_commands(sub)
     RECORDS_COMMANDS.update(add_records_commands(sub))
     return parser

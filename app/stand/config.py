@@ -2,7 +2,8 @@
 
 Sections (units in the names):
 
-    [laboratory]  name, address, accreditation (optional)
+    [laboratory]  name, address, accreditation (optional), verify_url (optional: the web view's
+                  public /verify address the certificate's QR code leads to)
     [daq]         backend = "sim" | "nidaqmx", device, skew_s (DUT channel's sampling delay),
                   skew_tolerance_s (its tolerance, half-width: the phase term 360 f tau deg)
     [daq.output]  physical, range_v
@@ -32,6 +33,7 @@ from datetime import date
 from importlib import resources
 from pathlib import Path
 from typing import Any
+from urllib.parse import urlsplit
 
 from app.errors import Refusal
 from app.io.checks import MAX_TEXT_BYTES, InputFileError, check_input_file
@@ -62,7 +64,7 @@ SCHEMA: dict[str, frozenset[str]] = {
             "certificate",
         }
     ),
-    "laboratory": frozenset({"name", "address", "country", "accreditation"}),
+    "laboratory": frozenset({"name", "address", "country", "accreditation", "verify_url"}),
     "daq": frozenset(
         {"backend", "device", "skew_s", "skew_tolerance_s", "output", "reference", "dut", "drive"}
     ),
@@ -113,6 +115,17 @@ SCHEMA: dict[str, frozenset[str]] = {
 
 class ConfigError(Refusal):
     """A stand configuration that cannot be used; the message names the file and field."""
+
+
+def check_verify_url(verify_url: str) -> str:
+    """`verify_url` without a trailing slash; ConfigError unless it is an absolute http(s)
+    address with no ?query or #fragment (a certificate number and code are appended to it)."""
+    parts = urlsplit(verify_url.strip())
+    if parts.scheme not in ("http", "https") or not parts.netloc:
+        raise ConfigError(f"not an http(s) address: {verify_url!r}")
+    if parts.query or parts.fragment:
+        raise ConfigError(f"must have no ?query or #fragment: {verify_url!r}")
+    return verify_url.strip().rstrip("/")
 
 
 @dataclass(frozen=True)
@@ -338,6 +351,14 @@ def _parse(data: dict[str, Any], text: str, source: str) -> StandConfig:
         raise r.fail(
             "laboratory.country", f"an ISO 3166-1 two-letter code like 'PL', got {country!r}"
         )
+    if "verify_url" in lab:  # only when given: the stored [laboratory] of other stands is as before
+        url = lab["verify_url"]
+        if not isinstance(url, str):
+            raise r.fail("laboratory.verify_url", "must be a string")
+        try:
+            laboratory["verify_url"] = check_verify_url(url)
+        except ConfigError as exc:
+            raise r.fail("laboratory.verify_url", str(exc)) from None
     daq = r.table("daq")
     backend = r.value(daq, "daq", "backend", str)
     if backend not in BACKENDS:

@@ -23,8 +23,9 @@ def validate(out: Path) -> int:
     """Run every validation case and write the report to `out` (and its .json twin): 0 when
     every case passed, 1 when any failed. ValidationInputError (nothing run) when `out` or its
     twin exists, is not a .pdf, or its folder is missing."""
+    from app.certificate.validated import software_identity
     from app.validation.cases import run_all
-    from app.validation.report import environment, now_utc, software_identity, write_report
+    from app.validation.report import environment, now_utc, write_report
 
     out = Path(out)
     if out.suffix.lower() != ".pdf":
@@ -58,26 +59,9 @@ def validate(out: Path) -> int:
 
 def passed_report(folder: Path, software_sha256: str) -> Path | None:
     """The newest validation report PDF in `folder` whose JSON twin says every case passed for
-    the software with SHA-256 `software_sha256` (app.validation.report.software_identity), or
-    None. For the certificate to name the validation report of its software version. The
-    twin is not signed: whoever can write `folder` can claim a validation, so keep it with the
-    lab's records."""
-    import json
+    the software with SHA-256 `software_sha256` and whose PDF still has the SHA-256 the twin
+    records (app.certificate.validated, where the certificate's claim is made), or None."""
+    from app.certificate.validated import passed_claim
 
-    found: list[tuple[str, Path]] = []
-    for twin in sorted(Path(folder).glob("*.json")):
-        try:
-            record = json.loads(twin.read_text(encoding="utf-8"))
-            ok = (
-                record.get("passed") is True
-                and record["software"]["sha256"] == software_sha256
-                and all(case["passed"] is True for case in record["cases"])
-                and bool(record["cases"])
-            )
-            when = str(record["date_utc"])
-        except (OSError, ValueError, KeyError, TypeError):
-            continue  # not a validation report
-        pdf = twin.with_suffix(".pdf")
-        if ok and pdf.is_file():
-            found.append((when, pdf))
-    return max(found)[1] if found else None
+    claim = passed_claim(Path(folder), software_sha256)
+    return None if claim is None else Path(folder) / claim.report

@@ -1,5 +1,5 @@
 """`python -m app.validation --out REPORT.pdf`: run the validation cases and write the report
-(until `accelcal validate` is wired in the CLI). Exit 0 when every case passed, 1 when any
+(the same as `accelcal validate --out REPORT.pdf`). Exit 0 when every case passed, 1 when any
 failed, 2 (one line on stderr) for a report path that cannot be written."""
 
 from __future__ import annotations

@@ -5,47 +5,20 @@ expected, obtained, tolerance and pass/fail. A report is written once, never ove
 from __future__ import annotations
 
 import hashlib
-import importlib
 import json
 import platform
 import sys
-from dataclasses import asdict, dataclass
+from dataclasses import asdict
 from datetime import UTC, datetime
 from importlib import metadata, resources
 from pathlib import Path
 
-from app.files import write_with
+from app.certificate.validated import PACKAGES, Software
+from app.files import FileExistsRefusal, write_with
 from app.validation.cases import CaseResult
 
-PACKAGES = ("dsp", "hardware", "sim", "app")  # what the software hash covers
 ENVIRONMENT_PACKAGES = ("numpy", "scipy", "h5py", "reportlab", "sqlalchemy", "pypdf")
 FONT, FONT_BOLD = "DejaVuSans", "DejaVuSans-Bold"
-
-
-@dataclass(frozen=True)
-class Software:
-    """The validated software: version, SHA-256 over its installed files, their number."""
-
-    version: str
-    sha256: str
-    files: int
-
-
-def software_identity() -> Software:
-    """Version (app.version) and the SHA-256 of every installed file of PACKAGES (no bytecode):
-    over the sorted lines 'package/relative/path <sha256 of the file>'."""
-    from app.version import software_version
-
-    lines = []
-    for package in PACKAGES:
-        root = Path(str(importlib.import_module(package).__file__)).parent
-        for path in sorted(root.rglob("*")):
-            if not path.is_file() or "__pycache__" in path.parts or path.suffix == ".pyc":
-                continue
-            digest = hashlib.sha256(path.read_bytes()).hexdigest()
-            lines.append(f"{package}/{path.relative_to(root).as_posix()} {digest}")
-    total = hashlib.sha256("\n".join(lines).encode("utf-8")).hexdigest()
-    return Software(software_version(), total, len(lines))
 
 
 def environment() -> dict[str, str]:
@@ -78,8 +51,11 @@ def _fonts() -> None:
 def write_report(
     out: Path, cases: list[CaseResult], software: Software, env: dict[str, str], when: datetime
 ) -> None:
-    """Write the PDF report to `out` and its JSON twin (same name, .json); FileExistsError
-    (app.files) when either exists."""
+    """Write the PDF report to `out`, then its JSON twin (same name, .json) carrying the PDF's
+    SHA-256 (a certificate names that hash); FileExistsError (app.files) when either exists."""
+    if out.with_suffix(".json").exists():
+        raise FileExistsRefusal(f"{out.with_suffix('.json')}: exists")
+    write_with(out, lambda p: _pdf(p, cases, software, env, when))
     record = {
         "report": "software validation, ISO/IEC 17025:2017 7.11.2",
         "date_utc": when.isoformat(timespec="seconds"),
@@ -87,17 +63,16 @@ def write_report(
         "environment": env,
         "passed": all(case.passed for case in cases),
         "cases": [asdict(case) for case in cases],
+        "report_pdf_sha256": hashlib.sha256(out.read_bytes()).hexdigest(),
     }
-    json_out = out.with_suffix(".json")
 
     def write_json(path: Path) -> None:
         path.write_text(json.dumps(record, indent=2), encoding="utf-8")
 
-    write_with(json_out, write_json)
     try:
-        write_with(out, lambda p: _pdf(p, cases, software, env, when))
+        write_with(out.with_suffix(".json"), write_json)
     except BaseException:
-        json_out.unlink(missing_ok=True)
+        out.unlink(missing_ok=True)
         raise
 
 

@@ -11,10 +11,11 @@ import logging
 import os
 import secrets
 import sys
-from pathlib import Path
+from typing import NoReturn
 
 from app.certificate.qr import QrError, check_verify_url
 from app.records.db.errors import RecordsInputError
+from app.web.options import add_options
 
 SECRET_ENV = "ACCELCAL_WEB_SECRET"
 MIN_SECRET_LENGTH = 32
@@ -22,32 +23,33 @@ MIN_SECRET_LENGTH = 32
 log = logging.getLogger("app.web")
 
 
+class _OneLineParser(argparse.ArgumentParser):
+    """An option refused in one line on stderr ("error: ..."), exit status 2."""
+
+    def error(self, message: str) -> NoReturn:
+        print(f"error: {message}", file=sys.stderr)
+        raise SystemExit(2)
+
+
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(prog="python -m app.web", description=__doc__)
-    parser.add_argument("--db", default=None, help="records database URL (else $ACCELCAL_DB)")
-    parser.add_argument("--host", default="127.0.0.1", help="address to listen on")
-    parser.add_argument("--port", type=int, default=8080, help="TCP port (1 to 65535)")
-    parser.add_argument(
-        "--verify-url",
-        default=None,
-        help="the [laboratory] verify_url printed in QR codes (default: this server's /verify)",
-    )
-    parser.add_argument(
-        "--trust",
-        type=Path,
-        default=None,
-        help="the lab's CA certificate (PEM or DER): signatures must chain to it",
-    )
-    parser.add_argument(
-        "--https-only", action="store_true", help="session cookie only over HTTPS (behind TLS)"
-    )
+    parser = _OneLineParser(prog="python -m app.web", description=__doc__)
+    add_options(parser)
     return parser.parse_args(argv)
 
 
 def main(argv: list[str] | None = None) -> int:
     """Serve until interrupted; 2 (one line on stderr) for bad options or an unusable
     database."""
-    args = parse_args(argv)
+    try:
+        args = parse_args(argv)
+    except SystemExit as exc:  # --help (0) or a refused option (2, said in one line)
+        return exc.code if isinstance(exc.code, int) else 2
+    return serve(args)
+
+
+def serve(args: argparse.Namespace) -> int:
+    """Serve the web view with parsed options until interrupted; 2 (one line on stderr) for
+    bad options or an unusable database."""
     try:
         if not 1 <= args.port <= 65535:
             raise ValueError(f"--port: must be 1 to 65535, got {args.port}")

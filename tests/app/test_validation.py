@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import json
 import sys
 from pathlib import Path
@@ -11,8 +12,8 @@ import pytest
 from pypdf import PdfReader
 
 import app.validation.cases as cases
+from app.certificate.validated import software_identity
 from app.validation import ValidationInputError, validate
-from app.validation.report import software_identity
 from dsp.uncertainty import Budget
 
 pytestmark = pytest.mark.integration
@@ -32,6 +33,7 @@ def test_validate_writes_its_report_and_exits_0_when_every_case_passes(tmp_path:
     assert len(record["cases"]) == 23 and all(case["passed"] for case in record["cases"])
     software = software_identity()
     assert record["software"]["sha256"] == software.sha256
+    assert record["report_pdf_sha256"] == hashlib.sha256(out.read_bytes()).hexdigest()
     text = _text(out)
     assert "ISO/IEC 17025:2017 clause 7.11.2" in text
     assert software.sha256 in text and "PASS: every case passed" in text
@@ -103,7 +105,7 @@ def test_an_existing_report_is_never_overwritten(tmp_path: Path) -> None:
 
 
 def test_the_software_hash_covers_every_file_but_bytecode(tmp_path: Path, monkeypatch) -> None:
-    import app.validation.report as report
+    import app.certificate.validated as report
 
     package = tmp_path / "validated_pkg"
     (package / "__pycache__").mkdir(parents=True)
@@ -122,15 +124,16 @@ def test_the_software_hash_covers_every_file_but_bytecode(tmp_path: Path, monkey
 
 
 def _report(folder: Path, name: str, sha: str, when: str, passed: bool = True) -> Path:
+    pdf = folder / f"{name}.pdf"
+    pdf.write_bytes(b"%PDF-1.4 " + name.encode())
     record = {
         "date_utc": when,
         "software": {"sha256": sha},
         "passed": passed,
         "cases": [{"passed": passed}],
+        "report_pdf_sha256": hashlib.sha256(pdf.read_bytes()).hexdigest(),
     }
     (folder / f"{name}.json").write_text(json.dumps(record))
-    pdf = folder / f"{name}.pdf"
-    pdf.write_bytes(b"%PDF-1.4")
     return pdf
 
 
@@ -146,6 +149,16 @@ def test_the_newest_passed_report_of_the_same_software_is_found(tmp_path: Path) 
     new.unlink()  # a twin without its PDF names nothing
     assert passed_report(tmp_path, "s1") == old
     assert passed_report(tmp_path, "s3") is None
+
+
+def test_a_report_whose_pdf_was_replaced_is_not_named(tmp_path: Path) -> None:
+    """The twin records the PDF's SHA-256: a PDF swapped after the fact names nothing."""
+    from app.validation import passed_report
+
+    pdf = _report(tmp_path, "a", "s1", "2026-01-01T00:00:00+00:00")
+    assert passed_report(tmp_path, "s1") == pdf
+    pdf.write_bytes(b"%PDF-1.4 another report")
+    assert passed_report(tmp_path, "s1") is None
 
 
 def test_the_module_entry_point_refuses_a_bad_path_with_exit_2(tmp_path, capsys) -> None:

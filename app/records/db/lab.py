@@ -4,8 +4,9 @@ the certificate register. Every write is checked first (a refusal names the fiel
 
 `Lab` composes the parts, each in its own module: `store` (sessions, the refusal, shared
 checks), `sensors` (customers, models, sensors, run templates), `references` (reference
-standards, the due list), `run_index` (runs, history, control charts) and `certificates`
-(settings and the register). The names below are re-exported for the callers of this module.
+standards, the due list), `run_index` (runs, history, control charts), `certificates`
+(settings and the register) and `reviews` (certificates under review, runs in a window).
+The names below are re-exported for the callers of this module.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from app.records.db.certificates import (
     split_pattern,
 )
 from app.records.db.references import DueItem, ReferenceRecords
+from app.records.db.reviews import IndexedRun, Review, ReviewRecords
 from app.records.db.run_index import (
     D2_MOVING_RANGE,
     DAYS_PER_YEAR,
@@ -47,8 +49,10 @@ __all__ = [
     "History",
     "HistoryPoint",
     "ImportReport",
+    "IndexedRun",
     "Lab",
     "RecordsError",
+    "Review",
     "add_months",
     "check_pattern",
     "drift_percent_per_year",
@@ -57,5 +61,5 @@ __all__ = [
 ]
 
 
-class Lab(RunIndex, CertificateRegister, ReferenceRecords):
+class Lab(RunIndex, CertificateRegister, ReferenceRecords, ReviewRecords):
     """The records of one lab over one database engine (`Lab(engine, actor=...)`)."""

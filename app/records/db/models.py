@@ -248,3 +248,22 @@ class User(Base):
     password_hash: Mapped[str] = mapped_column(String(200))
     active: Mapped[bool] = mapped_column(Boolean, default=True)
     created_utc: Mapped[datetime] = mapped_column(DateTime(timezone=True))
+
+
+class CertificateReview(Base):
+    """A certificate under review (ISO/IEC 17025 7.10): why (e.g. the impact of a reference
+    standard found out of tolerance), when it was opened (UTC) and, once decided, whether the
+    certificate was amended or confirmed. The certificate's own state is left as it is."""
+
+    __tablename__ = "certificate_reviews"
+    __table_args__ = (
+        CheckConstraint("outcome IS NULL OR outcome IN ('amended', 'confirmed')", name="outcome"),
+    )
+    id: Mapped[int] = mapped_column(primary_key=True)
+    certificate_id: Mapped[int] = mapped_column(ForeignKey("certificates.id"))
+    subject: Mapped[str] = mapped_column(String(200))  # e.g. "impact of REF SIM-0001"
+    reason: Mapped[str] = mapped_column(Text)
+    opened_utc: Mapped[datetime] = mapped_column(DateTime(timezone=True))
+    outcome: Mapped[str | None] = mapped_column(String(20), nullable=True)
+    closed_utc: Mapped[datetime | None] = mapped_column(DateTime(timezone=True), nullable=True)
+    certificate: Mapped[Certificate] = relationship()

@@ -1,0 +1,64 @@
+"""`accelcal web` (the lab's read-only web view, the options of `python -m app.web`) and
+`accelcal records user add NAME` (a staff user of the web view; the password is read from a
+prompt or, with --password-stdin, from standard input: never from the command line)."""
+
+from __future__ import annotations
+
+import argparse
+import getpass
+import sys
+
+from app.cli.exits import EXIT_OK, UsageError
+
+
+def add_web_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    """Add `web` and `records user add` to the top-level subparsers."""
+    from app.web.options import add_options
+
+    w = sub.add_parser("web", help="the lab's read-only web view (register, verification)")
+    add_options(w)
+    r = sub.add_parser("records", help="records administration: user add")
+    rsub = r.add_subparsers(dest="records_command", required=True, metavar="WHAT")
+    u = rsub.add_parser("user", help="staff users of the web view")
+    usub = u.add_subparsers(dest="user_action", required=True, metavar="ACTION")
+    ua = usub.add_parser("add", help="add a staff user (password from a prompt or stdin)")
+    ua.add_argument("name", help="user name (letters, digits, . _ -)")
+    ua.add_argument("--display-name", help="name shown in the web view (default: NAME)")
+    ua.add_argument(
+        "--password-stdin", action="store_true", help="read the password from standard input"
+    )
+    ua.add_argument("--db", metavar="URL", help="records database (default $ACCELCAL_DB)")
+
+
+def cmd_web(args: argparse.Namespace) -> int:
+    from app.web.__main__ import serve
+
+    return serve(args)
+
+
+def _password(args: argparse.Namespace) -> str:
+    """The new user's password: one line of stdin with --password-stdin, else typed twice."""
+    if args.password_stdin:
+        line = sys.stdin.readline()
+        return line[:-1] if line.endswith("\n") else line
+    if not sys.stdin.isatty():
+        raise UsageError("password: no terminal to prompt on; use --password-stdin")
+    first = getpass.getpass("password: ")
+    if getpass.getpass("password again: ") != first:
+        raise UsageError("password: the two entries differ")
+    return first
+
+
+def cmd_records(args: argparse.Namespace) -> int:
+    from app.records.db.engine import open_engine
+    from app.web.users import add_user
+
+    password = _password(args)
+    add_user(
+        open_engine(args.db),
+        args.name,
+        password,
+        display_name=args.display_name or args.name,
+    )
+    print(f"user {args.name.strip()} added")
+    return EXIT_OK

@@ -1,0 +1,85 @@
+"""Impact assessment speed (issue 27 point 1): runs re-analysed per second with a corrected
+reference table, through the real path (app.procedure.impact.assess: index hash and manifest
+verified, the recording read, analysed with the stored and the corrected table), in a pool of
+worker processes.
+
+One short simulated run (piezo, 4 periods) is recorded once; every task points at its folder,
+so N tasks are N full re-analyses of a real recording. Prints the time per run and the total.
+
+Run: python bench/impact.py [RUNS] [WORKERS]   (default 10000 runs, one worker per core)
+Smoke (CI): python bench/impact.py 8 2
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import sys
+import tempfile
+import time
+from datetime import UTC, datetime
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from app.procedure import impact
+from app.procedure.run import RunRequest, execute
+from app.records.run_folder import MANIFEST_NAME, sha256_of
+from app.records.run_record import RunRecord
+
+
+def main(argv: list[str]) -> int:
+    runs = int(argv[1]) if len(argv) > 1 else 10_000
+    workers = int(argv[2]) if len(argv) > 2 else (os.cpu_count() or 1)
+    logging.basicConfig(level=logging.WARNING)
+    with tempfile.TemporaryDirectory() as tmp:
+        root = Path(tmp)
+        finished = execute(RunRequest(dut="piezo", dut_id="SN-BENCH", periods=4, out=root))
+        folder = root / str(finished.record.run_id)
+        record = RunRecord.from_json((folder / "results.json").read_text())
+        chain = record.reference_chain
+        table = root / "corrected.csv"
+        rows = [
+            f"{f!r},{1.01 * s!r},0.005,{p!r}"
+            for f, s, p in zip(
+                chain["frequencies_hz"],
+                chain["sensitivity_mv_per_ms2"],
+                chain["phase_deg"],
+                strict=True,
+            )
+        ]
+        table.write_text("\n".join(rows) + "\n")
+        corrected = impact.read_table(table)
+        manifest = sha256_of(folder / MANIFEST_NAME)
+        now = datetime.now(UTC)
+        tasks = [
+            impact.Task(f"run-{i}", str(folder), manifest, now, "SN-BENCH", None, ())
+            for i in range(runs)
+        ]
+        serial = str(record.stand.reference.get("serial"))
+        last = [0.0]
+
+        def progress(done: int, total: int, elapsed: float) -> None:
+            if elapsed - last[0] >= 10 or done == total:
+                last[0] = elapsed
+                print(impact.progress_line(done, total, elapsed), flush=True)
+
+        start = time.perf_counter()
+        results = impact.assess(tasks, serial, corrected, workers=workers, progress=progress)
+        total = time.perf_counter() - start
+    problems = [r.problem for r in results if r.problem]
+    if problems or not all(r.uses_reference for r in results):
+        print(f"FAIL: {len(problems)} run(s) not checked: {problems[:1]}")
+        return 1
+    ratio = results[0].new_sensitivity / results[0].old_sensitivity  # type: ignore[operator]
+    print(
+        f"impact: {runs} runs re-analysed on {workers} worker(s) ({os.cpu_count()} cores): "
+        f"total {total:.1f} s, {1000 * total / runs:.1f} ms per run "
+        f"({1000 * total * workers / runs:.1f} ms of a worker per run); new/old at the "
+        f"reference frequency {ratio:.9f} (table ratio 1.01)"
+    )
+    return 0 if abs(ratio - 1.01) < 1e-9 else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))
