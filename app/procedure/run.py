@@ -3,15 +3,25 @@ and the GUI, from the stand opened to the run folder written."""
 
 from __future__ import annotations
 
+import dataclasses
 import signal
 import threading
 from typing import Any
 
 from app.procedure import Finished, Listener, Procedure
-from app.procedure.request import DutChoice, RunIdentity, RunRequest, build_request, check_request
+from app.procedure.request import (
+    DutChoice,
+    RequestError,
+    RunIdentity,
+    RunRequest,
+    build_request,
+    check_request,
+)
 from app.records.run_folder import RunFolder
 from app.stand import config as stand_config
+from app.stand.config import StandConfig
 from app.stand.open import open_stand
+from app.stand.simulated import EXCITERS, exciter_stroke_m
 
 __all__ = [
     "DutChoice",
@@ -30,7 +40,10 @@ def prepare(request: RunRequest, listener: Listener | None = None) -> tuple[Proc
     ConfigError, PlanError on refusal; nothing is created then). Returns the procedure and the
     stand (to close)."""
     check_request(request)
-    config = stand_config.load(request.stand_file)
+    config = with_exciter(stand_config.load(request.stand_file), request.exciter)
+    plan = request.plan(  # a custom plan is clipped and checked by the stroke before it opens
+        config.limits.displacement_peak_to_peak_m if request.custom_plan else None
+    )
     stand = open_stand(
         config,
         dut=request.dut,
@@ -38,9 +51,9 @@ def prepare(request: RunRequest, listener: Listener | None = None) -> tuple[Proc
         paced=request.paced,
         faults=request.faults,
         dut_mass_g=request.dut_mass_g,
+        exciter=request.exciter,
     )
     try:
-        plan = request.plan()
         procedure = Procedure(
             stand,
             plan,
@@ -56,6 +69,21 @@ def prepare(request: RunRequest, listener: Listener | None = None) -> tuple[Proc
         stand.close()
         raise
     return procedure, stand
+
+
+def with_exciter(config: StandConfig, exciter: str | None) -> StandConfig:
+    """The stand configuration with the simulated exciter `exciter`'s stroke as its travel
+    limit (RequestError: unknown, or not a simulated stand)."""
+    if exciter is None:
+        return config
+    if config.backend != "sim":
+        raise RequestError("--exciter: only the simulated stand has an exciter catalogue")
+    if exciter not in EXCITERS:
+        raise RequestError(f"--exciter: {exciter!r} is not one of {', '.join(EXCITERS)}")
+    limits = dataclasses.replace(
+        config.limits, displacement_peak_to_peak_m=exciter_stroke_m(exciter)
+    )
+    return dataclasses.replace(config, limits=limits)
 
 
 def start(request: RunRequest, listener: Listener | None = None) -> tuple[Procedure, Any]:
