@@ -97,7 +97,7 @@ def build_plan(
         freqs,
         fs,
         period,
-        amplitudes,
+        amplitudes.tolist(),
         reference,
         mains_frequency_hz=request.mains_frequency_hz,
         shift_mains_lines=request.shift_mains_lines,

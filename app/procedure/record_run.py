@@ -175,7 +175,9 @@ class RecordRun:
                 return
             ctx.io.fade_out()
 
-    def acquire(self, first: tuple[np.ndarray, ...], record: RecordEstimate) -> None:
+    def acquire(
+        self, first: tuple[np.ndarray, np.ndarray, np.ndarray], record: RecordEstimate
+    ) -> None:
         """Periods join the record (after `first`) until the stopping rule; results after each."""
         ctx, s, io = self.ctx, self.ctx.settings, self.ctx.io
         ctx.state(State.ACQUIRING, "one record: lpm")
