@@ -84,7 +84,7 @@ def test_wide_plan_at_51k2_is_within_u_at_every_line(tmp_path, capsys):
             "--fresh-response",
             "--out",
             str(out),
-        ]  # fmt: skip
+        ]
     )
     assert code == 0, capsys.readouterr().out
     folder = _run_folder(out)
@@ -113,7 +113,7 @@ def test_resonance_search_reports_the_piezo_mounted_resonance(tmp_path, capsys):
             "--fresh-response",
             "--out",
             str(tmp_path / "runs"),
-        ]  # fmt: skip
+        ]
     )
     out = capsys.readouterr().out
     assert code == 0
@@ -199,7 +199,7 @@ def test_choose_period_keeps_the_preset_and_goes_non_uniform_below_1_hz():
     actual = np.rint(np.array(low) * period / 200.0) * 200.0 / period
     assert np.all(np.abs(actual / np.array(low) - 1) <= 0.02)
     assert not np.allclose(actual, low)
-    with pytest.raises(PlanError, match="period: line 95 Hz: at or above 0.45 fs"):
+    with pytest.raises(PlanError, match=r"period: line 95 Hz: at or above 0\.45 fs"):
         choose_period((0.4, 95.0), 200.0, 12001)  # not exact on the preset period
 
 
