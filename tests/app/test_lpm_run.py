@@ -13,6 +13,7 @@ import pytest
 from app.cli import main
 from app.io.vocabulary import RunStatus
 from app.procedure import Procedure, RunSettings
+from app.procedure.analysis import analyze, read_for_analysis
 from app.procedure.planning import PlanRequest, build_plan, choose_period
 from app.procedure.record_run import fade_in_samples
 from app.procedure.stopping import Stop, StoppingRule
@@ -91,6 +92,15 @@ def test_wide_plan_at_51k2_is_within_u_at_every_line(tmp_path, capsys):
     magnitude, phase = _within_u(folder)
     assert magnitude.size == len(iso266.nominal_frequencies(10, 10000))
     assert np.all(magnitude <= 1.0) and np.all(phase <= 1.0)
+    # the stored recording re-analyses to the same numbers (its record follows the fade-in)
+    stored = json.loads((folder / "results.json").read_text())
+    stored = stored.get("results", stored)["lines"]
+    again = analyze(read_for_analysis(folder), estimator="lpm").results.lines
+    np.testing.assert_allclose(
+        [line.sensitivity_mv_per_ms2 for line in again],
+        [line["sensitivity_mv_per_ms2"] for line in stored],
+        rtol=1e-12,
+    )
 
 
 @pytest.mark.integration
