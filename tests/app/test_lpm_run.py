@@ -230,3 +230,32 @@ def test_periods_1_refused_for_periodic_accepted_for_lpm(tmp_path, capsys):
     assert "--periods: the periodic estimator needs at least 3 periods" in capsys.readouterr().err
     with pytest.raises(ValueError, match="multisine"):
         RunSettings(estimator="lpm", periods=1, mode="stepped-sine")
+
+
+@pytest.mark.integration
+def test_an_abort_during_the_lpm_record_fades_out_to_0_v(tmp_path):
+    """The drive ends at 0 V on every path: an operator's stop while the record grows."""
+    from app.procedure import PeriodEstimate
+
+    plan = preset_plan("piezo", level_ms2=5.0)
+    stand = open_stand(load(), dut="piezo", seed=2, systematic=False)
+    box: dict[str, Procedure] = {}
+    played: list[np.ndarray] = []
+
+    def listener(event: object) -> None:
+        if isinstance(event, PeriodEstimate):
+            box["p"].abort("stopped by the operator")
+        drive = getattr(event, "drive", None)
+        if drive is not None:
+            played.append(np.asarray(drive))
+
+    settings = RunSettings(estimator="lpm", periods=5, dut_mass_g=10.0)
+    procedure = Procedure(stand, plan, settings, listener=listener)
+    box["p"] = procedure
+    try:
+        finished = procedure.run()
+    finally:
+        stand.close()
+    assert finished.status == RunStatus.ABORTED
+    assert finished.record.final_output_v == 0.0
+    assert played[-1][-1] == 0.0 and np.max(np.abs(played[-2])) > 0  # faded, not cut
