@@ -19,7 +19,7 @@ from app.procedure.request import (
 )
 from app.records.run_folder import RunFolder
 from app.stand import config as stand_config
-from app.stand.config import StandConfig
+from app.stand.config import StandConfig, StandPlan
 from app.stand.open import open_stand
 from app.stand.simulated import EXCITERS, exciter_stroke_m
 
@@ -41,6 +41,7 @@ def prepare(request: RunRequest, listener: Listener | None = None) -> tuple[Proc
     stand (to close)."""
     check_request(request)
     config = with_exciter(stand_config.load(request.stand_file), request.exciter)
+    request = with_stand_plan(request, config.plan)
     plan = request.plan(  # a custom plan is clipped and checked by the stroke before it opens
         config.limits.displacement_peak_to_peak_m if request.custom_plan else None
     )
@@ -69,6 +70,20 @@ def prepare(request: RunRequest, listener: Listener | None = None) -> tuple[Proc
         stand.close()
         raise
     return procedure, stand
+
+
+def with_stand_plan(request: RunRequest, plan: StandPlan) -> RunRequest:
+    """The request with the stand file's [plan] where the request states nothing (its own
+    options win; the profile when the request keeps the default, acceleration)."""
+    changes: dict[str, Any] = {}
+    for name in ("frequencies_hz", "sample_rate_hz", "period_samples", "reference_frequency_hz"):
+        if getattr(request, name) is None and getattr(plan, name) is not None:
+            changes[name] = getattr(plan, name)
+    if request.profile == "acceleration" and plan.profile is not None:
+        changes["profile"] = plan.profile
+    if request.corner_hz is None and plan.corner_hz is not None:
+        changes["corner_hz"] = plan.corner_hz
+    return dataclasses.replace(request, **changes) if changes else request
 
 
 def with_exciter(config: StandConfig, exciter: str | None) -> StandConfig:

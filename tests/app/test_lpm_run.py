@@ -259,3 +259,37 @@ def test_an_abort_during_the_lpm_record_fades_out_to_0_v(tmp_path):
     assert finished.status == RunStatus.ABORTED
     assert finished.record.final_output_v == 0.0
     assert played[-1][-1] == 0.0 and np.max(np.abs(played[-2])) > 0  # faded, not cut
+
+
+def _stand_file(tmp_path: Path, plan: str) -> Path:
+    from importlib import resources
+
+    text = resources.files("sim").joinpath("stand.toml").read_text(encoding="utf-8")
+    path = tmp_path / "stand.toml"
+    path.write_text(text + "\n[plan]\n" + plan, encoding="utf-8")
+    return path
+
+
+def test_a_stand_file_plan_is_used_where_the_run_states_nothing(tmp_path):
+    from app.procedure.run import RunRequest, prepare
+
+    stand_file = _stand_file(
+        tmp_path,
+        "frequencies_hz = [10.0, 20.0, 40.0, 80.0, 160.0, 5000.0]\nsample_rate_hz = 51200.0\n",
+    )
+    procedure, stand = prepare(RunRequest(stand_file=stand_file, estimator="lpm", periods=1))
+    stand.close()
+    assert procedure.plan.sample_rate_hz == 51200.0
+    assert list(procedure.plan.nominal_frequencies_hz) == [10, 20, 40, 80, 160, 5000]
+    own = RunRequest(stand_file=stand_file, frequencies_hz=(10.0, 160.0, 1000.0))
+    procedure, stand = prepare(own)  # the run's own lines win, the stand's rate stays
+    stand.close()
+    assert list(procedure.plan.nominal_frequencies_hz) == [10, 160, 1000]
+    assert procedure.plan.sample_rate_hz == 51200.0
+
+
+def test_a_bad_stand_file_plan_is_refused_naming_the_key(tmp_path, capsys):
+    stand_file = _stand_file(tmp_path, 'profile = "jerk"\n')
+    code = main(["run", "--stand", str(stand_file), "--out", str(tmp_path / "runs")])
+    assert code == 2
+    assert "plan.profile" in capsys.readouterr().err
