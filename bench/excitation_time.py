@@ -21,7 +21,14 @@ Tables:
    nowhere: type A is ~0.002 % after 3 periods) and at 0.05 m/s^2 (every line ~60 dB above the
    noise: the target binds at every line), with how many lines the target binds at.
 
-Run: python bench/excitation_time.py   (about two minutes of CPU)
+3. issue 26: the lpm estimator (one record after a short fade-in, the transient estimated;
+   dsp.lpm_record, app.procedure.record_run) on the seed's lines at 5 m/s^2 and 0.2 % type A,
+   cold and warm, against the periodic multisine and the fair stepped sine (warm, best block);
+4. issue 26: 0.4-8 Hz on the long-stroke exciter (ISO 266 lines within 2 % on the grid of
+   app.procedure.planning, constant displacement below 5 Hz, 2 m/s^2 above): the lpm
+   multisine against the fair stepped sine, both warm, every line checked against the truth.
+
+Run: python bench/excitation_time.py   (about three minutes of CPU; --lpm: tables 3 and 4)
 """
 
 from __future__ import annotations
@@ -37,9 +44,12 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from app.io.vocabulary import Mode, RunStatus
 from app.procedure import PeriodBlock, PeriodEstimate, Procedure, RunSettings
+from app.procedure.run import with_exciter
 from app.stand.config import load
 from app.stand.open import open_stand
 from app.stand.response import ResponseStore
+from app.stand.simulated import exciter_stroke_m
+from dsp import iso266
 from dsp.multisine import PRESETS, Plan, make_plan, preset_plan
 from dsp.spectral import MIN_PERIODS
 
@@ -71,6 +81,7 @@ class Phases:
         self.fs = sample_rate_hz
         self.seconds: dict[str, float] = defaultdict(float)
         self.first_type_a: np.ndarray | None = None
+        self.stand: object = None  # the stand the run used (its truth), set by `one`
 
     def __call__(self, event: object) -> None:
         if isinstance(event, PeriodBlock):
@@ -82,10 +93,19 @@ class Phases:
 
 
 def one(
-    store: ResponseStore, plan: Plan, target: float, mode: str, block_s: float = 0.25
+    store: ResponseStore,
+    plan: Plan,
+    target: float | None,
+    mode: str,
+    block_s: float = 0.25,
+    *,
+    estimator: str = "periodic",
+    exciter: str | None = None,
+    periods: int = 8,
 ) -> tuple[object, Phases]:
     """One run; its Finished event and its phases."""
-    stand = open_stand(CONFIG, dut="piezo", seed=5, systematic=False)
+    config = with_exciter(CONFIG, exciter)
+    stand = open_stand(config, dut="piezo", seed=5, systematic=False, exciter=exciter)
     phases = Phases(plan.sample_rate_hz)
     settings = RunSettings(
         mode=mode,
@@ -93,6 +113,8 @@ def one(
         max_acquisition_s=40000.0,
         dut_mass_g=10.0,
         stepped_block_s=block_s,
+        estimator=estimator,
+        periods=periods,
     )
     try:
         finished = Procedure(stand, plan, settings, listener=phases, response_store=store).run()
@@ -100,7 +122,32 @@ def one(
         stand.close()
     if finished.status != RunStatus.COMPLETE:
         raise SystemExit(f"{mode} at {target}: {finished.abort_reason}")
+    phases.stand = stand
     return finished, phases
+
+
+def misses(finished: object, stand: object, plan: Plan, mode: str) -> list[str]:
+    """Lines whose magnitude or phase lies farther than U from the stand's truth (at the
+    excitation's rms acceleration: the multisine's total, one line's in stepped sine)."""
+    results = finished.results  # type: ignore[attr-defined]
+    truth = stand.truth  # type: ignore[attr-defined]
+    if mode == Mode.STEPPED_SINE:
+        values = np.array(
+            [
+                truth(np.array([f]), a / np.sqrt(2))[0]
+                for f, a in zip(plan.frequencies_hz, plan.amplitudes_ms2, strict=True)
+            ]
+        )
+    else:
+        values = truth(plan.frequencies_hz, float(np.sqrt(np.sum(plan.amplitudes_ms2**2) / 2)))
+    out = []
+    for line, value in zip(results.lines, values, strict=True):
+        e_mag = abs(line.sensitivity_mv_per_ms2 - abs(value)) / line.expanded_uncertainty_mv_per_ms2
+        d_ph = (line.phase_deg - np.degrees(np.angle(value)) + 180) % 360 - 180
+        e_ph = abs(d_ph) / line.phase_expanded_uncertainty_deg
+        if e_mag > 1 or e_ph > 1:
+            out.append(f"{line.nominal_frequency_hz:g} Hz ({e_mag:.1f} U, {e_ph:.1f} U phase)")
+    return out
 
 
 def table_phases(root: Path) -> None:
@@ -164,11 +211,113 @@ def table_modes(root: Path) -> None:
     print()
 
 
+def table_lpm(root: Path) -> None:
+    print("Table 3: lpm on the seed's lines, piezo at 5 m/s^2, 0.2 % type A (excitation time)")
+    print()
+    print(
+        "| estimator | cold | warm | periods | worst type A | lines outside U | warm stepped "
+        "sine (best block) / warm |"
+    )
+    print("| --- | --- | --- | --- | --- | --- | --- |")
+    plan = plan_of(5.0)
+    stepped = []
+    for block in STEPPED_BLOCKS_S:
+        store = ResponseStore(root / f"lpm-stepped-{block:g}")
+        one(store, plan, 0.002, Mode.STEPPED_SINE, block)
+        finished, _ = one(store, plan, 0.002, Mode.STEPPED_SINE, block)
+        stepped.append(finished.record.excitation_time_s)  # type: ignore[attr-defined]
+    best = min(stepped)
+    for estimator in ("lpm", "periodic"):
+        store = ResponseStore(root / f"lpm-{estimator}")
+        cold, _ = one(store, plan, 0.002, Mode.MULTISINE, estimator=estimator)
+        warm, p = one(store, plan, 0.002, Mode.MULTISINE, estimator=estimator)
+        results = warm.results  # type: ignore[attr-defined]
+        worst = max(line.relative_type_a for line in results.lines)
+        outside = misses(warm, p.stand, plan, Mode.MULTISINE)
+        w = warm.record.excitation_time_s  # type: ignore[attr-defined]
+        print(
+            f"| {estimator} | {cold.record.excitation_time_s:.1f} s | "  # type: ignore[attr-defined]
+            f"**{w:.1f} s** | {results.periods} | {100 * worst:.4f} % | "
+            f"{len(outside)}/{len(plan.lines)} | {best:.1f} s / {w:.1f} s = **{best / w:.1f}** |"
+        )
+    print()
+
+
+LOW_TARGET = 0.02  # type A at every line, both modes (the lpm's one period gives 1.7 %)
+
+
+def low_plan(period_samples: int | None = None) -> Plan:
+    """0.4-8 Hz, long-stroke exciter: the plan `accelcal run` builds for these options (the
+    lpm's grid); with `period_samples` 20000 (100 s) every line exactly on its nominal
+    frequency, as the stepped sine plays them (its blocks then hold whole cycles of the
+    nominal line and of the mains: 2.5 s at 0.4 Hz instead of 35.3 s on the lpm's grid)."""
+    from app.procedure.planning import PlanRequest, build_plan
+
+    return build_plan(
+        PlanRequest(
+            frequencies_hz=iso266.nominal_frequencies(0.4, 8.0),
+            sample_rate_hz=200.0,
+            period_samples=period_samples,
+            level_ms2=2.0,
+            reference_frequency_hz=8.0,
+            profile="displacement",
+            corner_hz=5.0,
+        ),
+        stroke_peak_to_peak_m=exciter_stroke_m("long-stroke"),
+    )
+
+
+def table_low(root: Path) -> None:
+    plan = low_plan()
+    print(
+        f"Table 4: 0.4-8 Hz on the long-stroke exciter (period {plan.period_s:g} s at "
+        f"{plan.sample_rate_hz:g} Hz), piezo, both warm"
+    )
+    print()
+    print(f"| mode | setting ({100 * LOW_TARGET:g} % type A at every line) | excitation | "
+          "lines outside U |")  # fmt: skip
+    print("| --- | --- | --- | --- |")
+    store = ResponseStore(root / "low-lpm")
+    lpm = {"estimator": "lpm", "exciter": "long-stroke", "periods": 1}
+    one(store, plan, LOW_TARGET, Mode.MULTISINE, **lpm)  # type: ignore[arg-type]
+    lpm_run, p = one(store, plan, LOW_TARGET, Mode.MULTISINE, **lpm)  # type: ignore[arg-type]
+    lpm_s = lpm_run.record.excitation_time_s  # type: ignore[attr-defined]
+    outside = misses(lpm_run, p.stand, plan, Mode.MULTISINE)
+    print(
+        f"| multisine | lpm, {lpm_run.results.periods} period(s) | **{lpm_s:.1f} s** |"  # type: ignore[attr-defined]
+        f" {len(outside)}/{len(plan.lines)} "
+        f"{', '.join(outside)} |"
+    )
+    best = None
+    exact = low_plan(20000)
+    for block in STEPPED_BLOCKS_S:
+        store = ResponseStore(root / f"low-stepped-{block:g}")
+        one(store, exact, LOW_TARGET, Mode.STEPPED_SINE, block, exciter="long-stroke")
+        run, q = one(store, exact, LOW_TARGET, Mode.STEPPED_SINE, block, exciter="long-stroke")
+        seconds = run.record.excitation_time_s  # type: ignore[attr-defined]
+        outside = misses(run, q.stand, exact, Mode.STEPPED_SINE)
+        print(
+            f"| stepped sine | blocks >= {block:g} s, nominal frequencies | {seconds:.1f} s | "
+            f"{len(outside)}/{len(plan.lines)} {', '.join(outside)} |"
+        )
+        best = seconds if best is None else min(best, seconds)
+    assert best is not None
+    print()
+    print(
+        "low-frequency ratio, fair stepped sine (best block) / lpm multisine: "
+        f"**{best / lpm_s:.1f}**"
+    )
+    print()
+
+
 def main() -> None:
     np.seterr(all="ignore")
     with tempfile.TemporaryDirectory(prefix="accelcal-bench-") as root:
-        table_phases(Path(root))
-        table_modes(Path(root))
+        if "--lpm" not in sys.argv:
+            table_phases(Path(root))
+            table_modes(Path(root))
+        table_lpm(Path(root))
+        table_low(Path(root))
 
 
 if __name__ == "__main__":

@@ -309,7 +309,7 @@ def compute_results(
     s0 = sensitivity[ref_index]
 
     need = MIN_PERIODS.get(estimate.estimator, 2)
-    if estimate.periods < 2:
+    if estimate.periods < 2 and need >= 2:
         warnings.append(f"one period only: no type A uncertainty; acquire at least {need} periods")
     elif estimate.periods < need:  # issue 13 point 5: no honest type A below the minimum
         warnings.append(

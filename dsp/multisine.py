@@ -266,6 +266,17 @@ def _ordinal(n: int) -> str:
     return {1: "1st", 2: "2nd", 3: "3rd"}.get(n, f"{n}th")
 
 
+def _exact_period_hint(frequency_hz: float) -> str:
+    """How long a period puts `frequency_hz` exactly on a bin: the shortest multiple of 10 ms
+    (up to 100 s) holding a whole number of its cycles (ISO 266 from 10 Hz: 2 s; 1.6 Hz:
+    10 s; 0.63 Hz: 100 s)."""
+    for hundredths in range(1, 10_001):
+        cycles = frequency_hz * hundredths / 100.0
+        if abs(cycles - round(cycles)) < 1e-9 * max(cycles, 1.0) and round(cycles) >= 1:
+            return f"a period of a multiple of {hundredths / 100:g} s puts it exactly on a bin"
+    return "no period up to 100 s puts it exactly on a bin"
+
+
 def check_lines(
     nominal_frequencies_hz: Sequence[float] | np.ndarray,
     sample_rate_hz: float,
@@ -316,7 +327,7 @@ def check_lines(
         elif not math.isclose(m * resolution, f, rel_tol=1e-9, abs_tol=1e-9):
             warnings.append(
                 f"line {label}: snapped to {m * resolution:g} Hz (bin {m}); "
-                f"bin spacing {resolution:g} Hz (a 2 s period gives the 0.5 Hz ISO 266 grid)"
+                f"bin spacing {resolution:g} Hz ({_exact_period_hint(f)})"
             )
 
     owner: dict[int, str] = {}

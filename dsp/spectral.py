@@ -56,7 +56,8 @@ from dsp.estimators import ESTIMATORS as ESTIMATORS
 HARMONICS = (2, 3, 4, 5)
 FLOOR_HALF_WIDTH_BINS = 12
 DISTORTION_FALSE_ALARM = 0.01  # probability per run that noise alone counts as distortion
-MIN_PERIODS = {"periodic": 3, "h1": 3, "seed": 4}  # fewest periods with a stated type A
+MIN_PERIODS = {"periodic": 3, "h1": 3, "seed": 4, "lpm": 1}  # fewest periods with a stated type A
+RECORD_ESTIMATORS = ("lpm",)  # from one record (dsp.lpm_record), not from this accumulator
 
 
 def check_periods(estimator: str, periods: int) -> None:
@@ -293,6 +294,8 @@ class SpectralAccumulator:
 
     def estimate(self, estimator: str = "periodic") -> Estimate:
         """Current per-line estimate with the named estimator (`periodic`, `h1`, `seed`)."""
+        if estimator in RECORD_ESTIMATORS:
+            raise ValueError(f"estimator: {estimator} analyses one record (dsp.lpm_record)")
         if estimator not in ESTIMATORS:
             raise ValueError(f"estimator: unknown {estimator!r}; choose one of {ESTIMATORS}")
         m = self._lines

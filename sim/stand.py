@@ -160,7 +160,7 @@ class SimulatedStand:
 
     def reference_chain(self, dut_gain: float = 1.0) -> ReferenceChain:
         """The reference certificate (with its drawn error) and nominal gains and skew."""
-        freqs = np.array(iso266.nominal_frequencies(1.0, 20000.0))
+        freqs = np.array(iso266.nominal_frequencies(0.4, 20000.0))  # ISO 16063-21 from 0.4 Hz
         true = self.model.reference.sensitivity(freqs)
         certificate = np.abs(true) * self.deviations.certificate_factor(freqs)
         phase = np.degrees(np.angle(true)) + self.deviations.reference_phase_deg

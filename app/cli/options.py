@@ -78,7 +78,9 @@ def numeric_option(
 # The bounds of every numeric option (also in docs/reliability.md).
 SAMPLE_RATE = Bounded(float, 1.0, 1e7, unit="Hz")
 
-PERIOD = Bounded(int, 4, 2**22, unit="samples")
+PERIOD = Bounded(int, 4, 2**24, unit="samples")  # 100 s at 102.4 kS/s fits
+
+FADE_IN = Bounded(float, 0.001, 60.0, unit="s")
 
 LEVEL = Bounded(float, 0.0, 1000.0, open_low=True, unit="m/s^2")
 
@@ -104,7 +106,7 @@ SETTLE_PERIODS = Bounded(int, 0, 10_000)
 
 RANGE = Bounded(float, 0.0, 1000.0, open_low=True, unit="V")
 
-RUN_PERIODS = Bounded(int, 2, 10_000)
+RUN_PERIODS = Bounded(int, 1, 10_000)  # the estimator's own minimum: dsp.spectral
 
 SIM_PERIODS = Bounded(int, 1, 10_000)
 

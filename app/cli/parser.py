@@ -12,6 +12,7 @@ from pathlib import Path
 from app.cli.options import (
     COVERAGE,
     DUT_MASS,
+    FADE_IN,
     FREQUENCY,
     GAIN,
     LEVEL,
@@ -36,9 +37,10 @@ from app.cli.options import (
 from app.cli.records import Handler
 from app.cli.records import add_commands as add_records_commands
 from app.procedure.modes import MODE_MULTISINE, MODES
-from app.stand.simulated import FAULT_KINDS
+from app.stand.simulated import EXCITERS, FAULT_KINDS
 from dsp.estimators import DEFAULT_ESTIMATOR, ESTIMATORS
 from dsp.multisine import PRESETS
+from dsp.profiles import Profile
 
 WORKERS = Bounded(int, 1, 64)
 RECORDS_COMMANDS: dict[str, Handler] = {}  # filled by build_parser (app.cli.records)
@@ -90,6 +92,34 @@ def _add_plan_options(p: argparse.ArgumentParser | argparse._ArgumentGroup) -> N
     numeric_option(p, "--mains", MAINS, "mains frequency in Hz (50)", default=None)
 
 
+def _add_range_options(p: argparse.ArgumentParser) -> None:
+    """Issue 26: the whole range from the command line (run and plan)."""
+    g = p.add_argument_group("range (issue 26): lines, rate, period, profile, exciter")
+    if p.prog.endswith(" run"):  # plan has these among its plan options
+        g.add_argument("--frequencies", help="line list in Hz, e.g. 0.4,...,8 (ISO 266 fill)")
+        numeric_option(g, "--sample-rate", SAMPLE_RATE, "sample rate in Hz")
+        numeric_option(g, "--period", PERIOD, "period in samples (default: the shortest that fits)")
+        numeric_option(g, "--reference-frequency", FREQUENCY, "reference frequency in Hz")
+    g.add_argument(
+        "--profile",
+        choices=[p.value for p in Profile],
+        default=Profile.ACCELERATION.value,
+        help="per-line level: constant acceleration, or constant velocity or displacement "
+        "below --corner (then --level above it); every line clipped by the exciter's stroke",
+    )
+    numeric_option(g, "--corner", FREQUENCY, "corner frequency of the profile, Hz")
+    g.add_argument(
+        "--exciter",
+        choices=EXCITERS,
+        help="simulated stand's exciter (long-stroke: 150 mm, 0.4 Hz up); its stroke clips "
+        "and checks the plan",
+    )
+    if p.prog.endswith(" run"):
+        numeric_option(
+            g, "--fade-in", FADE_IN, "lpm: fade-in before the record, s (default 2 cycles)"
+        )
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="accelcal",
@@ -106,6 +136,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("plan", help="show a frequency plan, its checks and predicted peaks")
     _add_plan_options(p)
     p.add_argument("--shift-mains", action="store_true", help="move lines off mains harmonics")
+    _add_range_options(p)
     p.add_argument("--json", action="store_true", help="machine-readable output")
 
     a = sub.add_parser("analyze", help="re-analyse a recording (HDF5 of this program, CSV or TDMS)")
@@ -168,7 +199,16 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument(
         "--levels", help=f"amplitude sweep: levels in m/s^2, e.g. 4,5,6,7,8; {LEVEL.describe()}"
     )
-    numeric_option(r, "--periods", RUN_PERIODS, "periods to acquire", default=8)
+    numeric_option(
+        r, "--periods", RUN_PERIODS, "periods to acquire (default 8; lpm: 1, one record)"
+    )
+    _add_range_options(r)
+    r.add_argument(
+        "--resonance",
+        action="store_true",
+        help="after the run, search the DUT's mounted resonance in its response (a plan to "
+        "20 kHz+ at a low level, e.g. --frequencies 1000,...,25000 --sample-rate 102400)",
+    )
     r.add_argument("--target-ua", help="stop at this relative type A, e.g. 0.2%%; (0, 100 %%]")
     r.add_argument("--max-time", help="bound on the acquisition time, e.g. 30s; (0, 24 h]")
     r.add_argument("--estimator", choices=ESTIMATORS, default=DEFAULT_ESTIMATOR)

@@ -5,8 +5,8 @@ from __future__ import annotations
 import argparse
 import json
 
-from app.cli.exits import EXIT_OK
-from app.cli.options import plan_from_options
+from app.cli.exits import EXIT_OK, UsageError
+from app.cli.options import parse_frequencies
 from app.cli.printers import print_plan
 from dsp.multisine import Plan
 
@@ -28,10 +28,46 @@ def plan_report(plan: Plan) -> dict:
 
 
 def cmd_plan(args: argparse.Namespace) -> int:
-    plan = plan_from_options(args, optimise=True)
+    """The plan of the options; with --profile, --corner or --exciter (issue 26) clipped by the
+    stroke (the exciter's, else the default stand's) and refused when the whole plan's travel
+    exceeds it (exit 2 naming the line and the predicted displacement)."""
+    plan = _plan(args)
     report = plan_report(plan)
     if args.json:
         print(json.dumps(report, indent=2))
         return EXIT_OK
     print_plan(plan, report)
     return EXIT_OK
+
+
+def _stroke(exciter: str | None) -> float:
+    """Peak-to-peak stroke in m: the simulated exciter's, else the default stand file's."""
+    if exciter is not None:
+        from app.stand.simulated import exciter_stroke_m
+
+        return exciter_stroke_m(exciter)
+    from app.stand.config import load
+
+    return load().limits.displacement_peak_to_peak_m
+
+
+def _plan(args: argparse.Namespace) -> Plan:
+    from app.procedure.planning import PlanRequest, build_plan
+
+    if args.profile != "acceleration" and args.corner is None:
+        raise UsageError(f"--profile {args.profile}: needs --corner (Hz)")
+    return build_plan(
+        PlanRequest(
+            preset=args.preset or "piezo",
+            frequencies_hz=tuple(parse_frequencies(args.frequencies)) if args.frequencies else None,
+            sample_rate_hz=args.sample_rate,
+            period_samples=args.period,
+            level_ms2=args.level,
+            reference_frequency_hz=args.reference_frequency,
+            mains_frequency_hz=args.mains if args.mains is not None else 50.0,
+            profile=args.profile,
+            corner_hz=args.corner,
+            shift_mains_lines=args.shift_mains,
+        ),
+        stroke_peak_to_peak_m=_stroke(args.exciter),
+    )

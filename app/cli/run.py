@@ -13,6 +13,7 @@ from app.cli.exits import EXIT_ABORTED, EXIT_OK, UsageError
 from app.cli.options import (
     faults_option,
     levels_option,
+    parse_frequencies,
     parse_percent,
     parse_seconds,
     writable_folder,
@@ -21,6 +22,7 @@ from app.cli.printers import TerminalProgress, print_run_end, print_sweep
 
 if TYPE_CHECKING:
     from app.procedure.run import RunRequest
+    from dsp.calibration import Results
 
 
 def cmd_run(args: argparse.Namespace) -> int:
@@ -29,10 +31,17 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     if args.sim and args.stand:
         raise UsageError("--sim and --stand: choose one")
+    if args.periods is None:  # lpm: one record of one period; the others: 8 periods
+        args.periods = 1 if args.estimator == "lpm" else 8
     try:
         check_periods(args.estimator, args.periods)  # issue 13 point 5 (dsp.spectral)
     except ValueError as exc:
         raise UsageError(f"--{exc}") from None
+    if args.estimator == "lpm" and args.mode != "multisine":
+        raise UsageError("--estimator lpm: analyses a multisine record; use --mode multisine")
+    frequencies = tuple(parse_frequencies(args.frequencies)) if args.frequencies else None
+    if args.profile != "acceleration" and args.corner is None:
+        raise UsageError(f"--profile {args.profile}: needs --corner (Hz)")
     faults = faults_option(args.fault)
     levels = levels_option(args.levels) if args.levels else None
     target = parse_percent(args.target_ua, "--target-ua") if args.target_ua else None
@@ -66,6 +75,14 @@ def cmd_run(args: argparse.Namespace) -> int:
         faults=faults,
         out=args.out,
         stored_response=not args.fresh_response,
+        frequencies_hz=frequencies,
+        sample_rate_hz=args.sample_rate,
+        period_samples=args.period,
+        reference_frequency_hz=args.reference_frequency,
+        profile=args.profile,
+        corner_hz=args.corner,
+        exciter=args.exciter,
+        fade_in_s=args.fade_in,
     )
     for note in notes:
         print(note, file=sys.stderr)
@@ -84,6 +101,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         print(record.to_json())
     else:
         print_run_end(record, finished.results, args.out / str(record.run_id))
+    if args.resonance and finished.results is not None:
+        print(resonance_text(finished.results))
     return EXIT_OK if record.complete else EXIT_ABORTED
 
 
@@ -103,3 +122,26 @@ def run_levels(request: RunRequest, levels: list[float], args: argparse.Namespac
     else:
         print_sweep(summary)
     return EXIT_OK if sweep.complete else EXIT_ABORTED
+
+
+def resonance_text(results: Results) -> str:
+    """The mounted resonance the run's response shows (dsp.resonance), one line."""
+    import numpy as np
+
+    from dsp.resonance import ResonanceError, find_resonance
+
+    f = np.array([line.frequency_hz for line in results.lines])
+    h = np.array(
+        [
+            line.sensitivity_mv_per_ms2 * np.exp(1j * np.radians(line.phase_deg))
+            for line in results.lines
+        ]
+    )
+    try:
+        found = find_resonance(f, h)
+    except ResonanceError as exc:
+        return f"resonance: none found ({exc})"
+    return (
+        f"resonance: mounted resonance at {found.frequency_hz:.0f} Hz, Q {found.q:.1f}, "
+        f"{found.peak_ratio:.2f} x the lowest line ({found.lines_used} lines fitted)"
+    )

@@ -20,9 +20,10 @@ from app.procedure.verdict import Tolerances, tolerances_for, with_verdict
 from app.records.run_folder import FolderState, inspect_run, is_run_folder
 from dsp.calibration import Results, compute_results
 from dsp.hum import mains_hum
+from dsp.lpm_record import record_estimate
 from dsp.multisine import Plan, PlanError
 from dsp.segments import segment_line_spectra, segment_plan
-from dsp.spectral import Estimate, SpectralAccumulator
+from dsp.spectral import RECORD_ESTIMATORS, Estimate, SpectralAccumulator
 from dsp.uncertainty import Budget
 
 
@@ -58,7 +59,11 @@ def analyze(
             f"{recording.source}: {recording.periods} period(s) recorded, none left after "
             f"{recording.settle_periods} settle period(s)"
         )
-    if segments is None:
+    if estimator in RECORD_ESTIMATORS:  # lpm: the analysed periods as one record
+        if segments is not None:
+            raise RecordingError("--segments: the lpm estimator analyses whole periods")
+        estimate = _record_estimate(recording)
+    elif segments is None:
         accumulator = SpectralAccumulator(plan.period_samples, plan.bins)
         for reference, dut in iter_batches(recording):
             accumulator.add_periods(reference, dut)
@@ -77,7 +82,8 @@ def analyze(
             for x in (reference, dut)
         ]
         accumulator.add_line_spectra(*spectra)
-    estimate = accumulator.estimate(estimator)
+    if estimator not in RECORD_ESTIMATORS:
+        estimate = accumulator.estimate(estimator)
     budget, hum_warnings = _budget_with_hum(recording)
     warnings.extend(hum_warnings)
     results = compute_results(
@@ -97,6 +103,18 @@ def analyze(
         )
     results = with_verdict(results, tolerances, recording.status)
     return Analysis(estimate, results, recording.status)
+
+
+def _record_estimate(recording: Recording) -> Estimate:
+    """The lpm estimate of the analysed periods as one record; with the recorded drive, that
+    drive is checked to be periodic over it (a fade inside is refused)."""
+    reference, dut = recording.analysis_periods()
+    drive = None
+    if recording.drive_v is not None:
+        n = recording.period_samples
+        start = recording.settle_periods * n
+        drive = recording.drive_v[start : start + reference.size].reshape(reference.shape)
+    return record_estimate(reference, dut, recording.plan, drive_blocks=drive).estimate
 
 
 def _budget_with_hum(recording: Recording) -> tuple[Budget, list[str]]:

@@ -35,6 +35,7 @@ from app.procedure.errors import (
 from app.procedure.events import Event, Finished, Listener, State
 from app.procedure.identification import Identification
 from app.procedure.preflight import check_preflight
+from app.procedure.record_run import RecordRun
 from app.procedure.request import RunIdentity
 from app.procedure.settings import RunSettings
 from app.procedure.stand_io import StandIO
@@ -48,6 +49,7 @@ from app.stand.open import Stand
 from app.stand.response import ResponseStore
 from dsp.calibration import AnalysisError
 from dsp.multisine import Plan
+from dsp.spectral import RECORD_ESTIMATORS
 from hardware.errors import AmplifierFaultError, HardwareError, OverloadError
 from hardware.interfaces import DaqConfig
 
@@ -164,6 +166,10 @@ class Procedure:
         background = Background(self.ctx).run()
         if self.settings.mode == Mode.STEPPED_SINE:
             SteppedSine(self.ctx, background, self.memory.recall(), self.memory.describe).run()
+            return
+        if self.settings.estimator in RECORD_ESTIMATORS:  # lpm: bursts, one record each
+            RecordRun(self.ctx, background, self.memory).run()
+            self.io.fade_out()
             return
         equalised = self._equalise(background.noise())
         self.ctx.state(State.ACQUIRING)

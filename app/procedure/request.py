@@ -22,7 +22,8 @@ from app.stand.dut import DutSpec, Tolerances, spec_from_record, spec_from_stand
 from app.stand.response import ResponseStore
 from app.stand.simulated import CATALOGUE, catalogue_spec, plan_preset_for
 from dsp.estimators import DEFAULT_ESTIMATOR
-from dsp.multisine import PRESETS, Plan, make_plan, preset_plan
+from dsp.multisine import PRESETS, Plan, preset_plan
+from dsp.spectral import MIN_PERIODS
 
 if TYPE_CHECKING:
     from app.procedure.settings import RunSettings
@@ -109,6 +110,14 @@ class RunRequest:
     # the multisine's phases (rad), optimised already for these lines (the GUI does it as the
     # lines are typed); None: optimised when the plan is made (about 1 s)
     phases_rad: tuple[float, ...] | None = None
+    # issue 26: the plan beyond presets (None: the preset's) and the simulated exciter
+    sample_rate_hz: float | None = None
+    period_samples: int | None = None
+    reference_frequency_hz: float | None = None
+    profile: str = "acceleration"  # dsp.profiles.Profile
+    corner_hz: float | None = None
+    exciter: str | None = None  # simulated stand: a name of its exciter catalogue
+    fade_in_s: float | None = None  # lpm: the fade-in before the record (None: 2 cycles)
 
     def spec(self, backend: str) -> DutSpec:
         """The DUT's specification on a stand of `backend`, with what the request states
@@ -152,20 +161,57 @@ class RunRequest:
             return ResponseStore(self.response_store)
         return ResponseStore.default()
 
-    def plan(self) -> Plan:
-        """The plan: the preset asked for, else the DUT's, with any custom lines (Hz)."""
+    def plan(self, stroke_peak_to_peak_m: float | None = None) -> Plan:
+        """The plan: the preset asked for, else the DUT's, with any custom lines (Hz), rate,
+        period and profile (app.procedure.planning), clipped and checked by the stroke (m)."""
+        from app.procedure.planning import PlanRequest, build_plan
+
         spec_preset = self.dut_spec.preset if self.dut_spec is not None else None
         name = self.preset or spec_preset or plan_preset_for(self.dut)
-        if self.frequencies_hz is None and self.phases_rad is None:
+        custom = (
+            self.frequencies_hz,
+            self.sample_rate_hz,
+            self.period_samples,
+            self.reference_frequency_hz,
+            self.corner_hz,
+        )
+        if (
+            all(v is None for v in custom)
+            and self.phases_rad is None
+            and self.profile == "acceleration"
+            and stroke_peak_to_peak_m is None
+        ):
             return preset_plan(name, level_ms2=self.level_ms2)
-        preset = PRESETS[name]
-        return make_plan(
-            self.frequencies_hz or tuple(preset.nominal_frequencies_hz),
-            preset.sample_rate_hz,
-            preset.period_samples,
-            self.level_ms2,
-            preset.reference_frequency_hz,
+        return build_plan(
+            PlanRequest(
+                preset=name,
+                frequencies_hz=self.frequencies_hz,
+                sample_rate_hz=self.sample_rate_hz,
+                period_samples=self.period_samples,
+                level_ms2=self.level_ms2,
+                reference_frequency_hz=self.reference_frequency_hz,
+                profile=self.profile,
+                corner_hz=self.corner_hz,
+            ),
+            stroke_peak_to_peak_m=stroke_peak_to_peak_m,
             phases_rad=self.phases_rad,
+        )
+
+    @property
+    def custom_plan(self) -> bool:
+        """True when the plan is more than a preset at one level (then the stroke clips it)."""
+        return (
+            self.exciter is not None
+            or self.profile != "acceleration"
+            or any(
+                v is not None
+                for v in (
+                    self.frequencies_hz,
+                    self.sample_rate_hz,
+                    self.period_samples,
+                    self.reference_frequency_hz,
+                )
+            )
         )
 
     def settings(self, backend: str) -> RunSettings:
@@ -181,6 +227,7 @@ class RunRequest:
             mode=self.mode,
             tolerance_percent=self.tolerance_percent,
             dut_nominal_mv_per_ms2=self.nominal_mv_per_ms2,
+            fade_in_s=self.fade_in_s,
         )
 
 
@@ -197,8 +244,9 @@ def check_request(request: RunRequest) -> None:
         raise PreflightError(f"nominal sensitivity: must be > 0 mV/(m/s^2), got {nominal:g}")
     if not (math.isfinite(request.level_ms2) and request.level_ms2 > 0):
         raise PreflightError(f"level: must be > 0 m/s^2, got {request.level_ms2:g}")
-    if request.periods < 2:
-        raise PreflightError(f"periods: at least 2, got {request.periods}")
+    need = MIN_PERIODS.get(request.estimator, 2)
+    if request.periods < min(need, 2):  # lpm: one record of one period; the others: 2
+        raise PreflightError(f"periods: at least {min(need, 2)}, got {request.periods}")
     mass = request.dut_mass_g
     if mass is not None and not (math.isfinite(mass) and 0 <= mass <= 100_000):
         raise PreflightError(f"DUT mass: must be between 0 and 100000 g, got {mass:g}")

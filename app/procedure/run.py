@@ -3,15 +3,25 @@ and the GUI, from the stand opened to the run folder written."""
 
 from __future__ import annotations
 
+import dataclasses
 import signal
 import threading
 from typing import Any
 
 from app.procedure import Finished, Listener, Procedure
-from app.procedure.request import DutChoice, RunIdentity, RunRequest, build_request, check_request
+from app.procedure.request import (
+    DutChoice,
+    RequestError,
+    RunIdentity,
+    RunRequest,
+    build_request,
+    check_request,
+)
 from app.records.run_folder import RunFolder
 from app.stand import config as stand_config
+from app.stand.config import StandConfig, StandPlan
 from app.stand.open import open_stand
+from app.stand.simulated import EXCITERS, exciter_stroke_m
 
 __all__ = [
     "DutChoice",
@@ -30,7 +40,11 @@ def prepare(request: RunRequest, listener: Listener | None = None) -> tuple[Proc
     ConfigError, PlanError on refusal; nothing is created then). Returns the procedure and the
     stand (to close)."""
     check_request(request)
-    config = stand_config.load(request.stand_file)
+    config = with_exciter(stand_config.load(request.stand_file), request.exciter)
+    request = with_stand_plan(request, config.plan)
+    plan = request.plan(  # a custom plan is clipped and checked by the stroke before it opens
+        config.limits.displacement_peak_to_peak_m if request.custom_plan else None
+    )
     stand = open_stand(
         config,
         dut=request.dut,
@@ -38,9 +52,9 @@ def prepare(request: RunRequest, listener: Listener | None = None) -> tuple[Proc
         paced=request.paced,
         faults=request.faults,
         dut_mass_g=request.dut_mass_g,
+        exciter=request.exciter,
     )
     try:
-        plan = request.plan()
         procedure = Procedure(
             stand,
             plan,
@@ -56,6 +70,35 @@ def prepare(request: RunRequest, listener: Listener | None = None) -> tuple[Proc
         stand.close()
         raise
     return procedure, stand
+
+
+def with_stand_plan(request: RunRequest, plan: StandPlan) -> RunRequest:
+    """The request with the stand file's [plan] where the request states nothing (its own
+    options win; the profile when the request keeps the default, acceleration)."""
+    changes: dict[str, Any] = {}
+    for name in ("frequencies_hz", "sample_rate_hz", "period_samples", "reference_frequency_hz"):
+        if getattr(request, name) is None and getattr(plan, name) is not None:
+            changes[name] = getattr(plan, name)
+    if request.profile == "acceleration" and plan.profile is not None:
+        changes["profile"] = plan.profile
+    if request.corner_hz is None and plan.corner_hz is not None:
+        changes["corner_hz"] = plan.corner_hz
+    return dataclasses.replace(request, **changes) if changes else request
+
+
+def with_exciter(config: StandConfig, exciter: str | None) -> StandConfig:
+    """The stand configuration with the simulated exciter `exciter`'s stroke as its travel
+    limit (RequestError: unknown, or not a simulated stand)."""
+    if exciter is None:
+        return config
+    if config.backend != "sim":
+        raise RequestError("--exciter: only the simulated stand has an exciter catalogue")
+    if exciter not in EXCITERS:
+        raise RequestError(f"--exciter: {exciter!r} is not one of {', '.join(EXCITERS)}")
+    limits = dataclasses.replace(
+        config.limits, displacement_peak_to_peak_m=exciter_stroke_m(exciter)
+    )
+    return dataclasses.replace(config, limits=limits)
 
 
 def start(request: RunRequest, listener: Listener | None = None) -> tuple[Procedure, Any]:

@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from app.procedure.modes import MODE_MULTISINE, MODE_STEPPED_SINE, MODES, Mode
-from dsp.spectral import check_periods
+from dsp.spectral import RECORD_ESTIMATORS, check_periods
 
 __all__ = ["MODES", "MODE_MULTISINE", "MODE_STEPPED_SINE", "RunSettings"]
 
@@ -19,6 +19,8 @@ class RunSettings:
     max_acquisition_s: float | None = None
     background_periods: int = 2
     fade_out_s: float | None = None  # None: dsp.multisine.fade_out_samples (4 cycles)
+    # lpm: the fade-in before the analysed record; None: 2 cycles of the lowest line
+    fade_in_s: float | None = None
     settle_tolerance: float = 0.002
     max_settle_periods: int = 12
     equalisation_tolerance: float = 0.01
@@ -56,5 +58,9 @@ class RunSettings:
             raise ValueError(
                 "stored response tolerance: must be above the equalisation tolerance and <= 1"
             )
+        if self.estimator in RECORD_ESTIMATORS and self.mode != Mode.MULTISINE:
+            raise ValueError(f"estimator: {self.estimator} analyses a multisine record only")
+        if self.fade_in_s is not None and not 0.001 <= self.fade_in_s <= 60:
+            raise ValueError("fade-in: must be between 0.001 and 60 s")
         if self.mode not in MODES:
             raise ValueError(f"mode: one of {', '.join(MODES)}, got {self.mode!r}")

@@ -17,12 +17,13 @@ class Stop(StrEnum):
 
 @dataclass(frozen=True)
 class StoppingRule:
-    """L periods, or until a relative type A target (from 3 periods on), within an optional
+    """L periods, or until a relative type A target (from `min_periods` on), within an optional
     bound on the acquisition's excitation time (s)."""
 
     periods: int
     target_type_a: float | None = None
     max_time_s: float | None = None
+    min_periods: int = MIN_PERIODS_FOR_TARGET  # the lpm states type A from one period
 
     @property
     def period_limit(self) -> int:
@@ -37,7 +38,7 @@ class StoppingRule:
         if count >= self.period_limit:
             return Stop.PERIODS
         target = self.target_type_a
-        if target is not None and worst_type_a <= target and count >= MIN_PERIODS_FOR_TARGET:
+        if target is not None and worst_type_a <= target and count >= self.min_periods:
             return Stop.TARGET
         if self.max_time_s is not None and elapsed_s + period_s > self.max_time_s:
             return Stop.TIME_BOUND

@@ -62,6 +62,17 @@ SCHEMA: dict[str, frozenset[str]] = {
             "component",
             "simulation",
             "certificate",
+            "plan",
+        }
+    ),
+    "plan": frozenset(  # issue 26: the stand's own plan (app.procedure.planning)
+        {
+            "frequencies_hz",
+            "sample_rate_hz",
+            "period_samples",
+            "reference_frequency_hz",
+            "profile",
+            "corner_hz",
         }
     ),
     "laboratory": frozenset({"name", "address", "country", "accreditation", "verify_url"}),
@@ -139,6 +150,19 @@ class Limits:
 
 
 @dataclass(frozen=True)
+class StandPlan:
+    """A stand file's [plan]: lines (Hz), sample rate (Hz), period (samples), reference
+    frequency (Hz), amplitude profile and its corner (Hz); None: the preset's or the run's."""
+
+    frequencies_hz: tuple[float, ...] | None = None
+    sample_rate_hz: float | None = None
+    period_samples: int | None = None
+    reference_frequency_hz: float | None = None
+    profile: str | None = None
+    corner_hz: float | None = None
+
+
+@dataclass(frozen=True)
 class ReferenceStandard:
     """Identity and certificate of the reference standard (sensitivity table optional for the
     simulated stand, which issues its own)."""
@@ -173,6 +197,7 @@ class StandConfig:
     dut_gain: float
     budget: Budget
     simulation: dict[str, str] = field(default_factory=dict)
+    plan: StandPlan = field(default_factory=StandPlan)
     raw: dict[str, Any] = field(default_factory=dict, repr=False)
     text: str = field(default="", repr=False)  # the stand file as read (copied into each run)
 
@@ -447,8 +472,39 @@ def _parse(data: dict[str, Any], text: str, source: str) -> StandConfig:
         dut_gain=r.positive(dut_channel, "dut_channel", "gain", 1.0),
         budget=budget,
         simulation=dict(simulation),
+        plan=_plan(r),
         raw=data,
         text=text,
+    )
+
+
+def _plan(r: _Reader) -> StandPlan:
+    """[plan], each value checked (a ConfigError naming plan.<key>)."""
+    t = r.table("plan", required=False)
+    if not t:
+        return StandPlan()
+    freqs = r.floats(t, "plan", "frequencies_hz") if "frequencies_hz" in t else None
+    if freqs is not None and not (freqs and all(math.isfinite(f) and f > 0 for f in freqs)):
+        raise r.fail("plan.frequencies_hz", "must be a non-empty list of numbers > 0 Hz")
+    period = r.value(t, "plan", "period_samples", int, None)
+    if period is not None and not 4 <= period <= 2**24:
+        raise r.fail("plan.period_samples", f"must be in [4, 16777216], got {period}")
+    profile = r.value(t, "plan", "profile", str, None)
+    if profile is not None and profile not in ("acceleration", "velocity", "displacement"):
+        raise r.fail(
+            "plan.profile", f"one of acceleration, velocity, displacement, got {profile!r}"
+        )
+
+    def optional(key: str) -> float | None:
+        return r.positive(t, "plan", key, None) if key in t else None
+
+    return StandPlan(
+        freqs,
+        optional("sample_rate_hz"),
+        period,
+        optional("reference_frequency_hz"),
+        profile,
+        optional("corner_hz"),
     )
 
 

@@ -14,7 +14,7 @@ from app.stand.config import ConfigError, StandConfig
 from dsp.calibration import ReferenceChain
 from dsp.uncertainty import Budget
 from hardware.interfaces import Daq, MeasuringAmplifier, PowerAmplifier
-from sim.models import DUT_CATALOGUE, StandModel
+from sim.models import DUT_CATALOGUE, EXCITER_CATALOGUE, StandModel
 from sim.stand import POWER_AMPLIFIER_FAULT_KINDS, Fault, SimBudget, SimulatedStand
 
 log = logging.getLogger(__name__)
@@ -61,9 +61,11 @@ def open_stand(
     systematic: bool = True,
     model: StandModel | None = None,
     dut_mass_g: float | None = None,
+    exciter: str | None = None,
 ) -> Stand:
     """The stand of `config`; the simulated one needs a catalogue DUT (`dut`), carrying
-    `dut_mass_g` (g) instead of its catalogue mass when given."""
+    `dut_mass_g` (g) instead of its catalogue mass when given, and `exciter` (a name of
+    the simulated exciter catalogue) instead of the default one."""
     if config.backend == "sim":
         # without a power amplifier only the legacy `amplifier-fault` (raised by the DAQ) works
         kinds = {f.kind for f in faults} & (set(POWER_AMPLIFIER_FAULT_KINDS) - {"amplifier-fault"})
@@ -75,6 +77,8 @@ def open_stand(
             )
         if model is None:
             model = StandModel(reference_gain=config.reference.gain, skew_s=config.skew_s)
+        if exciter is not None:  # one of the catalogue's exciters (issue 26: long-stroke)
+            model = dataclasses.replace(model, exciter=EXCITER_CATALOGUE[exciter])
         sensor = DUT_CATALOGUE.get(dut)
         if sensor is not None and dut_mass_g is not None:
             sensor = dataclasses.replace(sensor, mass_g=dut_mass_g)

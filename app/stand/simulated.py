@@ -15,12 +15,19 @@ import numpy as np
 
 from app.stand.dut import Band, DutSpec
 from sim.faults import FAULT_KINDS
-from sim.models import DUT_CATALOGUE, StandModel, plan_preset_for
+from sim.models import DUT_CATALOGUE, EXCITER_CATALOGUE, StandModel, plan_preset_for
 
 if TYPE_CHECKING:
     from sim.stand import Fault, SimulatedStand
 
 CATALOGUE: tuple[str, ...] = tuple(DUT_CATALOGUE)
+EXCITERS: tuple[str, ...] = tuple(EXCITER_CATALOGUE)  # the simulated stand's exciters
+
+
+def exciter_stroke_m(name: str) -> float:
+    """Peak-to-peak stroke in m of the simulated exciter `name` (KeyError when unknown)."""
+    return EXCITER_CATALOGUE[name].stroke_peak_to_peak_m
+
 
 # The simulated catalogue's data sheets: sensitivity +-5 % of the model's nominal value at the
 # reference frequency; characteristic and phase per band (capacitive: sensitivity only, its
@@ -42,9 +49,11 @@ CATALOGUE_TOLERANCES: dict[str, dict[str, Any]] = {
 __all__ = [
     "CATALOGUE",
     "CATALOGUE_TOLERANCES",
+    "EXCITERS",
     "FAULT_KINDS",
     "catalogue_entries",
     "catalogue_spec",
+    "exciter_stroke_m",
     "open_simulated",
     "parse_faults",
     "plan_preset_for",

@@ -253,7 +253,7 @@ def test_negative_numbers_are_option_values(argv):
 def test_help_states_the_bounds(capsys):
     assert main(["run", "--help"]) == 0
     out = " ".join(capsys.readouterr().out.split())  # argparse wraps the help lines
-    for text in ("(0, 1000] m/s^2", "[2, 10000]", "(0, 100] %", "(0, 24 h]"):
+    for text in ("(0, 1000] m/s^2", "[1, 10000]", "(0, 100] %", "(0, 24 h]"):
         assert text in out
 
 

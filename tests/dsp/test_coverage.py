@@ -13,7 +13,13 @@ import numpy as np
 import pytest
 import scipy.stats
 
-from dsp.spectral import ESTIMATORS, MIN_PERIODS, SpectralAccumulator, check_periods
+from dsp.spectral import (
+    ESTIMATORS,
+    MIN_PERIODS,
+    RECORD_ESTIMATORS,
+    SpectralAccumulator,
+    check_periods,
+)
 
 RUNS = 20_000  # per cell: Monte Carlo standard error of a 95 % coverage ~0.15 %
 TRUTH = 0.035 * np.exp(-0.7j)
@@ -42,7 +48,9 @@ def coverage(estimator: str, periods: int, dut_snr_db: float, reference_snr_db: 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("snr", [(20.0, 20.0), (20.0, 40.0), (40.0, 40.0)], ids=str)
-@pytest.mark.parametrize("estimator", ESTIMATORS)
+@pytest.mark.parametrize(
+    "estimator", [e for e in ESTIMATORS if e not in RECORD_ESTIMATORS]
+)  # lpm: bench/lpm_coverage.py
 def test_k2_coverage_within_93_to_97_5_percent_at_every_l(estimator, snr):
     """Issue 13 point 5: k = 2 (95.45 %) coverage within 93-97.5 % for every estimator at
     L = 3, 4, 8 and 32 (seed: refused at L = 3, see below), magnitude and phase."""
@@ -59,8 +67,13 @@ def test_k2_coverage_within_93_to_97_5_percent_at_every_l(estimator, snr):
 
 def test_too_few_periods_are_refused_and_state_no_type_a():
     """Below MIN_PERIODS no type A is stated (NaN) and a plan for it is refused by name."""
-    assert MIN_PERIODS == {"periodic": 3, "h1": 3, "seed": 4}
+    assert MIN_PERIODS == {"periodic": 3, "h1": 3, "seed": 4, "lpm": 1}
+    check_periods("lpm", 1)  # one record of one period (dsp.lpm_record)
+    with pytest.raises(ValueError, match="periods: the lpm estimator needs at least 1"):
+        check_periods("lpm", 0)
     for estimator, need in MIN_PERIODS.items():
+        if estimator in RECORD_ESTIMATORS:
+            continue
         check_periods(estimator, need)
         with pytest.raises(ValueError, match=f"periods: the {estimator} estimator needs at least"):
             check_periods(estimator, need - 1)

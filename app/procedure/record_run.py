@@ -1,0 +1,233 @@
+"""Multisine with the LPM estimator (issue 26 point 3): short bursts instead of settled periods.
+
+A burst plays a zero period whose last `fade-in` samples fade the steady drive in (it then
+continues the drive's own phase), reads whole periods of the steady drive as one record, and
+fades out. The start-up transient the fade leaves is estimated by the LPM's transient term
+(dsp.lpm_record), not waited out, so type A and the level check come from the first period.
+Warm: the first burst starts from the stand's stored response; cold: a gentle identification
+burst at `identification_drive_v` per line first (the same multisine, reduced level). A level
+more than `equalisation_tolerance` off after the first period: the burst's own measurement
+corrects the drive, and another burst follows. Periods join the record until the run's
+stopping rule holds (periods, type A target, time bound). Units: V, m/s^2, s.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from app.procedure.background import BackgroundLevels, budget_with_background
+from app.procedure.context import RunContext
+from app.procedure.errors import PreflightError, ProcedureError
+from app.procedure.events import EqualisationStep, Progress, State
+from app.procedure.stand_memory import StandMemory
+from app.procedure.stopping import Stop, StoppingRule
+from dsp.crestfactor import synthesize
+from dsp.lpm_record import RecordEstimate, record_estimate
+from dsp.multisine import fade_envelope
+from dsp.spectral import MIN_PERIODS
+
+FADE_IN_CYCLES = 2.0  # default fade-in: cycles of the lowest line (at most one period)
+
+
+def fade_in_samples(lowest_hz: float, sample_rate_hz: float, period_samples: int, s: float | None):
+    """Fade-in length in samples: `s` seconds, else FADE_IN_CYCLES of the lowest line; within
+    2 .. one period."""
+    seconds = s if s is not None else FADE_IN_CYCLES / lowest_hz
+    return int(min(max(2, math.ceil(seconds * sample_rate_hz)), period_samples))
+
+
+class RecordRun:
+    """The LPM run's phases after the background; results end in the context's notes."""
+
+    def __init__(self, ctx: RunContext, background: BackgroundLevels, memory: StandMemory):
+        self.ctx = ctx
+        self.background = background
+        self.memory = memory
+        plan = ctx.plan
+        self.fade = fade_in_samples(
+            float(np.min(plan.frequencies_hz)),
+            plan.sample_rate_hz,
+            plan.period_samples,
+            ctx.settings.fade_in_s,
+        )
+
+    # --- one burst ------------------------------------------------------------------------
+
+    def _lead(self, drive: np.ndarray, state: State) -> None:
+        """The zero period ending in the fade-in; then the steady drive is queued."""
+        io, n = self.ctx.io, self.ctx.plan.period_samples
+        lead = np.zeros(n)
+        lead[n - self.fade :] = drive[n - self.fade :] * fade_envelope(self.fade, 1, "in")
+        io.write(lead)
+        io.in_transition = True
+        try:
+            while io.queue:  # a zero period a fade-out left queued plays first, then the lead
+                io.read(state)
+        except BaseException:
+            io.drive = drive  # the fade is written: a fade-out starts from the steady drive
+            raise
+        finally:
+            io.in_transition = False
+        io.drive = drive
+        io.write(drive)
+
+    def _record(self, blocks: list[tuple[np.ndarray, np.ndarray, np.ndarray]]) -> RecordEstimate:
+        ref = np.array([b[0] for b in blocks])
+        dut = np.array([b[1] for b in blocks])
+        drive = np.array([b[2] for b in blocks])
+        return record_estimate(ref, dut, self.ctx.plan, drive_blocks=drive)
+
+    def _read(self, state: State) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        io = self.ctx.io
+        block = io.read(state)
+        ref, dut = io.split_channels(block)
+        return ref, dut, io.played
+
+    def _response(self, record: RecordEstimate) -> np.ndarray:
+        """The stand's response per line, (m/s^2) per drive V (complex), from the record."""
+        per_drive = record.lpm.reference_per_drive
+        assert per_drive is not None  # the record was estimated with its drive
+        response = self.ctx.io.to_acceleration(per_drive)
+        if np.any(np.abs(response) == 0) or not np.all(np.isfinite(response)):
+            raise ProcedureError(
+                "no motion on the reference channel at some lines: check the power amplifier "
+                "(enabled, gain) and the reference accelerometer"
+            )
+        return response
+
+    # --- phases -----------------------------------------------------------------------------
+
+    def identify(self) -> np.ndarray:
+        """Gentle burst: one period of the multisine at `identification_drive_v` per line."""
+        ctx, plan = self.ctx, self.ctx.plan
+        ctx.state(State.IDENTIFYING, "gentle burst: the stand's response per line (lpm)")
+        amplitude = np.full(len(plan.lines), ctx.settings.identification_drive_v)
+        drive = synthesize(plan.bins, amplitude, plan.phases_rad, plan.period_samples)
+        self._lead(drive, State.IDENTIFYING)
+        record = self._record([self._read(State.IDENTIFYING)])
+        ctx.io.fade_out()
+        return self._response(record)
+
+    def run(self) -> None:
+        """Identification when no stored response serves, then bursts until the level holds;
+        the last burst acquires until the stopping rule; fades out."""
+        ctx, s = self.ctx, self.ctx.settings
+        stored = self.memory.recall()
+        if stored is not None:
+            response, source = stored.response, "stored"
+        else:
+            response, source = self.identify(), "identified"
+            self.ctx.notes.stand_response = self.memory.describe(None, "identified")
+        plan = ctx.plan
+        target = plan.amplitudes_ms2 * np.exp(1j * (plan.phases_rad - np.pi / 2))
+        for iteration in range(1, s.max_equalisation_iterations + 1):
+            drive_lines = target / response
+            drive = synthesize(
+                plan.bins,
+                np.abs(drive_lines),
+                np.angle(drive_lines) + np.pi / 2,
+                plan.period_samples,
+            )
+            peak = float(np.max(np.abs(drive)))
+            if peak > ctx.io.drive_limit_v:
+                raise PreflightError(
+                    f"the level needs a {peak:.2f} V drive peak, over the stand's "
+                    f"{ctx.io.drive_limit_v:g} V limit: lower the level or raise the power "
+                    "amplifier's gain"
+                )
+            ctx.state(State.EQUALISING, f"burst {iteration}: fade-in, level check (lpm)")
+            self._lead(drive, State.EQUALISING)
+            first = self._read(State.ACQUIRING)
+            record = self._record([first])
+            measured = self._response(record)
+            errors = np.abs(measured / response) - 1.0  # table level against its target
+            worst = float(np.max(np.abs(errors)))
+            ctx.notes.equalisation.append(worst)
+            ctx.emit(EqualisationStep(iteration, errors, worst))
+            ctx.log(f"level check {iteration}: worst line {100 * worst:.2f} % (lpm, one period)")
+            if iteration == 1 and source == "stored":
+                if worst > s.stored_response_tolerance:
+                    ctx.log(
+                        f"stand response: the stored one is off by {100 * worst:.1f} % "
+                        f"(> {100 * s.stored_response_tolerance:g} %): the burst re-identifies"
+                    )
+                    outcome = "stored, disagreed: identified"
+                else:
+                    outcome = "stored"
+                ctx.notes.stand_response = self.memory.describe(stored, outcome, check_error=worst)
+            response = measured
+            converged = worst <= s.equalisation_tolerance
+            last = iteration == s.max_equalisation_iterations
+            if converged or last:
+                if not converged:
+                    ctx.warn(
+                        f"equalisation: worst line still {100 * worst:.2f} % off its target "
+                        f"after {iteration} bursts (the calibration is a ratio and stays valid; "
+                        "the level is less exact)"
+                    )
+                else:
+                    ctx.notes.measured_response = measured
+                    ctx.notes.measured_response_error = worst
+                self.acquire(first, record)
+                return
+            ctx.io.fade_out()
+
+    def acquire(
+        self, first: tuple[np.ndarray, np.ndarray, np.ndarray], record: RecordEstimate
+    ) -> None:
+        """Periods join the record (after `first`) until the stopping rule; results after each."""
+        ctx, s, io = self.ctx, self.ctx.settings, self.ctx.io
+        ctx.state(State.ACQUIRING, "one record: lpm")
+        plan = ctx.plan
+        budget = budget_with_background(
+            ctx.stand.budget,
+            plan,
+            self.background,
+            (record.estimate.reference_amplitude_v, record.estimate.dut_amplitude_v),
+            s.background_periods,
+        )
+        ctx.notes.budget = budget
+        if io.writer is not None:
+            io.writer.set_settle_periods(io.periods_read - 1)
+            io.writer.set_budget(budget)
+        rule = StoppingRule(
+            s.periods, s.target_type_a, s.max_acquisition_s, min_periods=MIN_PERIODS[s.estimator]
+        )
+        period_s = plan.period_s
+        started = io.excited_s - period_s  # the first period is acquired already
+        blocks = [first]
+        while True:
+            count = len(blocks)
+            if io.writer is not None:
+                io.writer.set_acquired_periods(count)
+            estimate = record.estimate
+            results = ctx.publish(estimate, budget)
+            acquired_s = io.excited_s - started
+            worst_a = float(np.nanmax(estimate.relative_type_a))
+            ctx.emit(
+                Progress(
+                    rule.fraction(count, worst_a),
+                    acquired_s,
+                    rule.remaining_s(count, period_s),
+                    f"record of {count} period(s), worst type A {100 * worst_a:.3f} %",
+                )
+            )
+            stop = rule.decide(count, worst_a, acquired_s, period_s)
+            if stop is not None:
+                if stop is Stop.TARGET and s.target_type_a is not None:
+                    ctx.log(f"type A target {100 * s.target_type_a:g} % reached, {count} period(s)")
+                elif stop is Stop.TIME_BOUND and s.target_type_a is not None:
+                    text = (
+                        f"time bound {s.max_acquisition_s:g} s reached before the type A "
+                        f"target: worst line {100 * worst_a:.3f} % > {100 * s.target_type_a:g} %"
+                    )
+                    ctx.warn(text)
+                    ctx.notes.results = dataclasses.replace(
+                        results, warnings=(*results.warnings, text)
+                    )
+                return
+            blocks.append(self._read(State.ACQUIRING))
+            record = self._record(blocks)

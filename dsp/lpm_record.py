@@ -1,0 +1,127 @@
+"""The LPM (dsp.lpm) on a run's analysed record: M whole periods of a plan, read after the
+fade-in, as one record -> a dsp.spectral.Estimate for dsp.calibration (issue 26 point 3).
+
+The record's DFT has M bins per period bin, so the lines sit at bins plan.bins * M and the
+windows of non-excited bins lie between them; type A is the LPM's, with Student t at its
+degrees of freedom per line (2 q real). Coherence is not defined for one record (NaN);
+distortion is the periodic content at the free 2nd..5th harmonic bins of each line, counted
+where it stands clear of the local noise (exponential law of |X|^2 for noise alone, Sidak
+over the bins tested, 1 % false alarm per run) and bias-corrected for it. Volts in, V/V out.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from dsp import lpm
+from dsp.calibration import AnalysisError
+from dsp.multisine import Plan
+from dsp.spectral import DISTORTION_FALSE_ALARM, HARMONICS, Estimate
+
+ESTIMATOR = "lpm"
+NOISE_HALF_WIDTH_BINS = 12  # local noise power around a harmonic bin, from non-excited bins
+
+
+@dataclass(frozen=True)
+class RecordEstimate:
+    """The estimate for dsp.calibration and the LPM's own result (transients, covariance,
+    per-drive FRFs) of one record of `periods` periods."""
+
+    estimate: Estimate
+    lpm: lpm.LpmEstimate
+    periods: int
+
+
+def record_estimate(
+    reference_blocks: np.ndarray,
+    dut_blocks: np.ndarray,
+    plan: Plan,
+    *,
+    drive_blocks: np.ndarray | None = None,
+    settings: lpm.LpmSettings | None = None,
+) -> RecordEstimate:
+    """LPM estimate of consecutive periods (rows of shape (M, N), volts) taken as one record.
+    With `drive_blocks` (the drive as played, same shape) the drive is checked to be periodic
+    over the record and the FRFs per drive volt are returned. AnalysisError names the cause."""
+    ref = np.atleast_2d(np.asarray(reference_blocks, dtype=float))
+    dut = np.atleast_2d(np.asarray(dut_blocks, dtype=float))
+    n = plan.period_samples
+    if ref.shape != dut.shape or ref.shape[1] != n or ref.shape[0] < 1:
+        raise AnalysisError(
+            f"lpm: expected whole periods of {n} samples for both channels, got "
+            f"{ref.shape} and {dut.shape}"
+        )
+    periods = ref.shape[0]
+    record_bins = periods * n // 2 + 1
+    lines = plan.bins * periods
+    excluded = lpm.mains_bins(
+        plan.resolution_hz / periods, record_bins, plan.mains_frequency_hz, plan.mains_harmonics
+    )
+    drive = None if drive_blocks is None else np.asarray(drive_blocks, float).reshape(1, -1)
+    try:
+        result = lpm.estimate(
+            ref.reshape(1, -1),
+            dut.reshape(1, -1),
+            lines,
+            settings=settings,
+            excluded_bins=excluded,
+            drive_v=drive,
+        )
+    except lpm.LpmError as exc:
+        raise AnalysisError(f"lpm: {exc}") from None
+    y_spec = np.fft.rfft(dut.reshape(-1)) * (2.0 / (periods * n))
+    u_spec = np.fft.rfft(ref.reshape(-1)) * (2.0 / (periods * n))
+    per_period = math.sqrt(periods)  # record noise -> one period's (white noise), for the SNR
+    estimate = Estimate(
+        estimator=ESTIMATOR,
+        periods=periods,
+        response=result.response,
+        relative_type_a=result.relative_type_a,
+        phase_type_a_rad=result.phase_type_a_rad,
+        dof=result.dof.astype(float),
+        coherence=np.full(lines.size, np.nan),
+        reference_amplitude_v=result.reference_amplitude_v,
+        dut_amplitude_v=result.dut_amplitude_v,
+        reference_noise_v=result.reference_noise_v * per_period,
+        dut_noise_v=result.dut_noise_v * per_period,
+        reference_distortion=harmonic_distortion(u_spec, lines),
+        dut_distortion=harmonic_distortion(y_spec, lines),
+    )
+    return RecordEstimate(estimate, result, periods)
+
+
+def harmonic_distortion(spectrum: np.ndarray, line_bins: np.ndarray) -> np.ndarray:
+    """Per line, the rss of its periodic 2nd..5th harmonics relative to the line (a ratio),
+    from one record's peak-scaled spectrum: a harmonic bin counts where |X|^2 exceeds
+    t = ln(tests / alpha) times the local noise power (for noise alone |X|^2/s2 ~ Exp(1)),
+    and its noise power is subtracted. Harmonics on a line, DC or beyond Nyquist are skipped."""
+    size = spectrum.size
+    line_set = {int(b) for b in line_bins}
+    harmonics = [
+        [h * int(k) for h in HARMONICS if h * int(k) < size - 1 and h * int(k) not in line_set]
+        for k in line_bins
+    ]
+    blocked = line_set | {b for group in harmonics for b in group} | {0, size - 1}
+    tests = max(sum(len(group) for group in harmonics), 1)
+    threshold = math.log(tests / DISTORTION_FALSE_ALARM)
+    power = np.abs(spectrum) ** 2
+    out = np.zeros(len(harmonics))
+    for i, (k, group) in enumerate(zip(line_bins, harmonics, strict=True)):
+        periodic = 0.0
+        for b in group:
+            near = [
+                j
+                for j in range(b - NOISE_HALF_WIDTH_BINS, b + NOISE_HALF_WIDTH_BINS + 1)
+                if 0 < j < size - 1 and j not in blocked
+            ]
+            if not near:
+                continue
+            noise = float(np.mean(power[near]))
+            if power[b] > threshold * noise:
+                periodic += float(power[b]) - noise
+        line_power = float(power[int(k)])
+        out[i] = math.sqrt(periodic / line_power) if line_power > 0 else math.nan
+    return out
