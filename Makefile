@@ -52,7 +52,7 @@ browser:
 	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing; \
 	fi
 
-test: $(STAMP) xvfb
+test: $(STAMP) xvfb browser
 	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest -q
 
 # dsp, units, CLI parsing: under a minute on 2 cores (no runs, subprocesses, GUI, databases or
