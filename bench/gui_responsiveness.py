@@ -8,7 +8,7 @@ period of a 51.2 kS/s plan with 50 ms periods (2 channels x 2560 samples, a live
 Targets: stall < 50 ms, >= 20 updates per second. The heartbeat's own gap with an idle window,
 measured first in the same run, is the baseline.
 
-Run: QT_QPA_PLATFORM=offscreen python bench/gui_responsiveness.py
+Run: QT_QPA_PLATFORM=offscreen python bench/gui_responsiveness.py [--smoke]
 """
 
 from __future__ import annotations
@@ -37,7 +37,9 @@ from dsp.multisine import make_plan
 from dsp.spectral import SpectralAccumulator
 from dsp.uncertainty import Budget
 
-FS, N, SECONDS = 51_200.0, 2560, 6.0
+FS, N = 51_200.0, 2560
+SMOKE = "--smoke" in sys.argv[1:]  # 1 s of live run: checks it still runs
+SECONDS = 1.0 if SMOKE else 6.0
 
 
 class FeedingProcedure:
