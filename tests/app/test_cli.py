@@ -46,7 +46,7 @@ def test_plan_human_output_lists_lines_and_warnings(capsys):
     code, out, _ = run(capsys, "plan", "--preset", "capacitive")
     assert code == 0
     assert "27 lines" in out and "Crest factor" in out and "4000" in out
-    assert "warning: line 50 Hz: on the 1st mains harmonic" in out
+    assert "warning: 4 lines on a mains harmonic: 50, 100, 200, 250 Hz" in out  # grouped (#27)
 
 
 @pytest.mark.parametrize(
