@@ -71,3 +71,21 @@ def test_sweep_says_level_i_of_n(capsys):
         progress(StateChanged(State.PREFLIGHT))
     err = capsys.readouterr().err
     assert "level 1 of 2: 2 m/s^2" in err and "level 2 of 2: 5 m/s^2" in err
+
+
+def test_show_of_the_runs_root_lists_its_runs(complete_run, tmp_path, capsys):
+    """`show runs/` says it is a folder of runs and lists them, not "the run was interrupted";
+    a folder beside the runs that is no run is not listed."""
+    import shutil
+
+    from app.cli import main
+
+    root = tmp_path / "runs"
+    shutil.copytree(complete_run, root / complete_run.name)
+    (root / "notes").mkdir()
+    code = main(["show", str(root)])
+    out, err = capsys.readouterr()
+    assert code == 0, err
+    assert "a folder of 1 run(s), not a run folder" in out and "interrupted" not in out + err
+    assert f"{complete_run.name}  complete" in out and "SN-42" in out
+    assert "notes" not in out
