@@ -179,7 +179,7 @@ def build(run: StoredRun, info: CertificateInfo) -> bytes:
     _d(person, "mainSigner", "true")
     customer = _d(admin, "customer")
     _text(customer, "name", str(info.customer))
-    _text(_d(customer, "location"), "further", info.customer_address or str(info.customer))
+    _text(_d(customer, "location"), "further", info.customer_address or text.ADDRESS_NOT_STATED)
     _statements(admin, results)
 
     result_set = _d(_d(root, "measurementResults"), "measurementResult")

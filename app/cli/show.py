@@ -63,7 +63,7 @@ def _list_runs(root: Path, runs: list[Path], as_json: bool) -> int:
         f"{root}: a folder of {len(rows)} run(s), not a run folder; "
         "`accelcal show RUN_FOLDER` shows one:"
     )
-    width = max(len(r["run"]) for r in rows)
+    width = max(len(str(r["run"])) for r in rows)
     for r in rows:
         print(f"  {r['run']:<{width}}  {r['state']:<11}  {r['dut_id'] or ''}".rstrip())
     return EXIT_OK
