@@ -60,7 +60,11 @@ test: $(STAMP) xvfb browser
 test-fast: $(STAMP)
 	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest -q -m "not slow and not integration"
 
+# self-contained: its records file and stored stand responses live in $(DEMO_DIR)/data, so it
+# neither reads nor writes the user's data directory and its timing does not depend on earlier runs
+demo: export ACCELCAL_DATA_DIR = $(abspath $(DEMO_DIR))/data
 demo: $(STAMP)
+	rm -rf $(DEMO_DIR)/data
 	$(BIN)/accelcal plan --preset piezo
 	$(BIN)/accelcal run --sim --dut piezo --dut-id SN-DEMO-0001 --level 5 --periods 8 --seed 1 \
 	    --tolerance 5 --out $(DEMO_DIR)/runs

@@ -16,6 +16,20 @@ from pathlib import Path
 
 from app.errors import Refusal
 
+DATA_DIR_ENV = "ACCELCAL_DATA_DIR"
+
+
+def data_dir() -> Path:
+    """The folder of the user's data (the default SQLite records file, the stored stand
+    responses): $ACCELCAL_DATA_DIR when set (a demo or a test keeps its own), else the user's
+    data directory (platformdirs)."""
+    chosen = os.environ.get(DATA_DIR_ENV)
+    if chosen:
+        return Path(chosen).expanduser()
+    from platformdirs import user_data_dir
+
+    return Path(user_data_dir("accelcal", appauthor=False))
+
 
 class FileExistsRefusal(FileExistsError, Refusal):
     """The target exists and overwriting was not asked for."""

@@ -6,7 +6,7 @@ coherence need), rectangular window, nperseg = N, no overlap, no detrend. Ours: 
 SpectralAccumulator fed in 16-period batches, then all three estimators. Figures are ratios to
 the baseline measured in the same run, so a noisy machine does not move them much.
 
-Run: python bench/analysis_speed.py
+Run: python bench/analysis_speed.py [--smoke]   (--smoke: a 4 s record, one repeat)
 """
 
 from __future__ import annotations
@@ -27,7 +27,8 @@ from dsp.spectral import ESTIMATORS, SpectralAccumulator
 
 FS = 51_200.0
 N = 102_400
-RECORD_S = 60.0
+SMOKE = "--smoke" in sys.argv[1:]  # a few seconds, figures meaningless: keeps it running
+RECORD_S = 4.0 if SMOKE else 60.0
 PERIODS = int(RECORD_S * FS / N)
 
 
@@ -59,7 +60,7 @@ def baseline(bins: np.ndarray, u: np.ndarray, y: np.ndarray) -> None:
     _ = p_uy[bins] / p_uu[bins], np.abs(p_uy[bins]) ** 2 / (p_uu[bins] * p_yy[bins])
 
 
-def best_of(fn, *args, repeats: int = 5) -> float:
+def best_of(fn, *args, repeats: int = 1 if SMOKE else 5) -> float:
     times = []
     for _ in range(repeats):
         t0 = time.perf_counter()
@@ -111,7 +112,9 @@ def main() -> None:
     m_base = peak_memory(baseline, bins, u, y)
     m_ours = peak_memory(ours, bins, u, y)
     live = per_period_time(bins, u, y)
-    short, long = streamed_peak(10), streamed_peak(100)
+    short, long = (
+        (streamed_peak(2), streamed_peak(4)) if SMOKE else (streamed_peak(10), streamed_peak(100))
+    )
     print(
         f"record: {RECORD_S:g} s, 2 x {FS:g} S/s, {PERIODS} periods of {N} samples, "
         f"{bins.size} lines, {data_mib:.0f} MiB of samples"

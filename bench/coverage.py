@@ -6,6 +6,7 @@ certificate and nominal values. Target: the interval covers the truth 93-97.5 % 
 every line.
 
 Run: python bench/coverage.py [RUNS] [DUT]   (default 600 runs, piezo; two processes)
+     python bench/coverage.py --smoke        (2 runs: checks it still runs)
 """
 
 from __future__ import annotations
@@ -51,8 +52,9 @@ def wilson(p: float, n: int, z: float = 1.96) -> tuple[float, float]:
 
 
 def main() -> None:
-    runs = int(sys.argv[1]) if len(sys.argv) > 1 else 600
-    dut = sys.argv[2] if len(sys.argv) > 2 else "piezo"
+    args = [a for a in sys.argv[1:] if a != "--smoke"]
+    runs = 2 if "--smoke" in sys.argv[1:] else int(args[0]) if args else 600
+    dut = args[1] if len(args) > 1 else "piezo"
     t0 = time.perf_counter()
     with ProcessPoolExecutor(max_workers=2) as pool:
         outcomes = list(pool.map(one_run, [(seed, dut) for seed in range(runs)], chunksize=8))

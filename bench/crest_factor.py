@@ -1,6 +1,6 @@
 """Crest factor of the seed multisine plans: random, Schroeder and optimised phases.
 
-Run from the repository root:  python bench/crest_factor.py
+Run from the repository root:  python bench/crest_factor.py [--smoke]
 
 For the piezo (fs 6000 Hz, 12000-sample period) and capacitive (fs 12000 Hz, 24000-sample
 period) seed plans, with equal amplitudes and with amplitudes proportional to 1/f, prints a
@@ -35,8 +35,9 @@ PLANS = {  # name: (sample rate in Hz, period in samples, nominal line frequenci
     "piezo": (6000.0, 12000, ISO266_10_2500),
     "capacitive": (12000.0, 24000, [*ISO266_10_2500, 3150, 4000]),
 }
-RANDOM_DRAWS = 200
-BASELINE_CALLS = 1000
+SMOKE = "--smoke" in sys.argv[1:]  # one plan, few draws: checks it still runs
+RANDOM_DRAWS = 5 if SMOKE else 200
+BASELINE_CALLS = 10 if SMOKE else 1000
 
 
 def bench(fs: float, n: int, freqs: list[float], amplitudes: np.ndarray) -> dict[str, float]:
@@ -77,7 +78,7 @@ def main() -> None:
     )
     print(header)
     print("|---" * (header.count("|") - 1) + "|")
-    for name, (fs, n, freqs) in PLANS.items():
+    for name, (fs, n, freqs) in list(PLANS.items())[: 1 if SMOKE else None]:
         f = np.asarray(freqs, dtype=float)
         for label, amplitudes in (("equal", np.ones(f.size)), ("1/f", f[0] / f)):
             r = bench(fs, n, freqs, amplitudes)

@@ -4,7 +4,7 @@ White noise on both channels, 20 dB SNR per line per period, L periods. Cramer-R
 the relative magnitude: var(|H|)/|H|^2 >= 2 s_y^2/(N A_y^2) + 2 s_u^2/(N A_u^2), N the total
 samples. Target for `periodic`: Monte Carlo std within 10 % of the bound, bias < 0.05 %.
 
-Run: python bench/estimators.py
+Run: python bench/estimators.py [--smoke]
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ from dsp.spectral import ESTIMATORS, SpectralAccumulator
 N_P = 1200  # period, samples
 BINS = np.array([20, 50, 130, 320])
 PERIODS = 16
-RUNS = 4000
+RUNS = 20 if "--smoke" in sys.argv[1:] else 4000  # --smoke: checks it still runs
 SNR_DB = 20.0
 
 

@@ -14,7 +14,7 @@ as ratios to the HDF5 path measured in the same run.
 
 Goal: CSV at most 1.5x the HDF5 path's time and at most 2x the data's memory.
 
-Run: python bench/import.py [--repeats 3] [--seconds 30]
+Run: python bench/import.py [--repeats 3] [--seconds 30] [--smoke]
 """
 
 from __future__ import annotations
@@ -167,7 +167,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--measure", nargs=2, metavar=("KIND", "FILE"), help=argparse.SUPPRESS)
     parser.add_argument("--traced", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--kinds", default="hdf5,csv,csv-savetxt,tdms")
+    parser.add_argument("--smoke", action="store_true", help="2 s, one repeat: runs?")
     args = parser.parse_args(argv)
+    if args.smoke:
+        args.seconds, args.repeats, args.kinds = 2, 1, "hdf5,csv"
     if args.measure:
         print(json.dumps(measure(args.measure[0], Path(args.measure[1]), args.traced)))
         return 0

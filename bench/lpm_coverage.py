@@ -16,7 +16,7 @@ Low frequencies: 0.4-8 Hz (ISO 266 from 0.4 Hz) on the long-stroke exciter, line
 of nominal on the grid of dsp.lpm.design_grid (17.65 s), constant displacement below 5 Hz,
 one period after a 2.5 s fade-in, piezo DUT, P = 1.
 
-Run: python bench/lpm_coverage.py [TRIALS] [DUT ...] [order=R] [bins=M]
+Run: python bench/lpm_coverage.py [TRIALS] [DUT ...] [order=R] [bins=M]  (--smoke: 4)
      python bench/lpm_coverage.py low [TRIALS]               (default 1000 trials)
      (default 400 trials, piezo capacitive, order 2, 12 bins)
      python bench/lpm_coverage.py smoke                  (a few trials, seconds)
@@ -263,6 +263,7 @@ def main() -> None:
     global SETTINGS
     options = dict(a.split("=", 1) for a in sys.argv[1:] if "=" in a)
     args = [a for a in sys.argv[1:] if "=" not in a]
+    args = ["smoke" if a == "--smoke" else a for a in args]
     SETTINGS = lpm.LpmSettings(
         order=int(options.get("order", SETTINGS.order)),
         bins=int(options.get("bins", SETTINGS.bins)),

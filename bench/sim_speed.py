@@ -8,7 +8,7 @@ other work on a shared machine stretches wall time only. `--also PATH` times the
 another checkout (e.g. an export of an older commit) in the same run, for a before/after
 figure.
 
-Run: python bench/sim_speed.py [--also /path/to/other/checkout] [--one-blas-thread]
+Run: python bench/sim_speed.py [--also /path/to/other/checkout] [--one-blas-thread] [--smoke]
 """
 
 from __future__ import annotations
@@ -81,8 +81,12 @@ def main() -> None:
     parser.add_argument(
         "--one-blas-thread", action="store_true", help="OPENBLAS_NUM_THREADS=1 in every timing"
     )
+    parser.add_argument("--smoke", action="store_true", help="one case, one period: runs?")
     args = parser.parse_args()
     one = args.one_blas_thread
+    global PERIODS, CASES
+    if args.smoke:
+        PERIODS, CASES = 1, CASES[:1]
     simulated = 2 * PERIODS
     head = "| DUT | fs | simulated | wall | real-time factor (wall) | (CPU) | ratio to sosfilt |"
     rule = "| --- | --- | --- | --- | --- | --- | --- |"

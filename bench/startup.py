@@ -5,7 +5,7 @@ baseline `python -c "import numpy"`), run in turn so that a load on the machine 
 alike. Target: ratio at most 2. `--also PATH` times the same command from another checkout
 (e.g. an export of an older commit) in the same run, for a before/after figure.
 
-Run: python bench/startup.py [--runs 15] [--also /path/to/other/checkout]
+Run: python bench/startup.py [--runs 15] [--also /path/to/other/checkout] [--smoke]
 """
 
 from __future__ import annotations
@@ -33,7 +33,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=15, help="interpreters per figure")
     parser.add_argument("--also", type=Path, action="append", default=[], help="other checkout")
+    parser.add_argument("--smoke", action="store_true", help="--runs 1: checks it still runs")
     args = parser.parse_args()
+    if args.smoke:
+        args.runs = 1
     python = sys.executable
     cases = {"import numpy (baseline)": ([python, "-c", "import numpy"], ROOT)}
     cases["accelcal --help"] = ([python, "-m", "app", "--help"], ROOT)

@@ -8,7 +8,7 @@ and without the delay. "error" is the largest |measured - true| over the lines, 
 the true value (magnitude) or in degrees (phase), with the U stated at that line; "|e|/U" is
 the largest ratio over the lines (<= 1: every line within its U).
 
-Run: python bench/validation_cases.py   (about a minute; prints a Markdown table)
+Run: python bench/validation_cases.py [--smoke]   (about a minute; prints a Markdown table)
 """
 
 from __future__ import annotations
@@ -134,10 +134,15 @@ def table(cases: list[Case]) -> str:
 
 def main() -> int:
     logging.basicConfig(level=logging.INFO, format="%(message)s")
+    smoke = "--smoke" in sys.argv[1:]  # one case of each kind: checks it still runs
     cases = []
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp)
         cases.append(sim_case("clean: piezo, 5 m/s², L = 8", out, "piezo"))
+        if smoke:
+            cases.append(skew_case("skew +2 µs, --skew given", 2e-6, 2e-6))
+            print(table(cases))
+            return 0
         cases.append(sim_case("noisy: capacitive MEMS, 200 µg/√Hz", out, "capacitive"))
         cases.append(
             sim_case("straddling: piezo against a ±0.5 % characteristic", out, "piezo", 0.5)

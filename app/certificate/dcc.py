@@ -13,7 +13,14 @@ ISO 16063-21 comparison with the multisine plan, the reference standard with its
 the conditions) whose data is a list of parallel D-SI lists: frequency, sensitivity magnitude
 and phase, each with expanded uncertainty, coverage factor and coverage probability per point,
 and the deviation from the sensitivity at the reference frequency (%) with its U
-(dsp.characteristic).
+(dsp.characteristic); then the result at the reference frequency on its own, marked
+(REF_RESULT), so a reader finds the certified sensitivity without matching names.
+
+refType attributes name what each element is, so a reader need not match English names: PTB's
+good-practice names where one exists (basic_measuredValue, basic_referenceValue,
+basic_conformity, basic_normalUsed, basic_temperature, basic_serialNumber, as in PTB's GP
+examples), and this program's `vib_` names for the vibration quantities without one. The XML
+is indented (two spaces) for a human reader; readers compare values, not layout.
 """
 
 from __future__ import annotations
@@ -43,8 +50,16 @@ UNIT_CELSIUS = r"\degreecelsius"
 UNIT_ACCELERATION = r"\metre\second\tothe{-2}"
 UNIT_PERCENT = r"\percent"
 DEVIATION_NAME = "Deviation from the sensitivity at the reference frequency"
+PHASE_NAME = "Phase shift (DUT relative to the acceleration)"
 RUN_ID_NAME = "Calibration run"  # the run certified, an identification of the core data
 SEAL_NAME = "Run seal (SHA-256)"  # its seal's hash (app.records.seal)
+# refTypes (see the module docstring): PTB good-practice basic_ names, vib_ ones of this program
+REF_FREQUENCY = "vib_frequency basic_referenceValue"
+REF_MAGNITUDE = "vib_sensitivityMagnitude basic_measuredValue"
+REF_PHASE = "vib_sensitivityPhase basic_measuredValue"
+REF_DEVIATION = "vib_relativeDeviation"
+REF_RESPONSE = "vib_frequencyResponse"
+REF_RESULT = "vib_referenceFrequencyResult"  # the result at the reference frequency
 
 ET.register_namespace("dcc", DCC_NS)
 ET.register_namespace("si", SI_NS)
@@ -80,11 +95,28 @@ def _text(parent: ET.Element, tag: str, content: str) -> ET.Element:
     return element
 
 
-def _real(parent: ET.Element, value: str, unit: str) -> None:
-    quantity = _d(parent, "quantity")
+def _real(
+    parent: ET.Element,
+    value: str,
+    unit: str,
+    ref_type: str | None = None,
+    name: str | None = None,
+    uncertainty: tuple[str, str, str] | None = None,
+) -> None:
+    """A dcc:quantity holding one si:real (value, unit), with its name, refType and expanded
+    uncertainty (U, k, coverage probability) when given."""
+    quantity = _d(parent, "quantity", **({"refType": ref_type} if ref_type else {}))
+    if name is not None:
+        _text(quantity, "name", name)
     real = _s(quantity, "real")
     _s(real, "value", value)
     _s(real, "unit", unit)
+    if uncertainty is not None:
+        expanded = _s(_s(real, "measurementUncertaintyUnivariate"), "expandedMU")
+        for tag, text_value in zip(
+            ("valueExpandedMU", "coverageFactor", "coverageProbability"), uncertainty, strict=True
+        ):
+            _s(expanded, tag, text_value)
 
 
 def _list_quantity(
@@ -93,8 +125,9 @@ def _list_quantity(
     values: list[str],
     unit: str,
     uncertainty: tuple[list[str], list[str], list[str]] | None = None,
+    ref_type: str | None = None,
 ) -> None:
-    quantity = _d(parent, "quantity")
+    quantity = _d(parent, "quantity", **({"refType": ref_type} if ref_type else {}))
     _text(quantity, "name", name)
     real_list = _s(quantity, "realListXMLList")
     _s(real_list, "valueXMLList", " ".join(values))
@@ -166,7 +199,7 @@ def build(run: StoredRun, info: CertificateInfo) -> bytes:
     model = str(info.dut_model or "")
     if model:
         _d(item, "model", model)
-    identification = _d(_d(item, "identifications"), "identification")
+    identification = _d(_d(item, "identifications"), "identification", refType="basic_serialNumber")
     _d(identification, "issuer", "manufacturer")
     _d(identification, "value", str(info.dut_serial))
     _text(identification, "name", "Serial number")
@@ -179,7 +212,7 @@ def build(run: StoredRun, info: CertificateInfo) -> bytes:
     _d(person, "mainSigner", "true")
     customer = _d(admin, "customer")
     _text(customer, "name", str(info.customer))
-    _text(_d(customer, "location"), "further", info.customer_address or str(info.customer))
+    _text(_d(customer, "location"), "further", info.customer_address or text.ADDRESS_NOT_STATED)
     _statements(admin, results)
     duty_statements(admin, run, info)
 
@@ -188,7 +221,9 @@ def build(run: StoredRun, info: CertificateInfo) -> bytes:
     method = _d(_d(result_set, "usedMethods"), "usedMethod")
     _text(method, "name", text.dcc_method_text(record, results))
     _d(method, "norm", "ISO 16063-21:2003")
-    equipment = _d(_d(result_set, "measuringEquipments"), "measuringEquipment")
+    equipment = _d(
+        _d(result_set, "measuringEquipments"), "measuringEquipment", refType="basic_normalUsed"
+    )
     _text(equipment, "name", f"Reference standard {reference.get('id', '')}".strip())
     _d(equipment, "model", str(reference.get("model") or "reference accelerometer"))
     ids = _d(equipment, "identifications")
@@ -202,7 +237,7 @@ def build(run: StoredRun, info: CertificateInfo) -> bytes:
             _d(ident, "value", str(value))
             _text(ident, "name", label)
     conditions = _d(result_set, "influenceConditions")
-    temperature = _d(conditions, "influenceCondition")
+    temperature = _d(conditions, "influenceCondition", refType="basic_temperature")
     _text(temperature, "name", "Ambient temperature")
     _real(_d(temperature, "data"), f"{float(info.temperature_c or 0.0):.1f}", UNIT_CELSIUS)
     level = _d(conditions, "influenceCondition")
@@ -215,24 +250,27 @@ def build(run: StoredRun, info: CertificateInfo) -> bytes:
     values = line_values(printed_lines(results))
     n = len(values["f"])
     probability = [f"{results.coverage_probability:g}"] * n
-    result = _d(_d(result_set, "results"), "result")
+    results_element = _d(result_set, "results")
+    result = _d(results_element, "result", refType=REF_RESPONSE)
     _text(result, "name", "Frequency response of the voltage sensitivity")
     data_list = _d(_d(result, "data"), "list")
-    _list_quantity(data_list, "Excitation frequency", values["f"], UNIT_HZ)
+    _list_quantity(data_list, "Excitation frequency", values["f"], UNIT_HZ, ref_type=REF_FREQUENCY)
     _list_quantity(
         data_list,
         "Sensitivity magnitude",
         values["s"],
         UNIT_SENSITIVITY,
         (values["u"], values["k"], probability),
+        REF_MAGNITUDE,
     )
     if results.phase_corrected_for_skew:
         _list_quantity(
             data_list,
-            "Phase shift (DUT relative to the acceleration)",
+            PHASE_NAME,
             values["ph"],
             UNIT_DEGREE,
             (values["u_ph"], values["k"], probability),
+            REF_PHASE,
         )
     if all(u != "n/a" for u in values["u_dev"]):
         _list_quantity(
@@ -241,12 +279,39 @@ def build(run: StoredRun, info: CertificateInfo) -> bytes:
             values["dev"],
             UNIT_PERCENT,
             (values["u_dev"], values["k"], probability),
+            REF_DEVIATION,
         )
+    _reference_result(results_element, results)
+    ET.indent(root, space="  ")
     xml = ET.tostring(root, encoding="utf-8", xml_declaration=True)
     problem = validation_error(xml)
     if problem is not None:
         raise DccError(f"the DCC does not validate against DCC {SCHEMA_VERSION}: {problem}")
     return xml
+
+
+def _reference_result(parent: ET.Element, results: Results) -> None:
+    """The result at the reference frequency, marked REF_RESULT: its frequency, sensitivity
+    and (when stated) phase with their U, printed as in the list (app.certificate.printed)."""
+    f_ref = results.reference.frequency_hz
+    line = next(ln for ln in printed_lines(results) if ln.nominal_frequency_hz == f_ref)
+    p = f"{results.coverage_probability:g}"
+    result = _d(parent, "result", refType=REF_RESULT)
+    _text(result, "name", "Sensitivity at the reference frequency")
+    data = _d(result, "data")
+    _real(data, line.frequency, UNIT_HZ, REF_FREQUENCY, "Reference frequency")
+    _real(
+        data,
+        line.sensitivity,
+        UNIT_SENSITIVITY,
+        REF_MAGNITUDE,
+        "Sensitivity magnitude",
+        (line.expanded, line.k, p),
+    )
+    if results.phase_corrected_for_skew:
+        _real(
+            data, line.phase, UNIT_DEGREE, REF_PHASE, PHASE_NAME, (line.phase_expanded, line.k, p)
+        )
 
 
 def _run_identifications(core: ET.Element, run: StoredRun) -> None:
@@ -269,7 +334,7 @@ def _run_identifications(core: ET.Element, run: StoredRun) -> None:
 
 def _statements(admin: ET.Element, results: Results) -> None:
     statements = _d(admin, "statements")
-    statement = _d(statements, "statement")
+    statement = _d(statements, "statement", refType="basic_conformity")
     _text(statement, "name", "Statement of conformity")
     verdict = results.verdict
     _text(statement, "declaration", text.dcc_declaration(verdict, results.verdict_reasons))

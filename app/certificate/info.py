@@ -47,6 +47,8 @@ class CertificateInfo:
     certificate_number: str | None = None
     issue_date: str | None = None
     notes: str = ""
+    prepared_by: str = ""  # who made the calibration ("Prepared by"); the register's too
+    sensitivity_unit: str = ""  # the sensor model's unit (records); mV/g adds a column
 
     def merged(self, defaults: dict[str, Any]) -> CertificateInfo:
         """Options win; empty ones take the default."""

@@ -3,7 +3,13 @@
 From a stored run and its numbered certificate items only: the numbers are the stored results
 as printed by app.certificate.printed, the sentences app.certificate.text's. Reproducible:
 reportlab's invariant mode and dates taken from the run make the same run and items give the
-same bytes. The DCC XML is attached (PDF/A-3 style) and the file signed last when asked.
+same bytes but for the creation date (app.certificate.pdf_page: $SOURCE_DATE_EPOCH fixes it).
+The DCC XML is attached (PDF/A-3 style) and the file signed last when asked.
+
+Layout: page 1 identifies the item, the method, the conditions, the reference standard, the
+result at the reference frequency and the overall verdict with the statement of conformity;
+the table of results starts there only with room for a useful part of it (TABLE_START_ROOM),
+else on page 2; charts, budget and statements follow, each block kept on one page.
 """
 
 from __future__ import annotations
@@ -17,9 +23,8 @@ from reportlab.lib.enums import TA_CENTER, TA_RIGHT
 from reportlab.lib.pagesizes import A4
 from reportlab.lib.styles import ParagraphStyle, getSampleStyleSheet
 from reportlab.lib.units import mm
-from reportlab.pdfbase import pdfmetrics
-from reportlab.pdfgen import canvas as pdf_canvas
 from reportlab.platypus import (
+    CondPageBreak,
     KeepTogether,
     Paragraph,
     SimpleDocTemplate,
@@ -33,7 +38,9 @@ from app import formatting as fmt
 from app.certificate.info import CertificateInfo
 from app.certificate.load import StoredRun
 from app.certificate.pdf_charts import FONT, FONT_BOLD, GRID, chart
+from app.certificate.pdf_page import numbered_canvas
 from app.certificate.printed import NOT_STATED_SHORT, printed_lines
+from app.records.db.units import STANDARD_GRAVITY_MS2
 from app.records.run_record import RunRecord
 from app.records.seal import named_seal
 from app.records.sweep_summary import SweepSummary
@@ -52,9 +59,12 @@ HEAD = ParagraphStyle(
     spaceBefore=8,
     spaceAfter=3,
 )
+HEAD_KEEP = ParagraphStyle("head_keep", parent=HEAD, keepWithNext=1)
 TITLE = ParagraphStyle(
     "title", parent=STYLES["Title"], fontName=FONT_BOLD, fontSize=17, alignment=TA_CENTER
 )
+TABLE_START_ROOM = 75 * mm  # room the results table needs to start on a page (~15 rows)
+MV_PER_G = "mV/g"
 VERDICT = ParagraphStyle(
     "verdict",
     parent=STYLES["Title"],
@@ -63,68 +73,6 @@ VERDICT = ParagraphStyle(
     leading=24,
     alignment=TA_CENTER,
 )
-
-
-def _fit(words: str, font: str, size: float, width: float) -> str:
-    """`words` shortened with '…' to fit `width` points in `font` at `size`."""
-    if pdfmetrics.stringWidth(words, font, size) <= width:
-        return words
-    while words and pdfmetrics.stringWidth(words + "…", font, size) > width:
-        words = words[:-1]
-    return words.rstrip() + "…"
-
-
-def _numbered_canvas(number: str, laboratory: str):
-    """A canvas class that writes the header and 'page x of y' once all pages are known."""
-
-    class NumberedCanvas(pdf_canvas.Canvas):
-        def __init__(self, *args: Any, **kwargs: Any):
-            kwargs["invariant"] = True
-            kwargs["initialFontName"] = FONT  # else each page's preamble names Helvetica
-            super().__init__(*args, **kwargs)
-            self._pages: list[dict[str, Any]] = []
-
-        def showPage(self) -> None:
-            self._pages.append(dict(self.__dict__))
-            self._startPage()
-
-        def save(self) -> None:
-            total = len(self._pages)
-            for page in self._pages:
-                self.__dict__.update(page)
-                self._furniture(total)
-                super().showPage()
-            super().save()
-
-        def _furniture(self, total: int) -> None:
-            width, height = A4
-            right = f"Calibration certificate {number}"
-            room = (
-                width
-                - 36 * mm
-                - pdfmetrics.stringWidth(right, FONT, 8.5)
-                - 6 * mm  # a gap between the two
-            )
-            self.setFont(FONT_BOLD, 8.5)
-            self.drawString(18 * mm, height - 12 * mm, _fit(laboratory, FONT_BOLD, 8.5, room))
-            self.setFont(FONT, 8.5)
-            self.drawRightString(width - 18 * mm, height - 12 * mm, right)
-            self.setStrokeColor(GRID)
-            self.line(18 * mm, height - 14 * mm, width - 18 * mm, height - 14 * mm)
-            self.line(18 * mm, 16 * mm, width - 18 * mm, 16 * mm)
-            self.setFont(FONT, 7.5)
-            self.drawString(
-                18 * mm,
-                11.5 * mm,
-                text.FOOTER,
-            )
-            self.drawRightString(
-                width - 18 * mm,
-                7.5 * mm,
-                f"Certificate {number}   page {self._pageNumber} of {total}",
-            )
-
-    return NumberedCanvas
 
 
 def _table(
@@ -192,7 +140,6 @@ def write_pdf(
     number = str(info.certificate_number)  # numbered before the PDF is made (_numbered)
     story: list[Any] = []
     r = results.reference
-    value, u_value = fmt.round_gum(r.sensitivity_mv_per_ms2, r.expanded_uncertainty_mv_per_ms2)
     phase, u_phase = fmt.round_gum(r.phase_deg, r.phase_expanded_uncertainty_deg)
     p_percent = f"{100 * results.coverage_probability:.2f} %"
 
@@ -209,8 +156,8 @@ def write_pdf(
                 ("Certificate number", _esc(number)),
                 (
                     "Customer",
-                    _esc(info.customer)
-                    + (f", {_esc(info.customer_address)}" if info.customer_address else ""),
+                    f"{_esc(info.customer)}, "
+                    + _esc(info.customer_address or text.ADDRESS_NOT_STATED),
                 ),
                 ("Item calibrated", f"{_esc(info.dut_type)}: {_esc(info.dut_model)}"),
                 ("Serial number", _esc(info.dut_serial)),
@@ -252,11 +199,7 @@ def write_pdf(
         _kv(
             [
                 ("Reference frequency", f"{r.frequency_hz:g} Hz"),
-                (
-                    "Sensitivity",
-                    f"<b>({value} ± {u_value}) mV/(m/s²)</b>, i.e. "
-                    f"{r.sensitivity_db:.2f} dB re 1 mV/(m/s²)",
-                ),
+                ("Sensitivity", _reference_sensitivity(results, info)),
                 (
                     "Phase",
                     f"({phase} ± {u_phase})°"
@@ -268,7 +211,8 @@ def write_pdf(
         ),
     ]
     story += _verdict_section(results)
-    story += _line_table(results)
+    story += [CondPageBreak(TABLE_START_ROOM)]
+    story += _line_table(results, in_g=info.sensitivity_unit == MV_PER_G)
     story += _charts(results)
     if sweep is not None:
         story += _sweep_section(sweep)
@@ -288,7 +232,7 @@ def write_pdf(
         subject=f"{info.dut_model} serial {info.dut_serial}",
         creator=f"accelcal {record.software_version}",
     )
-    document.build(story, canvasmaker=_numbered_canvas(number, lab.get("name", "")))
+    document.build(story, canvasmaker=numbered_canvas(number, lab.get("name", "")))
     if dcc_xml is not None:
         embed(out, "certificate.xml", dcc_xml)
     if signer is not None:
@@ -296,20 +240,52 @@ def write_pdf(
     out.chmod(0o444)
 
 
+def _reference_sensitivity(results: Results, info: CertificateInfo) -> str:
+    """The sensitivity at the reference frequency with its U: in mV/(m/s²) and dB, and first
+    in mV/g when the sensor model states its sensitivity in mV/g (1 g = 9.80665 m/s²)."""
+    r = results.reference
+    value, u_value = fmt.round_gum(r.sensitivity_mv_per_ms2, r.expanded_uncertainty_mv_per_ms2)
+    si = f"({value} ± {u_value}) mV/(m/s²)"
+    db = f"{r.sensitivity_db:.2f} dB re 1 mV/(m/s²)"
+    if info.sensitivity_unit != MV_PER_G:
+        return f"<b>{si}</b>, i.e. {db}"
+    g_value, u_g = fmt.round_gum(
+        r.sensitivity_mv_per_ms2 * STANDARD_GRAVITY_MS2,
+        r.expanded_uncertainty_mv_per_ms2 * STANDARD_GRAVITY_MS2,
+    )
+    return f"<b>({g_value} ± {u_g}) mV/g</b>, i.e. <b>{si}</b>, {db}"
+
+
 def _verdict_section(results: Results) -> list[Any]:
-    """The overall verdict, large and plain, with its reasons (app.procedure.verdict)."""
+    """The overall verdict, large and plain, with its reasons (app.procedure.verdict) as the
+    certificate states them (without the technician's advice), kept together."""
     if results.verdict is None:
         return []
-    reasons = "<br/>".join(f"• {_esc(reason)}" for reason in results.verdict_reasons)
+    reasons = "<br/>".join(
+        f"• {_esc(text.certificate_reason(reason))}" for reason in results.verdict_reasons
+    )
     return [
-        Paragraph("Overall verdict", HEAD),
-        Paragraph(f"<b>{_esc(results.verdict)}</b>", VERDICT),
-        Paragraph(text.VERDICT_RULE_NOTE, SMALL),
-        Paragraph(reasons, SMALL),
+        KeepTogether(
+            [
+                Paragraph("Overall verdict", HEAD),
+                Paragraph(f"<b>{_esc(results.verdict)}</b>", VERDICT),
+                Paragraph(text.VERDICT_RULE_NOTE, SMALL),
+                Paragraph(reasons, SMALL),
+            ]
+        )
     ]
 
 
-def _line_table(results: Results) -> list[Any]:
+class _Whole(Paragraph):
+    """A paragraph never broken across pages: moved whole to the next one instead."""
+
+    def split(self, availWidth: float, availHeight: float) -> list[Any]:
+        return []
+
+
+def _line_table(results: Results, in_g: bool = False) -> list[Any]:
+    """The results per frequency; with `in_g` a last column, the sensitivity in mV/g (after
+    the columns app.certificate.readback reads)."""
     header = [
         "Nominal\nfrequency\nHz",
         "Actual\nfrequency\nHz",
@@ -322,6 +298,7 @@ def _line_table(results: Results) -> list[Any]:
         "U rel.\n%",
         "k",
         "ISO\n16063-21",
+        *(["Sensitivity\nmV/g"] if in_g else []),
     ]
     rows = [header]
     stated = results.phase_corrected_for_skew
@@ -339,12 +316,27 @@ def _line_table(results: Results) -> list[Any]:
                 line.relative_expanded,
                 line.k,
                 line.iso_verdict,
+                *([_in_g(results, line.nominal_frequency_hz)] if in_g else []),
             ]
         )
-    widths = [w * mm for w in (15, 15, 19, 16, 16, 16, 15, 14, 13, 11, 16)]
-    table = _table(rows, widths, size=7.3)
-    note = Paragraph(text.line_table_note(results.phase_corrected_for_skew), SMALL)
-    return [Paragraph("Results per frequency", HEAD), table, Spacer(1, 1.5 * mm), note]
+    widths: tuple[int, ...] = (15, 15, 19, 16, 16, 16, 15, 14, 13, 11, 16)
+    if in_g:
+        widths = (15, 15, 19, 14, 14, 14, 13, 13, 12, 9, 15, 17)
+    table = _table(rows, [w * mm for w in widths], size=7.3 if not in_g else 7.0)
+    notes = [Paragraph(text.line_table_note(results.phase_corrected_for_skew), SMALL)]
+    if results.phase_corrected_for_skew:
+        notes.append(Paragraph(text.PHASE_CONVENTION, SMALL))
+    return [Paragraph("Results per frequency", HEAD), table, Spacer(1, 1.5 * mm), *notes]
+
+
+def _in_g(results: Results, nominal_hz: float) -> str:
+    """The sensitivity of the line at `nominal_hz` in mV/g, rounded as its mV/(m/s²) value."""
+    line = next(ln for ln in results.lines if ln.nominal_frequency_hz == nominal_hz)
+    value, _ = fmt.round_gum(
+        line.sensitivity_mv_per_ms2 * STANDARD_GRAVITY_MS2,
+        line.expanded_uncertainty_mv_per_ms2 * STANDARD_GRAVITY_MS2,
+    )
+    return value
 
 
 def _charts(results: Results) -> list[Any]:
@@ -366,16 +358,16 @@ def _charts(results: Results) -> list[Any]:
                 ]
             )
         ]
-    return [
+    phase = chart(f, c.phase_deg.tolist(), c.phase_expanded_deg.tolist(), "phase in degrees")
+    return [  # one block a chart: the amplitude one may follow the table on its page
+        KeepTogether([Paragraph("Amplitude-frequency characteristic", HEAD), amplitude]),
         KeepTogether(
             [
-                Paragraph("Amplitude-frequency characteristic", HEAD),
-                amplitude,
                 Paragraph("Phase-frequency characteristic", HEAD),
-                chart(f, c.phase_deg.tolist(), c.phase_expanded_deg.tolist(), "phase in degrees"),
+                phase,
                 Paragraph(text.CHARTS_NOTE, SMALL),
             ]
-        )
+        ),
     ]
 
 
@@ -469,11 +461,14 @@ def _statements(results: Results, info: CertificateInfo, p_percent: str) -> list
         Paragraph("Uncertainty statement", HEAD),
         Paragraph(text.uncertainty_statement(results.uncertainty_rule, p_percent), BODY),
     ]
-    if results.tolerance_percent is not None:
+    if results.tolerance_percent is not None or results.verdict is not None:
         verdicts = [ln.tolerance_verdict for ln in results.lines]
-        out += [
-            Paragraph("Statement of conformity", HEAD),
-            Paragraph(text.conformity_statement(results.tolerance_percent, verdicts), BODY),
+        out += [  # the overall verdict's words: the two sections cannot disagree
+            Paragraph("Statement of conformity", HEAD_KEEP),
+            _Whole(
+                text.conformity_statement(results.verdict, results.tolerance_percent, verdicts),
+                BODY,
+            ),
         ]
     if info.notes:
         out += [Paragraph("Notes", HEAD), Paragraph(_esc(info.notes), BODY)]
@@ -487,6 +482,7 @@ def _sign_off(info: CertificateInfo, record: RunRecord) -> list[Any]:
             [
                 _kv(
                     [
+                        ("Prepared by", _esc(info.prepared_by or "not stated")),
                         (
                             "Authorised by",
                             f"{_esc(info.authorised_by)}<br/><br/>"

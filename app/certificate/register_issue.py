@@ -54,6 +54,8 @@ def issue_registered(
             "customer_address": sensor.owner.address,
             "dut_model": f"{sensor.model.maker} {sensor.model.model}",
             "dut_serial": sensor.serial,
+            "prepared_by": prepared_by,
+            "sensitivity_unit": sensor.model.unit,
         }
     )
     if info.dut_serial != sensor.serial:

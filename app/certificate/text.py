@@ -12,6 +12,7 @@ from typing import Any
 
 from app.io.vocabulary import Mode
 from app.records.run_record import RunRecord
+from dsp import iso266
 from dsp.calibration import Results
 from dsp.conformity import DECISION_RULE, DECISION_RULE_SHORT, NOT_STATED, Outcome, Verdict
 
@@ -31,6 +32,24 @@ DCC_CONFORMITY: dict[str, str] = {
     Verdict.FAIL: "fail",
 }  # INDETERMINATE: in words only
 CHARTS_NOTE = "Shaded: the expanded uncertainty (k as in the table)."
+ADDRESS_NOT_STATED = "address not stated"  # the customer's, in the PDF and the DCC alike
+PHASE_CONVENTION = (
+    "Phase: the phase shift of the complex sensitivity (ISO 16063-1), the phase of the DUT's "
+    "output voltage less the phase of the acceleration, phi = arg(S_dut); positive when the "
+    "output leads the acceleration; the reference's certified phase and the inter-channel "
+    "sampling delay are corrected for."
+)
+# technician's advice appended to a reason (app.procedure.verdict): for the bench, not for
+# the customer; the certificate states the finding only
+_ADVICE = (": check the mounting", "; check the mounting")
+_VERDICT_WORDS: dict[str, str] = {  # the overall verdict (dsp.conformity.Verdict) in words
+    Verdict.PASS: "the item <b>conforms</b> to its specification",
+    Verdict.FAIL: "the item <b>does not conform</b> to its specification",
+    Verdict.INDETERMINATE: (
+        "INDETERMINATE, <b>conformity not stated</b>: a check is inconclusive or not stated, or "
+        "the mounting is in doubt"
+    ),
+}
 
 
 def method_text(record: RunRecord, results: Results, plan: dict[str, Any]) -> str:
@@ -38,12 +57,17 @@ def method_text(record: RunRecord, results: Results, plan: dict[str, Any]) -> st
     lines = plan.get("lines", [])
     freqs = [ln["nominal_frequency_hz"] for ln in lines]
     span = f"{min(freqs):g} Hz to {max(freqs):g} Hz" if freqs else ""
+    series = (
+        "ISO 266 one-third-octave values"
+        if freqs and set(freqs) <= set(iso266.nominal_frequencies(min(freqs), max(freqs)))
+        else "chosen frequencies"
+    )
     period_s = plan.get("period_samples", 0) / plan.get("sample_rate_hz", 1)
     excitation = (
-        f"multisine excitation: {len(freqs)} frequencies at once (ISO 266 one-third-octave "
-        f"values, {span}), each on a DFT bin of a {period_s:g} s "
-        f"period sampled at {plan.get('sample_rate_hz', 0):g} Hz, phases optimised for a low "
-        "crest factor, table acceleration equalised per frequency in closed loop"
+        f"multisine excitation: {len(freqs)} frequencies at once ({series}, {span}), each "
+        f"on a DFT bin of a {period_s:g} s period sampled at "
+        f"{plan.get('sample_rate_hz', 0):g} Hz, phases optimised for a low crest factor, "
+        "table acceleration equalised per frequency in closed loop"
         if record.mode == Mode.MULTISINE
         else f"stepped-sine excitation: {len(freqs)} frequencies one at a time ({span}), "
         "three-parameter sine fits (IEEE 1057)"
@@ -98,35 +122,40 @@ def uncertainty_statement(rule: str, p_percent: str) -> str:
     )
 
 
-def conformity_summary(verdicts: Sequence[str | None]) -> str:
-    """The item's conformity from its per-line tolerance verdicts."""
-    if all(v == Outcome.PASS for v in verdicts):
-        return "conforms"
-    if any(v == Outcome.FAIL for v in verdicts):
-        return "does not conform"
-    if NOT_STATED in verdicts:
-        return (
-            "conformity not stated (no expanded uncertainty stated at "
-            f"{list(verdicts).count(NOT_STATED)} frequencies)"
-        )
-    return "no statement of conformity can be made at every frequency"
+def certificate_reason(reason: str) -> str:
+    """A verdict reason as the certificate states it: the finding without the technician's
+    advice (what to check at the bench stays in the CLI and the GUI)."""
+    for advice in _ADVICE:
+        if advice in reason:
+            return reason[: reason.index(advice)]
+    return reason
 
 
-def conformity_statement(tolerance_percent: float, verdicts: Sequence[str | None]) -> str:
-    """The PDF's statement of conformity against a ±tolerance of the characteristic."""
+def conformity_statement(
+    verdict: str | None, tolerance_percent: float | None, verdicts: Sequence[str | None]
+) -> str:
+    """The PDF's statement of conformity: the overall verdict's (every check: sensitivity,
+    amplitude characteristic, phase, mounting) in words, with the characteristic's per-line
+    outcomes (dsp.conformity's words: pass, fail, inconclusive, not stated)."""
     v = list(verdicts)
+    result = _VERDICT_WORDS.get(verdict or "", "<b>conformity not stated</b> (no verdict)")
+    tally = (
+        f" Amplitude characteristic within ±{tolerance_percent:g} % of the sensitivity at the "
+        f"reference frequency: {v.count(Outcome.PASS)} pass, {v.count(Outcome.FAIL)} fail, "
+        f"{v.count(Outcome.INCONCLUSIVE)} inconclusive, {v.count(NOT_STATED)} not stated of "
+        f"{len(v)} frequencies."
+        if tolerance_percent is not None
+        else ""
+    )
     return (
-        f"Specification: deviation of the sensitivity from its value at the reference "
-        f"frequency within ±{tolerance_percent:g} %. Decision rule: {DECISION_RULE}. Result: "
-        f"the item <b>{conformity_summary(v)}</b> ({v.count(Outcome.PASS)} pass, "
-        f"{v.count(Outcome.FAIL)} fail, {v.count(Outcome.INCONCLUSIVE)} inconclusive, "
-        f"{v.count(NOT_STATED)} not stated of {len(v)})."
+        "Against the DUT's tolerances (the checks under the overall verdict): "
+        f"{result}. Decision rule: {DECISION_RULE}.{tally}"
     )
 
 
 def dcc_declaration(verdict: str | None, reasons: Sequence[str]) -> str:
     """The DCC's statement of conformity: the overall verdict, the rule and the reasons."""
-    joined = "; ".join(reasons)
+    joined = "; ".join(certificate_reason(r) for r in reasons)
     return f"Overall verdict: {verdict or 'not stated'}. Decision rule: {DECISION_RULE}." + (
         f" Reasons: {joined}." if joined else ""
     )

@@ -12,6 +12,11 @@ from app.cli.printers import csv_with_status, print_results
 from app.cli.readers import load_recording
 from app.files import FileExistsRefusal, write_new
 
+NO_BUDGET_WARNING = (
+    "no type B budget (--budget): U is stated from type A (noise) only, without the "
+    "reference's calibration, gains, mounting or distortion; not a calibration uncertainty"
+)
+
 
 def cmd_analyze(args: argparse.Namespace) -> int:
     from app.procedure.analysis import analyze, status_warning
@@ -24,6 +29,8 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         output_target(args.csv, "--csv", (args.file, args.budget), args.overwrite)
         writable_folder(args.csv.parent, "--csv")
     recording = load_recording(args)
+    if not recording.budget.components:  # a CSV or TDMS without --budget (or an empty one)
+        print(f"accelcal analyze: warning: {NO_BUDGET_WARNING}", file=sys.stderr)
     analysis = analyze(
         recording,
         estimator=args.estimator,

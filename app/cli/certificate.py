@@ -25,6 +25,7 @@ def cmd_certificate(args: argparse.Namespace) -> int:
         certificate_number=args.certificate_number,
         issue_date=args.issue_date,
         notes=args.notes,
+        prepared_by=args.prepared_by or "",  # else the stand's [certificate], the login name
     )
     out = args.out or (args.run / "certificate.pdf")
     signer = None
@@ -52,10 +53,14 @@ def cmd_certificate(args: argparse.Namespace) -> int:
             reason=args.reason,
             signer=signer,
         )
-    elif args.prepared_by or args.replaces or args.reason:
-        raise UsageError("--prepared-by, --replaces, --reason: need the records (--db URL)")
+    elif args.replaces or args.reason:
+        raise UsageError("--replaces, --reason: need the records (--db URL)")
     else:
-        issued = issue(args.run, info, out, args.sweep, signer)
+        from app.records.db.audit import current_actor
+
+        issued = issue(
+            args.run, info.merged({"prepared_by": current_actor()}), out, args.sweep, signer
+        )
     print(f"certificate {issued.number}: {out}")
     from app.certificate import dcc_path
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+import re
 import sys
 from typing import TYPE_CHECKING, Any
 
@@ -94,16 +95,35 @@ def print_results(results: Results, source: str = "", status: str | None = None)
 
 
 class TerminalProgress:
-    """One line of progress on stderr: state, period, worst type A so far, worst line."""
+    """One line of progress on stderr: state, period i of n (or the share of the type A
+    target), time left (s), worst type A so far; a stepped sine names its line, a sweep says
+    which level of how many it is at (`levels`, m/s^2 in the order they run)."""
 
-    def __init__(self) -> None:
+    def __init__(self, levels: list[float] | None = None) -> None:
         self._tty = sys.stderr.isatty()
+        self._levels = levels
+        self._runs = 0
+        self._worst = ""  # the last estimate's worst line, shown with the next progress
+        self._periods = 0
 
     def __call__(self, event) -> None:
-        from app.procedure import EqualisationStep, PeriodEstimate, StateChanged, WarningRaised
+        from app.procedure import (
+            EqualisationStep,
+            PeriodEstimate,
+            Progress,
+            State,
+            StateChanged,
+            WarningRaised,
+        )
 
         if isinstance(event, StateChanged):
-            self._line(f"[{event.state}] {event.message}", final=True)
+            if event.state == State.PREFLIGHT and self._levels:
+                self._runs += 1
+                level = self._levels[min(self._runs, len(self._levels)) - 1]
+                self._line(
+                    f"level {self._runs} of {len(self._levels)}: {level:g} m/s^2", final=True
+                )
+            self._line(f"[{event.state}] {event.message}".rstrip(), final=True)
         elif isinstance(event, EqualisationStep):
             self._line(
                 f"  equalisation {event.iteration}: worst line {100 * event.worst:.2f} %", True
@@ -111,14 +131,32 @@ class TerminalProgress:
         elif isinstance(event, PeriodEstimate):
             lines = event.results.lines
             worst = max(lines, key=lambda ln: ln.relative_type_a)
-            bar = "#" * min(event.periods, 40)
-            self._line(
-                f"  period {event.periods:3d} {bar:<20} type A worst "
-                f"{100 * worst.relative_type_a:.3f} % at {worst.nominal_frequency_hz:g} Hz",
-                final=not self._tty,
+            self._periods = event.periods
+            self._worst = (
+                f"type A worst {100 * worst.relative_type_a:.3f} % at "
+                f"{worst.nominal_frequency_hz:g} Hz"
             )
+        elif isinstance(event, Progress):
+            self._line(self._progress_text(event), final=not self._tty)
         elif isinstance(event, WarningRaised):
             self._line(f"  warning: {event.text}", final=True)
+
+    def _progress_text(self, event) -> str:
+        """A progress event as one line: what is done of what, the share, the time left."""
+        share = max(0.0, min(1.0, event.fraction))
+        bar = "#" * round(20 * share)
+        left = event.remaining_s
+        if left is None and 0 < share < 1 and event.elapsed_s > 0:
+            left = event.elapsed_s * (1 - share) / share  # at the pace so far
+        time_left = f", about {left:.0f} s left" if left is not None and share < 1 else ""
+        gauge = f"[{bar:<20}] {100 * share:3.0f} %{time_left}"
+        if event.message.startswith("line "):  # the stepped sine: one line at a time
+            return f"  {event.message} {gauge}"
+        if event.remaining_s is not None and share > 0:  # a fixed number of periods
+            what = f"period {self._periods} of {round(self._periods / share)}"
+        else:  # until the type A target: the share is how close it is (of the target)
+            what = f"period {self._periods}, to the type A target"
+        return f"  {what} {gauge}; {self._worst}"
 
     def _line(self, text: str, final: bool) -> None:
         if self._tty:
@@ -130,6 +168,68 @@ class TerminalProgress:
     def close(self) -> None:
         if self._tty:
             sys.stderr.write("\n")
+
+
+_WARNING_KINDS = (  # (one warning after "line X Hz: ", the grouped wording)
+    (
+        re.compile(r"the \w+ harmonic of line \S+ Hz lands on its bin"),
+        "harmonics of other lines land on the bins of {lines} lines ({cases} cases): {labels} Hz;"
+        " distortion adds to them",
+    ),
+    (
+        re.compile(r"the \w+ alias about fs of line \S+ Hz lands on its bin"),
+        "aliases about fs of other lines land on the bins of {lines} lines ({cases} cases): "
+        "{labels} Hz; distortion adds to them",
+    ),
+    (
+        re.compile(r"on the \w+ mains harmonic"),
+        "{lines} lines on a mains harmonic: {labels} Hz; a periodic average does not remove "
+        "hum; shift each one bin up",
+    ),
+    (re.compile(r"snapped to "), "{lines} lines snapped to the bin grid: {labels} Hz"),
+)
+_LINE_PREFIX = re.compile(r"^line (\S+) Hz: (.*)$")
+
+
+def grouped_warnings(warnings: tuple[str, ...] | list[str]) -> list[str]:
+    """Plan warnings with one line per kind of several (the count and the lines affected, Hz,
+    each named once); a kind met once and any other warning as they are."""
+    groups: dict[int, list[str]] = {}
+    originals: dict[int, list[str]] = {}
+    out: list[tuple[int, str]] = []  # (kind or -1, text) in order of first appearance
+    for text in warnings:
+        match = _LINE_PREFIX.match(text)
+        kind = next(
+            (
+                k
+                for k, (pattern, _) in enumerate(_WARNING_KINDS)
+                if match and pattern.match(match.group(2))
+            ),
+            None,
+        )
+        if kind is None or match is None:
+            out.append((-1, text))
+            continue
+        if kind not in groups:
+            groups[kind], originals[kind] = [], []
+            out.append((kind, ""))
+        originals[kind].append(text)
+        if match.group(1) not in groups[kind]:
+            groups[kind].append(match.group(1))
+    lines = []
+    for kind, text in out:
+        if kind < 0:
+            lines.append(text)
+        elif len(originals[kind]) == 1:
+            lines.append(originals[kind][0])
+        else:
+            labels = sorted(groups[kind], key=float)
+            lines.append(
+                _WARNING_KINDS[kind][1].format(
+                    lines=len(labels), cases=len(originals[kind]), labels=", ".join(labels)
+                )
+            )
+    return lines
 
 
 def print_catalogue(entries: dict[str, Any], as_json: bool) -> None:
@@ -177,7 +277,7 @@ def print_plan(plan: Plan, report: dict[str, Any]) -> None:
         f"{1e3 * report['peak_displacement_m']:.3f} mm "
         f"({1e3 * report['peak_to_peak_displacement_m']:.3f} mm p-p)"
     )
-    for warning in plan.warnings:
+    for warning in grouped_warnings(plan.warnings):
         print(f"warning: {warning}")
 
 

@@ -86,7 +86,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     )
     for note in notes:
         print(note, file=sys.stderr)
-    progress = None if args.json else TerminalProgress()
+    progress = None if args.json else TerminalProgress(sorted(levels) if levels else None)
     if levels is not None:
         return run_levels(request, levels, args, progress)
     finished = execute(request, listener=progress)

@@ -1,17 +1,23 @@
-"""`accelcal show`: print a stored run."""
+"""`accelcal show`: print a stored run; given a folder of runs (the runs root), list them."""
 
 from __future__ import annotations
 
 import argparse
 import json
+from pathlib import Path
 
 from app.cli.exits import EXIT_OK, UsageError
 from app.cli.printers import print_results
 
 
 def cmd_show(args: argparse.Namespace) -> int:
-    from app.records.run_folder import load_run
+    from app.records.run_folder import is_run_folder, load_run
 
+    folder = Path(args.run)
+    if folder.is_dir() and not is_run_folder(folder):
+        runs = sorted(p for p in folder.iterdir() if p.is_dir() and is_run_folder(p))
+        if runs:
+            return _list_runs(folder, runs, args.json)
     try:
         record = load_run(args.run)
     except ValueError as exc:
@@ -31,4 +37,33 @@ def cmd_show(args: argparse.Namespace) -> int:
     results = record.results_object()
     if results is not None:
         print_results(results, str(args.run))
+    return EXIT_OK
+
+
+def _list_runs(root: Path, runs: list[Path], as_json: bool) -> int:
+    """A folder of run folders: what it is, and each run with its verified state."""
+    from app.records.run_folder import inspect_run
+
+    rows = []
+    for path in runs:
+        check = inspect_run(path)
+        record = check.record
+        rows.append(
+            {
+                "run": path.name,
+                "state": str(check.state),
+                "dut_id": record.dut.id if record is not None and record.dut else None,
+                "started_utc": record.started_utc if record is not None else None,
+            }
+        )
+    if as_json:
+        print(json.dumps({"runs_root": str(root), "runs": rows}, indent=2))
+        return EXIT_OK
+    print(
+        f"{root}: a folder of {len(rows)} run(s), not a run folder; "
+        "`accelcal show RUN_FOLDER` shows one:"
+    )
+    width = max(len(str(r["run"])) for r in rows)
+    for r in rows:
+        print(f"  {r['run']:<{width}}  {r['state']:<11}  {r['dut_id'] or ''}".rstrip())
     return EXIT_OK

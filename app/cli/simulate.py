@@ -6,7 +6,7 @@ import argparse
 import json
 import sys
 
-from app.cli.exits import EXIT_OK, UsageError
+from app.cli.exits import EXIT_ABORTED, EXIT_OK, UsageError
 from app.cli.options import faults_option, writable_folder
 from app.cli.printers import print_catalogue
 from app.stand.simulated import catalogue_entries
@@ -36,11 +36,12 @@ def cmd_simulate(args: argparse.Namespace) -> int:
             faults=faults,
             overwrite=args.overwrite,
         )
-    except HardwareError:
+    except HardwareError as exc:  # an aborted recording: exit 3, as an aborted run (README)
+        print(f"accelcal simulate: {type(exc).__name__}: {exc}", file=sys.stderr)
         print(
             f"accelcal simulate: the recording so far, marked aborted: {args.out}", file=sys.stderr
         )
-        raise
+        return EXIT_ABORTED
     summary = {
         "recording": str(run.path),
         "dut": args.dut,

@@ -5,12 +5,16 @@ are comments; one of the form `# skew_s = 2e-06` gives the inter-channel delay i
 when the DUT channel is sampled after the reference (the --skew option's sign; the two must
 agree when both are given). A malformed file is refused with a RecordingError naming the file,
 the line or channel and the problem (app.io.hdf5.validate).
+
+The numbers are converted by pyarrow's C CSV reader (correctly rounded, as Python's float());
+a file it refuses is read again line by line, which names the offending line.
 """
 
 from __future__ import annotations
 
 import io
 import math
+import os
 import re
 import warnings
 from pathlib import Path
@@ -26,6 +30,7 @@ from dsp.uncertainty import Budget
 
 SKEW_LINE = re.compile(r"^#\s*skew_s\s*=\s*(\S+)\s*$")
 CSV_BLOCK_BYTES = 1 << 20  # text parsed at a time, bytes (a block ends at a line end)
+ARROW_BLOCK_BYTES = 1 << 20  # text pyarrow's reader converts at a time, bytes
 # Line breaks str.splitlines knows besides \n and \r\n (ASCII ones; the others are not ASCII):
 # a block holding one is parsed line by line, so line numbers stay those of the text (and of
 # earlier versions). Searched byte by byte (memchr): a regular expression costs more than
@@ -64,6 +69,9 @@ def _parse_csv(handle: BinaryIO, name: str) -> tuple[list[np.ndarray], float | N
             number += 1  # one header line allowed
         break
     capacity = _count_lines(handle)  # rows at most: columns allocated once, filled in place
+    fast = _arrow_columns(handle, capacity)
+    if fast is not None:
+        return fast, skew_s
     columns: list[np.ndarray] = []
     width: int | None = None
     rows = 0
@@ -97,6 +105,84 @@ def _parse_csv(handle: BinaryIO, name: str) -> tuple[list[np.ndarray], float | N
     if capacity - rows > rows // 64:  # many blank lines: no idle tail kept
         return [c[:rows].copy() for c in columns], skew_s
     return [c[:rows] for c in columns], skew_s
+
+
+def _arrow_columns(handle: BinaryIO, capacity: int) -> list[np.ndarray] | None:
+    """The data rows from the handle's position as float64 columns (V), converted by pyarrow's
+    C reader into columns of `capacity` samples allocated once; None (the handle back at its
+    position) when the reader refuses anything: a cell that is not a number in its syntax (an
+    empty item, a word, a quote, a line break other than \n, \r\n or \r, a non-ASCII
+    digit), a row of another width, not 2 or 3 columns, more rows than `capacity` or than a
+    recording may hold. The line-by-line parser then decides, with its messages; what the
+    reader accepts, float() reads as the same numbers."""
+    import pyarrow as pa
+    import pyarrow.csv as pa_csv
+
+    start = handle.tell()
+    if capacity > MAX_RECORDING_SAMPLES:
+        return None
+    first = handle.read(4096)
+    handle.seek(start)
+    line = first.split(b"\n", 1)[0]
+    delimiter = ";" if b";" in line and b"," not in line else ","
+    columns: list[np.ndarray] = []
+    rows = 0
+    source = _native(handle, start)
+    try:
+        reader = pa_csv.open_csv(
+            source,
+            read_options=pa_csv.ReadOptions(
+                autogenerate_column_names=True, block_size=ARROW_BLOCK_BYTES
+            ),
+            parse_options=pa_csv.ParseOptions(delimiter=delimiter, quote_char=False),
+            convert_options=pa_csv.ConvertOptions(
+                column_types={f"f{i}": pa.float64() for i in range(3)},
+                null_values=[],
+                strings_can_be_null=False,
+            ),
+        )
+        width = len(reader.schema)
+        if width not in (2, 3):
+            raise ValueError(f"{width} columns")
+        columns = [np.empty(capacity) for _ in range(width)]
+        for batch in reader:
+            n = batch.num_rows
+            if rows + n > capacity:  # lone \r line ends: the line-by-line parser counts
+                raise ValueError("more rows than lines")
+            for column, values in zip(columns, batch.columns, strict=True):
+                column[rows : rows + n] = values.to_numpy(zero_copy_only=False)
+            rows += n
+    except (pa.ArrowException, ValueError):
+        handle.seek(start)
+        return None
+    finally:
+        if source is not handle:
+            source.close()  # type: ignore[attr-defined]
+    if not rows:
+        handle.seek(start)
+        return None
+    if capacity - rows > rows // 64:  # many blank lines: no idle tail kept
+        return [c[:rows].copy() for c in columns]
+    return [c[:rows] for c in columns]
+
+
+def _native(handle: BinaryIO, start: int) -> object:
+    """The open file as pyarrow reads it fastest and outside Python's heap: the same file
+    (the same inode, reopened through /proc/self/fd, so not a name an attacker could swap)
+    at `start`; the handle itself where there is no such path."""
+    import pyarrow as pa
+
+    try:
+        fd = handle.fileno()
+        fd_path = f"/proc/self/fd/{fd}"
+        same = os.path.exists(fd_path) and os.stat(fd_path).st_ino == os.fstat(fd).st_ino
+    except (OSError, AttributeError, io.UnsupportedOperation):
+        same = False
+    if not same:
+        return handle
+    native = pa.OSFile(fd_path)
+    native.seek(start)
+    return native
 
 
 def _count_lines(handle: BinaryIO) -> int:

@@ -161,10 +161,11 @@ class ResponseStore:
 
     @classmethod
     def default(cls) -> ResponseStore:
-        """The user's data directory (platformdirs), beside the records database."""
-        from platformdirs import user_data_dir
+        """In the user's data directory (app.files.data_dir: $ACCELCAL_DATA_DIR, else
+        platformdirs), beside the records database."""
+        from app.files import data_dir
 
-        return cls(Path(user_data_dir("accelcal", appauthor=False)) / "stand-responses")
+        return cls(data_dir() / "stand-responses")
 
     def _file(
         self,

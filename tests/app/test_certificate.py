@@ -86,9 +86,11 @@ def test_every_mandatory_item_and_the_stored_numbers(complete_run, tmp_path):
     assert text.count(number) >= pages + 1  # the number on every page
 
 
-def test_reproducible_bytes_and_never_overwritten(complete_run, tmp_path):
+def test_reproducible_bytes_and_never_overwritten(complete_run, tmp_path, monkeypatch):
     """The same run and options give the same bytes: the run copied under another runs root
-    (whose register has not issued the number yet)."""
+    (whose register has not issued the number yet). The creation date is the real one unless
+    $SOURCE_DATE_EPOCH fixes it (issue 27: no longer 2000-01-01 in invariant mode)."""
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1764028800")  # 2025-11-25T00:00:00Z
     info = dataclasses.replace(INFO, certificate_number="LAB-REPRO-1")
     copy = tmp_path / "elsewhere" / complete_run.name
     shutil.copytree(complete_run, copy, ignore=shutil.ignore_patterns("certificate*"))
@@ -99,6 +101,24 @@ def test_reproducible_bytes_and_never_overwritten(complete_run, tmp_path):
         build(complete_run, INFO, tmp_path / "a.pdf")
     with pytest.raises(CertificateError, match="--certificate-number: LAB-REPRO-1 is already"):
         build(copy, info, tmp_path / "c.pdf")
+
+
+def test_metadata_dated_now_unless_source_date_epoch(complete_run, tmp_path, monkeypatch):
+    """The PDF's creation date is the moment it was written (UTC), not reportlab's invariant
+    2000-01-01; $SOURCE_DATE_EPOCH (reproducible builds) sets it."""
+    import datetime
+
+    monkeypatch.delenv("SOURCE_DATE_EPOCH", raising=False)
+    before = datetime.datetime.now(datetime.UTC).replace(microsecond=0)
+    info = dataclasses.replace(INFO, certificate_number="T-NOW")
+    pdf = build(complete_run, info, tmp_path / "n.pdf")
+    created = PdfReader(pdf).metadata.creation_date.replace(tzinfo=datetime.UTC)
+    assert before <= created <= datetime.datetime.now(datetime.UTC)
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1764028800")
+    info = dataclasses.replace(INFO, certificate_number="T-SDE")
+    pdf = build(complete_run, info, tmp_path / "s.pdf")
+    created = PdfReader(pdf).metadata.creation_date
+    assert created.strftime("%Y-%m-%d %H:%M:%S") == "2025-11-25 00:00:00"
 
 
 def test_missing_items_are_refused_by_name(complete_run, tmp_path):

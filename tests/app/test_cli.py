@@ -46,7 +46,7 @@ def test_plan_human_output_lists_lines_and_warnings(capsys):
     code, out, _ = run(capsys, "plan", "--preset", "capacitive")
     assert code == 0
     assert "27 lines" in out and "Crest factor" in out and "4000" in out
-    assert "warning: line 50 Hz: on the 1st mains harmonic" in out
+    assert "warning: 4 lines on a mains harmonic: 50, 100, 200, 250 Hz" in out  # grouped (#27)
 
 
 @pytest.mark.parametrize(
@@ -102,8 +102,9 @@ def test_analyze_recovers_the_known_response_within_its_uncertainty(capsys, reco
 
 
 def test_analyze_human_output(capsys, recorded):
-    code, out, _ = run(capsys, "analyze", str(recorded[0]))
+    code, out, err = run(capsys, "analyze", str(recorded[0]))
     assert code == 0
+    assert "no type B budget" not in err  # the recording carries its budget
     assert "Reference sensitivity at 160 Hz:" in out and "k = " in out and "p = 95.45 %" in out
 
 
@@ -137,6 +138,7 @@ def test_analyze_csv_with_options_and_seed_segments(capsys, recorded, tmp_path):
     assert code == 0, err
     data = json.loads(out)
     assert data["periods"] == 8 and data["estimator"] == "seed"
+    assert "warning: no type B budget (--budget): U is stated from type A (noise) only" in err
     assert any("off the 4 Hz segment grid" in w and "12.5 Hz" in w for w in data["warnings"])
     ref = data["reference"]["sensitivity_mv_per_ms2"]
     assert ref == pytest.approx(abs(lowpass_response()(np.array([160.0]))[0]), rel=0.02)

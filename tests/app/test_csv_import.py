@@ -186,3 +186,39 @@ def test_peak_memory_at_most_twice_the_samples(tmp_path, monkeypatch):
         tracemalloc.stop()
     np.testing.assert_array_equal(rec.drive_v, data[:, 2])
     assert peak <= 1.25 * data.nbytes, f"peak {peak / data.nbytes:.2f}x the samples"
+
+
+def test_the_c_reader_converts_a_well_formed_file(tmp_path):
+    """A plain file never reaches the line-by-line parser: its rows come from pyarrow's reader,
+    the same float64 as float() of each text."""
+    path = tmp_path / "rec.csv"
+    path.write_text("ref,dut\n" + "\n".join(BODY) + "\n")
+    with path.open("rb") as handle:
+        handle.readline()
+        got = recording_module._arrow_columns(handle, len(BODY) + 1)
+    assert got is not None
+    want = np.array([[float(c) for c in row.split(",")] for row in BODY])
+    np.testing.assert_array_equal(np.column_stack(got), want)
+
+
+@pytest.mark.parametrize(
+    "bad",
+    ['"0.5",1', "1,nan", "1,NA", "1,", "1,2,3,4", "1;2,3", "1,0x10"],
+)
+def test_what_the_c_reader_might_read_otherwise_goes_line_by_line(tmp_path, bad):
+    """Quotes, null markers, empty items, a fourth column: the C reader refuses them (quoting
+    off, no null values) or reads float()'s value; the result is the line-by-line reader's."""
+    text = "\n".join(BODY[:5]) + f"\n{bad}\n" + "\n".join(BODY[5:]) + "\n"
+    path = tmp_path / "rec.csv"
+    path.write_text(text)
+    try:
+        expected = _old_parse(text, "rec.csv")
+    except RecordingError as exc:
+        with pytest.raises(RecordingError) as got:
+            with path.open("rb") as handle:
+                recording_module._parse_csv(handle, "rec.csv")
+        assert str(got.value) == str(exc)
+        return
+    with path.open("rb") as handle:
+        columns, _ = recording_module._parse_csv(handle, "rec.csv")
+    np.testing.assert_array_equal(np.column_stack(columns), expected[0])

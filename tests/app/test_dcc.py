@@ -124,3 +124,54 @@ def test_a_stand_without_the_laboratory_country_gets_the_pdf_alone(
     issue(copy, INFO, out)
     assert out.exists() and not (tmp_path / "no-country.xml").exists()
     assert "certificate.xml" not in PdfReader(out).attachments
+
+
+def test_reftypes_indentation_address_and_the_marked_reference_result(
+    run_folder: Path, tmp_path: Path
+) -> None:
+    """A reader finds each quantity by its refType (PTB good-practice names, vib_ ones of
+    this program), the result at the reference frequency marked and equal to its list entry,
+    the customer's address (never the name) in the address, one element a line (issue 27)."""
+    info = CertificateInfo(**{**INFO.__dict__, "customer_address": "Hauptstraße 1, Berlin"})
+    issue(run_folder, info, tmp_path / "cert.pdf")
+    xml = (tmp_path / "cert.xml").read_bytes()
+    assert dcc.validation_error(xml) is None
+    text = xml.decode("utf-8")
+    assert text.count("\n") > 200 and "\n      <dcc:coreData>" not in text  # two-space levels
+    assert "\n    <dcc:coreData>" in text
+    root = ET.fromstring(xml)
+    address = root.findtext(".//dcc:customer/dcc:location/dcc:further/dcc:content", namespaces=NS)
+    assert address == "Hauptstraße 1, Berlin"
+    kinds = {
+        q.get("refType") for q in root.iterfind(".//dcc:result/dcc:data/dcc:list/dcc:quantity", NS)
+    }
+    assert kinds == {
+        dcc.REF_FREQUENCY,
+        dcc.REF_MAGNITUDE,
+        dcc.REF_PHASE,
+        dcc.REF_DEVIATION,
+    }
+    assert "basic_measuredValue" in dcc.REF_MAGNITUDE.split()
+    assert root.find(".//dcc:statement[@refType='basic_conformity']", NS) is not None
+    assert root.find(".//dcc:identification[@refType='basic_serialNumber']", NS) is not None
+    marked = root.findall(f".//dcc:result[@refType='{dcc.REF_RESULT}']", NS)
+    assert len(marked) == 1
+    quantities = marked[0].findall("dcc:data/dcc:quantity", NS)
+    values = {q.get("refType"): q.findtext("si:real/si:value", namespaces=NS) for q in quantities}
+    record = json.loads((run_folder / "results.json").read_text())
+    f_ref = record["results"]["reference"]["frequency_hz"]
+    assert values[dcc.REF_FREQUENCY] == f"{f_ref:g}"
+    lists = _lists(xml)
+    k = lists["Excitation frequency"][0].index(f"{f_ref:g}")
+    sens, u_sens, cover, _ = lists["Sensitivity magnitude"]
+    assert values[dcc.REF_MAGNITUDE] == sens[k]
+    magnitude = next(q for q in quantities if q.get("refType") == dcc.REF_MAGNITUDE)
+    assert magnitude.findtext(".//si:valueExpandedMU", namespaces=NS) == u_sens[k]
+    assert magnitude.findtext(".//si:coverageFactor", namespaces=NS) == cover[k]
+
+
+def test_no_address_is_said_so_not_filled_with_the_name(run_folder: Path, tmp_path: Path) -> None:
+    issue(run_folder, INFO, tmp_path / "cert.pdf")
+    root = ET.fromstring((tmp_path / "cert.xml").read_bytes())
+    address = root.findtext(".//dcc:customer/dcc:location/dcc:further/dcc:content", namespaces=NS)
+    assert address == "address not stated" and address != INFO.customer

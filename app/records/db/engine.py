@@ -1,11 +1,12 @@
 """Where the records database is and how it is opened, created and migrated.
 
 The URL comes from `--db URL`, else the environment variable ACCELCAL_DB, else an SQLite file
-`records.sqlite` in the user's data directory (platformdirs). SQLite runs in WAL mode with a
-busy timeout, and every transaction starts with BEGIN IMMEDIATE so two writers queue instead
-of failing half-way. PostgreSQL is reached through psycopg 3 (`postgresql://...` URLs are
-mapped to `postgresql+psycopg://`). A database whose schema is older than this program's is
-refused until `accelcal db upgrade`; only the default SQLite file is created on first use.
+`records.sqlite` in the user's data directory ($ACCELCAL_DATA_DIR, else platformdirs). SQLite
+runs in WAL mode with a busy timeout, and every transaction starts with BEGIN IMMEDIATE so two
+writers queue instead of failing half-way. PostgreSQL is reached through psycopg 3
+(`postgresql://...` URLs are mapped to `postgresql+psycopg://`). A database whose schema is
+older than this program's is refused until `accelcal db upgrade`; only the default SQLite file
+is created on first use.
 """
 
 from __future__ import annotations
@@ -33,10 +34,11 @@ class DatabaseError(RecordsInputError):
 
 
 def default_url() -> str:
-    """The embedded default: an SQLite file in the user's data directory."""
-    from platformdirs import user_data_dir
+    """The embedded default: an SQLite file in the user's data directory
+    (app.files.data_dir: $ACCELCAL_DATA_DIR, else platformdirs)."""
+    from app.files import data_dir
 
-    folder = Path(user_data_dir("accelcal", appauthor=False))
+    folder = data_dir()
     return f"sqlite:///{folder / 'records.sqlite'}"
 
 
