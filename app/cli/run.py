@@ -39,6 +39,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     max_time = parse_seconds(args.max_time, "--max-time") if args.max_time else None
     writable_folder(args.out, "--out")
     use_records = bool(args.sensor or args.db or os.environ.get("ACCELCAL_DB"))
+    if use_records:
+        from app.records.db.gate import records_quick_check
+
+        records_quick_check(args.db)
     choice = DutChoice(
         stand_file=args.stand,
         dut=args.dut,
