@@ -45,6 +45,7 @@ UNIT_PERCENT = r"\percent"
 DEVIATION_NAME = "Deviation from the sensitivity at the reference frequency"
 RUN_ID_NAME = "Calibration run"  # the run certified, an identification of the core data
 SEAL_NAME = "Run seal (SHA-256)"  # its seal's hash (app.records.seal)
+CHAIN_HEAD_NAME = "Records chain head (SHA-256)"  # the records' chain head its seal names
 
 ET.register_namespace("dcc", DCC_NS)
 ET.register_namespace("si", SI_NS)
@@ -251,14 +252,18 @@ def build(run: StoredRun, info: CertificateInfo) -> bytes:
 def _run_identifications(core: ET.Element, run: StoredRun) -> None:
     """The run certified and its seal's hash (app.records.seal), as `verify --run` reads them
     (app.certificate.readback); no seal entry for a run made before seals."""
-    from app.records.seal import SealError, named_seal
+    from app.records.seal import SealError, named_chain_head, named_seal
 
     try:
-        seal = named_seal(run.path)
+        seal, head = named_seal(run.path), named_chain_head(run.path)
     except SealError as exc:
         raise DccError(str(exc)) from None
     ids = _d(core, "identifications")
-    for label, value in ((RUN_ID_NAME, run.record.run_id), (SEAL_NAME, seal)):
+    for label, value in (
+        (RUN_ID_NAME, run.record.run_id),
+        (SEAL_NAME, seal),
+        (CHAIN_HEAD_NAME, head),
+    ):
         if value:
             ident = _d(ids, "identification")
             _d(ident, "issuer", "calibrationLaboratory")

@@ -35,7 +35,7 @@ from app.certificate.load import StoredRun
 from app.certificate.pdf_charts import FONT, FONT_BOLD, GRID, chart
 from app.certificate.printed import NOT_STATED_SHORT, printed_lines
 from app.records.run_record import RunRecord
-from app.records.seal import named_seal
+from app.records.seal import named_chain_head, named_seal
 from app.records.sweep_summary import SweepSummary
 from dsp.calibration import Results
 from dsp.characteristic import characteristic
@@ -218,6 +218,7 @@ def write_pdf(
                 ("Date of issue", _esc(info.issue_date)),
                 ("Calibration run", _esc(record.run_id)),
                 *[("Run seal", seal) for seal in [named_seal(run.path)] if seal],
+                *[("Records chain head", h) for h in [named_chain_head(run.path)] if h],
             ]
         ),
         Paragraph("Method", HEAD),

@@ -62,8 +62,9 @@ def cmd_db_verify(args: argparse.Namespace) -> int:
 
 
 def _certificate_problems(engine: Engine, extra: list[Path]) -> list[Problem]:
-    """Each registered certificate's PDFs in its run folder (and the `extra` ones) verified
-    against the run folder."""
+    """Each registered certificate against the DCCs (certificate files, .xml) in its run
+    folder: the one stating its number must name its run and the run's seal; a signed PDF
+    beside it is verified in full (signature, DCC, run). The `extra` PDFs are verified too."""
     from sqlalchemy import select
     from sqlalchemy.orm import Session
 
@@ -72,19 +73,55 @@ def _certificate_problems(engine: Engine, extra: list[Path]) -> list[Problem]:
     from app.records.db.models import Certificate
 
     found: list[Problem] = []
-    targets: list[tuple[str, Path, Path | None]] = [("certificate", pdf, None) for pdf in extra]
+    pdfs: list[tuple[str, Path, Path | None]] = [("certificate", pdf, None) for pdf in extra]
     with Session(engine) as s:
         for cert in s.scalars(select(Certificate)):
-            run_folder = Path(cert.run.folder)
-            for pdf in sorted(run_folder.glob("*.pdf")) if run_folder.is_dir() else []:
-                targets.append((f"{cert.id} ({cert.number})", pdf, run_folder))
-    for key, pdf, run in targets:
+            key = f"{cert.id} ({cert.number})"
+            folder = Path(cert.run.folder)
+            problem, pdf = _dcc_problem(folder, cert.number, cert.run.run_id)
+            if problem:
+                found.append(Problem("certificates", key, problem))
+            if pdf is not None:
+                pdfs.append((key, pdf, folder))
+    for key, pdf, run in pdfs:
         try:
             report = verify(pdf, run=run)
         except VerifyRefusal as exc:
             found.append(Problem("certificates", key, f"{pdf}: {exc}"))
             continue
-        failed = [f"{name}: {detail}" for name, ok, detail in report.checks if not ok]
-        if failed:
-            found.append(Problem("certificates", key, f"{pdf}: {failed[0]}"))
+        failed = [(name, detail) for name, ok, detail in report.checks if not ok]
+        unsigned = failed and failed[0][1].startswith("the PDF is not signed")
+        if failed and not (unsigned and run is not None):  # unsigned: the DCC was checked
+            found.append(Problem("certificates", key, f"{pdf}: {failed[0][0]}: {failed[0][1]}"))
     return found
+
+
+def _dcc_problem(folder: Path, number: str, run_id: str) -> tuple[str | None, Path | None]:
+    """Why the DCC stating `number` in `folder` does not match the register row (None: it
+    does, or no certificate file of that number is kept there), and its PDF if one is."""
+    from app.certificate.readback import PrintedError, items_from_dcc, parse_inert
+    from app.io.checks import InputFileError, read_regular_bytes
+    from app.records.seal import SealError, read_seal
+
+    if not folder.is_dir():
+        return None, None  # the run folder itself is named by the chain check
+    for xml in sorted(folder.glob("*.xml")):
+        try:
+            items = items_from_dcc(parse_inert(read_regular_bytes(xml, 8 << 20, "DCC")))
+        except (InputFileError, PrintedError) as exc:
+            log.info("%s: not a DCC (%s)", xml, exc)
+            continue
+        if items.number != number:
+            continue
+        pdf = xml.with_suffix(".pdf")
+        pdf_found = pdf if pdf.is_file() else None
+        if items.run_id != run_id:
+            return f"{xml} names run {items.run_id!r}, the register {run_id!r}", pdf_found
+        try:
+            seal = read_seal(folder)[1]
+        except SealError as exc:
+            return str(exc), pdf_found
+        if items.seal != seal:
+            return f"{xml} names seal {items.seal[:16]}..., the run's is {seal[:16]}...", pdf_found
+        return None, pdf_found
+    return None, None

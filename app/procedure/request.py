@@ -109,6 +109,7 @@ class RunRequest:
     # the multisine's phases (rad), optimised already for these lines (the GUI does it as the
     # lines are typed); None: optimised when the plan is made (about 1 s)
     phases_rad: tuple[float, ...] | None = None
+    records_chain_head: str | None = None  # hex: the records' chain head, named by the seal
 
     def spec(self, backend: str) -> DutSpec:
         """The DUT's specification on a stand of `backend`, with what the request states

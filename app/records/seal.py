@@ -92,6 +92,13 @@ def named_seal(folder: Path) -> str | None:
     return read_seal(folder)[1]
 
 
+def named_chain_head(folder: Path) -> str | None:
+    """The records chain head (hex) the run's checked seal names; None without one."""
+    if not os.path.lexists(folder / SEAL_NAME):
+        return None
+    return read_seal(folder)[0].records_chain_head
+
+
 def read_seal(folder: Path) -> tuple[Seal, str]:
     """The seal of the run in `folder`, checked against the folder's manifest.json and
     results.json as they are now, and its hash (hex SHA-256 of seal.json). SealError naming

@@ -175,34 +175,46 @@ def _lock(connection: Connection) -> None:
         connection.execute(text("SELECT pg_advisory_xact_lock(:key)"), {"key": _PG_LOCK_KEY})
 
 
-def append(
-    connection: Connection,
-    *,
-    actor: str,
-    action: str,
-    table_name: str = "",
-    key: str = "",
-    row: str | None = None,
-    journal_id: int | None = None,
-) -> Entry:
-    """Append one entry after the current head, in the caller's transaction. The entry."""
+@dataclass(frozen=True)
+class Change:
+    """One change to enter: action, table, primary key, new row JSON (None: gone), journal id."""
+
+    action: str
+    table_name: str = ""
+    row_key: str = ""
+    row: str | None = None
+    journal_id: int | None = None
+
+
+def append(connection: Connection, *, actor: str, changes: list[Change]) -> list[Entry]:
+    """Append the changes after the current head, in the caller's transaction, in one
+    statement. The entries."""
+    if not changes:
+        return []
     _lock(connection)
     latest = head(connection)
-    fields: dict[str, Any] = {
-        "seq": latest.seq + 1 if latest else 1,
-        "at_utc": datetime.now(UTC).isoformat(timespec="microseconds"),
-        "actor": actor,
-        "action": action,
-        "table_name": table_name,
-        "row_key": key,
-        "row": row,
-        "journal_id": journal_id,
-        "schema_fingerprint": schema_fingerprint(connection),
-    }
-    prev = latest.hash if latest else GENESIS
-    entry = Entry(**fields, prev_hash=prev, hash=entry_hash(prev, **fields))
-    connection.execute(insert(ChainEntry).values(**entry.__dict__))
-    return entry
+    seq, prev = (latest.seq, latest.hash) if latest else (0, GENESIS)
+    at_utc = datetime.now(UTC).isoformat(timespec="microseconds")
+    fingerprint = schema_fingerprint(connection)
+    entries = []
+    for change in changes:
+        seq += 1
+        fields: dict[str, Any] = {
+            "seq": seq,
+            "at_utc": at_utc,
+            "actor": actor,
+            "action": change.action,
+            "table_name": change.table_name,
+            "row_key": change.row_key,
+            "row": change.row,
+            "journal_id": change.journal_id,
+            "schema_fingerprint": fingerprint,
+        }
+        entry = Entry(**fields, prev_hash=prev, hash=entry_hash(prev, **fields))
+        entries.append(entry)
+        prev = entry.hash
+    connection.execute(insert(ChainEntry), [e.__dict__ for e in entries])
+    return entries
 
 
 def _unclaimed_journal_id(connection: Connection, table: str, key: str, action: str) -> int | None:
@@ -246,15 +258,7 @@ def _record(action: str, mapper: Mapper[Any], connection: Connection, target: An
     row = None if action == "delete" else live_row(connection, table, key)
     session = object_session(target)
     actor = str((session.info.get("actor") if session else None) or current_actor())
-    append(
-        connection,
-        actor=actor,
-        action=action,
-        table_name=table.name,
-        key=key,
-        row=row,
-        journal_id=journal_id,
-    )
+    append(connection, actor=actor, changes=[Change(action, table.name, key, row, journal_id)])
 
 
 def current_actor() -> str:

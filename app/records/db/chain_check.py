@@ -20,6 +20,7 @@ from typing import Any
 from sqlalchemy import Connection, Engine, Table, select
 
 from app.records.db import chain
+from app.records.db.chain import Change
 from app.records.db.errors import RecordsInputError
 from app.records.db.models import ChainEntry, JournalEntry, Run
 
@@ -97,26 +98,34 @@ def _diff(expected: str, live: str) -> str:
     return ", ".join(names)
 
 
-def _compare_tables(
-    connection: Connection, tables: Mapping[str, Table], state: dict[tuple[str, str], str]
-) -> list[Problem]:
-    """Live rows against the rows the chain derives."""
-    problems: list[Problem] = []
-    remaining = dict(state)
+def _live_state(connection: Connection, tables: Mapping[str, Table]) -> dict[tuple[str, str], str]:
+    """Every live row of the audited tables as the chain would store it."""
+    live: dict[tuple[str, str], str] = {}
     for name, table in tables.items():
         for found in connection.execute(select(table)):
             row = found._mapping
-            key = chain.row_key(table, row)
-            expected = remaining.pop((name, key), None)
-            live = chain.row_json(table, row)
-            if expected is None:
-                problems.append(Problem(name, key, "not in the chain (written outside the app)"))
-            elif expected != live:
-                why = f"changed outside the application ({_diff(expected, live)})"
-                problems.append(Problem(name, key, why))
-    for name, key in sorted(remaining):
-        if name in tables:
+            live[(name, chain.row_key(table, row))] = chain.row_json(table, row)
+    return live
+
+
+def _compare(
+    expected: Mapping[tuple[str, str], str],
+    live: Mapping[tuple[str, str], str],
+    tables: Mapping[str, Table],
+) -> list[Problem]:
+    """Live rows against the rows the chain derives, in table and key order."""
+    problems: list[Problem] = []
+    for name, key in sorted(expected.keys() | live.keys()):
+        if name not in tables:
+            continue
+        want, have = expected.get((name, key)), live.get((name, key))
+        if want is None:
+            problems.append(Problem(name, key, "not in the chain (written outside the app)"))
+        elif have is None:
             problems.append(Problem(name, key, "deleted outside the application"))
+        elif want != have:
+            why = f"changed outside the application ({_diff(want, have)})"
+            problems.append(Problem(name, key, why))
     return problems
 
 
@@ -154,7 +163,8 @@ def verify_connection(
     ((where, hash) pairs from seals and certificates) present in the chain."""
     walk = _walk(chain.read_entries(connection))
     problems = list(walk.problems)
-    problems += _compare_tables(connection, tables or chain.chained_tables(), walk.state)
+    tables = tables or chain.chained_tables()
+    problems += _compare(walk.state, _live_state(connection, tables), tables)
     problems += [p for p in _unclaimed_journal(connection) if p not in problems]
     problems += _schema_problem(connection, walk.head)
     known = walk.hashes | {chain.GENESIS}
@@ -262,36 +272,22 @@ def after_migration(connection: Connection) -> int:
         return 0
     actor = f"accelcal db upgrade ({chain.current_actor()})"
     tables = chain.reflected_tables(connection)
-    walk = _walk(chain.read_entries(connection))
-    appended = 0
+    state = _walk(chain.read_entries(connection)).state
+    live = _live_state(connection, tables)
+    changes = []
     for journal in _unclaimed_rows(connection):
-        table = tables.get(journal.table_name)
-        row = None if table is None else chain.live_row(connection, table, journal.row_key)
-        chain.append(
-            connection,
-            actor=actor,
-            action="migrate",
-            table_name=journal.table_name,
-            key=journal.row_key,
-            row=row,
-            journal_id=journal.id,
-        )
+        where = (journal.table_name, journal.row_key)
+        row = live.get(where)
+        changes.append(Change("migrate", *where, row=row, journal_id=journal.id))
         if row is None:
-            walk.state.pop((journal.table_name, journal.row_key), None)
+            state.pop(where, None)
         else:
-            walk.state[(journal.table_name, journal.row_key)] = row
-        appended += 1
-    for problem in _compare_tables(connection, tables, walk.state):
-        row = chain.live_row(connection, tables[problem.table], problem.key)
-        chain.append(
-            connection,
-            actor=actor,
-            action="migrate",
-            table_name=problem.table,
-            key=problem.key,
-            row=row,
-        )
-        appended += 1
-    chain.append(connection, actor=actor, action=_SCHEMA)
+            state[where] = row
+    for problem in _compare(state, live, tables):
+        where = (problem.table, problem.key)
+        changes.append(Change("migrate", *where, row=live.get(where)))
+    changes.append(Change(_SCHEMA))
+    chain.append(connection, actor=actor, changes=changes)
+    appended = len(changes) - 1
     log.info("records chain: %d rows entered after the migration", appended)
-    return appended + 1
+    return len(changes)
