@@ -23,12 +23,12 @@ from collections.abc import Callable
 from datetime import UTC, date, datetime, timedelta
 from pathlib import Path
 
-from sqlalchemy import Engine, insert, text
+from sqlalchemy import Engine, MetaData, insert, text
 
 from app.io.vocabulary import RunStatus
 from app.records.db.engine import make_engine, resolve_url, upgrade
 from app.records.db.lab import Lab
-from app.records.db.models import Customer, Run, Sensor, SensorModel, Stand
+from app.records.db.models import Customer, Sensor, SensorModel
 
 N_SENSORS = 10_000
 N_RUNS = 100_000
@@ -40,7 +40,13 @@ def fill(engine: Engine) -> None:
     """10 000 sensors of 20 models and 100 customers, 10 yearly runs each over ten years, the
     last ones spread over the past year (so about 1 in 12 sensors is due within 30 days)."""
     t_end = datetime(2026, 11, 1, tzinfo=UTC)
-    with engine.begin() as conn:
+    with engine.begin() as conn:  # the tables as they are at 0001 (no later column defaults)
+        reflected = MetaData()
+        reflected.reflect(bind=conn)
+        Customer, SensorModel, Stand, Sensor, Run = (
+            reflected.tables[name]
+            for name in ("customers", "sensor_models", "stands", "sensors", "runs")
+        )
         conn.execute(insert(Customer), [{"name": f"C{i}", "address": ""} for i in range(100)])
         conn.execute(
             insert(SensorModel),

@@ -268,6 +268,8 @@ def test_the_replica_role_does_not_hide_an_edit_on_postgresql(
     )
     with pytest.raises(ChainBroken, match=f"certificates {key}: "):
         quick_check(engine)
+    # the journal trigger fired although replication triggers were off (ENABLE ALWAYS)
+    assert f"certificates {key}: update outside the application" in str(verify(engine))
 
 
 def test_a_consistently_rewritten_chain_is_caught_by_the_head_a_seal_names(
@@ -392,3 +394,37 @@ def test_the_application_role_cannot_disable_triggers_and_works(
     assert quick_check(app_engine)
     app_engine.dispose()
     owner.dispose()
+
+
+def test_a_run_and_its_certificate_name_the_chain_head_and_db_verify_checks_them(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """End to end on SQLite: the run's seal names the head the quick check returned, the DCC
+    states it, and an edited DCC in the run folder is named by `db verify`."""
+    url = f"sqlite:///{tmp_path / 'lab.sqlite'}"
+    assert main(["db", "upgrade", "--db", url]) == 0
+    assert main(["customers", "add", "ACME Ltd", "--db", url]) == 0
+    model = ["models", "add", "PCB", "352C33", "--nominal", "10", "--unit", "mV/(m/s^2)"]
+    assert main([*model, "--tolerance", "5", "--fmin", "1", "--fmax", "10000", "--db", url]) == 0
+    assert (
+        main(["sensors", "add", "SN-1", "--model", "352C33", "--owner", "ACME Ltd", "--db", url])
+        == 0
+    )
+    engine = make_engine(resolve_url(url))
+    head_before = quick_check(engine)
+    runs = tmp_path / "runs"
+    assert main(["run", "--sensor", "SN-1", "--db", url, "--periods", "3", "--out", str(runs)]) == 0
+    (folder,) = runs.iterdir()
+    seal = json.loads((folder / "seal.json").read_text())
+    assert seal["records_chain_head"] == head_before
+    certificate = ["certificate", str(folder), "--db", url, "--authorised-by", "Bob QM"]
+    assert main([*certificate, "--temperature", "23", "--mounting", "stud"]) == 0
+    dcc = (folder / "certificate.xml").read_text(encoding="utf-8")
+    assert head_before in dcc and "Records chain head (SHA-256)" in dcc
+    capsys.readouterr()
+    assert main(["db", "verify", "--db", url]) == 0
+    (folder / "certificate.xml").chmod(0o644)
+    (folder / "certificate.xml").write_text(dcc.replace(folder.name, "OTHER-RUN"), "utf-8")
+    assert main(["db", "verify", "--db", url]) == 2
+    assert "names run 'OTHER-RUN'" in capsys.readouterr().out
+    engine.dispose()
