@@ -269,7 +269,8 @@ def test_the_replica_role_does_not_hide_an_edit_on_postgresql(
     with pytest.raises(ChainBroken, match=f"certificates {key}: "):
         quick_check(engine)
     # the journal trigger fired although replication triggers were off (ENABLE ALWAYS)
-    assert f"certificates {key}: update outside the application" in str(verify(engine))
+    journal = f"certificates {key}: update outside the application (journal"
+    assert any(str(p).startswith(journal) for p in verify(engine))
 
 
 def test_a_consistently_rewritten_chain_is_caught_by_the_head_a_seal_names(
