@@ -429,3 +429,34 @@ def test_a_run_and_its_certificate_name_the_chain_head_and_db_verify_checks_them
     assert main(["db", "verify", "--db", url]) == 2
     assert "names run 'OTHER-RUN'" in capsys.readouterr().out
     engine.dispose()
+
+
+@pytest.mark.parametrize("how", ["journal", "schema"])
+def test_the_quick_check_catches_an_edit_of_a_row_outside_its_window(
+    engine: Engine, tmp_path: Path, how: str
+) -> None:
+    """The model's entry lies before the last QUICK_WINDOW entries: an edit with the triggers in
+    place is seen by its journal row, one with the triggers dropped and recreated by the
+    schema fingerprint."""
+    from app.records.db.chain_check import QUICK_WINDOW
+
+    lab = _lab_day(engine, tmp_path)
+    for number in range(QUICK_WINDOW // 2 + 1):  # a customer and its audit entry each
+        lab.add_customer(f"Customer {number}")
+    key = _id(engine, "SELECT id FROM sensor_models")
+    with engine.connect() as c:
+        window = chain.read_entries(c, last=QUICK_WINDOW)
+    assert all(e.table_name != "sensor_models" for e in window)
+    quick_check(engine)
+    edit = "UPDATE sensor_models SET tolerance_percent = 50"
+    if how == "journal":
+        _sql(engine, edit)
+        with pytest.raises(ChainBroken, match=f"sensor_models {key}: update outside"):
+            quick_check(engine)
+    else:
+        _without_triggers(engine, "sensor_models", edit)
+        with pytest.raises(ChainBroken, match="schema: the schema or its triggers changed"):
+            quick_check(engine)
+    assert f"sensor_models {key}: changed outside the application (tolerance_percent)" in [
+        str(p) for p in verify(engine)
+    ]
