@@ -60,6 +60,7 @@ REF_PHASE = "vib_sensitivityPhase basic_measuredValue"
 REF_DEVIATION = "vib_relativeDeviation"
 REF_RESPONSE = "vib_frequencyResponse"
 REF_RESULT = "vib_referenceFrequencyResult"  # the result at the reference frequency
+CHAIN_HEAD_NAME = "Records chain head (SHA-256)"  # the records' chain head its seal names
 
 ET.register_namespace("dcc", DCC_NS)
 ET.register_namespace("si", SI_NS)
@@ -317,14 +318,18 @@ def _reference_result(parent: ET.Element, results: Results) -> None:
 def _run_identifications(core: ET.Element, run: StoredRun) -> None:
     """The run certified and its seal's hash (app.records.seal), as `verify --run` reads them
     (app.certificate.readback); no seal entry for a run made before seals."""
-    from app.records.seal import SealError, named_seal
+    from app.records.seal import SealError, named_chain_head, named_seal
 
     try:
-        seal = named_seal(run.path)
+        seal, head = named_seal(run.path), named_chain_head(run.path)
     except SealError as exc:
         raise DccError(str(exc)) from None
     ids = _d(core, "identifications")
-    for label, value in ((RUN_ID_NAME, run.record.run_id), (SEAL_NAME, seal)):
+    for label, value in (
+        (RUN_ID_NAME, run.record.run_id),
+        (SEAL_NAME, seal),
+        (CHAIN_HEAD_NAME, head),
+    ):
         if value:
             ident = _d(ids, "identification")
             _d(ident, "issuer", "calibrationLaboratory")

@@ -42,7 +42,7 @@ from app.certificate.pdf_page import numbered_canvas
 from app.certificate.printed import NOT_STATED_SHORT, printed_lines
 from app.records.db.units import STANDARD_GRAVITY_MS2
 from app.records.run_record import RunRecord
-from app.records.seal import named_seal
+from app.records.seal import named_chain_head, named_seal
 from app.records.sweep_summary import SweepSummary
 from dsp.calibration import Results
 from dsp.characteristic import characteristic
@@ -165,6 +165,7 @@ def write_pdf(
                 ("Date of issue", _esc(info.issue_date)),
                 ("Calibration run", _esc(record.run_id)),
                 *[("Run seal", seal) for seal in [named_seal(run.path)] if seal],
+                *[("Records chain head", h) for h in [named_chain_head(run.path)] if h],
             ]
         ),
         *verification_qr(run, number),

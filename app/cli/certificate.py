@@ -41,7 +41,9 @@ def cmd_certificate(args: argparse.Namespace) -> int:
     if args.db or os.environ.get("ACCELCAL_DB"):
         from app.certificate.register_issue import issue_registered
         from app.records.db.audit import current_actor
+        from app.records.db.gate import records_quick_check
 
+        records_quick_check(args.db)
         issued = issue_registered(
             args.run,
             info,

@@ -10,6 +10,7 @@ from datetime import UTC, date, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from app.cli.db_verify import add_verify, cmd_db_verify
 from app.cli.options import Bounded, numeric_option
 from app.records.db.errors import RecordsInputError
 
@@ -63,6 +64,7 @@ def add_commands(sub: argparse._SubParsersAction) -> dict[str, Handler]:  # type
     im = dsub.add_parser("import", help="index run folders (verified ones only)")
     im.add_argument("folder", type=Path, help="a runs folder or one run folder")
     _db_option(im)
+    add_verify(dsub)
 
     c = sub.add_parser("customers", help="customers: add, list")
     csub = c.add_subparsers(dest="action", required=True, metavar="ACTION")
@@ -173,6 +175,7 @@ def add_commands(sub: argparse._SubParsersAction) -> dict[str, Handler]:  # type
 
 def cmd_db(args: argparse.Namespace) -> int:
     from app.records.db.engine import make_engine, resolve_url, upgrade
+    from app.records.db.gate import records_quick_check
 
     if args.db_command == "upgrade":
         url = resolve_url(args.db)
@@ -184,8 +187,11 @@ def cmd_db(args: argparse.Namespace) -> int:
         else:
             print(f"{shown}: schema {before or 'none'} -> {after}")
         return 0
+    if args.db_command == "verify":
+        return cmd_db_verify(args)
     if not args.folder.is_dir():
         raise RecordsUsageError(f"folder: no such folder {args.folder}")
+    records_quick_check(args.db)
     report = _lab(args).import_runs(args.folder)
     for run_id in report.imported:
         print(f"imported  {run_id}")

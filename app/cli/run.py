@@ -4,6 +4,7 @@ The request is built by app.procedure.request.build_request, as the GUI builds i
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
 import sys
@@ -48,6 +49,11 @@ def cmd_run(args: argparse.Namespace) -> int:
     max_time = parse_seconds(args.max_time, "--max-time") if args.max_time else None
     writable_folder(args.out, "--out")
     use_records = bool(args.sensor or args.db or os.environ.get("ACCELCAL_DB"))
+    head = None
+    if use_records:
+        from app.records.db.gate import records_quick_check
+
+        head = records_quick_check(args.db)
     choice = DutChoice(
         stand_file=args.stand,
         dut=args.dut,
@@ -84,6 +90,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         exciter=args.exciter,
         fade_in_s=args.fade_in,
     )
+    request = dataclasses.replace(request, records_chain_head=head)
     for note in notes:
         print(note, file=sys.stderr)
     progress = None if args.json else TerminalProgress(sorted(levels) if levels else None)

@@ -118,6 +118,7 @@ class RunRequest:
     corner_hz: float | None = None
     exciter: str | None = None  # simulated stand: a name of its exciter catalogue
     fade_in_s: float | None = None  # lpm: the fade-in before the record (None: 2 cycles)
+    records_chain_head: str | None = None  # hex: the records' chain head, named by the seal
 
     def spec(self, backend: str) -> DutSpec:
         """The DUT's specification on a stand of `backend`, with what the request states

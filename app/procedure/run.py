@@ -107,6 +107,7 @@ def start(request: RunRequest, listener: Listener | None = None) -> tuple[Proced
     procedure, stand = prepare(request, listener)
     try:
         procedure.folder = RunFolder.create(request.out, request.dut_id or request.dut)
+        procedure.folder.records_chain_head = request.records_chain_head
     except BaseException:
         stand.close()
         raise
@@ -122,6 +123,7 @@ def execute(request: RunRequest, listener: Listener | None = None) -> Finished:
     procedure, stand = prepare(request, listener)
     try:
         procedure.folder = RunFolder.create(request.out, request.dut_id or request.dut)
+        procedure.folder.records_chain_head = request.records_chain_head
         with _graceful_signals(procedure):
             return procedure.run()
     finally:

@@ -172,6 +172,7 @@ class RunFolder:
     path: Path
     run_id: str
     _lock: int | None = field(default=None, repr=False)
+    records_chain_head: str | None = None  # the records chain head the seal names (hex)
 
     @classmethod
     def create(cls, root: str | Path, label: str) -> RunFolder:
@@ -210,7 +211,12 @@ class RunFolder:
             if results is not None:
                 self.write_text("results.csv", results.to_csv())
             write_manifest(self.path)
-            write_seal(self.path, record.run_id or self.run_id, record.software_version)
+            write_seal(
+                self.path,
+                record.run_id or self.run_id,
+                record.software_version,
+                self.records_chain_head,
+            )
             make_read_only(self.path)
         finally:
             self.release()

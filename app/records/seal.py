@@ -13,6 +13,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import re
 from dataclasses import asdict, dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -21,6 +22,7 @@ from app.errors import Refusal
 from app.files import write_new
 from app.io.checks import InputFileError, read_regular_bytes, sha256_regular
 
+_HEX64 = re.compile(r"[0-9a-f]{64}")
 SEAL_NAME = "seal.json"
 SEAL_VERSION = 1
 MAX_SEAL_BYTES = 64 * 1024
@@ -32,6 +34,7 @@ _FIELDS = (
     "software_version",
     "sealed_utc",
 )
+_OPTIONAL = ("records_chain_head",)  # absent from seals written before the records chain
 
 
 class SealError(Refusal):
@@ -48,10 +51,14 @@ class Seal:
     software_version: str
     sealed_utc: str
     seal_version: int = SEAL_VERSION
+    records_chain_head: str | None = None  # hex hash of the records chain head when sealed
 
     def to_json(self) -> str:
-        """The seal as stored: sorted keys, two-space indent."""
-        return json.dumps(asdict(self), indent=2, sort_keys=True)
+        """The seal as stored: sorted keys, two-space indent (no chain head: not written)."""
+        fields = asdict(self)
+        if fields["records_chain_head"] is None:
+            del fields["records_chain_head"]
+        return json.dumps(fields, indent=2, sort_keys=True)
 
 
 def _sha256_file(path: Path) -> str:
@@ -59,15 +66,19 @@ def _sha256_file(path: Path) -> str:
     return sha256_regular(path, "run file")
 
 
-def write_seal(folder: Path, run_id: str, software_version: str) -> Seal:
+def write_seal(
+    folder: Path, run_id: str, software_version: str, records_chain_head: str | None = None
+) -> Seal:
     """Seal the finished run in `folder` (manifest.json and results.json written): seal.json,
-    never over an existing one. The seal."""
+    never over an existing one, naming the records chain head when records are in use. The
+    seal."""
     seal = Seal(
         run_id=run_id,
         manifest_sha256=_sha256_file(folder / "manifest.json"),
         results_sha256=_sha256_file(folder / "results.json"),
         software_version=software_version or "unknown",
         sealed_utc=datetime.now(UTC).isoformat(timespec="seconds"),
+        records_chain_head=records_chain_head,
     )
     write_new(folder / SEAL_NAME, seal.to_json())
     return seal
@@ -81,6 +92,13 @@ def named_seal(folder: Path) -> str | None:
     return read_seal(folder)[1]
 
 
+def named_chain_head(folder: Path) -> str | None:
+    """The records chain head (hex) the run's checked seal names; None without one."""
+    if not os.path.lexists(folder / SEAL_NAME):
+        return None
+    return read_seal(folder)[0].records_chain_head
+
+
 def read_seal(folder: Path) -> tuple[Seal, str]:
     """The seal of the run in `folder`, checked against the folder's manifest.json and
     results.json as they are now, and its hash (hex SHA-256 of seal.json). SealError naming
@@ -92,8 +110,11 @@ def read_seal(folder: Path) -> tuple[Seal, str]:
         raise SealError(f"{exc} (a run finished before seals existed has none)") from None
     try:
         raw = json.loads(data.decode("utf-8"))
-        if not isinstance(raw, dict) or sorted(raw) != sorted(_FIELDS):
+        if not isinstance(raw, dict) or sorted(set(raw) - set(_OPTIONAL)) != sorted(_FIELDS):
             raise ValueError(f"its fields are not {', '.join(_FIELDS)}")
+        head = raw.get("records_chain_head")
+        if head is not None and not (isinstance(head, str) and _HEX64.fullmatch(head)):
+            raise ValueError("records_chain_head is not a hex SHA-256")
         seal = Seal(**raw)
         if seal.seal_version != SEAL_VERSION:
             raise ValueError(f"unknown seal_version {seal.seal_version!r}")

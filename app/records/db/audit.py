@@ -3,11 +3,12 @@
 A `before_flush` hook on the records session writes one AuditEntry per inserted, updated or
 deleted row, in the same transaction as the change, so a change and its trail commit or
 roll back together. The table itself refuses UPDATE and DELETE (triggers, migration 0001).
+Every row written through the ORM, audit entries included, is also chained (app.records.db.chain,
+whose mapper events are installed by importing it here).
 """
 
 from __future__ import annotations
 
-import getpass
 import json
 from datetime import UTC, date, datetime
 from typing import Any
@@ -15,15 +16,8 @@ from typing import Any
 from sqlalchemy import event, inspect
 from sqlalchemy.orm import Session
 
+from app.records.db.chain import current_actor  # importing chain installs its events
 from app.records.db.models import AuditEntry, Base
-
-
-def current_actor() -> str:
-    """The operating-system user, the default actor of a write."""
-    try:
-        return getpass.getuser()
-    except (KeyError, OSError):
-        return "unknown"
 
 
 def _plain(value: Any) -> Any:

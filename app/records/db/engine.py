@@ -112,6 +112,8 @@ def upgrade(engine: Engine, revision: str = "head") -> tuple[str | None, str | N
     """Migrate the schema to `revision`; returns (revision before, revision after)."""
     from alembic import command
 
+    from app.records.db import chain_check
+
     before = current_revision(engine)
     config = _alembic_config(engine)
     sqlite = engine.dialect.name == "sqlite"
@@ -121,7 +123,12 @@ def upgrade(engine: Engine, revision: str = "head") -> tuple[str | None, str | N
             raw.execute("PRAGMA foreign_keys = OFF")
         with connection.begin():
             config.attributes["connection"] = connection
+            pending = before != (head_revision(engine) if revision == "head" else revision)
+            if pending:  # the records chain: verified before, rows re-entered after
+                chain_check.before_migration(connection)
             command.upgrade(config, revision)
+            if pending:
+                chain_check.after_migration(connection)
             if sqlite:
                 broken = connection.exec_driver_sql("PRAGMA foreign_key_check").all()
                 if broken:

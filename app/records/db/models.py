@@ -267,3 +267,35 @@ class CertificateReview(Base):
     outcome: Mapped[str | None] = mapped_column(String(20), nullable=True)
     closed_utc: Mapped[datetime | None] = mapped_column(DateTime(timezone=True), nullable=True)
     certificate: Mapped[Certificate] = relationship()
+
+
+class ChainEntry(Base):
+    """One link of the records' hash chain (app.records.db.chain): the full new content of one
+    audited row (canonical JSON; None when deleted), who and when (UTC, ISO 8601), the journal
+    row it accounts for, the schema fingerprint, and sha256(prev_hash || entry) in hex.
+
+    Append-only: migration 0007 installs triggers that refuse UPDATE and DELETE on it."""
+
+    __tablename__ = "records_chain"
+    seq: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=False)
+    at_utc: Mapped[str] = mapped_column(String(40))
+    actor: Mapped[str] = mapped_column(String(200))
+    action: Mapped[str] = mapped_column(String(10))
+    table_name: Mapped[str] = mapped_column(String(100))
+    row_key: Mapped[str] = mapped_column(String(200))
+    row: Mapped[str | None] = mapped_column(Text, nullable=True)
+    journal_id: Mapped[int | None] = mapped_column(Integer, unique=True, nullable=True)
+    schema_fingerprint: Mapped[str] = mapped_column(String(100))
+    prev_hash: Mapped[str] = mapped_column(String(64), unique=True)
+    hash: Mapped[str] = mapped_column(String(64), unique=True)
+
+
+class JournalEntry(Base):
+    """A row change noted by a database trigger, whoever made it (table, primary key,
+    insert/update/delete); the chain entry of an application write claims it by id."""
+
+    __tablename__ = "records_journal"
+    id: Mapped[int] = mapped_column(primary_key=True)
+    table_name: Mapped[str] = mapped_column(String(100))
+    row_key: Mapped[str] = mapped_column(String(200))
+    action: Mapped[str] = mapped_column(String(10))

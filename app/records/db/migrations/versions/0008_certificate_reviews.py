@@ -2,8 +2,9 @@
 subject (e.g. the impact of a reference standard), reason, opening time and, once decided, the
 outcome (amended or confirmed). The certificates table itself is unchanged.
 
-Revision ID: 0007
-Revises: 0006
+Revision ID: 0008
+Revises: 0007 (the records' hash chain: this table is audited, so it gets its
+journal trigger like every audited table)
 Create Date: 2026-11-25
 """
 
@@ -12,8 +13,10 @@ from __future__ import annotations
 import sqlalchemy as sa
 from alembic import op
 
+from app.records.db.chain import journal_trigger_sql
+
 revision = "0008"
-down_revision = "0006"
+down_revision = "0007"
 branch_labels = None
 depends_on = None
 
@@ -33,6 +36,8 @@ def upgrade() -> None:
         ),
     )
     op.create_index("ix_certificate_reviews_certificate", "certificate_reviews", ["certificate_id"])
+    for statement in journal_trigger_sql(op.get_bind().dialect.name, "certificate_reviews", "id"):
+        op.execute(statement)
 
 
 def downgrade() -> None:
