@@ -1,9 +1,10 @@
-"""`accelcal certificate`: the PDF certificate (and DCC) of a stored complete run."""
+"""`accelcal certificate`: the PDF certificate (and DCC) of a stored complete run, through the
+records' register when records are in use (app.records.db.engine.records_url: the same answer
+`run` uses), else numbered by the run folder's register (and saying so on the certificate)."""
 
 from __future__ import annotations
 
 import argparse
-import os
 
 from app.cli.exits import EXIT_OK, UsageError
 from app.cli.options import writable_folder
@@ -37,7 +38,10 @@ def cmd_certificate(args: argparse.Namespace) -> int:
             raise UsageError(str(exc)) from None
     if args.out is not None and not is_run_folder(args.out.parent):  # a run's own: see issue()
         writable_folder(args.out.parent, "--out")
-    if args.db or os.environ.get("ACCELCAL_DB"):
+    from app.records.db.engine import records_url
+
+    url = records_url(args.db)  # the records `run` used: --db, $ACCELCAL_DB, the default file
+    if url is not None:
         from app.certificate.register_issue import issue_registered
         from app.records.db.audit import current_actor
 
@@ -45,15 +49,18 @@ def cmd_certificate(args: argparse.Namespace) -> int:
             args.run,
             info,
             out,
-            url=args.db,
+            url=url,
             prepared_by=args.prepared_by or current_actor(),
             sweep_path=args.sweep,
             replaces=args.replaces,
             reason=args.reason,
+            as_found=args.as_found,
             signer=signer,
         )
-    elif args.prepared_by or args.replaces or args.reason:
-        raise UsageError("--prepared-by, --replaces, --reason: need the records (--db URL)")
+    elif args.prepared_by or args.replaces or args.reason or args.as_found:
+        raise UsageError(
+            "--prepared-by, --replaces, --reason, --as-found: need the records (--db URL)"
+        )
     else:
         issued = issue(args.run, info, out, args.sweep, signer)
     print(f"certificate {issued.number}: {out}")
