@@ -175,7 +175,11 @@ class Issuance:
         """Clear the leftovers of killed issues in this issue's folders (rolled forward or
         deleted, each logged); then the numbers files there carry (never to be given again).
         CertificateError when `out` is taken after that."""
-        clear_leftovers(find_issuance_leftovers(self.folders, register, numbers))
+        clear_leftovers(
+            find_issuance_leftovers(
+                (self.p.out.parent,), register, numbers, run_folders=(self.p.run.path,)
+            )
+        )
         if self.p.out.exists():
             raise CertificateError(_exists(self.p.out))
         return carried_numbers(self.folders)
@@ -384,16 +388,16 @@ def _numbered(
         return dataclasses.replace(
             info, certificate_number=register.next_number(_run_id(run), folded)
         )
-    if str(number).casefold() in folded:
-        raise CertificateError(
-            f"--certificate-number: {number} is carried by a certificate file on disk; a "
-            "certificate number is never reused"
-        )
     issued = register.find(str(number))
     if issued is not None:
         raise CertificateError(
             f"--certificate-number: {number} is already used: it was issued on "
             f"{issued.issued_utc} for run {issued.run_id} ({issued.file}); a certificate "
             "number is never reused"
+        )
+    if str(number).casefold() in folded:
+        raise CertificateError(
+            f"--certificate-number: {number} is carried by a certificate file on disk; a "
+            "certificate number is never reused"
         )
     return info

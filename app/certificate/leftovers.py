@@ -197,13 +197,17 @@ def find_issuance_leftovers(
     folders: Iterable[Path],
     register: Mapping[str, Registered],
     numbers: Iterable[str] = (),
+    run_folders: Iterable[Path] = (),
 ) -> list[Leftover]:
-    """The leftovers of killed issuances in `folders` (shallow). `register` maps each
-    registered PDF's absolute path to its entry; `numbers` are every number the registers
-    hold (a final file carrying another is UNREGISTERED)."""
+    """The leftovers of killed issuances in `folders` and `run_folders` (shallow). `register`
+    maps each registered PDF's absolute path to its entry; `numbers` are every number the
+    registers hold. Only in `run_folders` (a run's own certificates, whose registers the
+    caller holds) is a final file carrying another number UNREGISTERED; elsewhere (an output
+    folder other registers may write to) final files are left alone."""
     known = {n.casefold() for n in numbers} | {e.number.casefold() for e in register.values()}
     found: list[Leftover] = []
-    for folder in _existing(folders):
+    run_folders = _existing(run_folders)
+    for folder in _existing([*folders, *run_folders]):
         for path in sorted(folder.iterdir()):
             if path.is_symlink() or not path.is_file():
                 continue
@@ -216,13 +220,15 @@ def find_issuance_leftovers(
                 found.append(Leftover(path, kind, final, number))
             elif _is_partial(path.name):
                 found.append(Leftover(path, LeftoverKind.PARTIAL))
+        if folder not in run_folders:
+            continue
         for pdf in _certificate_pdfs(folder):
             if str(pdf.resolve()) in register:
                 continue
             number = carried_number(pdf)
             if number is not None and number.casefold() not in known:
                 found.append(Leftover(pdf, LeftoverKind.UNREGISTERED, None, number))
-        for xml in sorted(folder.glob("*.xml")):  # a DCC written before its PDF (older code)
+        for xml in sorted(folder.glob("certificate*.xml")):  # a DCC before its PDF (older code)
             if xml.is_symlink() or not xml.is_file() or xml.with_suffix(".pdf").exists():
                 continue
             with contextlib.suppress(OSError):

@@ -283,6 +283,12 @@ def build_parser() -> argparse.ArgumentParser:
     tw.add_argument("run", type=Path, help="the run folder whose result is written")
     tw.add_argument("--initials", default="", help="calibrator's initials, up to 3 letters")
     tw.add_argument("--yes", action="store_true", help="write without asking (scripts)")
+    tw.add_argument(
+        "--yes-different-sensor",
+        metavar="REASON",
+        help="write although the TEDS names another sensor than the run's (logged, audited)",
+    )
+    tw.add_argument("--db", metavar="URL", help="records database (the run's sensor identity)")
     for p in (tr, tw):
         p.add_argument("--stand", type=Path, help="stand configuration (default: simulated)")
         p.add_argument("--dut", type=dut_name, default="piezo", help="simulated DUT")

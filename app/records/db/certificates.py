@@ -5,6 +5,7 @@ and the register itself.
 
 from __future__ import annotations
 
+import json
 import logging
 import re
 from collections.abc import Callable
@@ -14,7 +15,8 @@ from datetime import UTC, datetime
 from sqlalchemy import select
 from sqlalchemy.orm import Session, joinedload
 
-from app.records.db.models import Certificate, RegisterCounter, Run, Sensor, Setting
+from app.records.db.audit import current_actor
+from app.records.db.models import AuditEntry, Certificate, RegisterCounter, Run, Sensor, Setting
 from app.records.db.sensors import SensorRecords
 from app.records.db.signatories import same_person, signatory_name
 from app.records.db.store import RecordsError, text_field, utc
@@ -225,6 +227,22 @@ class CertificateRegister(SensorRecords):
             if row.state != "issued":
                 raise RecordsError(f"number: {number} is already {row.state}")
             row.state, row.reason = "withdrawn", reason
+
+    def note_override(self, run_id: str, what: str, reason: str) -> None:
+        """Enter an override of a check on a run's behalf in the audit trail (e.g. a TEDS
+        written to another sensor than the run's); the reason is required."""
+        reason = text_field(reason, "reason", max_len=2000)
+        with self.session() as s:
+            s.add(
+                AuditEntry(
+                    at_utc=datetime.now(UTC),
+                    actor=s.info.get("actor") or current_actor(),
+                    action="override",
+                    table_name="runs",
+                    row_key=text_field(run_id, "run", max_len=200),
+                    changes=json.dumps({"override": what, "reason": reason}),
+                )
+            )
 
     def issued_for_run(self, run_id: str) -> Certificate | None:
         """The certificate in force (state issued) of the run `run_id`, if any."""
