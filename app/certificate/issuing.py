@@ -288,8 +288,9 @@ def issue(
     issued before, or another certificate of the run is being issued."""
     with issuance(run_path, _without_records(info), out, sweep_path, signer) as job:
         root = job.p.run.path.resolve().parent
+        held = not job.p.into_run and job.out.parent.resolve() == root  # by `issuance`
         try:
-            with locked_register(root) as register:
+            with locked_register(root, held=held) as register:
                 registered = {
                     str(Path(e.file).resolve()): Registered(e.number, e.sha256)
                     for e in register.entries

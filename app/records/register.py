@@ -113,10 +113,14 @@ def read_register(root: Path) -> list[Issued]:
 
 
 @contextlib.contextmanager
-def locked_register(root: str | Path) -> Iterator[Register]:
+def locked_register(root: str | Path, *, held: bool = False) -> Iterator[Register]:
     """The register of `root`, held exclusively (other issuers under `root` wait) until the
-    block ends."""
+    block ends; `held`: the caller holds the folder's lock already (a second flock on another
+    descriptor of the same process would wait for ever)."""
     root = Path(root)
+    if held:
+        yield Register(root, read_register(root))
+        return
     fd = os.open(root, os.O_RDONLY | os.O_DIRECTORY)
     try:
         fcntl.flock(fd, fcntl.LOCK_EX)
