@@ -18,7 +18,7 @@ from typing import Any
 
 from app.certificate.info import CertificateError, CertificateInfo
 from app.certificate.issuing import Issuance, Staged, _step, issuance
-from app.certificate.leftovers import Registered
+from app.certificate.leftovers import Leftover, Registered, find_issuance_leftovers
 from app.records.db.certificates import IssuedFiles
 from app.records.db.engine import open_engine
 from app.records.db.lab import Lab, RecordsError
@@ -61,6 +61,18 @@ def registered_files(lab: Lab, runs_root: Path | None = None) -> tuple[dict, lis
     if runs_root is not None:
         numbers += [e.number for e in read_register(runs_root)]
     return files, numbers
+
+
+def leftovers_in_records(lab: Lab) -> list[Leftover]:
+    """The issuance leftovers the records can point to (for `accelcal db verify`): in the
+    folders of every registered certificate file and of every run that has a certificate;
+    clear them with `app.certificate.leftovers.clear_leftovers`."""
+    files, numbers = registered_files(lab)
+    run_folders = {Path(c.run.folder) for c in lab.register()}
+    for run_folder in run_folders:  # a run's JSON register from before the records
+        numbers += [e.number for e in read_register(run_folder.parent)]
+    folders = {Path(file).parent for file in files}
+    return find_issuance_leftovers(folders, files, numbers, run_folders=run_folders)
 
 
 def issue_registered(

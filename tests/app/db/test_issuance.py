@@ -16,7 +16,8 @@ from pathlib import Path
 import pytest
 from sqlalchemy import Engine
 
-from app.certificate.leftovers import carried_number
+from app.certificate.leftovers import LeftoverKind, carried_number
+from app.certificate.register_issue import leftovers_in_records
 from app.cli import main
 from app.records.db.engine import open_engine, records_url
 from app.records.db.lab import Lab, RecordsError
@@ -180,6 +181,11 @@ def test_a_kill_at_any_step_leaves_every_certificate_file_in_the_register(
     crashed = lab.register()
     committed = step in ("committed", "dcc_published", "published")
     assert len(crashed) == (1 if committed else 0)
+    pending = {(x.path.suffix, x.kind) for x in leftovers_in_records(lab)}  # db verify's view
+    if step in ("committed", "dcc_published"):
+        assert (".tmp", LeftoverKind.COMMITTED) in pending
+    else:
+        assert not pending
     extra = ("--replaces", crashed[0].number, "--reason", "re-issued") if committed else ()
     out = run / "certificate-2.pdf"
     assert main(_cert(run, url, "--out", str(out), *extra)) == 0, capsys.readouterr().err
@@ -198,3 +204,21 @@ def test_a_kill_at_any_step_leaves_every_certificate_file_in_the_register(
         )
     assert len({c.number for c in rows.values()}) == len(rows)
     assert not [p for p in run.iterdir() if p.name.endswith(".tmp")]
+
+
+def test_a_certificate_file_no_register_holds_is_cleared_and_its_number_not_reused(
+    url: str, complete_run: Path, tmp_path: Path, capsys, monkeypatch
+) -> None:
+    """As an older version killed between its PDF and its register entry left it."""
+    monkeypatch.delenv("ACCELCAL_DB", raising=False)
+    run = _copy(complete_run, tmp_path)
+    argv = ["certificate", str(run), *BASE, "--customer", "ACME Ltd", "--dut-model", "PCB 352C33"]
+    assert main(argv) == 0  # without records: AC-<run id> in the root's JSON register
+    orphan = run / "certificate.pdf"
+    number = carried_number(orphan)
+    assert number is not None and number.startswith("AC-")
+    (tmp_path / "certificate-register.json").unlink()  # the entry never made
+    assert main(_cert(run, url, "--out", str(run / "certificate-2.pdf"))) == 0
+    assert not orphan.exists() and not orphan.with_suffix(".xml").exists()
+    (row,) = Lab(open_engine(url)).register()
+    assert carried_number(run / "certificate-2.pdf") == row.number != number
