@@ -35,9 +35,9 @@ def test_a_complete_run_is_written_to_the_teds_and_read_back(complete_run: Path)
     teds_io.write_checked(port, new)
     assert port.sim.dut_teds.writes == 1
     back = decode(port.read()).accelerometer
-    expected = record["results"]["reference"]["sensitivity_mv_per_ms2"]
+    expected = record.results["reference"]["sensitivity_mv_per_ms2"]
     assert back.sensitivity_mv_per_ms2 == pytest.approx(expected, rel=1.5e-4)
-    assert str(back.calibration_date) == record["finished_utc"][:10]
+    assert str(back.calibration_date) == record.finished_utc[:10]
     assert back.calibration_initials == "JS "
 
 

@@ -92,6 +92,10 @@ def test_identity_date_one_per_run_and_same_sensor_amendments(
     assert first.file == str((run / "certificate.pdf").resolve())
     err = _refused(_cert(run, url, "--out", str(tmp_path / "again.pdf")), capsys)
     assert f"already has certificate {first.number}" in err and "--replaces" in err
+    with pytest.raises(RecordsError, match=f"already has certificate {first.number}"):
+        Lab(open_engine(url)).issue_certificate(  # the records' own rule, whoever calls
+            run_id=first.run.run_id, prepared_by="A", approved_by="B"
+        )
     other = _copy(_other_run(tmp_path / "o"), tmp_path)
     argv = _cert(other, url, "--replaces", first.number, "--reason", "x")
     err = _refused(argv, capsys)
