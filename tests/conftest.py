@@ -16,6 +16,12 @@ import pytest
 _CONFIG_HOME = tempfile.mkdtemp(prefix="accelcal-tests-config-")
 os.environ["XDG_CONFIG_HOME"] = _CONFIG_HOME
 atexit.register(shutil.rmtree, _CONFIG_HOME, ignore_errors=True)
+# and the user data directory (records database, stored responses) likewise, for fixtures of
+# module or session scope too: a records file in the user's own ~/.local/share would put
+# every run and certificate of the session under those records (app.records.db.engine)
+_DATA_HOME = tempfile.mkdtemp(prefix="accelcal-tests-data-")
+os.environ["XDG_DATA_HOME"] = _DATA_HOME
+atexit.register(shutil.rmtree, _DATA_HOME, ignore_errors=True)
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:

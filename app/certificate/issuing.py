@@ -11,7 +11,9 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-from collections.abc import Iterator
+import fcntl
+import os
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -26,9 +28,16 @@ from app.certificate.info import (
     invalid_items,
     missing_items,
 )
+from app.certificate.leftovers import (
+    Registered,
+    carried_numbers,
+    clear_leftovers,
+    find_issuance_leftovers,
+    staging_path,
+)
 from app.certificate.load import StoredRun, load_stored_run, load_sweep
 from app.certificate.pdf import write_pdf
-from app.files import FileExistsRefusal, write_with
+from app.files import FileExistsRefusal, _fsync_dir, write_with
 from app.records.register import Issued, Register, RegisterError, locked_register
 from app.records.run_folder import (
     is_product_name,
@@ -72,6 +81,9 @@ def _prepare(
     checked; CertificateError names what stands in the way."""
     run = load_stored_run(run_path)
     sweep = load_sweep(sweep_path, run) if sweep_path is not None else None
+    today = datetime.now(UTC).date().isoformat()
+    if info.issue_date in (None, ""):
+        info = dataclasses.replace(info, issue_date=today)  # issued today, never back-dated
     info = info.merged(default_info(run.record, run.start))
     missing = missing_items(info)
     if missing:
@@ -79,9 +91,23 @@ def _prepare(
     invalid = invalid_items(info)
     if invalid:
         raise CertificateError(f"invalid item(s): {'; '.join(invalid)}")
+    _check_issue_date(str(info.issue_date), run, today)
     out = Path(out)
     into_run = _check_out(out, run.path)
     return _Prepared(run, info, sweep, out, into_run)
+
+
+def _check_issue_date(issued: str, run: StoredRun, today: str) -> None:
+    """Refuse an issue date before the calibration (the run's finishing date, UTC) or after
+    today (UTC): a certificate is neither back- nor post-dated. ISO dates compare as text."""
+    calibrated = (run.record.finished_utc or run.record.started_utc or "")[:10]
+    if calibrated and issued < calibrated:
+        raise CertificateError(
+            f"issue_date (--issue-date): {issued} is before the calibration ({calibrated}); a "
+            "certificate is never back-dated"
+        )
+    if issued > today:
+        raise CertificateError(f"issue_date (--issue-date): {issued} is after today ({today}, UTC)")
 
 
 @contextlib.contextmanager
@@ -99,37 +125,149 @@ def _run_locked(run: StoredRun) -> Iterator[None]:
         unlock(lock)
 
 
+# a test hook: called with each step's name as issuance passes it ("numbered", "staged",
+# "committed", "dcc_published", "published"); the crash tests kill the process there
+step_hook: Callable[[str], None] | None = None
+
+
+def _step(name: str) -> None:
+    if step_hook is not None:
+        step_hook(name)
+
+
+@dataclass(frozen=True)
+class Staged:
+    """A numbered certificate written under its staging names, not yet visible: the PDF and
+    its DCC (None: no DCC) with their SHA-256."""
+
+    pdf: Path
+    xml: Path | None
+    sha256: str
+    dcc_sha256: str | None
+
+
+class Issuance:
+    """One certificate being issued, under the run folder's lock and the output folder's:
+    `clear` the leftovers of killed issues, `stage` the numbered files under temporary names,
+    then (after the register's entry is committed) `publish` them, or `discard` them."""
+
+    def __init__(self, p: _Prepared, signer: Any):
+        self.p = p
+        self.signer = signer
+
+    @property
+    def info(self) -> CertificateInfo:
+        return self.p.info
+
+    @property
+    def out(self) -> Path:
+        return self.p.out
+
+    @property
+    def folders(self) -> tuple[Path, ...]:
+        """The folders this issue writes to (the output folder; the run folder)."""
+        return (self.p.out.parent, self.p.run.path)
+
+    def _writable(self) -> contextlib.AbstractContextManager[None]:
+        return writable_folder(self.p.run.path) if self.p.into_run else contextlib.nullcontext()
+
+    def clear(self, register: Mapping[str, Registered], numbers: Iterable[str]) -> set[str]:
+        """Clear the leftovers of killed issues in this issue's folders (rolled forward or
+        deleted, each logged); then the numbers files there carry (never to be given again).
+        CertificateError when `out` is taken after that."""
+        clear_leftovers(
+            find_issuance_leftovers(
+                (self.p.out.parent,), register, numbers, run_folders=(self.p.run.path,)
+            )
+        )
+        if self.p.out.exists():
+            raise CertificateError(_exists(self.p.out))
+        return carried_numbers(self.folders)
+
+    def stage(self, info: CertificateInfo) -> Staged:
+        """Write the numbered PDF (and its DCC, validated first) under staging names."""
+        xml = _dcc_of(self.p.run, info)
+        pdf_tmp = staging_path(self.p.out)
+        xml_out = dcc_path(self.p.out)
+        if xml is not None and xml_out.exists():
+            raise CertificateError(f"{xml_out}: exists; a certificate is never overwritten")
+        xml_tmp = staging_path(xml_out) if xml is not None else None
+        with self._writable():
+            try:
+                if xml is not None and xml_tmp is not None:
+                    write_with(xml_tmp, lambda path: _write_read_only(path, xml))
+                p, signer = self.p, self.signer
+                write_with(pdf_tmp, lambda path: write_pdf(p.run, info, p.sweep, path, xml, signer))
+            except FileExistsRefusal as exc:
+                self._unlink(xml_tmp)
+                raise CertificateError(
+                    f"{exc}; an issue of this certificate is under way"
+                ) from None
+            except BaseException:
+                self._unlink(xml_tmp, pdf_tmp)
+                raise
+        return Staged(
+            self.p.out,
+            xml_out if xml is not None else None,
+            sha256_of(pdf_tmp),
+            sha256_of(xml_tmp) if xml_tmp is not None else None,
+        )
+
+    def discard(self, staged: Staged | None) -> None:
+        """Remove the staged files (the register's entry failed: nothing becomes visible)."""
+        if staged is None:
+            self._unlink(staging_path(self.p.out), staging_path(dcc_path(self.p.out)))
+            return
+        self._unlink(staging_path(staged.pdf), staging_path(staged.xml) if staged.xml else None)
+
+    def publish(self, staged: Staged) -> None:
+        """Give the staged files their final names (the register's entry is committed): the DCC
+        first, then the PDF, each by a link that never replaces a file."""
+        with self._writable():
+            if staged.xml is not None:
+                os.link(staging_path(staged.xml), staged.xml)
+                os.unlink(staging_path(staged.xml))
+                _step("dcc_published")
+            os.link(staging_path(staged.pdf), staged.pdf)
+            os.unlink(staging_path(staged.pdf))
+            _fsync_dir(staged.pdf.parent)
+        _step("published")
+
+    def _unlink(self, *paths: Path | None) -> None:
+        with self._writable():
+            for path in paths:
+                if path is not None:
+                    path.unlink(missing_ok=True)
+
+
 @contextlib.contextmanager
-def _written(p: _Prepared, info: CertificateInfo, signer: Any) -> Iterator[Path]:
-    """Write the numbered certificate (its DCC first, validated before anything is written)
-    and yield the PDF's path; both files are removed when the block (the register's entry)
-    fails."""
-    xml = _dcc_of(p.run, info)
-    xml_out = dcc_path(p.out)
-    wrote_xml = False
-    with writable_folder(p.run.path) if p.into_run else contextlib.nullcontext():
-        try:
-            if xml is not None:
-                write_with(xml_out, lambda path: _write_read_only(path, xml))
-                wrote_xml = True
-            write_with(p.out, lambda path: write_pdf(p.run, info, p.sweep, path, xml, signer))
-        except FileExistsRefusal as exc:
-            if wrote_xml:
-                xml_out.unlink(missing_ok=True)
-            raise CertificateError(
-                f"{exc}; a certificate is never overwritten (use --out)"
-            ) from None
-        except BaseException:
-            if wrote_xml:
-                xml_out.unlink(missing_ok=True)
-            raise
-        try:
-            yield p.out
-        except BaseException:
-            p.out.unlink(missing_ok=True)  # never a certificate its register lacks
-            if wrote_xml:
-                xml_out.unlink(missing_ok=True)
-            raise
+def issuance(
+    run_path: str | Path,
+    info: CertificateInfo,
+    out: str | Path,
+    sweep_path: str | Path | None = None,
+    signer: Any = None,
+) -> Iterator[Issuance]:
+    """The run checked (CertificateError as `issue`), its folder and the output folder locked
+    for the block: an `Issuance` to clear, stage and publish with."""
+    p = _prepare(run_path, info, out, sweep_path)
+    with _run_locked(p.run), _folder_locked(p.out.parent, p.into_run):
+        yield Issuance(p, signer)
+
+
+@contextlib.contextmanager
+def _folder_locked(folder: Path, is_run_folder: bool) -> Iterator[None]:
+    """The output folder's lock (issuers there wait their turn; a run folder's is held
+    already by `_run_locked`)."""
+    if is_run_folder:
+        yield
+        return
+    fd = os.open(folder, os.O_RDONLY | os.O_DIRECTORY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(fd)
 
 
 def issue(
@@ -141,48 +279,51 @@ def issue(
 ) -> Issued:
     """Issue the certificate of a stored, verified, complete run without records: a number
     unique under the runs root (the run folder's parent; default AC-<run id>, then
-    AC-<run id>-2, ...), the PDF written atomically to `out` and entered in the root's JSON
-    certificate register. Refused (CertificateError, nothing written) when the run does not
-    verify or did not complete, an item is missing, `out` exists or would change a run's
-    record, the number was issued before, or another certificate of the run is being issued."""
-    p = _prepare(run_path, info, out, sweep_path)
-    with _run_locked(p.run):
+    AC-<run id>-2, ..., never one a file there carries), the certificate stating that it is
+    numbered by the run folder's register. The PDF and DCC are written under staging names,
+    entered in the root's JSON register, then renamed: a kill at any step leaves nothing a
+    register lacks (`app.certificate.leftovers` clears what is left at the next issue).
+    Refused (CertificateError, nothing written) when the run does not verify or did not
+    complete, an item is missing, `out` exists or would change a run's record, the number was
+    issued before, or another certificate of the run is being issued."""
+    with issuance(run_path, _without_records(info), out, sweep_path, signer) as job:
+        root = job.p.run.path.resolve().parent
+        held = not job.p.into_run and job.out.parent.resolve() == root  # by `issuance`
         try:
-            with locked_register(p.run.path.resolve().parent) as register:
-                numbered = _numbered(p.info, p.run, register)
-                with _written(p, numbered, signer) as pdf:
-                    return register.add(
+            with locked_register(root, held=held) as register:
+                registered = {
+                    str(Path(e.file).resolve()): Registered(e.number, e.sha256)
+                    for e in register.entries
+                }
+                taken = job.clear(registered, [e.number for e in register.entries])
+                numbered = _numbered(job.info, job.p.run, register, taken)
+                _step("numbered")
+                staged = job.stage(numbered)
+                _step("staged")
+                try:
+                    issued = register.add(
                         str(numbered.certificate_number),
-                        _run_id(p.run),
-                        pdf.resolve(),
-                        sha256_of(pdf),
+                        _run_id(job.p.run),
+                        job.out.resolve(),
+                        staged.sha256,
                     )
+                except BaseException:
+                    job.discard(staged)
+                    raise
+                _step("committed")
+                job.publish(staged)
+                return issued
         except RegisterError as exc:
             raise CertificateError(str(exc)) from None
 
 
-@contextlib.contextmanager
-def issue_numbered(
-    run_path: str | Path,
-    info: CertificateInfo,
-    out: str | Path,
-    sweep_path: str | Path | None = None,
-    signer: Any = None,
-) -> Iterator[Issued]:
-    """Write the certificate numbered by another register (the records database: its number in
-    `info`) and yield it; the runs root's JSON register is not touched. The files are removed
-    when the block (the other register's entry) fails. Refused as `issue` is."""
-    if info.certificate_number in (None, ""):
-        raise CertificateError("--certificate-number: the register gives no number")
-    p = _prepare(run_path, info, out, sweep_path)
-    with _run_locked(p.run), _written(p, p.info, signer) as pdf:
-        yield Issued(
-            str(p.info.certificate_number),
-            _run_id(p.run),
-            str(pdf.resolve()),
-            datetime.now(UTC).isoformat(timespec="seconds"),
-            sha256_of(pdf),
-        )
+NO_RECORDS_NOTE = "Number from the run folder's register; no records database."
+
+
+def _without_records(info: CertificateInfo) -> CertificateInfo:
+    """`info` with the statement that no records database numbered it, under Notes."""
+    notes = f"{info.notes.strip()}\n{NO_RECORDS_NOTE}" if info.notes.strip() else NO_RECORDS_NOTE
+    return dataclasses.replace(info, notes=notes)
 
 
 def dcc_path(pdf: Path) -> Path:
@@ -237,17 +378,27 @@ def _check_out(out: Path, run_path: Path) -> bool:
     return True
 
 
-def _numbered(info: CertificateInfo, run: StoredRun, register: Register) -> CertificateInfo:
+def _numbered(
+    info: CertificateInfo, run: StoredRun, register: Register, taken: set[str]
+) -> CertificateInfo:
     """`info` with its certificate number: the one given if never issued under the register's
-    root, else the run's next default number."""
+    root and carried by no file, else the run's next default number no file carries."""
     number = info.certificate_number
+    folded = {n.casefold() for n in taken}
     if number in (None, ""):
-        return dataclasses.replace(info, certificate_number=register.next_number(_run_id(run)))
+        return dataclasses.replace(
+            info, certificate_number=register.next_number(_run_id(run), folded)
+        )
     issued = register.find(str(number))
     if issued is not None:
         raise CertificateError(
             f"--certificate-number: {number} is already used: it was issued on "
             f"{issued.issued_utc} for run {issued.run_id} ({issued.file}); a certificate "
             "number is never reused"
+        )
+    if str(number).casefold() in folded:
+        raise CertificateError(
+            f"--certificate-number: {number} is carried by a certificate file on disk; a "
+            "certificate number is never reused"
         )
     return info

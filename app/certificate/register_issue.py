@@ -1,24 +1,83 @@
 """A certificate issued through the records: customer and sensor data from the sensor's
-record, the number from the lab's register (its pattern, no gap), the PDF written inside the
-register's transaction so a number never exists without its certificate, or the reverse.
+record, the number from the lab's register (its pattern, no gap), crash-safe: the PDF and DCC
+written under staging names inside the register's transaction (their path and SHA-256 in the
+row), the transaction committed, then the files renamed into place; leftovers of a killed
+issue are cleared first (app.certificate.leftovers), and a number a file carries is skipped.
 
 With records in use the database is the one register: the runs root's JSON register
 (app.records.register) is not written (SPEC.md section 9: "every certificate through the
-register")."""
+register"). Identity (serial, model, customer) is the run's and the records': a different one
+given is refused by name.
+"""
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 from pathlib import Path
 from typing import Any
 
 from app.certificate.info import CertificateError, CertificateInfo
-from app.certificate.issuing import issue_numbered
+from app.certificate.issuing import Issuance, Staged, _step, issuance
+from app.certificate.leftovers import Leftover, Registered, find_issuance_leftovers
+from app.records.db.certificates import IssuedFiles
 from app.records.db.engine import open_engine
 from app.records.db.lab import Lab, RecordsError
-from app.records.register import Issued
+from app.records.register import Issued, read_register
 from app.records.run_folder import load_run
+
+
+def _identity(
+    info: CertificateInfo, sensor: Any, run_serial: str, prepared_by: str
+) -> CertificateInfo:
+    """`info` with the sensor's customer, address, model and serial (and the unit its model's
+    sensitivity is given in) from the records, and who prepared it; a different serial,
+    customer or model given is refused naming its option."""
+    model = f"{sensor.model.maker} {sensor.model.model}"
+    for given, actual, option in (
+        (info.dut_serial, sensor.serial, "--dut-serial"),
+        (info.customer, sensor.owner.name, "--customer"),
+        (info.dut_model, model, "--dut-model"),
+    ):
+        if given not in (None, "") and " ".join(str(given).split()) != actual:
+            raise RecordsError(
+                f"{option}: {given!r} is not the run's {actual!r} (run DUT {run_serial}, from "
+                "the records); a certificate states the sensor that was calibrated"
+            )
+    return dataclasses.replace(
+        info,
+        customer=sensor.owner.name,
+        customer_address=info.customer_address or sensor.owner.address or "",
+        dut_model=model,
+        dut_serial=sensor.serial,
+        prepared_by=prepared_by,
+        sensitivity_unit=sensor.model.unit,
+    )
+
+
+def registered_files(lab: Lab, runs_root: Path | None = None) -> tuple[dict, list[str]]:
+    """The register's files (absolute PDF path -> Registered) and every number the registers
+    hold (the database's, and the runs root's JSON register from before records were used)."""
+    files: dict[str, Registered] = {}
+    numbers: list[str] = []
+    for row in lab.register():
+        numbers.append(row.number)
+        if row.file:
+            files[row.file] = Registered(row.number, row.sha256, row.dcc_sha256)
+    if runs_root is not None:
+        numbers += [e.number for e in read_register(runs_root)]
+    return files, numbers
+
+
+def leftovers_in_records(lab: Lab) -> list[Leftover]:
+    """The issuance leftovers the records can point to (for `accelcal db verify`): in the
+    folders of every registered certificate file and of every run that has a certificate;
+    clear them with `app.certificate.leftovers.clear_leftovers`."""
+    files, numbers = registered_files(lab)
+    run_folders = {Path(c.run.folder) for c in lab.register()}
+    for run_folder in run_folders:  # a run's JSON register from before the records
+        numbers += [e.number for e in read_register(run_folder.parent)]
+    folders = {Path(file).parent for file in files}
+    return find_issuance_leftovers(folders, files, numbers, run_folders=run_folders)
 
 
 def issue_registered(
@@ -31,10 +90,12 @@ def issue_registered(
     sweep_path: Path | None = None,
     replaces: str | None = None,
     reason: str | None = None,
+    as_found: str | None = None,
     signer: Any = None,
 ) -> Issued:
-    """Issue the certificate of a stored run with its number from the records' register; the
-    run is indexed first when it is not yet. RecordsError / CertificateError name the field."""
+    """Issue the certificate of a stored run with its number from the records' register at
+    `url` (app.records.db.engine.records_url); the run is indexed first when it is not yet.
+    RecordsError / CertificateError name the field."""
     if info.certificate_number:
         raise RecordsError(
             "--certificate-number: the records' register numbers certificates (its pattern)"
@@ -48,35 +109,53 @@ def issue_registered(
     if not dut_id:
         raise RecordsError("run: the run names no DUT (--dut-id); the register needs its sensor")
     sensor = lab.sensor(dut_id)
-    info = info.merged(
-        {
-            "customer": sensor.owner.name,
-            "customer_address": sensor.owner.address,
-            "dut_model": f"{sensor.model.maker} {sensor.model.model}",
-            "dut_serial": sensor.serial,
-            "prepared_by": prepared_by,
-            "sensitivity_unit": sensor.model.unit,
-        }
-    )
-    if info.dut_serial != sensor.serial:
-        raise RecordsError(f"--dut-serial: {info.dut_serial!r} is not the run's {sensor.serial!r}")
-    issued: list[Issued] = []
-    with contextlib.ExitStack() as written:  # an exception out of it removes the files
-
-        def produce(number: str) -> None:
-            numbered = dataclasses.replace(info, certificate_number=number)
-            issued.append(
-                written.enter_context(issue_numbered(run_path, numbered, out, sweep_path, signer))
+    info = _identity(info, sensor, dut_id, prepared_by)
+    run_id = str(record.run_id)
+    if replaces is None:  # before anything is written: one certificate per run
+        current = lab.issued_for_run(run_id)
+        if current is not None:
+            raise RecordsError(
+                f"run: {run_id} already has certificate {current.number}; a run has one "
+                f"certificate: amend it (--replaces {current.number} --reason ...)"
             )
+    with issuance(run_path, info, out, sweep_path, signer) as job:
+        files, numbers = registered_files(lab, Path(run_path).resolve().parent)
+        taken = {n.casefold() for n in job.clear(files, numbers)}
+        staged: list[Staged] = []
 
-        lab.issue_certificate(
-            run_id=str(record.run_id),
-            prepared_by=prepared_by,
-            approved_by=str(info.authorised_by or ""),
-            replaces=replaces,
-            reason=reason,
-            produce=produce,
-        )
-    if not issued:
-        raise CertificateError("the certificate was not written")
-    return issued[0]
+        def produce(number: str) -> IssuedFiles:
+            _step("numbered")
+            done = job.stage(dataclasses.replace(job.info, certificate_number=number))
+            staged.append(done)
+            _step("staged")
+            return IssuedFiles(str(done.pdf.resolve()), done.sha256, done.dcc_sha256)
+
+        try:
+            row = lab.issue_certificate(
+                run_id=run_id,
+                prepared_by=prepared_by,
+                approved_by=str(info.authorised_by or ""),
+                replaces=replaces,
+                reason=reason,
+                as_found_run_id=as_found,
+                produce=produce,
+                taken=lambda number: number.casefold() in taken,
+            )
+        except BaseException:
+            job.discard(staged[0] if staged else None)
+            raise
+        if not staged:
+            raise CertificateError("the certificate was not written")
+        _step("committed")
+        job.publish(staged[0])
+        return _issued(job, row)
+
+
+def _issued(job: Issuance, row: Any) -> Issued:
+    return Issued(
+        row.number,
+        str(job.p.run.record.run_id or job.p.run.path.name),
+        str(job.out.resolve()),
+        row.issued_utc.isoformat(timespec="seconds"),
+        row.sha256 or "",
+    )

@@ -1,9 +1,10 @@
-"""`accelcal certificate`: the PDF certificate (and DCC) of a stored complete run."""
+"""`accelcal certificate`: the PDF certificate (and DCC) of a stored complete run, through the
+records' register when records are in use (app.records.db.engine.records_url: the same answer
+`run` uses), else numbered by the run folder's register (and saying so on the certificate)."""
 
 from __future__ import annotations
 
 import argparse
-import os
 
 from app.cli.exits import EXIT_OK, UsageError
 from app.cli.options import writable_folder
@@ -38,7 +39,10 @@ def cmd_certificate(args: argparse.Namespace) -> int:
             raise UsageError(str(exc)) from None
     if args.out is not None and not is_run_folder(args.out.parent):  # a run's own: see issue()
         writable_folder(args.out.parent, "--out")
-    if args.db or os.environ.get("ACCELCAL_DB"):
+    from app.records.db.engine import records_url
+
+    url = records_url(args.db)  # the records `run` used: --db, $ACCELCAL_DB, the default file
+    if url is not None:
         from app.certificate.register_issue import issue_registered
         from app.records.db.audit import current_actor
         from app.records.db.gate import records_quick_check
@@ -48,15 +52,16 @@ def cmd_certificate(args: argparse.Namespace) -> int:
             args.run,
             info,
             out,
-            url=args.db,
+            url=url,
             prepared_by=args.prepared_by or current_actor(),
             sweep_path=args.sweep,
             replaces=args.replaces,
             reason=args.reason,
+            as_found=args.as_found,
             signer=signer,
         )
-    elif args.replaces or args.reason:
-        raise UsageError("--replaces, --reason: need the records (--db URL)")
+    elif args.replaces or args.reason or args.as_found:
+        raise UsageError("--replaces, --reason, --as-found: need the records (--db URL)")
     else:
         from app.records.db.audit import current_actor
 

@@ -286,8 +286,10 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--dut-type", help="DUT type, e.g. 'piezoelectric accelerometer'")
     numeric_option(c, "--temperature", TEMPERATURE, "ambient temperature, deg C")
     c.add_argument("--mounting", help="how the DUT was mounted")
-    c.add_argument("--certificate-number", help="default: AC-<run id>")
-    c.add_argument("--issue-date", help="YYYY-MM-DD (default: the run's date)")
+    c.add_argument("--certificate-number", help="without records; default: AC-<run id>")
+    c.add_argument(
+        "--issue-date", help="YYYY-MM-DD, UTC (default: today; not before the calibration)"
+    )
     c.add_argument("--notes", default="", help="free text printed under Notes")
     c.add_argument("--sweep", type=Path, help="sweep summary (sweep-*.json) the run belongs to")
     c.add_argument(
@@ -297,10 +299,15 @@ def build_parser() -> argparse.ArgumentParser:
         help="sign the PDF (PAdES) with the lab's key; password from $ACCELCAL_SIGN_PASSWORD",
     )
     cr = c.add_argument_group("records (accelcal db): customer, sensor and number from there")
-    cr.add_argument("--db", metavar="URL", help="records database (default $ACCELCAL_DB)")
+    cr.add_argument(
+        "--db",
+        metavar="URL",
+        help="records database (default $ACCELCAL_DB, else the SQLite file when it exists)",
+    )
     cr.add_argument("--prepared-by", help="who prepared it (default: the login name)")
     cr.add_argument("--replaces", metavar="NUMBER", help="the certificate this one amends")
     cr.add_argument("--reason", help="why it amends the one it replaces")
+    cr.add_argument("--as-found", metavar="RUN_ID", help="the run before adjustment (as found)")
 
     s = sub.add_parser("simulate", help="record a calibration on the simulated stand")
     s.add_argument("--list", action="store_true", help="print the simulated catalogue")
@@ -326,6 +333,12 @@ def build_parser() -> argparse.ArgumentParser:
     tw.add_argument("run", type=Path, help="the run folder whose result is written")
     tw.add_argument("--initials", default="", help="calibrator's initials, up to 3 letters")
     tw.add_argument("--yes", action="store_true", help="write without asking (scripts)")
+    tw.add_argument(
+        "--yes-different-sensor",
+        metavar="REASON",
+        help="write although the TEDS names another sensor than the run's (logged, audited)",
+    )
+    tw.add_argument("--db", metavar="URL", help="records database (the run's sensor identity)")
     for p in (tr, tw):
         p.add_argument("--stand", type=Path, help="stand configuration (default: simulated)")
         p.add_argument("--dut", type=dut_name, default="piezo", help="simulated DUT")

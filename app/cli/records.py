@@ -140,17 +140,13 @@ def add_commands(sub: argparse._SubParsersAction) -> dict[str, Handler]:  # type
     k.add_argument("serial")
     _db_option(k)
 
-    g = sub.add_parser("register", help="the certificate register: list, issue, withdraw")
+    g = sub.add_parser("register", help="the certificate register: list, withdraw, set")
     gsub = g.add_subparsers(dest="action", required=True, metavar="ACTION")
     _db_option(gsub.add_parser("list", help="every certificate, issued, replaced, withdrawn"))
-    gi = gsub.add_parser("issue", help="enter a certificate for an indexed run")
-    gi.add_argument("run_id")
-    gi.add_argument("--prepared-by", required=True)
-    gi.add_argument("--approved-by", required=True)
-    gi.add_argument("--replaces", help="the number this amendment replaces")
-    gi.add_argument("--reason", help="why (required with --replaces)")
-    gi.add_argument("--as-found", metavar="RUN_ID", help="the run before adjustment (as found)")
-    _db_option(gi)
+    # `register issue` (a number without its PDF) was removed: `accelcal certificate RUN`
+    # numbers, writes the PDF and DCC and enters them in one step; the name stays to say so
+    gi = gsub.add_parser("issue", help="removed: use `accelcal certificate RUN_FOLDER`")
+    gi.add_argument("rest", nargs=argparse.REMAINDER, help=argparse.SUPPRESS)
     gw = gsub.add_parser("withdraw", help="withdraw a certificate")
     gw.add_argument("number")
     gw.add_argument("--reason", required=True)
@@ -350,18 +346,13 @@ def cmd_history(args: argparse.Namespace) -> int:
 
 
 def cmd_register(args: argparse.Namespace) -> int:
-    lab = _lab(args)
     if args.action == "issue":
-        row = lab.issue_certificate(
-            run_id=args.run_id,
-            prepared_by=args.prepared_by,
-            approved_by=args.approved_by,
-            replaces=args.replaces,
-            reason=args.reason,
-            as_found_run_id=args.as_found,
+        raise RecordsUsageError(
+            "register issue: removed (it gave a number without its certificate); issue with "
+            "`accelcal certificate RUN_FOLDER` (number, PDF, DCC and register entry in one "
+            "step; --replaces/--reason amend, --as-found names the run before adjustment)"
         )
-        print(row.number)
-        return 0
+    lab = _lab(args)
     if args.action == "withdraw":
         lab.withdraw_certificate(args.number, args.reason)
         print(f"{args.number} withdrawn")

@@ -6,7 +6,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
-import os
 import sys
 from typing import TYPE_CHECKING
 
@@ -48,7 +47,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     target = parse_percent(args.target_ua, "--target-ua") if args.target_ua else None
     max_time = parse_seconds(args.max_time, "--max-time") if args.max_time else None
     writable_folder(args.out, "--out")
-    use_records = bool(args.sensor or args.db or os.environ.get("ACCELCAL_DB"))
+    from app.records.db.engine import records_url
+
+    # the records in use: --db, $ACCELCAL_DB or the default file (the answer `certificate` uses)
+    use_records = bool(args.sensor) or records_url(args.db) is not None
     head = None
     if use_records:
         from app.records.db.gate import records_quick_check

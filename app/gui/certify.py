@@ -1,11 +1,13 @@
 """Certificates from the window through the lab's register: the run shown (verified again), the
 fields asked afresh, the number allocated by the register
-(`app.certificate.register_issue.issue_registered`,
-the PDF written inside the register's transaction), or a refusal shown and nothing written.
+(`app.certificate.register_issue.issue_registered`, the PDF written inside the register's
+transaction), or a refusal shown and nothing written.
 
 An amendment or reissue (from the Register tab) is the same, with the certificate it replaces
-and the reason. Without the records the window issues an unregistered certificate as before
-(`MainWindow.issue_certificate`). Nothing here computes: it asks, calls and shows.
+and the reason. A run that already has a certificate in force gets no second one: the window
+says so and offers its amendment (a reason asked) instead. Without the records the window issues
+an unregistered certificate as before (`MainWindow.issue_certificate`). Nothing here computes:
+it asks, calls and shows.
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ from typing import Any
 
 from PySide6.QtCore import QUrl
 from PySide6.QtGui import QDesktopServices
-from PySide6.QtWidgets import QDialog, QMessageBox
+from PySide6.QtWidgets import QDialog, QInputDialog, QMessageBox
 
 from app.certificate import CertificateError, CertificateInfo
 from app.gui.certificate_dialog import CertificateDialog, run_identity
@@ -52,6 +54,12 @@ def ask(
     """Ask the certificate's fields for the run `folder`, name the run once, then issue it
     through the register; the PDF's path, None when cancelled or refused (shown)."""
     lab = window.records.lab
+    if replaces is None:
+        current = _current_certificate(window, record)
+        if current is not None:  # one certificate per run: offer its amendment instead
+            replaces, reason = _offer_amendment(window, record, current)
+            if replaces is None:
+                return None
     heading = f"Amendment of {replaces} ({reason})" if replaces else "Certificate"
     dialog = CertificateDialog(
         window,
@@ -78,6 +86,39 @@ def ask(
     return issue(
         window, folder, dialog.info(), dialog.prepared_by(), replaces=replaces, reason=reason
     )
+
+
+def _current_certificate(window: Any, record: RunRecord) -> str | None:
+    """The number of the run's certificate in force in the register (None: none yet, or the
+    register cannot say: the issue itself then decides)."""
+    try:
+        row = window.records.lab.issued_for_run(str(record.run_id))
+    except RecordsInputError as exc:
+        log.warning("register not read: %s", exc)
+        return None
+    return None if row is None else str(row.number)
+
+
+def _offer_amendment(window: Any, record: RunRecord, number: str) -> tuple[str | None, str | None]:
+    """Say that the run has certificate `number` and offer to amend it; (number, reason) when
+    accepted with a reason, (None, None) otherwise."""
+    answer = QMessageBox.question(
+        window,
+        "The run already has a certificate",
+        f"{run_identity(record)} already has certificate {number}; a run has one certificate. "
+        f"Issue an amendment that replaces {number}?",
+    )
+    if answer != QMessageBox.StandardButton.Yes:
+        return None, None
+    text, ok = QInputDialog.getText(
+        window, f"Amend {number}", f"Why is {number} amended? (required; kept in the register)"
+    )
+    if not ok:
+        return None, None
+    if not text.strip():
+        QMessageBox.warning(window, f"Amend {number}", "reason: must not be blank")
+        return None, None
+    return number, text.strip()
 
 
 def issue(

@@ -1,9 +1,10 @@
 """The Register tab: the lab's certificate register (number, state, sensor, customer, run, date,
-prepared and approved by, what it replaces, the reason). From a selected certificate:
-"Amend / reissue ..." asks the reason (required), the run (the sensor's complete runs, the
-certificate's own first) and the certificate's fields, and issues a new certificate that
-replaces it; "Withdraw ..." asks the reason. The rules (which state may be replaced, the two-
-person rule, the numbers) are the records' (`app.records.db.lab.Lab`); this tab asks and shows.
+prepared and approved by, what it replaces, the reason). From a selected certificate: "Amend /
+reissue ..." asks the reason (required), the run (the sensor's complete runs, the certificate's
+own first) and the certificate's fields, and issues a new certificate that replaces it;
+"Withdraw ..." asks the reason; "Open PDF" opens its PDF when its SHA-256 is the register's. The
+rules (which state may be replaced, the two-person rule, the numbers) are the records'
+(`app.records.db.lab.Lab`); this tab asks and shows.
 """
 
 from __future__ import annotations
@@ -12,6 +13,8 @@ import logging
 from pathlib import Path
 from typing import Any
 
+from PySide6.QtCore import QUrl
+from PySide6.QtGui import QDesktopServices
 from PySide6.QtWidgets import (
     QAbstractItemView,
     QHBoxLayout,
@@ -79,7 +82,16 @@ class RegisterTab(QWidget):
         self.withdraw_button = QPushButton("Withdraw ...")
         self.withdraw_button.setToolTip("Withdraw the selected certificate (a reason is required)")
         self.withdraw_button.clicked.connect(self.withdraw)
-        for button in (self.refresh_button, self.amend_button, self.withdraw_button):
+        self.open_button = QPushButton("Open PDF")
+        self.open_button.setToolTip("Open the selected certificate's PDF (its SHA-256 checked)")
+        self.open_button.clicked.connect(self.open_pdf)
+        self.files: dict[str, tuple[str, str | None]] = {}  # number -> (PDF path, SHA-256)
+        for button in (
+            self.refresh_button,
+            self.open_button,
+            self.amend_button,
+            self.withdraw_button,
+        ):
             buttons.addWidget(button)
         buttons.addStretch(1)
         layout.addLayout(buttons)
@@ -95,7 +107,9 @@ class RegisterTab(QWidget):
         rows: list[tuple[str, ...]] = []
         if lab is not None:
             try:
-                rows = [self._row(c) for c in lab.register()]
+                register = lab.register()
+                rows = [self._row(c) for c in register]
+                self.files = {c.number: (c.file, c.sha256) for c in register if c.file}
             except RecordsInputError as exc:
                 self.status.setText(f"register not read: {exc}")
         selected = self.selected_number()
@@ -150,6 +164,26 @@ class RegisterTab(QWidget):
         running = self.main.run_tab.worker is not None  # no amendment while a run goes
         self.amend_button.setEnabled(issued and not running)
         self.withdraw_button.setEnabled(issued)
+        self.open_button.setEnabled(bool(rows) and self.selected_number() in self.files)
+
+    def open_pdf(self) -> Path | None:
+        """Open the selected certificate's PDF when its bytes are the register's; the path."""
+        from app.records.run_folder import sha256_of
+
+        entry = self.files.get(self.selected_number() or "")
+        if entry is None:
+            return None
+        path = Path(entry[0])
+        try:
+            same = sha256_of(path) == entry[1]
+        except (OSError, ValueError) as exc:
+            QMessageBox.warning(self, "PDF not opened", f"{path}: {exc}")
+            return None
+        if not same:
+            QMessageBox.warning(self, "PDF not opened", f"{path}: not the register's file")
+            return None
+        QDesktopServices.openUrl(QUrl.fromLocalFile(str(path.resolve())))
+        return path
 
     # --- amending and withdrawing --------------------------------------------------------
 

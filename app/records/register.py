@@ -14,7 +14,7 @@ import contextlib
 import fcntl
 import json
 import os
-from collections.abc import Iterator
+from collections.abc import Collection, Iterator
 from dataclasses import asdict, dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -63,11 +63,12 @@ class Register:
         key = _key(number)
         return next((e for e in self.entries if _key(e.number) == key), None)
 
-    def next_number(self, run_id: str) -> str:
-        """The default number of a run's next certificate: AC-<run id>, then AC-<run id>-2, ..."""
+    def next_number(self, run_id: str, taken: Collection[str] = ()) -> str:
+        """The default number of a run's next certificate: AC-<run id>, then AC-<run id>-2, ...,
+        the first neither issued here nor in `taken` (casefolded numbers files carry)."""
         base = f"{DEFAULT_PREFIX}{run_id}"
         number, count = base, 1
-        while self.find(number) is not None:
+        while self.find(number) is not None or number.casefold() in taken:
             count += 1
             number = f"{base}-{count}"
         return number
@@ -112,10 +113,14 @@ def read_register(root: Path) -> list[Issued]:
 
 
 @contextlib.contextmanager
-def locked_register(root: str | Path) -> Iterator[Register]:
+def locked_register(root: str | Path, *, held: bool = False) -> Iterator[Register]:
     """The register of `root`, held exclusively (other issuers under `root` wait) until the
-    block ends."""
+    block ends; `held`: the caller holds the folder's lock already (a second flock on another
+    descriptor of the same process would wait for ever)."""
     root = Path(root)
+    if held:
+        yield Register(root, read_register(root))
+        return
     fd = os.open(root, os.O_RDONLY | os.O_DIRECTORY)
     try:
         fcntl.flock(fd, fcntl.LOCK_EX)

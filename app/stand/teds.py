@@ -4,6 +4,7 @@ verified, complete run. Writing is never implicit: `accelcal teds write` asks fi
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from datetime import date
 from pathlib import Path
@@ -90,6 +91,37 @@ def calibrated_teds(current: tuple[int, ...], record: RunRecord, initials: str) 
         float(reference["sensitivity_mv_per_ms2"]), when, initials
     )
     return Teds(teds.basic, teds.selector, teds.template_id, new, teds.trailing_bits)
+
+
+def sensor_named(teds: Teds) -> str:
+    """The sensor a TEDS names, for people: serial, model and manufacturer ids, identity."""
+    b = teds.basic
+    return (
+        f"serial {b.serial_number}, model {b.model_number}, manufacturer {b.manufacturer_id} "
+        f"(TEDS identity {b.identity})"
+    )
+
+
+def identity_mismatch(teds: Teds, record: RunRecord, expected: str | None = None) -> str | None:
+    """Why the sensor whose TEDS this is is not the run's DUT (None: it is). `expected`: the
+    TEDS identity the records keep for the run's sensor ('manufacturer/model/version/serial':
+    serial and model compared); else the run's DUT serial must be the TEDS serial (the same
+    number, or TEDS-<identity> as `run --teds` names a DUT without records)."""
+    basic = teds.basic
+    if expected:
+        if basic.identity != expected.strip():
+            return (
+                f"the TEDS names {sensor_named(teds)}, the run's sensor has TEDS identity "
+                f"{expected.strip()} in the records"
+            )
+        return None
+    serial = ((record.dut.id if record.dut else None) or "").strip()
+    if serial == f"TEDS-{basic.identity.replace('/', '-')}" or serial == str(basic.serial_number):
+        return None
+    digits = re.search(r"(\d+)$", serial)
+    if digits and int(digits.group(1)) == basic.serial_number:
+        return None
+    return f"the TEDS names {sensor_named(teds)}, the run's DUT is {serial or 'not named'}"
 
 
 def write_checked(port: TedsPort, teds: Teds) -> None:

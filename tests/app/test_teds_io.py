@@ -3,7 +3,6 @@ bytes, and writing only after a confirmation."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from types import SimpleNamespace
 from typing import ClassVar
@@ -36,9 +35,7 @@ def test_a_complete_run_is_written_to_the_teds_and_read_back(complete_run: Path)
     teds_io.write_checked(port, new)
     assert port.sim.dut_teds.writes == 1
     back = decode(port.read()).accelerometer
-    expected = json.loads((complete_run / "results.json").read_text())["results"]["reference"][
-        "sensitivity_mv_per_ms2"
-    ]
+    expected = record.results["reference"]["sensitivity_mv_per_ms2"]
     assert back.sensitivity_mv_per_ms2 == pytest.approx(expected, rel=1.5e-4)
     assert str(back.calibration_date) == record.finished_utc[:10]
     assert back.calibration_initials == "JS "
@@ -47,15 +44,41 @@ def test_a_complete_run_is_written_to_the_teds_and_read_back(complete_run: Path)
 def test_writing_needs_a_confirmation(
     complete_run: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
+    # the simulated piezo's TEDS names serial 10000, the run's DUT is SN-42 (issue 24 point 6)
+    assert main(["teds", "write", str(complete_run), "--yes"]) == 2
+    captured = capsys.readouterr()
+    assert "sensor on simulated" in captured.out and "serial 10000" in captured.out
+    assert "the run's DUT is SN-42" in captured.err and "--yes-different-sensor" in captured.err
+    other = ["teds", "write", str(complete_run), "--yes-different-sensor", "re-labelled"]
     monkeypatch.setattr("sys.stdin.isatty", lambda: False)
-    assert main(["teds", "write", str(complete_run)]) == 2
+    assert main(other) == 2
     assert "--yes: writing a TEDS needs a confirmation" in capsys.readouterr().err
     monkeypatch.setattr("sys.stdin.isatty", lambda: True)
     monkeypatch.setattr("builtins.input", lambda prompt: "n")
-    assert main(["teds", "write", str(complete_run)]) == 0
-    assert "TEDS not written" in capsys.readouterr().out
-    assert main(["teds", "write", str(complete_run), "--yes"]) == 0
-    assert "TEDS written and read back" in capsys.readouterr().out
+    assert main(other) == 0
+    captured = capsys.readouterr()
+    assert "TEDS not written" in captured.out and "OVERRIDE" not in captured.err
+    assert main([*other, "--yes"]) == 0
+    captured = capsys.readouterr()
+    assert "TEDS written and read back" in captured.out
+    assert "OVERRIDE" in captured.err and "override: re-labelled" in captured.err
+
+
+def test_the_teds_must_name_the_runs_sensor(complete_run: Path) -> None:
+    import dataclasses
+
+    from app.records.run_record import DutIdentity
+
+    record = load_run(complete_run)
+    teds = decode(teds_io.open_port(None, "piezo", seed=5).read())  # serial 10005
+    assert "the run's DUT is SN-42" in teds_io.identity_mismatch(teds, record)
+    for serial in ("10005", "SN-10005", f"TEDS-{teds.basic.identity.replace('/', '-')}"):
+        same = dataclasses.replace(record, dut=DutIdentity(id=serial))
+        assert teds_io.identity_mismatch(teds, same) is None, serial
+    assert teds_io.identity_mismatch(teds, record, teds.basic.identity) is None
+    other = teds.basic.identity.rsplit("/", 1)[0] + "/10006"
+    assert "TEDS identity " + other in teds_io.identity_mismatch(teds, record, other)
+    assert teds_io.identity_mismatch(teds, dataclasses.replace(record, dut=None)) is not None
 
 
 def test_decode_prints_the_nidaqmx_sensitivity(capsys: pytest.CaptureFixture[str]) -> None:

@@ -5,21 +5,38 @@ and the register itself.
 
 from __future__ import annotations
 
+import json
+import logging
 import re
 from collections.abc import Callable
+from dataclasses import dataclass
 from datetime import UTC, datetime
 
 from sqlalchemy import select
 from sqlalchemy.orm import Session, joinedload
 
-from app.records.db.models import Certificate, RegisterCounter, Run, Sensor, Setting
+from app.records.db.audit import current_actor
+from app.records.db.models import AuditEntry, Certificate, RegisterCounter, Run, Sensor, Setting
 from app.records.db.sensors import SensorRecords
+from app.records.db.signatories import same_person, signatory_name
 from app.records.db.store import RecordsError, text_field, utc
 from app.records.run_folder import STATUS_COMPLETE
 
 DEFAULT_PATTERN = "ACC-{year}-{seq:04d}"
 SETTING_PATTERN = "certificate_pattern"
 SETTING_TWO_PERSON = "two_person_rule"
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class IssuedFiles:
+    """The files of a certificate as its register row keeps them: the PDF's absolute path, its
+    SHA-256 and its DCC's (None: no DCC)."""
+
+    file: str
+    sha256: str
+    dcc_sha256: str | None = None
 
 
 class CertificateRegister(SensorRecords):
@@ -49,14 +66,14 @@ class CertificateRegister(SensorRecords):
 
     # ---- certificate register ------------------------------------------------------------
     def check_signatories(self, prepared_by: str, approved_by: str) -> tuple[str, str]:
-        """Prepared by and approved by as the register takes them (stripped); RecordsError
-        naming the field when one is blank or, under the lab's two-person rule, when both are
-        the same person (case-insensitive)."""
-        prepared_by = text_field(prepared_by, "prepared by")
-        approved_by = text_field(approved_by, "approved by")
-        if (
-            self.setting(SETTING_TWO_PERSON, "off") == "on"
-            and prepared_by.casefold() == approved_by.casefold()
+        """Prepared by and approved by as the register takes them (NFKC, format characters
+        removed, spaces collapsed: app.records.db.signatories); RecordsError naming the field
+        when one is blank or in confusable scripts or, under the lab's two-person rule, when
+        both are the same person (compared without regard to case or spacing)."""
+        prepared_by = signatory_name(prepared_by, "prepared by")
+        approved_by = signatory_name(approved_by, "approved by")
+        if self.setting(SETTING_TWO_PERSON, "off") == "on" and same_person(
+            prepared_by, approved_by
         ):
             raise RecordsError(
                 "approved by: the lab's two-person rule needs someone other than the preparer"
@@ -85,7 +102,8 @@ class CertificateRegister(SensorRecords):
         replaces: str | None = None,
         reason: str | None = None,
         as_found_run_id: str | None = None,
-        produce: Callable[[str], None] | None = None,
+        produce: Callable[[str], IssuedFiles | None] | None = None,
+        taken: Callable[[str], bool] | None = None,
     ) -> Certificate:
         """Enter a certificate for a complete, indexed run of a known sensor in the register.
         Its number is the next in the lab's pattern, allocated in the same transaction (no gap,
@@ -93,8 +111,12 @@ class CertificateRegister(SensorRecords):
         amendment: the replaced certificate is marked replaced with the reason. With
         `as_found_run_id` the sensor was adjusted: that earlier complete run of the same sensor
         is the as-found result and the certified run the as-left one. `produce(number)`, when
-        given, makes the certificate itself inside the transaction: if it fails, the number is
-        not taken (no gap, no entry without its certificate)."""
+        given, makes the certificate itself inside the transaction (under temporary names; the
+        files it returns are kept in the row): if it fails, the number is not taken (no gap, no
+        entry without its certificate). `taken(number)`: a number some file on disk already
+        carries (a crashed issue's leftover); it is skipped, never given twice. One issued
+        certificate per run: another is refused (amend it: `replaces`); an amendment must
+        replace a certificate of the same sensor."""
         prepared_by, approved_by = self.check_signatories(prepared_by, approved_by)
         when = when or datetime.now(UTC)
         pattern = self.setting(SETTING_PATTERN, DEFAULT_PATTERN)
@@ -120,7 +142,18 @@ class CertificateRegister(SensorRecords):
                         f"as found: run {as_found_run_id} is not before the as-left run {run_id}"
                     )
             old = None
-            if replaces is not None:
+            if replaces is None:
+                current = s.scalar(
+                    select(Certificate).where(
+                        Certificate.run_id == run.id, Certificate.state == "issued"
+                    )
+                )
+                if current is not None:
+                    raise RecordsError(
+                        f"run: {run_id} already has certificate {current.number}; a run has "
+                        f"one certificate: amend it (--replaces {current.number} --reason ...)"
+                    )
+            else:
                 old = s.scalar(
                     select(Certificate).where(Certificate.number == replaces).with_for_update()
                 )
@@ -128,6 +161,13 @@ class CertificateRegister(SensorRecords):
                     raise RecordsError(f"replaces: no certificate {replaces!r}")
                 if old.state != "issued":
                     raise RecordsError(f"replaces: {replaces} is already {old.state}")
+                if old.sensor_id != run.sensor_id:
+                    other = s.get(Sensor, old.sensor_id)
+                    raise RecordsError(
+                        f"replaces: {replaces} is a certificate of sensor "
+                        f"{other.serial if other else old.sensor_id}, not of {run.dut_id}; an "
+                        "amendment replaces a certificate of the same sensor"
+                    )
                 text_field(reason, "reason")
                 old.state = "replaced"
                 old.reason = reason
@@ -139,6 +179,10 @@ class CertificateRegister(SensorRecords):
             assert counter is not None
             counter.last += 1
             number = pattern.format(year=when.year, seq=counter.last)
+            while taken is not None and taken(number):  # a file on disk carries it: skip
+                log.warning("certificate number %s skipped: a file on disk carries it", number)
+                counter.last += 1
+                number = pattern.format(year=when.year, seq=counter.last)
             certificate = Certificate(
                 number=number,
                 prefix=prefix,
@@ -156,7 +200,11 @@ class CertificateRegister(SensorRecords):
             s.add(certificate)
             if produce is not None:
                 s.flush()  # the number is ours (unique) before anything is written
-                produce(number)
+                files = produce(number)
+                if files is not None:
+                    certificate.file = files.file
+                    certificate.sha256 = files.sha256
+                    certificate.dcc_sha256 = files.dcc_sha256
         return certificate
 
     @staticmethod
@@ -179,6 +227,31 @@ class CertificateRegister(SensorRecords):
             if row.state != "issued":
                 raise RecordsError(f"number: {number} is already {row.state}")
             row.state, row.reason = "withdrawn", reason
+
+    def note_override(self, run_id: str, what: str, reason: str) -> None:
+        """Enter an override of a check on a run's behalf in the audit trail (e.g. a TEDS
+        written to another sensor than the run's); the reason is required."""
+        reason = text_field(reason, "reason", max_len=2000)
+        with self.session() as s:
+            s.add(
+                AuditEntry(
+                    at_utc=datetime.now(UTC),
+                    actor=s.info.get("actor") or current_actor(),
+                    action="override",
+                    table_name="runs",
+                    row_key=text_field(run_id, "run", max_len=200),
+                    changes=json.dumps({"override": what, "reason": reason}),
+                )
+            )
+
+    def issued_for_run(self, run_id: str) -> Certificate | None:
+        """The certificate in force (state issued) of the run `run_id`, if any."""
+        with self.session() as s:
+            return s.scalar(
+                select(Certificate)
+                .join(Run, Certificate.run_id == Run.id)
+                .where(Run.run_id == run_id, Certificate.state == "issued")
+            )
 
     def register(self) -> list[Certificate]:
         """Every certificate in the register, in issue order, with run and sensor."""

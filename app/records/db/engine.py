@@ -58,6 +58,20 @@ def resolve_url(explicit: str | None = None) -> str:
     return parsed.render_as_string(hide_password=False)
 
 
+def records_url(explicit: str | None = None) -> str | None:
+    """The URL of the records in use, the one answer for every face (`run`, `certificate`, the
+    GUI): `explicit` (--db), else $ACCELCAL_DB, else the default SQLite file when it exists;
+    None when no records database is in use (per-folder numbering, stated on the
+    certificate)."""
+    if explicit or os.environ.get(ENV_VAR):
+        return resolve_url(explicit)
+    default = default_url()
+    database = make_url(default).database
+    if database and Path(database).is_file():
+        return resolve_url(default)
+    return None
+
+
 def _sqlite_pragmas(dbapi_connection: Any, _record: Any) -> None:
     dbapi_connection.isolation_level = None  # SQLAlchemy's "begin" event issues BEGIN itself
     cursor = dbapi_connection.cursor()

@@ -216,6 +216,11 @@ class Certificate(Base):
     approved_by: Mapped[str] = mapped_column(String(200))
     issued_utc: Mapped[datetime] = mapped_column(DateTime(timezone=True))
     as_found_run_id: Mapped[int | None] = mapped_column(ForeignKey("runs.id"), nullable=True)
+    # the files issued (migration 0009; None for rows entered before): the PDF's absolute path,
+    # its SHA-256 and its DCC's (None: no DCC), as written under their temporary names
+    file: Mapped[str | None] = mapped_column(Text, nullable=True)
+    sha256: Mapped[str | None] = mapped_column(String(64), nullable=True)
+    dcc_sha256: Mapped[str | None] = mapped_column(String(64), nullable=True)
     run: Mapped[Run] = relationship(foreign_keys=[run_id])
     as_found_run: Mapped[Run | None] = relationship(foreign_keys=[as_found_run_id])
     sensor: Mapped[Sensor] = relationship()

@@ -17,8 +17,8 @@ import sys
 from app.records.db.engine import open_engine
 from app.records.db.lab import Lab
 lab = Lab(open_engine(sys.argv[1]), actor=sys.argv[2])
-for _ in range(50):
-    lab.issue_certificate(run_id="r1", prepared_by=sys.argv[2], approved_by="QM")
+for i in range(50):  # one certificate per run: each stand certifies runs of its own
+    lab.issue_certificate(run_id=f"{sys.argv[2]}-{i}", prepared_by=sys.argv[2], approved_by="QM")
 """
 
 
@@ -36,18 +36,21 @@ def test_two_processes_issue_100_distinct_numbers_without_a_gap(engine: Engine) 
     )
     lab.add_sensor("SN-1", model="352C33", owner="ACME Ltd")
     with Session(engine) as s:
-        s.add(
-            Run(
-                run_id="r1",
-                manifest_sha256="a" * 64,
-                folder="/r1",
-                status="complete",
-                started_utc=datetime(2026, 11, 23, tzinfo=UTC),
-                dut_id="SN-1",
-                stand=Stand(stand_file_sha256="b" * 64, name="stand"),
-                sensor=s.scalar(select(Sensor)),
+        stand = Stand(stand_file_sha256="b" * 64, name="stand")
+        sensor = s.scalar(select(Sensor))
+        for n, name in enumerate(f"stand-{x}-{i}" for x in "AB" for i in range(50)):
+            s.add(
+                Run(
+                    run_id=name,
+                    manifest_sha256=f"{n:064x}",
+                    folder=f"/{name}",
+                    status="complete",
+                    started_utc=datetime(2026, 11, 23, tzinfo=UTC),
+                    dut_id="SN-1",
+                    stand=stand,
+                    sensor=sensor,
+                )
             )
-        )
         s.commit()
     url = engine.url.render_as_string(hide_password=False)
     workers = [

@@ -250,7 +250,14 @@ def test_numbers_are_sequential_in_the_labs_pattern_and_amendments_name_what_the
     lab.set_setting("certificate_pattern", "LAB/{year}/{seq:05d}")
     next_year = when.replace(year=2027)
     assert (
-        lab.issue_certificate(run_id="r1", prepared_by="A", approved_by="B", when=next_year).number
+        lab.issue_certificate(
+            run_id="r1",
+            prepared_by="A",
+            approved_by="B",
+            when=next_year,
+            replaces=amended.number,
+            reason="new pattern",
+        ).number
         == "LAB/2027/00001"
     )
 
