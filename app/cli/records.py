@@ -5,7 +5,6 @@ only when one of these commands runs (app.cli stays quick to start)."""
 from __future__ import annotations
 
 import argparse
-import csv
 from collections.abc import Callable
 from datetime import UTC, date, datetime
 from pathlib import Path
@@ -121,7 +120,9 @@ def add_commands(sub: argparse._SubParsersAction) -> dict[str, Handler]:  # type
         "--table",
         type=Path,
         required=True,
-        help="CSV: frequency_hz,sensitivity_mv_per_ms2,relative_expanded_uncertainty[,phase_deg]",
+        help="CSV: frequency_hz,sensitivity_mv_per_ms2,relative_expanded_uncertainty_percent"
+        "[,phase_deg]; the uncertainty in percent (0.5 means 0.5 %%); the header is optional, "
+        "an uncertainty column not named in percent is refused",
     )
     _db_option(ra)
     _db_option(rsub.add_parser("list", help="list reference standards"))
@@ -271,7 +272,9 @@ def cmd_sensors(args: argparse.Namespace) -> int:
 def cmd_refs(args: argparse.Namespace) -> int:
     lab = _lab(args)
     if args.action == "add":
-        table = _read_reference_table(args.table)
+        from app.records.db.references import read_reference_table
+
+        table = read_reference_table(args.table)
         row = lab.add_reference(
             args.identifier,
             model=args.model,
@@ -289,30 +292,6 @@ def cmd_refs(args: argparse.Namespace) -> int:
             f"calibrated {ref.calibration_date}\tdue {ref.due_date}\t{len(ref.points)} rows"
         )
     return 0
-
-
-def _read_reference_table(path: Path) -> list[tuple[float, float, float, float | None]]:
-    """Rows of a reference calibration table CSV; a bad cell is refused by line."""
-    from app.records.db.lab import RecordsError
-
-    if not path.is_file():
-        raise RecordsUsageError(f"--table: no such file {path}")
-    rows: list[tuple[float, float, float, float | None]] = []
-    with path.open(newline="", encoding="utf-8") as handle:
-        for number, cells in enumerate(csv.reader(handle), 1):
-            if not cells or cells[0].strip().startswith("#") or cells[0].strip().isalpha():
-                continue
-            if cells[0].strip() == "frequency_hz":
-                continue
-            if len(cells) not in (3, 4):
-                raise RecordsError(f"{path} line {number}: expected 3 or 4 columns")
-            try:
-                values = [float(c) for c in cells]
-            except ValueError:
-                raise RecordsError(f"{path} line {number}: not a number") from None
-            phase = values[3] if len(values) == 4 else None
-            rows.append((values[0], values[1], values[2], phase))
-    return rows
 
 
 def cmd_due(args: argparse.Namespace) -> int:

@@ -1,6 +1,8 @@
 """The run request and the one way the faces build it: the DUT resolved (records, TEDS, stand
 file or simulated catalogue) into a DutSpec, the operator's choices over its defaults, the
-run's identity as stored in config.json. The CLI and the GUI both call `build_request`.
+reference standard resolved from the records (its table, certificate and due date; overrides
+with a reason), the run's identity as stored in config.json. The CLI and the GUI both call
+`build_request`.
 
 Units in the names: levels in m/s^2 peak per line, sensitivities in mV/(m/s^2), masses in g.
 """
@@ -10,14 +12,14 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from datetime import UTC, datetime
+from datetime import UTC, date, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from app.errors import Refusal
 from app.procedure.errors import PreflightError
 from app.procedure.modes import MODE_MULTISINE
-from app.records.run_record import DutIdentity
+from app.records.run_record import DutIdentity, Override, OverrideKind
 from app.stand.dut import DutSpec, Tolerances, spec_from_record, spec_from_stand, spec_from_teds
 from app.stand.response import ResponseStore
 from app.stand.simulated import CATALOGUE, catalogue_spec, plan_preset_for
@@ -26,7 +28,9 @@ from dsp.multisine import PRESETS, Plan, make_plan, preset_plan
 
 if TYPE_CHECKING:
     from app.procedure.settings import RunSettings
+    from app.records.db.references import ReferenceTable
     from app.records.db.runs import SensorDefaults
+    from app.stand.config import StandConfig
     from app.stand.simulated import Fault
 
 DEFAULT_LEVEL_MS2 = 5.0
@@ -36,11 +40,13 @@ __all__ = [
     "DutChoice",
     "DutSpec",
     "RequestError",
+    "ResolvedReference",
     "RunIdentity",
     "RunRequest",
     "build_request",
     "check_request",
     "resolve_dut",
+    "resolve_reference",
     "spec_from_sensor",
 ]
 
@@ -58,6 +64,7 @@ class RunIdentity:
     level_ms2: float | None = None
     measuring_amplifier: Mapping[str, Any] | None = None
     extra: Mapping[str, Any] = field(default_factory=dict)
+    overrides: tuple[Override, ...] = ()  # checks gone past with a reason (results.json)
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON object config.json has always held (keys absent when not known)."""
@@ -68,16 +75,21 @@ class RunIdentity:
             out["level_ms2"] = self.level_ms2
         if self.measuring_amplifier is not None:
             out["measuring_amplifier"] = dict(self.measuring_amplifier)
+        if self.overrides:
+            out["overrides"] = [o.to_dict() for o in self.overrides]
         out.update(self.extra)
         return out
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any] | None) -> RunIdentity:
+        from app.records.run_record import overrides_from
+
         data = dict(data or {})
         dut = DutIdentity.from_dict(data.pop("dut", None))
         level = data.pop("level_ms2", None)
         amplifier = data.pop("measuring_amplifier", None)
-        return cls(dut, None if level is None else float(level), amplifier, data)
+        overrides = overrides_from(data.pop("overrides", None))
+        return cls(dut, None if level is None else float(level), amplifier, data, overrides)
 
 
 @dataclass(frozen=True)
@@ -109,6 +121,27 @@ class RunRequest:
     # the multisine's phases (rad), optimised already for these lines (the GUI does it as the
     # lines are typed); None: optimised when the plan is made (about 1 s)
     phases_rad: tuple[float, ...] | None = None
+    # the reference standard as on record (None: the stand file's, or the simulated stand's)
+    reference: ReferenceTable | None = None
+    overrides: tuple[Override, ...] = ()  # checks gone past with a stated reason
+
+    def stand_config(self) -> StandConfig:
+        """The stand file (ConfigError when unusable) with the reference standard's
+        certificate and table from the records when they hold it."""
+        from app.stand import config as stand_config
+
+        config = stand_config.load(self.stand_file)
+        ref = self.reference
+        if ref is None:
+            return config
+        return config.with_reference_certificate(
+            ref.certificate_number,
+            ref.calibration_date.isoformat(),
+            ref.frequencies_hz,
+            ref.sensitivity_mv_per_ms2,
+            _phases(ref),
+            due_date=ref.due_date.isoformat(),
+        )
 
     def spec(self, backend: str) -> DutSpec:
         """The DUT's specification on a stand of `backend`, with what the request states
@@ -142,6 +175,7 @@ class RunRequest:
                 self.dut if backend == "sim" else None, self.dut_id, self.nominal_mv_per_ms2
             ),
             self.level_ms2,
+            overrides=self.overrides,
         )
 
     def store(self) -> ResponseStore | None:
@@ -223,8 +257,10 @@ class DutChoice:
     level_ms2: float | None = None
     preset: str | None = None
     dut_mass_g: float | None = None
-    reference_override: str | None = None
+    reference_override: str | None = None  # the reason to go past the reference check
     spec: DutSpec | None = None  # resolved already by the face (the GUI's records link)
+    lab: Any = None  # records already open (the GUI's app.records.db.lab.Lab); else from db
+    operator: str | None = None  # who overrides (None: the operating-system user)
 
 
 @dataclass(frozen=True)
@@ -329,24 +365,19 @@ def resolve_dut(choice: DutChoice, backend: str, certificate: Mapping[str, Any])
 def build_request(choice: DutChoice, **run: Any) -> tuple[RunRequest, tuple[str, ...]]:
     """The run request of `choice` and the run's other settings `run` (RunRequest's fields:
     periods, estimator, mode, out, faults...), and notes for the operator. Refuses (a Refusal)
-    a DUT that cannot be resolved, a reference standard past its due date without an
-    override; a stand file that cannot be read (ConfigError)."""
+    a DUT that cannot be resolved; with the records in use, a reference standard not on record
+    or past its due date without an override reason, or one whose stand-file table differs
+    from the records'; a stand file that cannot be read (ConfigError). An override granted is
+    in the request (for results.json) and in the records' audit trail."""
     from app.stand import config as stand_config
 
     config = stand_config.load(choice.stand_file)
     resolved = resolve_dut(choice, config.backend, config.raw.get("certificate") or {})
     notes = list(resolved.notes)
-    if choice.records:
-        from app.records.db.runs import check_reference_due
-
-        note = check_reference_due(
-            config.reference.id,
-            choice.db,
-            today=datetime.now(UTC).date(),
-            override_reason=choice.reference_override,
-        )
-        if note:
-            notes.append(note)
+    reference = ResolvedReference()
+    if choice.records or choice.lab is not None:
+        reference = _reference_from_records(choice, config)
+        notes += reference.notes
     request = RunRequest(
         stand_file=choice.stand_file,
         dut=choice.dut,
@@ -358,6 +389,162 @@ def build_request(choice: DutChoice, **run: Any) -> tuple[RunRequest, tuple[str,
         seed=choice.seed,
         dut_mass_g=choice.dut_mass_g,
         dut_spec=resolved.spec,
+        reference=reference.table,
+        overrides=reference.overrides,
         **run,
     )
+    if reference.overrides:
+        _audit_overrides(choice, config, reference.overrides)
     return request, tuple(notes)
+
+
+# ---- the reference standard from the records ---------------------------------------------
+
+
+@dataclass(frozen=True)
+class ResolvedReference:
+    """The reference standard as the records give it: its table (None: the stand file's or
+    the simulated stand's own), the overrides granted, notes to show."""
+
+    table: ReferenceTable | None = None
+    overrides: tuple[Override, ...] = ()
+    notes: tuple[str, ...] = ()
+
+
+def _phases(table: ReferenceTable) -> tuple[float, ...]:
+    """The table's phases (deg); a certificate stating none: 0 at every frequency (as a stand
+    file without phase_deg); RequestError when only some rows state one."""
+    given = [p for p in table.phase_deg if p is not None]
+    if not given:
+        return (0.0,) * len(table.frequencies_hz)
+    if len(given) != len(table.phase_deg):
+        raise RequestError(
+            f"reference: the records' table of {table.identifier} states a phase on some rows "
+            "only; enter it again with a phase on every row or on none"
+        )
+    return tuple(given)
+
+
+def _same_table(config: StandConfig, table: ReferenceTable) -> bool:
+    """Whether the stand file's [reference] table is the records' (within 1e-9 relative)."""
+    ref = config.reference
+
+    def close(a: tuple[float, ...], b: tuple[float, ...], absolute: float) -> bool:
+        return len(a) == len(b) and all(
+            math.isclose(x, y, rel_tol=1e-9, abs_tol=absolute) for x, y in zip(a, b, strict=True)
+        )
+
+    return (
+        close(ref.frequencies_hz, table.frequencies_hz, 0.0)
+        and close(ref.sensitivity_mv_per_ms2, table.sensitivity_mv_per_ms2, 0.0)
+        and close(ref.phase_deg, _phases(table), 1e-9)
+    )
+
+
+def resolve_reference(
+    config: StandConfig,
+    table: ReferenceTable | None,
+    *,
+    today: date,
+    override_reason: str | None,
+    who: str,
+    now_utc: datetime,
+) -> ResolvedReference:
+    """The reference standard of `config` given what the records hold of it (`table`; None:
+    not on record) on `today`: refused (RequestError naming it) when not on record or past its
+    due date, unless `override_reason` is given (an Override by `who` at `now_utc`), and when
+    the stand file carries a table that differs from the records' (no override: two sources
+    for one reference are never right)."""
+    ref = config.reference
+    reason = (override_reason or "").strip() or None
+    when = now_utc.isoformat(timespec="seconds")
+    if table is None:
+        what = (
+            f"reference standard {ref.id} (serial {ref.serial}) of {config.source} is not in "
+            "the records"
+        )
+        if reason is None:
+            raise RequestError(
+                f"reference: {what}; add it (accelcal refs add, with its calibration table) or "
+                "give an override reason (--reference-override; it is printed on the "
+                "certificate)"
+            )
+        override = Override(OverrideKind.UNRECORDED_REFERENCE, who, reason, when, what)
+        note = f"{what}; used under the override: {reason} (the stand file's table)"
+        return ResolvedReference(None, (override,), (note,))
+    name = table.identifier
+    if ref.frequencies_hz and not _same_table(config, table):
+        raise RequestError(
+            f"reference: the [reference] table of {config.source} differs from the records' "
+            f"table of {name} (certificate {table.certificate_number}); remove the table from "
+            "the stand file (the records' is used) or correct whichever is wrong"
+        )
+    _phases(table)  # refuses a table with a phase on some rows only
+    if table.due_date >= today:
+        note = (
+            f"reference standard {name}: certificate {table.certificate_number}, due "
+            f"{table.due_date}; its table from the records"
+        )
+        return ResolvedReference(table, (), (note,))
+    what = f"reference standard {name} was due for calibration on {table.due_date}"
+    if reason is None:
+        raise RequestError(
+            f"reference: {name} was due for calibration on {table.due_date}; recalibrate it, "
+            "or give an override reason (--reference-override; it is printed on the "
+            "certificate)"
+        )
+    override = Override(OverrideKind.EXPIRED_REFERENCE, who, reason, when, what)
+    note = (
+        f"reference standard {name} was due on {table.due_date}; used under the override: {reason}"
+    )
+    return ResolvedReference(table, (override,), (note,))
+
+
+def _open_lab(choice: DutChoice) -> Any:
+    """The records of `choice` (the face's open Lab, else --db / $ACCELCAL_DB), or None when
+    they cannot be reached (the run still records to its folder)."""
+    if choice.lab is not None:
+        return choice.lab
+    from app.records.db.engine import DatabaseError, open_engine
+    from app.records.db.lab import Lab
+
+    try:
+        return Lab(open_engine(choice.db))
+    except DatabaseError:
+        return None
+
+
+def _reference_from_records(choice: DutChoice, config: StandConfig) -> ResolvedReference:
+    """`resolve_reference` with the records of `choice`; unreachable records: a note."""
+    from app.records.db.audit import current_actor
+    from app.records.db.engine import DatabaseError
+
+    lab = _open_lab(choice)
+    try:
+        if lab is None:
+            raise DatabaseError("cannot be opened")
+        table = lab.reference_table(config.reference.id, config.reference.serial)
+    except DatabaseError as exc:
+        return ResolvedReference(
+            notes=(f"records not reachable, reference due date not checked: {exc}",)
+        )
+    now = datetime.now(UTC)
+    return resolve_reference(
+        config,
+        table,
+        today=now.date(),
+        override_reason=choice.reference_override,
+        who=choice.operator or current_actor(),
+        now_utc=now,
+    )
+
+
+def _audit_overrides(
+    choice: DutChoice, config: StandConfig, overrides: tuple[Override, ...]
+) -> None:
+    """Enter the overrides in the records' audit trail, keyed by the reference standard."""
+    lab = _open_lab(choice)
+    if lab is None:  # reachable a moment ago; results.json still holds them
+        return
+    for override in overrides:
+        lab.record_override(override, config.reference.id)

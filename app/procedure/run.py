@@ -10,7 +10,6 @@ from typing import Any
 from app.procedure import Finished, Listener, Procedure
 from app.procedure.request import DutChoice, RunIdentity, RunRequest, build_request, check_request
 from app.records.run_folder import RunFolder
-from app.stand import config as stand_config
 from app.stand.open import open_stand
 
 __all__ = [
@@ -30,7 +29,7 @@ def prepare(request: RunRequest, listener: Listener | None = None) -> tuple[Proc
     ConfigError, PlanError on refusal; nothing is created then). Returns the procedure and the
     stand (to close)."""
     check_request(request)
-    config = stand_config.load(request.stand_file)
+    config = request.stand_config()  # the reference standard's table from the records, if held
     stand = open_stand(
         config,
         dut=request.dut,
@@ -40,6 +39,8 @@ def prepare(request: RunRequest, listener: Listener | None = None) -> tuple[Proc
         dut_mass_g=request.dut_mass_g,
     )
     try:
+        if request.reference is not None:  # the records' table, not the simulator's own
+            stand.chain = config.reference_chain()
         plan = request.plan()
         procedure = Procedure(
             stand,

@@ -1,19 +1,135 @@
 """The lab's reference standards (calibration table: frequency in Hz, sensitivity in
-mV/(m/s^2), relative expanded uncertainty, phase in degrees), the due-date rule a run meets
-before using one, and the list of sensors and reference standards due for calibration.
+mV/(m/s^2), relative expanded uncertainty stored as a fraction and given in percent, phase in
+degrees), the due-date rule a run meets before using one, the table a run takes from the
+records, the overrides entered in the audit trail, and the list of sensors and reference
+standards due for calibration.
 """
 
 from __future__ import annotations
 
+import csv
+import json
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from datetime import date, timedelta
+from datetime import UTC, date, datetime, timedelta
+from pathlib import Path
 
 from sqlalchemy import or_, select
 from sqlalchemy.orm import joinedload
 
-from app.records.db.models import Customer, ReferencePoint, ReferenceStandard, Sensor
+from app.records.db.models import (
+    AuditEntry,
+    Customer,
+    ReferencePoint,
+    ReferenceStandard,
+    Sensor,
+)
 from app.records.db.store import RecordsError, Store, number_field, text_field
+from app.records.run_record import Override
+
+TableRow = tuple[float, float, float, float | None]  # Hz, mV/(m/s^2), fraction, deg or None
+TABLE_COLUMNS = (
+    "frequency_hz",
+    "sensitivity_mv_per_ms2",
+    "relative_expanded_uncertainty_percent",
+    "phase_deg",
+)
+MAX_TABLE_BYTES = 1_000_000
+
+
+@dataclass(frozen=True)
+class ReferenceTable:
+    """A reference standard as a run takes it from the records: identity, certificate, dates
+    and its calibration table (Hz, mV/(m/s^2), relative expanded uncertainty as a fraction,
+    phase in degrees; phase None where the certificate states none)."""
+
+    identifier: str
+    model: str
+    serial: str
+    certificate_number: str
+    calibration_date: date
+    due_date: date
+    frequencies_hz: tuple[float, ...]
+    sensitivity_mv_per_ms2: tuple[float, ...]
+    relative_expanded_uncertainty: tuple[float, ...]
+    phase_deg: tuple[float | None, ...]
+
+    @classmethod
+    def of(cls, ref: ReferenceStandard) -> ReferenceTable:
+        """The table of a reference standard read with its points."""
+        points = sorted(ref.points, key=lambda p: p.frequency_hz)
+        return cls(
+            identifier=ref.identifier,
+            model=ref.model,
+            serial=ref.serial,
+            certificate_number=ref.certificate_number,
+            calibration_date=ref.calibration_date,
+            due_date=ref.due_date,
+            frequencies_hz=tuple(p.frequency_hz for p in points),
+            sensitivity_mv_per_ms2=tuple(p.sensitivity_mv_per_ms2 for p in points),
+            relative_expanded_uncertainty=tuple(p.relative_expanded_uncertainty for p in points),
+            phase_deg=tuple(p.phase_deg for p in points),
+        )
+
+
+def read_reference_table(path: Path, option: str = "--table") -> list[TableRow]:
+    """The rows of a reference calibration table CSV (what `refs add --table` and the GUI
+    read): frequency_hz, sensitivity_mv_per_ms2, relative expanded uncertainty IN PERCENT
+    (0.5 means 0.5 %), optional phase_deg; returned with the uncertainty as a fraction. A
+    header is optional; a header whose uncertainty column does not say percent (such as
+    relative_expanded_uncertainty, a fraction) is refused by name, as is a bad cell by line."""
+    if not path.is_file():
+        raise RecordsError(f"{option}: no such file {path}")
+    if path.stat().st_size > MAX_TABLE_BYTES:
+        raise RecordsError(f"{option}: {path} is larger than {MAX_TABLE_BYTES} bytes")
+    rows: list[TableRow] = []
+    try:
+        with path.open(newline="", encoding="utf-8") as handle:
+            lines = list(csv.reader(handle))
+    except (OSError, UnicodeDecodeError) as exc:
+        raise RecordsError(f"{option}: {path} cannot be read ({exc})") from None
+    for number, cells in enumerate(lines, 1):
+        cells = [c.strip() for c in cells]
+        if not cells or not any(cells) or cells[0].startswith("#"):
+            continue
+        where = f"{option}: {path} line {number}"
+        if len(cells) not in (3, 4):
+            raise RecordsError(f"{where}: expected 3 or 4 columns")
+        if not rows and _is_header(cells):
+            _check_header(cells, where)
+            continue
+        try:
+            values = [float(c) for c in cells]
+        except ValueError:
+            raise RecordsError(f"{where}: not a number") from None
+        phase = values[3] if len(values) == 4 else None
+        rows.append((values[0], values[1], values[2] / 100.0, phase))
+    return rows
+
+
+def _is_header(cells: list[str]) -> bool:
+    try:
+        float(cells[0])
+    except ValueError:
+        return True
+    return False
+
+
+def _check_header(cells: list[str], where: str) -> None:
+    """Refuse a header row whose columns are not the table's, naming the column; the
+    uncertainty column must say it is in percent."""
+    for index, (name, expected) in enumerate(zip(cells, TABLE_COLUMNS, strict=False)):
+        plain = name.lower().replace(" ", "_")
+        if index == 2:
+            if "percent" not in plain and "%" not in plain:
+                raise RecordsError(
+                    f"{where}: column {name!r} does not say its unit; the relative expanded "
+                    f"uncertainty is given in percent (0.5 means 0.5 %): name the column "
+                    f"{expected!r} and give percent"
+                )
+        elif plain != expected:
+            raise RecordsError(f"{where}: column {index + 1} is {name!r}, expected {expected!r}")
 
 
 @dataclass(frozen=True)
@@ -42,7 +158,8 @@ class ReferenceRecords(Store):
         table: Sequence[tuple[float, float, float, float | None]],
     ) -> ReferenceStandard:
         """A reference standard with its calibration table: rows of (frequency Hz,
-        sensitivity mV/(m/s^2), relative expanded uncertainty, phase deg or None)."""
+        sensitivity mV/(m/s^2), relative expanded uncertainty as a fraction (0.005 is 0.5 %),
+        phase deg or None; every row's phase or none)."""
         identifier = text_field(identifier, "reference id", max_len=100)
         if due_date <= calibration_date:
             raise RecordsError(
@@ -50,12 +167,17 @@ class ReferenceRecords(Store):
             )
         if not table:
             raise RecordsError("table: a reference standard needs its calibration table")
+        phases_given = {phase is not None for *_, phase in table}
+        if len(phases_given) > 1:
+            raise RecordsError("table: give a phase on every row or on none")
         points = []
         for row_number, (freq, sens, rel_u, phase) in enumerate(table, 1):
             where = f"table row {row_number}"
             number_field(freq, f"{where} frequency", low=0, high=1e6)
             number_field(sens, f"{where} sensitivity", low=0, high=1e6)
-            number_field(rel_u, f"{where} uncertainty", low=0, high=1)
+            number_field(rel_u, f"{where} uncertainty (fraction)", low=0, high=1)
+            if phase is not None and not (math.isfinite(phase) and -360 <= phase <= 360):
+                raise RecordsError(f"{where} phase: must be in [-360, 360] deg, got {phase!r}")
             points.append(
                 ReferencePoint(
                     frequency_hz=freq,
@@ -110,6 +232,41 @@ class ReferenceRecords(Store):
                 "recalibrate it, or give an override reason (it is printed on the certificate)"
             )
         return ref
+
+    def reference_table(self, identifier: str, serial: str) -> ReferenceTable | None:
+        """The reference standard named `identifier`, else the one of serial `serial` (a
+        stand file's [reference] id and serial), with its table; None when neither is on
+        record. Two records of that serial and no identifier match: refused, naming both."""
+        with self.session() as s:
+            query = select(ReferenceStandard).options(joinedload(ReferenceStandard.points))
+            ref = s.scalar(query.where(ReferenceStandard.identifier == identifier))
+            if ref is None:
+                found = list(
+                    s.scalars(query.where(ReferenceStandard.serial == serial)).unique().all()
+                )
+                if len(found) > 1:
+                    names = ", ".join(sorted(r.identifier for r in found))
+                    raise RecordsError(
+                        f"reference: serial {serial!r} is on record twice ({names}); name one "
+                        f"by its id in the stand file's [reference] table"
+                    )
+                ref = found[0] if found else None
+            return None if ref is None else ReferenceTable.of(ref)
+
+    def record_override(self, override: Override, row_key: str) -> None:
+        """Enter `override` in the audit trail (action "override", table reference_standards,
+        the reference's id or serial as key): who, why, when and what was gone past."""
+        with self.session() as s:
+            s.add(
+                AuditEntry(
+                    at_utc=datetime.now(UTC),
+                    actor=override.who,
+                    action="override",
+                    table_name="reference_standards",
+                    row_key=text_field(row_key, "reference id", max_len=200),
+                    changes=json.dumps(override.to_dict(), sort_keys=True),
+                )
+            )
 
     # ---- due list ------------------------------------------------------------------------
     def due(self, *, today: date, days: int) -> list[DueItem]:
