@@ -159,7 +159,7 @@ class ReferenceRecords(Store):
     ) -> ReferenceStandard:
         """A reference standard with its calibration table: rows of (frequency Hz,
         sensitivity mV/(m/s^2), relative expanded uncertainty as a fraction (0.005 is 0.5 %),
-        phase deg or None; every row's phase or none)."""
+        phase deg or None; a run refuses a table with a phase on some rows only)."""
         identifier = text_field(identifier, "reference id", max_len=100)
         if due_date <= calibration_date:
             raise RecordsError(
@@ -167,9 +167,6 @@ class ReferenceRecords(Store):
             )
         if not table:
             raise RecordsError("table: a reference standard needs its calibration table")
-        phases_given = {phase is not None for *_, phase in table}
-        if len(phases_given) > 1:
-            raise RecordsError("table: give a phase on every row or on none")
         points = []
         for row_number, (freq, sens, rel_u, phase) in enumerate(table, 1):
             where = f"table row {row_number}"

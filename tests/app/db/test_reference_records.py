@@ -328,6 +328,11 @@ def test_read_reference_table_rows_and_refusals(tmp_path: Path) -> None:
         read_reference_table(tmp_path / "missing.csv")
 
 
-def test_a_table_with_a_phase_on_some_rows_only_is_refused(url: str) -> None:
-    with pytest.raises(RecordsError, match="phase on every row or on none"):
-        _add_reference(url, [(160.0, 1.0, 0.005, 0.3), (1000.0, 1.0, 0.005, None)])
+def test_a_table_with_a_phase_on_some_rows_only_is_refused_by_the_run(
+    url: str, tmp_path: Path
+) -> None:
+    from app.procedure.request import DutChoice, RequestError, build_request
+
+    _add_reference(url, [(160.0, 1.0, 0.005, 0.3), (1000.0, 1.0, 0.005, None)])
+    with pytest.raises(RequestError, match="REF-8305-SIM states a phase on some rows only"):
+        build_request(DutChoice(db=url, records=True), out=tmp_path)
