@@ -12,19 +12,30 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from datetime import UTC, date, datetime
+from datetime import date
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from app.errors import Refusal
 from app.procedure.errors import PreflightError
 from app.procedure.modes import MODE_MULTISINE
-from app.records.run_record import DutIdentity, Override, OverrideKind
+from app.procedure.reference import (
+    ReferenceRefusal,
+    ResolvedReference,
+    audit_overrides,
+    open_records,
+    reference_budget,
+    reference_from_records,
+    resolve_reference,
+    table_phases,
+)
+from app.records.run_record import DutIdentity, Override
 from app.stand.dut import DutSpec, Tolerances, spec_from_record, spec_from_stand, spec_from_teds
 from app.stand.response import ResponseStore
 from app.stand.simulated import CATALOGUE, catalogue_spec, plan_preset_for
 from dsp.estimators import DEFAULT_ESTIMATOR
 from dsp.multisine import PRESETS, Plan, make_plan, preset_plan
+from dsp.uncertainty import Budget
 
 if TYPE_CHECKING:
     from app.procedure.settings import RunSettings
@@ -39,6 +50,7 @@ __all__ = [
     "DEFAULT_LEVEL_MS2",
     "DutChoice",
     "DutSpec",
+    "ReferenceRefusal",
     "RequestError",
     "ResolvedReference",
     "RunIdentity",
@@ -139,9 +151,16 @@ class RunRequest:
             ref.calibration_date.isoformat(),
             ref.frequencies_hz,
             ref.sensitivity_mv_per_ms2,
-            _phases(ref),
+            table_phases(ref),
             due_date=ref.due_date.isoformat(),
         )
+
+    def budget(self, budget: Budget) -> Budget:
+        """The stand's type B `budget` with the reference standard's calibration uncertainty
+        from the records when the run takes its table from them (`reference_budget`)."""
+        if self.reference is None:
+            return budget
+        return reference_budget(budget, self.reference)
 
     def spec(self, backend: str) -> DutSpec:
         """The DUT's specification on a stand of `backend`, with what the request states
@@ -261,6 +280,7 @@ class DutChoice:
     spec: DutSpec | None = None  # resolved already by the face (the GUI's records link)
     lab: Any = None  # records already open (the GUI's app.records.db.lab.Lab); else from db
     operator: str | None = None  # who overrides (None: the operating-system user)
+    today: date | None = None  # the date the reference's due date is checked on (None: UTC's)
 
 
 @dataclass(frozen=True)
@@ -369,15 +389,26 @@ def build_request(choice: DutChoice, **run: Any) -> tuple[RunRequest, tuple[str,
     or past its due date without an override reason, or one whose stand-file table differs
     from the records'; a stand file that cannot be read (ConfigError). An override granted is
     in the request (for results.json) and in the records' audit trail."""
+    from app.records.db.audit import current_actor
     from app.stand import config as stand_config
 
     config = stand_config.load(choice.stand_file)
     resolved = resolve_dut(choice, config.backend, config.raw.get("certificate") or {})
     notes = list(resolved.notes)
-    reference = ResolvedReference()
+    reference, lab = ResolvedReference(), None
     if choice.records or choice.lab is not None:
-        reference = _reference_from_records(choice, config)
-        notes += reference.notes
+        lab, unreachable = open_records(choice.lab, choice.db)
+        if lab is None:  # the run still records to its folder; `db import` indexes it later
+            notes.append(f"records not reachable, reference due date not checked: {unreachable}")
+        else:
+            reference = reference_from_records(
+                config,
+                lab,
+                override_reason=choice.reference_override,
+                who=choice.operator or current_actor(),
+                today=choice.today,
+            )
+            notes += reference.notes
     request = RunRequest(
         stand_file=choice.stand_file,
         dut=choice.dut,
@@ -393,158 +424,6 @@ def build_request(choice: DutChoice, **run: Any) -> tuple[RunRequest, tuple[str,
         overrides=reference.overrides,
         **run,
     )
-    if reference.overrides:
-        _audit_overrides(choice, config, reference.overrides)
+    if lab is not None and reference.overrides:
+        audit_overrides(lab, config, reference.overrides)
     return request, tuple(notes)
-
-
-# ---- the reference standard from the records ---------------------------------------------
-
-
-@dataclass(frozen=True)
-class ResolvedReference:
-    """The reference standard as the records give it: its table (None: the stand file's or
-    the simulated stand's own), the overrides granted, notes to show."""
-
-    table: ReferenceTable | None = None
-    overrides: tuple[Override, ...] = ()
-    notes: tuple[str, ...] = ()
-
-
-def _phases(table: ReferenceTable) -> tuple[float, ...]:
-    """The table's phases (deg); a certificate stating none: 0 at every frequency (as a stand
-    file without phase_deg); RequestError when only some rows state one."""
-    given = [p for p in table.phase_deg if p is not None]
-    if not given:
-        return (0.0,) * len(table.frequencies_hz)
-    if len(given) != len(table.phase_deg):
-        raise RequestError(
-            f"reference: the records' table of {table.identifier} states a phase on some rows "
-            "only; enter it again with a phase on every row or on none"
-        )
-    return tuple(given)
-
-
-def _same_table(config: StandConfig, table: ReferenceTable) -> bool:
-    """Whether the stand file's [reference] table is the records' (within 1e-9 relative)."""
-    ref = config.reference
-
-    def close(a: tuple[float, ...], b: tuple[float, ...], absolute: float) -> bool:
-        return len(a) == len(b) and all(
-            math.isclose(x, y, rel_tol=1e-9, abs_tol=absolute) for x, y in zip(a, b, strict=True)
-        )
-
-    return (
-        close(ref.frequencies_hz, table.frequencies_hz, 0.0)
-        and close(ref.sensitivity_mv_per_ms2, table.sensitivity_mv_per_ms2, 0.0)
-        and close(ref.phase_deg, _phases(table), 1e-9)
-    )
-
-
-def resolve_reference(
-    config: StandConfig,
-    table: ReferenceTable | None,
-    *,
-    today: date,
-    override_reason: str | None,
-    who: str,
-    now_utc: datetime,
-) -> ResolvedReference:
-    """The reference standard of `config` given what the records hold of it (`table`; None:
-    not on record) on `today`: refused (RequestError naming it) when not on record or past its
-    due date, unless `override_reason` is given (an Override by `who` at `now_utc`), and when
-    the stand file carries a table that differs from the records' (no override: two sources
-    for one reference are never right)."""
-    ref = config.reference
-    reason = (override_reason or "").strip() or None
-    when = now_utc.isoformat(timespec="seconds")
-    if table is None:
-        what = (
-            f"reference standard {ref.id} (serial {ref.serial}) of {config.source} is not in "
-            "the records"
-        )
-        if reason is None:
-            raise RequestError(
-                f"reference: {what}; add it (accelcal refs add, with its calibration table) or "
-                "give an override reason (--reference-override; it is printed on the "
-                "certificate)"
-            )
-        override = Override(OverrideKind.UNRECORDED_REFERENCE, who, reason, when, what)
-        note = f"{what}; used under the override: {reason} (the stand file's table)"
-        return ResolvedReference(None, (override,), (note,))
-    name = table.identifier
-    if ref.frequencies_hz and not _same_table(config, table):
-        raise RequestError(
-            f"reference: the [reference] table of {config.source} differs from the records' "
-            f"table of {name} (certificate {table.certificate_number}); remove the table from "
-            "the stand file (the records' is used) or correct whichever is wrong"
-        )
-    _phases(table)  # refuses a table with a phase on some rows only
-    if table.due_date >= today:
-        note = (
-            f"reference standard {name}: certificate {table.certificate_number}, due "
-            f"{table.due_date}; its table from the records"
-        )
-        return ResolvedReference(table, (), (note,))
-    what = f"reference standard {name} was due for calibration on {table.due_date}"
-    if reason is None:
-        raise RequestError(
-            f"reference: {name} was due for calibration on {table.due_date}; recalibrate it, "
-            "or give an override reason (--reference-override; it is printed on the "
-            "certificate)"
-        )
-    override = Override(OverrideKind.EXPIRED_REFERENCE, who, reason, when, what)
-    note = (
-        f"reference standard {name} was due on {table.due_date}; used under the override: {reason}"
-    )
-    return ResolvedReference(table, (override,), (note,))
-
-
-def _open_lab(choice: DutChoice) -> Any:
-    """The records of `choice` (the face's open Lab, else --db / $ACCELCAL_DB), or None when
-    they cannot be reached (the run still records to its folder)."""
-    if choice.lab is not None:
-        return choice.lab
-    from app.records.db.engine import DatabaseError, open_engine
-    from app.records.db.lab import Lab
-
-    try:
-        return Lab(open_engine(choice.db))
-    except DatabaseError:
-        return None
-
-
-def _reference_from_records(choice: DutChoice, config: StandConfig) -> ResolvedReference:
-    """`resolve_reference` with the records of `choice`; unreachable records: a note."""
-    from app.records.db.audit import current_actor
-    from app.records.db.engine import DatabaseError
-
-    lab = _open_lab(choice)
-    try:
-        if lab is None:
-            raise DatabaseError("cannot be opened")
-        table = lab.reference_table(config.reference.id, config.reference.serial)
-    except DatabaseError as exc:
-        return ResolvedReference(
-            notes=(f"records not reachable, reference due date not checked: {exc}",)
-        )
-    now = datetime.now(UTC)
-    return resolve_reference(
-        config,
-        table,
-        today=now.date(),
-        override_reason=choice.reference_override,
-        who=choice.operator or current_actor(),
-        now_utc=now,
-    )
-
-
-def _audit_overrides(
-    choice: DutChoice, config: StandConfig, overrides: tuple[Override, ...]
-) -> None:
-    """Enter the overrides in the records' audit trail, keyed by the reference standard."""
-    lab = _open_lab(choice)
-    if lab is None:  # reachable a moment ago; results.json still holds them
-        return
-    for override in overrides:
-        lab.record_override(override, config.reference.id)

@@ -41,6 +41,7 @@ def prepare(request: RunRequest, listener: Listener | None = None) -> tuple[Proc
     try:
         if request.reference is not None:  # the records' table, not the simulator's own
             stand.chain = config.reference_chain()
+            stand.budget = request.budget(stand.budget)  # and its uncertainty
         plan = request.plan()
         procedure = Procedure(
             stand,

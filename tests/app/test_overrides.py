@@ -10,7 +10,7 @@ from datetime import UTC, date, datetime
 
 import pytest
 
-from app.procedure.request import RequestError, RunIdentity, resolve_reference
+from app.procedure.request import ReferenceRefusal, RunIdentity, resolve_reference
 from app.records.db.references import ReferenceTable
 from app.records.run_record import Override, OverrideKind, RunRecord, RunRecordError
 from app.stand import config as stand_config
@@ -99,15 +99,18 @@ def test_a_reference_due_today_needs_no_override_one_due_yesterday_does() -> Non
     assert resolved.table is not None and resolved.overrides == ()
     assert resolved.table.identifier == "REF-1"
     for blank in (None, "", "   "):
-        with pytest.raises(RequestError, match="REF-1 was due for calibration on 2026-11-24"):
+        with pytest.raises(
+            ReferenceRefusal, match="REF-1 was due for calibration on 2026-11-24"
+        ) as e:
             _resolve(_table(date(2026, 11, 24)), blank)
+        assert e.value.overridable
     resolved = _resolve(_table(date(2026, 11, 24)), "  new cert in transit ")
     assert resolved.overrides == (OVERRIDE,)
     assert resolved.table is not None  # the records' table, under the override
 
 
 def test_a_reference_not_on_record_is_refused_unless_overridden() -> None:
-    with pytest.raises(RequestError, match=r"REF-8305-SIM \(serial SIM-0001\) of built-in"):
+    with pytest.raises(ReferenceRefusal, match=r"REF-8305-SIM \(serial SIM-0001\) of built-in"):
         _resolve(None, None)
     resolved = _resolve(None, "bought last week")
     (override,) = resolved.overrides
@@ -128,10 +131,38 @@ def test_phases_from_the_records_and_the_stand_file_comparison() -> None:
         ),
     )
     assert _resolve(_table(TODAY), None, with_table).table is not None  # no phase: 0 deg
-    with pytest.raises(RequestError, match="differs from the records' table of REF-1"):
+    with pytest.raises(ReferenceRefusal, match="differs from the records' table of REF-1") as e:
         _resolve(_table(TODAY, (0.0, 0.1)), None, with_table)
+    assert not e.value.overridable
     one_off = replace(with_table.reference, sensitivity_mv_per_ms2=(1.0, 1.0100001))
-    with pytest.raises(RequestError, match="certificate PTB-1"):
+    with pytest.raises(ReferenceRefusal, match="certificate PTB-1"):
         _resolve(_table(TODAY), None, replace(with_table, reference=one_off))
-    with pytest.raises(RequestError, match="a phase on some rows only"):
+    with pytest.raises(ReferenceRefusal, match="a phase on some rows only"):
         _resolve(_table(TODAY, (0.1, None)), None)
+
+
+def test_the_records_uncertainty_replaces_the_stand_files_reference_component() -> None:
+    """Table 0.5 % at 160 Hz, 1.2 % at 1000 Hz: below 1000 Hz the larger of the two points
+    around a line (1.2 %), from 1000 Hz up 1.2 %; one band of 1.2 % from 160 Hz up, and below
+    160 Hz the first point's 0.5 %. The stand file's 0.5 % component is gone, the others stay."""
+    from app.procedure.reference import REFERENCE_COMPONENT, reference_budget
+    from dsp.uncertainty import Quantity
+
+    table = replace(_table(TODAY), relative_expanded_uncertainty=(0.005, 0.012))
+    stand = stand_config.load(None).budget
+    budget = reference_budget(stand, table)
+    names = [c.name for c in budget.components]
+    assert names.count(REFERENCE_COMPONENT) == 0
+    ours = [c for c in budget.components if "certificate PTB-1 of REF-1" in c.note]
+    assert [(c.value, c.min_frequency_hz) for c in ours] == [(0.005, None), (0.012, 160.0)]
+    assert ours[0].max_frequency_hz == pytest.approx(160.0) and ours[0].max_frequency_hz < 160.0
+    assert ours[1].max_frequency_hz is None
+    for f, u in ((10.0, 0.005), (160.0, 0.012), (500.0, 0.012), (5000.0, 0.012)):
+        (c,) = [c for c in budget.at(f, Quantity.MAGNITUDE) if c in ours]
+        assert c.value == u
+    others = [c for c in stand.components if c.name != REFERENCE_COMPONENT]
+    assert [c for c in budget.components if c not in ours] == others
+    flat = reference_budget(stand, _table(TODAY))  # 0.5 % everywhere: one component
+    (only,) = [c for c in flat.components if "PTB-1" in c.note]
+    assert only.name == REFERENCE_COMPONENT and only.min_frequency_hz is None
+    assert only.max_frequency_hz is None and only.coverage_factor == 2.0

@@ -331,8 +331,8 @@ def test_read_reference_table_rows_and_refusals(tmp_path: Path) -> None:
 def test_a_table_with_a_phase_on_some_rows_only_is_refused_by_the_run(
     url: str, tmp_path: Path
 ) -> None:
-    from app.procedure.request import DutChoice, RequestError, build_request
+    from app.procedure.request import DutChoice, ReferenceRefusal, build_request
 
     _add_reference(url, [(160.0, 1.0, 0.005, 0.3), (1000.0, 1.0, 0.005, None)])
-    with pytest.raises(RequestError, match="REF-8305-SIM states a phase on some rows only"):
+    with pytest.raises(ReferenceRefusal, match="REF-8305-SIM states a phase on some rows only"):
         build_request(DutChoice(db=url, records=True), out=tmp_path)
