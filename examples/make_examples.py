@@ -112,12 +112,12 @@ def write_reference_table(out: Path) -> None:
     from sim.stand import SimulatedStand
 
     chain = SimulatedStand("piezo", seed=SEED).reference_chain()
-    lines = ["frequency_hz,sensitivity_mv_per_ms2,relative_expanded_uncertainty,phase_deg"]
+    lines = ["frequency_hz,sensitivity_mv_per_ms2,relative_expanded_uncertainty_percent,phase_deg"]
     for f, s, ph in zip(
         chain.frequencies_hz, chain.sensitivity_mv_per_ms2, chain.phase_deg, strict=True
     ):
         if 10.0 <= f <= 10_000.0:
-            lines.append(f"{f:g},{s:.5f},{REFERENCE_U_REL:g},{ph:.3f}")
+            lines.append(f"{f:g},{s:.5f},{100 * REFERENCE_U_REL:g},{ph:.3f}")  # percent
     (out / "ref-table.csv").write_text("\n".join(lines) + "\n", encoding="ascii")
 
 

@@ -35,6 +35,7 @@ from app.certificate.info import CertificateInfo
 from app.certificate.load import StoredRun
 from app.certificate.printed import PrintedLine, printed_lines
 from app.errors import Refusal
+from app.records.run_record import RunRecord
 from dsp.calibration import Results
 
 DCC_NS = "https://ptb.de/dcc"
@@ -165,6 +166,8 @@ def build(run: StoredRun, info: CertificateInfo) -> bytes:
         lab, reference = dict(record.stand.laboratory), dict(record.stand.reference)
     else:
         lab, reference = start.laboratory, start.reference
+    if record.stand.reference:  # the reference as the run used it (its certificate from the
+        reference = dict(record.stand.reference)  # records when they held it), not the file's
     country = str(lab.get("country") or "")
     if len(country) != 2 or not country.isalpha() or not country.isupper():
         raise DccNotApplicable(
@@ -214,7 +217,7 @@ def build(run: StoredRun, info: CertificateInfo) -> bytes:
     customer = _d(admin, "customer")
     _text(customer, "name", str(info.customer))
     _text(_d(customer, "location"), "further", info.customer_address or text.ADDRESS_NOT_STATED)
-    _statements(admin, results)
+    _statements(admin, results, record)
     duty_statements(admin, run, info)
 
     result_set = _d(_d(root, "measurementResults"), "measurementResult")
@@ -337,7 +340,7 @@ def _run_identifications(core: ET.Element, run: StoredRun) -> None:
             _text(ident, "name", label)
 
 
-def _statements(admin: ET.Element, results: Results) -> None:
+def _statements(admin: ET.Element, results: Results, record: RunRecord) -> None:
     statements = _d(admin, "statements")
     statement = _d(statements, "statement", refType="basic_conformity")
     _text(statement, "name", "Statement of conformity")
@@ -346,6 +349,16 @@ def _statements(admin: ET.Element, results: Results) -> None:
     conformity = text.dcc_conformity(verdict)
     if conformity is not None:
         _d(statement, "conformity", conformity)
+    _override_statements(statements, record)
+
+
+def _override_statements(statements: ET.Element, record: RunRecord) -> None:
+    """One statement per check the run went past with a stated reason (results.json's
+    overrides): what, why, who and when, as the PDF's "Overrides" section prints them."""
+    for override in record.overrides:
+        statement = _d(statements, "statement")
+        _text(statement, "name", f"Override: {override.kind}")
+        _text(statement, "declaration", override.line())
 
 
 @functools.cache

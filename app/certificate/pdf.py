@@ -219,6 +219,7 @@ def write_pdf(
         story += _sweep_section(sweep)
     story += _budget_section(run, results)
     story += _statements(results, info, p_percent)
+    story += _overrides_section(record)
     story += validation_statement()
     story += _sign_off(info, record)
     document = SimpleDocTemplate(
@@ -474,6 +475,26 @@ def _statements(results: Results, info: CertificateInfo, p_percent: str) -> list
     if info.notes:
         out += [Paragraph("Notes", HEAD), Paragraph(_esc(info.notes), BODY)]
     return out
+
+
+def _overrides_section(record: RunRecord) -> list[Any]:
+    """ "Overrides": each check the run went past with a stated reason (results.json's
+    overrides: kind, what, reason, who, when); nothing when none."""
+    if not record.overrides:
+        return []
+    story: list[Any] = [
+        Paragraph("Overrides", HEAD),
+        Paragraph("The run went past these checks for the reason stated:", BODY),
+    ]
+    for override in record.overrides:
+        story.append(
+            Paragraph(
+                f"<b>{_esc(override.kind)}</b>: {_esc(override.what)}. Reason: "
+                f"{_esc(override.why)} (by {_esc(override.who)}, {_esc(override.when_utc)})",
+                BODY,
+            )
+        )
+    return story
 
 
 def _sign_off(info: CertificateInfo, record: RunRecord) -> list[Any]:

@@ -254,7 +254,9 @@ def build_parser() -> argparse.ArgumentParser:
     records.add_argument(
         "--reference-override",
         metavar="REASON",
-        help="use a reference standard past its due date, for this stated reason",
+        help="with records in use: use a reference standard past its due date or not in the "
+        "records, for this stated reason (recorded in results.json, the audit trail and on "
+        "the certificate)",
     )
 
     w = sub.add_parser("show", help="print a stored run")

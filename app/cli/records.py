@@ -122,7 +122,9 @@ def add_commands(sub: argparse._SubParsersAction) -> dict[str, Handler]:  # type
         "--table",
         type=Path,
         required=True,
-        help="CSV: frequency_hz,sensitivity_mv_per_ms2,relative_expanded_uncertainty[,phase_deg]",
+        help="CSV: frequency_hz,sensitivity_mv_per_ms2,relative_expanded_uncertainty_percent"
+        "[,phase_deg]; the uncertainty in percent (0.5 means 0.5 %%); the header is optional, "
+        "an uncertainty column not named in percent is refused",
     )
     _db_option(ra)
     _db_option(rsub.add_parser("list", help="list reference standards"))
@@ -272,7 +274,9 @@ def cmd_sensors(args: argparse.Namespace) -> int:
 def cmd_refs(args: argparse.Namespace) -> int:
     lab = _lab(args)
     if args.action == "add":
-        table = _read_reference_table(args.table)
+        from app.records.db.reference_table import read_reference_table
+
+        table = read_reference_table(args.table)
         row = lab.add_reference(
             args.identifier,
             model=args.model,
@@ -290,16 +294,6 @@ def cmd_refs(args: argparse.Namespace) -> int:
             f"calibrated {ref.calibration_date}\tdue {ref.due_date}\t{len(ref.points)} rows"
         )
     return 0
-
-
-def _read_reference_table(path: Path) -> list[tuple[float, float, float, float | None]]:
-    """Rows of a reference calibration table CSV (the records' reader); a bad cell is refused
-    by line."""
-    from app.records.db.reference_table import read_reference_table
-
-    if not path.is_file():
-        raise RecordsUsageError(f"--table: no such file {path}")
-    return read_reference_table(path, "--table")
 
 
 def cmd_due(args: argparse.Namespace) -> int:

@@ -393,7 +393,7 @@ class ReferenceDialog(RecordDialog):
         if not text:
             return None
         try:
-            self.rows = read_reference_table(Path(text))
+            self.rows = read_reference_table(Path(text), "table")
         except RecordsInputError as exc:
             self.marks.note(self.table_file, str(exc), ERROR)
             return None

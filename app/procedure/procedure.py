@@ -119,6 +119,8 @@ class Procedure:
         status, reason = RunStatus.COMPLETE, None
         io = self.io
         self._store_config()
+        for override in self.identity.overrides:  # in run.log as in results.json
+            self._log(f"override: {override.line()}")
         try:
             self.ctx.state(State.PREFLIGHT)
             self.preflight()
@@ -395,6 +397,7 @@ class Procedure:
             measuring_amplifier=identity.measuring_amplifier,
             stand_response=self.notes.stand_response,
             extra=dict(identity.extra),
+            overrides=identity.overrides,
         )
 
     # --- telling -----------------------------------------------------------------------------

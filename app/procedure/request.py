@@ -1,6 +1,8 @@
 """The run request and the one way the faces build it: the DUT resolved (records, TEDS, stand
 file or simulated catalogue) into a DutSpec, the operator's choices over its defaults, the
-run's identity as stored in config.json. The CLI and the GUI both call `build_request`.
+reference standard resolved from the records (its table, certificate and due date; overrides
+with a reason), the run's identity as stored in config.json. The CLI and the GUI both call
+`build_request`.
 
 Units in the names: levels in m/s^2 peak per line, sensitivities in mV/(m/s^2), masses in g.
 """
@@ -10,24 +12,37 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from datetime import UTC, datetime
+from datetime import date
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from app.errors import Refusal
 from app.procedure.errors import PreflightError
 from app.procedure.modes import MODE_MULTISINE
-from app.records.run_record import DutIdentity
+from app.procedure.reference import (
+    ReferenceRefusal,
+    ResolvedReference,
+    audit_overrides,
+    open_records,
+    reference_budget,
+    reference_from_records,
+    resolve_reference,
+    table_phases,
+)
+from app.records.run_record import DutIdentity, Override
 from app.stand.dut import DutSpec, Tolerances, spec_from_record, spec_from_stand, spec_from_teds
 from app.stand.response import ResponseStore
 from app.stand.simulated import CATALOGUE, catalogue_spec, plan_preset_for
 from dsp.estimators import DEFAULT_ESTIMATOR
 from dsp.multisine import PRESETS, Plan, preset_plan
 from dsp.spectral import MIN_PERIODS
+from dsp.uncertainty import Budget
 
 if TYPE_CHECKING:
     from app.procedure.settings import RunSettings
+    from app.records.db.references import ReferenceTable
     from app.records.db.runs import SensorDefaults
+    from app.stand.config import StandConfig
     from app.stand.simulated import Fault
 
 DEFAULT_LEVEL_MS2 = 5.0
@@ -36,12 +51,15 @@ __all__ = [
     "DEFAULT_LEVEL_MS2",
     "DutChoice",
     "DutSpec",
+    "ReferenceRefusal",
     "RequestError",
+    "ResolvedReference",
     "RunIdentity",
     "RunRequest",
     "build_request",
     "check_request",
     "resolve_dut",
+    "resolve_reference",
     "spec_from_sensor",
 ]
 
@@ -59,6 +77,7 @@ class RunIdentity:
     level_ms2: float | None = None
     measuring_amplifier: Mapping[str, Any] | None = None
     extra: Mapping[str, Any] = field(default_factory=dict)
+    overrides: tuple[Override, ...] = ()  # checks gone past with a reason (results.json)
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON object config.json has always held (keys absent when not known)."""
@@ -69,16 +88,21 @@ class RunIdentity:
             out["level_ms2"] = self.level_ms2
         if self.measuring_amplifier is not None:
             out["measuring_amplifier"] = dict(self.measuring_amplifier)
+        if self.overrides:
+            out["overrides"] = [o.to_dict() for o in self.overrides]
         out.update(self.extra)
         return out
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any] | None) -> RunIdentity:
+        from app.records.run_record import overrides_from
+
         data = dict(data or {})
         dut = DutIdentity.from_dict(data.pop("dut", None))
         level = data.pop("level_ms2", None)
         amplifier = data.pop("measuring_amplifier", None)
-        return cls(dut, None if level is None else float(level), amplifier, data)
+        overrides = overrides_from(data.pop("overrides", None))
+        return cls(dut, None if level is None else float(level), amplifier, data, overrides)
 
 
 @dataclass(frozen=True)
@@ -119,6 +143,34 @@ class RunRequest:
     exciter: str | None = None  # simulated stand: a name of its exciter catalogue
     fade_in_s: float | None = None  # lpm: the fade-in before the record (None: 2 cycles)
     records_chain_head: str | None = None  # hex: the records' chain head, named by the seal
+    # the reference standard as on record (None: the stand file's, or the simulated stand's)
+    reference: ReferenceTable | None = None
+    overrides: tuple[Override, ...] = ()  # checks gone past with a stated reason
+
+    def stand_config(self) -> StandConfig:
+        """The stand file (ConfigError when unusable) with the reference standard's
+        certificate and table from the records when they hold it."""
+        from app.stand import config as stand_config
+
+        config = stand_config.load(self.stand_file)
+        ref = self.reference
+        if ref is None:
+            return config
+        return config.with_reference_certificate(
+            ref.certificate_number,
+            ref.calibration_date.isoformat(),
+            ref.frequencies_hz,
+            ref.sensitivity_mv_per_ms2,
+            table_phases(ref),
+            due_date=ref.due_date.isoformat(),
+        )
+
+    def budget(self, budget: Budget) -> Budget:
+        """The stand's type B `budget` with the reference standard's calibration uncertainty
+        from the records when the run takes its table from them (`reference_budget`)."""
+        if self.reference is None:
+            return budget
+        return reference_budget(budget, self.reference)
 
     def spec(self, backend: str) -> DutSpec:
         """The DUT's specification on a stand of `backend`, with what the request states
@@ -152,6 +204,7 @@ class RunRequest:
                 self.dut if backend == "sim" else None, self.dut_id, self.nominal_mv_per_ms2
             ),
             self.level_ms2,
+            overrides=self.overrides,
         )
 
     def store(self) -> ResponseStore | None:
@@ -272,8 +325,11 @@ class DutChoice:
     level_ms2: float | None = None
     preset: str | None = None
     dut_mass_g: float | None = None
-    reference_override: str | None = None
+    reference_override: str | None = None  # the reason to go past the reference check
     spec: DutSpec | None = None  # resolved already by the face (the GUI's records link)
+    lab: Any = None  # records already open (the GUI's app.records.db.lab.Lab); else from db
+    operator: str | None = None  # who overrides (None: the operating-system user)
+    today: date | None = None  # the date the reference's due date is checked on (None: UTC's)
 
 
 @dataclass(frozen=True)
@@ -378,24 +434,30 @@ def resolve_dut(choice: DutChoice, backend: str, certificate: Mapping[str, Any])
 def build_request(choice: DutChoice, **run: Any) -> tuple[RunRequest, tuple[str, ...]]:
     """The run request of `choice` and the run's other settings `run` (RunRequest's fields:
     periods, estimator, mode, out, faults...), and notes for the operator. Refuses (a Refusal)
-    a DUT that cannot be resolved, a reference standard past its due date without an
-    override; a stand file that cannot be read (ConfigError)."""
+    a DUT that cannot be resolved; with the records in use, a reference standard not on record
+    or past its due date without an override reason, or one whose stand-file table differs
+    from the records'; a stand file that cannot be read (ConfigError). An override granted is
+    in the request (for results.json) and in the records' audit trail."""
+    from app.records.db.audit import current_actor
     from app.stand import config as stand_config
 
     config = stand_config.load(choice.stand_file)
     resolved = resolve_dut(choice, config.backend, config.raw.get("certificate") or {})
     notes = list(resolved.notes)
-    if choice.records:
-        from app.records.db.runs import check_reference_due
-
-        note = check_reference_due(
-            config.reference.id,
-            choice.db,
-            today=datetime.now(UTC).date(),
-            override_reason=choice.reference_override,
-        )
-        if note:
-            notes.append(note)
+    reference, lab = ResolvedReference(), None
+    if choice.records or choice.lab is not None:
+        lab, unreachable = open_records(choice.lab, choice.db)
+        if lab is None:  # the run still records to its folder; `db import` indexes it later
+            notes.append(f"records not reachable, reference due date not checked: {unreachable}")
+        else:
+            reference = reference_from_records(
+                config,
+                lab,
+                override_reason=choice.reference_override,
+                who=choice.operator or current_actor(),
+                today=choice.today,
+            )
+            notes += reference.notes
     request = RunRequest(
         stand_file=choice.stand_file,
         dut=choice.dut,
@@ -407,6 +469,10 @@ def build_request(choice: DutChoice, **run: Any) -> tuple[RunRequest, tuple[str,
         seed=choice.seed,
         dut_mass_g=choice.dut_mass_g,
         dut_spec=resolved.spec,
+        reference=reference.table,
+        overrides=reference.overrides,
         **run,
     )
+    if lab is not None and reference.overrides:
+        audit_overrides(lab, config, reference.overrides)
     return request, tuple(notes)

@@ -18,7 +18,6 @@ from app.procedure.request import (
     check_request,
 )
 from app.records.run_folder import RunFolder
-from app.stand import config as stand_config
 from app.stand.config import StandConfig, StandPlan
 from app.stand.open import open_stand
 from app.stand.simulated import EXCITERS, exciter_stroke_m
@@ -40,7 +39,8 @@ def prepare(request: RunRequest, listener: Listener | None = None) -> tuple[Proc
     ConfigError, PlanError on refusal; nothing is created then). Returns the procedure and the
     stand (to close)."""
     check_request(request)
-    config = with_exciter(stand_config.load(request.stand_file), request.exciter)
+    # the stand file, with the reference standard's table from the records when they hold it
+    config = with_exciter(request.stand_config(), request.exciter)
     request = with_stand_plan(request, config.plan)
     plan = request.plan(  # a custom plan is clipped and checked by the stroke before it opens
         config.limits.displacement_peak_to_peak_m if request.custom_plan else None
@@ -55,6 +55,9 @@ def prepare(request: RunRequest, listener: Listener | None = None) -> tuple[Proc
         exciter=request.exciter,
     )
     try:
+        if request.reference is not None:  # the records' table, not the simulator's own
+            stand.chain = config.reference_chain()
+            stand.budget = request.budget(stand.budget)  # and its uncertainty
         procedure = Procedure(
             stand,
             plan,

@@ -9,6 +9,8 @@ dsp.multisine.Plan.to_dict, `budget`: dsp.uncertainty.Budget.to_list, `reference
 
 Versions: a results.json without `schema_version` was written before it existed (issue 14)
 and has the layout of version 1; version 1 is today's. A newer version is refused by name.
+`overrides` (issue 24) is an optional key of version 1: written only when a check was
+overridden, read as none when absent, kept as read by older readers (their `extra`).
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ from __future__ import annotations
 import json
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
+from enum import StrEnum
 from typing import TYPE_CHECKING, Any
 
 from app.errors import Refusal
@@ -58,6 +61,64 @@ class DutIdentity:
             "id": self.id,
             "nominal_sensitivity_mv_per_ms2": self.nominal_sensitivity_mv_per_ms2,
         }
+
+
+class OverrideKind(StrEnum):
+    """The checks a run may go past with a stated reason (stored as these strings)."""
+
+    EXPIRED_REFERENCE = "expired reference"  # the reference standard is past its due date
+    UNRECORDED_REFERENCE = "unrecorded reference"  # the reference standard is not on record
+
+
+@dataclass(frozen=True)
+class Override:
+    """A check the run went past: its `kind` (an OverrideKind; any text as read, so a kind
+    added later still reads), `who` allowed it, `why`, `when_utc` (ISO 8601) and `what` was
+    overridden (the refusal it replaced)."""
+
+    kind: str
+    who: str
+    why: str
+    when_utc: str
+    what: str
+
+    def __post_init__(self) -> None:
+        for name in ("kind", "who", "why", "when_utc", "what"):
+            value = getattr(self, name)
+            if not isinstance(value, str) or not value.strip():
+                raise RunRecordError(f"override {name}: must be a non-empty text, got {value!r}")
+
+    def to_dict(self) -> dict[str, str]:
+        return {
+            "kind": self.kind,
+            "who": self.who,
+            "why": self.why,
+            "when_utc": self.when_utc,
+            "what": self.what,
+        }
+
+    @classmethod
+    def from_dict(cls, data: Any) -> Override:
+        """An override from its JSON object; RunRecordError naming what is missing."""
+        if not isinstance(data, dict):
+            raise RunRecordError(f"results.json: an override is not an object: {data!r}")
+        try:
+            return cls(*(str(data[k]) for k in ("kind", "who", "why", "when_utc", "what")))
+        except KeyError as exc:
+            raise RunRecordError(f"results.json: an override has no {exc.args[0]!r}") from None
+
+    def line(self) -> str:
+        """One line for a certificate or a log: what, why, who, when."""
+        return f"{self.kind}: {self.what}; reason: {self.why} (by {self.who}, {self.when_utc})"
+
+
+def overrides_from(data: Any) -> tuple[Override, ...]:
+    """The overrides of a JSON list (None: none); RunRecordError when malformed."""
+    if data is None:
+        return ()
+    if not isinstance(data, list):
+        raise RunRecordError(f"results.json: overrides is not a list: {data!r}")
+    return tuple(Override.from_dict(item) for item in data)
 
 
 @dataclass(frozen=True)
@@ -130,6 +191,7 @@ class RunRecord:
     verdict_reasons: tuple[str, ...] = ()
     raw_data_sha256: str | None = None
     results: Mapping[str, Any] | None = None  # dsp.calibration.Results.to_dict(); None: none
+    overrides: tuple[Override, ...] = ()  # checks gone past with a stated reason
     extra: Mapping[str, Any] = field(default_factory=dict)  # keys of no field, kept as read
     schema_version: int = SCHEMA_VERSION
 
@@ -197,6 +259,8 @@ class RunRecord:
             data["verdict_reasons"] = list(self.verdict_reasons)
         if self.raw_data_sha256 is not None:
             data["raw_data_sha256"] = self.raw_data_sha256
+        if self.overrides:
+            data["overrides"] = [o.to_dict() for o in self.overrides]
         data["results"] = dict(self.results) if self.results is not None else None
         return data
 
@@ -246,6 +310,7 @@ class RunRecord:
                 verdict_reasons=tuple(data.get("verdict_reasons") or ()),
                 raw_data_sha256=data.get("raw_data_sha256"),
                 results=data.get("results"),
+                overrides=overrides_from(data.get("overrides")),
                 extra={k: v for k, v in data.items() if k not in known and k != "schema_version"},
                 schema_version=SCHEMA_VERSION,
             )

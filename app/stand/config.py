@@ -13,7 +13,9 @@ Sections (units in the names):
     [limits]      displacement_peak_to_peak_m, velocity_peak_m_per_s, acceleration_peak_ms2,
                   drive_peak_v
     [reference]   id, model, serial, certificate_number, certificate_date, gain (conditioning,
-                  V/V), frequencies_hz, sensitivity_mv_per_ms2, phase_deg (its certificate)
+                  V/V), frequencies_hz, sensitivity_mv_per_ms2, phase_deg (its certificate;
+                  with the records in use the table comes from them, found by id or serial,
+                  and a table here must be the same)
     [dut_channel] gain (V/V between DUT and DAQ)
     [[component]] the type B budget (dsp.uncertainty.Component fields, with `kind`: the
                   ISO 16063-21 Annex A component(s) it states, dsp.annex_a, and `law`,
@@ -28,7 +30,7 @@ from __future__ import annotations
 import difflib
 import math
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from datetime import date
 from importlib import resources
 from pathlib import Path
@@ -176,6 +178,10 @@ class ReferenceStandard:
     frequencies_hz: tuple[float, ...] = ()
     sensitivity_mv_per_ms2: tuple[float, ...] = ()
     phase_deg: tuple[float, ...] = ()
+    # where the certificate and table come from when not this file: "records" (then with
+    # the certificate's due date, ISO 8601); "" for the stand file (or the simulated stand)
+    table_from: str = ""
+    due_date: str = ""
 
 
 @dataclass(frozen=True)
@@ -206,11 +212,44 @@ class StandConfig:
         empty for a full budget. A run on a stand with any missing is for review only."""
         return missing_components(self.budget)
 
+    def with_reference_certificate(
+        self,
+        certificate_number: str,
+        certificate_date: str,
+        frequencies_hz: tuple[float, ...],
+        sensitivity_mv_per_ms2: tuple[float, ...],
+        phase_deg: tuple[float, ...],
+        *,
+        due_date: str,
+        table_from: str = "records",
+    ) -> StandConfig:
+        """This stand with its reference standard's certificate (number, dates ISO 8601) and
+        table (Hz, mV/(m/s^2), degrees) taken from `table_from` (the records). ConfigError
+        when the table is not a usable certificate table."""
+        try:
+            ReferenceChain(frequencies_hz, sensitivity_mv_per_ms2, phase_deg)
+        except ValueError as exc:
+            raise ConfigError(f"reference table: {exc}") from None
+        reference = replace(
+            self.reference,
+            certificate_number=certificate_number,
+            certificate_date=certificate_date,
+            frequencies_hz=tuple(frequencies_hz),
+            sensitivity_mv_per_ms2=tuple(sensitivity_mv_per_ms2),
+            phase_deg=tuple(phase_deg),
+            table_from=table_from,
+            due_date=due_date,
+        )
+        return replace(self, reference=reference)
+
     def reference_chain(self) -> ReferenceChain:
         """The chain the analysis uses: the certificate, nominal gains and the skew."""
         ref = self.reference
         if not ref.frequencies_hz:
-            raise ConfigError(f"{self.source}: reference.frequencies_hz: no certificate table")
+            raise ConfigError(
+                f"{self.source}: reference.frequencies_hz: no certificate table (give it here, "
+                "or keep the reference standard in the records and use them: --db)"
+            )
         return ReferenceChain(
             ref.frequencies_hz,
             ref.sensitivity_mv_per_ms2,
@@ -421,7 +460,10 @@ def _parse(data: dict[str, Any], text: str, source: str) -> StandConfig:
         sensitivity_mv_per_ms2=r.floats(ref, "reference", "sensitivity_mv_per_ms2"),
         phase_deg=r.floats(ref, "reference", "phase_deg"),
     )
-    if backend != "sim" or reference.frequencies_hz:
+    table_given = (
+        reference.frequencies_hz or reference.sensitivity_mv_per_ms2 or reference.phase_deg
+    )
+    if table_given:  # without one: the simulated stand's own, or the records' (checked on use)
         try:
             ReferenceChain(
                 reference.frequencies_hz,

@@ -279,7 +279,9 @@ def test_a_bad_request_never_reaches_the_stand(monkeypatch, tmp_path, change, me
     def no_stand(*args, **kwargs):
         raise AssertionError("the stand was loaded")
 
-    monkeypatch.setattr(run_module.stand_config, "load", no_stand)
+    from app.stand import config as stand_config  # the request loads it (RunRequest.stand_config)
+
+    monkeypatch.setattr(stand_config, "load", no_stand)
     with pytest.raises(PreflightError, match=message.replace("(", r"\(")):
         run_module.prepare(RunRequest(out=tmp_path / "runs", **change))
     assert not (tmp_path / "runs").exists()

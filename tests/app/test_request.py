@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+from datetime import date
 from pathlib import Path
 
 import pytest
@@ -126,6 +127,15 @@ def test_build_request_from_the_records(tmp_path: Path, monkeypatch: pytest.Monk
         phase_tolerance_deg=1.5,
     )
     lab.add_sensor("SN-9", model="M-2", owner="ACME Ltd")
+    lab.add_reference(  # issue 24: with the records in use the stand's reference is on record
+        "REF-8305-SIM",
+        model="8305",
+        serial="SIM-0001",
+        certificate_number="PTB-1",
+        calibration_date=date(2026, 1, 1),
+        due_date=date(2099, 1, 1),
+        table=[(160.0, 1.0, 0.005, None)],
+    )
     choice = DutChoice(sensor="SN-9", db=url, records=True, tolerance_percent=None)
     request, notes = build_request(choice, periods=3, out=tmp_path / "runs")
     assert request.dut_id == "SN-9" and request.level_ms2 == 4.0

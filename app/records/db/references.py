@@ -1,19 +1,64 @@
 """The lab's reference standards (calibration table: frequency in Hz, sensitivity in
-mV/(m/s^2), relative expanded uncertainty, phase in degrees), the due-date rule a run meets
-before using one, and the list of sensors and reference standards due for calibration.
+mV/(m/s^2), relative expanded uncertainty stored as a fraction and given in percent, phase in
+degrees), the due-date rule a run meets before using one, the table a run takes from the
+records, the overrides entered in the audit trail, and the list of sensors and reference
+standards due for calibration.
 """
 
 from __future__ import annotations
 
+import json
 from collections.abc import Sequence
 from dataclasses import dataclass
-from datetime import date, timedelta
+from datetime import UTC, date, datetime, timedelta
 
 from sqlalchemy import or_, select
 from sqlalchemy.orm import joinedload
 
-from app.records.db.models import Customer, ReferencePoint, ReferenceStandard, Sensor
+from app.records.db.models import (
+    AuditEntry,
+    Customer,
+    ReferencePoint,
+    ReferenceStandard,
+    Sensor,
+)
 from app.records.db.store import RecordsError, Store, number_field, text_field
+from app.records.run_record import Override
+
+
+@dataclass(frozen=True)
+class ReferenceTable:
+    """A reference standard as a run takes it from the records: identity, certificate, dates
+    and its calibration table (Hz, mV/(m/s^2), relative expanded uncertainty as a fraction,
+    phase in degrees; phase None where the certificate states none)."""
+
+    identifier: str
+    model: str
+    serial: str
+    certificate_number: str
+    calibration_date: date
+    due_date: date
+    frequencies_hz: tuple[float, ...]
+    sensitivity_mv_per_ms2: tuple[float, ...]
+    relative_expanded_uncertainty: tuple[float, ...]
+    phase_deg: tuple[float | None, ...]
+
+    @classmethod
+    def of(cls, ref: ReferenceStandard) -> ReferenceTable:
+        """The table of a reference standard read with its points."""
+        points = sorted(ref.points, key=lambda p: p.frequency_hz)
+        return cls(
+            identifier=ref.identifier,
+            model=ref.model,
+            serial=ref.serial,
+            certificate_number=ref.certificate_number,
+            calibration_date=ref.calibration_date,
+            due_date=ref.due_date,
+            frequencies_hz=tuple(p.frequency_hz for p in points),
+            sensitivity_mv_per_ms2=tuple(p.sensitivity_mv_per_ms2 for p in points),
+            relative_expanded_uncertainty=tuple(p.relative_expanded_uncertainty for p in points),
+            phase_deg=tuple(p.phase_deg for p in points),
+        )
 
 
 def _points(table: Sequence[tuple[float, float, float, float | None]]) -> list[ReferencePoint]:
@@ -63,7 +108,8 @@ class ReferenceRecords(Store):
         table: Sequence[tuple[float, float, float, float | None]],
     ) -> ReferenceStandard:
         """A reference standard with its calibration table: rows of (frequency Hz,
-        sensitivity mV/(m/s^2), relative expanded uncertainty, phase deg or None)."""
+        sensitivity mV/(m/s^2), relative expanded uncertainty as a fraction (0.005 is 0.5 %),
+        phase deg or None; a run refuses a table with a phase on some rows only)."""
         identifier = text_field(identifier, "reference id", max_len=100)
         if due_date <= calibration_date:
             raise RecordsError(
@@ -158,6 +204,41 @@ class ReferenceRecords(Store):
                 "recalibrate it, or give an override reason (it is printed on the certificate)"
             )
         return ref
+
+    def reference_table(self, identifier: str, serial: str) -> ReferenceTable | None:
+        """The reference standard named `identifier`, else the one of serial `serial` (a
+        stand file's [reference] id and serial), with its table; None when neither is on
+        record. Two records of that serial and no identifier match: refused, naming both."""
+        with self.session() as s:
+            query = select(ReferenceStandard).options(joinedload(ReferenceStandard.points))
+            ref = s.scalar(query.where(ReferenceStandard.identifier == identifier))
+            if ref is None:
+                found = list(
+                    s.scalars(query.where(ReferenceStandard.serial == serial)).unique().all()
+                )
+                if len(found) > 1:
+                    names = ", ".join(sorted(r.identifier for r in found))
+                    raise RecordsError(
+                        f"reference: serial {serial!r} is on record twice ({names}); name one "
+                        f"by its id in the stand file's [reference] table"
+                    )
+                ref = found[0] if found else None
+            return None if ref is None else ReferenceTable.of(ref)
+
+    def record_override(self, override: Override, row_key: str) -> None:
+        """Enter `override` in the audit trail (action "override", table reference_standards,
+        the reference's id or serial as key): who, why, when and what was gone past."""
+        with self.session() as s:
+            s.add(
+                AuditEntry(
+                    at_utc=datetime.now(UTC),
+                    actor=override.who,
+                    action="override",
+                    table_name="reference_standards",
+                    row_key=text_field(row_key, "reference id", max_len=200),
+                    changes=json.dumps(override.to_dict(), sort_keys=True),
+                )
+            )
 
     # ---- due list ------------------------------------------------------------------------
     def due(self, *, today: date, days: int) -> list[DueItem]:

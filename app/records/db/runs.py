@@ -1,5 +1,6 @@
 """How a run uses the records: the DUT's settings from its sensor record (`run --sensor`), the
-reference standard's due date checked before anything moves, and the finished run indexed.
+reference standard's due date as the GUI shows it (a run's own rule: app.procedure.reference),
+and the finished run indexed.
 
 The run folder is the record: when the database cannot be reached after a run, the run is
 kept complete in its folder, the user is told, and the next `accelcal db import` indexes it.
@@ -71,29 +72,13 @@ def defaults_of(sensor: Any) -> SensorDefaults:
     )
 
 
-def check_reference_due(
-    reference_id: str, url: str | None, *, today: date, override_reason: str | None
-) -> str | None:
-    """Refuse (RecordsInputError) a run whose reference standard is on record and past its due
-    date, unless an override reason is given; returns a note to print (None when nothing to
-    say). A reference standard not on record is the stand file's business, and records that
-    cannot be reached do not stop a run: a note says so."""
-    from app.records.db.engine import DatabaseError, open_engine
-    from app.records.db.lab import Lab
-
-    try:
-        lab = Lab(open_engine(url))
-    except DatabaseError as exc:  # the run still records to its folder
-        return f"records not reachable, reference due date not checked: {exc}"
-    return reference_due_note(lab, reference_id, today=today, override_reason=override_reason)
-
-
 def reference_due_note(
     lab: Any, reference_id: str, *, today: date, override_reason: str | None
 ) -> str | None:
-    """`check_reference_due` on records already open (`app.records.db.lab.Lab`; the GUI's): the
-    records' rule (`Lab.reference_for_run`), RecordsInputError naming the due date when
-    refused, else a note (None when nothing to say)."""
+    """The reference standard's due date on records already open (`app.records.db.lab.Lab`; the
+    GUI's; a run's own rule is app.procedure.reference, through build_request): the records'
+    rule (`Lab.reference_for_run`), RecordsInputError naming the due date when refused, else a
+    note (None when nothing to say)."""
     from app.records.db.lab import RecordsError
 
     try:

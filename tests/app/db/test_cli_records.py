@@ -91,9 +91,9 @@ def test_a_lab_day_through_the_command_line(
     assert "serial: no sensor 'SN-0'" in _refused(["sensors", "show", "SN-0"], capsys)
 
     table = tmp_path / "ref.csv"
-    table.write_text(
-        "frequency_hz,sensitivity_mv_per_ms2,relative_expanded_uncertainty\n"
-        "160,0.125,0.005\n1000,0.126,0.006\n"
+    table.write_text(  # the uncertainty in percent (issue 24): 0.5 means 0.5 %
+        "frequency_hz,sensitivity_mv_per_ms2,relative_expanded_uncertainty_percent\n"
+        "160,0.125,0.5\n1000,0.126,0.6\n"
     )
     _ok(
         [

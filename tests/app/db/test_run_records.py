@@ -17,9 +17,32 @@ from app.records.run_folder import inspect_run
 RUN = ["run", "--sim", "--dut", "piezo", "--periods", "3", "--seed", "1"]
 
 
+def add_sim_reference(url: str, due: date) -> None:
+    """The simulated stand's reference standard (REF-8305-SIM, serial SIM-0001) on record,
+    due on `due`, with a flat table (the runs here only need it on record)."""
+    Lab(open_engine(url), actor="t").add_reference(
+        "REF-8305-SIM",
+        model="8305",
+        serial="SIM-0001",
+        certificate_number="SIM-CAL-2026-001",
+        calibration_date=date(2025, 6, 1),
+        due_date=due,
+        table=[(160.0, 1.0, 0.005, None)],
+    )
+
+
 @pytest.fixture
 def lab_url(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> str:
-    url = f"sqlite:///{tmp_path / 'lab.sqlite'}"
+    """A lab whose reference standard is on record and in date (issue 24: with records in
+    use, the stand's reference standard must be on record)."""
+    url = new_lab(tmp_path / "lab.sqlite", monkeypatch)
+    add_sim_reference(url, date(2099, 1, 1))
+    return url
+
+
+def new_lab(path: Path, monkeypatch: pytest.MonkeyPatch) -> str:
+    """A lab with customer ACME Ltd, model 4533-B and sensor SN-7; no reference standard."""
+    url = f"sqlite:///{path}"
     monkeypatch.delenv("ACCELCAL_DB", raising=False)
     lab = Lab(open_engine(url, create=True), actor="t")
     lab.add_customer("ACME Ltd")
@@ -50,7 +73,7 @@ def test_run_takes_the_dut_from_its_sensor_record_and_is_indexed(
     err = capsys.readouterr().err
     assert "sensor SN-7: Brüel & Kjær 4533-B, owner ACME Ltd" in err
     assert "records: run indexed" in err
-    assert "REF-8305-SIM is not in the records" in err
+    assert "reference standard REF-8305-SIM: certificate SIM-CAL-2026-001, due 2099-01-01" in err
     record = _record(out)
     assert record["dut"]["id"] == "SN-7"
     # 100 mV/g = 100 / 9.80665 mV/(m/s^2) = 10.19716 by hand
@@ -71,17 +94,10 @@ def test_an_unknown_sensor_is_refused_before_anything_moves(
 
 
 def test_an_expired_reference_standard_is_refused_unless_overridden(
-    lab_url: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    Lab(open_engine(lab_url), actor="t").add_reference(
-        "REF-8305-SIM",
-        model="8305",
-        serial="SIM-0001",
-        certificate_number="SIM-CAL-2026-001",
-        calibration_date=date(2025, 6, 1),
-        due_date=date(2026, 6, 1),
-        table=[(160.0, 1.0, 0.005, None)],
-    )
+    lab_url = new_lab(tmp_path / "expired.sqlite", monkeypatch)
+    add_sim_reference(lab_url, date(2026, 6, 1))
     out = tmp_path / "runs"
     assert main([*RUN, "--db", lab_url, "--out", str(out)]) == 2
     assert "REF-8305-SIM was due for calibration on 2026-06-01" in capsys.readouterr().err

@@ -3,7 +3,7 @@ its DCC's (nullable: rows entered before this revision have none). Written in th
 transaction, before the files take their final names (crash-safe issuance, issue 23 point 4).
 
 Revision ID: 0009
-Revises: 0006
+Revises: 0008
 Create Date: 2026-11-25
 """
 
