@@ -25,6 +25,7 @@ from app.records.db.lab import Lab
 from app.records.db.models import Certificate, Run, Sensor, Stand
 from app.records.seal import write_seal
 from tests.app.db.conftest import _postgres_database
+from tests.app.db.test_run_records import add_sim_reference
 
 
 def _sealed_folder(folder: Path, head: str | None) -> str:
@@ -411,6 +412,7 @@ def test_a_run_and_its_certificate_name_the_chain_head_and_db_verify_checks_them
         main(["sensors", "add", "SN-1", "--model", "352C33", "--owner", "ACME Ltd", "--db", url])
         == 0
     )
+    add_sim_reference(url, date(2099, 1, 1))  # with records, the stand's reference is on record
     engine = make_engine(resolve_url(url))
     head_before = quick_check(engine)
     runs = tmp_path / "runs"
