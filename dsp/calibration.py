@@ -24,6 +24,8 @@ import numpy as np
 
 from dsp import conformity
 from dsp import uncertainty as unc
+from dsp.annex_a import incomplete_budget_text, missing_components
+from dsp.budget_terms import reference_range
 from dsp.characteristic import deviation_expanded_percent
 from dsp.conformity import NOT_STATED as NOT_STATED  # re-exported for its callers
 from dsp.conformity import uncertainty_stated as uncertainty_stated
@@ -187,6 +189,11 @@ class Results:
     phase_corrected_for_skew: bool = True  # False: skew unknown, phase not stated
     verdict: str | None = None  # PASS, FAIL, INDETERMINATE (app.procedure.verdict); None: n/a
     verdict_reasons: tuple[str, ...] = field(default=())
+    # ISO 16063-21 Annex A components the stand's budget does not state (dsp.annex_a); a run
+    # with any is results for review only. Absent in results written before issue 25.
+    missing_components: tuple[str, ...] = field(default=())
+    # JCGM 101 validation per line and quantity (dsp.mcm.McmLine.to_dict), with --mcm only
+    mcm: tuple[dict[str, Any], ...] = field(default=())
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready nested dict (NaN and inf become None)."""
@@ -195,6 +202,10 @@ class Results:
         data["lines"] = [asdict(line) for line in self.lines]
         data["warnings"] = list(self.warnings)
         data["verdict_reasons"] = list(self.verdict_reasons)
+        data["missing_components"] = list(self.missing_components)
+        data["mcm"] = [dict(m) for m in self.mcm]
+        if not self.mcm:
+            del data["mcm"]  # results without --mcm keep their pre-issue-25 shape
         return _json_safe(data)
 
     @classmethod
@@ -217,6 +228,8 @@ class Results:
                 phase_corrected_for_skew=bool(data.get("phase_corrected_for_skew", True)),
                 verdict=data.get("verdict"),
                 verdict_reasons=tuple(data.get("verdict_reasons", ())),
+                missing_components=tuple(str(m) for m in data.get("missing_components", ())),
+                mcm=tuple(dict(m) for m in data.get("mcm", ())),
             )
         except (KeyError, TypeError) as exc:
             raise ValueError(f"results: missing or malformed field ({exc})") from None
@@ -317,11 +330,18 @@ def compute_results(
             f"uncertainty from {need} periods on, so no uncertainty is stated; acquire at "
             f"least {need} periods"
         )
+    # the procedure's own terms (hum) carry no Annex A kind: they never complete a budget
+    missing = missing_components(budget)
     if not budget.components:
         warnings.append(
             "no type B budget: the stated uncertainty is type A only (reference calibration, "
             "gains, mounting... are not included); give the stand's budget"
         )
+    elif missing:
+        warnings.append(incomplete_budget_text(missing))
+    if len(chain.frequencies_hz) > 1:  # a one-point (flat) reference is stated everywhere
+        span = reference_range(frequencies, chain.frequencies_hz, budget)
+        warnings.extend(span.messages(plan.nominal_frequencies_hz, *_span(chain)))
     lines = []
     for k, label in enumerate(labels):
         f = float(frequencies[k])
@@ -412,7 +432,13 @@ def compute_results(
         tolerance_percent=tolerance_percent,
         warnings=tuple(warnings),
         phase_corrected_for_skew=skew_known,
+        missing_components=tuple(missing),
     )
+
+
+def _span(chain: ReferenceChain) -> tuple[float, float]:
+    """The reference certificate's frequency range (Hz)."""
+    return chain.frequencies_hz[0], chain.frequencies_hz[-1]
 
 
 def _line_warnings(
@@ -434,6 +460,4 @@ def _line_warnings(
             f"line {label}: the DUT adds {100 * dut_d:.1f} % harmonic distortion "
             f"(reference {100 * ref_d:.1f} %)"
         )
-    if not chain.covers(frequency_hz):
-        out.append(f"line {label}: outside the reference certificate's range; extrapolated")
     return out
