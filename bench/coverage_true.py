@@ -25,8 +25,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from app.io.hdf5 import read_recording
 from app.procedure.analysis import analyze
-from app.stand import config as stand_config
 from app.procedure.simulate import simulate
+from app.stand import config as stand_config
 from dsp.annex_a import ComponentKind
 from dsp.mcm import validate_line
 from dsp.uncertainty import Budget, Quantity, combine
