@@ -175,6 +175,7 @@ class Plan:
             self.warnings,
         )
 
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready description (all numbers in the units their names carry)."""
         return {
