@@ -5,9 +5,10 @@ coverage of the stated interval at every line for both DUTs (target 93-97.5 %), 
 deliberately missing term (coverage must drop where it matters), and the GUM/MCM comparison
 (JCGM 101 clause 8) at the three worst lines.
 
-Run: python bench/coverage_true.py [RUNS] [--smoke] [--missing=KIND]   (default 400 runs per
-DUT, two processes; --smoke: 6 runs, 20000 Monte Carlo trials, to see that it works;
---missing: the dsp.annex_a kind left out of the second analysis, default transverse_motion)
+Run: python bench/coverage_true.py [RUNS] [--smoke] [--missing=KIND] [--dut=NAME]   (default
+400 runs per DUT, two processes; --smoke: 6 runs, 20000 Monte Carlo trials, to see that it
+works; --missing: the dsp.annex_a kind left out of the second analysis, default
+transverse_motion; --dut: one DUT of the catalogue only)
 """
 
 from __future__ import annotations
@@ -144,13 +145,20 @@ def report(dut: str, outcomes: list[dict[str, np.ndarray]], trials: int) -> None
     mcm_comparison(outcomes, worst, trials)
 
 
+def _duts_from_argv() -> tuple[str, ...]:
+    for a in sys.argv[1:]:
+        if a.startswith("--dut="):
+            return (a.split("=", 1)[1],)
+    return DUTS
+
+
 def main() -> None:
     smoke = "--smoke" in sys.argv
     args = [a for a in sys.argv[1:] if not a.startswith("--")]
     runs = 6 if smoke else int(args[0]) if args else 400
     trials = 20_000 if smoke else 1_000_000
     t0 = time.perf_counter()
-    for dut in DUTS:
+    for dut in _duts_from_argv():
         with ProcessPoolExecutor(max_workers=2) as pool:
             outcomes = list(pool.map(one_run, [(s, dut) for s in range(runs)], chunksize=4))
         report(dut, outcomes, trials)

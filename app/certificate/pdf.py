@@ -34,6 +34,7 @@ from app.certificate.info import CertificateInfo
 from app.certificate.load import StoredRun
 from app.certificate.pdf_charts import FONT, FONT_BOLD, GRID, chart
 from app.certificate.printed import NOT_STATED_SHORT, printed_lines
+from app.certificate.statements import mcm_statements, printed_warnings
 from app.records.run_record import RunRecord
 from app.records.seal import named_seal
 from app.records.sweep_summary import SweepSummary
@@ -272,6 +273,7 @@ def write_pdf(
     if sweep is not None:
         story += _sweep_section(sweep)
     story += _budget_section(run, results)
+    story += _warnings_and_mcm_section(results)
     story += _statements(results, info, p_percent)
     story += _sign_off(info, record)
     document = SimpleDocTemplate(
@@ -423,13 +425,14 @@ def _budget_section(run: StoredRun, results: Results) -> list[Any]:
             f"{2 * (results.periods - 1)}",
         ]
     )
-    for c in run.budget.at(line.frequency_hz, Quantity.MAGNITUDE):
+    f = line.frequency_hz
+    for c in run.budget.at(f, Quantity.MAGNITUDE):
         rows.append(
             [
                 Paragraph(_esc(c.name), SMALL),
-                f"{100 * c.value:.3g} %",
+                f"{100 * c.value * c.scale_at(f):.3g} %",  # the value at this line (its law)
                 str(c.distribution),
-                f"{100 * c.standard_uncertainty:.3g} %",
+                f"{100 * c.standard_uncertainty_at(f):.3g} %",
                 _dof(c.dof),
             ]
         )
@@ -460,6 +463,25 @@ def _budget_section(run: StoredRun, results: Results) -> list[Any]:
             ]
         )
     ]
+
+
+def _warnings_and_mcm_section(results: Results) -> list[Any]:
+    """Every warning that does not block the certificate, and the Monte Carlo interval of
+    each line whose GUM interval failed JCGM 101 clause 8 (app.certificate.statements)."""
+    out: list[Any] = []
+    warnings = printed_warnings(results)
+    if warnings:
+        out += [
+            Paragraph("Warnings", HEAD),
+            Paragraph("<br/>".join(f"• {_esc(w)}" for w in warnings), SMALL),
+        ]
+    mcm = mcm_statements(results)
+    if mcm:
+        out += [
+            Paragraph("Monte Carlo validation (JCGM 101)", HEAD),
+            Paragraph("<br/>".join(f"• {_esc(m)}" for m in mcm), SMALL),
+        ]
+    return out
 
 
 def _statements(results: Results, info: CertificateInfo, p_percent: str) -> list[Any]:

@@ -23,6 +23,12 @@ def cmd_analyze(args: argparse.Namespace) -> int:
     if args.csv is not None:  # refused before any work: onto an input, a run, an existing file
         output_target(args.csv, "--csv", (args.file, args.budget), args.overwrite)
         writable_folder(args.csv.parent, "--csv")
+    if args.mcm is not None and not 1000 <= args.mcm <= 10_000_000:
+        raise UsageError(f"--mcm: trials must be between 1000 and 10000000, got {args.mcm}")
+    if args.seed_rule:
+        from app.procedure.warnings import SEED_RULE_WARNING
+
+        print(f"accelcal analyze: warning: {SEED_RULE_WARNING}", file=sys.stderr)
     recording = load_recording(args)
     analysis = analyze(
         recording,
@@ -31,6 +37,7 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         probability=args.coverage,
         rule="seed" if args.seed_rule else "gum",
         tolerance_percent=args.tolerance,
+        mcm_trials=args.mcm,
     )
     results = analysis.results
     status = analysis.status or "unknown"  # a CSV recording carries no status
@@ -47,7 +54,16 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         print(json.dumps({"status": status, **results.to_dict(), **_reanalysed(args)}, indent=2))
     else:
         print_results(results, recording.source, analysis.status)
+        _print_mcm(results)
     return EXIT_OK
+
+
+def _print_mcm(results) -> None:
+    """The JCGM 101 comparison per line and quantity, when --mcm was given."""
+    from dsp.mcm import McmLine
+
+    for m in results.mcm:
+        print(McmLine(**m).summary())
 
 
 def _reanalysed(args: argparse.Namespace) -> dict:
