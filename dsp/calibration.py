@@ -26,7 +26,7 @@ from dsp import conformity
 from dsp import uncertainty as unc
 from dsp.annex_a import incomplete_budget_text, missing_components
 from dsp.budget_terms import reference_range
-from dsp.characteristic import deviation_expanded_percent
+from dsp.characteristic import ratio_uncertainty
 from dsp.conformity import NOT_STATED as NOT_STATED  # re-exported for its callers
 from dsp.conformity import uncertainty_stated as uncertainty_stated
 from dsp.errors import InputRefused
@@ -154,6 +154,9 @@ class LineResult:
     iso_limit: float | None
     iso_verdict: str
     tolerance_verdict: str | None = None
+    # U of deviation_percent, %, by dsp.characteristic's correlated model (common factors
+    # cancel, the reference line's type A added); NaN in results stored before issue 25
+    deviation_expanded_percent: float = math.nan
 
 
 @dataclass(frozen=True)
@@ -343,9 +346,11 @@ def compute_results(
         span = reference_range(frequencies, chain.frequencies_hz, budget)
         warnings.extend(span.messages(plan.nominal_frequencies_hz, *_span(chain)))
     lines = []
+    dofs = np.broadcast_to(np.asarray(estimate.dof, dtype=float), (len(labels),))
+    f0 = float(frequencies[ref_index])
     for k, label in enumerate(labels):
         f = float(frequencies[k])
-        dof = float(np.atleast_1d(estimate.dof)[k] if np.ndim(estimate.dof) else estimate.dof)
+        dof = float(dofs[k])
         mag = unc.combine(
             float(estimate.relative_type_a[k]),
             dof,
@@ -367,6 +372,22 @@ def compute_results(
             periods=estimate.periods,
         )
         deviation = sensitivity[k] / s0 - 1.0
+        if k == ref_index:  # dev = 0 by definition: stated with the line's own U_rel
+            u_deviation = 100.0 * mag.expanded
+        else:
+            ratio = ratio_uncertainty(
+                float(estimate.relative_type_a[k]),
+                dof,
+                float(estimate.relative_type_a[ref_index]),
+                float(dofs[ref_index]),
+                budget,
+                f,
+                f0,
+                probability=probability,
+                rule=rule,
+                periods=estimate.periods,
+            )
+            u_deviation = 100.0 * (1.0 + float(deviation)) * ratio.expanded
         verdict: str = unc.iso_verdict(f, mag.expanded)
         if verdict != unc.Verdict.NOT_APPLICABLE and not uncertainty_stated(mag.expanded):
             verdict = NOT_STATED  # no U: neither within nor over the ISO limit
@@ -374,9 +395,7 @@ def compute_results(
             None
             if tolerance_percent is None
             else conformity.decide(  # looked up here: one function, a test can replace it
-                100 * deviation,
-                deviation_expanded_percent(100 * deviation, mag.expanded),
-                tolerance_percent,
+                100 * deviation, u_deviation, tolerance_percent
             )
         )
         lines.append(
@@ -404,6 +423,7 @@ def compute_results(
                 iso_limit=unc.iso_16063_21_limit(f),
                 iso_verdict=str(verdict),
                 tolerance_verdict=tolerance,
+                deviation_expanded_percent=u_deviation,
             )
         )
         warnings.extend(_line_warnings(label, estimate, k, chain, f))

@@ -4,7 +4,7 @@ One place computes it; the procedure and the offline analysis call `with_verdict
 the GUI and the certificate only read `Results.verdict` and `Results.verdict_reasons`.
 
 Decision rule: dsp.conformity.decide, the one ILAC-G8 guarded acceptance (its wording there
-too); a deviation's U is dsp.characteristic's (1 + dev) * U_rel. Checks, against the DUT
+too); a deviation's U is dsp.characteristic's correlated model. Checks, against the DUT
 model's tolerances:
 sensitivity at the reference frequency against its nominal value, the amplitude characteristic
 per band (deviation from the reference frequency's sensitivity, %), and the phase per band
@@ -32,7 +32,7 @@ from app.stand.dut import Band, Tolerances
 from dsp import conformity
 from dsp import uncertainty as unc
 from dsp.calibration import LOW_COHERENCE, Results
-from dsp.characteristic import deviation_expanded_percent
+from dsp.characteristic import deviation_expanded_percent, line_deviation_expanded_percent
 from dsp.conformity import NOT_STATED, Outcome, Verdict
 from dsp.conformity import decide as decide  # the one ILAC-G8 function (dsp.conformity)
 
@@ -166,9 +166,7 @@ def assess(
                 continue  # the reference line's deviation is 0 by definition
             label = f"{ln.nominal_frequency_hz:g} Hz"
             if unit == "%":
-                u = deviation_expanded_percent(
-                    ln.deviation_percent, ln.relative_expanded_uncertainty
-                )
+                u = line_deviation_expanded_percent(ln)  # the correlated model
                 checked.append((conformity.decide(ln.deviation_percent, u, band.tolerance), label))
             elif not results.phase_corrected_for_skew:
                 checked.append((NOT_STATED, label))
