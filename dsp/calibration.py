@@ -343,8 +343,8 @@ def compute_results(
     elif missing:
         warnings.append(incomplete_budget_text(missing))
     if len(chain.frequencies_hz) > 1:  # a one-point (flat) reference is stated everywhere
-        span = reference_range(frequencies, chain.frequencies_hz, budget)
-        warnings.extend(span.messages(plan.nominal_frequencies_hz, *_span(chain)))
+        span = reference_range(frequencies.tolist(), chain.frequencies_hz, budget)
+        warnings.extend(span.messages(list(plan.nominal_frequencies_hz), *_span(chain)))
     lines = []
     dofs = np.broadcast_to(np.asarray(estimate.dof, dtype=float), (len(labels),))
     f0 = float(frequencies[ref_index])

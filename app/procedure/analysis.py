@@ -116,7 +116,7 @@ def with_mcm(
     if not 1000 <= trials <= 10_000_000:
         raise ValueError(f"--mcm: trials must be between 1000 and 10000000, got {trials}")
     frequencies = [ln.frequency_hz for ln in results.lines]
-    dof = np.broadcast_to(np.asarray(estimate.dof, dtype=float), (len(frequencies),))
+    dof = np.broadcast_to(np.asarray(estimate.dof, dtype=float), (len(frequencies),)).tolist()
     found = []
     for quantity, type_a in (
         (Quantity.MAGNITUDE, [ln.relative_type_a for ln in results.lines]),
