@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import re
 from importlib import resources
 from pathlib import Path
@@ -146,3 +147,47 @@ def _full_budget(recording):
     from app.stand import config as stand_config
 
     return stand_config.load().budget
+
+
+def test_a_line_outside_the_reference_certificate_is_refused_unless_a_term_carries_it(
+    recording,
+) -> None:
+    """Point 3: outside the reference's calibrated range the line is refused (blocking) by
+    default; a stated 'reference_extrapolation' term (magnitude and phase) carries it."""
+    from dsp.annex_a import ComponentKind
+    from dsp.calibration import ReferenceChain
+    from dsp.uncertainty import Budget, Component, Quantity
+
+    estimate = analyze(recording).estimate
+    s = recording.chain.sensitivity_at(np.array([160.0]))[0][0]
+    chain = dataclasses.replace(
+        ReferenceChain((20.0, 160.0, 5000.0), (s, s, s), (0.0, 0.0, 0.0)),
+        reference_gain=recording.chain.reference_gain,
+        dut_gain=recording.chain.dut_gain,
+        skew_s=recording.chain.skew_s,
+    )
+    budget = _full_budget(recording)
+    plain = compute_results(estimate, recording.plan, chain, budget, tolerance_percent=5.0)
+    outside = [w for w in plain.warnings if "outside the reference certificate" in w]
+    assert [w.split(":")[0] for w in outside] == ["line 10 Hz", "line 12.5 Hz", "line 16 Hz"]
+    assert all(": refused" in w for w in outside)
+    assert with_verdict(plain, _tolerance_5()).verdict == "INDETERMINATE"
+    terms = tuple(
+        Component(
+            f"reference extrapolation below 20 Hz ({q.value})",
+            0.01 if q is Quantity.MAGNITUDE else 1.0,
+            quantity=q,
+            kind=(ComponentKind.REFERENCE_EXTRAPOLATION,),
+            max_frequency_hz=19.9,
+        )
+        for q in (Quantity.MAGNITUDE, Quantity.PHASE)
+    )
+    carried = compute_results(
+        estimate, recording.plan, chain, Budget((*budget.components, *terms)), tolerance_percent=5.0
+    )
+    texts = [w for w in carried.warnings if "outside the reference certificate" in w]
+    assert len(texts) == 3 and all("stated extrapolation term" in w for w in texts)
+    assert with_verdict(carried, _tolerance_5()).verdict == "PASS"
+    assert all(w in printed_warnings(carried) for w in texts)
+    wider = carried.lines[0].relative_type_b
+    assert wider == pytest.approx(math.hypot(plain.lines[0].relative_type_b, 0.01 / math.sqrt(3)))
