@@ -23,8 +23,6 @@ def cmd_analyze(args: argparse.Namespace) -> int:
     if args.csv is not None:  # refused before any work: onto an input, a run, an existing file
         output_target(args.csv, "--csv", (args.file, args.budget), args.overwrite)
         writable_folder(args.csv.parent, "--csv")
-    if args.mcm is not None and not 1000 <= args.mcm <= 10_000_000:
-        raise UsageError(f"--mcm: trials must be between 1000 and 10000000, got {args.mcm}")
     if args.seed_rule:
         from app.procedure.warnings import SEED_RULE_WARNING
 

@@ -28,6 +28,7 @@ from app.cli.options import (
     SKEW,
     TEMPERATURE,
     TOLERANCE,
+    Bounded,
     dut_name,
     numeric_option,
 )
@@ -39,6 +40,8 @@ from dsp.estimators import DEFAULT_ESTIMATOR, ESTIMATORS
 from dsp.multisine import PRESETS
 
 RECORDS_COMMANDS: dict[str, Handler] = {}  # filled by build_parser (app.cli.records)
+
+MCM_TRIALS = Bounded(int, 1000, 10_000_000, unit="trials")  # JCGM 101 7.2: 10^6 for 95 %
 
 
 class _Parser(argparse.ArgumentParser):
@@ -111,15 +114,15 @@ def build_parser() -> argparse.ArgumentParser:
         help="the seed's coverage factor rule k = t(L-1), kept to reproduce the paper; not GUM "
         "(it ignores the type B degrees of freedom): the results are for review only",
     )
-    a.add_argument(
+    numeric_option(
+        a,
         "--mcm",
-        type=int,
+        MCM_TRIALS,
+        "validate each line's GUM interval by JCGM 101 Monte Carlo (alone: 10^6 trials); "
+        "stored per line, the Monte Carlo interval stated where clause 8 fails",
         nargs="?",
         const=1_000_000,
         default=None,
-        metavar="TRIALS",
-        help="validate each line's GUM interval by JCGM 101 Monte Carlo (default 10^6 trials); "
-        "stored per line, the Monte Carlo interval stated where clause 8 fails",
     )
     numeric_option(a, "--tolerance", TOLERANCE, "DUT tolerance of the characteristic, %%")
     a.add_argument("--json", action="store_true", help="results as JSON")
