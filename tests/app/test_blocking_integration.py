@@ -191,3 +191,20 @@ def test_a_line_outside_the_reference_certificate_is_refused_unless_a_term_carri
     assert all(w in printed_warnings(carried) for w in texts)
     wider = carried.lines[0].relative_type_b
     assert wider == pytest.approx(math.hypot(plain.lines[0].relative_type_b, 0.01 / math.sqrt(3)))
+
+
+def test_a_run_refused_mid_way_exits_2_and_a_stopped_one_3() -> None:
+    """Point 7: the stored-response refusal ("refused before it is played ... predicted
+    displacement", a PreflightError inside the run) is bad input to the stand: exit 2."""
+    from app.cli.run import exit_of_aborted
+    from app.procedure.errors import REFUSED_BEFORE
+
+    reason = (
+        f"{REFUSED_BEFORE}stored stand response off by 70 % at its check: its drive at level "
+        "would give a predicted displacement of 17.70 mm p-p (...): refused before it is played"
+    )
+    assert exit_of_aborted(reason) == 2
+    assert exit_of_aborted("emergency stop") == 3
+    assert exit_of_aborted("interrupted (Ctrl-C)") == 3
+    assert exit_of_aborted(None) == 3
+    assert exit_of_aborted(f"the recording ended: {REFUSED_BEFORE}") == 3  # a prefix, not a find
