@@ -34,7 +34,7 @@ from app.certificate.info import CertificateInfo
 from app.certificate.load import StoredRun
 from app.certificate.pdf_charts import FONT, FONT_BOLD, GRID, chart
 from app.certificate.printed import NOT_STATED_SHORT, printed_lines
-from app.certificate.statements import mcm_statements, printed_warnings
+from app.certificate.statements import warnings_section
 from app.records.run_record import RunRecord
 from app.records.seal import named_seal
 from app.records.sweep_summary import SweepSummary
@@ -273,7 +273,7 @@ def write_pdf(
     if sweep is not None:
         story += _sweep_section(sweep)
     story += _budget_section(run, results)
-    story += _warnings_and_mcm_section(results)
+    story += warnings_section(results, HEAD, SMALL)
     story += _statements(results, info, p_percent)
     story += _sign_off(info, record)
     document = SimpleDocTemplate(
@@ -463,25 +463,6 @@ def _budget_section(run: StoredRun, results: Results) -> list[Any]:
             ]
         )
     ]
-
-
-def _warnings_and_mcm_section(results: Results) -> list[Any]:
-    """Every warning that does not block the certificate, and the Monte Carlo interval of
-    each line whose GUM interval failed JCGM 101 clause 8 (app.certificate.statements)."""
-    out: list[Any] = []
-    warnings = printed_warnings(results)
-    if warnings:
-        out += [
-            Paragraph("Warnings", HEAD),
-            Paragraph("<br/>".join(f"• {_esc(w)}" for w in warnings), SMALL),
-        ]
-    mcm = mcm_statements(results)
-    if mcm:
-        out += [
-            Paragraph("Monte Carlo validation (JCGM 101)", HEAD),
-            Paragraph("<br/>".join(f"• {_esc(m)}" for m in mcm), SMALL),
-        ]
-    return out
 
 
 def _statements(results: Results, info: CertificateInfo, p_percent: str) -> list[Any]:

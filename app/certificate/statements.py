@@ -7,11 +7,16 @@ degrees.
 
 from __future__ import annotations
 
+from typing import Any
+
+from reportlab.lib.styles import ParagraphStyle
+from reportlab.platypus import Paragraph
+
 from app.procedure.verdict import run_warnings
 from app.procedure.warnings import printed
 from dsp.calibration import Results
 
-__all__ = ["mcm_statements", "printed_warnings"]
+__all__ = ["mcm_statements", "printed_warnings", "warnings_section"]
 
 
 def printed_warnings(results: Results) -> list[str]:
@@ -41,3 +46,23 @@ def mcm_statements(results: Results) -> list[str]:
             "stated value"
         )
     return out
+
+
+def warnings_section(results: Results, head: ParagraphStyle, body: ParagraphStyle) -> list[Any]:
+    """The PDF's "Warnings" and "Monte Carlo validation (JCGM 101)" sections (none when there
+    is nothing to state), in the certificate's heading and body styles."""
+    out: list[Any] = []
+    for title, items in (
+        ("Warnings", printed_warnings(results)),
+        ("Monte Carlo validation (JCGM 101)", mcm_statements(results)),
+    ):
+        if items:
+            out += [
+                Paragraph(title, head),
+                Paragraph("<br/>".join(f"• {_esc(item)}" for item in items), body),
+            ]
+    return out
+
+
+def _esc(words: str) -> str:
+    return words.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")

@@ -208,3 +208,46 @@ def test_a_run_refused_mid_way_exits_2_and_a_stopped_one_3() -> None:
     assert exit_of_aborted("interrupted (Ctrl-C)") == 3
     assert exit_of_aborted(None) == 3
     assert exit_of_aborted(f"the recording ended: {REFUSED_BEFORE}") == 3  # a prefix, not a find
+
+
+def test_the_certificate_prints_every_warning_that_does_not_block(complete_run, tmp_path) -> None:
+    """Point 2 and 5: whatever does not block is printed on the certificate, each once, and a
+    line that failed JCGM 101 clause 8 gets its Monte Carlo interval (drawn from a stored run
+    with two such entries put into its results in memory)."""
+    from pypdf import PdfReader
+
+    from app.certificate import CertificateInfo
+    from app.certificate.load import load_stored_run
+    from app.certificate.pdf import write_pdf
+
+    run = load_stored_run(complete_run)
+    hum = "line 50 Hz: mains hum at 50 Hz: 0.2 % of the line, measured in 2 drive-off periods"
+    other = "a warning of no known kind"
+    mcm = {
+        "frequency_hz": 1000.0,
+        "quantity": "magnitude",
+        "trials": 1000000,
+        "probability": 0.9545,
+        "low": -0.0113,
+        "high": 0.0114,
+        "gum_high": 0.0107,
+        "validated": False,
+    }
+    results = dataclasses.replace(
+        run.results, warnings=(*run.results.warnings, hum, other, hum), mcm=(mcm,)
+    )
+    assert printed_warnings(results)[-2:] == [hum, other]  # each once
+    info = CertificateInfo(
+        customer="ACME Ltd",
+        authorised_by="J. Smith",
+        temperature_c=23.0,
+        mounting="stud",
+        certificate_number="T-1",
+    )
+    pdf = tmp_path / "c.pdf"
+    write_pdf(dataclasses.replace(run, results=results), info, None, pdf)
+    text = " ".join(" ".join(p.extract_text() for p in PdfReader(pdf).pages).split())
+    assert "Warnings" in text and hum in text and other in text
+    assert text.count("mains hum at 50 Hz: 0.2 %") == 1
+    assert "Monte Carlo validation (JCGM 101)" in text
+    assert "[-1.13, +1.14] %" in text and "±1.07 %" in text
