@@ -19,6 +19,7 @@ __all__ = [
     "ANNEX_A",
     "ComponentKind",
     "Required",
+    "incomplete_budget_text",
     "missing_components",
 ]
 
@@ -111,3 +112,10 @@ def missing_components(budget: _HasComponents) -> list[str]:
 
 def _stated(components: Iterable[_Tagged]) -> set[tuple[ComponentKind, str]]:
     return {(k, str(c.quantity)) for c in components for k in c.kind}
+
+
+def incomplete_budget_text(missing: Iterable[str]) -> str:
+    """The one wording of the blocking "incomplete budget" warning (app.procedure.warnings
+    classifies it by its start)."""
+    names = "; ".join(missing)
+    return f"incomplete budget: results for review only; the stand's budget does not state {names}"

@@ -24,7 +24,9 @@ import numpy as np
 
 from dsp import conformity
 from dsp import uncertainty as unc
-from dsp.characteristic import deviation_expanded_percent
+from dsp.annex_a import incomplete_budget_text, missing_components
+from dsp.budget_terms import reference_range
+from dsp.characteristic import ratio_uncertainty
 from dsp.conformity import NOT_STATED as NOT_STATED  # re-exported for its callers
 from dsp.conformity import uncertainty_stated as uncertainty_stated
 from dsp.errors import InputRefused
@@ -152,6 +154,9 @@ class LineResult:
     iso_limit: float | None
     iso_verdict: str
     tolerance_verdict: str | None = None
+    # U of deviation_percent, %, by dsp.characteristic's correlated model (common factors
+    # cancel, the reference line's type A added); NaN in results stored before issue 25
+    deviation_expanded_percent: float = math.nan
 
 
 @dataclass(frozen=True)
@@ -187,6 +192,11 @@ class Results:
     phase_corrected_for_skew: bool = True  # False: skew unknown, phase not stated
     verdict: str | None = None  # PASS, FAIL, INDETERMINATE (app.procedure.verdict); None: n/a
     verdict_reasons: tuple[str, ...] = field(default=())
+    # ISO 16063-21 Annex A components the stand's budget does not state (dsp.annex_a); a run
+    # with any is results for review only. Absent in results written before issue 25.
+    missing_components: tuple[str, ...] = field(default=())
+    # JCGM 101 validation per line and quantity (dsp.mcm.McmLine.to_dict), with --mcm only
+    mcm: tuple[dict[str, Any], ...] = field(default=())
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready nested dict (NaN and inf become None)."""
@@ -195,6 +205,10 @@ class Results:
         data["lines"] = [asdict(line) for line in self.lines]
         data["warnings"] = list(self.warnings)
         data["verdict_reasons"] = list(self.verdict_reasons)
+        data["missing_components"] = list(self.missing_components)
+        data["mcm"] = [dict(m) for m in self.mcm]
+        if not self.mcm:
+            del data["mcm"]  # results without --mcm keep their pre-issue-25 shape
         return _json_safe(data)
 
     @classmethod
@@ -217,6 +231,8 @@ class Results:
                 phase_corrected_for_skew=bool(data.get("phase_corrected_for_skew", True)),
                 verdict=data.get("verdict"),
                 verdict_reasons=tuple(data.get("verdict_reasons", ())),
+                missing_components=tuple(str(m) for m in data.get("missing_components", ())),
+                mcm=tuple(dict(m) for m in data.get("mcm", ())),
             )
         except (KeyError, TypeError) as exc:
             raise ValueError(f"results: missing or malformed field ({exc})") from None
@@ -317,15 +333,24 @@ def compute_results(
             f"uncertainty from {need} periods on, so no uncertainty is stated; acquire at "
             f"least {need} periods"
         )
+    # the procedure's own terms (hum) carry no Annex A kind: they never complete a budget
+    missing = missing_components(budget)
     if not budget.components:
         warnings.append(
             "no type B budget: the stated uncertainty is type A only (reference calibration, "
             "gains, mounting... are not included); give the stand's budget"
         )
+    elif missing:
+        warnings.append(incomplete_budget_text(missing))
+    if len(chain.frequencies_hz) > 1:  # a one-point (flat) reference is stated everywhere
+        span = reference_range(frequencies.tolist(), chain.frequencies_hz, budget)
+        warnings.extend(span.messages(list(plan.nominal_frequencies_hz), *_span(chain)))
     lines = []
+    dofs = np.broadcast_to(np.asarray(estimate.dof, dtype=float), (len(labels),))
+    f0 = float(frequencies[ref_index])
     for k, label in enumerate(labels):
         f = float(frequencies[k])
-        dof = float(np.atleast_1d(estimate.dof)[k] if np.ndim(estimate.dof) else estimate.dof)
+        dof = float(dofs[k])
         mag = unc.combine(
             float(estimate.relative_type_a[k]),
             dof,
@@ -347,6 +372,22 @@ def compute_results(
             periods=estimate.periods,
         )
         deviation = sensitivity[k] / s0 - 1.0
+        if k == ref_index:  # dev = 0 by definition: stated with the line's own U_rel
+            u_deviation = 100.0 * mag.expanded
+        else:
+            ratio = ratio_uncertainty(
+                float(estimate.relative_type_a[k]),
+                dof,
+                float(estimate.relative_type_a[ref_index]),
+                float(dofs[ref_index]),
+                budget,
+                f,
+                f0,
+                probability=probability,
+                rule=rule,
+                periods=estimate.periods,
+            )
+            u_deviation = 100.0 * (1.0 + float(deviation)) * ratio.expanded
         verdict: str = unc.iso_verdict(f, mag.expanded)
         if verdict != unc.Verdict.NOT_APPLICABLE and not uncertainty_stated(mag.expanded):
             verdict = NOT_STATED  # no U: neither within nor over the ISO limit
@@ -354,9 +395,7 @@ def compute_results(
             None
             if tolerance_percent is None
             else conformity.decide(  # looked up here: one function, a test can replace it
-                100 * deviation,
-                deviation_expanded_percent(100 * deviation, mag.expanded),
-                tolerance_percent,
+                100 * deviation, u_deviation, tolerance_percent
             )
         )
         lines.append(
@@ -384,6 +423,7 @@ def compute_results(
                 iso_limit=unc.iso_16063_21_limit(f),
                 iso_verdict=str(verdict),
                 tolerance_verdict=tolerance,
+                deviation_expanded_percent=u_deviation,
             )
         )
         warnings.extend(_line_warnings(label, estimate, k, chain, f))
@@ -412,7 +452,13 @@ def compute_results(
         tolerance_percent=tolerance_percent,
         warnings=tuple(warnings),
         phase_corrected_for_skew=skew_known,
+        missing_components=tuple(missing),
     )
+
+
+def _span(chain: ReferenceChain) -> tuple[float, float]:
+    """The reference certificate's frequency range (Hz)."""
+    return chain.frequencies_hz[0], chain.frequencies_hz[-1]
 
 
 def _line_warnings(
@@ -434,6 +480,4 @@ def _line_warnings(
             f"line {label}: the DUT adds {100 * dut_d:.1f} % harmonic distortion "
             f"(reference {100 * ref_d:.1f} %)"
         )
-    if not chain.covers(frequency_hz):
-        out.append(f"line {label}: outside the reference certificate's range; extrapolated")
     return out

@@ -2,10 +2,21 @@
 value at the reference frequency (%) with its expanded uncertainty (%), and the phase (degree)
 with its expanded uncertainty (degree). The one answer the GUI, the certificate and the DCC show.
 
-SPEC.md section 8 states the characteristic as S(f)/S(f_ref). With dev = S/S_ref - 1 and S_ref
-treated as exact (its own uncertainty is the reference line's, stated at the reference
-frequency), the GUM law of propagation (JCGM 100:2008, 5.1.2) gives
-u(dev) = u(S)/S_ref = u_rel(S) * S/S_ref = (1 + dev) * u_rel(S); so U(dev) = (1 + dev) * U_rel(S).
+SPEC.md section 8 states the characteristic as S(f)/S(f_ref), dev = S/S_ref - 1. Its
+uncertainty is the correlated model (issue 25 point 4; JCGM 100:2008 5.2): S(f) and S(f_ref)
+share every factor common to both lines, and a common factor cancels in the ratio: the
+reference standard's calibration at the reference frequency, the conditioning amplifier gains,
+the DAQ gains and the temperature coefficient (COMMON_KINDS; only a component that applies at
+both lines with a constant law is common). What stays: the type A of the line and the type A
+of the reference line (added: the periodic estimators' noise is independent from bin to bin,
+the lines on different bins, so the two are uncorrelated), and every other component at the
+line (reference frequency dependence, linearity, mounting, transverse motion, residual
+effects, hum), carried at its value at f as a bound (a cause acting on both lines alike
+partly cancels; stated at f it is not understated). Relative standard uncertainty of the ratio
+u_r, nu_eff by Welch-Satterthwaite, k as the line's rule; U(dev) = (1 + dev) * k * u_r in %.
+At the reference line dev = 0 by definition; its U(dev) is stated as that line's own U_rel(S)
+(the uncertainty of the point everything is referred to). `deviation_expanded_percent`
+(U(dev) = (1 + dev) * U_rel(S)) remains for results stored before issue 25.
 """
 
 from __future__ import annotations
@@ -16,8 +27,84 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from dsp.annex_a import ComponentKind
+from dsp.uncertainty import Budget, Combined, Component, Distribution, Law, Quantity, combine
+
 if TYPE_CHECKING:
-    from dsp.calibration import Results
+    from dsp.calibration import LineResult, Results
+
+# the factors S(f) and S(f_ref) share: they cancel in the ratio
+COMMON_KINDS = frozenset(
+    {
+        ComponentKind.REFERENCE_CALIBRATION,
+        ComponentKind.AMPLIFIER_GAIN,
+        ComponentKind.DAQ_GAIN,
+        ComponentKind.TEMPERATURE,
+    }
+)
+REFERENCE_LINE_TYPE_A = "type A of the reference line"
+
+
+def is_common(component: Component, frequency_hz: float, reference_hz: float) -> bool:
+    """Whether `component` is one factor of both S(f) and S(f_ref) (it cancels in dev)."""
+    return (
+        bool(component.kind)
+        and all(k in COMMON_KINDS for k in component.kind)
+        and component.law is Law.CONSTANT
+        and component.applies_at(frequency_hz)
+        and component.applies_at(reference_hz)
+    )
+
+
+def ratio_uncertainty(
+    type_a: float,
+    type_a_dof: float,
+    reference_type_a: float,
+    reference_type_a_dof: float,
+    budget: Budget,
+    frequency_hz: float,
+    reference_hz: float,
+    *,
+    probability: float = 0.9545,
+    rule: str = "gum",
+    periods: int | None = None,
+) -> Combined:
+    """The relative uncertainty of S(f)/S(f_ref) by the correlated model (module docstring):
+    type A at f (relative) with the reference line's type A as one more input, the budget's
+    magnitude components at f except the common ones. Relative (fraction)."""
+    kept = [
+        c
+        for c in budget.at(frequency_hz, Quantity.MAGNITUDE)
+        if not is_common(c, frequency_hz, reference_hz)
+    ]
+    if math.isfinite(reference_type_a) and reference_type_a > 0:
+        kept.append(
+            Component(
+                REFERENCE_LINE_TYPE_A,
+                float(reference_type_a),
+                Distribution.STANDARD,
+                dof=float(reference_type_a_dof),
+            )
+        )
+    return combine(
+        type_a,
+        type_a_dof,
+        Budget(tuple(kept)),
+        frequency_hz,
+        Quantity.MAGNITUDE,
+        probability=probability,
+        rule=rule,
+        periods=periods,
+    )
+
+
+def line_deviation_expanded_percent(line: LineResult) -> float:
+    """U of a line's deviation in %: the stored correlated-model value, or for results stored
+    before issue 25 (NaN there) (1 + dev) * U_rel(S)."""
+    stored = line.deviation_expanded_percent
+    if math.isfinite(stored):
+        return stored
+    return deviation_expanded_percent(line.deviation_percent, line.relative_expanded_uncertainty)
 
 
 def deviation_expanded_percent(deviation_percent: float, relative_expanded: float) -> float:
@@ -48,11 +135,7 @@ def characteristic(results: Results) -> Characteristic:
         frequency_hz=np.array([ln.frequency_hz for ln in lines], dtype=float),
         deviation_percent=deviation,
         deviation_expanded_percent=np.array(
-            [
-                deviation_expanded_percent(d, ln.relative_expanded_uncertainty)
-                for d, ln in zip(deviation, lines, strict=True)
-            ],
-            dtype=float,
+            [line_deviation_expanded_percent(ln) for ln in lines], dtype=float
         ),
         phase_deg=np.array([ln.phase_deg for ln in lines], dtype=float),
         phase_expanded_deg=np.array(

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from dsp.budget_terms import skew_phase_component
 from dsp.uncertainty import Budget, Component, Distribution
 
 TARGETS = (
@@ -42,6 +43,9 @@ class SimBudget:
         except tomllib.TOMLDecodeError as exc:
             raise ValueError(f"{source}: {exc}") from None
         budget = Budget.from_list(data.get("component", []))
+        tolerance = data.get("daq", {}).get("skew_tolerance_s")
+        if tolerance is not None:  # as app.stand.config reads it: the phase term 360 f tau
+            budget = Budget((*budget.components, skew_phase_component(tolerance)))
         names = {c.name for c in budget.components}
         targets = dict(data.get("simulation", {}))
         for name, target in targets.items():

@@ -2,7 +2,10 @@
 record, results, budget and config.json as a RunStart) and, optionally, its sweep summary.
 
 Nothing is recomputed; a run that does not verify or did not complete is refused by
-CertificateError saying why.
+CertificateError saying why, and so is one whose stored budget does not state the ISO 16063-21
+Annex A components or whose results carry a warning that blocks the certificate
+(app.procedure.warnings; issue 25 points 1 and 2): checked from the sealed budget and results,
+not from the stored verdict.
 """
 
 from __future__ import annotations
@@ -12,11 +15,14 @@ from pathlib import Path
 
 from app.certificate.info import CertificateError
 from app.io.checks import MAX_TEXT_BYTES, InputFileError, check_input_file
+from app.procedure.verdict import run_warnings
+from app.procedure.warnings import blocking
 from app.records.run_folder import STATUS_COMPLETE, load_run
 from app.records.run_record import RunRecord
 from app.records.run_start import RunStart, RunStartError
 from app.records.seal import named_seal
 from app.records.sweep_summary import SweepSummary, SweepSummaryError
+from dsp.annex_a import missing_components
 from dsp.calibration import Results
 from dsp.uncertainty import Budget
 
@@ -50,8 +56,33 @@ def load_stored_run(path: str | Path) -> StoredRun:
         start = RunStart.read(path)
     except RunStartError as exc:
         raise CertificateError(str(exc)) from None
-    budget = Budget.from_list(list(record.budget))
-    return StoredRun(path, record, start, Results.from_dict(dict(record.results)), budget)
+    try:
+        budget = Budget.from_list(list(record.budget))
+        results = Results.from_dict(dict(record.results))
+    except ValueError as exc:
+        raise CertificateError(f"{path}: {exc}") from None
+    run = StoredRun(path, record, start, results, budget)
+    check_certifiable(run)
+    return run
+
+
+def check_certifiable(run: StoredRun) -> None:
+    """CertificateError when the run's budget lacks ISO 16063-21 Annex A components (named) or
+    a warning of the run blocks the certificate (each named): results for review only."""
+    missing = missing_components(run.budget)
+    if missing:
+        raise CertificateError(
+            f"{run.path}: no certificate: the run's budget does not state the ISO 16063-21 "
+            f"Annex A component(s) {'; '.join(missing)}; the run is results for review only "
+            "(state them in the stand file's [[component]] entries with their kind)"
+        )
+    blocked = blocking(run_warnings(run.results))
+    if blocked:
+        reasons = "; ".join(f"{w.kind.value}: {w.text}" for w in blocked)
+        raise CertificateError(
+            f"{run.path}: no certificate: {reasons} (results for review only; the blocking "
+            "warnings are listed in docs/validation.md)"
+        )
 
 
 def load_sweep(path: str | Path, run: StoredRun) -> SweepSummary:

@@ -40,6 +40,7 @@ from app.certificate.load import StoredRun
 from app.certificate.pdf_charts import FONT, FONT_BOLD, GRID, chart
 from app.certificate.pdf_page import numbered_canvas
 from app.certificate.printed import NOT_STATED_SHORT, printed_lines
+from app.certificate.statements import warnings_section
 from app.records.db.units import STANDARD_GRAVITY_MS2
 from app.records.run_record import RunRecord
 from app.records.seal import named_chain_head, named_seal
@@ -218,6 +219,7 @@ def write_pdf(
     if sweep is not None:
         story += _sweep_section(sweep)
     story += _budget_section(run, results)
+    story += warnings_section(results, HEAD, SMALL)
     story += _statements(results, info, p_percent)
     story += _overrides_section(record)
     story += validation_statement()
@@ -419,13 +421,14 @@ def _budget_section(run: StoredRun, results: Results) -> list[Any]:
             f"{2 * (results.periods - 1)}",
         ]
     )
-    for c in run.budget.at(line.frequency_hz, Quantity.MAGNITUDE):
+    f = line.frequency_hz
+    for c in run.budget.at(f, Quantity.MAGNITUDE):
         rows.append(
             [
                 Paragraph(_esc(c.name), SMALL),
-                f"{100 * c.value:.3g} %",
+                f"{100 * c.value * c.scale_at(f):.3g} %",  # the value at this line (its law)
                 str(c.distribution),
-                f"{100 * c.standard_uncertainty:.3g} %",
+                f"{100 * c.standard_uncertainty_at(f):.3g} %",
                 _dof(c.dof),
             ]
         )

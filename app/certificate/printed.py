@@ -4,7 +4,7 @@ their names) and their printed strings, rounded once, here, for the PDF's table,
 
 Rounding: a value with its expanded uncertainty per GUM 7.2.6 (app.formatting.round_gum: U to
 two significant digits, the value to the same decimal place); the deviation and its U from
-dsp.characteristic (U(dev) = (1 + dev) * U_rel(S)).
+dsp.characteristic (the correlated model: common factors cancel).
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 from app import formatting as fmt
 from dsp.calibration import LineResult, Results
-from dsp.characteristic import deviation_expanded_percent
+from dsp.characteristic import line_deviation_expanded_percent
 from dsp.conformity import NOT_STATED
 
 NOT_STATED_SHORT = "n/s"
@@ -64,7 +64,7 @@ def printed_line(ln: LineResult) -> PrintedLine:
     """The printed form of one line of dsp.calibration.Results."""
     s, u = fmt.round_gum(ln.sensitivity_mv_per_ms2, ln.expanded_uncertainty_mv_per_ms2)
     ph, u_ph = fmt.round_gum(ln.phase_deg, ln.phase_expanded_uncertainty_deg)
-    u_dev = deviation_expanded_percent(ln.deviation_percent, ln.relative_expanded_uncertainty)
+    u_dev = line_deviation_expanded_percent(ln)
     dev, u_dev_text = round_signed(ln.deviation_percent, u_dev)
     rel = 100 * ln.relative_expanded_uncertainty
     return PrintedLine(

@@ -28,6 +28,10 @@ def cmd_analyze(args: argparse.Namespace) -> int:
     if args.csv is not None:  # refused before any work: onto an input, a run, an existing file
         output_target(args.csv, "--csv", (args.file, args.budget), args.overwrite)
         writable_folder(args.csv.parent, "--csv")
+    if args.seed_rule:
+        from app.procedure.warnings import SEED_RULE_WARNING
+
+        print(f"accelcal analyze: warning: {SEED_RULE_WARNING}", file=sys.stderr)
     recording = load_recording(args)
     if not recording.budget.components:  # a CSV or TDMS without --budget (or an empty one)
         print(f"accelcal analyze: warning: {NO_BUDGET_WARNING}", file=sys.stderr)
@@ -38,6 +42,7 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         probability=args.coverage,
         rule="seed" if args.seed_rule else "gum",
         tolerance_percent=args.tolerance,
+        mcm_trials=args.mcm,
     )
     results = analysis.results
     status = analysis.status or "unknown"  # a CSV recording carries no status
@@ -54,7 +59,16 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         print(json.dumps({"status": status, **results.to_dict(), **_reanalysed(args)}, indent=2))
     else:
         print_results(results, recording.source, analysis.status)
+        _print_mcm(results)
     return EXIT_OK
+
+
+def _print_mcm(results) -> None:
+    """The JCGM 101 comparison per line and quantity, when --mcm was given."""
+    from dsp.mcm import McmLine
+
+    for m in results.mcm:
+        print(McmLine(**m).summary())
 
 
 def _reanalysed(args: argparse.Namespace) -> dict:

@@ -45,6 +45,8 @@ from dsp.profiles import Profile
 WORKERS = Bounded(int, 1, 64)
 RECORDS_COMMANDS: dict[str, Handler] = {}  # filled by build_parser (app.cli.records)
 
+MCM_TRIALS = Bounded(int, 1000, 10_000_000, unit="trials")  # JCGM 101 7.2: 10^6 for 95 %
+
 
 class _Parser(argparse.ArgumentParser):
     """ArgumentParser that takes an argument starting with a minus and a digit as a value, never
@@ -146,7 +148,22 @@ def build_parser() -> argparse.ArgumentParser:
     a.add_argument("--estimator", choices=ESTIMATORS, default=DEFAULT_ESTIMATOR)
     numeric_option(a, "--segments", SEGMENTS, "the seed's protocol: L equal segments")
     numeric_option(a, "--coverage", COVERAGE, "coverage probability", default=0.9545)
-    a.add_argument("--seed-rule", action="store_true", help="the seed's coverage factor rule")
+    a.add_argument(
+        "--seed-rule",
+        action="store_true",
+        help="the seed's coverage factor rule k = t(L-1), kept to reproduce the paper; not GUM "
+        "(it ignores the type B degrees of freedom): the results are for review only",
+    )
+    numeric_option(
+        a,
+        "--mcm",
+        MCM_TRIALS,
+        "validate each line's GUM interval by JCGM 101 Monte Carlo (alone: 10^6 trials); "
+        "stored per line, the Monte Carlo interval stated where clause 8 fails",
+        nargs="?",
+        const=1_000_000,
+        default=None,
+    )
     numeric_option(a, "--tolerance", TOLERANCE, "DUT tolerance of the characteristic, %%")
     a.add_argument("--json", action="store_true", help="results as JSON")
     a.add_argument("--csv", type=Path, help="also write the per-line results as CSV here")

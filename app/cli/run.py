@@ -9,7 +9,7 @@ import json
 import sys
 from typing import TYPE_CHECKING
 
-from app.cli.exits import EXIT_ABORTED, EXIT_OK, UsageError
+from app.cli.exits import EXIT_ABORTED, EXIT_BAD_INPUT, EXIT_OK, UsageError
 from app.cli.options import (
     faults_option,
     levels_option,
@@ -112,7 +112,15 @@ def cmd_run(args: argparse.Namespace) -> int:
         print_run_end(record, finished.results, args.out / str(record.run_id))
     if args.resonance and finished.results is not None:
         print(resonance_text(finished.results))
-    return EXIT_OK if record.complete else EXIT_ABORTED
+    return EXIT_OK if record.complete else exit_of_aborted(record.abort_reason)
+
+
+def exit_of_aborted(abort_reason: str | None) -> int:
+    """2 for a run refused before anything moved or before a level was played (the
+    predicted displacement of the drive about to be played), 3 for one stopped."""
+    from app.procedure.errors import refused
+
+    return EXIT_BAD_INPUT if refused(abort_reason) else EXIT_ABORTED
 
 
 def run_levels(request: RunRequest, levels: list[float], args: argparse.Namespace, progress) -> int:

@@ -17,14 +17,16 @@ import numpy as np
 from app.io.hdf5 import Recording, RecordingError, iter_batches, read_recording
 from app.io.vocabulary import RunStatus
 from app.procedure.verdict import Tolerances, tolerances_for, with_verdict
+from app.procedure.warnings import SEED_RULE_WARNING
 from app.records.run_folder import FolderState, inspect_run, is_run_folder
 from dsp.calibration import Results, compute_results
 from dsp.hum import mains_hum
 from dsp.lpm_record import record_estimate
+from dsp.mcm import validate_lines
 from dsp.multisine import Plan, PlanError
 from dsp.segments import segment_line_spectra, segment_plan
 from dsp.spectral import RECORD_ESTIMATORS, Estimate, SpectralAccumulator
-from dsp.uncertainty import Budget
+from dsp.uncertainty import Budget, Quantity
 
 
 @dataclass(frozen=True)
@@ -45,12 +47,14 @@ def analyze(
     rule: str = "gum",
     tolerance_percent: float | None = None,
     tolerances: Tolerances | None = None,
+    mcm_trials: int | None = None,
 ) -> Analysis:
     """Analyse whole periods (default) or, with `segments`, the seed's L equal segments.
 
     The results carry the overall verdict (app.procedure.verdict) against `tolerances`; by
-    default those
-    of the simulated DUT the recording's truth names, else `tolerance_percent` alone."""
+    default those of the simulated DUT the recording's truth names, else `tolerance_percent`
+    alone. `rule="seed"` adds the blocking SEED_RULE_WARNING (k from t(L-1) is not GUM);
+    `mcm_trials` validates every line's GUM interval by JCGM 101 Monte Carlo (`with_mcm`)."""
     plan = recording.plan
     status_note = status_warning(recording.status)
     warnings: list[str] = [status_note] if status_note else []
@@ -86,6 +90,8 @@ def analyze(
         estimate = accumulator.estimate(estimator)
     budget, hum_warnings = _budget_with_hum(recording)
     warnings.extend(hum_warnings)
+    if rule == "seed":
+        warnings.append(SEED_RULE_WARNING)
     results = compute_results(
         estimate,
         plan,
@@ -101,6 +107,8 @@ def analyze(
         tolerances = tolerances_for(
             str(catalogue) if catalogue else None, plan.reference_frequency_hz, tolerance_percent
         )
+    if mcm_trials is not None:
+        results = with_mcm(results, estimate, budget, probability, mcm_trials)
     results = with_verdict(results, tolerances, recording.status)
     return Analysis(estimate, results, recording.status)
 
@@ -115,6 +123,32 @@ def _record_estimate(recording: Recording) -> Estimate:
         start = recording.settle_periods * n
         drive = recording.drive_v[start : start + reference.size].reshape(reference.shape)
     return record_estimate(reference, dut, recording.plan, drive_blocks=drive).estimate
+
+
+def with_mcm(
+    results: Results, estimate: Estimate, budget: Budget, probability: float, trials: int
+) -> Results:
+    """`results` with the JCGM 101 validation of each line's magnitude and phase interval
+    stored (dsp.mcm.McmLine.to_dict), and a printed warning per line that fails clause 8
+    stating the Monte Carlo interval (% for magnitude, degrees for phase)."""
+    if not 1000 <= trials <= 10_000_000:
+        raise ValueError(f"--mcm: trials must be between 1000 and 10000000, got {trials}")
+    frequencies = [ln.frequency_hz for ln in results.lines]
+    dof = np.broadcast_to(np.asarray(estimate.dof, dtype=float), (len(frequencies),)).tolist()
+    found = []
+    for quantity, type_a in (
+        (Quantity.MAGNITUDE, [ln.relative_type_a for ln in results.lines]),
+        (Quantity.PHASE, [math.degrees(float(u)) for u in estimate.phase_type_a_rad]),
+    ):
+        found += validate_lines(
+            frequencies, type_a, dof, budget, quantity, probability=probability, trials=trials
+        )
+    warnings = [f"line {m.frequency_hz:g} Hz: {m.summary()}" for m in found if not m.validated]
+    return dataclasses.replace(
+        results,
+        mcm=tuple(m.to_dict() for m in found),
+        warnings=(*results.warnings, *warnings),
+    )
 
 
 def _budget_with_hum(recording: Recording) -> tuple[Budget, list[str]]:

@@ -20,6 +20,16 @@ class PreflightError(ProcedureError, Refusal):
     """The plan or level asks for more than the stand may do: refused before anything moves."""
 
 
+# The abort reason of a run a PreflightError stopped (before anything moved, or before a level
+# was played): the CLI exits 2 for it, not the aborted-run code 3 (issue 25 point 7).
+REFUSED_BEFORE = "refused before anything moved: "
+
+
+def refused(abort_reason: str | None) -> bool:
+    """Whether a run's abort reason is a refusal (REFUSED_BEFORE), not a stop."""
+    return bool(abort_reason) and str(abort_reason).startswith(REFUSED_BEFORE)
+
+
 class Aborted(ProcedureError):
     """The run was stopped on request (operator, SIGTERM)."""
 

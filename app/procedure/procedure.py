@@ -26,6 +26,7 @@ from app.procedure.background import Background, budget_with_background
 from app.procedure.context import RunContext, RunNotes
 from app.procedure.equalisation import Equalisation, Equalised
 from app.procedure.errors import (
+    REFUSED_BEFORE,
     Aborted,
     PreflightError,
     ProcedureError,
@@ -134,7 +135,7 @@ class Procedure:
             status, reason = RunStatus.ABORTED, f"disk full: {exc}"
             io.try_fade_out()
         except PreflightError as exc:
-            status, reason = RunStatus.ABORTED, f"refused before anything moved: {exc}"
+            status, reason = RunStatus.ABORTED, f"{REFUSED_BEFORE}{exc}"
         except (ProcedureError, AnalysisError) as exc:
             status, reason = RunStatus.ABORTED, str(exc)
             io.try_fade_out()

@@ -61,7 +61,10 @@ def reference_budget(budget: Budget, table: ReferenceTable) -> Budget:
     from that point up to just below the next, the larger of the two (lines in between are
     interpolated from both), the first also below the table and the last above it; bands of
     equal value merged. Without such a component the records' are added."""
+    from dsp.annex_a import ComponentKind
     from dsp.uncertainty import Component, Distribution, Quantity
+
+    REFERENCE_KIND = ComponentKind.REFERENCE_CALIBRATION
 
     freqs, values = table.frequencies_hz, table.relative_expanded_uncertainty
     bands: list[tuple[float | None, float | None, float]] = []
@@ -78,6 +81,13 @@ def reference_budget(budget: Budget, table: ReferenceTable) -> Budget:
         else:
             bands.append((low, high, value))
     note = f"records: certificate {table.certificate_number} of {table.identifier}"
+    replaced = [
+        c
+        for c in budget.components
+        if c.name == REFERENCE_COMPONENT and c.quantity is Quantity.MAGNITUDE
+    ]
+    # the Annex A component(s) it states: the stand file's entry's, else the reference's own
+    kind = replaced[0].kind if replaced and replaced[0].kind else (REFERENCE_KIND,)
     records = tuple(
         Component(
             REFERENCE_COMPONENT if len(bands) == 1 else f"{REFERENCE_COMPONENT} (band {n})",
@@ -88,14 +98,11 @@ def reference_budget(budget: Budget, table: ReferenceTable) -> Budget:
             min_frequency_hz=low,
             max_frequency_hz=high,
             note=note,
+            kind=kind,
         )
         for n, (low, high, value) in enumerate(bands, 1)
     )
-    kept = tuple(
-        c
-        for c in budget.components
-        if not (c.name == REFERENCE_COMPONENT and c.quantity is Quantity.MAGNITUDE)
-    )
+    kept = tuple(c for c in budget.components if c not in replaced)
     return Budget((*records, *kept))
 
 

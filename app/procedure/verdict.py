@@ -4,13 +4,16 @@ One place computes it; the procedure and the offline analysis call `with_verdict
 the GUI and the certificate only read `Results.verdict` and `Results.verdict_reasons`.
 
 Decision rule: dsp.conformity.decide, the one ILAC-G8 guarded acceptance (its wording there
-too); a deviation's U is dsp.characteristic's (1 + dev) * U_rel. Checks, against the DUT
+too); a deviation's U is dsp.characteristic's correlated model. Checks, against the DUT
 model's tolerances:
 sensitivity at the reference frequency against its nominal value, the amplitude characteristic
 per band (deviation from the reference frequency's sensitivity, %), and the phase per band
 (|phase|, degrees). Overall: FAIL when any check fails; PASS when every check passes and
 nothing else stands in the way; otherwise INDETERMINATE (an inconclusive or unstated check, no
-tolerance at all, a mounting warning, a recording that did not complete).
+tolerance at all, a mounting warning, a recording that did not complete, or any warning that
+app.procedure.warnings says blocks PASS: an incomplete budget (ISO 16063-21 Annex A), low
+coherence or SNR, DUT distortion, inseparable hum, a line over the ISO limit, a reference line
+outside its certificate, the seed rule, an uncorrected skew).
 
 Mounting check: a resonance inside the calibrated range (an interior line whose sensitivity
 exceeds both neighbours' and the reference frequency's by more than RESONANCE_RISE), or a
@@ -24,10 +27,12 @@ from __future__ import annotations
 import dataclasses
 
 from app.io.vocabulary import RunStatus
+from app.procedure.warnings import RunWarning, blocking, iso_over_warning
 from app.stand.dut import Band, Tolerances
 from dsp import conformity
+from dsp import uncertainty as unc
 from dsp.calibration import LOW_COHERENCE, Results
-from dsp.characteristic import deviation_expanded_percent
+from dsp.characteristic import deviation_expanded_percent, line_deviation_expanded_percent
 from dsp.conformity import NOT_STATED, Outcome, Verdict
 from dsp.conformity import decide as decide  # the one ILAC-G8 function (dsp.conformity)
 
@@ -46,7 +51,9 @@ __all__ = [
     "Tolerances",
     "assess",
     "decide",
+    "iso_over_warnings",
     "mounting_warnings",
+    "run_warnings",
     "tolerances_for",
     "with_verdict",
 ]
@@ -94,6 +101,21 @@ def mounting_warnings(results: Results) -> list[str]:
                 "mount; check the mounting"
             )
     return out
+
+
+def iso_over_warnings(results: Results) -> list[RunWarning]:
+    """The blocking warning of every line whose U is over the ISO 16063-21 limit."""
+    return [
+        iso_over_warning(ln.nominal_frequency_hz, ln.relative_expanded_uncertainty, ln.iso_limit)
+        for ln in results.lines
+        if ln.iso_verdict == unc.Verdict.OVER and ln.iso_limit is not None
+    ]
+
+
+def run_warnings(results: Results) -> list[str]:
+    """The run's warnings with the ISO-over warning of each line, each text once."""
+    texts = [*results.warnings, *(w.text for w in iso_over_warnings(results))]
+    return list(dict.fromkeys(texts))
 
 
 def _summary(name: str, outcomes: list[tuple[str, str]]) -> tuple[str, str]:
@@ -144,9 +166,7 @@ def assess(
                 continue  # the reference line's deviation is 0 by definition
             label = f"{ln.nominal_frequency_hz:g} Hz"
             if unit == "%":
-                u = deviation_expanded_percent(
-                    ln.deviation_percent, ln.relative_expanded_uncertainty
-                )
+                u = line_deviation_expanded_percent(ln)  # the correlated model
                 checked.append((conformity.decide(ln.deviation_percent, u, band.tolerance), label))
             elif not results.phase_corrected_for_skew:
                 checked.append((NOT_STATED, label))
@@ -174,6 +194,11 @@ def assess(
         reasons += mounting
         if verdict == PASS:
             verdict = INDETERMINATE
+    blocked = [w for w in blocking(run_warnings(results)) if w.text not in mounting]
+    if blocked:
+        reasons += [f"blocks PASS ({w.kind.value}): {w.text}" for w in blocked]
+        if verdict == PASS:
+            verdict = INDETERMINATE
     if status not in (None, RunStatus.COMPLETE):
         reasons.append(f"the recording is {status}: results for review only")
         if verdict == PASS:
@@ -184,7 +209,8 @@ def assess(
 def with_verdict(results: Results, tolerances: Tolerances, status: str | None = None) -> Results:
     """`results` with its verdict, reasons and mounting warnings (see `assess`)."""
     verdict, reasons, mounting = assess(results, tolerances, status)
-    warnings = (*results.warnings, *(w for w in mounting if w not in results.warnings))
+    added = [*mounting, *(w.text for w in iso_over_warnings(results))]
+    warnings = (*results.warnings, *(w for w in added if w not in results.warnings))
     return dataclasses.replace(
         results, verdict=verdict, verdict_reasons=tuple(reasons), warnings=warnings
     )

@@ -14,7 +14,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from enum import StrEnum
 
-from dsp.annex_a import missing_components
+from dsp.annex_a import incomplete_budget_text, missing_components
 from dsp.uncertainty import Budget
 
 __all__ = [
@@ -190,11 +190,7 @@ def printed(warnings: Iterable[str | RunWarning]) -> list[RunWarning]:
 
 def incomplete_budget_warning(missing: Iterable[str]) -> RunWarning:
     """The blocking warning for a budget lacking Annex A components (dsp.annex_a)."""
-    names = "; ".join(missing)
-    return RunWarning(
-        WarningKind.INCOMPLETE_BUDGET,
-        f"incomplete budget: results for review only; the stand's budget does not state {names}",
-    )
+    return RunWarning(WarningKind.INCOMPLETE_BUDGET, incomplete_budget_text(missing))
 
 
 def budget_warning(budget: Budget) -> RunWarning | None:

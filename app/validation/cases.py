@@ -210,12 +210,15 @@ GUM_TABLE_G2 = (
     (math.inf, 2.00),
 )
 # the built-in simulated stand's budget (sim/stand.toml) by hand: at 160 Hz, u_B^2 =
-# (0.005/2)^2 + (0.002^2 + 0.001^2 + 0.001^2 + 0.002^2 + 0.003^2 + 0.001^2)/3 = 12.91667e-6;
-# above 2 kHz the interpolation term adds 0.003^2/3 = 3e-6; phase: 0.5 deg / 2
+# (0.005/2)^2 + (0.002^2 + 0.001^2 + 0.001^2 + 0.002^2 + 0.003^2 + 0.001^2 + 0.0005^2
+# + 0.0005^2 + 0.001^2)/3 = 6.25e-6 + 21.5e-6/3 = 13.416667e-6; at 5 kHz the interpolation term
+# adds 0.003^2/3 = 3e-6, mounting and transverse motion grow as f/2 kHz = 2.5: (0.005^2 -
+# 0.002^2)/3 = 7e-6 and (0.0075^2 - 0.003^2)/3 = 15.75e-6; phase at 160 Hz: (0.46/2)^2 +
+# (0.05^2 + 0.1^2 + (360 * 160 * 1e-7)^2)/3 = 0.0529 + 0.0125/3 + 1.10592e-5 deg^2
 STAND_TYPE_B = (
-    (160.0, "magnitude", math.sqrt(12.916666666666666e-6)),
-    (5000.0, "magnitude", math.sqrt(15.916666666666666e-6)),
-    (160.0, "phase", 0.25),
+    (160.0, "magnitude", math.sqrt(13.416666666666666e-6)),
+    (5000.0, "magnitude", math.sqrt(39.166666666666666e-6)),
+    (160.0, "phase", math.sqrt(0.0529 + 0.0125 / 3 + 1.10592e-5)),
 )
 
 

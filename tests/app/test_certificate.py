@@ -177,9 +177,7 @@ def test_sweep_section_with_sensitivity_against_level_and_linearity(tmp_path):
 
     from app.procedure.sweep import run_sweep
 
-    sweep = run_sweep(
-        RunRequest(dut="capacitive", dut_id="SN-7", periods=3, out=tmp_path), [3.0, 6.0]
-    )
+    sweep = run_sweep(RunRequest(dut="piezo", dut_id="SN-7", periods=3, out=tmp_path), [3.0, 6.0])
     run = tmp_path / sweep.summary["run_ids"][0]
     assert stat.S_IMODE(Path(sweep.summary["path"]).stat().st_mode) == 0o444  # stored, read-only
     pdf = build(run, INFO, tmp_path / "s.pdf", Path(sweep.summary["path"]))

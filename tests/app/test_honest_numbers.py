@@ -10,9 +10,8 @@ import math
 import h5py
 import numpy as np
 import pytest
-from pypdf import PdfReader
 
-from app.certificate import CertificateInfo, build
+from app.certificate import CertificateError, CertificateInfo, build
 from app.certificate.pdf import _charts, _line_table, _statements
 from app.cli import main
 from app.io.csv import read_csv
@@ -390,19 +389,17 @@ def test_loose_mount_is_warned_and_never_passes(capsys, sim_runs, tmp_path):
     assert any(w.startswith("mounting: a resonance near") for w in record["results"]["warnings"])
     code, out, _ = run(capsys, "analyze", str(folder), "--json")  # re-analysis agrees
     assert code == 0 and json.loads(out)["verdict"] == record["verdict"]
-    pdf = build(
-        folder,
-        CertificateInfo(
-            customer="ACME Ltd",
-            authorised_by="J. Smith",
-            temperature_c=23.0,
-            mounting="stud",
-            dut_serial="SN-1",
-        ),
-        tmp_path / "c.pdf",
+    info = CertificateInfo(
+        customer="ACME Ltd",
+        authorised_by="J. Smith",
+        temperature_c=23.0,
+        mounting="stud",
+        dut_serial="SN-1",
     )
-    text = "\n".join(page.extract_text() for page in PdfReader(pdf).pages)
-    assert "Overall verdict" in text and record["verdict"] in text and "mounting:" in text
+    # issue 25 point 2 (a deliberate change): a mounting warning blocks the certificate
+    with pytest.raises(CertificateError, match=r"no certificate: .*mounting: a resonance near"):
+        build(folder, info, tmp_path / "c.pdf")
+    assert not (tmp_path / "c.pdf").exists()
 
 
 def test_simulate_recording_carries_the_truth_and_a_verdict(tmp_path):
@@ -411,4 +408,9 @@ def test_simulate_recording_carries_the_truth_and_a_verdict(tmp_path):
     run_ = simulate(tmp_path / "rec.h5", dut="piezo", periods=4, seed=2)
     recording = read_for_analysis(run_.path)
     assert recording.truth is not None and recording.truth.attrs["dut"] == "piezo"
-    assert analyze(recording).results.verdict == PASS
+    results = analyze(recording).results
+    # issue 25 point 2 (a deliberate change): `simulate` records no drive-off periods, so the
+    # hum at the lines on mains harmonics is not separable and blocks PASS; every check passes
+    assert results.verdict == "INDETERMINATE"
+    assert all(r.startswith("blocks PASS (hum not separable)") for r in results.verdict_reasons[3:])
+    assert all(": pass" in r for r in results.verdict_reasons[:3])

@@ -69,19 +69,22 @@ def test_a_legacy_run_folder_is_shown(legacy_run: Path, capsys: pytest.CaptureFi
     assert "Reference sensitivity at 160 Hz: 10.171 mV/(m/s^2)" in out
 
 
-def test_a_legacy_run_is_certified_and_the_certificate_verifies(
+def test_a_legacy_run_is_refused_a_certificate_naming_the_missing_annex_a_components(
     legacy_run: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
+    """Issue 25 point 1 (a deliberate change): a budget written before components carried
+    their ISO 16063-21 Annex A kind states none of them, so the legacy run still reads, shows
+    and verifies but is results for review only: no certificate, the missing kinds named."""
     pdf = tmp_path / "certificate.pdf"
     argv = ["certificate", str(legacy_run), "--customer", "ACME Ltd"]
     argv += ["--authorised-by", "J. Smith", "--temperature", "23", "--mounting", "stud"]
-    _ok([*argv, "--out", str(pdf)], capsys)
-    assert pdf.read_bytes().startswith(b"%PDF")
-    assert main(["verify", str(pdf), "--run", str(legacy_run)]) == 2  # unsigned: not verified
-    out = capsys.readouterr().out
-    for check in ("embedded DCC valid", "run manifest verified", "DCC numbers equal the run's"):
-        assert f"ok   {check}" in out
-    assert "FAIL signature: the PDF is not signed" in out
+    assert main([*argv, "--out", str(pdf)]) == 2
+    err = capsys.readouterr().err
+    assert "does not state the ISO 16063-21 Annex A component(s)" in err
+    for kind in ("(reference_calibration)", "(temperature)", "(skew)", "(daq_linearity)"):
+        assert kind in err
+    assert "Traceback" not in err
+    assert not pdf.exists()
     assert verify_manifest(legacy_run) == []  # the stored run was not written to
 
 

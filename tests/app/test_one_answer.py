@@ -127,7 +127,12 @@ def _conformity_text(results: Results) -> str:
 def test_every_face_follows_the_one_ilac_g8_decision(capsys, monkeypatch, recording):
     honest = _analyse(capsys, recording)  # the control: a flat DUT within +-5 %
     judged = [ln.tolerance_verdict for ln in honest.lines]
-    assert set(judged) == {"pass"} and "the item <b>conforms</b>" in _conformity_text(honest)
+    assert set(judged) == {"pass"}
+    # every line passes; the overall verdict is not PASS only because this recording states no
+    # type B budget (issue 25: results for review), and the certificate says the same
+    assert honest.verdict == "INDETERMINATE"
+    honest_text = _conformity_text(honest)
+    assert f"{len(judged)} pass, 0 fail" in honest_text and "conformity not stated" in honest_text
     assert "characteristic: pass" in " ".join(honest.verdict_reasons)
 
     calls = []

@@ -499,7 +499,9 @@ def _run_with_store(store, *, mode="multisine", declared_g=10.0, physical_g=None
     return finished, stand, plan
 
 
-def test_the_stored_response_brings_the_seed_characteristic_under_10_s(tmp_path):
+def test_the_stored_response_with_its_check_period_brings_the_seed_characteristic_to_12_4_s(
+    tmp_path,
+):
     """Issue 14 point 1: the seed's 25-line piezo characteristic at 0.2 % type A. The first run
     identifies (gentle drive, two equalisation steps); it stores the response it converged
     with, and the next run of the same stand, mass class and plan starts from it: fade-in
