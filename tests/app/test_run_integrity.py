@@ -184,7 +184,9 @@ def test_the_run_folder_opens_only_while_its_certificate_is_written(monkeypatch,
         run, app.certificate.CertificateInfo(**INFO), run / "certificate.pdf"
     )
     ((mode, beside, name),) = seen
-    assert mode & stat.S_IWUSR and beside and name.startswith(".certificate.pdf.")
+    # written beside, under a hidden staging name (issue 23: renamed only after the register)
+    assert mode & stat.S_IWUSR and beside and name.startswith(".") and name.endswith(".tmp")
+    assert "certificate.pdf" in name
     assert stat.S_IMODE(run.stat().st_mode) == 0o555
     assert stat.S_IMODE(out.stat().st_mode) == 0o444
     assert sorted(p.name for p in run.iterdir() if p.name.startswith(".")) == []
@@ -357,7 +359,7 @@ def test_recording_status_marks(tmp_path, small_recording):
 def test_analyze_of_an_aborted_simulation_says_so_everywhere(capsys, tmp_path):
     target = tmp_path / "f.h5"
     code, _, err = cli(capsys, "simulate", "--fault", "device-lost@13", "--out", target)
-    assert code == 1 and "DeviceLostError" in err
+    assert code == 3 and "DeviceLostError" in err  # an aborted recording: exit 3 (README)
     assert f"the recording so far, marked aborted: {target}" in err
     assert read_recording(target).status == "aborted"
     code, out, err = cli(capsys, "analyze", target, "--json", "--csv", tmp_path / "f.csv")

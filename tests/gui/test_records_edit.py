@@ -161,18 +161,22 @@ def _fill_reference(dialog: ReferenceDialog, table: Path) -> None:
 def test_a_reference_standard_is_added_from_a_csv_table_and_recalibrated(window, url, tmp_path):
     listing = window.sensors_tab.records_list("references")
     dialog = listing.open_editor(None)
-    bad = _csv(tmp_path / "bad.csv", "frequency_hz,s,u\n160,1.0,0.005\n1000,1.01\n")
+    bad = _csv(
+        tmp_path / "bad.csv",
+        "frequency_hz,sensitivity_mv_per_ms2,relative_expanded_uncertainty_percent\n"
+        "160,1.0,0.5\n1000,1.01\n",
+    )
     _fill_reference(dialog, bad)
     assert not accepted(dialog)
     assert "line 3: expected 3 or 4 columns" in marked(dialog, "table")
-    fraction_over_one = _csv(tmp_path / "big.csv", "160,1.0,50\n")  # 50 read as 5000 %
+    fraction_over_one = _csv(tmp_path / "big.csv", "160,1.0,150\n")  # percent: 150 % is refused
     dialog.table_file.setText(str(fraction_over_one))
     assert not accepted(dialog)
     assert "table row 1 uncertainty" in marked(dialog, "table")
     good = _csv(
         tmp_path / "ref.csv",
         "# B&K 8305 certificate DKD-2026-117\nfrequency_hz,sensitivity_mv_per_ms2,"
-        "relative_expanded_uncertainty,phase_deg\n160,0.1257,0.005,0.1\n1000,0.1262,0.007,-0.4\n",
+        "relative_expanded_uncertainty_percent,phase_deg\n160,0.1257,0.5,0.1\n1000,0.1262,0.7,-0.4\n",
     )
     dialog.table_file.setText(str(good))
     dialog.due.setDate(QDate(2026, 3, 1))  # before the calibration

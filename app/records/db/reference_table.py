@@ -9,6 +9,7 @@ is refused by name.
 from __future__ import annotations
 
 import csv
+from decimal import Decimal
 from pathlib import Path
 
 from app.records.db.store import RecordsError
@@ -54,7 +55,9 @@ def read_reference_table(path: Path, option: str = "--table") -> list[TableRow]:
         except ValueError:
             raise RecordsError(f"{where}: not a number") from None
         phase = values[3] if len(values) == 4 else None
-        rows.append((values[0], values[1], values[2] / 100.0, phase))
+        # percent to fraction on the decimal as typed: '0.7' -> 0.007 exactly, not 0.7 / 100
+        fraction = float(Decimal(cells[2]) / 100)
+        rows.append((values[0], values[1], fraction, phase))
     return rows
 
 
