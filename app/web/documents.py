@@ -1,16 +1,16 @@
-"""A certificate's documents on the lab's disk: its PDF, found through the certificate register
-of the run's runs root (app.records.register), its DCC (the XML attached to the PDF) and the
-verification of both (app.certificate.sign.verify). Nothing is served unless it checks out:
-the register's entry names this number and run, the file is a PDF whose SHA-256 is the one
-the register recorded when it was issued.
+"""A certificate's documents on the lab's disk: its PDF, at the path its row of the records'
+register names (app.records.db.models.Certificate.file), its DCC (the XML attached to the PDF)
+and the verification of both (app.certificate.sign.verify). Nothing is served unless it checks
+out: the file is a PDF whose SHA-256 is the one the register recorded when it was issued, the
+DCC's SHA-256 likewise.
 """
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass
 from pathlib import Path
 
-from app.records.register import RegisterError, read_register
 from app.records.run_folder import sha256_of
 
 PDF_MAGIC = b"%PDF-"
@@ -29,28 +29,30 @@ class CheckLine:
     detail: str
 
 
-def certificate_pdf(number: str, run_id: str, run_folder: str) -> Path:
-    """The PDF of certificate `number` of run `run_id`, checked against its register entry
-    (same run, same SHA-256 as when issued, a PDF); DocumentError saying why not."""
-    root = Path(run_folder).parent
-    try:
-        entries = read_register(root)
-    except RegisterError as exc:
-        raise DocumentError(str(exc)) from None
-    entry = next((e for e in entries if e.number == number), None)
-    if entry is None:
-        raise DocumentError(f"certificate {number}: not in the register of {root}")
-    if entry.run_id != run_id:
-        raise DocumentError(f"certificate {number}: the register names run {entry.run_id}")
-    path = Path(entry.file)
-    if path.suffix.lower() != ".pdf" or not path.is_file():
+def certificate_pdf(number: str, file: str | None, sha256: str | None) -> Path:
+    """The PDF of certificate `number` at `file` (the absolute path its register row names),
+    checked: a PDF whose SHA-256 is `sha256`, the one the row recorded when it was issued;
+    DocumentError saying why not."""
+    if not file or not sha256:
+        raise DocumentError(f"certificate {number}: the register records no issued PDF")
+    path = Path(file)
+    if not path.is_absolute() or path.suffix.lower() != ".pdf" or not path.is_file():
         raise DocumentError(f"certificate {number}: its PDF {path} is missing")
     with path.open("rb") as handle:
         if handle.read(len(PDF_MAGIC)) != PDF_MAGIC:
             raise DocumentError(f"certificate {number}: {path} is not a PDF")
-    if sha256_of(path) != entry.sha256:
+    if sha256_of(path) != sha256.lower():
         raise DocumentError(f"certificate {number}: {path} changed since it was issued")
     return path
+
+
+def certificate_pdf_bytes(number: str, file: str | None, sha256: str | None) -> bytes:
+    """The bytes of certificate `number`'s checked PDF (certificate_pdf), checked again as
+    read, so what is served is what was hashed; DocumentError saying why not."""
+    data = certificate_pdf(number, file, sha256).read_bytes()
+    if not data.startswith(PDF_MAGIC) or hashlib.sha256(data).hexdigest() != str(sha256).lower():
+        raise DocumentError(f"certificate {number}: {file} changed since it was issued")
+    return data
 
 
 def embedded_dcc(pdf: Path) -> bytes:
@@ -65,6 +67,17 @@ def embedded_dcc(pdf: Path) -> bytes:
     if len(found) != 1:
         raise DocumentError(f"{pdf.name}: carries no digital calibration certificate")
     return bytes(found[0])
+
+
+def certificate_dcc(number: str, pdf: Path, dcc_sha256: str | None) -> bytes:
+    """The DCC of certificate `number`: the one attached to its checked `pdf`, served only
+    when its SHA-256 is `dcc_sha256`, the one the register recorded; DocumentError if not."""
+    if not dcc_sha256:
+        raise DocumentError(f"certificate {number}: the register records no DCC")
+    data = embedded_dcc(pdf)
+    if hashlib.sha256(data).hexdigest() != dcc_sha256.lower():
+        raise DocumentError(f"certificate {number}: its DCC is not the one issued")
+    return data
 
 
 def verify_certificate(

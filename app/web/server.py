@@ -33,7 +33,13 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 from app.certificate.qr import QrError, qr_svg, verify_address
 from app.records.db.lab import RecordsError
 from app.web.chart import history_svg
-from app.web.documents import DocumentError, certificate_pdf, embedded_dcc, verify_certificate
+from app.web.documents import (
+    DocumentError,
+    certificate_dcc,
+    certificate_pdf,
+    certificate_pdf_bytes,
+    verify_certificate,
+)
 from app.web.store import StaffUser, Store
 from app.web.users import dummy_check, password_matches
 
@@ -203,7 +209,7 @@ def create_app(store: Store, config: WebConfig) -> Starlette:
             return not_found(request, f"No certificate {number} in the register.")
         checks, problem = [], None
         try:
-            pdf = certificate_pdf(row.number, row.run_id, row.run_folder)
+            pdf = certificate_pdf(row.number, row.file, row.sha256)
             checks = verify_certificate(row.number, pdf, row.run_folder, config.trust)
         except DocumentError as exc:
             problem = str(exc)
@@ -228,11 +234,13 @@ def create_app(store: Store, config: WebConfig) -> Starlette:
         if row is None:
             return not_found(request, f"No certificate {number} in the register.")
         try:
-            pdf = certificate_pdf(row.number, row.run_id, row.run_folder)
             if kind == "pdf":
-                data, media = pdf.read_bytes(), "application/pdf"
+                data = certificate_pdf_bytes(row.number, row.file, row.sha256)
+                media = "application/pdf"
             else:
-                data, media = embedded_dcc(pdf), "application/xml"
+                pdf = certificate_pdf(row.number, row.file, row.sha256)
+                data = certificate_dcc(row.number, pdf, row.dcc_sha256)
+                media = "application/xml"
         except DocumentError as exc:
             return not_found(request, str(exc))
         filename = "".join(c if c.isalnum() or c in "-_." else "_" for c in number)

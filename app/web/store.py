@@ -36,7 +36,8 @@ STATUS_WORDS = {"issued": "valid", "replaced": "amended", "withdrawn": "withdraw
 @dataclass(frozen=True)
 class CertificateRow:
     """One certificate of the register as the web view shows it (sensitivity and U at the
-    reference frequency in mV/(m/s^2), the run folder's path on the lab's disk)."""
+    reference frequency in mV/(m/s^2), the run folder's path on the lab's disk, the files
+    issued as the register recorded them)."""
 
     number: str
     state: str
@@ -55,6 +56,9 @@ class CertificateRow:
     reference_frequency_hz: float | None
     sensitivity_mv_per_ms2: float | None
     expanded_uncertainty_mv_per_ms2: float | None
+    file: str | None = None  # the issued PDF's absolute path (None: entered before 0009)
+    sha256: str | None = None  # the issued PDF's SHA-256, hex
+    dcc_sha256: str | None = None  # its DCC's SHA-256, hex (None: issued without a DCC)
 
 
 @dataclass(frozen=True)
@@ -156,6 +160,9 @@ class Store:
                 reference_frequency_hz=r.reference_frequency_hz,
                 sensitivity_mv_per_ms2=r.sensitivity_mv_per_ms2,
                 expanded_uncertainty_mv_per_ms2=r.expanded_uncertainty_mv_per_ms2,
+                file=c.file,
+                sha256=c.sha256,
+                dcc_sha256=c.dcc_sha256,
             )
             for c, r, s, o, m in session.execute(query).all()
         ]

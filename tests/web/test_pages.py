@@ -8,13 +8,13 @@ import base64
 import hashlib
 import hmac
 import re
+from pathlib import Path
 
 import pytest
 from sqlalchemy import text
 from starlette.testclient import TestClient
 
 from app.certificate.readback import items_from_dcc, parse_inert
-from app.records.register import read_register
 from app.records.run_folder import MANIFEST_NAME, sha256_of
 from app.web.users import add_user
 from tests.web.conftest import PASSWORD, SERIAL, USER, Records
@@ -22,6 +22,7 @@ from tests.web.conftest import PASSWORD, SERIAL, USER, Records
 pytestmark = pytest.mark.integration
 
 STAFF_PAGES = ("/register", "/due", "/sensors/SN-WEB-1")
+RUN_OF_CERTIFICATE = (0, 1, 0)  # conftest: the third certificate is of run 0 again
 
 
 def _csrf(client: TestClient) -> str:
@@ -158,7 +159,9 @@ def test_register_search(staff: TestClient, records: Records, search: str, expec
 
 def test_register_search_by_run_id(staff: TestClient, records: Records) -> None:
     page = staff.get("/register", params={"q": records.runs[0].name}).text
-    assert _numbers_listed(page) == [records.numbers[0]]
+    assert _numbers_listed(page) == [records.numbers[2], records.numbers[0]]  # both of run 0
+    page = staff.get("/register", params={"q": records.runs[1].name}).text
+    assert _numbers_listed(page) == [records.numbers[1]]
 
 
 def test_a_certificates_page_states_status_amendment_and_verification(
@@ -186,12 +189,18 @@ def test_a_certificates_page_states_status_amendment_and_verification(
 
 def test_the_pdf_and_dcc_downloads_are_the_issued_ones(staff: TestClient, records: Records) -> None:
     number = records.numbers[1]
-    (entry,) = [e for e in read_register(records.runs[1].parent) if e.number == number]
+    with records.engine.connect() as conn:
+        file, sha256, dcc_sha256 = conn.execute(
+            text("SELECT file, sha256, dcc_sha256 FROM certificates WHERE number = :n"),
+            {"n": number},
+        ).one()
     pdf = staff.get(f"/certificates/{number}/certificate.pdf")
     assert pdf.headers["content-type"] == "application/pdf"
-    assert hashlib.sha256(pdf.content).hexdigest() == entry.sha256
+    assert hashlib.sha256(pdf.content).hexdigest() == sha256
+    assert pdf.content == Path(file).read_bytes() and Path(file).name == "certificate-1.pdf"
     dcc = staff.get(f"/certificates/{number}/certificate.xml")
     assert dcc.headers["content-type"].startswith("application/xml")
+    assert hashlib.sha256(dcc.content).hexdigest() == dcc_sha256
     assert items_from_dcc(parse_inert(dcc.content)).number == number
     assert staff.get(f"/certificates/{number}/certificate.exe").status_code == 404
 
@@ -231,7 +240,7 @@ def test_the_public_page_shows_the_status_for_the_right_code(
     web_app, records: Records, index: int, status: str
 ) -> None:
     number = records.numbers[index]
-    code = _code(number, _manifest(records, min(index, 1)))
+    code = _code(number, _manifest(records, RUN_OF_CERTIFICATE[index]))
     response = TestClient(web_app).get(f"/verify/{number}", params={"code": code})
     assert response.status_code == 200
     assert f'id="status">{status}</p>' in response.text

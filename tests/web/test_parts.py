@@ -3,6 +3,7 @@ the QR code of a verification address, the chart's ticks and the server's option
 
 from __future__ import annotations
 
+import hashlib
 import json
 import shutil
 from pathlib import Path
@@ -14,12 +15,16 @@ from sqlalchemy.exc import DBAPIError, OperationalError
 from app.certificate.qr import QrError, check_verify_url, qr_png, verification_code, verify_address
 from app.records.db.engine import DatabaseError, make_engine, resolve_url, upgrade
 from app.records.db.lab import RecordsError
-from app.records.db.models import AuditEntry, User
-from app.records.register import REGISTER_NAME
+from app.records.db.models import AuditEntry, Certificate, User
 from app.records.run_folder import sha256_of
 from app.web.__main__ import main as web_main
 from app.web.chart import nice_ticks
-from app.web.documents import DocumentError, certificate_pdf
+from app.web.documents import (
+    DocumentError,
+    certificate_dcc,
+    certificate_pdf,
+    certificate_pdf_bytes,
+)
 from app.web.store import open_read_only
 from app.web.users import add_user, password_matches
 from tests.web.conftest import Records
@@ -144,49 +149,51 @@ def test_a_bad_user_is_refused_by_field(tmp_path: Path, username, password, name
         assert conn.execute(text("SELECT count(*) FROM users")).scalar() == 1
 
 
-def _register_copy(records: Records, tmp_path: Path) -> tuple[Path, Path, dict]:
-    """A copy of the runs root's register and the first certificate's PDF under tmp_path."""
-    root = tmp_path / "runs"
-    root.mkdir()
-    data = json.loads((records.runs[0].parent / REGISTER_NAME).read_text())
-    entry = next(e for e in data["certificates"] if e["number"] == records.numbers[0])
+def _issued_copy(records: Records, tmp_path: Path) -> tuple[str, Path, str, str]:
+    """The first certificate's register row (number, a copy of its PDF under tmp_path, the
+    PDF's and the DCC's SHA-256 as recorded)."""
+    number = records.numbers[0]
+    with records.engine.connect() as conn:
+        file, sha256, dcc_sha256 = conn.execute(
+            select(Certificate.file, Certificate.sha256, Certificate.dcc_sha256).where(
+                Certificate.number == number
+            )
+        ).one()
+    assert file and sha256 and dcc_sha256
     pdf = tmp_path / "copy.pdf"
-    shutil.copyfile(entry["file"], pdf)
-    entry["file"] = str(pdf)
-    data["certificates"] = [entry]
-    return root, pdf, data
-
-
-def _write(root: Path, data: dict) -> None:
-    (root / REGISTER_NAME).write_text(json.dumps(data))
+    shutil.copyfile(file, pdf)
+    return number, pdf, sha256, dcc_sha256
 
 
 @pytest.mark.integration
 def test_only_the_registered_unchanged_pdf_is_served(records: Records, tmp_path: Path) -> None:
-    root, pdf, data = _register_copy(records, tmp_path)
-    number, run_id = records.numbers[0], data["certificates"][0]["run_id"]
-    folder = str(root / run_id)
-    _write(root, data)
-    assert certificate_pdf(number, run_id, folder) == pdf
-    with pytest.raises(DocumentError, match="not in the register"):
-        certificate_pdf("ACC-2026-0099", run_id, folder)
-    with pytest.raises(DocumentError, match="the register names run"):
-        certificate_pdf(number, "another-run", folder)
+    number, pdf, sha256, dcc_sha256 = _issued_copy(records, tmp_path)
+    assert sha256_of(pdf) == sha256
+    assert certificate_pdf(number, str(pdf), sha256) == pdf
+    assert certificate_pdf_bytes(number, str(pdf), sha256) == pdf.read_bytes()
+    dcc = certificate_dcc(number, pdf, dcc_sha256)
+    assert hashlib.sha256(dcc).hexdigest() == dcc_sha256 and dcc.startswith(b"<?xml")
+    with pytest.raises(DocumentError, match="not the one issued"):
+        certificate_dcc(number, pdf, "0" * 64)
+    with pytest.raises(DocumentError, match="records no DCC"):
+        certificate_dcc(number, pdf, None)
+    for file, digest in ((None, sha256), (str(pdf), None)):  # a row from before 0009
+        with pytest.raises(DocumentError, match="records no issued PDF"):
+            certificate_pdf(number, file, digest)
+    with pytest.raises(DocumentError, match="is missing"):  # relative: not the issued file
+        certificate_pdf(number, pdf.name, sha256)
     pdf.chmod(0o644)
     with pdf.open("ab") as handle:
         handle.write(b"%% appended\n")
-    with pytest.raises(DocumentError, match="changed since it was issued"):
-        certificate_pdf(number, run_id, folder)
+    for read in (certificate_pdf, certificate_pdf_bytes):
+        with pytest.raises(DocumentError, match="changed since it was issued"):
+            read(number, str(pdf), sha256)
     fake = tmp_path / "fake.pdf"
     fake.write_text("secret text, not a PDF")
-    data["certificates"][0].update(file=str(fake), sha256=sha256_of(fake))
-    _write(root, data)
     with pytest.raises(DocumentError, match="is not a PDF"):
-        certificate_pdf(number, run_id, folder)
-    data["certificates"][0]["file"] = str(tmp_path / "gone.pdf")
-    _write(root, data)
+        certificate_pdf(number, str(fake), sha256_of(fake))
     with pytest.raises(DocumentError, match="is missing"):
-        certificate_pdf(number, run_id, folder)
+        certificate_pdf(number, str(tmp_path / "gone.pdf"), sha256)
 
 
 @pytest.mark.parametrize(
