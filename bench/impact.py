@@ -7,7 +7,7 @@ One short simulated run (piezo, 4 periods) is recorded once; every task points a
 so N tasks are N full re-analyses of a real recording. Prints the time per run and the total.
 
 Run: python bench/impact.py [RUNS] [WORKERS]   (default 10000 runs, one worker per core)
-Smoke (CI): python bench/impact.py 8 2
+Smoke (CI): python bench/impact.py 8 2   (or --smoke, the same)
 """
 
 from __future__ import annotations
@@ -27,10 +27,17 @@ from app.procedure.run import RunRequest, execute
 from app.records.run_folder import MANIFEST_NAME, sha256_of
 from app.records.run_record import RunRecord
 
+SMOKE_ARGS = ("8", "2")  # --smoke: 8 runs on 2 workers, to see that it still works
+
 
 def main(argv: list[str]) -> int:
-    runs = int(argv[1]) if len(argv) > 1 else 10_000
-    workers = int(argv[2]) if len(argv) > 2 else (os.cpu_count() or 1)
+    args = list(SMOKE_ARGS) if argv[1:] == ["--smoke"] else argv[1:]
+    try:
+        runs = int(args[0]) if args else 10_000
+        workers = int(args[1]) if len(args) > 1 else (os.cpu_count() or 1)
+    except ValueError:
+        print(f"usage: {Path(argv[0]).name} [RUNS] [WORKERS] | --smoke", file=sys.stderr)
+        return 2
     logging.basicConfig(level=logging.WARNING)
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp)

@@ -140,7 +140,8 @@ def measure(name: str, url: str) -> None:
     baseline = median_ms(count)
     old = median_ms(due_from_runs)
     due = median_ms(lambda: lab.due(today=today, days=30))
-    history = median_ms(lambda: lab.history("SN-04321"))
+    serial = f"SN-{4321 % N_SENSORS:05d}"  # a filled sensor: SN-04321 (SN-00021 in --smoke)
+    history = median_ms(lambda: lab.history(serial))
     n_due = len(lab.due(today=today, days=30))
     print(
         f"{name:10s} count(runs) {baseline:6.1f} ms | due ({n_due} items) {due:6.1f} ms "
