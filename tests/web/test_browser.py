@@ -133,9 +133,14 @@ def test_login_search_certificate_and_the_qr_code_to_the_public_status(
     assert address == browser.find_element(By.ID, "address").text
 
     browser.find_element(By.ID, "logout").click()
+    wait_for_url(f"{server}/login")  # signed out: the sign-in page
     browser.delete_all_cookies()
     browser.get(address)  # the QR round trip, as a customer with no account
-    assert browser.find_element(By.ID, "status").text == "valid"
+    status = WebDriverWait(browser, 30).until(
+        ec.presence_of_element_located((By.ID, "status")),
+        message=f"no status on {browser.current_url}",
+    )
+    assert status.text == "valid", browser.page_source[:2000]
     assert browser.find_elements(By.ID, "logout") == []
     assert "SN-WEB-1" not in browser.page_source and "ACME" not in browser.page_source
 
