@@ -3,81 +3,22 @@
 
 from __future__ import annotations
 
-import datetime as dt
 import shutil
 from pathlib import Path
 
 import pytest
-from cryptography import x509
-from cryptography.hazmat.primitives import hashes, serialization
-from cryptography.hazmat.primitives.asymmetric import ec
-from cryptography.hazmat.primitives.serialization import pkcs12
-from cryptography.x509.oid import NameOID
 
 from app.cli import main
-
-PASSWORD = "correct horse"
-
-
-def _name(common: str) -> x509.Name:
-    return x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, common)])
-
-
-def _ca(tmp: Path, common: str) -> tuple[ec.EllipticCurvePrivateKey, x509.Certificate, Path]:
-    key = ec.generate_private_key(ec.SECP256R1())
-    now = dt.datetime.now(dt.UTC)
-    cert = (
-        x509.CertificateBuilder()
-        .subject_name(_name(common))
-        .issuer_name(_name(common))
-        .public_key(key.public_key())
-        .serial_number(x509.random_serial_number())
-        .not_valid_before(now - dt.timedelta(days=1))
-        .not_valid_after(now + dt.timedelta(days=30))
-        .add_extension(x509.BasicConstraints(ca=True, path_length=None), critical=True)
-        .add_extension(
-            x509.KeyUsage(False, False, False, False, False, True, True, False, False),
-            critical=True,
-        )
-        .sign(key, hashes.SHA256())
-    )
-    path = tmp / f"{common}.pem"
-    path.write_bytes(cert.public_bytes(serialization.Encoding.PEM))
-    return key, cert, path
+from tests.app.throwaway_ca import PASSWORD, make_ca, make_signer
 
 
 @pytest.fixture(scope="module")
 def keys(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """The lab's CA, another CA, and the lab's signer key issued by the lab's CA."""
     tmp = tmp_path_factory.mktemp("keys")
-    ca_key, ca_cert, ca_pem = _ca(tmp, "Test Lab CA")
-    _, _, other_pem = _ca(tmp, "Some Other CA")
-    key = ec.generate_private_key(ec.SECP256R1())
-    now = dt.datetime.now(dt.UTC)
-    cert = (
-        x509.CertificateBuilder()
-        .subject_name(_name("Vibration Calibration Laboratory"))
-        .issuer_name(ca_cert.subject)
-        .public_key(key.public_key())
-        .serial_number(x509.random_serial_number())
-        .not_valid_before(now - dt.timedelta(days=1))
-        .not_valid_after(now + dt.timedelta(days=30))
-        .add_extension(
-            x509.KeyUsage(True, True, False, False, False, False, False, False, False),
-            critical=True,
-        )
-        .sign(ca_key, hashes.SHA256())
-    )
-    p12 = tmp / "lab.p12"
-    p12.write_bytes(
-        pkcs12.serialize_key_and_certificates(
-            b"lab",
-            key,
-            cert,
-            [ca_cert],
-            serialization.BestAvailableEncryption(PASSWORD.encode()),
-        )
-    )
-    return {"p12": p12, "ca": ca_pem, "other": other_pem}
+    lab = make_ca(tmp, "Test Lab CA")
+    other = make_ca(tmp, "Some Other CA")
+    return {"p12": make_signer(tmp, "lab.p12", lab), "ca": lab.pem, "other": other.pem}
 
 
 @pytest.fixture(scope="module")
