@@ -36,8 +36,6 @@ from PySide6.QtCore import QTimer
 from PySide6.QtWidgets import QApplication
 
 from app.gui.main_window import MainWindow
-from app.gui.run_tab import LiveFrame
-from app.gui.worker import RunWorker
 from app.io.vocabulary import RunStatus
 from app.procedure import Finished, PeriodBlock, PeriodEstimate, State, StateChanged
 from app.records.run_record import RunRecord
@@ -156,12 +154,9 @@ def main(argv: list[str] | None = None) -> int:
     procedure = FeedingProcedure(plan)
     ended: list[Any] = []
     tab.ended.connect(ended.append)
-    tab.ranges_v = {"reference": 10.0, "dut": 10.0}
-    tab.frame = LiveFrame(plan=plan)
-    tab.worker = RunWorker(procedure, NoStand())  # type: ignore[arg-type]
     renders["count"] = 0
     cpu0 = time.thread_time()  # the GUI thread's own CPU time: the machine's load aside
-    tab.worker.start()
+    tab.attach(procedure, NoStand(), {"reference": 10.0, "dut": 10.0})  # as Start does
     run_for(seconds)
     cpu_ms = (time.thread_time() - cpu0) * 1e3
     stall = max(gaps) * 1e3 - 2

@@ -29,6 +29,7 @@ MINOR_TICKS_HZ = (2, 5, 20, 50, 200, 500, 2000, 5000, 20000)
 MIN_COLUMNS = 200  # pixel columns a period is decimated to at the least (plot not shown yet)
 REF_COLOUR, DUT_COLOUR = "#4a9ee0", "#d62728"
 LEGEND_BRUSH = (0, 0, 0, 200)  # the legend readable over the traces it names
+LEFT_AXIS_PX = 62  # width of each live plot's y axis: label and "-100.5" tick text
 
 
 def hz_label(frequency_hz: float) -> str:
@@ -156,6 +157,8 @@ class LivePlots:
         self.phase_plot.addItem(self.phase_err)
         for plot in self.plots:
             plot.disableAutoRange()  # the axes follow the data in steps (follow_y)
+            # a fixed width: new tick labels never re-lay the four plots out mid-run
+            plot.getAxis("left").setWidth(LEFT_AXIS_PX)
             # no grid: a grid is drawn by the axes over the whole plot, so every new curve
             # would repaint (and re-render the text of) all eight axes
         self._ranges: dict[int, tuple[float, float]] = {}  # x range set per plot
@@ -186,6 +189,18 @@ class LivePlots:
             plot.setYRange(0, 1, padding=0)  # the first data sets its own range
         self._ranges.clear()
         self.widget.show_chart(False)
+
+    def prepare(self, plan: Plan) -> None:
+        """Show the charts with the x ranges of `plan` before its first period, so the
+        layout and the axes are settled before the live frames begin."""
+        self.widget.show_chart(True)
+        self._x_range(self.wave_plot, 0.0, (plan.period_samples - 1) / plan.sample_rate_hz)
+        df = plan.sample_rate_hz / plan.period_samples
+        self._x_range(self.spec_plot, float(np.log10(df)), float(np.log10(plan.sample_rate_hz / 2)))
+        logf = np.log10(np.asarray(plan.frequencies_hz, dtype=float))
+        if logf.size:
+            for plot in (self.sens_plot, self.phase_plot):
+                self._x_range(plot, float(logf.min()) - 0.05, float(logf.max()) + 0.05)
 
     def _x_range(self, plot: pg.PlotItem, low: float, high: float) -> None:
         """Set the x range once per run (and again only when it changes)."""

@@ -205,3 +205,72 @@ def test_an_axis_moves_only_when_the_data_leaves_it_or_shrinks_far_inside():
     assert not follow_y(plot, -0.9, 1.05)  # inside: the axis (and its text) stays
     assert follow_y(plot, -0.9, 1.5)  # out: it follows
     assert follow_y(plot, -0.01, 0.01)  # far inside: it zooms in
+
+
+class _OneShotProcedure:
+    """A procedure's part for the worker: announces one state, then ends aborted at 0 V."""
+
+    def __init__(self, plan) -> None:
+        self.plan = plan
+        self.listener = None
+
+    def run(self) -> Finished:
+        self.listener(StateChanged(State.ACQUIRING, "one shot"))
+        record = RunRecord(run_id=None, status="aborted", abort_reason="done", final_output_v=0.0)
+        return Finished("aborted", "done", None, record)
+
+    def abort(self, reason: str = "") -> None:
+        pass
+
+    def close(self) -> None:
+        pass
+
+
+class _NoStand:
+    def close(self) -> None:
+        pass
+
+
+def test_a_live_run_freezes_older_objects_out_of_the_collector_and_thaws_them_at_its_end(qtbot):
+    """A full garbage collection over the window's objects stalls the GUI thread 50-90 ms
+    (measured by bench/gui_responsiveness.py): during a run only the run's objects are scanned."""
+    import gc
+
+    from dsp.multisine import make_plan
+
+    gc.unfreeze()
+    tab = RunTab()
+    qtbot.addWidget(tab)
+    plan = make_plan([100.0, 1000.0], 10_000.0, 1000, 1.0, 100.0, phases_rad=np.zeros(2))
+    tab.attach(_OneShotProcedure(plan), _NoStand(), {"reference": 2.0, "dut": 2.0})
+    try:
+        assert gc.get_freeze_count() > 1000
+        # the charts are laid out with the plan's axes before the first period
+        assert tab.live.widget.showing_chart
+        low, high = tab.live.wave_plot.getViewBox().viewRange()[0]
+        assert low < 0.0 < 0.0999 < high < 0.11  # 0 .. 999 / 10 kHz, 2 % padding
+        low, high = tab.live.spec_plot.getViewBox().viewRange()[0]
+        assert low < 1.0 < 3.69 < high < 3.8  # log10(10 Hz) .. log10(5 kHz)
+        with qtbot.waitSignal(tab.ended, timeout=5000):
+            pass
+    finally:
+        gc.unfreeze()
+    tab.attach(_OneShotProcedure(plan), _NoStand(), {"reference": 2.0, "dut": 2.0})
+    with qtbot.waitSignal(tab.ended, timeout=5000):
+        pass
+    assert gc.get_freeze_count() == 0
+
+
+def test_a_meter_is_restyled_only_when_its_colour_changes(qtbot, monkeypatch):
+    """A new style sheet re-polishes the widget: not once per frame."""
+    tab = RunTab()
+    qtbot.addWidget(tab)
+    tab.ranges_v = {"reference": 2.0, "dut": 2.0}
+    bar = tab.meters["reference"]
+    calls = []
+    original = bar.setStyleSheet
+    monkeypatch.setattr(bar, "setStyleSheet", lambda s: (calls.append(s), original(s)))
+    for level in (0.5, 0.6, 0.7, 1.95, 1.96, 0.5):
+        tab.frame = LiveFrame(block=block(1, State.ACQUIRING, level))
+        tab.draw()
+    assert len(calls) == 3 and "#27ae60" in calls[0] and "#c0392b" in calls[1]
