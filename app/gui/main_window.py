@@ -143,7 +143,8 @@ class MainWindow(QMainWindow):
         setup = self.setup_tab
         if self.run_tab.worker is not None or setup.validate():
             return
-        allowed, note = reference_allows_run(setup, self.today_utc())  # as the CLI
+        today = self.today_utc()
+        allowed, note, reason = reference_allows_run(setup, today)  # as the CLI
         if not allowed:
             if note:
                 self.run_tab.messages.setText(html.escape(note))
@@ -151,7 +152,9 @@ class MainWindow(QMainWindow):
         self.settings.setValue("dut", setup.dut.currentText())
         self.settings.setValue("stand_file", str(setup.stand_file or ""))
         try:
-            request, notes = setup.request_and_notes()  # as the CLI builds it
+            request, notes = setup.request_and_notes(  # as the CLI builds it
+                records=True, reference_override=reason, today=today
+            )
         except ValueError as exc:  # a refusal naming the field (records, stand file)
             QMessageBox.warning(self, "Cannot start", str(exc))
             self.run_tab.messages.setText(html.escape(f"Cannot start: {exc}"))

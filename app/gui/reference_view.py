@@ -1,8 +1,8 @@
 """What the Setup tab says about the reference standard: the one the run will use, from the
 stand file loaded (its [reference] table), and what the records know of it (certificate, due
-date, expired). It reads; the due-date rule itself is the records' (`Lab.reference_for_run`,
-through `app.records.db.runs.reference_due_note`, the CLI's own check): Start refuses a reference
-standard past its due date unless an override reason is typed, as `run --reference-override`.
+date, expired). It reads; the rule itself is the CLI's (`app.procedure.reference`, applied by
+`build_request`): Start refuses a reference standard not on record or past its due date unless
+an override reason is typed, as `run --reference-override`.
 """
 
 from __future__ import annotations
@@ -59,36 +59,53 @@ def describe_reference(config: Any, link: Any = None, today: date | None = None)
     return "<br/>".join(lines)
 
 
-def reference_allows_run(setup: Any, today: date) -> tuple[bool, str | None]:
-    """Whether Start may go on with the Setup tab's reference standard on `today`, and a note
-    to show (when refused: the refusal). Past its due date on record: the refusal names the
-    date and asks an override reason; without one nothing starts and the refusal is shown at
-    the reference standard. Records not open: not checked here (the run still records to its
-    folder), as the CLI."""
-    from app.records.db.runs import reference_due_note
+def reference_allows_run(setup: Any, today: date) -> tuple[bool, str | None, str | None]:
+    """Whether Start may go on with the Setup tab's reference standard on `today`, the refusal
+    to show (None when allowed) and the override reason typed (None: none needed). The rule is
+    the CLI's (`app.procedure.reference`, as `build_request` applies it): not on record or
+    past its due date, the refusal is shown and an override reason asked; without one nothing
+    starts and the refusal is marked at the reference standard; a stand-file table that
+    differs from the records' cannot be overridden. Records not open: not checked here (the
+    run still records to its folder), as the CLI."""
+    from app.procedure.reference import ReferenceRefusal, reference_from_records
+    from app.records.db.audit import current_actor
 
     lab = setup.records.lab
     marks = setup.field_marks
     marks.note(setup.reference_label, None)
     if lab is None:
-        return True, None
-    reference_id = setup.config.reference.id
+        return True, None, None
+
+    def check(reason: str | None) -> None:
+        resolved = reference_from_records(
+            setup.config, lab, override_reason=reason, who=current_actor(), today=today
+        )
+        for note in resolved.notes if resolved.overrides else ():
+            log.warning("%s", note)
+
+    def refuse(refusal: str) -> tuple[bool, str | None, str | None]:
+        marks.note(setup.reference_label, f"Start refused: {refusal}", ERROR)
+        return False, f"Start refused: {refusal}", None
+
     try:
-        return True, reference_due_note(lab, reference_id, today=today, override_reason=None)
-    except RecordsInputError as exc:
+        check(None)
+        return True, None, None
+    except ReferenceRefusal as exc:
+        if not exc.overridable:
+            return refuse(str(exc))
         refusal = str(exc)
+    except RecordsInputError as exc:
+        return refuse(str(exc))
     reason, ok = QInputDialog.getText(
         setup,
-        "Reference standard past its due date",
-        f"{refusal}.\n\nOverride reason (required to run; kept in the log):",
+        "Reference standard not usable as on record",
+        f"{refusal}.\n\nOverride reason (required to run; recorded with the run, in the "
+        "audit trail and on the certificate):",
     )
     if not ok or not reason.strip():
-        marks.note(setup.reference_label, f"Start refused: {refusal}", ERROR)
-        return False, f"Start refused: {refusal}"
+        return refuse(refusal)
     try:
-        note = reference_due_note(lab, reference_id, today=today, override_reason=reason.strip())
-    except RecordsInputError as exc:  # the records changed meanwhile
-        marks.note(setup.reference_label, f"Start refused: {exc}", ERROR)
-        return False, None
-    log.warning("%s", note)
-    return True, note
+        check(reason.strip())
+    except (ReferenceRefusal, RecordsInputError) as exc:  # the records changed meanwhile
+        return refuse(str(exc))
+    return True, None, reason.strip()

@@ -258,11 +258,17 @@ class SetupTab(QWidget):
         text = self.frequencies.text().strip()
         return tuple(parse_frequencies(text)) if text else None
 
-    def dut_choice(self) -> DutChoice:
+    def dut_choice(
+        self, *, records: bool = False, reference_override: str | None = None, today: Any = None
+    ) -> DutChoice:
         """How the fields name the DUT: the catalogue DUT (simulated stand), the serial and,
         when its look-up found it on record, its specification; what the operator states over
-        the record."""
+        the record. `records`: the reference standard from the open records (Start), with the
+        override reason typed and the window's date."""
         return DutChoice(
+            lab=self.records.lab if records else None,
+            reference_override=reference_override,
+            today=today,
             stand_file=self.stand_file,
             dut=self.dut.currentText(),
             dut_id=self.dut_id.text().strip() or None,
@@ -274,18 +280,19 @@ class SetupTab(QWidget):
             preset=self.preset.currentText(),
         )
 
-    def request_and_notes(self) -> tuple[RunRequest, tuple[str, ...]]:
+    def request_and_notes(self, **reference: Any) -> tuple[RunRequest, tuple[str, ...]]:
         """The run the fields describe, built as the CLI builds it (`build_request`: the DUT
         resolved into its DutSpec), with the phases already optimised off this thread (the
         same phases the CLI computes: they do not depend on the level); notes to show. The
         reference standard's due date is the window's check (it asks an override reason).
-        Refuses (a Refusal naming the field) what cannot be resolved."""
+        Refuses (a Refusal naming the field) what cannot be resolved. `reference`: Start's
+        `dut_choice` options (records, reference_override, today)."""
         preset = PRESETS[self.preset.currentText()]
         custom = self.custom_lines()
         lines = tuple(custom if custom is not None else preset.nominal_frequencies_hz)
         options = self.options
         request, notes = build_request(
-            self.dut_choice(),
+            self.dut_choice(**reference),
             frequencies_hz=custom,
             periods=self.periods.value(),
             target_type_a=self.target.value() / 100 or None,

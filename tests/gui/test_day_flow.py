@@ -29,6 +29,7 @@ from app.gui.main_window import MainWindow
 from app.records.db.engine import open_engine
 from app.records.db.lab import Lab
 from hardware.teds import TedsError
+from tests.app.db.test_run_records import add_sim_reference
 
 MG = 9.80665  # m/s^2 per g
 LINES_A = "40,80,160,315,630"
@@ -38,9 +39,11 @@ LINES_B = "80,160,315,630,1000"
 @pytest.fixture
 def lab_url(tmp_path: Path) -> str:
     """Two customers, two models (one in mV/g), three sensors, a template per model; the
-    two-person rule on."""
+    two-person rule on; the simulated stand's reference standard on record, due 2099-01-01
+    (issue 24: with records in use, Start refuses a reference standard not on record)."""
     url = f"sqlite:///{tmp_path / 'lab.sqlite'}"
     lab = Lab(open_engine(url, create=True), actor="setup")
+    add_sim_reference(url, date(2099, 1, 1))
     lab.add_customer("ACME Ltd", "1 Main Street, Springfield")
     lab.add_customer("Vibration Labs GmbH", "Hauptstraße 2, Bremen")
     lab.add_model(
@@ -397,17 +400,9 @@ def test_read_teds_finds_the_sensor_by_its_teds_identity_or_says_why_not(
 def test_start_refuses_a_reference_standard_past_its_due_date_unless_a_reason_is_given(
     window, qtbot, lab_url, caplog
 ):
-    reference = window.setup_tab.config.reference.id  # the simulated stand's
-    Lab(open_engine(lab_url)).add_reference(
-        reference,
-        model="B&K 8305",
-        serial="1",
-        certificate_number="PTB-7",
-        calibration_date=date(2024, 1, 10),
-        due_date=date(2025, 1, 10),
-        table=[(160.0, 1.0, 0.005, None)],
-    )
-    window.today = date(2026, 11, 24)
+    # the simulated stand's reference is on record (fixture), due 2099-01-01
+    assert window.setup_tab.config.reference.id == "REF-8305-SIM"
+    window.today = date(2100, 11, 24)
     window.setup_tab.frequencies.setText(LINES_A)
     window.setup_tab.periods.setValue(3)
     qtbot.waitUntil(window.setup_tab.start_button.isEnabled, timeout=30_000)
@@ -420,10 +415,10 @@ def test_start_refuses_a_reference_standard_past_its_due_date_unless_a_reason_is
     modal = Modal().then(QInputDialog, cancel)
     qtbot.mouseClick(window.setup_tab.start_button, Qt.MouseButton.LeftButton)
     modal.check()
-    assert "was due for calibration on 2025-01-10" in asked[0]
+    assert "was due for calibration on 2099-01-01" in asked[0]
     assert window.run_tab.worker is None  # nothing started
     mark = window.setup_tab.field_marks.reason(window.setup_tab.reference_label)
-    assert "Start refused" in mark and "2025-01-10" in mark
+    assert "Start refused" in mark and "2099-01-01" in mark
 
     def override(dialog: QInputDialog) -> None:
         dialog.setTextValue("  ")  # blank: refused like a cancel

@@ -5,6 +5,7 @@ SQLite file), each bad field refused at the field; the Sensors tab current after
 from __future__ import annotations
 
 import html
+import json
 import os
 from datetime import date
 from pathlib import Path
@@ -13,13 +14,14 @@ import pytest
 
 os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 
-from PySide6.QtCore import QDate
-from PySide6.QtWidgets import QDialog
+from PySide6.QtCore import QDate, Qt
+from PySide6.QtWidgets import QDialog, QMessageBox
 
 from app.gui.main_window import MainWindow
 from app.gui.records_dialogs import ReferenceDialog
 from app.records.db.engine import open_engine
 from app.records.db.lab import Lab
+from tests.app.db.test_run_records import add_sim_reference
 
 
 @pytest.fixture
@@ -296,6 +298,7 @@ def test_the_sensors_tab_shows_a_run_of_the_selected_sensor_when_it_ends(qtbot, 
         frequency_max_hz=10000,
     )
     lab.add_sensor("SN-9", model="352C33", owner="Existing Ltd")
+    add_sim_reference(url, date(2099, 1, 1))  # Start needs the stand's reference on record
     w = MainWindow(out=tmp_path / "runs", paced=False, seed=4, db=url)
     qtbot.addWidget(w)
     w.records.wait()
@@ -317,3 +320,53 @@ def test_the_sensors_tab_shows_a_run_of_the_selected_sensor_when_it_ends(qtbot, 
     x, _y = tab.points.getData()
     assert len(x) == 1 and "1 calibration(s)" in tab.history_text.text()
     assert tab.sensors.item(0, 4).text() != "never calibrated here"
+
+
+def test_start_refuses_a_reference_standard_not_on_record_unless_a_reason_is_given(
+    window, qtbot, url, monkeypatch, caplog
+):
+    """Issue 24 point 2, as the CLI: with records open, the simulated stand's reference
+    standard (REF-8305-SIM, not in these records) refuses Start naming it; cancelled or blank,
+    nothing starts; with a reason the run goes on under a recorded override."""
+    from app.gui import reference_view
+
+    asked: list[str] = []
+    answers = iter([("", False), ("   ", True), ("new certificate in transit", True)])
+
+    def get_text(parent, title, label, *args, **kwargs):
+        asked.append(label)
+        return next(answers)
+
+    monkeypatch.setattr(reference_view.QInputDialog, "getText", get_text)
+    monkeypatch.setattr(QMessageBox, "warning", lambda *a, **k: pytest.fail(f"warning: {a[2]}"))
+    window.setup_tab.frequencies.setText("160")
+    window.setup_tab.periods.setValue(3)
+    qtbot.waitUntil(window.setup_tab.start_button.isEnabled, timeout=30_000)
+    for _ in range(2):  # cancelled, then blank: refused
+        qtbot.mouseClick(window.setup_tab.start_button, Qt.MouseButton.LeftButton)
+        assert window.run_tab.worker is None
+        mark = window.setup_tab.field_marks.reason(window.setup_tab.reference_label)
+        assert "Start refused" in mark and "REF-8305-SIM" in mark and "not in the records" in mark
+    assert len(asked) == 2 and "REF-8305-SIM" in asked[0]
+    with qtbot.waitSignal(window.run_finished, timeout=90_000) as blocker:
+        qtbot.mouseClick(window.setup_tab.start_button, Qt.MouseButton.LeftButton)
+    finished = blocker.args[0]
+    assert finished.status == "complete"
+    (override,) = finished.record.overrides  # a typed field of the run record, as the CLI's
+    assert override.kind == "unrecorded reference" and override.why == "new certificate in transit"
+    assert "REF-8305-SIM" in override.what
+    stored = json.loads((window.options.out / finished.record.run_id / "results.json").read_text())
+    assert stored["overrides"][0]["why"] == "new certificate in transit"
+    from sqlalchemy import select
+
+    from app.records.db.models import AuditEntry
+
+    with fresh(url).session() as s:
+        (entry,) = s.scalars(select(AuditEntry).where(AuditEntry.action == "override")).all()
+        assert entry.row_key == "REF-8305-SIM"
+        assert json.loads(entry.changes)["why"] == "new certificate in transit"
+    assert window.setup_tab.field_marks.reason(window.setup_tab.reference_label) == ""
+    assert any(
+        "used under the override: new certificate in transit" in r.getMessage()
+        for r in caplog.records
+    )

@@ -20,6 +20,7 @@ from app.gui.main_window import MainWindow
 from app.records.db.engine import open_engine
 from app.records.db.lab import Lab
 from app.records.db.models import Run, Stand
+from tests.app.db.test_run_records import add_sim_reference
 
 ROOT = Path(__file__).resolve().parents[2]
 TODAY = date(2026, 11, 24)
@@ -69,6 +70,7 @@ def lab_url(tmp_path: Path) -> str:
     _history_run(lab, "SN-7", "r2", date(2026, 3, 1), 10.21, 0.05)
     _history_run(lab, "SN-7", "r3", date(2026, 9, 1), 10.23, 0.06)
     _history_run(lab, "SN-8", "r4", date(2024, 10, 1), 10.0, 0.1)  # due 2025-10-01: overdue
+    add_sim_reference(url, date(2099, 1, 1))  # Start needs the stand's reference on record
     return url
 
 
@@ -294,7 +296,9 @@ def test_a_bad_field_is_marked_with_its_reason_and_blocks_start(window):
 
 def test_the_reference_standard_shown_is_the_stand_files_with_its_record(window, lab_url):
     assert "REF-8305-SIM" in window.setup_tab.reference_label.text()
-    assert "not in the records" in window.setup_tab.reference_label.text()
+    assert "records: certificate SIM-CAL-2026-001 of 2025-06-01, due on 2099-01-01" in (
+        window.setup_tab.reference_label.text()
+    )
     example = ROOT / "examples" / "stand-pxi6251.toml"
     from app.stand import config as stand_config
 
