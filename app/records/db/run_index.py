@@ -10,13 +10,13 @@ import itertools
 import json
 from collections.abc import Sequence
 from dataclasses import dataclass
-from datetime import datetime
+from datetime import UTC, datetime
 from pathlib import Path
 
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
-from app.records.db.models import Run, Sensor, Stand
+from app.records.db.models import AuditEntry, Run, Sensor, Stand
 from app.records.db.sensors import SensorRecords
 from app.records.db.store import RecordsError, utc
 from app.records.run_folder import MANIFEST_NAME, STATUS_COMPLETE, inspect_run, sha256_of
@@ -74,6 +74,23 @@ class ImportReport:
     warnings: tuple[str, ...] = ()
 
 
+def override_entries(record: RunRecord) -> list[AuditEntry]:
+    """The run's overrides as audit entries keyed by its run id (table runs): an auditor finds
+    every run made past a check, and why, in the trail, beside the entry made when the
+    override was granted (keyed by what was overridden, before the run had an id)."""
+    return [
+        AuditEntry(
+            at_utc=datetime.now(UTC),
+            actor=override.who,
+            action="override",
+            table_name="runs",
+            row_key=str(record.run_id),
+            changes=json.dumps(override.to_dict(), sort_keys=True),
+        )
+        for override in record.overrides
+    ]
+
+
 class RunIndex(SensorRecords):
     """Run folders indexed; histories and control charts of sensors on record."""
 
@@ -106,6 +123,7 @@ class RunIndex(SensorRecords):
                     continue
                 row = self._run_row(s, folder, check.record, manifest_hash)
                 s.add(row)
+                s.add_all(override_entries(check.record))
                 if row.sensor is not None and row.sensor.check_standard:
                     check_standards.add(row.sensor.serial)
             imported.append(str(check.record.run_id))

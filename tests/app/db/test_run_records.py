@@ -8,10 +8,12 @@ from datetime import date
 from pathlib import Path
 
 import pytest
+from sqlalchemy import select
 
 from app.cli import main
 from app.records.db.engine import open_engine
 from app.records.db.lab import Lab
+from app.records.db.models import AuditEntry
 from app.records.run_folder import inspect_run
 
 RUN = ["run", "--sim", "--dut", "piezo", "--periods", "3", "--seed", "1"]
@@ -105,6 +107,15 @@ def test_an_expired_reference_standard_is_refused_unless_overridden(
     argv = [*RUN, "--db", lab_url, "--out", str(out), "--reference-override", "PTB slot in May"]
     assert main(argv) == 0
     assert "used under the override: PTB slot in May" in capsys.readouterr().err
+    (folder,) = out.iterdir()
+    with Lab(open_engine(lab_url)).session() as s:
+        trail = s.scalars(select(AuditEntry).where(AuditEntry.action == "override")).all()
+        # granted (keyed by the reference standard), then with the run when it was indexed
+        assert [(e.table_name, e.row_key) for e in trail] == [
+            ("reference_standards", "REF-8305-SIM"),
+            ("runs", folder.name),
+        ]
+        assert all(json.loads(e.changes)["why"] == "PTB slot in May" for e in trail)
 
 
 def test_an_unreachable_database_loses_nothing_and_the_next_import_indexes_the_run(
