@@ -63,7 +63,8 @@ class Review:
         return None
 
 
-def _review(r: CertificateReview) -> Review:
+def as_review(r: CertificateReview) -> Review:
+    """The typed Review of a row (read inside its session)."""
     return Review(
         r.certificate.number,
         r.subject,
@@ -186,7 +187,7 @@ class ReviewRecords(Store):
                 row.outcome, row.closed_utc = outcome, now
                 row.closed_by, row.close_reason, row.amended_by = self.actor, reason, amended_by
             s.flush()
-            return [_review(r) for r in rows]
+            return [as_review(r) for r in rows]
 
     @staticmethod
     def _check_amendment(s: Session, certificate: Certificate, amended_by: str | None) -> str:
@@ -220,4 +221,4 @@ class ReviewRecords(Store):
                     Certificate, CertificateReview.certificate_id == Certificate.id
                 ).where(Certificate.number == number)
             rows = s.scalars(query.order_by(CertificateReview.opened_utc, CertificateReview.id))
-            return [_review(r) for r in rows]
+            return [as_review(r) for r in rows]
