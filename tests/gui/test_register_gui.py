@@ -37,6 +37,9 @@ def test_a_second_certificate_of_a_run_is_offered_as_an_amendment_and_pdfs_open(
     type_serial(qtbot, window, "PZ-0001")
     finished = run_now(qtbot, window)
     folder = window.options.out / str(finished.record.run_id)
+    # the Technician field is the run's technician (config.json, results.json; issue 27)
+    assert finished.record.technician == "A. Tech"
+    assert '"technician": "A. Tech"' in (folder / "config.json").read_text()
     seen: list[dict[str, str]] = []
     modal = Modal()
     certificate_steps(modal, seen, approver="J. Smith", same_person="a. tech")
