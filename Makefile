@@ -67,7 +67,7 @@ demo: $(STAMP)
 	rm -rf $(DEMO_DIR)/data
 	$(BIN)/accelcal plan --preset piezo
 	$(BIN)/accelcal run --sim --dut piezo --dut-id SN-DEMO-0001 --level 5 --periods 8 --seed 1 \
-	    --tolerance 5 --out $(DEMO_DIR)/runs
+	    --tolerance 5 --technician "A. Tech" --out $(DEMO_DIR)/runs
 	$(BIN)/accelcal certificate $$(ls -d $(DEMO_DIR)/runs/*/ | tail -n 1) --customer "ACME Ltd" \
 	    --authorised-by "J. Smith, head of laboratory" --temperature 23 \
 	    --mounting "stud-mounted back-to-back on the reference, 2 N m"

@@ -69,14 +69,21 @@ def _isolated_qt_settings(tmp_path_factory: pytest.TempPathFactory) -> None:
 @pytest.fixture(scope="session")
 def complete_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """One complete simulated run for the whole session (piezo DUT SN-42, 4 periods, tolerance
-    5 %): its run folder. Tests that need a runs root of their own (a fresh certificate
-    register) copy it; nothing else may change it."""
+    5 %, technician T. Ester): its run folder. Tests that need a runs root of their own (a
+    fresh certificate register) copy it; nothing else may change it."""
     from app.io.vocabulary import RunStatus
     from app.procedure.run import RunRequest, execute
 
     out = tmp_path_factory.mktemp("runs")
     finished = execute(
-        RunRequest(dut="piezo", dut_id="SN-42", periods=4, tolerance_percent=5.0, out=out)
+        RunRequest(
+            dut="piezo",
+            dut_id="SN-42",
+            periods=4,
+            tolerance_percent=5.0,
+            out=out,
+            technician="T. Ester",  # the certificate's Prepared by (issue 27)
+        )
     )
     assert finished.status == RunStatus.COMPLETE
     return out / str(finished.record.run_id)

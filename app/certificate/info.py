@@ -75,6 +75,8 @@ def default_info(record: RunRecord, start: RunStart) -> dict[str, Any]:
             defaults.setdefault("dut_model", spec.model)
             defaults.setdefault("dut_type", f"{spec.kind} accelerometer")
     defaults.setdefault("issue_date", record.finished_utc[:10])
+    if record.technician:  # who ran it prepares it, over the stand file's [certificate] one
+        defaults["prepared_by"] = record.technician
     return defaults
 
 

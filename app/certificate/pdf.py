@@ -220,10 +220,8 @@ def write_pdf(
         story += _sweep_section(sweep)
     story += _budget_section(run, results)
     story += warnings_section(results, HEAD, SMALL)
-    story += _statements(results, info, p_percent)
-    story += _overrides_section(record)
-    story += validation_statement()
-    story += _sign_off(info, record)
+    statements = _statements(results, info, p_percent) + _overrides_section(record)
+    story += _sign_off(info, record, statements + validation_statement())
     document = SimpleDocTemplate(
         str(out),
         pagesize=A4,
@@ -500,32 +498,37 @@ def _overrides_section(record: RunRecord) -> list[Any]:
     return story
 
 
-def _sign_off(info: CertificateInfo, record: RunRecord) -> list[Any]:
-    return [
+def _sign_off(info: CertificateInfo, record: RunRecord, before: list[Any]) -> list[Any]:
+    """The sign-off block (prepared, authorised, date, software, raw data hash) kept on one
+    page with the statements `before` it, so it never stands alone on the last page: all of
+    them together when they fit on a page, else (KeepTogether splits) at least the last
+    section (from its heading) with the block."""
+    block = [
         Spacer(1, 6 * mm),
-        KeepTogether(
+        _kv(
             [
-                _kv(
-                    [
-                        ("Prepared by", _esc(info.prepared_by or "not stated")),
-                        (
-                            "Authorised by",
-                            f"{_esc(info.authorised_by)}<br/><br/>"
-                            "signature: ______________________",
-                        ),
-                        ("Date of issue", _esc(info.issue_date)),
-                        ("Software", f"accelcal {_esc(record.software_version)}"),
-                        (
-                            "Raw data SHA-256",
-                            f"<font size=7>{_esc(record.raw_data_sha256 or '')}</font>",
-                        ),
-                    ]
+                ("Prepared by", _esc(info.prepared_by or "not stated")),
+                (
+                    "Authorised by",
+                    f"{_esc(info.authorised_by)}<br/><br/>signature: ______________________",
                 ),
-                Spacer(1, 2 * mm),
-                Paragraph(text.RELATE_ONLY, BODY),
+                ("Date of issue", _esc(info.issue_date)),
+                ("Software", f"accelcal {_esc(record.software_version)}"),
+                (
+                    "Raw data SHA-256",
+                    f"<font size=7>{_esc(record.raw_data_sha256 or '')}</font>",
+                ),
             ]
         ),
+        Spacer(1, 2 * mm),
+        Paragraph(text.RELATE_ONLY, BODY),
     ]
+    headings = (HEAD.name, HEAD_KEEP.name)
+    starts = [
+        i for i, f in enumerate(before) if isinstance(f, Paragraph) and f.style.name in headings
+    ]
+    last = starts[-1] if starts else 0
+    return [KeepTogether([*before[:last], KeepTogether([*before[last:], *block])])]
 
 
 def embed(pdf: Path, name: str, data: bytes) -> None:

@@ -1,6 +1,8 @@
 """`accelcal certificate`: the PDF certificate (and DCC) of a stored complete run, through the
 records' register when records are in use (app.records.db.engine.records_url: the same answer
-`run` uses), else numbered by the run folder's register (and saying so on the certificate)."""
+`run` uses), else numbered by the run folder's register (and saying so on the certificate).
+"Prepared by" is --prepared-by, else the technician the run records (run --technician, the
+GUI's Technician field), else the stand file's [certificate] prepared_by; never a login name."""
 
 from __future__ import annotations
 
@@ -8,6 +10,26 @@ import argparse
 
 from app.cli.exits import EXIT_OK, UsageError
 from app.cli.options import writable_folder
+
+
+def _prepared_by(args: argparse.Namespace) -> str:
+    """Who prepared the certificate: --prepared-by, else the run's technician or the stand
+    file's [certificate] prepared_by (app.certificate.info.default_info); UsageError naming
+    --prepared-by when the run records none."""
+    given = (args.prepared_by or "").strip()
+    if given:
+        return given
+    from app.certificate.info import default_info
+    from app.certificate.load import load_stored_run
+
+    run = load_stored_run(args.run)
+    found = str(default_info(run.record, run.start).get("prepared_by") or "").strip()
+    if not found:
+        raise UsageError(
+            "--prepared-by: the run records no technician (accelcal run --technician NAME); "
+            "name who prepared the certificate"
+        )
+    return found
 
 
 def cmd_certificate(args: argparse.Namespace) -> int:
@@ -26,7 +48,7 @@ def cmd_certificate(args: argparse.Namespace) -> int:
         certificate_number=args.certificate_number,
         issue_date=args.issue_date,
         notes=args.notes,
-        prepared_by=args.prepared_by or "",  # else the stand's [certificate], the login name
+        prepared_by=_prepared_by(args),
     )
     out = args.out or (args.run / "certificate.pdf")
     signer = None
@@ -44,7 +66,6 @@ def cmd_certificate(args: argparse.Namespace) -> int:
     url = records_url(args.db)  # the records `run` used: --db, $ACCELCAL_DB, the default file
     if url is not None:
         from app.certificate.register_issue import issue_registered
-        from app.records.db.audit import current_actor
         from app.records.db.gate import records_quick_check
 
         records_quick_check(args.db)
@@ -53,7 +74,7 @@ def cmd_certificate(args: argparse.Namespace) -> int:
             info,
             out,
             url=url,
-            prepared_by=args.prepared_by or current_actor(),
+            prepared_by=info.prepared_by,
             sweep_path=args.sweep,
             replaces=args.replaces,
             reason=args.reason,
@@ -63,11 +84,7 @@ def cmd_certificate(args: argparse.Namespace) -> int:
     elif args.replaces or args.reason or args.as_found:
         raise UsageError("--replaces, --reason, --as-found: need the records (--db URL)")
     else:
-        from app.records.db.audit import current_actor
-
-        issued = issue(
-            args.run, info.merged({"prepared_by": current_actor()}), out, args.sweep, signer
-        )
+        issued = issue(args.run, info, out, args.sweep, signer)
     print(f"certificate {issued.number}: {out}")
     from app.certificate import dcc_path
 

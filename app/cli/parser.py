@@ -210,6 +210,11 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--stand", type=Path, help="stand configuration (stand.toml)")
     r.add_argument("--dut", type=dut_name, default="piezo", help="simulated DUT from the catalogue")
     r.add_argument("--dut-id", default=None, help="serial number / identification of the DUT")
+    r.add_argument(
+        "--technician",
+        metavar="NAME",
+        help="who runs the calibration (stored with the run; the certificate's Prepared by)",
+    )
     numeric_option(r, "--nominal-sensitivity", SENSITIVITY, "DUT nominal, mV/(m/s^2)")
     r.add_argument("--preset", choices=sorted(PRESETS), help="plan (default: by DUT kind)")
     numeric_option(r, "--level", LEVEL, "peak acceleration per line, m/s^2 (default 5)")
@@ -323,7 +328,10 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="URL",
         help="records database (default $ACCELCAL_DB, else the SQLite file when it exists)",
     )
-    cr.add_argument("--prepared-by", help="who prepared it (default: the login name)")
+    cr.add_argument(
+        "--prepared-by",
+        help="who prepared it (default: the technician the run records, run --technician)",
+    )
     cr.add_argument("--replaces", metavar="NUMBER", help="the certificate this one amends")
     cr.add_argument("--reason", help="why it amends the one it replaces")
     cr.add_argument("--as-found", metavar="RUN_ID", help="the run before adjustment (as found)")

@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING
 
 from app.cli.db_verify import add_verify, cmd_db_verify
 from app.cli.options import Bounded, numeric_option
+from app.cli.reviews import REVIEW_ACTIONS, add_review_commands
 from app.records.db.errors import RecordsInputError
 
 if TYPE_CHECKING:
@@ -142,7 +143,9 @@ def add_commands(sub: argparse._SubParsersAction) -> dict[str, Handler]:  # type
     k.add_argument("serial")
     _db_option(k)
 
-    g = sub.add_parser("register", help="the certificate register: list, withdraw, set")
+    g = sub.add_parser(
+        "register", help="the certificate register: list, withdraw, review, reviews, set"
+    )
     gsub = g.add_subparsers(dest="action", required=True, metavar="ACTION")
     _db_option(gsub.add_parser("list", help="every certificate, issued, replaced, withdrawn"))
     # `register issue` (a number without its PDF) was removed: `accelcal certificate RUN`
@@ -153,6 +156,7 @@ def add_commands(sub: argparse._SubParsersAction) -> dict[str, Handler]:  # type
     gw.add_argument("number")
     gw.add_argument("--reason", required=True)
     _db_option(gw)
+    add_review_commands(gsub, _db_option)
     gs = gsub.add_parser("set", help="lab settings: certificate_pattern, two_person_rule")
     gs.add_argument("key", choices=("certificate_pattern", "two_person_rule"))
     gs.add_argument("value")
@@ -347,6 +351,8 @@ def cmd_register(args: argparse.Namespace) -> int:
             "step; --replaces/--reason amend, --as-found names the run before adjustment)"
         )
     lab = _lab(args)
+    if args.action in REVIEW_ACTIONS:
+        return REVIEW_ACTIONS[args.action](lab, args)
     if args.action == "withdraw":
         lab.withdraw_certificate(args.number, args.reason)
         print(f"{args.number} withdrawn")
@@ -355,8 +361,11 @@ def cmd_register(args: argparse.Namespace) -> int:
         lab.set_setting(args.key, args.value)
         print(f"{args.key} = {args.value}")
         return 0
+    under_review = {r.number: r.subject for r in lab.reviews(open_only=True)}
     for c in lab.register():
         note = f" replaces {c.replaces}" if c.replaces else ""
+        if c.number in under_review:
+            note += f" UNDER REVIEW ({under_review[c.number]})"
         if c.as_found_run is not None:
             note += f" (as found: run {c.as_found_run.run_id})"
         why = f" ({c.reason})" if c.reason else ""

@@ -91,6 +91,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         corner_hz=args.corner,
         exciter=args.exciter,
         fade_in_s=args.fade_in,
+        technician=args.technician,
     )
     request = dataclasses.replace(request, records_chain_head=head)
     for note in notes:

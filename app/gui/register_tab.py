@@ -2,7 +2,9 @@
 prepared and approved by, what it replaces, the reason). From a selected certificate: "Amend /
 reissue ..." asks the reason (required), the run (the sensor's complete runs, the certificate's
 own first) and the certificate's fields, and issues a new certificate that replaces it;
-"Withdraw ..." asks the reason; "Open PDF" opens its PDF when its SHA-256 is the register's. The
+"Withdraw ..." asks the reason; "Open PDF" opens its PDF when its SHA-256 is the register's.
+A certificate under review (17025 7.10, `accelcal impact`) says so in the Review column; "Close
+review ..." asks confirmed or amended (by which amendment) and a reason. The
 rules (which state may be replaced, the two-person rule, the numbers) are the records'
 (`app.records.db.lab.Lab`); this tab asks and shows.
 """
@@ -38,6 +40,7 @@ log = logging.getLogger(__name__)
 COLUMNS = (
     "Number",
     "State",
+    "Review",
     "Sensor",
     "Customer",
     "Run",
@@ -48,6 +51,9 @@ COLUMNS = (
     "Reason",
 )
 STATE_COLOUR = {"issued": "#1e8449", "replaced": "#7f8c8d", "withdrawn": "#c0392b"}
+UNDER_REVIEW = "under review"  # the Review column's words for an open review (then its subject)
+REVIEW_COLOUR = "#d35400"
+CONFIRM, AMEND = "confirmed: the result stands", "amended: an amendment replaces it"
 
 
 class RegisterTab(QWidget):
@@ -85,12 +91,19 @@ class RegisterTab(QWidget):
         self.open_button = QPushButton("Open PDF")
         self.open_button.setToolTip("Open the selected certificate's PDF (its SHA-256 checked)")
         self.open_button.clicked.connect(self.open_pdf)
+        self.review_button = QPushButton("Close review ...")
+        self.review_button.setToolTip(
+            "Close the selected certificate's review: confirmed, or amended by its amendment "
+            "(a reason is required)"
+        )
+        self.review_button.clicked.connect(self.close_review)
         self.files: dict[str, tuple[str, str | None]] = {}  # number -> (PDF path, SHA-256)
         for button in (
             self.refresh_button,
             self.open_button,
             self.amend_button,
             self.withdraw_button,
+            self.review_button,
         ):
             buttons.addWidget(button)
         buttons.addStretch(1)
@@ -108,7 +121,8 @@ class RegisterTab(QWidget):
         if lab is not None:
             try:
                 register = lab.register()
-                rows = [self._row(c) for c in register]
+                reviews = self._review_words(lab.reviews())
+                rows = [self._row(c, reviews.get(c.number, "")) for c in register]
                 self.files = {c.number: (c.file, c.sha256) for c in register if c.file}
             except RecordsInputError as exc:
                 self.status.setText(f"register not read: {exc}")
@@ -116,19 +130,38 @@ class RegisterTab(QWidget):
         self.table.setRowCount(len(rows))
         for r, row in enumerate(rows):
             for c, text in enumerate(row):
-                self.table.setItem(
-                    r, c, read_only_item(text, STATE_COLOUR.get(text) if c == 1 else None)
-                )
+                colour = STATE_COLOUR.get(text) if c == 1 else None
+                if c == 2 and text.startswith(UNDER_REVIEW):
+                    colour = REVIEW_COLOUR
+                self.table.setItem(r, c, read_only_item(text, colour))
         if selected is not None:
             self.select(selected)
         self._selected()
 
     @staticmethod
-    def _row(c: Any) -> tuple[str, ...]:
+    def _review_words(reviews: list[Any]) -> dict[str, str]:
+        """Each reviewed certificate's Review cell: "under review (subject; ...)" while any
+        review is open, else how the last one was closed."""
+        words: dict[str, str] = {}
+        open_subjects: dict[str, list[str]] = {}
+        for review in reviews:  # oldest first: the last closed one wins
+            if review.outcome is None:
+                open_subjects.setdefault(review.number, []).append(review.subject)
+            elif review.amended_by:
+                words[review.number] = f"amended by {review.amended_by}"
+            else:
+                words[review.number] = str(review.outcome)
+        for number, subjects in open_subjects.items():
+            words[number] = f"{UNDER_REVIEW} ({'; '.join(subjects)})"
+        return words
+
+    @staticmethod
+    def _row(c: Any, review: str = "") -> tuple[str, ...]:
         """One certificate's cells (read while its session's objects are fresh)."""
         return (
             c.number,
             c.state,
+            review,
             c.sensor.serial,
             c.sensor.owner.name,
             c.run.run_id,
@@ -165,6 +198,8 @@ class RegisterTab(QWidget):
         self.amend_button.setEnabled(issued and not running)
         self.withdraw_button.setEnabled(issued)
         self.open_button.setEnabled(bool(rows) and self.selected_number() in self.files)
+        reviewed = bool(rows) and self.cell(rows[0].row(), "Review").startswith(UNDER_REVIEW)
+        self.review_button.setEnabled(reviewed)
 
     def open_pdf(self) -> Path | None:
         """Open the selected certificate's PDF when its bytes are the register's; the path."""
@@ -256,5 +291,53 @@ class RegisterTab(QWidget):
             QMessageBox.warning(self, "Withdrawal refused", str(exc))
             return False
         log.info("certificate %s withdrawn: %s", number, reason)
+        self.refresh()
+        return True
+
+    def close_review(self) -> bool:
+        """Close the selected certificate's open reviews: confirmed, or amended by one of
+        the certificates that replace it; a reason asked. Whether they were closed."""
+        number = self.selected_number()
+        lab = self.link.lab
+        if number is None or lab is None:
+            return False
+        title = f"Close the review of {number}"
+        how, ok = QInputDialog.getItem(
+            self, title, f"How is the review of {number} decided?", [CONFIRM, AMEND], 0, False
+        )
+        if not ok:
+            return False
+        amended_by = None
+        if how == AMEND:
+            amendments = [
+                self.cell(r, "Number")
+                for r in range(self.table.rowCount())
+                if self.cell(r, "Replaces") == number
+            ]
+            if not amendments:
+                QMessageBox.warning(
+                    self,
+                    "Review not closed",
+                    f"amended by: no certificate replaces {number} yet; issue its amendment "
+                    "first (Amend / reissue ...)",
+                )
+                return False
+            amended_by = amendments[0]
+            if len(amendments) > 1:
+                amended_by, ok = QInputDialog.getItem(
+                    self, title, f"The amendment of {number}:", amendments, 0, False
+                )
+                if not ok:
+                    return False
+        reason = self._reason(title, "Why? (required; kept in the register and audited)")
+        if reason is None:
+            return False
+        outcome = "amended" if how == AMEND else "confirmed"
+        try:
+            lab.close_review(number, outcome=outcome, reason=reason, amended_by=amended_by)
+        except RecordsInputError as exc:
+            QMessageBox.warning(self, "Review not closed", str(exc))
+            return False
+        log.info("review of %s closed: %s (%s)", number, outcome, reason)
         self.refresh()
         return True

@@ -303,6 +303,7 @@ class SetupTab(QWidget):
             faults=options.faults,
             out=options.out,
             phases_rad=self.plans.phases(preset.name, lines),
+            technician=self.technician.text().strip() or None,
         )
         return request, notes
 

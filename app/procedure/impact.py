@@ -292,4 +292,8 @@ def review_reason(serial: str, impact: RunImpact, table: CorrectedTable) -> str:
 
 
 def review_subject(serial: str) -> str:
-    return f"impact of reference {serial}"
+    """The register's subject of the reviews the impact of reference `serial` opens (the
+    records' wording; imported here so the worker processes need no SQLAlchemy)."""
+    from app.records.db.reviews import impact_subject
+
+    return impact_subject(serial)

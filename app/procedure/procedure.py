@@ -399,6 +399,7 @@ class Procedure:
             stand_response=self.notes.stand_response,
             extra=dict(identity.extra),
             overrides=identity.overrides,
+            technician=identity.technician,
         )
 
     # --- telling -----------------------------------------------------------------------------

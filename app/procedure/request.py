@@ -29,7 +29,7 @@ from app.procedure.reference import (
     resolve_reference,
     table_phases,
 )
-from app.records.run_record import DutIdentity, Override
+from app.records.run_record import DutIdentity, Override, technician_name
 from app.stand.dut import DutSpec, Tolerances, spec_from_record, spec_from_stand, spec_from_teds
 from app.stand.response import ResponseStore
 from app.stand.simulated import CATALOGUE, catalogue_spec, plan_preset_for
@@ -78,6 +78,7 @@ class RunIdentity:
     measuring_amplifier: Mapping[str, Any] | None = None
     extra: Mapping[str, Any] = field(default_factory=dict)
     overrides: tuple[Override, ...] = ()  # checks gone past with a reason (results.json)
+    technician: str | None = None  # who ran it (the certificate's "Prepared by"); None: unsaid
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON object config.json has always held (keys absent when not known)."""
@@ -90,6 +91,8 @@ class RunIdentity:
             out["measuring_amplifier"] = dict(self.measuring_amplifier)
         if self.overrides:
             out["overrides"] = [o.to_dict() for o in self.overrides]
+        if self.technician:
+            out["technician"] = self.technician
         out.update(self.extra)
         return out
 
@@ -102,7 +105,10 @@ class RunIdentity:
         level = data.pop("level_ms2", None)
         amplifier = data.pop("measuring_amplifier", None)
         overrides = overrides_from(data.pop("overrides", None))
-        return cls(dut, None if level is None else float(level), amplifier, data, overrides)
+        technician = technician_name(data.pop("technician", None))
+        return cls(
+            dut, None if level is None else float(level), amplifier, data, overrides, technician
+        )
 
 
 @dataclass(frozen=True)
@@ -146,6 +152,7 @@ class RunRequest:
     # the reference standard as on record (None: the stand file's, or the simulated stand's)
     reference: ReferenceTable | None = None
     overrides: tuple[Override, ...] = ()  # checks gone past with a stated reason
+    technician: str | None = None  # who runs it (run --technician, the GUI's Technician)
 
     def stand_config(self) -> StandConfig:
         """The stand file (ConfigError when unusable) with the reference standard's
@@ -205,6 +212,7 @@ class RunRequest:
             ),
             self.level_ms2,
             overrides=self.overrides,
+            technician=technician_name(self.technician),
         )
 
     def store(self) -> ResponseStore | None:

@@ -192,6 +192,7 @@ class RunRecord:
     raw_data_sha256: str | None = None
     results: Mapping[str, Any] | None = None  # dsp.calibration.Results.to_dict(); None: none
     overrides: tuple[Override, ...] = ()  # checks gone past with a stated reason
+    technician: str | None = None  # who ran it (run --technician; the certificate's preparer)
     extra: Mapping[str, Any] = field(default_factory=dict)  # keys of no field, kept as read
     schema_version: int = SCHEMA_VERSION
 
@@ -253,6 +254,8 @@ class RunRecord:
             data["measuring_amplifier"] = dict(self.measuring_amplifier)
         if self.stand_response is not None:
             data["stand_response"] = dict(self.stand_response)
+        if self.technician:
+            data["technician"] = self.technician
         data.update(self.extra)
         if self.verdict is not None:
             data["verdict"] = self.verdict
@@ -311,6 +314,7 @@ class RunRecord:
                 raw_data_sha256=data.get("raw_data_sha256"),
                 results=data.get("results"),
                 overrides=overrides_from(data.get("overrides")),
+                technician=technician_name(data.get("technician")),
                 extra={k: v for k, v in data.items() if k not in known and k != "schema_version"},
                 schema_version=SCHEMA_VERSION,
             )
@@ -326,3 +330,9 @@ class RunRecord:
         except json.JSONDecodeError as exc:
             raise RunRecordError(f"results.json: not JSON ({exc})") from None
         return cls.from_dict(data)
+
+
+def technician_name(value: Any) -> str | None:
+    """A technician's name as a run stores it: stripped text, None when absent or blank."""
+    text = str(value).strip() if value is not None else ""
+    return text or None

@@ -1,13 +1,14 @@
 """What the web view reads from the records database, as typed values (no ORM object leaves a
 session): the register, one certificate, due items, a sensor's history, the public status of
-a certificate and staff users. The engine is read-only: SQLite connections are `query_only`,
-PostgreSQL transactions `default_transaction_read_only`; nothing here can write.
+a certificate (with its review, ISO/IEC 17025 7.10) and staff users. The engine is read-only:
+SQLite connections are `query_only`, PostgreSQL transactions `default_transaction_read_only`;
+nothing here can write.
 """
 
 from __future__ import annotations
 
 import hmac
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from datetime import UTC, date, datetime
@@ -16,7 +17,7 @@ from typing import Any
 
 from sqlalchemy import Engine, create_engine, event, or_, select
 from sqlalchemy.engine import make_url
-from sqlalchemy.orm import Session
+from sqlalchemy.orm import Session, joinedload
 
 from app.certificate.qr import verification_code
 from app.records.db.engine import (
@@ -27,10 +28,51 @@ from app.records.db.engine import (
     resolve_url,
 )
 from app.records.db.lab import DueItem, History, Lab
-from app.records.db.models import Certificate, Customer, Run, Sensor, SensorModel, User
+from app.records.db.models import (
+    Certificate,
+    CertificateReview,
+    Customer,
+    Run,
+    Sensor,
+    SensorModel,
+    User,
+)
+from app.records.db.reviews import Review, as_review
 
 SEARCH_LIMIT = 200  # register rows on one page
 STATUS_WORDS = {"issued": "valid", "replaced": "amended", "withdrawn": "withdrawn"}
+
+
+@dataclass(frozen=True)
+class Status:
+    """A certificate's status as the web view states it: `word` (valid, amended, withdrawn or
+    review: also its CSS class) and `text`, the words shown."""
+
+    word: str
+    text: str
+
+
+def _why(review: Review) -> str:
+    opened = f"{review.opened_utc:%Y-%m-%d}"
+    if review.reference:
+        return f"reference standard {review.reference} found out of tolerance on {opened}"
+    return f"{review.subject}, since {opened}"
+
+
+def certificate_status(state: str, reviews: Sequence[Review]) -> Status:
+    """The status of a certificate in register `state` with its `reviews` (oldest first):
+    withdrawn; else under review while a review is open ("under review (reference standard
+    REF found out of tolerance on DATE)"); else amended ("amended by N" when a review was
+    closed by that amendment); else valid (also once a review is closed as confirmed)."""
+    if state == "withdrawn":
+        return Status("withdrawn", "withdrawn")
+    still_open = [r for r in reviews if r.outcome is None]
+    if still_open:
+        return Status("review", f"under review ({'; '.join(_why(r) for r in still_open)})")
+    if state == "replaced":
+        amended = [r.amended_by for r in reviews if r.outcome == "amended" and r.amended_by]
+        return Status("amended", f"amended by {amended[-1]}" if amended else "amended")
+    return Status("valid", STATUS_WORDS.get(state, state))
 
 
 @dataclass(frozen=True)
@@ -41,7 +83,7 @@ class CertificateRow:
 
     number: str
     state: str
-    status: str
+    status: str  # the words shown (certificate_status)
     issued_utc: datetime
     serial: str
     customer: str
@@ -59,6 +101,7 @@ class CertificateRow:
     file: str | None = None  # the issued PDF's absolute path (None: entered before 0009)
     sha256: str | None = None  # the issued PDF's SHA-256, hex
     dcc_sha256: str | None = None  # its DCC's SHA-256, hex (None: issued without a DCC)
+    status_class: str = "valid"  # Status.word: valid, amended, withdrawn or review
 
 
 @dataclass(frozen=True)
@@ -141,31 +184,53 @@ class Store:
             .order_by(Certificate.issued_utc.desc(), Certificate.id.desc())
             .limit(SEARCH_LIMIT)
         )
-        return [
-            CertificateRow(
-                number=c.number,
-                state=c.state,
-                status=STATUS_WORDS.get(c.state, c.state),
-                issued_utc=_utc(c.issued_utc),
-                serial=s.serial,
-                customer=o.name,
-                model=f"{m.maker} {m.model}",
-                run_id=r.run_id,
-                run_folder=r.folder,
-                manifest_sha256=r.manifest_sha256,
-                prepared_by=c.prepared_by,
-                approved_by=c.approved_by,
-                replaces=c.replaces,
-                reason=c.reason,
-                reference_frequency_hz=r.reference_frequency_hz,
-                sensitivity_mv_per_ms2=r.sensitivity_mv_per_ms2,
-                expanded_uncertainty_mv_per_ms2=r.expanded_uncertainty_mv_per_ms2,
-                file=c.file,
-                sha256=c.sha256,
-                dcc_sha256=c.dcc_sha256,
+        found = session.execute(query).all()
+        reviews = self._reviews(session, [c.id for c, *_ in found])
+        rows = []
+        for c, r, s, o, m in found:
+            status = certificate_status(c.state, reviews.get(c.id, ()))
+            rows.append(
+                CertificateRow(
+                    number=c.number,
+                    state=c.state,
+                    status=status.text,
+                    issued_utc=_utc(c.issued_utc),
+                    serial=s.serial,
+                    customer=o.name,
+                    model=f"{m.maker} {m.model}",
+                    run_id=r.run_id,
+                    run_folder=r.folder,
+                    manifest_sha256=r.manifest_sha256,
+                    prepared_by=c.prepared_by,
+                    approved_by=c.approved_by,
+                    replaces=c.replaces,
+                    reason=c.reason,
+                    reference_frequency_hz=r.reference_frequency_hz,
+                    sensitivity_mv_per_ms2=r.sensitivity_mv_per_ms2,
+                    expanded_uncertainty_mv_per_ms2=r.expanded_uncertainty_mv_per_ms2,
+                    file=c.file,
+                    sha256=c.sha256,
+                    dcc_sha256=c.dcc_sha256,
+                    status_class=status.word,
+                )
             )
-            for c, r, s, o, m in session.execute(query).all()
-        ]
+        return rows
+
+    @staticmethod
+    def _reviews(session: Session, certificate_ids: list[int]) -> dict[int, list[Review]]:
+        """The reviews of these certificates (by certificate id), oldest first."""
+        if not certificate_ids:
+            return {}
+        query = (
+            select(CertificateReview)
+            .options(joinedload(CertificateReview.certificate))
+            .where(CertificateReview.certificate_id.in_(certificate_ids))
+            .order_by(CertificateReview.opened_utc, CertificateReview.id)
+        )
+        out: dict[int, list[Review]] = {}
+        for row in session.scalars(query):
+            out.setdefault(row.certificate_id, []).append(as_review(row))
+        return out
 
     def register(self, search: str = "") -> list[CertificateRow]:
         """Certificates, newest first (at most SEARCH_LIMIT), whose number, sensor serial,
@@ -196,20 +261,24 @@ class Store:
         with self._session() as s:
             return s.scalar(select(Certificate.number).where(Certificate.replaces == number))
 
-    def public_status(self, number: str, code: str) -> str | None:
-        """'valid', 'amended' or 'withdrawn' for certificate `number` when `code` is its
-        verification code (app.certificate.qr); None for an unknown number or a wrong code
-        alike (the answer never tells which numbers exist)."""
+    def public_status(self, number: str, code: str) -> Status | None:
+        """The status of certificate `number` (certificate_status: valid, under review,
+        amended, withdrawn) when `code` is its verification code (app.certificate.qr); None
+        for an unknown number or a wrong code alike (the answer never tells which numbers
+        exist)."""
         with self._session() as s:
             row = s.execute(
-                select(Certificate.state, Run.manifest_sha256)
+                select(Certificate.id, Certificate.state, Run.manifest_sha256)
                 .join(Run, Certificate.run_id == Run.id)
                 .where(Certificate.number == number)
             ).first()
-        expected = verification_code(number, row[1]) if row is not None else "x" * 16
+            reviews = self._reviews(s, [row[0]]) if row is not None else {}
+        expected = verification_code(number, row[2]) if row is not None else "x" * 16
         if not hmac.compare_digest(expected.encode(), code.strip().lower().encode()):
             return None
-        return None if row is None else STATUS_WORDS.get(row[0], row[0])
+        if row is None:
+            return None
+        return certificate_status(row[1], reviews.get(row[0], ()))
 
     def due(self, *, today: date, days: int) -> list[DueItem]:
         """Sensors and reference standards due by today + days (Lab.due)."""

@@ -140,3 +140,50 @@ def test_no_bench_advice_on_the_certificate(complete_run):
     assert "check the mounting" not in texts and "stud torque" not in texts
     declaration = certificate_text.dcc_declaration("FAIL", [reason])
     assert "resonance near 1250 Hz" in declaration and "check the mounting" not in declaration
+
+
+@pytest.fixture(scope="module")
+def run_100_lines(tmp_path_factory):
+    """A complete simulated run of 100 lines (20 Hz to 2.5 kHz, geometric, 160 Hz among them,
+    on the piezo plan's 0.5 Hz bins; 2 m/s^2 per line keeps the table within its stroke)."""
+    import numpy as np
+
+    from app.procedure.run import RunRequest, execute
+
+    lines = np.unique(np.append(np.round(np.geomspace(20, 2500, 99) * 2) / 2, 160.0))
+    assert len(lines) == 100
+    out = tmp_path_factory.mktemp("runs100")
+    finished = execute(
+        RunRequest(
+            dut="piezo",
+            dut_id="SN-42",
+            periods=3,
+            level_ms2=2.0,
+            tolerance_percent=5.0,
+            frequencies_hz=tuple(float(f) for f in lines),
+            out=out,
+        )
+    )
+    return out / str(finished.record.run_id)
+
+
+SIGN_OFF = ("Prepared by", "Authorised by", "signature:", "Date of issue", "Raw data SHA-256")
+STATEMENTS = ("Uncertainty statement", "Statement of conformity", "Notes")
+
+
+@pytest.mark.parametrize("lines", [25, 100])
+def test_the_sign_off_never_stands_alone_on_the_last_page(
+    complete_run, run_100_lines, tmp_path, lines
+):
+    """The sign-off block is on the last page only, with the statements before it (or at
+    least results rows) on that page too: at 25 lines (4 pages) it once stood alone on
+    page 4; at 100 lines (5 pages)."""
+    run = complete_run if lines == 25 else run_100_lines
+    pages = [page.extract_text() for page in PdfReader(_certificate(run, tmp_path)).pages]
+    assert sum(len(_table_rows(p.split())) for p in pages) == lines
+    last = pages[-1]
+    assert all(word in last for word in SIGN_OFF)
+    assert not any("Prepared by" in page for page in pages[:-1])
+    with_it = [h for h in STATEMENTS if h in last] or _table_rows(last.split())
+    assert with_it, f"page {len(pages)} holds the sign-off alone: {last[:300]!r}"
+    assert "Statement of conformity" in last  # the statements sit with the signature

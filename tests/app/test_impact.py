@@ -224,12 +224,12 @@ def test_a_review_is_closed_as_amended_or_confirmed_once(lab_runs) -> None:
     assert lab.open_review(number, subject="impact of reference X", reason="check it")
     assert not lab.open_review(number, subject="impact of reference X", reason="again")
     with pytest.raises(RecordsError, match="outcome: must be one of amended, confirmed"):
-        lab.close_review(number, subject="impact of reference X", outcome="ignored")
-    lab.close_review(number, subject="impact of reference X", outcome="confirmed")
+        lab.close_review(number, subject="impact of reference X", outcome="ignored", reason="r")
+    lab.close_review(number, subject="impact of reference X", outcome="confirmed", reason="stands")
     closed = [r for r in lab.reviews() if r.number == number]
     assert [(r.outcome, r.closed_utc is not None) for r in closed] == [("confirmed", True)]
     with pytest.raises(RecordsError, match="has no open review"):
-        lab.close_review(number, subject="impact of reference X", outcome="amended")
+        lab.close_review(number, subject="impact of reference X", outcome="amended", reason="r")
     with pytest.raises(RecordsError, match="number: no certificate"):
         lab.open_review("NOPE-1", subject="s", reason="r")
 

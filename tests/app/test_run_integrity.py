@@ -33,6 +33,8 @@ REPO = Path(__file__).resolve().parents[2]
 INFO_ARGS = [
     "--customer",
     "ACME Ltd",
+    "--prepared-by",
+    "A. Tech",
     "--authorised-by",
     "J. Smith",
     "--temperature",

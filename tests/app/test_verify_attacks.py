@@ -35,8 +35,8 @@ from app.records.seal import write_seal
 from tests.app.throwaway_ca import LAB_SIGNER, PASSWORD, make_ca, make_signer
 
 ROOT = Path(__file__).resolve().parents[2]
-ITEMS = ["--customer", "ACME Ltd", "--authorised-by", "J. Smith", "--temperature", "23",
-         "--mounting", "stud"]  # fmt: skip
+ITEMS = ["--customer", "ACME Ltd", "--prepared-by", "A. Tech", "--authorised-by", "J. Smith",
+         "--temperature", "23", "--mounting", "stud"]  # fmt: skip
 
 
 @pytest.fixture(scope="module")

@@ -37,6 +37,9 @@ def test_a_second_certificate_of_a_run_is_offered_as_an_amendment_and_pdfs_open(
     type_serial(qtbot, window, "PZ-0001")
     finished = run_now(qtbot, window)
     folder = window.options.out / str(finished.record.run_id)
+    # the Technician field is the run's technician (config.json, results.json; issue 27)
+    assert finished.record.technician == "A. Tech"
+    assert '"technician": "A. Tech"' in (folder / "config.json").read_text()
     seen: list[dict[str, str]] = []
     modal = Modal()
     certificate_steps(modal, seen, approver="J. Smith", same_person="a. tech")
@@ -75,3 +78,75 @@ def test_a_second_certificate_of_a_run_is_offered_as_an_amendment_and_pdfs_open(
     assert tab.open_pdf() is None
     modal.check()
     assert "not the register's file" in told[-1] and len(opened) == 1
+
+
+def test_close_review_asks_confirmed_or_amended_and_a_reason(
+    window, qtbot, lab_url, complete_run, tmp_path
+):
+    """Issue 27: a certificate under review says so in the Register tab; "Close review ..."
+    asks how it is decided (amended: by the certificate that replaces it, refused while none
+    does) and why, and closes it through the records (who: the window's records actor)."""
+    import shutil
+
+    from app.records.db.reviews import impact_subject
+
+    lab = Lab(open_engine(lab_url), actor="qm")
+    lab.add_sensor("SN-42", model="PZ-10", owner="ACME Ltd")
+    run = tmp_path / "indexed" / complete_run.name
+    shutil.copytree(complete_run, run)
+    assert lab.import_runs(run).imported
+    a = lab.issue_certificate(run_id=run.name, prepared_by="A. Tech", approved_by="J. Smith")
+    subject = impact_subject("SIM-0001")
+    assert lab.open_review(a.number, subject=subject, reason="impact: to amend or confirm")
+    tab = window.register_tab
+    tab.refresh()
+    assert tab.select(a.number)
+    assert tab.cell(tab.table.currentRow(), "Review") == f"under review ({subject})"
+    assert tab.review_button.isEnabled()
+    told: list[str] = []
+    amend = lambda d: (d.setTextValue(register_tab.AMEND), d.accept())  # noqa: E731
+    # amended, but nothing replaces it yet: refused by name, nothing written
+    modal = Modal().then(QInputDialog, amend)
+    modal.then(QMessageBox, lambda box: (told.append(box.text()), box.accept()))
+    qtbot.mouseClick(tab.review_button, Qt.MouseButton.LeftButton)
+    modal.check()
+    assert f"amended by: no certificate replaces {a.number} yet" in told[-1]
+    assert lab.reviews(open_only=True)
+    b = lab.issue_certificate(
+        run_id=run.name,
+        prepared_by="A. Tech",
+        approved_by="J. Smith",
+        replaces=a.number,
+        reason="sensitivity corrected",
+    )
+    tab.refresh()
+    assert tab.select(a.number)
+    # a blank reason is refused by name; then amended by B with a reason
+    modal = Modal().then(QInputDialog, amend)
+    modal.then(QInputDialog, lambda d: (d.setTextValue("  "), d.accept()))
+    modal.then(QMessageBox, lambda box: (told.append(box.text()), box.accept()))
+    qtbot.mouseClick(tab.review_button, Qt.MouseButton.LeftButton)
+    modal.check()
+    assert told[-1] == "reason: must not be blank" and lab.reviews(open_only=True)
+    modal = Modal().then(QInputDialog, amend)
+    modal.then(QInputDialog, lambda d: (d.setTextValue("2 % change: amended"), d.accept()))
+    qtbot.mouseClick(tab.review_button, Qt.MouseButton.LeftButton)
+    modal.check()
+    (closed,) = lab.reviews(number=a.number)
+    assert (closed.outcome, closed.amended_by, closed.close_reason) == (
+        "amended",
+        b.number,
+        "2 % change: amended",
+    )
+    assert tab.select(a.number) and not tab.review_button.isEnabled()
+    assert tab.cell(tab.table.currentRow(), "Review") == f"amended by {b.number}"
+    # the amendment under review in turn: confirmed
+    assert lab.open_review(b.number, subject=subject, reason="check the amendment")
+    tab.refresh()
+    assert tab.select(b.number) and tab.review_button.isEnabled()
+    modal = Modal().then(QInputDialog, lambda d: (d.setTextValue(register_tab.CONFIRM), d.accept()))
+    modal.then(QInputDialog, lambda d: (d.setTextValue("stands"), d.accept()))
+    qtbot.mouseClick(tab.review_button, Qt.MouseButton.LeftButton)
+    modal.check()
+    assert [r.outcome for r in lab.reviews(number=b.number)] == ["confirmed"]
+    assert tab.select(b.number) and tab.cell(tab.table.currentRow(), "Review") == "confirmed"

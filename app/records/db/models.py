@@ -271,6 +271,10 @@ class CertificateReview(Base):
     opened_utc: Mapped[datetime] = mapped_column(DateTime(timezone=True))
     outcome: Mapped[str | None] = mapped_column(String(20), nullable=True)
     closed_utc: Mapped[datetime | None] = mapped_column(DateTime(timezone=True), nullable=True)
+    # migration 0010: who closed it, why, and the amendment that replaced the certificate
+    closed_by: Mapped[str | None] = mapped_column(String(200), nullable=True)
+    close_reason: Mapped[str | None] = mapped_column(Text, nullable=True)
+    amended_by: Mapped[str | None] = mapped_column(String(100), nullable=True)
     certificate: Mapped[Certificate] = relationship()
 
 

@@ -249,7 +249,16 @@ def test_each_direct_edit_is_named_by_db_verify_and_stops_the_next_certificate(
     assert "records:" in err and "broken" in err
     with pytest.raises(ChainBroken):
         quick_check(engine)
-    argv = ["certificate", str(tmp_path / "r1"), "--db", url, "--authorised-by", "Bob QM"]
+    argv = [
+        "certificate",
+        str(tmp_path / "r1"),
+        "--db",
+        url,
+        "--prepared-by",
+        "A. Tech",
+        "--authorised-by",
+        "Bob QM",
+    ]
     assert main(argv) == 2
     assert "see `accelcal db verify`" in capsys.readouterr().err
     assert main(["db", "import", str(tmp_path), "--db", url]) == 2
@@ -420,7 +429,16 @@ def test_a_run_and_its_certificate_name_the_chain_head_and_db_verify_checks_them
     (folder,) = runs.iterdir()
     seal = json.loads((folder / "seal.json").read_text())
     assert seal["records_chain_head"] == head_before
-    certificate = ["certificate", str(folder), "--db", url, "--authorised-by", "Bob QM"]
+    certificate = [
+        "certificate",
+        str(folder),
+        "--db",
+        url,
+        "--prepared-by",
+        "A. Tech",
+        "--authorised-by",
+        "Bob QM",
+    ]
     assert main([*certificate, "--temperature", "23", "--mounting", "stud"]) == 0
     dcc = (folder / "certificate.xml").read_text(encoding="utf-8")
     assert head_before in dcc and "Records chain head (SHA-256)" in dcc

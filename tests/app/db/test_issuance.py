@@ -22,7 +22,16 @@ from app.cli import main
 from app.records.db.engine import open_engine, records_url
 from app.records.db.lab import Lab, RecordsError
 
-BASE = ["--authorised-by", "J. Smith", "--temperature", "23", "--mounting", "stud"]
+BASE = [
+    "--prepared-by",
+    "A. Tech",
+    "--authorised-by",
+    "J. Smith",
+    "--temperature",
+    "23",
+    "--mounting",
+    "stud",
+]
 
 
 def _lab(url: str) -> Lab:

@@ -239,6 +239,8 @@ def test_an_expired_reference_override_is_in_results_audit_pdf_and_dcc(
                 "23",
                 "--mounting",
                 "stud",
+                "--prepared-by",
+                "A. Tech",
                 "--authorised-by",
                 "J. Smith",
             ]

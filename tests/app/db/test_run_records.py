@@ -154,6 +154,8 @@ def test_a_certificate_through_the_records_takes_customer_sensor_and_number_from
         "23",
         "--mounting",
         "stud",
+        "--prepared-by",
+        "A. Tech",
         "--authorised-by",
         "J. Smith",
     ]

@@ -1,0 +1,59 @@
+"""The technician who ran a calibration (issue 27): `run --technician` (the GUI's Technician
+field) stores it in config.json and results.json; `accelcal certificate` prints it as
+"Prepared by" unless --prepared-by says otherwise, and refuses by --prepared-by (exit 2) a run
+that records none instead of printing a login name."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from pypdf import PdfReader
+
+from app.cli import main
+from app.records.db.audit import current_actor
+
+pytestmark = pytest.mark.integration
+
+ITEMS = ["--customer", "ACME Ltd", "--authorised-by", "J. Smith", "--temperature", "23",
+         "--mounting", "stud"]  # fmt: skip
+
+
+def _run(out: Path, *extra: str) -> Path:
+    before = set(out.iterdir()) if out.exists() else set()
+    argv = ["run", "--sim", "--dut", "piezo", "--dut-id", "SN-T", "--periods", "3"]
+    assert main([*argv, "--out", str(out), *extra]) == 0
+    (folder,) = set(out.iterdir()) - before
+    return folder
+
+
+def _prepared_by(pdf: Path) -> str:
+    text = "\n".join(page.extract_text() for page in PdfReader(pdf).pages)
+    lines = [line.strip() for line in text.splitlines()]
+    return lines[lines.index("Prepared by") + 1]  # the sign-off table: label, then name
+
+
+def test_the_runs_technician_prepares_the_certificate(tmp_path: Path, capsys) -> None:
+    run = _run(tmp_path / "runs", "--technician", "  A. Tech ")
+    assert json.loads((run / "config.json").read_text())["identity"]["technician"] == "A. Tech"
+    assert json.loads((run / "results.json").read_text())["technician"] == "A. Tech"
+    assert main(["certificate", str(run), *ITEMS]) == 0
+    assert _prepared_by(run / "certificate.pdf") == "A. Tech"
+    capsys.readouterr()
+
+
+def test_a_run_without_technician_needs_prepared_by(tmp_path: Path, capsys) -> None:
+    run = _run(tmp_path / "runs")
+    capsys.readouterr()
+    assert "technician" not in json.loads((run / "results.json").read_text())
+    assert main(["certificate", str(run), *ITEMS]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and err.strip().splitlines()[-1].endswith(
+        "--prepared-by: the run records no technician (accelcal run --technician NAME); "
+        "name who prepared the certificate"
+    )
+    assert not list(run.glob("certificate*"))
+    assert main(["certificate", str(run), *ITEMS, "--prepared-by", "B. Other"]) == 0
+    name = _prepared_by(run / "certificate.pdf")
+    assert name == "B. Other" and name != current_actor()
