@@ -361,10 +361,15 @@ def test_start_refuses_a_reference_standard_not_on_record_unless_a_reason_is_giv
 
     from app.records.db.models import AuditEntry
 
+    window.records.wait_jobs()  # the run indexed
     with fresh(url).session() as s:
-        (entry,) = s.scalars(select(AuditEntry).where(AuditEntry.action == "override")).all()
-        assert entry.row_key == "REF-8305-SIM"
-        assert json.loads(entry.changes)["why"] == "new certificate in transit"
+        trail = s.scalars(select(AuditEntry).where(AuditEntry.action == "override")).all()
+        # granted (keyed by the reference standard), then with the run when it was indexed
+        assert [(e.table_name, e.row_key) for e in trail] == [
+            ("reference_standards", "REF-8305-SIM"),
+            ("runs", finished.record.run_id),
+        ]
+        assert all(json.loads(e.changes)["why"] == "new certificate in transit" for e in trail)
     assert window.setup_tab.field_marks.reason(window.setup_tab.reference_label) == ""
     assert any(
         "used under the override: new certificate in transit" in r.getMessage()
