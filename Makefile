@@ -54,7 +54,8 @@ browser:
 
 # pytest-xdist: TEST_WORKERS processes share the tests (one per core of the 2-core machines;
 # `make test TEST_WORKERS=0` runs them in this one process). --dist loadgroup: tests are dealt
-# out one by one, except those of one xdist_group (tests/conftest.py), which share a worker
+# out one by one, except those marked with one @pytest.mark.xdist_group(name), which share a
+# worker (none need to today: each worker has its own temporary folders, PostgreSQL, Xvfb display)
 TEST_WORKERS ?= 2
 PYTEST_PARALLEL := -n $(TEST_WORKERS) --dist loadgroup
 
