@@ -52,13 +52,21 @@ browser:
 	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing; \
 	fi
 
+# pytest-xdist: TEST_WORKERS processes share the tests (one per core of the 2-core machines;
+# `make test TEST_WORKERS=0` runs them in this one process). --dist loadgroup: tests are dealt
+# out one by one, except those marked with one @pytest.mark.xdist_group(name), which share a
+# worker (none need to today: each worker has its own temporary folders, PostgreSQL, Xvfb display)
+TEST_WORKERS ?= 2
+PYTEST_PARALLEL := -n $(TEST_WORKERS) --dist loadgroup
+
 test: $(STAMP) xvfb browser
-	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest -q
+	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest -q $(PYTEST_PARALLEL)
 
 # dsp, units, CLI parsing: under a minute on 2 cores (no runs, subprocesses, GUI, databases or
 # Monte Carlo: markers `integration` and `slow`, see tests/conftest.py)
 test-fast: $(STAMP)
-	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest -q -m "not slow and not integration"
+	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest -q $(PYTEST_PARALLEL) \
+	    -m "not slow and not integration"
 
 # self-contained: its records file and stored stand responses live in $(DEMO_DIR)/data, so it
 # neither reads nor writes the user's data directory and its timing does not depend on earlier runs

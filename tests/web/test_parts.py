@@ -27,6 +27,7 @@ from app.web.documents import (
 )
 from app.web.store import open_read_only
 from app.web.users import add_user, password_matches
+from tests.pg_server import start_pgserver
 from tests.web.conftest import Records
 
 MANIFEST = "ab" * 32
@@ -254,9 +255,7 @@ def test_on_postgresql_the_web_views_engine_cannot_write() -> None:
 
     folder = Path(tempfile.mkdtemp(prefix="accelcal-web-pg-"))  # short: the socket lives here
     try:
-        import pgserver
-
-        server = pgserver.get_server(folder, cleanup_mode="stop")
+        server = start_pgserver(folder)
     except Exception as exc:  # no wheel, no start
         shutil.rmtree(folder, ignore_errors=True)
         if os.environ.get("CI") == "true":

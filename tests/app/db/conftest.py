@@ -12,6 +12,7 @@ import pytest
 from sqlalchemy import Engine, text
 
 from app.records.db.engine import make_engine, resolve_url, upgrade
+from tests.pg_server import start_pgserver
 
 _counter = itertools.count()
 
@@ -20,9 +21,8 @@ _counter = itertools.count()
 def postgres_server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
     """The URL of a PostgreSQL server private to this test session."""
     try:
-        import pgserver
-
-        server = pgserver.get_server(tmp_path_factory.mktemp("pg"), cleanup_mode="stop")
+        # tmp_path_factory is per xdist worker: each worker has a server of its own
+        server = start_pgserver(tmp_path_factory.mktemp("pg"))
     except Exception as exc:  # no wheel, no start
         if os.environ.get("CI") == "true":
             pytest.fail(f"PostgreSQL could not start in CI: {exc}")
