@@ -411,6 +411,9 @@ def test_ctrl_c_while_starting_exits_130_with_one_line(tmp_path, stage):
         stderr=subprocess.PIPE,
         text=True,
         env=env(),
+        # as from a terminal: a shell without job control starts background jobs (a CI
+        # runner's, say) with SIGINT ignored, and a child inherits that
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
     assert process.stdout is not None
     assert process.stdout.readline() == f"importing {stage}\n"  # it waits there for the signal

@@ -363,7 +363,9 @@ def test_start_refuses_a_reference_standard_not_on_record_unless_a_reason_is_giv
 
     window.records.wait_jobs()  # the run indexed
     with fresh(url).session() as s:
-        trail = s.scalars(select(AuditEntry).where(AuditEntry.action == "override")).all()
+        trail = s.scalars(
+            select(AuditEntry).where(AuditEntry.action == "override").order_by(AuditEntry.id)
+        ).all()
         # granted (keyed by the reference standard), then with the run when it was indexed
         assert [(e.table_name, e.row_key) for e in trail] == [
             ("reference_standards", "REF-8305-SIM"),

@@ -67,7 +67,7 @@ def _folder(out: Path) -> Path:
 
 def _overrides_in_audit(url: str) -> list[AuditEntry]:
     with Session(open_engine(url)) as s:
-        query = select(AuditEntry).where(AuditEntry.action == "override")
+        query = select(AuditEntry).where(AuditEntry.action == "override").order_by(AuditEntry.id)
         return list(s.scalars(query).all())
 
 
@@ -93,9 +93,12 @@ def test_a_reference_not_on_record_refuses_the_run_naming_it_unless_overridden(
     assert override["kind"] == "unrecorded reference" and override["why"] == why
     assert "REF-8305-SIM (serial SIM-0001)" in override["what"]
     assert f"reason: {why}" in (folder / "run.log").read_text()
-    (entry,) = _overrides_in_audit(url)
-    assert json.loads(entry.changes)["why"] == why
-    assert entry.row_key == "REF-8305-SIM" and entry.table_name == "reference_standards"
+    # granted, keyed by the reference standard; again with the run id when it was indexed
+    granted, indexed = _overrides_in_audit(url)
+    assert json.loads(granted.changes)["why"] == why
+    assert granted.row_key == "REF-8305-SIM" and granted.table_name == "reference_standards"
+    assert json.loads(indexed.changes) == override
+    assert (indexed.table_name, indexed.row_key) == ("runs", folder.name)
 
 
 def test_a_reference_on_record_by_serial_is_found_and_needs_no_override(
@@ -225,8 +228,10 @@ def test_an_expired_reference_override_is_in_results_audit_pdf_and_dcc(
     assert datetime.fromisoformat(override["when_utc"]) >= before
     assert override["who"]  # the operating-system user
     assert why in (folder / "run.log").read_text()
-    (entry,) = _overrides_in_audit(url)
-    assert json.loads(entry.changes) == override and entry.actor == override["who"]
+    granted, indexed = _overrides_in_audit(url)
+    for entry in (granted, indexed):
+        assert json.loads(entry.changes) == override and entry.actor == override["who"]
+    assert [e.table_name for e in (granted, indexed)] == ["reference_standards", "runs"]
 
     assert (
         main(

@@ -109,7 +109,9 @@ def test_an_expired_reference_standard_is_refused_unless_overridden(
     assert "used under the override: PTB slot in May" in capsys.readouterr().err
     (folder,) = out.iterdir()
     with Lab(open_engine(lab_url)).session() as s:
-        trail = s.scalars(select(AuditEntry).where(AuditEntry.action == "override")).all()
+        trail = s.scalars(
+            select(AuditEntry).where(AuditEntry.action == "override").order_by(AuditEntry.id)
+        ).all()
         # granted (keyed by the reference standard), then with the run when it was indexed
         assert [(e.table_name, e.row_key) for e in trail] == [
             ("reference_standards", "REF-8305-SIM"),
