@@ -162,7 +162,12 @@ def complete_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
 # here by path, tests of other files by the fixtures they use (a completed calibration run, the
 # Qt window); single tests elsewhere carry @pytest.mark.integration / slow themselves.
 INTEGRATION_PATHS = (
-    "app/records/db/",  # SQLite and PostgreSQL records databases, migrations, concurrent writers
+    "app/db/",  # SQLite and PostgreSQL records databases, migrations, concurrent writers
+    "web/",  # the web view on a records database, a browser
+    "app/test_verify_attacks.py",  # runs, signed certificates, special files
+    "app/test_signing.py",  # a throwaway CA, signed certificates
+    "app/test_impact.py",  # records, runs re-analysed in a process pool
+    "app/test_technician.py",  # runs and their certificates
     "app/test_certificate.py",  # fixture runs, PDFs
     "app/test_dcc.py",  # a fixture run, its certificate and DCC
     "app/test_honest_numbers.py",  # calibration runs and recordings end to end
