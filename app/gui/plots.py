@@ -194,11 +194,21 @@ class LivePlots:
         """Show the charts with the x ranges of `plan` before its first period, so the
         layout and the axes are settled before the live frames begin."""
         self.widget.show_chart(True)
-        self._x_range(self.wave_plot, 0.0, (plan.period_samples - 1) / plan.sample_rate_hz)
-        df = plan.sample_rate_hz / plan.period_samples
-        self._x_range(self.spec_plot, float(np.log10(df)), float(np.log10(plan.sample_rate_hz / 2)))
-        logf = np.log10(np.asarray(plan.frequencies_hz, dtype=float))
-        if logf.size:
+        self._period_x(plan.period_samples, plan.sample_rate_hz)
+        self._lines_x(np.asarray(plan.frequencies_hz, dtype=float))
+
+    def _period_x(self, samples: int, sample_rate_hz: float) -> None:
+        """The x ranges of a period of `samples` and of its spectrum (one home for both:
+        `prepare` and `draw_period` set the same ranges, so the first frame moves no axis)."""
+        self._x_range(self.wave_plot, 0.0, (samples - 1) / sample_rate_hz if samples else 1.0)
+        if samples >= 2:  # a spectrum has bins 1 .. samples // 2
+            low, high = sample_rate_hz / samples, sample_rate_hz / samples * (samples // 2)
+            self._x_range(self.spec_plot, float(np.log10(low)), float(np.log10(high)))
+
+    def _lines_x(self, frequencies_hz: np.ndarray) -> None:
+        """The x range (log10 Hz) of the deviation and phase plots over `frequencies_hz`."""
+        if frequencies_hz.size:
+            logf = np.log10(frequencies_hz)
             for plot in (self.sens_plot, self.phase_plot):
                 self._x_range(plot, float(logf.min()) - 0.05, float(logf.max()) + 0.05)
 
@@ -220,7 +230,7 @@ class LivePlots:
         columns = self.columns()
         self.wave_ref.setData(*peak_decimated(t, reference, columns), skipFiniteCheck=True)
         self.wave_dut.setData(*peak_decimated(t, dut, columns), skipFiniteCheck=True)
-        self._x_range(self.wave_plot, 0.0, float(t[-1]) if t.size else 1.0)
+        self._period_x(reference.size, plan.sample_rate_hz)
         both = np.concatenate([reference, dut])
         if both.size:
             follow_y(self.wave_plot, float(both.min()), float(both.max()))
@@ -232,7 +242,6 @@ class LivePlots:
         if reference.size == plan.period_samples:
             self.spec_lines.setData(plan.frequencies_hz, 20 * np.log10(spectra[0, plan.bins]))
         if f.size > 1:
-            self._x_range(self.spec_plot, float(np.log10(f[1])), float(np.log10(f[-1])))
             follow_y(self.spec_plot, max(float(db.min()), float(db.max()) - 160.0), float(db.max()))
 
     def draw_characteristic(self, results: Results) -> None:
@@ -244,9 +253,8 @@ class LivePlots:
         self.sens_err.setData(x=logf, y=dev, height=2 * c.deviation_expanded_percent)
         self.phase_curve.setData(f, phase)
         self.phase_err.setData(x=logf, y=phase, height=2 * c.phase_expanded_deg)
+        self._lines_x(f)
         if f.size:
-            for plot in (self.sens_plot, self.phase_plot):
-                self._x_range(plot, float(logf.min()) - 0.05, float(logf.max()) + 0.05)
             u_dev, u_phase = c.deviation_expanded_percent, c.phase_expanded_deg
             follow_y(self.sens_plot, float(np.nanmin(dev - u_dev)), float(np.nanmax(dev + u_dev)))
             follow_y(
