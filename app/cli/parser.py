@@ -35,6 +35,7 @@ from app.cli.options import (
     numeric_option,
 )
 from app.cli.records import Handler
+from app.io.quantities import MAX_TIME, PERCENT_RULE, TARGET_UA
 from app.cli.records import add_commands as add_records_commands
 from app.procedure.modes import MODE_MULTISINE, MODES
 from app.stand.simulated import EXCITERS, FAULT_KINDS
@@ -43,6 +44,7 @@ from dsp.multisine import PRESETS
 from dsp.profiles import Profile
 
 WORKERS = Bounded(int, 1, 64)
+PERCENT_HELP = PERCENT_RULE.replace("%", "%%")  # argparse %-formats help texts
 RECORDS_COMMANDS: dict[str, Handler] = {}  # filled by build_parser (app.cli.records)
 
 MCM_TRIALS = Bounded(int, 1000, 10_000_000, unit="trials")  # JCGM 101 7.2: 10^6 for 95 %
@@ -89,7 +91,7 @@ def _add_plan_options(p: argparse.ArgumentParser | argparse._ArgumentGroup) -> N
     p.add_argument("--frequencies", help="line list in Hz, e.g. 10,12.5,...,2500 (ISO 266 fill)")
     numeric_option(p, "--sample-rate", SAMPLE_RATE, "sample rate in Hz")
     numeric_option(p, "--period", PERIOD, "period length in samples")
-    numeric_option(p, "--level", LEVEL, "target peak acceleration per line, m/s^2")
+    numeric_option(p, "--level", LEVEL, "target peak acceleration per line, e.g. 5 or 0.5g")
     numeric_option(p, "--reference-frequency", FREQUENCY, "reference frequency in Hz")
     numeric_option(p, "--mains", MAINS, "mains frequency in Hz (50)", default=None)
 
@@ -164,7 +166,7 @@ def build_parser() -> argparse.ArgumentParser:
         const=1_000_000,
         default=None,
     )
-    numeric_option(a, "--tolerance", TOLERANCE, "DUT tolerance of the characteristic, %%")
+    numeric_option(a, "--tolerance", TOLERANCE, f"DUT tolerance of the characteristic, {PERCENT_HELP}")
     a.add_argument("--json", action="store_true", help="results as JSON")
     a.add_argument("--csv", type=Path, help="also write the per-line results as CSV here")
     a.add_argument("--overwrite", action="store_true", help="--csv may replace an existing file")
@@ -174,7 +176,9 @@ def build_parser() -> argparse.ArgumentParser:
         "refused; a TDMS file gives the sample rate, 1/wf_increment)"
     )
     _add_plan_options(csv_group)
-    numeric_option(csv_group, "--reference-sensitivity", SENSITIVITY, "mV/(m/s^2)")
+    numeric_option(
+        csv_group, "--reference-sensitivity", SENSITIVITY, "e.g. 1.02 (mV/(m/s^2)) or 10mV/g"
+    )
     numeric_option(csv_group, "--reference-gain", GAIN, "V/V", default=None)
     numeric_option(csv_group, "--dut-gain", GAIN, "V/V", default=None)
     numeric_option(
@@ -215,11 +219,14 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="NAME",
         help="who runs the calibration (stored with the run; the certificate's Prepared by)",
     )
-    numeric_option(r, "--nominal-sensitivity", SENSITIVITY, "DUT nominal, mV/(m/s^2)")
+    numeric_option(
+        r, "--nominal-sensitivity", SENSITIVITY, "DUT nominal, e.g. 10.2 (mV/(m/s^2)) or 100mV/g"
+    )
     r.add_argument("--preset", choices=sorted(PRESETS), help="plan (default: by DUT kind)")
-    numeric_option(r, "--level", LEVEL, "peak acceleration per line, m/s^2 (default 5)")
+    numeric_option(r, "--level", LEVEL, "peak acceleration per line, e.g. 5 or 0.5g (default 5)")
     r.add_argument(
-        "--levels", help=f"amplitude sweep: levels in m/s^2, e.g. 4,5,6,7,8; {LEVEL.describe()}"
+        "--levels",
+        help=f"amplitude sweep: levels, e.g. 4,5,6,7,8 (m/s^2) or 0.4g,0.5g; {LEVEL.describe()}",
     )
     numeric_option(
         r, "--periods", RUN_PERIODS, "periods to acquire (default 8; lpm: 1, one record)"
@@ -231,11 +238,16 @@ def build_parser() -> argparse.ArgumentParser:
         help="after the run, search the DUT's mounted resonance in its response (a plan to "
         "20 kHz+ at a low level, e.g. --frequencies 1000,...,25000 --sample-rate 102400)",
     )
-    r.add_argument("--target-ua", help="stop at this relative type A, e.g. 0.2%%; (0, 100 %%]")
-    r.add_argument("--max-time", help="bound on the acquisition time, e.g. 30s; (0, 24 h]")
+    r.add_argument(
+        "--target-ua",
+        help=f"stop at this relative type A, {PERCENT_HELP}; {TARGET_UA.describe().replace('%', '%%')}",
+    )
+    r.add_argument(
+        "--max-time", help=f"bound on the acquisition time, e.g. 30s or 2min; {MAX_TIME.describe()}"
+    )
     r.add_argument("--estimator", choices=ESTIMATORS, default=DEFAULT_ESTIMATOR)
     r.add_argument("--mode", choices=MODES, default=MODE_MULTISINE)
-    numeric_option(r, "--tolerance", TOLERANCE, "DUT tolerance of the characteristic, %%")
+    numeric_option(r, "--tolerance", TOLERANCE, f"DUT tolerance of the characteristic, {PERCENT_HELP}")
     numeric_option(
         r,
         "--dut-mass",
@@ -339,7 +351,7 @@ def build_parser() -> argparse.ArgumentParser:
     s = sub.add_parser("simulate", help="record a calibration on the simulated stand")
     s.add_argument("--list", action="store_true", help="print the simulated catalogue")
     s.add_argument("--dut", type=dut_name, default="piezo", help="catalogue DUT (see --list)")
-    numeric_option(s, "--level", LEVEL, "peak acceleration per line, m/s^2", default=5.0)
+    numeric_option(s, "--level", LEVEL, "peak acceleration per line, e.g. 5 or 0.5g", default=5.0)
     numeric_option(s, "--periods", SIM_PERIODS, "periods to record after settling", default=8)
     numeric_option(s, "--settle", SIM_SETTLE, "settling periods after the fade-in", default=2)
     numeric_option(s, "--seed", SEED, "random seed (noise, stand deviations)", default=0)

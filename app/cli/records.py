@@ -11,8 +11,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from app.cli.db_verify import add_verify, cmd_db_verify
-from app.cli.options import Bounded, numeric_option
+from app.cli.options import FREQUENCY, LEVEL, TOLERANCE, Bounded, numeric_option
 from app.cli.reviews import REVIEW_ACTIONS, add_review_commands
+from app.io.quantities import PERCENT_RULE
 from app.records.db.errors import RecordsInputError
 
 if TYPE_CHECKING:
@@ -21,9 +22,6 @@ if TYPE_CHECKING:
 Handler = Callable[[argparse.Namespace], int]
 
 NOMINAL = Bounded(float, 0.0, 1e6, open_low=True)
-TOLERANCE = Bounded(float, 0.0, 100.0, open_low=True, unit="%")
-FREQUENCY = Bounded(float, 0.0, 1e6, open_low=True, unit="Hz")
-LEVEL = Bounded(float, 0.0, 1000.0, open_low=True, unit="m/s^2")
 PHASE_TOLERANCE = Bounded(float, 0.0, 180.0, open_low=True, unit="deg")
 INTERVAL = Bounded(int, 1, 120, unit="months")
 DAYS = Bounded(int, 0, 3650, unit="days")
@@ -82,11 +80,13 @@ def add_commands(sub: argparse._SubParsersAction) -> dict[str, Handler]:  # type
     ma.add_argument("model")
     numeric_option(ma, "--nominal", NOMINAL, "nominal sensitivity in --unit", required=True)
     ma.add_argument("--unit", required=True, help="mV/(m/s^2), pC/(m/s^2) or mV/g")
-    numeric_option(ma, "--tolerance", TOLERANCE, "tolerance", required=True)
+    numeric_option(
+        ma, "--tolerance", TOLERANCE, f"tolerance, {PERCENT_RULE.replace('%', '%%')}", required=True
+    )
     numeric_option(ma, "--fmin", FREQUENCY, "lowest frequency", required=True)
     numeric_option(ma, "--fmax", FREQUENCY, "highest frequency", required=True)
     ma.add_argument("--preset", default="piezo", help="default plan")
-    numeric_option(ma, "--level", LEVEL, "default level", default=5.0)
+    numeric_option(ma, "--level", LEVEL, "default level, e.g. 5 or 0.5g", default=5.0)
     numeric_option(ma, "--phase-tolerance", PHASE_TOLERANCE, "phase tolerance")
     _db_option(ma)
     _db_option(msub.add_parser("list", help="list sensor models"))

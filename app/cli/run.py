@@ -44,7 +44,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         raise UsageError(f"--profile {args.profile}: needs --corner (Hz)")
     faults = faults_option(args.fault)
     levels = levels_option(args.levels) if args.levels else None
-    target = parse_percent(args.target_ua, "--target-ua") if args.target_ua else None
+    # --target-ua is in percent like every percent option (0.2 and 0.2% are 0.2 %); the
+    # procedure takes the relative type A as a fraction: converted once, here
+    target = parse_percent(args.target_ua, "--target-ua") / 100 if args.target_ua else None
     max_time = parse_seconds(args.max_time, "--max-time") if args.max_time else None
     writable_folder(args.out, "--out")
     from app.records.db.engine import records_url
