@@ -66,7 +66,7 @@ SENSITIVITY = Dimension(
 TIME = Dimension("a time", "s", "s", "s, min or h")
 FREQUENCY = Dimension("a frequency", "Hz", "Hz", "Hz or kHz")
 MASS = Dimension("a mass", "g", "g", "g or kg")
-PERCENT = Dimension("a percentage", "percent", "%", "% (a bare number is percent)")
+PERCENT = Dimension("a percentage", "percent", "%", "e.g. 0.2 or 0.2%")
 
 # what a wrongly dimensioned unit is, for the message: (name, a unit of that class), first
 # match wins
@@ -164,7 +164,8 @@ def _with_unit(text: str, option: str, dimension: Dimension) -> float:
         try:
             _unit(text, option, dimension, text)  # a unit alone: its class when wrong ('g/s')
         except QuantityError as exc:
-            raise (nothing if "unknown unit" in exc.reason else exc) from None
+            unreadable = "unknown unit" in exc.reason or "cannot be read" in exc.reason
+            raise (nothing if unreadable else exc) from None
         raise QuantityError(
             option, f"{text!r}: a number is missing ({dimension.noun}: {dimension.accepted})"
         )
