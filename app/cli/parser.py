@@ -35,8 +35,8 @@ from app.cli.options import (
     numeric_option,
 )
 from app.cli.records import Handler
-from app.io.quantities import MAX_TIME, PERCENT_RULE, TARGET_UA
 from app.cli.records import add_commands as add_records_commands
+from app.io.quantities import MAX_TIME, PERCENT_RULE, TARGET_UA
 from app.procedure.modes import MODE_MULTISINE, MODES
 from app.stand.simulated import EXCITERS, FAULT_KINDS
 from dsp.estimators import DEFAULT_ESTIMATOR, ESTIMATORS
@@ -45,6 +45,7 @@ from dsp.profiles import Profile
 
 WORKERS = Bounded(int, 1, 64)
 PERCENT_HELP = PERCENT_RULE.replace("%", "%%")  # argparse %-formats help texts
+TARGET_UA_RANGE = TARGET_UA.describe().replace("%", "%%")
 RECORDS_COMMANDS: dict[str, Handler] = {}  # filled by build_parser (app.cli.records)
 
 MCM_TRIALS = Bounded(int, 1000, 10_000_000, unit="trials")  # JCGM 101 7.2: 10^6 for 95 %
@@ -166,7 +167,9 @@ def build_parser() -> argparse.ArgumentParser:
         const=1_000_000,
         default=None,
     )
-    numeric_option(a, "--tolerance", TOLERANCE, f"DUT tolerance of the characteristic, {PERCENT_HELP}")
+    numeric_option(
+        a, "--tolerance", TOLERANCE, f"DUT tolerance of the characteristic, {PERCENT_HELP}"
+    )
     a.add_argument("--json", action="store_true", help="results as JSON")
     a.add_argument("--csv", type=Path, help="also write the per-line results as CSV here")
     a.add_argument("--overwrite", action="store_true", help="--csv may replace an existing file")
@@ -240,14 +243,16 @@ def build_parser() -> argparse.ArgumentParser:
     )
     r.add_argument(
         "--target-ua",
-        help=f"stop at this relative type A, {PERCENT_HELP}; {TARGET_UA.describe().replace('%', '%%')}",
+        help=f"stop at this relative type A, {PERCENT_HELP}; {TARGET_UA_RANGE}",
     )
     r.add_argument(
         "--max-time", help=f"bound on the acquisition time, e.g. 30s or 2min; {MAX_TIME.describe()}"
     )
     r.add_argument("--estimator", choices=ESTIMATORS, default=DEFAULT_ESTIMATOR)
     r.add_argument("--mode", choices=MODES, default=MODE_MULTISINE)
-    numeric_option(r, "--tolerance", TOLERANCE, f"DUT tolerance of the characteristic, {PERCENT_HELP}")
+    numeric_option(
+        r, "--tolerance", TOLERANCE, f"DUT tolerance of the characteristic, {PERCENT_HELP}"
+    )
     numeric_option(
         r,
         "--dut-mass",

@@ -24,7 +24,7 @@ import math
 import re
 import threading
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from app.errors import Refusal
 
@@ -218,7 +218,8 @@ LEVEL = Quantity(ACCELERATION, 0.0, 1000.0, open_low=True)  # peak per line
 NOMINAL_SENSITIVITY = Quantity(SENSITIVITY, 0.0, 1e6, open_low=True)
 TOLERANCE = Quantity(PERCENT, 0.0, 100.0, open_low=True)  # the DUT's, of its characteristic
 TARGET_UA = Quantity(PERCENT, 0.0, 100.0, open_low=True)  # relative type A target
-MAX_TIME = Quantity(TIME, 0.0, 24 * 3600.0, open_low=True, shown="(0, 24 h]")  # bound on the acquisition
+# the bound on the acquisition time
+MAX_TIME = Quantity(TIME, 0.0, 24 * 3600.0, open_low=True, shown="(0, 24 h]")
 FADE_IN = Quantity(TIME, 0.001, 60.0)
 DUT_MASS = Quantity(MASS, 0.0, 100_000.0)
 SAMPLE_RATE = Quantity(FREQUENCY, 1.0, 1e7)
