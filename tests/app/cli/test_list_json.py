@@ -179,7 +179,8 @@ def test_register_list_and_reviews(issued, complete_run, capsys):
     assert row["run_id"] == complete_run.name and row["sensor_serial"] == "SN-42"
     assert row["under_review"] == "impact of REF-1" and row["replaces"] is None
     assert datetime.fromisoformat(row["issued_utc"]).utcoffset() == timedelta(0)
-    (review,) = _rows(["register", "reviews"], capsys, {"number", "subject", "reason", "opened_utc"})
+    review_keys = {"number", "subject", "reason", "opened_utc"}
+    (review,) = _rows(["register", "reviews"], capsys, review_keys)
     assert review == {
         "number": number,
         "subject": "impact of REF-1",
