@@ -15,7 +15,6 @@ from typing import Any
 from PySide6.QtCore import QSettings, Qt, QTimer, Signal
 from PySide6.QtWidgets import (
     QComboBox,
-    QDoubleSpinBox,
     QFileDialog,
     QFormLayout,
     QGroupBox,
@@ -31,12 +30,15 @@ from PySide6.QtWidgets import (
 from app.gui import field_marks
 from app.gui.actions import START, with_key
 from app.gui.plan_cache import PlanCache
+from app.gui.quantity_edit import QuantityEdit
 from app.gui.reference_view import describe_reference
 from app.gui.results_tab import wrapping_label
 from app.gui.sensor_entry import SerialEntry
 from app.gui.table_items import shown_unit
 from app.gui.teds_entry import TedsEntry
 from app.gui.templates import TemplatePicker
+from app.io import quantities
+from app.io.quantities import QuantityError
 from app.lines import parse_frequencies
 from app.procedure.modes import MODES
 from app.procedure.preflight import check_preflight
@@ -109,8 +111,8 @@ class SetupTab(QWidget):
         self.serial_entry.sensor_changed.connect(self.templates.show_for)
         for widget in (self.preset, self.estimator, self.mode, self.dut):
             widget.currentTextChanged.connect(self.validate)
-        for spin in (self.level, self.nominal, self.tolerance):
-            spin.valueChanged.connect(self.validate)
+        for edit in self.quantity_fields():
+            edit.edited.connect(self.validate)
         self.periods.valueChanged.connect(self.validate)
         self.frequencies.textChanged.connect(self.validate)
 
@@ -150,9 +152,12 @@ class SetupTab(QWidget):
         # never restored from the last session: another day's sensor is another serial
         self.dut_id = QLineEdit()
         self.dut_id.setPlaceholderText("serial number of the sensor on the stand")
-        self.nominal = QDoubleSpinBox(decimals=3, maximum=10000.0, suffix=" mV/(m/s²)")
-        self.nominal.setSpecialValueText("not given, mV/(m/s²)")
-        self.tolerance = QDoubleSpinBox(decimals=1, maximum=50.0, value=5.0, suffix=" %")
+        # quantity fields: a number in the row's unit, or with its unit (0.5g, 100 mV/g, 0.2 %),
+        # read as the command line reads it (app.gui.quantity_edit)
+        self.nominal = QuantityEdit(
+            quantities.NOMINAL_SENSITIVITY, "nominal sensitivity", blank="not given"
+        )
+        self.tolerance = QuantityEdit(quantities.TOLERANCE, "tolerance", value=5.0, blank="none")
         form.addRow("DUT", self.dut)
         form.addRow("DUT serial", self.dut_id)
         self.teds = TedsEntry(self, self.records)
@@ -169,12 +174,14 @@ class SetupTab(QWidget):
         self.preset.addItems(list(PRESETS))
         self.frequencies = QLineEdit()
         self.frequencies.setPlaceholderText("preset lines; or e.g. 10,12.5,...,1000 (Hz)")
-        self.level = QDoubleSpinBox(
-            decimals=2, minimum=0.01, maximum=1000.0, value=5.0, suffix=" m/s² peak per line"
-        )
+        self.level = QuantityEdit(quantities.LEVEL, "level", value=5.0, suffix="m/s² peak per line")
         self.periods = QSpinBox(minimum=3, maximum=10000, value=8, suffix=" periods")
-        self.target = QDoubleSpinBox(decimals=3, maximum=10.0, suffix=" % type A target")
-        self.target.setSpecialValueText("off (% type A): acquire the periods above")
+        self.target = QuantityEdit(
+            quantities.TARGET_UA,
+            "type A target",
+            blank="off: acquire the periods above",
+            suffix="% type A target",
+        )
         self.max_time = QSpinBox(maximum=100_000, suffix=" s at most")
         self.max_time.setSpecialValueText("no time bound (s)")
         self.estimator = QComboBox()
@@ -253,6 +260,14 @@ class SetupTab(QWidget):
         self.running = running
         self.validate()
 
+    def quantity_fields(self) -> tuple[QuantityEdit, ...]:
+        """The fields that take a quantity (with its unit, or a bare number in the row's)."""
+        return (self.nominal, self.tolerance, self.level, self.target)
+
+    def field_errors(self) -> list[str]:
+        """Why each refused quantity field is refused ("level: ..."), in form order."""
+        return [e for e in (f.error() for f in self.quantity_fields()) if e is not None]
+
     def custom_lines(self) -> tuple[float, ...] | None:
         """The typed line list (Hz), None for the preset's; ValueError says what is wrong."""
         text = self.frequencies.text().strip()
@@ -287,6 +302,8 @@ class SetupTab(QWidget):
         reference standard's due date is the window's check (it asks an override reason).
         Refuses (a Refusal naming the field) what cannot be resolved. `reference`: Start's
         `dut_choice` options (records, reference_override, today)."""
+        for refused in self.field_errors():  # never a run with a value the field does not show
+            raise QuantityError("", refused)
         preset = PRESETS[self.preset.currentText()]
         custom = self.custom_lines()
         lines = tuple(custom if custom is not None else preset.nominal_frequencies_hz)
@@ -396,6 +413,7 @@ class SetupTab(QWidget):
                 f"{report.crest_factor:.2f}"
             )
             problems += list(report.problems)
+        problems = [*self.field_errors(), *problems]  # a refused field: its reason first
         text = "".join(f"<div style='color:#c0392b'>✖ {shown_unit(p)}</div>" for p in problems)
         if pending:
             text += f"<div style='color:#2e4053'>⏳ {pending}</div>"

@@ -198,7 +198,15 @@ class Quantity:
 
     def parse(self, text: str, option: str) -> float:
         """`text` in the dimension's unit, within the range; QuantityError naming `option`."""
-        value = to_unit(text, option, self.dimension)
+        return self.check(to_unit(text, option, self.dimension), option, text)
+
+    def check(self, value: float, option: str, text: str | None = None) -> float:
+        """`value` (in the dimension's unit) if it is finite and within the range, else
+        QuantityError naming `option` (`text`: as typed, for the message)."""
+        if not math.isfinite(value):
+            raise QuantityError(option, f"must be a finite number, got {value!r}")
+        if text is None:
+            text = f"{value:g}"
         too_low = value <= self.low if self.open_low else value < self.low
         too_high = value >= self.high if self.open_high else value > self.high
         if too_low or too_high:
