@@ -87,8 +87,8 @@ class Checked:
             return None
         try:
             return quantity.parse(text, field)
-        except QuantityError as exc:
-            self.errors.append(FieldError(field, exc.reason))
+        except QuantityError as exc:  # its reason names the field, as the records' own do
+            self.errors.append(FieldError(field, str(exc)))
             return None
 
     def text(self, edit: QLineEdit, field: str) -> str:
