@@ -1,5 +1,6 @@
 """`--json` of the list commands (customers, models, sensors and refs list, due, register list,
-register reviews, records user list; history as one object): a JSON array of objects with
+register reviews, records user list, control: one object per stand; history as one object):
+a JSON array of objects with
 stable keys, printed to stdout for scripts.
 
 Keys are snake_case and carry their unit where they have one (`level_ms2`,
@@ -138,4 +139,17 @@ def history_object(history: Any) -> Row:
             for p in history.points
         ],
         "drift_percent_per_year": history.drift_percent_per_year,
+    }
+
+
+def control_row(chart: Any) -> Row:
+    """`control --json`: one stand's individuals chart of the check standard, mV/(m/s^2)."""
+    return {
+        "serial": chart.serial,
+        "stand": chart.stand,
+        "centre_mv_per_ms2": chart.centre,
+        "lower_mv_per_ms2": chart.lower,
+        "upper_mv_per_ms2": chart.upper,
+        "warning": chart.warning,
+        "points": [{"run_id": run_id, "sensitivity_mv_per_ms2": v} for run_id, v in chart.points],
     }

@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 from app.cli.db_verify import add_verify, cmd_db_verify
 from app.cli.listing import (
     certificate_row,
+    control_row,
     customer_row,
     due_row,
     history_object,
@@ -165,7 +166,7 @@ def add_commands(sub: argparse._SubParsersAction) -> dict[str, Handler]:  # type
 
     k = sub.add_parser("control", help="a check standard's control chart on each stand")
     k.add_argument("serial")
-    _db_option(k)
+    _list_options(k)
 
     g = sub.add_parser(
         "register", help="the certificate register: list, withdraw, review, reviews, set"
@@ -430,6 +431,9 @@ def cmd_register(args: argparse.Namespace) -> int:
 
 def cmd_control(args: argparse.Namespace) -> int:
     charts = _lab(args).control_chart(args.serial)
+    if args.json:
+        print_rows(control_row(chart) for chart in charts)
+        return 0
     if not charts:
         print(f"{args.serial}: no complete runs on record")
     for chart in charts:

@@ -202,14 +202,29 @@ def test_history_is_one_object(issued, complete_run, capsys):
     datetime.fromisoformat(point["started_utc"])
 
 
+def test_control_is_an_array_of_charts(issued, complete_run, capsys):
+    lab, _ = issued
+    lab.add_sensor("CS-9", model="352C33", owner="ACME Ltd", check_standard=True)
+    assert _json(["control", "CS-9", "--json"], capsys) == []  # no runs of it on record
+    keys = {
+        "serial", "stand", "centre_mv_per_ms2", "lower_mv_per_ms2", "upper_mv_per_ms2",
+        "warning", "points",
+    }  # fmt: skip
+    (chart,) = _rows(["control", "SN-42"], capsys, keys)
+    assert chart["serial"] == "SN-42" and chart["centre_mv_per_ms2"] is None  # < 5 runs
+    (point,) = chart["points"]
+    assert point["run_id"] == complete_run.name
+    assert isinstance(point["sensitivity_mv_per_ms2"], float)
+
+
 def _list_commands(parser: argparse.ArgumentParser, name: str = ""):
-    """Every command whose name says it lists (list, reviews, due, history)."""
+    """Every command whose name says it lists (list, reviews, due, history, control)."""
     for action in parser._actions:
         if isinstance(action, argparse._SubParsersAction):
             for command, sub in action.choices.items():
                 yield from _list_commands(sub, f"{name} {command}".strip())
     last = name.split()[-1] if name else ""
-    if last in {"list", "reviews", "due", "history"}:
+    if last in {"list", "reviews", "due", "history", "control"}:
         yield name, parser
 
 
@@ -217,7 +232,7 @@ def test_every_list_command_has_json():
     found = dict(_list_commands(build_parser()))
     assert {
         "customers list", "models list", "sensors list", "refs list", "due", "history",
-        "register list", "register reviews", "records user list",
+        "register list", "register reviews", "records user list", "control",
     } <= set(found)  # fmt: skip
     for name, parser in found.items():
         assert any("--json" in a.option_strings for a in parser._actions), name
