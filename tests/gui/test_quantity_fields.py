@@ -117,3 +117,23 @@ def test_blank_fields_mean_not_given_and_a_set_value_is_kept_exactly(setup, qtbo
     assert setup.nominal.value() == 100 / 9.80665  # kept exactly
     _type(qtbot, setup.level, "")
     assert "level: empty" in (setup.level.error() or "")  # the level has no "not given"
+
+
+def test_the_window_opens_without_the_units_library(tmp_path):
+    """pint is imported the first time a unit is typed, not when the window opens."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys; from PySide6.QtWidgets import QApplication; app = QApplication([]); "
+        "from app.gui.main_window import MainWindow; "
+        f"w = MainWindow(out={str(tmp_path / 'runs')!r}, paced=False); "
+        "w.setup_tab.level.setText('7.5'); assert w.setup_tab.level.value() == 7.5; "
+        "print('pint' in sys.modules); w.close_pools() if hasattr(w, 'close_pools') else None"
+    )
+    env = {**os.environ, "QT_QPA_PLATFORM": "offscreen"}
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip().splitlines()[-1] == "False"

@@ -17,6 +17,8 @@ from app.records.db.engine import open_engine
 from app.records.db.lab import Lab
 from app.web.users import add_user
 
+pytestmark = pytest.mark.integration  # a records database per test (make test-fast: not)
+
 TODAY = datetime.now(UTC).date()
 
 

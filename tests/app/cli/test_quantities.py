@@ -119,6 +119,7 @@ def test_a_bad_quantity_is_refused_naming_the_option_and_why(parse, text, reason
     assert caught.value.option == "--opt" and reason in caught.value.reason
 
 
+@pytest.mark.integration  # a fresh interpreter
 def test_bare_numbers_never_import_pint():
     """Commands given plain numbers do not pay for the units library (issue 31: lazy)."""
     code = (
