@@ -90,8 +90,8 @@ _LOCK = threading.Lock()
 
 
 def registry() -> pint.UnitRegistry:
-    """The one unit registry, built on first use (pint is imported only here; thread-safe, so
-    the GUI may build it in the background)."""
+    """The one unit registry, built on first use (pint is imported only here; thread-safe:
+    a GUI field and a worker may read a unit at once)."""
     global _REGISTRY
     with _LOCK:
         if _REGISTRY is None:
