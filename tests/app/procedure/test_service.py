@@ -148,13 +148,13 @@ def test_one_parser_per_option_names_the_flag():
 
 def test_options_are_typed_and_checked_before_anything_opens(tmp_path):
     assert RunOptions(estimator="lpm").periods_to_run == 1
-    with pytest.raises(ValueError, match="^mode: 'swept' is not one of multisine"):
+    with pytest.raises(ValueError, match=r"^mode: 'swept' is not one of multisine"):
         RunOptions(mode="swept")
-    with pytest.raises(RequestError, match="^--estimator lpm: analyses a multisine record"):
+    with pytest.raises(RequestError, match=r"^--estimator lpm: analyses a multisine record"):
         check_options(RunOptions(estimator="lpm", mode="stepped-sine"))
     with pytest.raises(RequestError, match=r"^--profile velocity: needs --corner \(Hz\)"):
         check_options(RunOptions(profile="velocity"))
-    with pytest.raises(RequestError, match="^--periods"):
+    with pytest.raises(RequestError, match=r"^--periods"):
         check_options(RunOptions(estimator="seed", periods=2))
 
 
