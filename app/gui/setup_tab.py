@@ -37,12 +37,14 @@ from app.gui.sensor_entry import SerialEntry
 from app.gui.table_items import shown_unit
 from app.gui.teds_entry import TedsEntry
 from app.gui.templates import TemplatePicker
+from app.io.vocabulary import Mode
 from app.lines import parse_frequencies
 from app.procedure.options import RunOptions, option
 from app.procedure.request import RunRequest
 from app.procedure.service import PlanPreview, PreparedRun, RunService
 from app.stand import config as stand_config
 from app.stand.simulated import CATALOGUE
+from dsp.estimators import Estimator
 from dsp.multisine import PRESETS
 
 log = logging.getLogger(__name__)
@@ -99,7 +101,7 @@ class SetupTab(QWidget):
         self.last_request: RunRequest | None = None  # the settings of the run just made
         self.service = RunService(stand_file, config=config)  # the stand file, loaded once
         self.preview: PlanPreview | None = None  # the plan that will run, as last checked
-        self.plans = PlanCache(RunService.unit_plan)
+        self.plans = PlanCache(RunService.unit_plan, self.service.preset_keys())
         layout = QHBoxLayout(self)
         layout.addWidget(self._stand_box(), 1)
         layout.addWidget(self._plan_box(), 2)
@@ -301,8 +303,8 @@ class SetupTab(QWidget):
             periods=self.periods.value(),
             target_type_a=self.target.value() / 100 or None,
             max_acquisition_s=float(self.max_time.value()) or None,
-            estimator=self.estimator.currentText(),
-            mode=self.mode.currentText(),
+            estimator=Estimator(self.estimator.currentText()),
+            mode=Mode(self.mode.currentText()),
             seed=options.seed,
             paced=options.paced,
             faults=options.faults,
@@ -372,10 +374,14 @@ class SetupTab(QWidget):
         try:
             options = self.run_options()
             key = self.service.phase_key(options)
+            check = self.service.line_check(options)  # at once, before any optimisation
         except ValueError as exc:  # the lines typed, or a DUT that cannot be resolved
             problems.append(f"lines: {exc}" if "lines" not in str(exc) else str(exc))
         else:
-            future = self.plans.ask(key)  # a new line list is optimised off this thread
+            problems += list(check.errors)
+            warnings += [w for w in check.warnings if "mains" in w]
+            if not problems:  # a new line list is optimised off this thread
+                future = self.plans.ask(key)
         if future is None:
             self.peaks.setText("")
         elif not future.done():
@@ -390,7 +396,6 @@ class SetupTab(QWidget):
             else:
                 self.preview = self.service.preview(options, future.result())
                 problems += list(self.preview.problems)
-                warnings += list(self.preview.warnings)
                 self.peaks.setText(describe_preview(self.preview, self.config.limits))
         text = "".join(f"<div style='color:#c0392b'>✖ {shown_unit(p)}</div>" for p in problems)
         if pending:

@@ -29,18 +29,11 @@ def verdict_of(
     when neither states one (an aborted run, a run from before verdicts)."""
     verdict = getattr(results, "verdict", None)
     reasons = list(getattr(results, "verdict_reasons", ()) or ())
+    if verdict is None and isinstance(record, Mapping):  # a results.json document
+        record = RunRecord.from_dict(dict(record))
     if verdict is None and isinstance(record, RunRecord):
-        verdict = record.verdict or (record.results or {}).get("verdict")
-        reasons = list(
-            record.verdict_reasons or (record.results or {}).get("verdict_reasons") or ()
-        )
-    elif verdict is None and isinstance(record, Mapping):
-        verdict = record.get("verdict") or (record.get("results") or {}).get("verdict")
-        reasons = list(
-            record.get("verdict_reasons")
-            or (record.get("results") or {}).get("verdict_reasons")
-            or ()
-        )
+        stated, stored_reasons = record.stated_verdict  # parsed once at the records boundary
+        verdict, reasons = stated, list(stored_reasons)
     return (str(verdict) if verdict else NOT_ASSESSED), reasons
 
 

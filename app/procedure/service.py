@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Any
 from app.procedure.errors import PreflightError
 from app.procedure.options import RunOptions
 from app.procedure.outcome import ExitStatus, RunOutcome, exit_status
-from app.procedure.planning import PlanRequest, build_plan
+from app.procedure.planning import PlanRequest, build_plan, choose_period
 from app.procedure.preflight import PreflightReport, check_preflight
 from app.procedure.request import (
     DutChoice,
@@ -41,7 +41,7 @@ from app.procedure.run import (
 )
 from app.stand import config as stand_config
 from dsp.estimators import Estimator
-from dsp.multisine import Plan, PlanError
+from dsp.multisine import PRESETS, Plan, PlanCheck, PlanError, check_lines
 from dsp.profiles import Profile
 from dsp.spectral import check_periods
 
@@ -236,6 +236,29 @@ class RunService:
         wanted = plan_request(self.draft(options), UNIT_LEVEL_MS2)
         return dataclasses.replace(wanted, profile=Profile.ACCELERATION, corner_hz=None)
 
+    def line_check(self, options: RunOptions) -> PlanCheck:
+        """The quick checks of the lines that will run (ms, before any phase is optimised):
+        every line on a bin below 0.45 fs, no two on one bin, the reference among them, the
+        mains and harmonic warnings (dsp.multisine.check_lines)."""
+        key = self.phase_key(options)
+        preset = PRESETS[key.preset]
+        lines = key.frequencies_hz or tuple(preset.nominal_frequencies_hz)
+        rate = key.sample_rate_hz or preset.sample_rate_hz
+        reference = key.reference_frequency_hz or preset.reference_frequency_hz
+        period = key.period_samples
+        if period is None and key.frequencies_hz is None and key.sample_rate_hz is None:
+            period = preset.period_samples
+        elif period is None:
+            try:
+                period = choose_period(lines, rate, preset.period_samples)
+            except PlanError as exc:
+                return PlanCheck(exc.problems, ())
+        return check_lines(lines, rate, period, reference)
+
+    def preset_keys(self) -> list[PlanRequest]:
+        """The phase keys of every preset on this stand (a face optimises them at once)."""
+        return [self.phase_key(RunOptions(preset=name)) for name in PRESETS]
+
     @staticmethod
     def unit_plan(key: PlanRequest) -> Plan:
         """The plan of `key` with its optimised phases (PlanError when refused); slow: call it
@@ -334,8 +357,6 @@ class RunService:
     @staticmethod
     def _fits(request: RunRequest, unit_plan: Plan) -> bool:
         """Whether `unit_plan`'s phases are for the lines (Hz) and rate the request will run."""
-        from dsp.multisine import PRESETS
-
         wanted = plan_request(request, UNIT_LEVEL_MS2)
         preset = PRESETS[wanted.preset]
         lines = wanted.frequencies_hz or tuple(preset.nominal_frequencies_hz)
