@@ -205,6 +205,32 @@ class ReferenceResult:
             raise RunRecordError(f"results.json: results.reference: {exc}") from None
 
 
+@dataclass(frozen=True)
+class StoredPlan:
+    """The plan a run stored (results.json "plan"), as the certificate states it: nominal
+    line frequencies (Hz), sample rate (Hz) and period (samples); 0 where not stored."""
+
+    frequencies_hz: tuple[float, ...] = ()
+    sample_rate_hz: float = 0.0
+    period_samples: int = 0
+
+    @property
+    def period_s(self) -> float:
+        return self.period_samples / self.sample_rate_hz if self.sample_rate_hz else 0.0
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> StoredPlan:
+        try:
+            lines = data.get("lines") or ()
+            return cls(
+                tuple(float(line["nominal_frequency_hz"]) for line in lines),
+                float(data.get("sample_rate_hz") or 0.0),
+                int(data.get("period_samples") or 0),
+            )
+        except (KeyError, TypeError, ValueError) as exc:
+            raise RunRecordError(f"results.json: plan: {exc}") from None
+
+
 # keys written only when they have a value (as before schema_version existed)
 _OPTIONAL = (
     "dut",
@@ -262,6 +288,11 @@ class RunRecord:
     def analysis(self) -> AnalysisSettings:
         """The analysis settings the run stored (typed: estimator, probability, rule)."""
         return AnalysisSettings.from_dict(self.settings)
+
+    @property
+    def stored_plan(self) -> StoredPlan:
+        """The plan the run stored (typed: lines, rate, period)."""
+        return StoredPlan.from_dict(self.plan)
 
     @property
     def reference_result(self) -> ReferenceResult | None:
