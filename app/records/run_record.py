@@ -304,10 +304,13 @@ class RunRecord:
     def stated_verdict(self) -> tuple[str | None, tuple[str, ...]]:
         """The verdict and its reasons as stored (the record's own, else its results'), None
         when the run states none."""
-        results = self.results or {}
-        verdict = self.verdict or results.get("verdict")
-        reasons = self.verdict_reasons or tuple(results.get("verdict_reasons") or ())
-        return (str(verdict) if verdict else None), tuple(str(r) for r in reasons)
+        return verdict_stated(
+            {
+                "verdict": self.verdict,
+                "verdict_reasons": list(self.verdict_reasons),
+                "results": self.results,
+            }
+        )
 
     def results_object(self) -> Results | None:
         """The stored results rebuilt (dsp.calibration.Results), or None."""
@@ -437,6 +440,15 @@ class RunRecord:
         except json.JSONDecodeError as exc:
             raise RunRecordError(f"results.json: not JSON ({exc})") from None
         return cls.from_dict(data)
+
+
+def verdict_stated(data: Mapping[str, Any]) -> tuple[str | None, tuple[str, ...]]:
+    """The verdict and its reasons a results.json document (or any part of one holding them)
+    states: its own, else its results'; None when it states none."""
+    results = data.get("results") or {}
+    verdict = data.get("verdict") or results.get("verdict")
+    reasons = data.get("verdict_reasons") or results.get("verdict_reasons") or ()
+    return (str(verdict) if verdict else None), tuple(str(r) for r in reasons)
 
 
 def technician_name(value: Any) -> str | None:
