@@ -27,6 +27,7 @@ from app.procedure.preflight import PreflightReport, check_preflight
 from app.procedure.request import (
     DutChoice,
     RequestError,
+    ResolvedDut,
     RunRequest,
     resolve_dut,
     resolve_request,
@@ -49,6 +50,7 @@ if TYPE_CHECKING:
     from app.procedure import Finished, Listener, Procedure
     from app.procedure.sweep import Sweep
     from app.stand.config import StandConfig
+    from app.stand.dut import DutSpec
     from app.stand.open import Stand
 
 log = logging.getLogger(__name__)
@@ -180,6 +182,12 @@ class RunService:
             operator=operator,
             today=today,
         )
+
+    def dut_settings(self, spec: DutSpec) -> ResolvedDut:
+        """What a DUT of `spec` (a sensor on record, its TEDS) sets for a run on this stand:
+        serial, nominal, tolerance, level, preset (a face fills its fields with them)."""
+        certificate = self.config.raw.get("certificate") or {}
+        return resolve_dut(DutChoice(spec=spec), self.config.backend, certificate)
 
     def run_fields(self, options: RunOptions) -> RunRequest:
         """The request's run settings from `options` (the DUT and reference come after)."""
