@@ -67,10 +67,11 @@ class Bounded:
 
 class QuantityType:
     """An argparse type: a quantity with its unit or a bare number in the quantity's unit
-    (app.io.quantities), within its range; the reason of a refusal is argparse's message."""
+    (app.io.quantities), within its range, divided by `per`; the reason of a refusal is
+    argparse's message."""
 
-    def __init__(self, quantity: Quantity) -> None:
-        self.quantity = quantity
+    def __init__(self, quantity: Quantity, *, per: float = 1.0) -> None:
+        self.quantity, self.per = quantity, per  # the value is the quantity / per (% -> 1)
         self.__name__ = quantity.dimension.noun.split()[-1]  # argparse names the type
 
     def describe(self) -> str:
@@ -82,7 +83,7 @@ class QuantityType:
 
     def __call__(self, text: str) -> float:
         try:
-            return self.quantity.parse(text, "")
+            return self.quantity.parse(text, "") / self.per
         except QuantityError as exc:
             raise argparse.ArgumentTypeError(exc.reason) from None
 
@@ -187,23 +188,6 @@ def dut_name(text: str) -> str:
     raise argparse.ArgumentTypeError(
         f"{text!r} is not in the DUT catalogue ({', '.join(CATALOGUE)}){hint}"
     )
-
-
-def parse_percent(text: str, option: str) -> float:
-    """A percent option: a bare number is percent ('0.2' and '0.2%' are both 0.2 %), never a
-    fraction; returned in percent. UsageError naming `option`."""
-    try:
-        return quantities.parse_percent(text, option)
-    except QuantityError as exc:
-        raise UsageError(str(exc)) from None
-
-
-def parse_seconds(text: str, option: str) -> float:
-    """A duration: '30s', '2 min', '45' (s) -> seconds, (0, 24 h]. UsageError naming `option`."""
-    try:
-        return quantities.parse_seconds(text, option)
-    except QuantityError as exc:
-        raise UsageError(str(exc)) from None
 
 
 def faults_option(texts: list[str]) -> tuple[Fault, ...]:

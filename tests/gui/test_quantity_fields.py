@@ -47,9 +47,9 @@ def test_the_fields_take_units_and_the_run_gets_the_values_in_its_own(setup, qtb
     request = setup.request()
     assert request.level_ms2 == pytest.approx(4.903325, rel=1e-12)
     assert request.target_type_a == pytest.approx(0.002, rel=1e-12)
-    choice = setup.dut_choice()
-    assert choice.nominal_mv_per_ms2 == pytest.approx(10.197162129779283, rel=1e-12)
-    assert choice.tolerance_percent == 2.5
+    options = setup.run_options()
+    assert options.nominal_mv_per_ms2 == pytest.approx(10.197162129779283, rel=1e-12)
+    assert options.tolerance_percent == 2.5
     _type(qtbot, setup.target, "0.2%")
     assert setup.request().target_type_a == pytest.approx(0.002, rel=1e-12)
 
@@ -110,7 +110,7 @@ def test_blank_fields_mean_not_given_and_a_set_value_is_kept_exactly(setup, qtbo
     _type(qtbot, setup.nominal, "")
     _type(qtbot, setup.target, "0")  # 0 is "off", as the spin box's 0 was
     assert setup.nominal.error() is None and setup.target.error() is None
-    assert setup.dut_choice().nominal_mv_per_ms2 is None
+    assert setup.run_options().nominal_mv_per_ms2 is None
     assert setup.request().target_type_a is None
     setup.nominal.setValue(100 / 9.80665)  # as a sensor on record fills it
     assert setup.nominal.text() == "10.1972"  # shown to 6 digits

@@ -10,7 +10,7 @@ import sys
 
 import pytest
 
-from app.cli import UsageError, build_parser, main
+from app.cli import build_parser, main
 from app.io import quantities
 from app.io.quantities import (
     STANDARD_GRAVITY_MS2,
@@ -195,25 +195,23 @@ def test_every_percent_option_states_the_percent_rule(capsys):
         assert "5 and 5% both mean 5 % (a bare number is percent, never a fraction)" in out
 
 
-def test_target_ua_0_2_is_0_2_percent_in_the_request_the_cli_builds(monkeypatch, tmp_path):
-    """The procedure takes the type A target as a fraction: 0.2 % is 0.002, not 0.2."""
-    import app.procedure.run as run_module
+def test_target_ua_0_2_is_0_2_percent_in_the_options_the_cli_builds(tmp_path):
+    """The run takes the type A target as a fraction: 0.2 % is 0.002, not 0.2."""
+    from app.cli.run import run_options
+    from app.procedure.options import parse_option
 
-    built = {}
-
-    def capture(choice, **run):
-        built.update(run, choice=choice)
-        raise UsageError("built")  # a refusal: exit 2, nothing run
-
-    monkeypatch.setattr(run_module, "build_request", capture)
     for text in ("0.2", "0.2%", "2000ppm"):
-        built.clear()
-        assert main(["run", "--target-ua", text, "--max-time", "2min", "--out", str(tmp_path)]) == 2
-        assert built["target_type_a"] == pytest.approx(0.002, rel=1e-12), text
-        assert built["max_acquisition_s"] == 120.0
-    assert main(["run", "--level", "0.5 g", "--target-ua", "5", "--out", str(tmp_path)]) == 2
-    assert built["target_type_a"] == pytest.approx(0.05)
-    assert built["choice"].level_ms2 == pytest.approx(4.903325)
+        argv = ["run", "--target-ua", text, "--max-time", "2min", "--out", str(tmp_path)]
+        options = run_options(build_parser().parse_args(argv))
+        assert options.target_type_a == pytest.approx(0.002, rel=1e-12), text
+        assert options.max_acquisition_s == 120.0
+        assert parse_option("target_type_a", text) == options.target_type_a  # the GUI's way
+    argv = ["run", "--level", "0.5 g", "--target-ua", "5", "--out", str(tmp_path)]
+    options = run_options(build_parser().parse_args(argv))
+    assert options.target_type_a == pytest.approx(0.05)
+    assert options.level_ms2 == pytest.approx(4.903325, rel=1e-12)
+    with pytest.raises(ValueError, match=r"--target-ua: must be in \(0, 100\] %"):
+        parse_option("target_type_a", "150")
 
 
 @pytest.mark.integration
