@@ -52,6 +52,7 @@ class ResolvedReference:
 
 
 REFERENCE_COMPONENT = "reference standard calibration"  # the stand file's, replaced
+SIMULATED_BACKEND = "sim"  # [daq] backend of a simulated stand: its reference is the simulator's
 
 
 def reference_budget(budget: Budget, table: ReferenceTable) -> Budget:
@@ -150,10 +151,20 @@ def resolve_reference(
     not on record) on `today`: refused (ReferenceRefusal naming it) when not on record or past its
     due date, unless `override_reason` is given (an Override by `who` at `now_utc`), and when
     the stand file carries a table that differs from the records' (no override: two sources
-    for one reference are never right)."""
+    for one reference are never right). A simulated stand's reference (`daq.backend = "sim"`)
+    not on record is the simulator's own and used as such (a note, no override): it cannot be
+    a laboratory's standard, so it has no certificate to record; on record, the rule applies
+    to it as to any. A real stand's reference is always held to the rule (docs/records.md)."""
     ref = config.reference
     reason = (override_reason or "").strip() or None
     when = now_utc.isoformat(timespec="seconds")
+    if table is None and config.backend == SIMULATED_BACKEND:
+        note = (
+            f"reference standard {ref.id} (serial {ref.serial}) of {config.source}: the "
+            "simulator's own (simulated stand, not a laboratory's standard), its table drawn "
+            "by the simulator; not looked up in the records"
+        )
+        return ResolvedReference(None, (), (note,))
     if table is None:
         what = (
             f"reference standard {ref.id} (serial {ref.serial}) of {config.source} is not in "
