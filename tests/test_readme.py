@@ -177,7 +177,7 @@ def test_the_reader_joins_lines_reads_brackets_and_leaves_prose() -> None:
         ("accelcal simulate --fault x@1 --out c.h5", 12, Kind.RUN, 3, None),
     ]
     assert commands[3].reason == "it is the test suite"
-    with pytest.raises(ValueError, match="README.md:1: .* names no exit status"):
+    with pytest.raises(ValueError, match=r"README\.md:1: .* names no exit status"):
         readme_commands("    accelcal run   # [exit]\n")
     with pytest.raises(ValueError, match="needs its reason"):
         readme_commands("    make gui   # [not run here]\n")
@@ -193,10 +193,8 @@ def test_the_readme_states_how_its_commands_end() -> None:
     assert ran[0].text.startswith(GUI_HEADLESS), ran[0]  # the first command run
     for command in commands:
         words = command.text.split()
-        if "--stand" in words and "examples/stand-pxi6251.toml" in words or words[:2] == [
-            "accelcal",
-            "devices",
-        ]:
+        real_stand = "--stand" in words and "examples/stand-pxi6251.toml" in words
+        if real_stand or words[:2] == ["accelcal", "devices"]:
             assert command.kind is Kind.HARDWARE, command
         sweep = "--levels" in words  # a sweep prints its linearity, no verdict
         if words[:2] == ["accelcal", "run"] and command.kind is Kind.RUN and not sweep:
@@ -318,10 +316,10 @@ def _serve(command: str, work: Path, env: dict[str, str]) -> str:
                 time.sleep(0.2)
         if status != 200:
             server.kill()
-            out, err = server.communicate(timeout=30)
+            err = server.communicate(timeout=30)[1]
             return f"no page (status {status}, exit {server.returncode}): {err[-2000:]}"
         server.send_signal(signal.SIGINT)
-        out, err = server.communicate(timeout=30)
+        err = server.communicate(timeout=30)[1]
     finally:
         if server.poll() is None:
             server.kill()
@@ -350,7 +348,10 @@ def _run(command: Command, work: Path, env: dict[str, str], last_run: str | None
         return last_run
     done = _shell(text, work, env)
     output = done.stdout + done.stderr
-    said = f"{where}\nexit {done.returncode}\nstdout: {done.stdout[-3000:]}\nstderr: {done.stderr[-3000:]}"
+    said = (
+        f"{where}\nexit {done.returncode}\nstdout: {done.stdout[-3000:]}\n"
+        f"stderr: {done.stderr[-3000:]}"
+    )
     assert done.returncode == command.exit_status, said
     assert "Traceback" not in done.stderr, said
     if command.verdict is not None:

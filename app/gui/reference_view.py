@@ -15,6 +15,7 @@ from typing import Any
 from PySide6.QtWidgets import QInputDialog
 
 from app.gui.field_marks import ERROR
+from app.procedure.reference import simulators_own
 from app.records.db.errors import RecordsInputError
 
 log = logging.getLogger(__name__)
@@ -46,7 +47,7 @@ def describe_reference(config: Any, link: Any = None, today: date | None = None)
         lines.append(
             "<i>not in the records: the simulator's own reference standard, used as such "
             "(a real stand's must be on record)</i>"
-            if simulated
+            if simulators_own(config)
             else "<i>not in the records (the stand file's data is used)</i>"
         )
     elif record.due_date < today:

@@ -35,6 +35,11 @@ class DatabaseError(RecordsInputError):
     """The records database cannot be used; the message says why and what to do."""
 
 
+class RecordsMissing(DatabaseError):
+    """No records database yet (its SQLite file does not exist): the normal state until
+    `accelcal db upgrade` creates it."""
+
+
 def default_url() -> str:
     """The embedded default: an SQLite file in the user's data directory
     (app.files.data_dir: $ACCELCAL_DATA_DIR, else platformdirs)."""
@@ -180,7 +185,7 @@ def open_engine(url: str | None = None, *, create: bool = False) -> Engine:
     resolved = resolve_url(url)
     missing = _missing_sqlite_file(resolved)
     if missing is not None and not create:
-        raise DatabaseError(
+        raise RecordsMissing(
             f"records database {missing}: does not exist; `accelcal db upgrade` creates it "
             "(records are created only on request)"
         )
