@@ -170,9 +170,10 @@ def _missing_sqlite_file(url: str) -> Path | None:
     """The file of an SQLite `url` when it does not exist yet (None: it exists, or the URL is
     in memory or another engine's)."""
     parsed = make_url(url)
-    if parsed.get_backend_name() != "sqlite" or parsed.database in (None, "", ":memory:"):
+    database = parsed.database
+    if parsed.get_backend_name() != "sqlite" or not database or database == ":memory:":
         return None
-    path = Path(parsed.database)
+    path = Path(database)
     return None if path.is_file() else path
 
 
