@@ -183,10 +183,12 @@ def optimise_phases(
     if np.any(a <= 0.0):
         bad = m[np.flatnonzero(a <= 0.0)[0]]
         raise ValueError(f"optimise_phases: amplitude of bin {bad} must be > 0")
-    if isinstance(max_evaluations, bool) or int(max_evaluations) != max_evaluations:
-        raise ValueError(f"optimise_phases: max_evaluations must be an integer, got {max_evaluations!r}")
-    if not max_evaluations >= 1:
-        raise ValueError(f"optimise_phases: max_evaluations must be >= 1, got {max_evaluations}")
+    if isinstance(max_evaluations, bool) or not (
+        int(max_evaluations) == max_evaluations and max_evaluations >= 1
+    ):
+        raise ValueError(
+            f"optimise_phases: max_evaluations must be an integer >= 1, got {max_evaluations!r}"
+        )
     if m.size == 1:
         return np.zeros(1)
 
@@ -234,9 +236,7 @@ class _LpProblem:
     one raises _BudgetExhausted.
     """
 
-    def __init__(
-        self, bins: np.ndarray, amplitudes: np.ndarray, n: int, *, max_evaluations: int
-    ):
+    def __init__(self, bins: np.ndarray, amplitudes: np.ndarray, n: int, *, max_evaluations: int):
         self.bins = bins
         self.n = n
         self.max_evaluations = max_evaluations

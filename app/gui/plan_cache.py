@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from concurrent.futures import Future, ThreadPoolExecutor
 
+from app.procedure.phase_store import stored_phases
 from dsp.multisine import PRESETS, Plan, make_plan, preset_plan
 
 PlanKey = tuple[str, tuple[float, ...]]  # (preset name, line frequencies in Hz)
@@ -21,7 +22,9 @@ class PlanCache:
         self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="plan")
         for name, preset in PRESETS.items():
             key = (name, tuple(preset.nominal_frequencies_hz))
-            self._plans[key] = self._pool.submit(preset_plan, name, level_ms2=1.0)
+            self._plans[key] = self._pool.submit(
+                preset_plan, name, level_ms2=1.0, optimiser=stored_phases
+            )
 
     def get(self, preset_name: str, lines_hz: tuple[float, ...]) -> Future[Plan] | None:
         """The future of the plan of these lines (None: never asked)."""
@@ -39,6 +42,7 @@ class PlanCache:
                 preset.period_samples,
                 1.0,
                 preset.reference_frequency_hz,
+                optimiser=stored_phases,
             )
         return self._plans[key]
 

@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Any
 from app.errors import Refusal
 from app.procedure.errors import PreflightError
 from app.procedure.modes import MODE_MULTISINE
+from app.procedure.phase_store import stored_phases
 from app.procedure.reference import (
     ReferenceRefusal,
     ResolvedReference,
@@ -243,7 +244,7 @@ class RunRequest:
             and self.profile == "acceleration"
             and stroke_peak_to_peak_m is None
         ):
-            return preset_plan(name, level_ms2=self.level_ms2)
+            return preset_plan(name, level_ms2=self.level_ms2, optimiser=stored_phases)
         return build_plan(
             PlanRequest(
                 preset=name,
