@@ -115,9 +115,7 @@ def test_the_check_tool_fails_on_a_stale_file_and_passes_on_a_fresh_one(tmp_path
 # --- a custom plan's phases in the data directory -----------------------------------------
 
 
-def test_a_custom_plan_is_optimised_once_then_read_from_the_data_directory(
-    data, optimiser_calls
-):
+def test_a_custom_plan_is_optimised_once_then_read_from_the_data_directory(data, optimiser_calls):
     first = stored_phases(CUSTOM_BINS, CUSTOM_AMPS, CUSTOM_N)
     assert len(optimiser_calls) == 1
     path = _cache_file(data)
