@@ -231,7 +231,7 @@ def _shipped() -> dict[str, np.ndarray]:
             continue
         try:
             document = json.loads(entry.read_text(encoding="utf-8"))
-            key = keys.get(document.get("key")) if isinstance(document, dict) else None
+            key = keys.get(str(document.get("key"))) if isinstance(document, dict) else None
             if key is None:
                 raise ValueError("not the phases of a current preset plan")
             found[key.digest] = trusted(document, key)
