@@ -102,8 +102,8 @@ bench: $(STAMP)
 	QT_QPA_PLATFORM=offscreen $(BIN)/python bench/gui_responsiveness.py
 
 # the preset plans' optimised phases shipped in app/data/phases (app.procedure.phase_store):
-# regenerate after a change to dsp/crestfactor.py or to a preset (tests/app/test_phase_store.py
-# fails until then)
+# regenerate after a change to dsp/crestfactor.py or to a preset
+# (tests/app/procedure/test_phase_store.py fails until then)
 phases: $(STAMP)
 	$(BIN)/python -m app.procedure.phase_store --write
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 import gc
 import html
 import logging
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -31,6 +32,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
+from app import formatting as fmt
 from app.gui.plots import FRAME_HZ, LivePlots
 from app.gui.results_tab import wrapping_label
 from app.gui.table_items import shown_unit
@@ -346,10 +348,14 @@ class RunTab(QWidget):
             self.draw_characteristic(estimate.results)
 
     def draw_characteristic(self, results: Results) -> None:
-        worst = min(results.lines, key=lambda ln: ln.coherence)
-        self.coherence.setText(
-            f"coherence >= {worst.coherence:.4f} (lowest at {worst.nominal_frequency_hz:g} Hz)"
-        )
+        defined = [ln for ln in results.lines if math.isfinite(ln.coherence)]
+        if defined:
+            worst = min(defined, key=lambda ln: ln.coherence)
+            self.coherence.setText(
+                f"coherence >= {worst.coherence:.4f} (lowest at {worst.nominal_frequency_hz:g} Hz)"
+            )
+        else:
+            self.coherence.setText(fmt.COHERENCE_NOT_AVAILABLE)
         self.live.draw_characteristic(results)
 
     def finish(self, finished: Finished | None) -> None:

@@ -24,7 +24,7 @@ from app.records.db.lab import Lab
 from app.records.run_record import DutIdentity
 from app.stand.dut import Band, DutSpec, spec_from_record
 from app.stand.simulated import catalogue_spec
-from tests.app.test_honest_numbers import _results
+from tests.app.procedure.test_verdict import _results
 
 # a sensor model on record: 9.8 mV/(m/s^2) +-4 %, phase within 2 degrees from 10 to 1000 Hz
 RECORDED = spec_from_record(
