@@ -199,10 +199,10 @@ def _corrupt(path: Path, how: str) -> None:
     elif how == "old-algorithm":
         document["algorithm_version"] -= 1
         path.write_text(json.dumps(document))
-    elif how == "zeros-with-checksum":  # self-consistent, but worse than Schroeder's phases
+    elif how == "peaks-aligned-with-checksum":  # self-consistent, worse than Schroeder's
         key = PhaseKey.of(CUSTOM_BINS, CUSTOM_AMPS, CUSTOM_N, 0)
-        zeros = np.zeros(CUSTOM_BINS.size)
-        path.write_text(json.dumps(key.document(zeros)))
+        aligned = np.full(CUSTOM_BINS.size, np.pi / 2)  # every sine at its peak at i = 0
+        path.write_text(json.dumps(key.document(aligned)))
     else:
         raise AssertionError(how)
 
@@ -218,7 +218,7 @@ CORRUPTIONS = [
     "edited-value",
     "other-inputs",
     "old-algorithm",
-    "zeros-with-checksum",
+    "peaks-aligned-with-checksum",
 ]
 
 
