@@ -1,7 +1,8 @@
-"""Multisine plans optimised off the GUI thread (the phase optimisation takes about a second):
-one future per (preset, line list in Hz), optimised at 1 m/s^2 per line (the phases do not
-depend on the level): the run request carries them (`RunRequest.phases_rad`), so Start does
-not block the window.
+"""Multisine plans made off the GUI thread: one future per (preset, line list in Hz), at
+1 m/s^2 per line (the phases do not depend on the level): the run request carries them
+(`RunRequest.phases_rad`), so Start does not block the window. Phases come from
+app.procedure.phase_store (the presets' shipped; a custom line list's optimised the first time,
+about a second, then read from the data directory).
 """
 
 from __future__ import annotations
