@@ -122,8 +122,16 @@ def stored_phases(
     """`dsp.crestfactor.optimise_phases(bins, amplitudes, period_samples, seed=seed)` (rad),
     from the shipped phases or the user's cache when they hold it (module docstring)."""
     a = np.asarray(amplitudes, dtype=float)
-    if a.ndim != 1 or a.size == 0 or not np.all(np.isfinite(a) & (a > 0)):
-        # not a plan the store can key: the optimiser names what is wrong
+    m = np.asarray(bins)
+    keyable = (
+        a.ndim == 1
+        and a.size > 0
+        and bool(np.all(np.isfinite(a) & (a > 0)))
+        and m.shape == a.shape
+        and np.issubdtype(m.dtype, np.number)
+        and bool(np.all(np.isfinite(m) & (m == np.round(m))))
+    )
+    if not keyable:  # not a plan the store can key: the optimiser names what is wrong
         return crestfactor.optimise_phases(bins, amplitudes, period_samples, seed=seed)
     key = PhaseKey.of(bins, a, period_samples, seed)
     shipped = _shipped().get(key.digest)

@@ -263,4 +263,7 @@ def test_invalid_lines_are_refused_by_the_optimiser_naming_them(data):
         stored_phases(CUSTOM_BINS, np.array([1.0, 0.0, 1.0, 1.0, 1.0]), CUSTOM_N)
     with pytest.raises(ValueError, match="bin 5: appears more than once"):
         stored_phases(np.array([3, 5, 5]), np.ones(3), CUSTOM_N)
-    assert not (data / "phases").exists()
+    stored_phases(CUSTOM_BINS, CUSTOM_AMPS, CUSTOM_N)  # now cached under bins 3, 5, 8, 13, 21
+    with pytest.raises(ValueError, match=r"bin 5\.5: not an integer"):
+        stored_phases(np.array([3, 5.5, 8, 13, 21]), CUSTOM_AMPS, CUSTOM_N)  # not bin 5's
+    assert len(list((data / "phases").iterdir())) == 1
