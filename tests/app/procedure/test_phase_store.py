@@ -15,6 +15,7 @@ from app.cli import main
 from app.procedure import phase_store
 from app.procedure.phase_store import PhaseKey, stored_phases
 from app.procedure.planning import PlanRequest, build_plan
+from app.procedure.service import RunService
 from dsp import crestfactor
 from dsp.multisine import PRESETS, preset_plan
 
@@ -87,7 +88,25 @@ def test_the_product_makes_a_preset_plan_without_optimising(data, monkeypatch):
         assert plan.phases_rad.tobytes() == shipped[digest].tobytes()
         also = preset_plan(name, level_ms2=0.2, optimiser=stored_phases)  # request, simulate
         assert also.phases_rad.tobytes() == shipped[digest].tobytes()
+    service = RunService()  # the simulated stand: the GUI's plans, at once for every preset
+    for key in service.preset_keys():
+        digest = phase_store.preset_keys()[key.preset].digest
+        assert service.unit_plan(key).phases_rad.tobytes() == shipped[digest].tobytes()
     assert not data.exists()  # nothing cached for them
+
+
+@pytest.mark.integration
+def test_a_simulated_run_of_a_preset_optimises_nothing(data, monkeypatch, tmp_path, capsys):
+    """The run service's preset path (app.procedure.run.request_plan) and the simulator."""
+
+    def refuse(*_args, **_kwargs):
+        raise AssertionError("optimised although the phases are shipped")
+
+    monkeypatch.setattr(crestfactor, "optimise_phases", refuse)
+    out = tmp_path / "runs"
+    code = main(["run", "--sim", "--dut", "piezo", "--periods", "3", "--out", str(out)])
+    assert code == 0, capsys.readouterr()
+    assert not (data / "phases").exists()
 
 
 def test_the_regeneration_tool_writes_files_the_store_trusts(tmp_path, monkeypatch):
