@@ -16,6 +16,7 @@ from app.cli.exits import UsageError
 from app.files import FileExistsRefusal, check_target
 from app.io import quantities
 from app.io.quantities import Quantity, QuantityError
+from app.procedure.phase_store import stored_phases
 from app.stand.simulated import CATALOGUE, parse_faults
 from dsp.multisine import PRESETS, Plan, make_plan
 
@@ -176,6 +177,7 @@ def plan_from_options(args: argparse.Namespace, *, optimise: bool) -> Plan:
         mains_frequency_hz=args.mains if args.mains is not None else 50.0,
         shift_mains_lines=getattr(args, "shift_mains", False),
         phases_rad=None if optimise else [0.0] * len(freqs),
+        optimiser=stored_phases,
     )
 
 
