@@ -139,7 +139,8 @@ class RunRequest:
     response_store: Path | None = None  # where stored responses live (None: user data dir)
     dut_spec: DutSpec | None = None
     # the multisine's phases (rad), optimised already for these lines (the GUI does it as the
-    # lines are typed); None: optimised when the plan is made (about 1 s)
+    # lines are typed); None: from the phase store when the plan is made
+    # (app.procedure.phase_store: a new custom plan is optimised once, about 1 s)
     phases_rad: tuple[float, ...] | None = None
     # issue 26: the plan beyond presets (None: the preset's) and the simulated exciter
     sample_rate_hz: float | None = None

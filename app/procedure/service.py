@@ -240,7 +240,8 @@ class RunService:
     def phase_key(self, options: RunOptions) -> PlanRequest:
         """What the multisine's phases depend on: the lines, rate, period and reference of the
         plan that will run (the stand file's [plan] applied), at 1 m/s^2 flat. A face caches
-        `unit_plan(key)` by it (the optimisation takes about a second)."""
+        `unit_plan(key)` by it (a custom plan not yet in the phase store is optimised once,
+        about a second)."""
         wanted = plan_request(self.draft(options), UNIT_LEVEL_MS2)
         return dataclasses.replace(wanted, profile=Profile.ACCELERATION, corner_hz=None)
 
