@@ -128,6 +128,7 @@ def test_from_an_empty_window_to_a_certificate(window, qtbot, monkeypatch):
 
     monkeypatch.setattr(certify.QDesktopServices, "openUrl", lambda url: True)
     window.setup_tab.dut_id.setText("SN-GUI-1")
+    window.setup_tab.technician.setText("A. Tech")  # who prepares it (the service's rule)
     window.setup_tab.periods.setValue(3)
     with qtbot.waitSignal(window.run_finished, timeout=60_000):
         window.start_run()

@@ -34,6 +34,7 @@ def window(qtbot, tmp_path, monkeypatch):
     w.setup_tab.frequencies.setText(SHORT_LINES)
     qtbot.waitUntil(w.setup_tab.start_button.isEnabled, timeout=30_000)
     w.setup_tab.periods.setValue(3)  # the fewest with a stated type A
+    w.setup_tab.technician.setText("T. Ester")  # who prepares the certificates
     return w
 
 

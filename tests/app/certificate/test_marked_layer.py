@@ -20,8 +20,6 @@ from app.records.seal import read_seal
 from tests.app.certificate.conftest import copy_run
 from tests.app.certificate.test_issue_matrix import ITEMS, assert_verified, verify_lines
 
-pytestmark = pytest.mark.integration
-
 FAKE = "f" * 64
 HOSTILE = (
     "Run seal",
