@@ -16,8 +16,8 @@ from app import formatting as fmt
 from app.certificate import CertificateInfo, build, pdf
 from app.certificate import text as certificate_text
 from app.certificate.pdf_charts import FONT_BOLD
-from app.certificate.pdf_page import HEADER_PT, MIN_HEADER_PT, header_lines
 from app.certificate.pdf_marks import read_marks
+from app.certificate.pdf_page import HEADER_PT, MIN_HEADER_PT, header_lines
 from app.records.run_folder import load_run
 from dsp.conformity import DECISION_RULE, Verdict
 

@@ -22,6 +22,7 @@ import numpy as np
 import pytest
 from pypdf import PdfReader
 
+from app.certificate.pdf_marks import read_marks
 from app.certificate.readback import (
     PrintedError,
     differences,
@@ -29,7 +30,6 @@ from app.certificate.readback import (
     items_from_pdf,
     parse_inert,
 )
-from app.certificate.pdf_marks import read_marks
 from app.cli import main
 from app.records.run_folder import write_manifest
 from app.records.seal import write_seal
