@@ -7,7 +7,8 @@ session and certified many times, so the matrix of issuing paths costs a few run
     records_runs   two complete runs of SN-7 made by `accelcal run --sim --sensor SN-7 --db`
                    (their seals name the records chain head)
     plain_run      a complete run made without records (copy of the session's complete_run)
-    run_100        a complete run of a 100-line plan made by `accelcal run --frequencies`
+    run_100        a complete run of a 100-line plan (`accelcal run --frequencies`) of SN-100,
+                   whose customer's name and address wrap over several lines, with records
 
 Nothing here may be changed by a test but the certificates it adds (each test gives its own
 --out, or a copy of the run's root).
@@ -29,6 +30,9 @@ from tests.app.throwaway_ca import PASSWORD, make_ca, make_signer
 ROOT = Path(__file__).resolve().parents[3]
 SENSOR = "SN-7"
 CUSTOMER = "ACME Ltd"
+LONG_SENSOR = "SN-100"  # a sensor of a customer whose name and address wrap over lines
+LONG_CUSTOMER = " ".join(["Physikalisch-Technische Kalibrierlaboratorien Braunschweig"] * 3)
+LONG_ADDRESS = "Bundesallee 100, 38116 Braunschweig, " + "Gebäude " * 12 + "Raum 1"
 
 
 @dataclass(frozen=True)
@@ -77,6 +81,9 @@ def lab(tmp_path_factory: pytest.TempPathFactory) -> Lab:
     _cli("models", "add", "PCB", "352C33", "--nominal", "100", "--unit", "mV/g",
          "--tolerance", "5", "--fmin", "1", "--fmax", "10000", "--db", url)  # fmt: skip
     _cli("sensors", "add", SENSOR, "--model", "352C33", "--owner", CUSTOMER, "--db", url)
+    _cli("customers", "add", LONG_CUSTOMER, "--address", LONG_ADDRESS, "--db", url)
+    _cli("sensors", "add", LONG_SENSOR, "--model", "352C33", "--owner", LONG_CUSTOMER,
+         "--db", url)  # fmt: skip
     _cli("refs", "add", "REF-8305-SIM", "--model", "B&K 8305", "--serial", "SIM-0001",
          "--certificate", "PTB-1", "--calibrated", str(today - timedelta(days=30)),
          "--due", str(today + timedelta(days=300)), "--table", ROOT / "examples/ref-table.csv",
@@ -101,14 +108,14 @@ def records_runs(lab: Lab) -> tuple[Path, Path]:
 
 
 @pytest.fixture(scope="session")
-def run_100(tmp_path_factory: pytest.TempPathFactory) -> Path:
+def run_100(lab: Lab) -> Path:
     """100 lines, 20 Hz to 2.5 kHz (geometric on the piezo plan's 0.5 Hz bins, 160 Hz among
-    them) at 2 m/s^2, without records."""
+    them) at 2 m/s^2, of SN-100 (the long-named customer's) with the records in use; no
+    technician named."""
     lines = np.unique(np.append(np.round(np.geomspace(20, 2500, 99) * 2) / 2, 160.0))
     assert len(lines) == 100
-    out = tmp_path_factory.mktemp("runs100")
     frequencies = ",".join(f"{f:g}" for f in lines)
-    return _new_run(out, "--dut", "piezo", "--dut-id", "SN-100", "--level", "2",
+    return _new_run(lab.runs, "--sensor", LONG_SENSOR, "--db", lab.url, "--level", "2",
                     "--frequencies", frequencies, "--seed", "5")  # fmt: skip
 
 

@@ -166,15 +166,21 @@ def test_a_long_customer_name_wrapped_onto_several_lines(
     assert_verified(verify_lines(capsys, pdf, "--run", run), signed=False)
 
 
-def test_a_100_line_plan(run_100: Path, tmp_path: Path, capsys) -> None:
+def test_a_100_line_plan_of_a_long_named_customer_with_records(
+    lab: Lab, run_100: Path, capsys
+) -> None:
     from app.certificate.pdf_marks import read_marks
+    from app.certificate.printed import Item
 
-    run = copy_run(run_100, tmp_path / "runs")
-    assert main(["certificate", str(run), "--customer", "ACME Ltd", *ITEMS]) == 0
-    pdf = run / "certificate.pdf"
+    capsys.readouterr()
+    assert main(["certificate", str(run_100), "--db", lab.url, *ITEMS]) == 0
+    number = _number(capsys.readouterr().out)
+    pdf = run_100 / "certificate.pdf"
     marks = read_marks(pdf.read_bytes())
     assert marks.lines == 100 and len(set(marks.line_pages.values())) >= 2  # over pages
-    assert_verified(verify_lines(capsys, pdf, "--run", run), signed=False)
+    assert len(marks.items[Item.CUSTOMER]) >= 3  # the customer's name and address wrap
+    assert_verified(verify_lines(capsys, pdf, "--run", run_100), signed=False)
+    assert_web_verified(lab, number, signed=False, trust=None)
 
 
 # --- the GUI's certificate dialog ---------------------------------------------------------
