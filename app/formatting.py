@@ -53,6 +53,18 @@ def percent(ratio: float, decimals: int = 2) -> str:
     return f"{100 * ratio:.{decimals}f} %" if math.isfinite(ratio) else "n/a"
 
 
+COHERENCE_NOT_AVAILABLE = (
+    "coherence n/a: one period analysed (the LPM takes its type A from the non-excited bins; "
+    "a coherence needs two or more periods)"
+)
+
+
+def coherence(value: float) -> str:
+    """A line's coherence (0..1) to 4 decimals, or "n/a" where it is not defined (one period:
+    COHERENCE_NOT_AVAILABLE says why)."""
+    return f"{value:.4f}" if math.isfinite(value) else "n/a"
+
+
 def table(headers: list[str], rows: list[list[str]]) -> str:
     """A plain text table with right-aligned columns."""
     widths = [

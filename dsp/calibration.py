@@ -436,7 +436,9 @@ def compute_results(
         expanded_uncertainty_mv_per_ms2=r.expanded_uncertainty_mv_per_ms2,
         relative_expanded_uncertainty=r.relative_expanded_uncertainty,
         coverage_factor=r.coverage_factor,
-        coverage_probability=0.95 if rule == "seed" else probability,
+        coverage_probability=(
+            unc.seed_coverage_probability(estimate.periods) if rule == "seed" else probability
+        ),
         phase_deg=r.phase_deg,
         phase_expanded_uncertainty_deg=r.phase_expanded_uncertainty_deg,
     )

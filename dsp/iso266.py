@@ -3,7 +3,9 @@
 The exact (base-ten) mid-band frequencies are f_n = 10^(n/10) Hz; the preferred (nominal)
 values are those rounded to the R10 series 1, 1.25, 1.6, 2, 2.5, 3.15, 4, 5, 6.3, 8 per decade.
 Band number n = -4 is 0.4 Hz (exact 0.398 Hz; ISO 16063-21 starts there: 0.4, 0.5, 0.63,
-0.8 Hz below 1 Hz), n = 0 is 1 Hz, n = 43 is 20 kHz (exact 19 952.6 Hz).
+0.8 Hz below 1 Hz), n = 0 is 1 Hz, n = 43 is 20 kHz (exact 19 952.6 Hz). The series goes on
+past ISO 266's 20 kHz, as resonance searches need (SPEC.md s.3): n = 44, 45, 46 are 25, 31.5 and
+40 kHz; a fill ("1000,...,31500") stops at none of them.
 """
 
 from __future__ import annotations
@@ -12,7 +14,7 @@ import math
 
 NOMINAL_MANTISSAS: tuple[float, ...] = (1.0, 1.25, 1.6, 2.0, 2.5, 3.15, 4.0, 5.0, 6.3, 8.0)
 MIN_BAND = -4  # 0.4 Hz
-MAX_BAND = 43  # 20 kHz
+MAX_BAND = 46  # 40 kHz (ISO 266 ends at 20 kHz; the R10 series continues)
 
 
 def nominal_frequency(band: int) -> float:
@@ -39,7 +41,7 @@ def band_number(nominal_hz: float) -> int:
         nominal_frequency(band), nominal_hz, rel_tol=1e-9
     ):
         return band
-    raise ValueError(f"{nominal_hz:g} Hz is not an ISO 266 preferred frequency (0.4 Hz-20 kHz)")
+    raise ValueError(f"{nominal_hz:g} Hz is not an ISO 266 preferred frequency (0.4 Hz-40 kHz)")
 
 
 def is_preferred(frequency_hz: float) -> bool:

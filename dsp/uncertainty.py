@@ -23,6 +23,7 @@ import numpy as np
 from scipy import stats
 
 from dsp.annex_a import ComponentKind
+from dsp.estimators import RULES
 
 __all__ = [
     "Budget",
@@ -435,6 +436,13 @@ def seed_coverage_factor(periods: int) -> float:
     return 2.0
 
 
+def seed_coverage_probability(periods: int) -> float:
+    """The coverage probability the seed's rule gives with L = `periods`: 0.95 for L < 10 (t at
+    95 % with L - 1 degrees of freedom), else 0.9545 (k = 2 of a normal distribution, GUM G.1.3;
+    not 95 %: the seed's Table 1 states "95 %" for it, SPEC.md section 7)."""
+    return 0.95 if seed_coverage_factor(periods) != 2.0 else 0.9545
+
+
 @dataclass(frozen=True)
 class Combined:
     """A line's uncertainty statement (SPEC.md section 7; GUM 5.1.2, G.4.1, 6.2.1).
@@ -453,7 +461,7 @@ class Combined:
     expanded: float  # U = k u_c
 
 
-_RULES = ("gum", "seed")
+_RULES = RULES  # the one list: dsp.estimators
 
 
 def combine(
@@ -472,7 +480,9 @@ def combine(
     u_c = sqrt(u_A^2 + sum u_Bi^2) (GUM 5.1.2 eq. 10, unit sensitivity coefficients);
     nu_eff by Welch-Satterthwaite over u_A and every applying u_Bi (GUM G.4.1 eq. G.2b);
     k = coverage_factor(nu_eff, probability) for rule "gum" (GUM G.6.4), or the seed's rule
-    from `periods` for rule "seed" (then p is reported as 0.95); U = k u_c (GUM 6.2.1 eq. 18).
+    from `periods` for rule "seed" (then p is what that k gives: 0.95 for L < 10, 0.9545 for
+    k = 2 of a normal distribution, L >= 10: seed_coverage_probability); U = k u_c (GUM 6.2.1
+    eq. 18).
     `type_a` is in the unit of `quantity` (relative or degrees). A NaN `type_a` (e.g. one
     period only, whatever its dof) gives NaN u_c, nu_eff and U (and k under rule "gum").
     """
@@ -506,7 +516,7 @@ def combine(
 
     if rule == "seed":
         assert periods is not None
-        k, p_reported = seed_coverage_factor(periods), 0.95
+        k, p_reported = seed_coverage_factor(periods), seed_coverage_probability(periods)
     else:
         k = math.nan if math.isnan(nu_eff) else coverage_factor(nu_eff, p)
         p_reported = p

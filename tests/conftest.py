@@ -162,23 +162,23 @@ def complete_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
 # here by path, tests of other files by the fixtures they use (a completed calibration run, the
 # Qt window); single tests elsewhere carry @pytest.mark.integration / slow themselves.
 INTEGRATION_PATHS = (
-    "app/db/",  # SQLite and PostgreSQL records databases, migrations, concurrent writers
+    "app/records/db/",  # SQLite and PostgreSQL records databases, migrations, concurrent writers
     "web/",  # the web view on a records database, a browser
-    "app/test_verify_attacks.py",  # runs, signed certificates, special files
-    "app/test_signing.py",  # a throwaway CA, signed certificates
-    "app/test_impact.py",  # records, runs re-analysed in a process pool
-    "app/test_technician.py",  # runs and their certificates
-    "app/test_certificate.py",  # fixture runs, PDFs
-    "app/test_dcc.py",  # a fixture run, its certificate and DCC
-    "app/test_honest_numbers.py",  # calibration runs and recordings end to end
-    "app/test_legacy_formats.py",  # a stored run certified, a stored database upgraded
-    "app/test_procedure.py",  # procedure runs, SIGTERM on a subprocess
-    "app/test_readme_examples.py",  # simulations and analyses of the README's examples
-    "app/test_records.py",  # run folders of real runs
-    "app/test_run_integrity.py",  # runs, concurrent subprocesses
-    "app/test_safety.py",  # runs with faults, signals to subprocesses
-    "app/test_simulate.py",  # simulated recordings end to end
-    "app/test_startup.py",  # fresh interpreters
+    "app/certificate/test_verify.py",  # runs, signed certificates, special files
+    "app/certificate/test_sign.py",  # a throwaway CA, signed certificates
+    "app/procedure/test_impact.py",  # records, runs re-analysed in a process pool
+    "app/cli/test_certificate.py",  # runs and their certificates
+    "app/certificate/test_pdf.py",  # fixture runs, PDFs
+    "app/certificate/test_dcc.py",  # a fixture run, its certificate and DCC
+    "app/cli/test_analyze.py",  # calibration runs and recordings end to end
+    "app/records/test_legacy_formats.py",  # a stored run certified, a stored database upgraded
+    "app/procedure/test_procedure.py",  # procedure runs, SIGTERM on a subprocess
+    "app/cli/test_analyze_examples.py",  # simulations and analyses of the README's examples
+    "app/records/test_run_folder.py",  # run folders of real runs
+    "app/records/test_run_folder_integrity.py",  # runs, concurrent subprocesses
+    "app/procedure/test_procedure_safety.py",  # runs with faults, signals to subprocesses
+    "app/cli/test_simulate.py",  # simulated recordings end to end
+    "app/cli/test_startup.py",  # fresh interpreters
     "app/test_version.py",  # git and a fresh interpreter
     "gui/",  # the Qt window, live runs, soak
     "hostile/test_processes.py",  # subprocesses

@@ -26,7 +26,7 @@ def test_remembered_phase_optimisation_returns_the_real_phases_as_fresh_copies()
 
 def test_the_dsp_tests_get_the_real_optimisation():
     assert suite._relative_is_real("dsp/test_crestfactor.py")
-    assert not suite._relative_is_real("app/test_procedure.py")
+    assert not suite._relative_is_real("app/procedure/test_procedure.py")
 
 
 def test_outside_the_dsp_tests_the_optimisation_runs_once_per_argument_set(monkeypatch):

@@ -8,7 +8,7 @@
 
 Exit codes: 0 success, 2 bad input (options, plan, file: every app.errors refusal), 1 any
 other failure, 3 a run that did not complete or whose result could not be stored.
-Only light modules are imported at start (tests/app/test_startup.py); every command imports
+Only light modules are imported at start (tests/app/cli/test_startup.py); every command imports
 what it uses.
 """
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+import math
 import re
 import sys
 from typing import TYPE_CHECKING, Any
@@ -60,7 +61,7 @@ def print_results(results: Results, source: str = "", status: str | None = None)
                 f"{ln.phase_expanded_uncertainty_deg:.2f}",
                 fmt.percent(ln.relative_expanded_uncertainty),
                 f"{ln.coverage_factor:.2f}",
-                f"{ln.coherence:.4f}",
+                fmt.coherence(ln.coherence),
                 f"{ln.dut_snr_db:.0f}",
                 ln.iso_verdict,
             ]
@@ -86,6 +87,8 @@ def print_results(results: Results, source: str = "", status: str | None = None)
     )
     for warning in results.warnings:
         print(f"warning: {warning}")
+    if any(not math.isfinite(ln.coherence) for ln in results.lines):
+        print(fmt.COHERENCE_NOT_AVAILABLE)
     if not results.phase_corrected_for_skew:
         print("phase (n/c): not corrected for skew (inter-channel delay unknown); not stated")
     if results.verdict is not None:

@@ -12,6 +12,7 @@ from __future__ import annotations
 import gc
 import html
 import logging
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -31,6 +32,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
+from app import formatting as fmt
 from app.gui.plots import FRAME_HZ, LivePlots
 from app.gui.results_tab import wrapping_label
 from app.gui.table_items import shown_unit
@@ -46,7 +48,7 @@ from app.procedure import (
     StateChanged,
     WarningRaised,
 )
-from app.procedure.run import RunRequest, start
+from app.procedure.service import PreparedRun, RunService
 from dsp.calibration import Results
 from dsp.multisine import Plan
 from hardware.errors import HardwareError
@@ -234,13 +236,21 @@ class RunTab(QWidget):
         """The running procedure (None when idle)."""
         return self.worker.procedure if self.worker is not None else None
 
-    def begin(self, request: RunRequest, ranges_v: Mapping[str, float], note: str | None) -> bool:
-        """Open the stand and start `request` on a worker; `ranges_v` the input range (V) of
-        each metered channel, `note` a word to show. Whether it started (why not: shown)."""
+    def begin(
+        self,
+        service: RunService,
+        prepared: PreparedRun,
+        ranges_v: Mapping[str, float],
+        note: str | None,
+    ) -> bool:
+        """Open the stand and start the `prepared` run (the run service's) on a worker;
+        `ranges_v` the input range (V) of each metered channel, `note` a word to show. Whether
+        it started (why not: shown)."""
         if self.worker is not None:
             return False
+        request = prepared.request
         try:
-            procedure, stand = start(request)
+            procedure, stand = service.start(prepared)
         except (ValueError, HardwareError) as exc:  # config, plan, missing driver or device
             QMessageBox.warning(self, "Cannot start", f"{type(exc).__name__}: {exc}")
             self.messages.setText(html.escape(f"Cannot start: {exc}"))
@@ -346,10 +356,14 @@ class RunTab(QWidget):
             self.draw_characteristic(estimate.results)
 
     def draw_characteristic(self, results: Results) -> None:
-        worst = min(results.lines, key=lambda ln: ln.coherence)
-        self.coherence.setText(
-            f"coherence >= {worst.coherence:.4f} (lowest at {worst.nominal_frequency_hz:g} Hz)"
-        )
+        defined = [ln for ln in results.lines if math.isfinite(ln.coherence)]
+        if defined:
+            worst = min(defined, key=lambda ln: ln.coherence)
+            self.coherence.setText(
+                f"coherence >= {worst.coherence:.4f} (lowest at {worst.nominal_frequency_hz:g} Hz)"
+            )
+        else:
+            self.coherence.setText(fmt.COHERENCE_NOT_AVAILABLE)
         self.live.draw_characteristic(results)
 
     def finish(self, finished: Finished | None) -> None:

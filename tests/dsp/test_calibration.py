@@ -126,3 +126,14 @@ def test_dead_dut_channel_is_an_analysis_error(plan):
     rec = make_recording(plan, lambda f: 0 * f + 1e-9, periods=2, dut_noise_v=1e-3)
     with pytest.raises(AnalysisError, match="DUT channel: no signal at most lines"):
         analyze(rec)
+
+
+@pytest.mark.parametrize(("periods", "k", "p"), [(4, 3.182, 0.95), (12, 2.0, 0.9545)])
+def test_the_seed_rule_states_the_probability_its_k_gives(plan, periods, k, p):
+    """L < 10: t at 95 % with L - 1 dof; L >= 10: k = 2, which is 95.45 % of a normal
+    distribution, not the 95 % the seed prints (SPEC.md section 7)."""
+    rec = make_recording(plan, lowpass_response(), periods=periods, dut_noise_v=1e-4)
+    results = analyze(rec, rule="seed").results
+    assert results.reference.coverage_factor == pytest.approx(k, abs=5e-4)
+    assert results.reference.coverage_probability == p
+    assert results.coverage_probability == p

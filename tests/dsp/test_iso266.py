@@ -14,7 +14,7 @@ def test_preferred_values_and_exact_frequencies():
     assert iso266.nominal_frequency(43) == 20000.0
 
 
-@pytest.mark.parametrize("bad", [11.0, 0.0, -10.0, 30000.0, float("nan")])
+@pytest.mark.parametrize("bad", [11.0, 0.0, -10.0, 30000.0, 50000.0, float("nan")])
 def test_non_preferred_values_are_refused(bad):
     with pytest.raises(ValueError, match="ISO 266"):
         iso266.band_number(bad)
@@ -33,7 +33,18 @@ def test_the_table_starts_at_0_4_hz_as_iso_16063_21_does():
     assert iso266.nominal_frequencies(0.1, 0.45) == (0.4,)
     assert len(iso266.nominal_frequencies()) == 44  # the default still starts at 1 Hz
     assert iso266.is_preferred(0.5) and not iso266.is_preferred(0.315)
-    with pytest.raises(ValueError, match=r"band number must be -4\.\.43"):
+    with pytest.raises(ValueError, match=r"band number must be -4\.\.46"):
         iso266.nominal_frequency(-5)
-    with pytest.raises(ValueError, match=r"0\.4 Hz-20 kHz"):
+    with pytest.raises(ValueError, match=r"0\.4 Hz-40 kHz"):
         iso266.band_number(0.6)
+
+
+def test_the_series_goes_on_above_20_khz_so_a_fill_reaches_25_khz():
+    """SPEC.md s.3: 25, 31.5 and 40 kHz follow 20 kHz; a resonance plan "1000,...,31500" brackets
+    a 25 kHz resonance (it stopped at 20 kHz without saying so)."""
+    from app.lines import parse_frequencies
+
+    assert iso266.nominal_frequencies(16000, 40000) == (16000.0, 20000.0, 25000.0, 31500.0, 40000.0)
+    assert iso266.band_number(25000.0) == 44 and iso266.band_number(31500.0) == 45
+    assert iso266.exact_frequency(46) == pytest.approx(39810.7, rel=1e-5)
+    assert parse_frequencies("1000,...,31500")[-3:] == [20000.0, 25000.0, 31500.0]

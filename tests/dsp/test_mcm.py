@@ -10,7 +10,7 @@ import pytest
 from scipy import optimize, stats
 
 from dsp.mcm import numerical_tolerance, propagate, validate_line
-from dsp.uncertainty import Budget, Component, Quantity, combine
+from dsp.uncertainty import Budget, Component, Distribution, Quantity, combine
 
 
 def rect_plus_normal_cdf(x: float, a: float, sigma: float) -> float:
@@ -103,3 +103,40 @@ def test_validate_lines_checks_each_line_against_its_own_gum_statement():
     gum_4k = combine(0.002, 3.0, Budget((c,)), 4000.0)
     assert lines[1].gum_high == pytest.approx(gum_4k.expanded)
     assert lines[1].gum_high > 2 * lines[0].gum_high
+
+
+def test_noise_alone_never_refutes_an_exact_gum_interval_and_the_resolution_is_measured():
+    """All inputs normal with infinite dof: the GUM interval is exact, so any difference is
+    Monte Carlo noise. With u_c = 0.0099 (delta = 5e-5) and 2e5 trials the end points scatter
+    by about as much as delta: the bare clause 8 comparison flips from seed to seed (it did at
+    500 Hz in 1 of 20 repeats), the check with the Monte Carlo's resolution never does, and
+    the stated resolution is the scatter measured over the repeats."""
+    budget = Budget((Component("a", 0.0070, Distribution.STANDARD),))
+    gum = combine(0.0070, math.inf, budget, 500.0, probability=0.9545)
+    assert gum.standard == pytest.approx(0.0099, abs=1e-4)
+    lines = [
+        validate_line(0.0070, math.inf, budget, 500.0, gum, trials=200_000, seed=s)
+        for s in range(20)
+    ]
+    assert all(line.tolerance == pytest.approx(5e-5) for line in lines)
+    assert any(max(line.d_low, line.d_high) > line.tolerance for line in lines)  # bare check flips
+    assert all(line.validated for line in lines)
+    assert any(line.within_resolution for line in lines)
+    assert "within the Monte Carlo's resolution" in next(
+        line.summary() for line in lines if line.within_resolution
+    )
+    scatter = float(np.std([line.high for line in lines], ddof=1))
+    stated = float(np.mean([line.resolution for line in lines]))
+    assert 0.6 < stated / scatter < 1.6  # 20 repeats: the sample sd itself is good to ~16 %
+
+
+def test_a_real_clause_8_failure_is_far_beyond_the_resolution():
+    """A rectangular term alone: the GUM's k = 2 interval (1.155 a) against the exact 0.9545 a
+    is off by 0.2 a, hundreds of the Monte Carlo's standard deviations: NOT validated."""
+    budget = Budget((Component("r", 0.01),))
+    gum = combine(0.0, math.inf, budget, 100.0, probability=0.9545)
+    line = validate_line(0.0, math.inf, budget, 100.0, gum, trials=200_000, seed=5)
+    assert line.high == pytest.approx(0.009545, abs=3e-5)
+    assert line.d_high > 100 * line.resolution
+    assert not line.validated and not line.within_resolution
+    assert "NOT validated" in line.summary()

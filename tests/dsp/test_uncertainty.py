@@ -448,7 +448,7 @@ def test_combine_seed_case_with_type_a() -> None:
     assert res.coverage_probability == 0.95
     assert res.expanded == pytest.approx(res.coverage_factor * res.standard, rel=1e-14)
     res32 = combine(0.01, 31, b, 80.0, rule="seed", periods=32)
-    assert res32.coverage_factor == 2.0 and res32.coverage_probability == 0.95
+    assert res32.coverage_factor == 2.0 and res32.coverage_probability == 0.9545  # k = 2, normal
 
 
 def test_combine_phase_in_degrees_uses_phase_components_only() -> None:

@@ -29,7 +29,7 @@ from app.gui.main_window import MainWindow
 from app.records.db.engine import open_engine
 from app.records.db.lab import Lab
 from hardware.teds import TedsError
-from tests.app.db.test_run_records import add_sim_reference
+from tests.app.records.db.test_run_records import add_sim_reference
 
 MG = 9.80665  # m/s^2 per g
 LINES_A = "40,80,160,315,630"

@@ -21,7 +21,7 @@ from app.gui.main_window import MainWindow
 from app.gui.records_dialogs import ReferenceDialog
 from app.records.db.engine import open_engine
 from app.records.db.lab import Lab
-from tests.app.db.test_run_records import add_sim_reference
+from tests.app.records.db.test_run_records import add_sim_reference
 
 
 @pytest.fixture

@@ -20,7 +20,7 @@ from app.gui.main_window import MainWindow
 from app.records.db.engine import open_engine
 from app.records.db.lab import Lab
 from app.records.db.models import Run, Stand
-from tests.app.db.test_run_records import add_sim_reference
+from tests.app.records.db.test_run_records import add_sim_reference
 
 ROOT = Path(__file__).resolve().parents[2]
 TODAY = date(2026, 11, 24)

@@ -274,3 +274,25 @@ def test_a_meter_is_restyled_only_when_its_colour_changes(qtbot, monkeypatch):
         tab.frame = LiveFrame(block=block(1, State.ACQUIRING, level))
         tab.draw()
     assert len(calls) == 3 and "#27ae60" in calls[0] and "#c0392b" in calls[1]
+
+
+def test_a_one_period_estimate_says_coherence_n_a_and_why(qtbot):
+    """LPM (one period): NaN coherence at every line; the tab says n/a with the reason, and a
+    run with coherence names its lowest line."""
+    import dataclasses
+    import math
+
+    from app.formatting import COHERENCE_NOT_AVAILABLE
+    from app.procedure.analysis import analyze
+    from dsp.multisine import make_plan
+    from tests.synthetic import lowpass_response, make_recording
+
+    tab = RunTab()
+    qtbot.addWidget(tab)
+    plan = make_plan([10.0, 80.0, 160.0, 630.0], 6000, 12000, 5.0, 160.0)
+    results = analyze(make_recording(plan, lowpass_response(), periods=3)).results
+    tab.draw_characteristic(results)
+    assert tab.coherence.text().startswith("coherence >= ")
+    lines = tuple(dataclasses.replace(ln, coherence=math.nan) for ln in results.lines)
+    tab.draw_characteristic(dataclasses.replace(results, lines=lines))
+    assert tab.coherence.text() == COHERENCE_NOT_AVAILABLE

@@ -1,7 +1,7 @@
 """Shared runs and keys for the certificate tests (issue 31 point 6): each run is made once per
 session and certified many times, so the matrix of issuing paths costs a few runs.
 
-    pki            a throwaway lab CA and its signer key (tests/app/throwaway_ca.py)
+    pki            a throwaway lab CA and its signer key (tests/app/certificate/throwaway_ca.py)
     lab            a records database migrated once, the sensor SN-7 and the simulated stand's
                    reference standard REF-8305-SIM on record (the README's walkthrough)
     records_runs   two complete runs of SN-7 made by `accelcal run --sim --sensor SN-7 --db`
@@ -25,7 +25,7 @@ import numpy as np
 import pytest
 
 from app.cli import main
-from tests.app.throwaway_ca import PASSWORD, make_ca, make_signer
+from tests.app.certificate.throwaway_ca import PASSWORD, make_ca, make_signer
 
 ROOT = Path(__file__).resolve().parents[3]
 SENSOR = "SN-7"

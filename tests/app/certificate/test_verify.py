@@ -1,8 +1,8 @@
 """`accelcal verify` against an attacker (issue 23): each forged or hostile input is refused with
 exit 2 and says what failed; the honest certificate, signed by a trusted lab key, verifies.
 
-A throwaway PKI (tests/app/throwaway_ca.py): the lab's CA and key, another CA, a self-signed
-"lab signer", an expired and a not-yet-valid lab key.
+A throwaway PKI (tests/app/certificate/throwaway_ca.py): the lab's CA and key, another CA, a
+self-signed "lab signer", an expired and a not-yet-valid lab key.
 """
 
 from __future__ import annotations
@@ -33,9 +33,9 @@ from app.certificate.readback import (
 from app.cli import main
 from app.records.run_folder import write_manifest
 from app.records.seal import write_seal
-from tests.app.throwaway_ca import LAB_SIGNER, PASSWORD, make_ca, make_signer
+from tests.app.certificate.throwaway_ca import LAB_SIGNER, PASSWORD, make_ca, make_signer
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 ITEMS = ["--customer", "ACME Ltd", "--prepared-by", "A. Tech", "--authorised-by", "J. Smith",
          "--temperature", "23", "--mounting", "stud"]  # fmt: skip
 

@@ -10,7 +10,7 @@ import pytest
 
 from app.cli import main
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 README = ROOT / "README.md"
 EXAMPLES = ROOT / "examples"
 MAX_EXAMPLE_BYTES = 1_000_000

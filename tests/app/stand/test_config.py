@@ -10,7 +10,7 @@ from app.stand import config as stand_config
 from app.stand.config import ConfigError, parse
 from app.stand.open import open_stand
 
-EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "stand-pxi6251.toml"
+EXAMPLE = Path(__file__).resolve().parents[3] / "examples" / "stand-pxi6251.toml"
 
 
 def test_built_in_simulated_stand_and_the_example_load():

@@ -29,7 +29,7 @@ from app.records.register import REGISTER_NAME
 from app.records.run_folder import MANIFEST_NAME, try_lock, unlock
 from sim.stand import Fault
 
-REPO = Path(__file__).resolve().parents[2]
+REPO = Path(__file__).resolve().parents[3]
 INFO_ARGS = [
     "--customer",
     "ACME Ltd",

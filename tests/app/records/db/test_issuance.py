@@ -185,7 +185,7 @@ def test_a_kill_at_any_step_leaves_every_certificate_file_in_the_register(
     url: str, complete_run: Path, tmp_path: Path, step: str, capsys
 ) -> None:
     run = _copy(complete_run, tmp_path)
-    env = {**os.environ, "PYTHONPATH": str(Path(__file__).parents[3])}
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).parents[4])}
     killed = subprocess.run(
         [sys.executable, "-c", KILLER, step, *_cert(run, url)], env=env, capture_output=True
     )

@@ -26,7 +26,7 @@ from app.records.run_folder import MANIFEST_NAME
 
 pytestmark = pytest.mark.integration
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 K_160 = 1.02  # the corrected table's factor at 160 Hz (the reference frequency)
 K_HIGH = 1.10  # above 1 kHz: a 10 % change of the characteristic, beyond the 5 % tolerance
 

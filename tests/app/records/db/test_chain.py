@@ -24,8 +24,8 @@ from app.records.db.engine import make_engine, resolve_url, upgrade
 from app.records.db.lab import Lab
 from app.records.db.models import Certificate, Run, Sensor, Stand
 from app.records.seal import write_seal
-from tests.app.db.conftest import _postgres_database
-from tests.app.db.test_run_records import add_sim_reference
+from tests.app.records.db.conftest import _postgres_database
+from tests.app.records.db.test_run_records import add_sim_reference
 
 
 def _sealed_folder(folder: Path, head: str | None) -> str:
@@ -381,7 +381,7 @@ def test_the_application_role_cannot_disable_triggers_and_works(
     owner = make_engine(url)
     upgrade(owner)
     database = owner.url.database
-    role_sql = (Path(__file__).parents[3] / "docs" / "records.md").read_text(encoding="utf-8")
+    role_sql = (Path(__file__).parents[4] / "docs" / "records.md").read_text(encoding="utf-8")
     block = role_sql.split("```sql", 1)[1].split("```", 1)[0]
     with owner.connect().execution_options(isolation_level="AUTOCOMMIT") as c:
         for statement in filter(str.strip, block.replace(":database", f'"{database}"').split(";")):

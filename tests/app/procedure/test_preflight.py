@@ -1,16 +1,21 @@
-"""Issue 25 point 7: the peaks predicted from the drive about to be played (preflight)."""
+"""The preflight (app.procedure.preflight): the peaks predicted from the drive about to be played
+(issue 25 point 7) and the one check of a plan against the stand's limits."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
+from app.procedure import check_preflight
 from app.procedure.errors import PreflightError
 from app.procedure.preflight import check_drive, predict_drive_peaks
+from app.stand import config as stand_config
 from app.stand.config import Limits
+from app.stand.open import open_stand
 from dsp.multisine import make_plan, preset_plan
 
 LIMITS = Limits(8e-3, 0.5, 300.0, 5.0)
+CONFIG = stand_config.load()
 
 
 def target(plan):
@@ -46,3 +51,18 @@ def test_a_drive_past_the_stroke_is_refused_naming_the_predicted_displacement():
     assert check_drive(
         plan, drive / 2, np.array([5.0 + 0j]), LIMITS, "step 1"
     ).acceleration_ms2 == (pytest.approx(10.0, rel=1e-4))
+
+
+def test_preflight_reports_peaks_and_scales_with_the_level():
+    stand = open_stand(CONFIG, dut="piezo")
+    try:
+        plan = preset_plan("piezo", level_ms2=1.0)
+        ok = check_preflight(plan, stand.config, stand.chain)
+        assert ok.ok and ok.summary().startswith("preflight: peaks")
+        at_50 = check_preflight(plan, stand.config, stand.chain, level_scale=50.0)
+        assert at_50.peaks.acceleration_ms2 == pytest.approx(50 * ok.peaks.acceleration_ms2)
+        assert any("exceeds the exciter's 8 mm" in p for p in at_50.problems)
+        with pytest.raises(PreflightError, match="displacement"):
+            at_50.raise_if_refused()
+    finally:
+        stand.close()

@@ -89,3 +89,25 @@ def test_show_of_the_runs_root_lists_its_runs(complete_run, tmp_path, capsys):
     assert "a folder of 1 run(s), not a run folder" in out and "interrupted" not in out + err
     assert f"{complete_run.name}  complete" in out and "SN-42" in out
     assert "notes" not in out
+
+
+def test_a_coherence_that_is_not_defined_prints_n_a_with_the_reason(capsys):
+    """One period (LPM): the coherence is NaN; the table says n/a and why, never "nan"."""
+    import dataclasses
+    import math
+
+    from app.cli.printers import print_results
+    from app.formatting import COHERENCE_NOT_AVAILABLE
+    from app.procedure.analysis import analyze
+    from dsp.multisine import make_plan
+    from tests.synthetic import lowpass_response, make_recording
+
+    plan = make_plan([10.0, 80.0, 160.0, 630.0], 6000, 12000, 5.0, 160.0)
+    results = analyze(make_recording(plan, lowpass_response(), periods=3)).results
+    print_results(results)
+    assert COHERENCE_NOT_AVAILABLE not in capsys.readouterr().out
+    lines = tuple(dataclasses.replace(ln, coherence=math.nan) for ln in results.lines)
+    print_results(dataclasses.replace(results, lines=lines))
+    out = capsys.readouterr().out
+    assert "nan" not in out.lower().replace("nanometre", "")
+    assert " n/a " in out and COHERENCE_NOT_AVAILABLE in out

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from app.cli import main
-from tests.app.throwaway_ca import PASSWORD, make_ca, make_signer
+from tests.app.certificate.throwaway_ca import PASSWORD, make_ca, make_signer
 
 
 @pytest.fixture(scope="module")

@@ -16,7 +16,7 @@ from hardware.nidaq import read_teds_bits, write_teds_bits
 from hardware.teds import bitstream_bytes, decode, read_ted_file
 from sim.models import DUT_CATALOGUE
 
-VOLTAGE_TED = Path(__file__).resolve().parents[1] / "data" / "teds" / "Voltage.ted"
+VOLTAGE_TED = Path(__file__).resolve().parents[2] / "data" / "teds" / "Voltage.ted"
 
 
 def test_the_simulated_dut_carries_its_nominal_sensitivity_in_teds() -> None:

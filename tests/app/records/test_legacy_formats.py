@@ -12,7 +12,7 @@ import pytest
 from app.cli import main
 from app.records.run_folder import inspect_run, verify_manifest
 
-LEGACY = Path(__file__).resolve().parents[1] / "data" / "legacy"
+LEGACY = Path(__file__).resolve().parents[2] / "data" / "legacy"
 RUN_ID = "20261125T061413Z-LEG-1-2d8db0"
 # read by hand from tests/data/legacy/runs/<RUN_ID>/results.json ("reference") and the database
 REFERENCE_S_MV_PER_MS2 = 10.17138167969165

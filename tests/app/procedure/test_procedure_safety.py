@@ -35,7 +35,7 @@ from sim.models import ExciterModel, StandModel
 from sim.stand import FAULT_KINDS, Fault
 
 CONFIG = stand_config.load()
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 FAULT_AT_S = 9.0  # into the identification/equalisation: the shaker is moving
 
 
