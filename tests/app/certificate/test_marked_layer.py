@@ -156,3 +156,24 @@ def test_an_ambiguous_marked_layer_is_refused(draw, reason: str) -> None:
 )
 def test_a_line_break_stands_for_one_blank_or_nothing(printed: str, stated: str, same: bool):
     assert printed_equal(printed, stated) is same
+
+
+def test_a_pdf_drawn_without_the_marked_layer_fails_saying_so(
+    forged_run: Path, tmp_path: Path, capsys, monkeypatch
+) -> None:
+    """A certificate drawn before the layer existed (here: drawn with plain paragraphs and
+    tables): its printed items are not guessed from labels; the DCC is still checked."""
+    from reportlab.platypus import Paragraph, Table
+
+    monkeypatch.setattr(
+        certificate_pdf, "MarkedParagraph", lambda t, style, item: Paragraph(t, style)
+    )
+    monkeypatch.setattr(certificate_pdf, "MarkedTable", Table)
+    pdf = tmp_path / "unmarked.pdf"
+    _issue(forged_run, pdf)
+    assert read_marks(pdf.read_bytes()).items == {}
+    lines = verify_lines(capsys, pdf, "--run", forged_run)
+    assert "FAIL DCC numbers printed in the PDF: the PDF has no marked text layer" in "\n".join(
+        lines
+    )
+    assert "ok   DCC numbers equal the run's results" in lines
