@@ -231,11 +231,12 @@ def _numeric_actions():
 
 def test_every_numeric_option_is_bounded_and_its_help_says_so():
     from app.cli import Bounded
+    from app.cli.options import QuantityType
 
     seen = 0
     for command, action in _numeric_actions():
         assert action.type not in (int, float), f"{command} {action.option_strings[0]}: unbounded"
-        if isinstance(action.type, Bounded):
+        if isinstance(action.type, Bounded | QuantityType):
             seen += 1
             assert action.type.describe() in action.help.replace("%%", "%"), action.help
     assert seen >= 38
