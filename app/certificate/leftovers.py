@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import contextlib
 import enum
+import io
 import logging
 import os
 from collections.abc import Iterable, Mapping
@@ -104,7 +105,9 @@ def dcc_number(xml: bytes) -> str | None:
 
 def carried_number(pdf: Path) -> str | None:
     """The number a certificate PDF carries: from its DCC beside it, else the one attached,
-    else its printed text; None when it is no readable certificate."""
+    else its marked text layer (app.certificate.pdf_marks), else its document title
+    ("Calibration certificate NUMBER", every certificate this program drew); None when it is
+    no readable certificate."""
     beside = pdf.with_suffix(".xml")
     with contextlib.suppress(OSError, ValueError):
         if beside.is_file() and not beside.is_symlink():
@@ -114,16 +117,24 @@ def carried_number(pdf: Path) -> str | None:
     try:
         from pypdf import PdfReader
 
-        from app.certificate.readback import items_from_pdf
+        from app.certificate.pdf import TITLE_PREFIX
+        from app.certificate.pdf_marks import read_marks
+        from app.certificate.printed import Item
 
-        reader = PdfReader(str(pdf))
+        data = pdf.read_bytes()
+        reader = PdfReader(io.BytesIO(data))
         attached = list(reader.attachments.get("certificate.xml") or [])
         if len(attached) == 1:
             number = dcc_number(attached[0])
             if number:
                 return number
-        text = "\n".join(page.extract_text() for page in reader.pages)
-        return items_from_pdf(text).number or None
+        number = read_marks(data).item(Item.NUMBER).replace("\n", " ")
+        if number:
+            return number
+        title = str(reader.metadata.get("/Title") or "") if reader.metadata else ""
+        if title.startswith(TITLE_PREFIX):
+            return title.removeprefix(TITLE_PREFIX).strip() or None
+        return None
     except Exception:  # pypdf fails in many ways on a file that is no certificate
         return None
 

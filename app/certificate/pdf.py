@@ -38,8 +38,9 @@ from app import formatting as fmt
 from app.certificate.info import CertificateInfo
 from app.certificate.load import StoredRun
 from app.certificate.pdf_charts import FONT, FONT_BOLD, GRID, chart
+from app.certificate.pdf_marks import MarkedParagraph, MarkedTable, MarkedText
 from app.certificate.pdf_page import numbered_canvas
-from app.certificate.printed import NOT_STATED_SHORT, printed_lines
+from app.certificate.printed import Item, printed_lines, table_cells
 from app.certificate.statements import warnings_section
 from app.records.db.units import STANDARD_GRAVITY_MS2
 from app.records.run_record import RunRecord
@@ -66,6 +67,7 @@ TITLE = ParagraphStyle(
 )
 TABLE_START_ROOM = 75 * mm  # room the results table needs to start on a page (~15 rows)
 MV_PER_G = "mV/g"
+TITLE_PREFIX = "Calibration certificate "  # the document title: this, then the number
 VERDICT = ParagraphStyle(
     "verdict",
     parent=STYLES["Title"],
@@ -77,9 +79,15 @@ VERDICT = ParagraphStyle(
 
 
 def _table(
-    rows: list[list[Any]], widths: list[float], header: bool = True, size: float = 8
+    rows: list[list[Any]],
+    widths: list[float],
+    header: bool = True,
+    size: float = 8,
+    marked: bool = False,
 ) -> Table:
-    table = Table(rows, colWidths=widths, repeatRows=1 if header else 0, hAlign="LEFT")
+    """A table; `marked`: its MarkedText cells drawn inside their marks."""
+    kind = MarkedTable if marked else Table
+    table = kind(rows, colWidths=widths, repeatRows=1 if header else 0, hAlign="LEFT")
     style = [
         ("FONTNAME", (0, 0), (-1, -1), FONT),
         ("FONTSIZE", (0, 0), (-1, -1), size),
@@ -98,8 +106,14 @@ def _table(
     return table
 
 
-def _kv(rows: list[tuple[str, str]]) -> Table:
-    data = [[Paragraph(f"<b>{k}</b>", BODY), Paragraph(v, BODY)] for k, v in rows]
+def _kv(rows: list[tuple[str, str]] | list[tuple[str, str, Item | None]]) -> Table:
+    """A table of labels and values; a value with an Item is drawn inside its mark
+    (app.certificate.pdf_marks: what `accelcal verify` reads back)."""
+    data = []
+    for row in rows:
+        label, value, item = (*row, None)[:3]
+        cell = MarkedParagraph(value, BODY, item) if item is not None else Paragraph(value, BODY)
+        data.append([Paragraph(f"<b>{label}</b>", BODY), cell])
     table = Table(data, colWidths=[48 * mm, 126 * mm], hAlign="LEFT")
     table.setStyle(
         TableStyle(
@@ -153,19 +167,24 @@ def write_pdf(
         Spacer(1, 4 * mm),
         _kv(
             [
-                ("Certificate number", _esc(number)),
+                ("Certificate number", _esc(number), Item.NUMBER),
                 (
                     "Customer",
                     f"{_esc(info.customer)}, "
                     + _esc(info.customer_address or text.ADDRESS_NOT_STATED),
+                    Item.CUSTOMER,
                 ),
-                ("Item calibrated", f"{_esc(info.dut_type)}: {_esc(info.dut_model)}"),
-                ("Serial number", _esc(info.dut_serial)),
-                ("Date of calibration", _esc(record.started_utc[:10])),
-                ("Date of issue", _esc(info.issue_date)),
-                ("Calibration run", _esc(record.run_id)),
-                *[("Run seal", seal) for seal in [named_seal(run.path)] if seal],
-                *[("Records chain head", h) for h in [named_chain_head(run.path)] if h],
+                ("Item calibrated", f"{_esc(info.dut_type)}: {_esc(info.dut_model)}", None),
+                ("Serial number", _esc(info.dut_serial), Item.SERIAL),
+                ("Date of calibration", _esc(record.started_utc[:10]), Item.CALIBRATION_DATE),
+                ("Date of issue", _esc(info.issue_date), Item.ISSUE_DATE),
+                ("Calibration run", _esc(record.run_id), Item.RUN_ID),
+                *[("Run seal", seal, Item.SEAL) for seal in [named_seal(run.path)] if seal],
+                *[
+                    ("Records chain head", head, Item.CHAIN_HEAD)
+                    for head in [named_chain_head(run.path)]
+                    if head
+                ],
             ]
         ),
         *verification_qr(run, number),
@@ -228,7 +247,7 @@ def write_pdf(
         rightMargin=18 * mm,
         topMargin=20 * mm,
         bottomMargin=22 * mm,
-        title=f"Calibration certificate {number}",
+        title=f"{TITLE_PREFIX}{number}",
         author=lab.get("name", ""),
         subject=f"{info.dut_model} serial {info.dut_serial}",
         creator=f"accelcal {record.software_version}",
@@ -269,7 +288,7 @@ def _verdict_section(results: Results) -> list[Any]:
         KeepTogether(
             [
                 Paragraph("Overall verdict", HEAD),
-                Paragraph(f"<b>{_esc(results.verdict)}</b>", VERDICT),
+                MarkedParagraph(f"<b>{_esc(results.verdict)}</b>", VERDICT, Item.VERDICT),
                 Paragraph(text.VERDICT_RULE_NOTE, SMALL),
                 Paragraph(reasons, SMALL),
             ]
@@ -285,8 +304,8 @@ class _Whole(Paragraph):
 
 
 def _line_table(results: Results, in_g: bool = False) -> list[Any]:
-    """The results per frequency; with `in_g` a last column, the sensitivity in mV/g (after
-    the columns app.certificate.readback reads)."""
+    """The results per frequency, each cell drawn inside its mark (column, line) from
+    app.certificate.printed.table_cells; with `in_g` a last column, the sensitivity in mV/g."""
     header = [
         "Nominal\nfrequency\nHz",
         "Actual\nfrequency\nHz",
@@ -301,43 +320,19 @@ def _line_table(results: Results, in_g: bool = False) -> list[Any]:
         "ISO\n16063-21",
         *(["Sensitivity\nmV/g"] if in_g else []),
     ]
-    rows = [header]
+    rows: list[list[str]] = [header]
     stated = results.phase_corrected_for_skew
-    for line in printed_lines(results):  # the strings the DCC and verify use too
-        rows.append(
-            [
-                f"{line.nominal_frequency_hz:g}",
-                line.frequency,
-                line.sensitivity,
-                line.expanded,
-                line.deviation,
-                line.deviation_in_db,
-                line.phase if stated else NOT_STATED_SHORT,
-                line.phase_expanded if stated else NOT_STATED_SHORT,
-                line.relative_expanded,
-                line.k,
-                line.iso_verdict,
-                *([_in_g(results, line.nominal_frequency_hz)] if in_g else []),
-            ]
-        )
+    for index, line in enumerate(printed_lines(results), start=1):  # as the DCC and verify
+        cells = table_cells(line, stated, in_g)
+        rows.append([MarkedText(value, column, index) for column, value in cells])
     widths: tuple[int, ...] = (15, 15, 19, 16, 16, 16, 15, 14, 13, 11, 16)
     if in_g:
         widths = (15, 15, 19, 14, 14, 14, 13, 13, 12, 9, 15, 17)
-    table = _table(rows, [w * mm for w in widths], size=7.3 if not in_g else 7.0)
+    table = _table(rows, [w * mm for w in widths], size=7.3 if not in_g else 7.0, marked=True)
     notes = [Paragraph(text.line_table_note(results.phase_corrected_for_skew), SMALL)]
     if results.phase_corrected_for_skew:
         notes.append(Paragraph(text.PHASE_CONVENTION, SMALL))
     return [Paragraph("Results per frequency", HEAD), table, Spacer(1, 1.5 * mm), *notes]
-
-
-def _in_g(results: Results, nominal_hz: float) -> str:
-    """The sensitivity of the line at `nominal_hz` in mV/g, rounded as its mV/(m/s²) value."""
-    line = next(ln for ln in results.lines if ln.nominal_frequency_hz == nominal_hz)
-    value, _ = fmt.round_gum(
-        line.sensitivity_mv_per_ms2 * STANDARD_GRAVITY_MS2,
-        line.expanded_uncertainty_mv_per_ms2 * STANDARD_GRAVITY_MS2,
-    )
-    return value
 
 
 def _charts(results: Results) -> list[Any]:

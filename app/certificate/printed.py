@@ -11,11 +11,45 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from enum import StrEnum
 
 from app import formatting as fmt
+from app.records.db.units import STANDARD_GRAVITY_MS2
 from dsp.calibration import LineResult, Results
 from dsp.characteristic import line_deviation_expanded_percent
 from dsp.conformity import NOT_STATED
+
+
+class Item(StrEnum):
+    """A printed item of the certificate's first page (the names PrintedItems uses)."""
+
+    NUMBER = "number"
+    CUSTOMER = "customer"
+    SERIAL = "serial"
+    CALIBRATION_DATE = "calibration_date"
+    ISSUE_DATE = "issue_date"
+    RUN_ID = "run_id"
+    SEAL = "seal"
+    CHAIN_HEAD = "chain_head"
+    VERDICT = "verdict"
+
+
+class Column(StrEnum):
+    """A column of the results table, in the order printed (S in mV/g last, when printed)."""
+
+    NOMINAL = "nominal"  # nominal frequency, Hz
+    FREQUENCY = "f"  # actual frequency, Hz
+    SENSITIVITY = "s"  # mV/(m/s^2)
+    EXPANDED = "u"  # U of the sensitivity, mV/(m/s^2)
+    DEVIATION = "dev"  # from the reference-frequency sensitivity, %
+    DEVIATION_DB = "dev_db"  # the same in dB
+    PHASE = "ph"  # degrees, or n/s
+    PHASE_EXPANDED = "u_ph"  # degrees, or n/s
+    RELATIVE = "u_rel"  # relative U of the sensitivity, %
+    K = "k"  # coverage factor
+    ISO = "iso"  # ISO 16063-21 verdict
+    SENSITIVITY_G = "s_g"  # mV/g (models stated in mV/g only)
+
 
 NOT_STATED_SHORT = "n/s"
 ISO_WORDS = {"within": "within", "over": "over", "n/a": "n/a", NOT_STATED: NOT_STATED_SHORT}
@@ -97,3 +131,33 @@ def printed_line(ln: LineResult) -> PrintedLine:
 def printed_lines(results: Results) -> tuple[PrintedLine, ...]:
     """Every line of `results` as printed, in order."""
     return tuple(printed_line(ln) for ln in results.lines)
+
+
+def table_cells(
+    line: PrintedLine, phase_stated: bool, in_g: bool = False
+) -> tuple[tuple[Column, str], ...]:
+    """The cells of `line` in the certificate's results table, in the order printed, each as
+    (Column, text): the PDF draws these and `accelcal verify` compares the page with them (the
+    phase "n/s" when not stated; with `in_g` last the sensitivity in mV/g, 1 g = 9.80665
+    m/s^2, rounded as its mV/(m/s^2) value)."""
+    in_mv_per_g: tuple[tuple[Column, str], ...] = ()
+    if in_g:
+        value, _ = fmt.round_gum(
+            line.sensitivity_mv_per_ms2 * STANDARD_GRAVITY_MS2,
+            line.expanded_mv_per_ms2 * STANDARD_GRAVITY_MS2,
+        )
+        in_mv_per_g = ((Column.SENSITIVITY_G, value),)
+    return (
+        (Column.NOMINAL, f"{line.nominal_frequency_hz:g}"),
+        (Column.FREQUENCY, line.frequency),
+        (Column.SENSITIVITY, line.sensitivity),
+        (Column.EXPANDED, line.expanded),
+        (Column.DEVIATION, line.deviation),
+        (Column.DEVIATION_DB, line.deviation_in_db),
+        (Column.PHASE, line.phase if phase_stated else NOT_STATED_SHORT),
+        (Column.PHASE_EXPANDED, line.phase_expanded if phase_stated else NOT_STATED_SHORT),
+        (Column.RELATIVE, line.relative_expanded),
+        (Column.K, line.k),
+        (Column.ISO, line.iso_verdict),
+        *in_mv_per_g,
+    )

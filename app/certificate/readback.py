@@ -1,5 +1,6 @@
-"""What a certificate prints, as typed values, read back from its DCC, its PDF text or its run,
-so that `verify` compares them value by value (never by searching one text in another).
+"""What a certificate prints, as typed values, read back from its DCC, its PDF's marked text
+layer (app.certificate.pdf_marks) or its run, so that `verify` compares them value by value
+(never by searching one text in another, never by a label's place).
 
 Every value is the string as printed (rounded once, by app.certificate.printed): a frequency
 in Hz, a sensitivity and its expanded uncertainty U in mV/(m/s^2), a phase and its U in
@@ -16,8 +17,16 @@ from typing import Any
 
 from lxml import etree
 
-from app.certificate.dcc import DCC_NS, DEVIATION_NAME, RUN_ID_NAME, SEAL_NAME, SI_NS
-from app.certificate.printed import PrintedLine
+from app.certificate.dcc import (
+    CHAIN_HEAD_NAME,
+    DCC_NS,
+    DEVIATION_NAME,
+    RUN_ID_NAME,
+    SEAL_NAME,
+    SI_NS,
+)
+from app.certificate.pdf_marks import PageMarks, PrintedText, printed_equal
+from app.certificate.printed import Column, Item, PrintedLine
 from app.errors import Refusal
 
 NOT_STATED = "n/s"
@@ -54,6 +63,7 @@ class PrintedItems:
     issue_date: str = ""
     run_id: str = ""
     seal: str = ""
+    chain_head: str = ""
     verdict: str = ""
     lines: tuple[PrintedRow, ...] = ()
 
@@ -65,19 +75,29 @@ def differences(a: PrintedItems, b: PrintedItems, a_name: str, b_name: str) -> l
         if item.name == "lines":
             continue
         x, y = getattr(a, item.name), getattr(b, item.name)
-        if x != y:
+        if not _same(x, y):
             out.append(f"{item.name}: {a_name} {x!r}, {b_name} {y!r}")
     if len(a.lines) != len(b.lines):
         out.append(f"lines: {a_name} has {len(a.lines)}, {b_name} {len(b.lines)}")
     for i, (x, y) in enumerate(zip(a.lines, b.lines, strict=False), start=1):
         for item in fields(PrintedRow):
             xv, yv = getattr(x, item.name), getattr(y, item.name)
-            if xv is not None and yv is not None and xv != yv:
+            if xv is not None and yv is not None and not _same(xv, yv):
                 out.append(
                     f"line {i} {item.name}: {a_name} {getattr(x, item.name)!r}, "
                     f"{b_name} {getattr(y, item.name)!r}"
                 )
     return out
+
+
+def _same(x: str, y: str) -> bool:
+    """Equal; or, when one is read from a page (PrintedText), the other printed by it
+    (app.certificate.pdf_marks.printed_equal: a line break is one blank or none)."""
+    if isinstance(x, PrintedText) and not isinstance(y, PrintedText):
+        return printed_equal(x, y)
+    if isinstance(y, PrintedText) and not isinstance(x, PrintedText):
+        return printed_equal(y, x)
+    return x == y
 
 
 def rows_of(lines: tuple[PrintedLine, ...], phase_stated: bool) -> tuple[PrintedRow, ...]:
@@ -185,67 +205,35 @@ def items_from_dcc(root: Any) -> PrintedItems:
         issue_date=_text(root, f"{core}/dcc:issueDate"),
         run_id=_text(root, _identification(core, RUN_ID_NAME)),
         seal=_text(root, _identification(core, SEAL_NAME)),
+        chain_head=_text(root, _identification(core, CHAIN_HEAD_NAME)),
         verdict=verdict.group(1) if verdict else "",
         lines=lines if count >= 0 else (PrintedRow("", "", "", "", "", "", "", ""),),
     )
 
 
-# --- the PDF's text ---------------------------------------------------------------------------
-
-# The first table of the certificate: label, then its value on the lines up to the next label.
-_LABELS = {
-    "Certificate number": "number",
-    "Customer": "customer",
-    "Item calibrated": "",
-    "Serial number": "serial",
-    "Date of calibration": "calibration_date",
-    "Date of issue": "issue_date",
-    "Calibration run": "run_id",
-    "Run seal": "seal",
-    "Method": "",
-}
-_NUMBER = r"[-+]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][-+]?\d+)?"
-_VALUE = rf"(?:{_NUMBER}|n/s|n/a)"
-_ROW = [_NUMBER, _NUMBER, _VALUE, _VALUE, _VALUE, _VALUE, _VALUE, _VALUE, _VALUE, _VALUE,
-        r"within|over|n/a|n/s"]  # fmt: skip
-_ROW_RE = [re.compile(rf"\A(?:{p})\Z") for p in _ROW]
+# --- the PDF's marked text layer -------------------------------------------------------------
 
 
-def items_from_pdf(text: str) -> PrintedItems:
-    """The printed items of a certificate from its extracted text (pypdf, all pages)."""
-    lines = [line.strip() for line in text.splitlines()]
-    found: dict[str, str] = {}
-    current = None
-    values: list[str] = []
-    for line in lines:
-        if line in _LABELS:
-            if current and current not in found:  # a hash wraps inside, a name at its blanks
-                found[current] = ("" if current == "seal" else " ").join(values)
-            current, values = _LABELS[line], []
-            if line == "Method":
-                break
-        elif current is not None:
-            values.append(line)
-    verdict = ""
-    for i, line in enumerate(lines[:-1]):
-        if line == "Overall verdict":
-            verdict = lines[i + 1]
-            break
-    return PrintedItems(**found, verdict=verdict, lines=_table_rows(text.split()))
+def items_from_pdf(marks: PageMarks) -> PrintedItems:
+    """The printed items of a certificate as its marked text layer states them
+    (app.certificate.pdf_marks.read_marks): a wrapped item keeps its line breaks ('\n', see
+    `differences`), a table line its cells (no U of the deviation: the table has none)."""
+    items = {item.value: marks.item(item) for item in Item}
 
+    def cell(line: int, column: Column) -> str:
+        return marks.cell(line, column) or ""
 
-def _table_rows(tokens: list[str]) -> tuple[PrintedRow, ...]:
-    """The rows of the results table: each 11 tokens in a row matching its columns (nominal
-    and actual frequency, S, U, deviation % and dB, phase, U phase, U rel., k, ISO)."""
-    rows = []
-    i = 0
-    width = len(_ROW_RE)
-    while i + width <= len(tokens):
-        window = tokens[i : i + width]
-        if all(p.match(t) for p, t in zip(_ROW_RE, window, strict=True)):
-            _, f, s, u, dev, _, ph, u_ph, _, k, _ = window
-            rows.append(PrintedRow(f, s, u, ph, u_ph, k, dev, None))  # the table has no U(dev)
-            i += width
-        else:
-            i += 1
-    return tuple(rows)
+    lines = tuple(
+        PrintedRow(
+            f=cell(n, Column.FREQUENCY),
+            s=cell(n, Column.SENSITIVITY),
+            u=cell(n, Column.EXPANDED),
+            ph=cell(n, Column.PHASE),
+            u_ph=cell(n, Column.PHASE_EXPANDED),
+            k=cell(n, Column.K),
+            dev=cell(n, Column.DEVIATION),
+            u_dev=None,
+        )
+        for n in range(1, marks.lines + 1)
+    )
+    return PrintedItems(**items, lines=lines)

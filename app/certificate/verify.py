@@ -6,9 +6,12 @@ signed range covers the whole file but exactly its /Contents hex string, no revi
 no earlier signature); the signature's cryptography (pyHanko); the signer, always named with
 its issuer and validity, valid now, and trusted only when `--trust` names its CA (without it
 the report never says verified); the embedded DCC, parsed as bytes by an inert parser and
-valid against DCC 3.3.0; the PDF's printed items equal to the DCC's, value by value; with
-`--run`, the run's manifest, its seal (recomputed) and its results equal to the DCC's. The
-whole check is bounded in time (TIME_LIMIT_S).
+valid against DCC 3.3.0; the PDF's printed items, read from its marked text layer
+(app.certificate.pdf_marks: delimiters the writer places as PDF operators, never text), equal
+to the DCC's, value by value; with `--run`, the run's manifest, its seal (recomputed) and the
+records chain head it names, its results equal to the DCC's, and the PDF's results table equal,
+cell by cell, to the run's lines as printed (app.certificate.printed.table_cells, from which
+the PDF was drawn). The whole check is bounded in time (TIME_LIMIT_S).
 """
 
 from __future__ import annotations
@@ -25,7 +28,9 @@ from pathlib import Path
 from typing import Any
 
 from app.certificate import CertificateError
+from app.certificate.pdf_marks import MarkError, PageMarks, read_marks
 from app.certificate.pdf_signature import SignatureStructureError, check_layout
+from app.certificate.printed import Column, PrintedLine, printed_lines, table_cells
 from app.certificate.readback import (
     PrintedError,
     PrintedItems,
@@ -127,9 +132,9 @@ def verify(pdf: Path, run: Path | None = None, trust: Path | None = None) -> Ver
     with _quiet(), _time_limit(TIME_LIMIT_S):
         if not _check_signature(data, roots, report):
             return report  # nothing an unproven file says is worth parsing further
-        dcc = _check_dcc(data, report)
-        if dcc is not None and run is not None:
-            _check_run(run, dcc, report)
+        found = _check_dcc(data, report)
+        if found is not None and run is not None:
+            _check_run(run, *found, report)
     return report
 
 
@@ -236,15 +241,13 @@ def _load_certificate(path: Path) -> Any:
 # --- DCC and printed items --------------------------------------------------------------------
 
 
-def _check_dcc(data: bytes, report: Verification) -> PrintedItems | None:
-    """Add the DCC's checks; the DCC's printed items, or None when it cannot be read."""
+def _check_dcc(data: bytes, report: Verification) -> tuple[PrintedItems, PageMarks] | None:
+    """Add the DCC's checks; the DCC's printed items and the PDF's marked text layer, or None
+    when the DCC cannot be read."""
     from pypdf import PdfReader
 
     try:
-        reader = PdfReader(io.BytesIO(data))
-        text = "\n".join(page.extract_text() for page in reader.pages)
-        attachments = reader.attachments
-        xml_list = list(attachments.get("certificate.xml") or [])
+        xml_list = list(PdfReader(io.BytesIO(data)).attachments.get("certificate.xml") or [])
     except Exception as exc:  # pypdf fails in many ways on a damaged file
         report.add("PDF readable", False, str(exc))
         return None
@@ -263,19 +266,33 @@ def _check_dcc(data: bytes, report: Verification) -> PrintedItems | None:
     problem = validation_error(etree.tostring(root, encoding="utf-8", xml_declaration=True))
     report.add("embedded DCC valid (DCC 3.3.0)", problem is None, problem or "")
     dcc = items_from_dcc(root)
-    printed = items_from_pdf(text)
-    diff = differences(dcc, printed, "DCC", "PDF")
+    name = "DCC numbers printed in the PDF"
+    try:
+        marks = read_marks(data)
+    except MarkError as exc:
+        report.add(name, False, f"its marked text layer is not readable: {exc}")
+        return dcc, PageMarks()
+    except Exception as exc:  # pypdf fails in many ways on a damaged file
+        report.add(name, False, f"its pages cannot be read: {exc}")
+        return dcc, PageMarks()
+    if not marks.items and not marks.cells:
+        report.add(name, False, "the PDF has no marked text layer (drawn before certificates "
+                   "had one, app.certificate.pdf_marks): its printed items cannot be read; the "
+                   "DCC is still checked against the run")  # fmt: skip
+        return dcc, marks
+    diff = differences(dcc, items_from_pdf(marks), "DCC", "PDF")
     if not dcc.lines:
         diff.insert(0, "the DCC states no result lines")
-    report.add("DCC numbers printed in the PDF", not diff, "; ".join(diff[:3]))
-    return dcc
+    report.add(name, not diff, "; ".join(diff[:3]))
+    return dcc, marks
 
 
-def _check_run(run: Path, dcc: PrintedItems, report: Verification) -> None:
-    """Add the run's checks: its manifest, its seal against the one the certificate names,
-    and its results against the DCC's."""
+def _check_run(run: Path, dcc: PrintedItems, marks: PageMarks, report: Verification) -> None:
+    """Add the run's checks: its manifest, its seal (and the records chain head it names)
+    against the ones the certificate names, its results against the DCC's, and the PDF's
+    results table cell by cell against the run's lines as printed (the PrintedLine objects
+    the PDF was drawn from: app.certificate.printed.table_cells)."""
     from app.certificate.load import load_stored_run
-    from app.certificate.printed import printed_lines
     from app.records.seal import SealError, read_seal
 
     try:
@@ -287,20 +304,51 @@ def _check_run(run: Path, dcc: PrintedItems, report: Verification) -> None:
     try:
         seal, seal_hash = read_seal(run)
         problem = "" if seal.run_id == stored.record.run_id else "it names another run"
+        head = seal.records_chain_head or ""
     except SealError as exc:
-        seal_hash, problem = "", str(exc)
+        seal_hash, problem, head = "", str(exc), ""
     if not problem and dcc.seal != seal_hash:
         problem = f"the certificate names seal {dcc.seal or 'none'}, the run's is {seal_hash}"
+    if not problem and dcc.chain_head != head:
+        problem = (
+            f"the certificate names records chain head {dcc.chain_head or 'none'}, the run's "
+            f"seal {head or 'none'}"
+        )
     report.add("run seal recomputed and named by the certificate", not problem, problem)
     results = stored.results
+    lines = printed_lines(results)
     expected = PrintedItems(
         run_id=str(stored.record.run_id or ""),
         verdict=str(results.verdict or "not stated"),
-        lines=rows_of(printed_lines(results), results.phase_corrected_for_skew),
+        lines=rows_of(lines, results.phase_corrected_for_skew),
     )
     got = PrintedItems(run_id=dcc.run_id, verdict=dcc.verdict, lines=dcc.lines)
     diff = differences(expected, got, "run", "DCC")
     report.add("DCC numbers equal the run's results", not diff, "; ".join(diff[:3]))
+    diff = _table_differences(lines, results.phase_corrected_for_skew, marks)
+    report.add("PDF results table equals the run's results", not diff, "; ".join(diff[:3]))
+
+
+def _table_differences(
+    lines: tuple[PrintedLine, ...], phase_stated: bool, marks: PageMarks
+) -> list[str]:
+    """Each cell of the PDF's table that is not the run's line as printed, and each line or
+    cell printed that the run does not have, or missing."""
+    in_g = any(column == Column.SENSITIVITY_G for _, column in marks.cells)
+    expected = {
+        (n, column): value
+        for n, line in enumerate(lines, start=1)
+        for column, value in table_cells(line, phase_stated, in_g)
+    }
+    out = []
+    if marks.lines != len(lines):
+        out.append(f"lines: run has {len(lines)}, PDF {marks.lines}")
+    for key in sorted(set(expected) | set(marks.cells)):
+        n, column = key
+        printed = marks.cell(n, column)
+        if printed != expected.get(key):
+            out.append(f"line {n} {column}: run {expected.get(key)!r}, PDF {printed!r}")
+    return out
 
 
 # --- bounds -----------------------------------------------------------------------------------

@@ -350,7 +350,12 @@ def build_parser() -> argparse.ArgumentParser:
 
     c = sub.add_parser("certificate", help="the PDF certificate of a stored complete run")
     c.add_argument("run", type=Path, help="run folder")
-    c.add_argument("--out", type=Path, help="PDF to write (default: <run>/certificate.pdf)")
+    c.add_argument(
+        "--out",
+        type=Path,
+        help="PDF to write (default: <run>/certificate.pdf; an amendment: the next free "
+        "<run>/certificate-N.pdf)",
+    )
     c.add_argument("--customer", help="customer name (mandatory)")
     c.add_argument("--customer-address", default="", help="customer address")
     c.add_argument("--authorised-by", help="name and function of the signatory (mandatory)")

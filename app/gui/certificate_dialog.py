@@ -5,10 +5,10 @@ DUT's model on a certificate is the error this prevents); the dialog names the r
 When the records know the run's sensor (by its serial), its customer, address, model and serial
 are filled in from them (and say so); everything else starts empty.
 
-With the records open the certificate goes through the lab's register: "Prepared by" (the
-technician, filled from the window's Technician field) and "Approved by" (who signs it) are
-checked by the records' own rule (`Lab.check_signatories`: the two-person rule) when OK is
-pressed, and a refusal is shown at its field while the dialog stays open.
+"Prepared by" is filled from the window's Technician field (else who the run records); with
+the records open, "Prepared by" and "Approved by" (who signs it) are checked by the records'
+own rule (`app.certificate.service.check_signatories`: the two-person rule) when OK is pressed,
+and a refusal is shown at its field while the dialog stays open.
 """
 
 from __future__ import annotations
@@ -56,12 +56,12 @@ class CertificateDialog(QDialog):
         record: RunRecord,
         defaults: dict | None = None,
         *,
-        prepared_by: str | None = None,
+        prepared_by: str = "",
         check: Signatories | None = None,
         heading: str = "",
     ):
-        """`prepared_by` (None: no register, no such field) fills "Prepared by"; `check`
-        is the records' rule for the two signatories, run when OK is pressed."""
+        """`prepared_by` fills "Prepared by"; `check` is the records' rule for the two
+        signatories, run when OK is pressed (None: no records, no rule)."""
         super().__init__(parent)
         self.setWindowTitle(f"Certificate of run {record.run_id}")
         self._check = check
@@ -73,13 +73,11 @@ class CertificateDialog(QDialog):
         defaults = defaults or {}
         if defaults:
             form.addRow(QLabel("<i>Customer and sensor filled in from the records.</i>"))
-        self.prepared: QLineEdit | None = None
-        if prepared_by is not None:
-            self.prepared = QLineEdit(prepared_by)
-            self.prepared.setToolTip("who prepared the certificate (the technician)")
-            form.addRow("Prepared by", self.prepared)
+        self.prepared = QLineEdit(prepared_by)
+        self.prepared.setToolTip("who prepared the certificate (the technician)")
+        form.addRow("Prepared by", self.prepared)
         for key, label in self.FIELDS:
-            if key == "authorised_by" and prepared_by is not None:
+            if key == "authorised_by" and check is not None:
                 label = "Approved by (signs)"
             edit = QLineEdit()
             if defaults.get(key):
@@ -96,28 +94,28 @@ class CertificateDialog(QDialog):
         buttons.accepted.connect(self.accept)
         buttons.rejected.connect(self.reject)
         form.addRow(buttons)
-        marked: dict[str, QWidget] = {"approved_by": self.edits["authorised_by"]}
-        if self.prepared is not None:
-            marked["prepared_by"] = self.prepared
+        marked: dict[str, QWidget] = {
+            "approved_by": self.edits["authorised_by"],
+            "prepared_by": self.prepared,
+        }
         self.marks = FieldMarks(marked)
 
     def prepared_by(self) -> str:
-        """The "Prepared by" field as typed ("" without the register)."""
-        return self.prepared.text().strip() if self.prepared is not None else ""
+        """The "Prepared by" field as typed."""
+        return self.prepared.text().strip()
 
     def accept(self) -> None:
         """Close only when the records take the two signatories; else say why at the field."""
         if self._check is not None:
             approved = self.edits["authorised_by"]
             for edit in (approved, self.prepared):
-                if edit is not None:
-                    self.marks.note(edit, None)
+                self.marks.note(edit, None)
             try:
                 self._check(self.prepared_by(), approved.text())
             except RecordsInputError as exc:
                 text = str(exc)
                 field = approved
-                if text.startswith("prepared by") and self.prepared is not None:
+                if text.startswith("prepared by"):
                     field = self.prepared
                 self.marks.note(field, text, ERROR)
                 field.setFocus()
@@ -146,4 +144,5 @@ class CertificateDialog(QDialog):
             dut_type=values["dut_type"],
             notes=values["notes"] or "",
             temperature_c=self.temperature_c(),
+            prepared_by=self.prepared_by(),
         )

@@ -1,17 +1,18 @@
-"""Certificates from the window through the lab's register: the run shown (verified again), the
-fields asked afresh, the number allocated by the register
-(`app.certificate.register_issue.issue_registered`, the PDF written inside the register's
-transaction), or a refusal shown and nothing written.
+"""Certificates from the window: the run shown (verified again), the fields asked afresh, then
+the certificate service (`app.certificate.service.issue_certificate`, the call `accelcal
+certificate` makes) issues it: which register (the records when the window has them open, else
+the runs root's JSON register), who prepared it, the two-person rule, staging, the number. A
+refusal is shown and nothing is written.
 
 An amendment or reissue (from the Register tab) is the same, with the certificate it replaces
 and the reason. A run that already has a certificate in force gets no second one: the window
-says so and offers its amendment (a reason asked) instead. Without the records the window issues
-an unregistered certificate as before (`MainWindow.issue_certificate`). Nothing here computes:
-it asks, calls and shows.
+says so and offers its amendment (a reason asked) instead. Nothing here computes: it asks,
+builds the request, calls and shows.
 """
 
 from __future__ import annotations
 
+import functools
 import html
 import logging
 from pathlib import Path
@@ -22,25 +23,41 @@ from PySide6.QtGui import QDesktopServices
 from PySide6.QtWidgets import QDialog, QInputDialog, QMessageBox
 
 from app.certificate import CertificateError, CertificateInfo
+from app.certificate.service import (
+    IssueOutcome,
+    IssueRequest,
+    certificate_in_force,
+    check_signatories,
+    default_prepared_by,
+    issue_certificate,
+    records_in_use,
+)
 from app.gui.certificate_dialog import CertificateDialog, run_identity
 from app.records.db.errors import RecordsInputError
-from app.records.run_folder import RunIntegrityError, is_product_name
+from app.records.run_folder import RunIntegrityError
 from app.records.run_record import RunRecord
 
 log = logging.getLogger(__name__)
 
-MAX_CERTIFICATES_PER_RUN = 100
 
-
-def free_pdf(folder: Path) -> Path:
-    """The first certificate file name not yet used in a run folder: certificate.pdf, then
-    certificate-2.pdf, ... (a certificate is never overwritten; an amendment is a new file)."""
-    for n in range(1, MAX_CERTIFICATES_PER_RUN + 1):
-        path = folder / ("certificate.pdf" if n == 1 else f"certificate-{n}.pdf")
-        assert is_product_name(path.name)
-        if not path.exists() and not path.with_suffix(".xml").exists():
-            return path
-    raise CertificateError(f"{folder}: {MAX_CERTIFICATES_PER_RUN} certificates already")
+def request(
+    window: Any,
+    folder: Path,
+    info: CertificateInfo,
+    *,
+    replaces: str | None = None,
+    reason: str | None = None,
+) -> IssueRequest:
+    """The service's request for the run `folder` from the window: its records (the URL it
+    opened, or none when they could not be opened), the next free certificate*.pdf."""
+    return IssueRequest(
+        run=Path(folder),
+        info=info,
+        replaces=replaces,
+        reason=reason,
+        db=window.records.url,
+        records_available=window.records.lab is not None,
+    )
 
 
 def ask(
@@ -52,10 +69,10 @@ def ask(
     reason: str | None = None,
 ) -> Path | None:
     """Ask the certificate's fields for the run `folder`, name the run once, then issue it
-    through the register; the PDF's path, None when cancelled or refused (shown)."""
-    lab = window.records.lab
-    if replaces is None:
-        current = _current_certificate(window, record)
+    through the service; the PDF's path, None when cancelled or refused (shown)."""
+    url = records_in_use(request(window, folder, CertificateInfo()))
+    if replaces is None and url is not None:
+        current = _current_certificate(url, record)
         if current is not None:  # one certificate per run: offer its amendment instead
             replaces, reason = _offer_amendment(window, record, current)
             if replaces is None:
@@ -65,8 +82,8 @@ def ask(
         window,
         record,
         window.records.certificate_defaults(record),
-        prepared_by=window.setup_tab.technician.text().strip(),
-        check=lab.check_signatories,
+        prepared_by=window.setup_tab.technician.text().strip() or _prepared_default(folder),
+        check=functools.partial(check_signatories, url) if url is not None else None,
         heading=html.escape(heading),
     )
     window.certificate_dialog_open = dialog  # tests and screenshots reach the open dialog
@@ -76,27 +93,33 @@ def ask(
     finally:
         window.certificate_dialog_open = None
     what = f"an amendment of {replaces}" if replaces else "the certificate"
+    where = " and enter it in the register" if url is not None else ""
     answer = QMessageBox.question(
-        window,
-        "Issue the certificate?",
-        f"Issue {what} of {run_identity(record)} and enter it in the register?",
+        window, "Issue the certificate?", f"Issue {what} of {run_identity(record)}{where}?"
     )
     if answer != QMessageBox.StandardButton.Yes:
         return None
-    return issue(
-        window, folder, dialog.info(), dialog.prepared_by(), replaces=replaces, reason=reason
-    )
+    return issue(window, folder, dialog.info(), replaces=replaces, reason=reason)
 
 
-def _current_certificate(window: Any, record: RunRecord) -> str | None:
+def _prepared_default(folder: Path) -> str:
+    """Who prepared it when the window's Technician field is empty: the service's default
+    (the run's technician, else the stand file's); "" when it cannot say."""
+    try:
+        return default_prepared_by(folder)
+    except (CertificateError, RunIntegrityError, ValueError, OSError) as exc:
+        log.warning("prepared by not read: %s", exc)
+        return ""
+
+
+def _current_certificate(url: str, record: RunRecord) -> str | None:
     """The number of the run's certificate in force in the register (None: none yet, or the
     register cannot say: the issue itself then decides)."""
     try:
-        row = window.records.lab.issued_for_run(str(record.run_id))
+        return certificate_in_force(url, str(record.run_id))
     except RecordsInputError as exc:
         log.warning("register not read: %s", exc)
         return None
-    return None if row is None else str(row.number)
 
 
 def _offer_amendment(window: Any, record: RunRecord, number: str) -> tuple[str | None, str | None]:
@@ -125,39 +148,34 @@ def issue(
     window: Any,
     folder: Path,
     info: CertificateInfo,
-    prepared_by: str,
     *,
     replaces: str | None = None,
     reason: str | None = None,
 ) -> Path | None:
-    """Issue through the register (number, PDF in one transaction); errors shown, not raised."""
-    from app.certificate.register_issue import issue_registered
-
+    """Issue through the certificate service; the PDF's path, None when refused (shown, not
+    raised)."""
     window.records.wait_jobs()  # the run's own indexing (records thread) first: no race
     try:
-        out = free_pdf(folder)
-        issued = issue_registered(
-            folder,
-            info,
-            out,
-            url=window.records.url,
-            prepared_by=prepared_by,
-            replaces=replaces,
-            reason=reason,
-        )
+        outcome = issue_certificate(request(window, folder, info, replaces=replaces, reason=reason))
     except (RecordsInputError, CertificateError, RunIntegrityError, ValueError, OSError) as exc:
         QMessageBox.warning(window, "Certificate refused", str(exc))
         window.run_tab.messages.setText(html.escape(f"certificate refused: {exc}"))
         return None
-    path = Path(issued.file)
-    log.info("certificate %s of %s written: %s", issued.number, folder.name, path)
-    window.last_certificate = issued.number
-    window.run_tab.messages.setText(html.escape(f"certificate {issued.number} written: {path}"))
+    show(window, folder, outcome)
+    return outcome.pdf
+
+
+def show(window: Any, folder: Path, outcome: IssueOutcome) -> None:
+    """Say where the certificate went (messages, the Results tab, the Register tab) and open
+    it."""
+    path = outcome.pdf
+    log.info("certificate %s of %s written: %s", outcome.number, folder.name, path)
+    window.last_certificate = outcome.number
+    window.run_tab.messages.setText(html.escape(f"certificate {outcome.number} written: {path}"))
     if window.results_tab.folder == folder:
         window.results_tab.summary.setText(
             window.results_tab.summary.text()
-            + f"<br/>Certificate {html.escape(issued.number)}: {html.escape(str(path))}"
+            + f"<br/>Certificate: {html.escape(outcome.number)}, {html.escape(str(path))}"
         )
     window.register_tab.refresh()
     QDesktopServices.openUrl(QUrl.fromLocalFile(str(path.resolve())))
-    return path

@@ -9,6 +9,7 @@ it. Closing the window during a run fades the drive out first (then 0 V), with a
 
 from __future__ import annotations
 
+import dataclasses
 import html
 import json
 import logging
@@ -16,14 +17,12 @@ from datetime import UTC, date, datetime
 from pathlib import Path
 from typing import Any
 
-from PySide6.QtCore import QSettings, QSize, QUrl, Signal, Slot
-from PySide6.QtGui import QDesktopServices
-from PySide6.QtWidgets import QDialog, QMainWindow, QMessageBox, QTabWidget
+from PySide6.QtCore import QSettings, QSize, Signal, Slot
+from PySide6.QtWidgets import QMainWindow, QMessageBox, QTabWidget
 
-from app.certificate import CertificateError, CertificateInfo, build
+from app.certificate import CertificateInfo
 from app.gui import certify
 from app.gui.actions import WindowActions
-from app.gui.certificate_dialog import CertificateDialog, run_identity
 from app.gui.records_link import RecordsLink
 from app.gui.reference_view import ask_override, mark_refusal
 from app.gui.register_tab import RegisterTab
@@ -293,36 +292,15 @@ class MainWindow(QMainWindow):
         if target is None:
             return None
         folder, record = target
-        if self.records.lab is not None:  # the lab's register numbers it
-            return certify.ask(self, folder, record)
-        dialog = CertificateDialog(self, record, self.records.certificate_defaults(record))
-        if dialog.exec() != QDialog.DialogCode.Accepted:
-            return None
-        info = dialog.info()
-        answer = QMessageBox.question(
-            self,
-            "Issue the certificate?",
-            f"Issue the certificate of {run_identity(record)}?",
-        )
-        if answer != QMessageBox.StandardButton.Yes:
-            return None
-        return self.issue_certificate(folder, info)
+        return certify.ask(self, folder, record)
 
     def issue_certificate(self, folder: Path, info: CertificateInfo) -> Path | None:
-        """Write the certificate of the run `folder` into it; errors shown, not raised."""
-        folder = Path(folder)
-        try:
-            path = build(folder, info, folder / "certificate.pdf")
-        except (CertificateError, RunIntegrityError, ValueError, OSError) as exc:
-            QMessageBox.warning(self, "Certificate refused", str(exc))
-            return None
-        log.info("certificate of %s written: %s", folder.name, path)
-        self.run_tab.messages.setText(html.escape(f"certificate written: {path}"))
-        if self.results_tab.folder == folder:
-            summary = self.results_tab.summary
-            summary.setText(summary.text() + f"<br/>Certificate: {html.escape(str(path))}")
-        QDesktopServices.openUrl(QUrl.fromLocalFile(str(path.resolve())))
-        return path
+        """Issue the certificate of the run `folder` with `info` (Prepared by, when not given,
+        the window's Technician field) through the certificate service, as the dialog does;
+        errors shown, not raised."""
+        technician = self.setup_tab.technician.text().strip()
+        info = dataclasses.replace(info, prepared_by=info.prepared_by or technician)
+        return certify.issue(self, Path(folder), info)
 
     # --- closing ------------------------------------------------------------------------
 

@@ -124,10 +124,11 @@ def test_emergency_stop_zeroes_at_once(qtbot, tmp_path):
 
 def test_from_an_empty_window_to_a_certificate(window, qtbot, monkeypatch):
     from app.certificate import CertificateInfo
-    from app.gui import main_window
+    from app.gui import certify, main_window
 
-    monkeypatch.setattr(main_window.QDesktopServices, "openUrl", lambda url: True)
+    monkeypatch.setattr(certify.QDesktopServices, "openUrl", lambda url: True)
     window.setup_tab.dut_id.setText("SN-GUI-1")
+    window.setup_tab.technician.setText("A. Tech")  # who prepares it (the service's rule)
     window.setup_tab.periods.setValue(3)
     with qtbot.waitSignal(window.run_finished, timeout=60_000):
         window.start_run()

@@ -14,7 +14,7 @@ os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 from PySide6.QtCore import QSettings
 from PySide6.QtWidgets import QApplication, QDialog, QMessageBox
 
-from app.gui import binding, certificate_dialog, main_window, plots
+from app.gui import binding, certificate_dialog, certify, main_window, plots
 from app.gui.main_window import MainWindow
 from app.gui.worker import copied
 from app.procedure import Finished, PeriodBlock, State
@@ -27,13 +27,14 @@ SHORT_LINES = "40,80,160,315,630"  # a short plan: quick runs
 
 @pytest.fixture()
 def window(qtbot, tmp_path, monkeypatch):
-    monkeypatch.setattr(main_window.QDesktopServices, "openUrl", lambda url: True)
+    monkeypatch.setattr(certify.QDesktopServices, "openUrl", lambda url: True)
     w = MainWindow(out=tmp_path / "runs", paced=False, seed=7)
     qtbot.addWidget(w)
     w.wait_for_plans()
     w.setup_tab.frequencies.setText(SHORT_LINES)
     qtbot.waitUntil(w.setup_tab.start_button.isEnabled, timeout=30_000)
     w.setup_tab.periods.setValue(3)  # the fewest with a stated type A
+    w.setup_tab.technician.setText("T. Ester")  # who prepares the certificates
     return w
 
 

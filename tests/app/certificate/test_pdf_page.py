@@ -16,8 +16,8 @@ from app import formatting as fmt
 from app.certificate import CertificateInfo, build, pdf
 from app.certificate import text as certificate_text
 from app.certificate.pdf_charts import FONT_BOLD
+from app.certificate.pdf_marks import read_marks
 from app.certificate.pdf_page import HEADER_PT, MIN_HEADER_PT, header_lines
-from app.certificate.readback import _table_rows
 from app.records.run_folder import load_run
 from dsp.conformity import DECISION_RULE, Verdict
 
@@ -36,6 +36,13 @@ def _certificate(run, tmp_path, info=INFO):
     copy = tmp_path / "runs" / run.name
     shutil.copytree(run, copy, ignore=shutil.ignore_patterns("certificate*"))
     return build(copy, info, tmp_path / "c.pdf")
+
+
+def _rows_per_page(path) -> list[int]:
+    """How many lines of the results table each page prints (its marked text layer)."""
+    marks = read_marks(path.read_bytes())
+    pages = len(PdfReader(path).pages)
+    return [sum(1 for page in marks.line_pages.values() if page == i) for i in range(pages)]
 
 
 def test_header_keeps_the_whole_laboratory_name():
@@ -58,10 +65,11 @@ def test_pages_of_a_25_line_certificate(complete_run, tmp_path):
     on one page; address, convention, mV/g and Prepared by printed."""
     path = _certificate(complete_run, tmp_path)
     pages = [page.extract_text() for page in PdfReader(path).pages]
-    first_rows = len(_table_rows(pages[0].split()))
+    rows = _rows_per_page(path)
+    first_rows = rows[0]
     assert first_rows == 0 or first_rows >= 10, f"{first_rows} rows on page 1"
     whole = "\n".join(pages)
-    assert sum(len(_table_rows(p.split())) for p in pages) == 25  # every row, once
+    assert sum(rows) == 25  # every row, once
     with_statement = [p for p in pages if "Statement of conformity" in p]
     assert (
         len(with_statement) == 1
@@ -96,8 +104,7 @@ def test_table_not_started_with_a_few_rows_whatever_room_page_1_leaves(
 
     monkeypatch.setattr(pdf, "_verdict_section", shorter)
     info = dataclasses.replace(INFO, sensitivity_unit="")
-    first = PdfReader(_certificate(complete_run, tmp_path, info)).pages[0].extract_text()
-    rows = len(_table_rows(first.split()))
+    rows = _rows_per_page(_certificate(complete_run, tmp_path, info))[0]
     assert rows == 0 or rows >= 10, f"{rows} rows on page 1"
 
 
@@ -179,11 +186,13 @@ def test_the_sign_off_never_stands_alone_on_the_last_page(
     least results rows) on that page too: at 25 lines (4 pages) it once stood alone on
     page 4; at 100 lines (5 pages)."""
     run = complete_run if lines == 25 else run_100_lines
-    pages = [page.extract_text() for page in PdfReader(_certificate(run, tmp_path)).pages]
-    assert sum(len(_table_rows(p.split())) for p in pages) == lines
+    path = _certificate(run, tmp_path)
+    pages = [page.extract_text() for page in PdfReader(path).pages]
+    rows = _rows_per_page(path)
+    assert sum(rows) == lines
     last = pages[-1]
     assert all(word in last for word in SIGN_OFF)
     assert not any("Prepared by" in page for page in pages[:-1])
-    with_it = [h for h in STATEMENTS if h in last] or _table_rows(last.split())
+    with_it = [h for h in STATEMENTS if h in last] or rows[-1]
     assert with_it, f"page {len(pages)} holds the sign-off alone: {last[:300]!r}"
     assert "Statement of conformity" in last  # the statements sit with the signature

@@ -22,6 +22,7 @@ import numpy as np
 import pytest
 from pypdf import PdfReader
 
+from app.certificate.pdf_marks import read_marks
 from app.certificate.readback import (
     PrintedError,
     differences,
@@ -316,7 +317,7 @@ def test_printed_values_are_compared_by_value_never_by_substring(honest: Path) -
     reader = PdfReader(honest)
     text = "\n".join(page.extract_text() for page in reader.pages)
     xml = reader.attachments["certificate.xml"][0]
-    pdf_items = items_from_pdf(text)
+    pdf_items = items_from_pdf(read_marks(honest.read_bytes()))
     assert len(pdf_items.lines) == 25 and pdf_items.serial == "SN-9"
     assert differences(items_from_dcc(parse_inert(xml)), pdf_items, "DCC", "PDF") == []
     first = pdf_items.lines[0]

@@ -1,0 +1,208 @@
+"""Issuing a certificate: the one call every face makes (`accelcal certificate`, the GUI's
+certificate dialog), so that the same inputs give the same certificate whichever face asked.
+
+`issue_certificate(request)` decides the register (the records database when records are in
+use: `--db`, $ACCELCAL_DB, else the default file when it exists, app.records.db.engine
+.records_url; else the runs root's JSON register, the certificate then saying so), checks the
+records (quick check of their chain), names who prepared it (given, else the run's technician,
+else the stand file's [certificate] prepared_by; refused when none), applies the lab's
+two-person rule before anything is written, loads the signing key, chooses the file (given,
+else the run folder's certificate.pdf, for an amendment its first free certificate-N.pdf) and
+issues through the register's
+transaction (app.certificate.register_issue / app.certificate.issuing: staged, entered,
+published). The faces parse their input into an `IssueRequest`, call, and show the
+`IssueOutcome` or the refusal (CertificateError / RecordsError naming the field and option).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+from dataclasses import dataclass
+from enum import StrEnum
+from pathlib import Path
+from typing import Any
+
+from app.certificate.info import CertificateError, CertificateInfo
+from app.records.register import Issued
+from app.records.run_folder import is_product_name
+
+log = logging.getLogger(__name__)
+
+MAX_CERTIFICATES_PER_RUN = 100
+
+
+class RegisterKind(StrEnum):
+    """Which register numbers a certificate."""
+
+    RECORDS = "records"  # the records database's register (its pattern, no gap)
+    RUN_FOLDER = "run folder"  # the runs root's JSON register (no records in use)
+
+
+@dataclass(frozen=True)
+class IssueRequest:
+    """What a face asks for: the run folder, the certificate's items as given (empty ones
+    take their defaults), and how it is issued."""
+
+    run: Path
+    info: CertificateInfo
+    out: Path | None = None  # None: <run>/certificate.pdf (an amendment: the next free name)
+    sweep: Path | None = None  # the sweep summary the run belongs to
+    replaces: str | None = None  # an amendment: the number it replaces (records only)
+    reason: str | None = None  # why (records only; required with replaces)
+    as_found: str | None = None  # the as-found run id of an adjusted sensor (records only)
+    sign: Path | None = None  # PKCS#12 signing key (password from $ACCELCAL_SIGN_PASSWORD)
+    db: str | None = None  # --db URL; None: $ACCELCAL_DB, else the default file if it exists
+    records_available: bool = True  # False: the face could not open the records (GUI)
+
+
+@dataclass(frozen=True)
+class IssueOutcome:
+    """A certificate issued: its register entry, its files and the register that numbered it."""
+
+    issued: Issued
+    pdf: Path
+    dcc: Path | None  # None: the stand file names no laboratory country (no DCC)
+    register: RegisterKind
+    prepared_by: str
+
+    @property
+    def number(self) -> str:
+        return self.issued.number
+
+
+def records_in_use(request: IssueRequest) -> str | None:
+    """The URL of the records that number the certificate, None for the runs root's JSON
+    register: the same answer `run` uses (app.records.db.engine.records_url)."""
+    if not request.records_available:
+        return None
+    from app.records.db.engine import records_url
+
+    return records_url(request.db)
+
+
+def default_prepared_by(run: Path) -> str:
+    """Who prepared a certificate of `run` when nobody is named: the technician the run
+    records (run --technician, the GUI's Technician field), else the stand file's
+    [certificate] prepared_by; "" when neither (never a login name)."""
+    from app.certificate.info import default_info
+    from app.certificate.load import load_stored_run
+
+    stored = load_stored_run(run)
+    return str(default_info(stored.record, stored.start).get("prepared_by") or "").strip()
+
+
+def prepared_by(run: Path, given: str) -> str:
+    """`given`, else `default_prepared_by(run)`; CertificateError naming --prepared-by when
+    neither names anyone."""
+    name = " ".join(given.split()) or default_prepared_by(run)
+    if not name:
+        raise CertificateError(
+            "--prepared-by: the run records no technician (accelcal run --technician NAME); "
+            "name who prepared the certificate"
+        )
+    return name
+
+
+def check_signatories(url: str | None, prepared: str, approved: str) -> None:
+    """The records' rule for the two signatories (app.records.db.certificates
+    .check_signatories: neither blank, and under the lab's two-person rule not the same
+    person); RecordsError naming the field. Nothing to check without records (None)."""
+    if url is None:
+        return
+    from app.records.db.engine import open_engine
+    from app.records.db.lab import Lab
+
+    engine = open_engine(url)
+    try:
+        Lab(engine).check_signatories(prepared, approved)
+    finally:
+        engine.dispose()
+
+
+def certificate_in_force(url: str | None, run_id: str) -> str | None:
+    """The number of the run's certificate in force in the records' register (None: none, or
+    no records)."""
+    if url is None:
+        return None
+    from app.records.db.engine import open_engine
+    from app.records.db.lab import Lab
+
+    engine = open_engine(url)
+    try:
+        row = Lab(engine).issued_for_run(run_id)
+    finally:
+        engine.dispose()
+    return None if row is None else str(row.number)
+
+
+def free_pdf(folder: Path) -> Path:
+    """The first certificate file name not yet used in a run folder: certificate.pdf, then
+    certificate-2.pdf, ... (a certificate is never overwritten; an amendment is a new file)."""
+    for n in range(1, MAX_CERTIFICATES_PER_RUN + 1):
+        path = folder / ("certificate.pdf" if n == 1 else f"certificate-{n}.pdf")
+        assert is_product_name(path.name)
+        if not path.exists() and not path.with_suffix(".xml").exists():
+            return path
+    raise CertificateError(f"{folder}: {MAX_CERTIFICATES_PER_RUN} certificates already")
+
+
+def default_out(run: Path, replaces: str | None) -> Path:
+    """Where a certificate of `run` goes when no file is named: certificate.pdf in the run
+    folder (refused when taken: a second certificate is named on purpose), an amendment the
+    first free certificate-N.pdf there."""
+    return free_pdf(run) if replaces else run / "certificate.pdf"
+
+
+def _signer(key: Path | None) -> Any:
+    if key is None:
+        return None
+    from app.certificate.sign import Signer, SigningError
+
+    try:
+        return Signer.load(key)
+    except SigningError as exc:
+        raise CertificateError(str(exc)) from None
+
+
+def issue_certificate(request: IssueRequest) -> IssueOutcome:
+    """Issue the certificate `request` asks for (see the module's docstring); nothing is
+    written when it is refused."""
+    from app.certificate.issuing import dcc_path, issue
+    from app.certificate.register_issue import issue_registered
+
+    url = records_in_use(request)
+    run = Path(request.run)
+    info = dataclasses.replace(request.info, prepared_by=prepared_by(run, request.info.prepared_by))
+    signer = _signer(request.sign)
+    out = Path(request.out) if request.out is not None else default_out(run, request.replaces)
+    if url is None:
+        if request.replaces or request.reason or request.as_found:
+            raise CertificateError(
+                "--replaces, --reason, --as-found: need the records (--db URL); without them "
+                "a certificate is numbered by the run folder's register"
+            )
+        issued = issue(run, info, out, request.sweep, signer)
+        register = RegisterKind.RUN_FOLDER
+    else:
+        from app.records.db.gate import records_quick_check
+
+        records_quick_check(url)
+        check_signatories(url, info.prepared_by, str(info.authorised_by or ""))
+        issued = issue_registered(
+            run,
+            info,
+            out,
+            url=url,
+            prepared_by=info.prepared_by,
+            sweep_path=request.sweep,
+            replaces=request.replaces,
+            reason=request.reason,
+            as_found=request.as_found,
+            signer=signer,
+        )
+        register = RegisterKind.RECORDS
+    dcc = dcc_path(out)
+    log.info("certificate %s of %s issued (%s register): %s", issued.number, run.name,
+             register, out)  # fmt: skip
+    return IssueOutcome(issued, out, dcc if dcc.exists() else None, register, info.prepared_by)
