@@ -102,7 +102,7 @@ bench: $(STAMP)
 	QT_QPA_PLATFORM=offscreen $(BIN)/python bench/gui_responsiveness.py
 
 typecheck: $(STAMP)
-	$(BIN)/mypy dsp app --ignore-missing-imports
+	$(BIN)/mypy dsp hardware sim app --ignore-missing-imports
 
 lint: $(STAMP)
 	$(BIN)/ruff check dsp hardware sim app tests bench
