@@ -8,6 +8,7 @@ is opened); app/ root at most 8 modules, no module over 600 lines."""
 from __future__ import annotations
 
 import ast
+import functools
 import sys
 from pathlib import Path
 
@@ -46,12 +47,19 @@ def _modules(packages: tuple[str, ...] = ("app",)) -> dict[str, Path]:
     return out
 
 
+@functools.cache
+def _parsed(path: Path) -> ast.Module:
+    """The file's syntax tree, parsed once per test process (the tests here walk every file
+    several times)."""
+    return ast.parse(path.read_text(encoding="utf-8"))
+
+
 def _imports(
     path: Path, modules: dict[str, Path], *, typing: bool = False, source: str | None = None
 ) -> tuple[set[str], set[str]]:
     """(modules of `modules` imported, top-level packages imported): at run time, or with
     `typing` also those under `if TYPE_CHECKING:`. `source` stands for the file's text."""
-    tree = ast.parse(path.read_text(encoding="utf-8") if source is None else source)
+    tree = _parsed(path) if source is None else ast.parse(source)
     typing_only: set[int] = set()
     for node in ast.walk(tree):
         if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import json
 import shutil
 import stat
 import subprocess
@@ -13,7 +14,6 @@ from pypdf import PdfReader
 
 from app import formatting as fmt
 from app.certificate import CertificateError, CertificateInfo, build
-from app.procedure.run import RunRequest, execute
 from app.records.run_folder import load_run
 
 INFO = CertificateInfo(
@@ -132,13 +132,12 @@ def test_missing_items_are_refused_by_name(complete_run, tmp_path):
     assert not (tmp_path / "x.pdf").exists()
 
 
-def test_aborted_run_is_refused(tmp_path):
-    from sim.stand import Fault
-
-    finished = execute(RunRequest(faults=(Fault("device-lost", 15.0),), out=tmp_path))
-    assert finished.status == "aborted"
+def test_aborted_run_is_refused(aborted_run, tmp_path):
+    run = tmp_path / aborted_run.name
+    shutil.copytree(aborted_run, run)
+    assert json.loads((run / "results.json").read_text())["status"] == "aborted"
     with pytest.raises(CertificateError, match="the run is aborted"):
-        build(tmp_path / finished.record.run_id, INFO, tmp_path / "x.pdf")
+        build(run, INFO, tmp_path / "x.pdf")
 
 
 def test_cli_certificate_default_place_and_exit_codes(complete_run, capsys):
@@ -172,18 +171,17 @@ def test_the_pdf_renders(complete_run, tmp_path):
     assert len(pages) == len(PdfReader(pdf).pages) and all(p.stat().st_size > 5000 for p in pages)
 
 
-def test_sweep_section_with_sensitivity_against_level_and_linearity(tmp_path):
+def test_sweep_section_with_sensitivity_against_level_and_linearity(sweep_run, tmp_path):
     from pathlib import Path
 
-    from app.procedure.sweep import run_sweep
-
-    sweep = run_sweep(RunRequest(dut="piezo", dut_id="SN-7", periods=3, out=tmp_path), [3.0, 6.0])
+    sweep = sweep_run  # capacitive SN-7 at 3, 5 and 7 m/s^2 (tests/conftest.py)
     run = tmp_path / sweep.summary["run_ids"][0]
+    shutil.copytree(Path(sweep.summary["path"]).parent / run.name, run)
     assert stat.S_IMODE(Path(sweep.summary["path"]).stat().st_mode) == 0o444  # stored, read-only
     pdf = build(run, INFO, tmp_path / "s.pdf", Path(sweep.summary["path"]))
     text = text_of(pdf)
     assert "Sensitivity against excitation level" in text and "Linearity:" in text
-    assert "3 m/s²" in text and "6 m/s²" in text
+    assert "3 m/s²" in text and "5 m/s²" in text and "7 m/s²" in text
     reference = sweep.summary["sensitivity_mv_per_ms2"][1][
         sweep.summary["frequencies_hz"].index(160.0)
     ]
