@@ -23,6 +23,7 @@ import numpy as np
 from scipy import stats
 
 from dsp.annex_a import ComponentKind
+from dsp.estimators import RULES
 
 __all__ = [
     "Budget",
@@ -460,7 +461,7 @@ class Combined:
     expanded: float  # U = k u_c
 
 
-_RULES = ("gum", "seed")
+_RULES = RULES  # the one list: dsp.estimators
 
 
 def combine(

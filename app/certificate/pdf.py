@@ -137,7 +137,6 @@ def write_pdf(
     stand = record.stand
     lab = dict(stand.laboratory)
     reference = dict(stand.reference)
-    plan = dict(record.plan)
     number = str(info.certificate_number)  # numbered before the PDF is made (_numbered)
     story: list[Any] = []
     r = results.reference
@@ -171,7 +170,7 @@ def write_pdf(
         ),
         *verification_qr(run, number),
         Paragraph("Method", HEAD),
-        Paragraph(text.method_text(record, results, plan), BODY),
+        Paragraph(text.method_text(record, results), BODY),
         Paragraph("Conditions", HEAD),
         _kv(
             [

@@ -87,7 +87,7 @@ def verification_address(run: StoredRun, number: str) -> str | None:
     [laboratory] verify_url, keyed with its manifest's SHA-256; None without a verify_url."""
     from app.records.run_folder import MANIFEST_NAME, sha256_of
 
-    url = run.record.stand.laboratory.get("verify_url") or run.start.laboratory.get("verify_url")
+    url = run.record.stand.verify_url or run.start.verify_url
     if not url:
         return None
     return verify_address(str(url), number, sha256_of(run.path / MANIFEST_NAME))

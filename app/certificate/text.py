@@ -8,7 +8,6 @@ Strings for the PDF may carry reportlab's paragraph mark-up (<b>); the DCC's car
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
 
 from app.io.vocabulary import Mode
 from app.records.run_record import RunRecord
@@ -52,21 +51,20 @@ _VERDICT_WORDS: dict[str, str] = {  # the overall verdict (dsp.conformity.Verdic
 }
 
 
-def method_text(record: RunRecord, results: Results, plan: dict[str, Any]) -> str:
+def method_text(record: RunRecord, results: Results) -> str:
     """The PDF's method paragraph: ISO 16063-21 comparison and the excitation of `record`."""
-    lines = plan.get("lines", [])
-    freqs = [ln["nominal_frequency_hz"] for ln in lines]
+    plan = record.stored_plan
+    freqs = list(plan.frequencies_hz)
     span = f"{min(freqs):g} Hz to {max(freqs):g} Hz" if freqs else ""
     series = (
         "ISO 266 one-third-octave values"
         if freqs and set(freqs) <= set(iso266.nominal_frequencies(min(freqs), max(freqs)))
         else "chosen frequencies"
     )
-    period_s = plan.get("period_samples", 0) / plan.get("sample_rate_hz", 1)
     excitation = (
         f"multisine excitation: {len(freqs)} frequencies at once ({series}, {span}), each "
-        f"on a DFT bin of a {period_s:g} s period sampled at "
-        f"{plan.get('sample_rate_hz', 0):g} Hz, phases optimised for a low crest factor, "
+        f"on a DFT bin of a {plan.period_s:g} s period sampled at "
+        f"{plan.sample_rate_hz:g} Hz, phases optimised for a low crest factor, "
         "table acceleration equalised per frequency in closed loop"
         if record.mode == Mode.MULTISINE
         else f"stepped-sine excitation: {len(freqs)} frequencies one at a time ({span}), "
@@ -83,11 +81,11 @@ def method_text(record: RunRecord, results: Results, plan: dict[str, Any]) -> st
 
 def dcc_method_text(record: RunRecord, results: Results) -> str:
     """The DCC's usedMethod name."""
-    plan = dict(record.plan)
-    lines = len(plan.get("lines", []) or results.lines)
+    plan = record.stored_plan
+    lines = len(plan.frequencies_hz or results.lines)
     return (
         f"Back-to-back comparison with a reference accelerometer, multisine of {lines} lines, "
-        f"{plan.get('sample_rate_hz', 0):g} S/s, period of {plan.get('period_samples', 0)} "
+        f"{plan.sample_rate_hz:g} S/s, period of {plan.period_samples} "
         f"samples, {results.periods} periods, estimator {results.estimator}"
     )
 

@@ -1,6 +1,7 @@
 """The exit codes of `accelcal` and the one mapping of errors to them: a refusal (bad input,
 app.errors.REFUSALS) exits 2, a hardware error 1, a run whose result could not be stored 3,
-anything else 1 with its traceback kept in the log.
+anything else 1 with its traceback kept in the log; `run --fail-exit` exits 4 on a completed
+run whose verdict is FAIL. The statuses themselves: app.procedure.outcome.ExitStatus.
 """
 
 from __future__ import annotations
@@ -12,9 +13,14 @@ from collections.abc import Callable
 
 from app.errors import REFUSALS, Refusal
 from app.procedure.errors import RunNotRecordedError
+from app.procedure.outcome import ExitStatus
 from hardware.errors import HardwareError
 
-EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT, EXIT_ABORTED = 0, 1, 2, 3
+EXIT_OK: int = ExitStatus.OK
+EXIT_FAILURE: int = ExitStatus.FAILURE
+EXIT_BAD_INPUT: int = ExitStatus.BAD_INPUT
+EXIT_ABORTED: int = ExitStatus.ABORTED
+EXIT_FAIL_VERDICT: int = ExitStatus.FAIL_VERDICT
 EXIT_BROKEN_PIPE = 128 + 13  # SIGPIPE: the reader of stdout went away (`| head`)
 
 

@@ -8,10 +8,10 @@ import re
 import sys
 from datetime import date
 from pathlib import Path
+from typing import Any
 
 from app.cli.options import (
     COVERAGE,
-    DUT_MASS,
     FADE_IN,
     FREQUENCY,
     GAIN,
@@ -19,7 +19,6 @@ from app.cli.options import (
     MAINS,
     PERIOD,
     RANGE,
-    RUN_PERIODS,
     SAMPLE_RATE,
     SEED,
     SEGMENTS,
@@ -36,7 +35,8 @@ from app.cli.options import (
 )
 from app.cli.records import Handler
 from app.cli.records import add_commands as add_records_commands
-from app.procedure.modes import MODE_MULTISINE, MODES
+from app.procedure.modes import MODE_MULTISINE
+from app.procedure.options import OptionSpec, option
 from app.stand.simulated import EXCITERS, FAULT_KINDS
 from dsp.estimators import DEFAULT_ESTIMATOR, ESTIMATORS
 from dsp.multisine import PRESETS
@@ -120,6 +120,116 @@ def _add_range_options(p: argparse.ArgumentParser) -> None:
         numeric_option(
             g, "--fade-in", FADE_IN, "lpm: fade-in before the record, s (default 2 cycles)"
         )
+
+
+def _run_option(
+    p: argparse.ArgumentParser | argparse._ArgumentGroup, name: str, **kwargs: Any
+) -> None:
+    """Add the run option `name` as app.procedure.options.RUN_OPTIONS states it: its flag, its
+    parser (a number within its bounds by `Bounded`, else the table's own), choices and help."""
+    spec = option(name)
+    help_text = spec.help.replace("%", "%%")  # argparse %-formats help texts
+    if spec.metavar:
+        kwargs.setdefault("metavar", spec.metavar)
+    if "type" in kwargs:
+        pass
+    elif spec.parse is not None:
+        kwargs["type"] = _table_parser(spec)
+    elif spec.choices:
+        kwargs["choices"] = spec.choices
+    elif spec.bounds is not None:
+        b = spec.bounds
+        kind = int if b.whole else float
+        bounded = Bounded(
+            kind, b.low, b.high, open_low=b.open_low, open_high=b.open_high, unit=spec.unit
+        )
+        numeric_option(p, spec.flag, bounded, help_text, **kwargs)
+        return
+    p.add_argument(spec.flag, help=help_text, **kwargs)
+
+
+def _table_parser(spec: OptionSpec) -> Any:
+    """An argparse type of the table's parser: its ValueError becomes argparse's message."""
+
+    def parse(text: str) -> Any:
+        try:
+            return spec.parse(text) if spec.parse is not None else text
+        except ValueError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+
+    parse.__name__ = spec.name
+    return parse
+
+
+def _add_run_options(r: argparse.ArgumentParser) -> None:
+    """`accelcal run`'s options: the run's own from the options table, then the face's."""
+    r.add_argument("--sim", action="store_true", help="the built-in simulated stand (default)")
+    r.add_argument("--stand", type=Path, help="stand configuration (stand.toml)")
+    _run_option(r, "dut", type=dut_name, default="piezo")
+    _run_option(r, "dut_id", default=None)
+    _run_option(r, "technician")
+    _run_option(r, "nominal_mv_per_ms2")
+    _run_option(r, "preset")
+    _run_option(r, "level_ms2")
+    r.add_argument(
+        "--levels", help=f"amplitude sweep: levels in m/s^2, e.g. 4,5,6,7,8; {LEVEL.describe()}"
+    )
+    _run_option(r, "periods")
+    g = r.add_argument_group("range (issue 26): lines, rate, period, profile, exciter")
+    for name in ("frequencies_hz", "sample_rate_hz", "period_samples", "reference_frequency_hz"):
+        _run_option(g, name)
+    _run_option(g, "profile", default=Profile.ACCELERATION.value)
+    for name in ("corner_hz", "exciter", "fade_in_s"):
+        _run_option(g, name)
+    r.add_argument(
+        "--resonance",
+        action="store_true",
+        help="after the run, search the DUT's mounted resonance in its response (a plan to "
+        "20 kHz+ at a low level, e.g. --frequencies 1000,...,25000 --sample-rate 102400)",
+    )
+    _run_option(r, "target_type_a")
+    _run_option(r, "max_acquisition_s")
+    _run_option(r, "estimator", default=DEFAULT_ESTIMATOR)
+    _run_option(r, "mode", default=MODE_MULTISINE)
+    _run_option(r, "tolerance_percent")
+    _run_option(r, "dut_mass_g")
+    r.add_argument(
+        "--fresh-response",
+        action="store_true",
+        help="identify the stand's response anew instead of starting from the stored one",
+    )
+    _run_option(r, "seed", default=0)
+    r.add_argument("--paced", action="store_true", help="simulated stand: real time")
+    r.add_argument(
+        "--fault",
+        action="append",
+        default=[],
+        help=f"simulated: KIND@SECONDS, KIND one of {', '.join(FAULT_KINDS)}",
+    )
+    r.add_argument("--out", type=Path, default=Path("runs"), help="folder for run folders")
+    r.add_argument("--json", action="store_true", help="the run record as JSON")
+    r.add_argument(
+        "--fail-exit",
+        action="store_true",
+        help="exit with status 4 when the run completes with the verdict FAIL (without it a "
+        "completed run exits 0 whatever its verdict; 2 refused, 3 aborted)",
+    )
+    records = r.add_argument_group("records (accelcal db)")
+    records.add_argument(
+        "--sensor",
+        metavar="SERIAL",
+        help="the DUT from the records: its serial, nominal, tolerance, level and plan",
+    )
+    records.add_argument(
+        "--db", metavar="URL", help="records database (default $ACCELCAL_DB, else SQLite file)"
+    )
+    records.add_argument(
+        "--teds",
+        action="store_true",
+        help="identify the DUT by its TEDS (the records' sensor with that identity, else the "
+        "TEDS serial and nominal sensitivity)",
+    )
+    _run_option(records, "reference_override")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -206,80 +316,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
 
     r = sub.add_parser("run", help="run a calibration (simulated stand unless --stand)")
-    r.add_argument("--sim", action="store_true", help="the built-in simulated stand (default)")
-    r.add_argument("--stand", type=Path, help="stand configuration (stand.toml)")
-    r.add_argument("--dut", type=dut_name, default="piezo", help="simulated DUT from the catalogue")
-    r.add_argument("--dut-id", default=None, help="serial number / identification of the DUT")
-    r.add_argument(
-        "--technician",
-        metavar="NAME",
-        help="who runs the calibration (stored with the run; the certificate's Prepared by)",
-    )
-    numeric_option(r, "--nominal-sensitivity", SENSITIVITY, "DUT nominal, mV/(m/s^2)")
-    r.add_argument("--preset", choices=sorted(PRESETS), help="plan (default: by DUT kind)")
-    numeric_option(r, "--level", LEVEL, "peak acceleration per line, m/s^2 (default 5)")
-    r.add_argument(
-        "--levels", help=f"amplitude sweep: levels in m/s^2, e.g. 4,5,6,7,8; {LEVEL.describe()}"
-    )
-    numeric_option(
-        r, "--periods", RUN_PERIODS, "periods to acquire (default 8; lpm: 1, one record)"
-    )
-    _add_range_options(r)
-    r.add_argument(
-        "--resonance",
-        action="store_true",
-        help="after the run, search the DUT's mounted resonance in its response (a plan to "
-        "20 kHz+ at a low level, e.g. --frequencies 1000,...,25000 --sample-rate 102400)",
-    )
-    r.add_argument("--target-ua", help="stop at this relative type A, e.g. 0.2%%; (0, 100 %%]")
-    r.add_argument("--max-time", help="bound on the acquisition time, e.g. 30s; (0, 24 h]")
-    r.add_argument("--estimator", choices=ESTIMATORS, default=DEFAULT_ESTIMATOR)
-    r.add_argument("--mode", choices=MODES, default=MODE_MULTISINE)
-    numeric_option(r, "--tolerance", TOLERANCE, "DUT tolerance of the characteristic, %%")
-    numeric_option(
-        r,
-        "--dut-mass",
-        DUT_MASS,
-        "DUT mass in g: its class picks the stand's stored response (default: the simulated "
-        "DUT's catalogue mass; on real hardware not stated)",
-    )
-    r.add_argument(
-        "--fresh-response",
-        action="store_true",
-        help="identify the stand's response anew instead of starting from the stored one",
-    )
-    numeric_option(r, "--seed", SEED, "simulated stand: random seed", default=0)
-    r.add_argument("--paced", action="store_true", help="simulated stand: real time")
-    r.add_argument(
-        "--fault",
-        action="append",
-        default=[],
-        help=f"simulated: KIND@SECONDS, KIND one of {', '.join(FAULT_KINDS)}",
-    )
-    r.add_argument("--out", type=Path, default=Path("runs"), help="folder for run folders")
-    r.add_argument("--json", action="store_true", help="the run record as JSON")
-    records = r.add_argument_group("records (accelcal db)")
-    records.add_argument(
-        "--sensor",
-        metavar="SERIAL",
-        help="the DUT from the records: its serial, nominal, tolerance, level and plan",
-    )
-    records.add_argument(
-        "--db", metavar="URL", help="records database (default $ACCELCAL_DB, else SQLite file)"
-    )
-    records.add_argument(
-        "--teds",
-        action="store_true",
-        help="identify the DUT by its TEDS (the records' sensor with that identity, else the "
-        "TEDS serial and nominal sensitivity)",
-    )
-    records.add_argument(
-        "--reference-override",
-        metavar="REASON",
-        help="with records in use: use a reference standard past its due date or not in the "
-        "records, for this stated reason (recorded in results.json, the audit trail and on "
-        "the certificate)",
-    )
+    _add_run_options(r)
 
     w = sub.add_parser("show", help="print a stored run")
     w.add_argument("run", type=Path, help="run folder")

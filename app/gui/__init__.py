@@ -7,7 +7,7 @@ import os
 import sys
 from pathlib import Path
 
-from app.io.vocabulary import RunStatus
+from app.procedure.outcome import exit_status
 
 log = logging.getLogger(__name__)
 
@@ -54,7 +54,7 @@ def run_gui(
     def after_run(finished) -> None:
         if screenshot is not None:
             window.grab().save(str(screenshot))
-        outcome["code"] = 0 if finished.status == RunStatus.COMPLETE else 3
+        outcome["code"] = int(exit_status(finished.record))  # as `accelcal run` exits
         if quit_after_run:
             QTimer.singleShot(0, app.quit)
 

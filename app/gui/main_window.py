@@ -25,15 +25,18 @@ from app.gui import certify
 from app.gui.actions import WindowActions
 from app.gui.certificate_dialog import CertificateDialog, run_identity
 from app.gui.records_link import RecordsLink
-from app.gui.reference_view import reference_allows_run
+from app.gui.reference_view import ask_override, mark_refusal
 from app.gui.register_tab import RegisterTab
 from app.gui.results_tab import ResultsTab
 from app.gui.run_tab import RunTab
 from app.gui.runs_tab import RunsTab
 from app.gui.sensors_tab import SensorsTab
-from app.gui.setup_tab import RunOptions, SetupTab
+from app.gui.setup_tab import SetupTab, WindowOptions
 from app.io.vocabulary import RunStatus
 from app.procedure import Finished
+from app.procedure.reference import ReferenceRefusal
+from app.procedure.service import PreparedRun
+from app.records.db.errors import RecordsInputError
 from app.records.run_folder import RunIntegrityError, inspect_run, load_run
 from app.records.run_record import RunRecord
 from app.stand import config as stand_config
@@ -66,8 +69,10 @@ class MainWindow(QMainWindow):
         self.setWindowTitle("accelcal: accelerometer calibration")
         self.settings = QSettings(ORGANISATION, APPLICATION)
         # simulated stand only: seed and faults for demonstrations and tests
-        self.options = RunOptions(out=Path(out), paced=paced, seed=seed, faults=faults)
+        self.options = WindowOptions(out=Path(out), paced=paced, seed=seed, faults=faults)
         self.last_finished: Finished | None = None
+        self.prepared: PreparedRun | None = None  # the run started last, as the service made it
+        self.last_index_note: str | None = None  # the records' report of the last run indexed
         self.last_certificate: str | None = None  # the number the register gave last
         self.certificate_dialog_open: Any = None
         self.today: date | None = None  # a fixed date for tests; None: the UTC date
@@ -139,34 +144,52 @@ class MainWindow(QMainWindow):
 
     @Slot()
     def start_run(self) -> None:
-        """Start the run the Setup tab describes (after the records' due-date rule)."""
+        """Start the run the Setup tab describes, prepared by the run service as the CLI's
+        (the records' gate and reference rule first)."""
         setup = self.setup_tab
         if self.run_tab.worker is not None or setup.validate():
             return
-        today = self.today_utc()
-        allowed, note, reason = reference_allows_run(setup, today)  # as the CLI
-        if not allowed:
-            if note:
-                self.run_tab.messages.setText(html.escape(note))
+        prepared = self.prepare_run(self.today_utc())
+        if prepared is None:
             return
         self.settings.setValue("dut", setup.dut.currentText())
         self.settings.setValue("stand_file", str(setup.stand_file or ""))
-        try:
-            request, notes = setup.request_and_notes(  # as the CLI builds it
-                records=True, reference_override=reason, today=today
-            )
-        except ValueError as exc:  # a refusal naming the field (records, stand file)
-            QMessageBox.warning(self, "Cannot start", str(exc))
-            self.run_tab.messages.setText(html.escape(f"Cannot start: {exc}"))
-            return
+        for note in prepared.notes:  # an override granted is a warning in the log
+            log.log(logging.WARNING if prepared.request.overrides else logging.INFO, "%s", note)
         ranges: dict[str, float] = {c.name: c.range_v for c in setup.config.inputs}
-        said = "; ".join(n for n in (*notes, note) if n) or None
-        if not self.run_tab.begin(request, ranges, said):
+        said = "; ".join(prepared.notes) or None
+        if not self.run_tab.begin(setup.service, prepared, ranges, said):
             return
-        setup.last_request = request
+        self.prepared = prepared
+        setup.last_request = prepared.request
         setup.set_running(True)
         self.tabs.setCurrentIndex(RUN_TAB)
         self.runs_tab.refresh()
+
+    def prepare_run(self, today: date) -> PreparedRun | None:
+        """The Setup tab's run prepared by the run service: refused (None, the refusal shown)
+        when the records fail their quick check, when the reference standard is refused and
+        no override reason is typed, or when a field cannot be resolved."""
+        setup = self.setup_tab
+        setup.field_marks.note(setup.reference_label, None)
+        reason: str | None = None
+        while True:
+            try:
+                return setup.prepare(reference_override=reason, today=today)
+            except ReferenceRefusal as exc:
+                if reason is None and exc.overridable:
+                    reason = ask_override(setup, str(exc))
+                    if reason is not None:
+                        continue
+                self.run_tab.messages.setText(html.escape(mark_refusal(setup, str(exc))))
+                return None
+            except RecordsInputError as exc:  # the records' gate (ChainBroken) or their rule
+                self.run_tab.messages.setText(html.escape(mark_refusal(setup, str(exc))))
+                return None
+            except ValueError as exc:  # a refusal naming the field (stand file, DUT)
+                QMessageBox.warning(self, "Cannot start", str(exc))
+                self.run_tab.messages.setText(html.escape(f"Cannot start: {exc}"))
+                return None
 
     def _on_done(self, finished: Finished | None) -> None:
         """The run has ended (GUI thread): list it, open its results if complete."""
@@ -182,14 +205,21 @@ class MainWindow(QMainWindow):
         self.run_finished.emit(finished)
 
     def _index_run(self, finished: Finished) -> None:
-        """A finished run goes into the records' index (the folder stays the record)."""
-        run_id = finished.record.run_id
+        """A finished run goes into the records' index through the run service (the folder
+        stays the record); its report, warnings included, is shown and logged."""
+        prepared = self.prepared
+        if prepared is None or finished.record.run_id is None:
+            return
 
         def indexed(note: str) -> None:
-            log.info("%s", note)
+            for line in note.splitlines():
+                log.log(logging.WARNING if line.startswith("WARNING") else logging.INFO, "%s", line)
+            self.last_index_note = note
+            if "WARNING" in note:
+                self.run_tab.messages.setText(html.escape(note).replace("\n", "<br/>"))
             self.sensors_tab.refresh()
 
-        self.records.index_run_later(self.options.out / str(run_id) if run_id else None, indexed)
+        self.records.finish_later(self.setup_tab.service, prepared, finished, indexed)
 
     # --- results, runs and certificates -------------------------------------------------
 

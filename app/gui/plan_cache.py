@@ -1,58 +1,51 @@
 """Multisine plans optimised off the GUI thread (the phase optimisation takes about a second):
-one future per (preset, line list in Hz), optimised at 1 m/s^2 per line (the phases do not
-depend on the level): the run request carries them (`RunRequest.phases_rad`), so Start does
-not block the window.
+one future per phase key (app.procedure.service.RunService.phase_key: the lines, rate, period
+and reference of the plan that will run, at 1 m/s^2 per line; the phases do not depend on the
+level). The run service makes each plan (`RunService.unit_plan`); this only keeps the futures,
+so Start does not block the window.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable
 from concurrent.futures import Future, ThreadPoolExecutor
 
-from dsp.multisine import PRESETS, Plan, make_plan, preset_plan
-
-PlanKey = tuple[str, tuple[float, ...]]  # (preset name, line frequencies in Hz)
+from app.procedure.planning import PlanRequest
+from dsp.multisine import Plan
 
 
 class PlanCache:
-    """Futures of optimised plans, the presets' own started at once."""
+    """Futures of the plans `make(key)` makes, the `first` keys started at once."""
 
-    def __init__(self) -> None:
-        self._plans: dict[PlanKey, Future[Plan]] = {}
+    def __init__(self, make: Callable[[PlanRequest], Plan], first: Iterable[PlanRequest] = ()):
+        self._make = make
+        self._plans: dict[PlanRequest, Future[Plan]] = {}
         self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="plan")
-        for name, preset in PRESETS.items():
-            key = (name, tuple(preset.nominal_frequencies_hz))
-            self._plans[key] = self._pool.submit(preset_plan, name, level_ms2=1.0)
+        for key in first:
+            self.ask(key)
 
-    def get(self, preset_name: str, lines_hz: tuple[float, ...]) -> Future[Plan] | None:
-        """The future of the plan of these lines (None: never asked)."""
-        return self._plans.get((preset_name, lines_hz))
+    def get(self, key: PlanRequest) -> Future[Plan] | None:
+        """The future of the plan of `key` (None: never asked)."""
+        return self._plans.get(key)
 
-    def ask(self, preset_name: str, lines_hz: tuple[float, ...]) -> Future[Plan]:
-        """The future of the plan of these lines, optimising it now if it is new."""
-        key = (preset_name, lines_hz)
+    def ask(self, key: PlanRequest) -> Future[Plan]:
+        """The future of the plan of `key`, made now if it is new."""
         if key not in self._plans:
-            preset = PRESETS[preset_name]
-            self._plans[key] = self._pool.submit(
-                make_plan,
-                lines_hz,
-                preset.sample_rate_hz,
-                preset.period_samples,
-                1.0,
-                preset.reference_frequency_hz,
-            )
+            self._plans[key] = self._pool.submit(self._make, key)
         return self._plans[key]
 
-    def phases(self, preset_name: str, lines_hz: tuple[float, ...]) -> tuple[float, ...] | None:
-        """The optimised phases (rad) when they are ready, else None (the run optimises)."""
-        future = self.get(preset_name, lines_hz)
+    def ready(self, key: PlanRequest) -> Plan | None:
+        """The plan of `key` when it is made, else None (the run then makes it itself)."""
+        future = self.get(key)
         if future is None or not future.done() or future.exception() is not None:
             return None
-        return tuple(float(p) for p in future.result().phases_rad)
+        return future.result()
 
     def wait(self) -> None:
-        """Block until every plan asked for is optimised (tests, screenshots)."""
+        """Block until every plan asked for is made (tests, screenshots); a refused plan is
+        the preview's to report."""
         for future in list(self._plans.values()):
-            future.result()
+            future.exception()
 
     def close(self) -> None:
         self._pool.shutdown(wait=False, cancel_futures=True)

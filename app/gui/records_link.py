@@ -5,10 +5,10 @@ The URL is `--db URL`, else $ACCELCAL_DB, else the default SQLite file
 (`app.records.db.engine`). Opening may take a while (a PostgreSQL server that does not answer);
 it runs on its own thread and the window polls it. When the records cannot be opened, `error`
 says why and everything else in the window works without them. Queries afterwards take
-milliseconds and run on the GUI thread; indexing a finished run (which verifies every file of
-its folder by SHA-256) runs on the records' own thread, and its report comes back to the GUI
-thread.
-Nothing here computes: it reads and writes through `Lab` only.
+milliseconds and run on the GUI thread; finishing a run (the run service indexes it, verifying
+every file of its folder by SHA-256) runs on the records' own thread, and its report comes back
+to the GUI thread.
+Nothing here computes: it reads and writes through `Lab` and the run service only.
 """
 
 from __future__ import annotations
@@ -16,13 +16,16 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
-from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from PySide6.QtCore import QObject, QTimer, Signal
 
 from app.records.db.errors import RecordsInputError
 from app.records.run_record import RunRecord
+
+if TYPE_CHECKING:
+    from app.procedure import Finished
+    from app.procedure.service import PreparedRun, RunService
 
 log = logging.getLogger(__name__)
 
@@ -68,7 +71,7 @@ class RecordsLink(QObject):
     def _poll(self) -> None:
         for job in [j for j in self._jobs if j[0].done()]:
             self._jobs.remove(job)
-            job[1](job[0].result())  # index_run's own report: it raises nothing
+            job[1](job[0].result())  # the indexing's own report: it raises nothing
         future = self._future
         if future is None or not future.done():
             if future is None and not self._jobs:
@@ -139,12 +142,23 @@ class RecordsLink(QObject):
             log.warning("reference standards not read: %s", exc)
             return None
 
-    def index_run_later(self, folder: Path | None, done: Callable[[str], None]) -> bool:
-        """Index a finished run folder on the records' thread; `done(report line)` is called
-        on the GUI thread afterwards. False (and nothing done) without records."""
-        if self.lab is None or folder is None:
+    def finish_later(
+        self,
+        service: RunService,
+        prepared: PreparedRun,
+        finished: Finished,
+        done: Callable[[str], None],
+    ) -> bool:
+        """Finish a run through the run service on the records' thread (it indexes the run,
+        verifying every file of its folder: `RunService.finish`); `done(its report)` is called
+        on the GUI thread afterwards. False (and nothing done) when the run used no records."""
+        if not prepared.records or finished.record.run_id is None:
             return False
-        self._jobs.append((self._pool.submit(self.index_run, folder), done))
+
+        def finish() -> str:
+            return service.finish(prepared, finished).index_note or ""
+
+        self._jobs.append((self._pool.submit(finish), done))
         self._timer.start()
         return True
 
@@ -153,15 +167,3 @@ class RecordsLink(QObject):
         for future, _done in list(self._jobs):
             future.result(timeout=timeout_s)
         self._poll()
-
-    def index_run(self, folder: Any) -> str | None:
-        """Index a finished run folder; a line to show (None when there are no records)."""
-        if self.lab is None or folder is None:
-            return None
-        try:
-            report = self.lab.import_runs(folder)
-        except Exception as exc:  # the folder is the record: nothing is lost
-            return f"records: run not indexed ({exc}); `accelcal db import` will index it"
-        if report.refused:
-            return f"records: not indexed: {report.refused[0][1]}"
-        return f"records: run indexed ({', '.join(report.imported) or 'already known'})"

@@ -1,8 +1,8 @@
 """What the Setup tab says about the reference standard: the one the run will use, from the
 stand file loaded (its [reference] table), and what the records know of it (certificate, due
-date, expired). It reads; the rule itself is the CLI's (`app.procedure.reference`, applied by
-`build_request`): Start refuses a reference standard not on record or past its due date unless
-an override reason is typed, as `run --reference-override`.
+date, expired). It reads and asks; the rule itself is the run service's (app.procedure.service,
+evaluated once per Start): Start refuses a reference standard not on record or past its due
+date unless an override reason is typed, as `run --reference-override`.
 """
 
 from __future__ import annotations
@@ -15,7 +15,6 @@ from typing import Any
 from PySide6.QtWidgets import QInputDialog
 
 from app.gui.field_marks import ERROR
-from app.records.db.errors import RecordsInputError
 
 log = logging.getLogger(__name__)
 
@@ -59,53 +58,21 @@ def describe_reference(config: Any, link: Any = None, today: date | None = None)
     return "<br/>".join(lines)
 
 
-def reference_allows_run(setup: Any, today: date) -> tuple[bool, str | None, str | None]:
-    """Whether Start may go on with the Setup tab's reference standard on `today`, the refusal
-    to show (None when allowed) and the override reason typed (None: none needed). The rule is
-    the CLI's (`app.procedure.reference`, as `build_request` applies it): not on record or
-    past its due date, the refusal is shown and an override reason asked; without one nothing
-    starts and the refusal is marked at the reference standard; a stand-file table that
-    differs from the records' cannot be overridden. Records not open: not checked here (the
-    run still records to its folder), as the CLI."""
-    from app.procedure.reference import ReferenceRefusal, reference_from_records
-    from app.records.db.audit import current_actor
-
-    lab = setup.records.lab
-    marks = setup.field_marks
-    marks.note(setup.reference_label, None)
-    if lab is None:
-        return True, None, None
-
-    def check(reason: str | None) -> None:
-        resolved = reference_from_records(
-            setup.config, lab, override_reason=reason, who=current_actor(), today=today
-        )
-        for note in resolved.notes if resolved.overrides else ():
-            log.warning("%s", note)
-
-    def refuse(refusal: str) -> tuple[bool, str | None, str | None]:
-        marks.note(setup.reference_label, f"Start refused: {refusal}", ERROR)
-        return False, f"Start refused: {refusal}", None
-
-    try:
-        check(None)
-        return True, None, None
-    except ReferenceRefusal as exc:
-        if not exc.overridable:
-            return refuse(str(exc))
-        refusal = str(exc)
-    except RecordsInputError as exc:
-        return refuse(str(exc))
+def ask_override(setup: Any, refusal: str) -> str | None:
+    """Ask the operator for an override reason for the reference standard's `refusal` (the
+    run service's rule, as `run --reference-override`); the reason typed, None when cancelled
+    or blank."""
     reason, ok = QInputDialog.getText(
         setup,
         "Reference standard not usable as on record",
         f"{refusal}.\n\nOverride reason (required to run; recorded with the run, in the "
         "audit trail and on the certificate):",
     )
-    if not ok or not reason.strip():
-        return refuse(refusal)
-    try:
-        check(reason.strip())
-    except (ReferenceRefusal, RecordsInputError) as exc:  # the records changed meanwhile
-        return refuse(str(exc))
-    return True, None, reason.strip()
+    return reason.strip() if ok and reason.strip() else None
+
+
+def mark_refusal(setup: Any, refusal: str) -> str:
+    """Mark Start's refusal at the reference standard; the line to show."""
+    text = f"Start refused: {refusal}"
+    setup.field_marks.note(setup.reference_label, text, ERROR)
+    return text

@@ -48,7 +48,7 @@ from app.procedure import (
     StateChanged,
     WarningRaised,
 )
-from app.procedure.run import RunRequest, start
+from app.procedure.service import PreparedRun, RunService
 from dsp.calibration import Results
 from dsp.multisine import Plan
 from hardware.errors import HardwareError
@@ -236,13 +236,21 @@ class RunTab(QWidget):
         """The running procedure (None when idle)."""
         return self.worker.procedure if self.worker is not None else None
 
-    def begin(self, request: RunRequest, ranges_v: Mapping[str, float], note: str | None) -> bool:
-        """Open the stand and start `request` on a worker; `ranges_v` the input range (V) of
-        each metered channel, `note` a word to show. Whether it started (why not: shown)."""
+    def begin(
+        self,
+        service: RunService,
+        prepared: PreparedRun,
+        ranges_v: Mapping[str, float],
+        note: str | None,
+    ) -> bool:
+        """Open the stand and start the `prepared` run (the run service's) on a worker;
+        `ranges_v` the input range (V) of each metered channel, `note` a word to show. Whether
+        it started (why not: shown)."""
         if self.worker is not None:
             return False
+        request = prepared.request
         try:
-            procedure, stand = start(request)
+            procedure, stand = service.start(prepared)
         except (ValueError, HardwareError) as exc:  # config, plan, missing driver or device
             QMessageBox.warning(self, "Cannot start", f"{type(exc).__name__}: {exc}")
             self.messages.setText(html.escape(f"Cannot start: {exc}"))

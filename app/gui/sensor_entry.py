@@ -28,7 +28,7 @@ from PySide6.QtWidgets import (
 
 from app.gui.field_marks import INFO, WARNING, FieldMarks
 from app.gui.table_items import shown_unit
-from app.procedure.request import DutChoice, resolve_dut, spec_from_sensor
+from app.procedure.request import spec_from_sensor
 from app.records.db.errors import RecordsInputError
 from app.records.db.runs import defaults_of
 from app.stand.dut import DutSpec
@@ -192,13 +192,9 @@ class SerialEntry(QObject):
 
     def fill(self, sensor: Any, how: str = "") -> None:
         """The DUT's settings from its record (exact serial only), resolved as a run resolves
-        them (`app.procedure.request.resolve_dut`); `how` it was identified."""
+        them (the run service's `dut_settings`); `how` it was identified."""
         w = self.setup
-        resolved = resolve_dut(
-            DutChoice(spec=spec_from_sensor(defaults_of(sensor))),
-            w.config.backend,
-            w.config.raw.get("certificate") or {},
-        )
+        resolved = w.service.dut_settings(spec_from_sensor(defaults_of(sensor)))
         self.sensor = sensor
         model = sensor.model
         if resolved.nominal_mv_per_ms2 is not None:

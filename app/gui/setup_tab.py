@@ -37,15 +37,15 @@ from app.gui.sensor_entry import SerialEntry
 from app.gui.table_items import shown_unit
 from app.gui.teds_entry import TedsEntry
 from app.gui.templates import TemplatePicker
+from app.io.vocabulary import Mode
 from app.lines import parse_frequencies
-from app.procedure.modes import MODES
-from app.procedure.preflight import check_preflight
-from app.procedure.request import DutChoice, RunRequest, build_request
+from app.procedure.options import RunOptions, option
+from app.procedure.request import RunRequest
+from app.procedure.service import PlanPreview, PreparedRun, RunService
 from app.stand import config as stand_config
 from app.stand.simulated import CATALOGUE
-from dsp.calibration import ReferenceChain
-from dsp.estimators import ESTIMATORS
-from dsp.multisine import PRESETS, check_lines
+from dsp.estimators import Estimator
+from dsp.multisine import PRESETS
 
 log = logging.getLogger(__name__)
 
@@ -53,7 +53,7 @@ OPTIMISING = "optimising the multisine phases ..."  # progress shown while the p
 
 
 @dataclass
-class RunOptions:
+class WindowOptions:
     """How this window runs, from its command line: the runs root, paced in real time or not,
     the simulated stand's seed and faults (demonstrations and tests)."""
 
@@ -92,14 +92,16 @@ class SetupTab(QWidget):
         stand_file: Path | None,
         records: Any,
         settings: QSettings,
-        options: RunOptions,
+        options: WindowOptions,
     ) -> None:
         super().__init__()
         self.config, self.stand_file, self.records = config, stand_file, records
         self.settings, self.options = settings, options
         self.running = False  # a run is going: Start stays disabled
         self.last_request: RunRequest | None = None  # the settings of the run just made
-        self.plans = PlanCache()
+        self.service = RunService(stand_file, config=config)  # the stand file, loaded once
+        self.preview: PlanPreview | None = None  # the plan that will run, as last checked
+        self.plans = PlanCache(RunService.unit_plan, self.service.preset_keys())
         layout = QHBoxLayout(self)
         layout.addWidget(self._stand_box(), 1)
         layout.addWidget(self._plan_box(), 2)
@@ -178,9 +180,9 @@ class SetupTab(QWidget):
         self.max_time = QSpinBox(maximum=100_000, suffix=" s at most")
         self.max_time.setSpecialValueText("no time bound (s)")
         self.estimator = QComboBox()
-        self.estimator.addItems(list(ESTIMATORS))
+        self.estimator.addItems(list(option("estimator").choices))
         self.mode = QComboBox()
-        self.mode.addItems(list(MODES))
+        self.mode.addItems(list(option("mode").choices))
         self.templates = TemplatePicker(self, self.records)
         template_row = QHBoxLayout()
         template_row.addWidget(self.templates.combo, 1)
@@ -205,7 +207,29 @@ class SetupTab(QWidget):
         self.start_button = QPushButton("Start  (Ctrl+R)")
         self.start_button.clicked.connect(self.start_requested)
         pform.addRow(self.start_button)
+        self._bind_help()
         return plan
+
+    def _bind_help(self) -> None:
+        """Each field's tooltip from the run options table (app.procedure.options): the same
+        help, unit and bounds as `accelcal run --help` (a field's own tooltip stays)."""
+        bindings = {
+            "dut": self.dut,
+            "dut_id": self.dut_id,
+            "nominal_mv_per_ms2": self.nominal,
+            "tolerance_percent": self.tolerance,
+            "preset": self.preset,
+            "frequencies_hz": self.frequencies,
+            "level_ms2": self.level,
+            "periods": self.periods,
+            "target_type_a": self.target,
+            "max_acquisition_s": self.max_time,
+            "estimator": self.estimator,
+            "mode": self.mode,
+        }
+        for name, widget in bindings.items():
+            if not widget.toolTip():
+                widget.setToolTip(option(name).full_help())
 
     # --- the plan fields ----------------------------------------------------------------
 
@@ -258,58 +282,55 @@ class SetupTab(QWidget):
         text = self.frequencies.text().strip()
         return tuple(parse_frequencies(text)) if text else None
 
-    def dut_choice(
-        self, *, records: bool = False, reference_override: str | None = None, today: Any = None
-    ) -> DutChoice:
-        """How the fields name the DUT: the catalogue DUT (simulated stand), the serial and,
-        when its look-up found it on record, its specification; what the operator states over
-        the record. `records`: the reference standard from the open records (Start), with the
-        override reason typed and the window's date."""
-        return DutChoice(
-            lab=self.records.lab if records else None,
-            reference_override=reference_override,
-            today=today,
+    def run_options(self, reference_override: str | None = None) -> RunOptions:
+        """The run the fields describe as the run service's options (the same table as
+        `accelcal run`'s): the catalogue DUT (simulated stand), the serial and, when its
+        look-up found it on record, its specification; what the operator states over the
+        record. The records in use are the window's own (`prepare` passes them). ValueError
+        names a field that does not parse."""
+        options = self.options
+        return RunOptions(
             stand_file=self.stand_file,
             dut=self.dut.currentText(),
             dut_id=self.dut_id.text().strip() or None,
-            spec=self.serial_entry.spec,
-            seed=self.options.seed,
+            dut_spec=self.serial_entry.spec,
+            technician=self.technician.text().strip() or None,
             nominal_mv_per_ms2=self.nominal.value() or None,
             tolerance_percent=self.tolerance.value() or None,
-            level_ms2=self.level.value(),
             preset=self.preset.currentText(),
-        )
-
-    def request_and_notes(self, **reference: Any) -> tuple[RunRequest, tuple[str, ...]]:
-        """The run the fields describe, built as the CLI builds it (`build_request`: the DUT
-        resolved into its DutSpec), with the phases already optimised off this thread (the
-        same phases the CLI computes: they do not depend on the level); notes to show. The
-        reference standard's due date is the window's check (it asks an override reason).
-        Refuses (a Refusal naming the field) what cannot be resolved. `reference`: Start's
-        `dut_choice` options (records, reference_override, today)."""
-        preset = PRESETS[self.preset.currentText()]
-        custom = self.custom_lines()
-        lines = tuple(custom if custom is not None else preset.nominal_frequencies_hz)
-        options = self.options
-        request, notes = build_request(
-            self.dut_choice(**reference),
-            frequencies_hz=custom,
+            frequencies_hz=self.custom_lines(),
+            level_ms2=self.level.value(),
             periods=self.periods.value(),
             target_type_a=self.target.value() / 100 or None,
             max_acquisition_s=float(self.max_time.value()) or None,
-            estimator=self.estimator.currentText(),
-            mode=self.mode.currentText(),
+            estimator=Estimator(self.estimator.currentText()),
+            mode=Mode(self.mode.currentText()),
+            seed=options.seed,
             paced=options.paced,
             faults=options.faults,
             out=options.out,
-            phases_rad=self.plans.phases(preset.name, lines),
-            technician=self.technician.text().strip() or None,
+            db=self.records.url,
+            records=False,  # the window's records, when open, come as `lab` (prepare)
+            reference_override=reference_override,
         )
-        return request, notes
+
+    def prepare(self, *, reference_override: str | None = None, today: Any = None) -> PreparedRun:
+        """The run the fields describe, resolved and gated by the run service as the CLI's:
+        with the window's records open, their quick check and the reference standard's rule
+        (`reference_override`: the reason typed; `today`: the window's date); the phases of
+        the plan the preview checked. Refuses (a Refusal naming the field or the records)."""
+        options = self.run_options(reference_override)
+        return self.service.prepare(
+            options,
+            lab=self.records.lab,
+            today=today,
+            unit_plan=self.plans.ready(self.service.phase_key(options)),
+        )
 
     def request(self) -> RunRequest:
-        """The run the fields describe (see `request_and_notes`)."""
-        return self.request_and_notes()[0]
+        """The settings the fields describe (DUT resolved, no records read): what a template
+        saves."""
+        return self.service.draft(self.run_options(), stand_plan=False)
 
     # --- the stand ----------------------------------------------------------------------
 
@@ -329,6 +350,7 @@ class SetupTab(QWidget):
             self.said.emit(str(exc))
             return False
         self.config, self.stand_file = config, path
+        self.service = RunService(path, config=config)
         self.stand_label.setText(f"{config.source} ({config.backend})")
         self.show_reference()
         self.settings.setValue("stand_file", str(path or ""))
@@ -339,37 +361,27 @@ class SetupTab(QWidget):
         """The reference standard the run will use: the stand file's, with its record."""
         self.reference_label.setText(describe_reference(self.config, self.records))
 
-    def config_chain(self) -> ReferenceChain | None:
-        """The stand file's reference chain, None when it has no certificate table (the
-        simulated stand's chain comes with the stand when the run opens it)."""
-        try:
-            return self.config.reference_chain()
-        except stand_config.ConfigError:
-            return None
-
     # --- the checks ---------------------------------------------------------------------
 
     def validate(self) -> list[str]:
-        """Plan checks and stand limits beside the fields; Start only when nothing fails."""
+        """The preview of the plan that will run (the run service's: the stand file's [plan]
+        applied) and its checks beside the fields; Start only when nothing fails."""
         problems: list[str] = []
         warnings: list[str] = []
         pending = ""  # work in progress (not an error): Start waits for it
-        preset = PRESETS[self.preset.currentText()]
+        self.preview = None
+        future = None
         try:
-            custom = self.custom_lines()
-        except ValueError as exc:
-            custom = None
-            problems.append(f"lines: {exc}")
-        freqs = tuple(custom if custom is not None else preset.nominal_frequencies_hz)
-        check = check_lines(
-            freqs, preset.sample_rate_hz, preset.period_samples, preset.reference_frequency_hz
-        )
-        problems += list(check.errors)
-        warnings += [w for w in check.warnings if "mains" in w]
-        # a new line list is optimised off this thread, once it passes the line checks
-        future = self.plans.get(preset.name, freqs) if problems else None
-        if not problems:
-            future = self.plans.ask(preset.name, freqs)
+            options = self.run_options()
+            key = self.service.phase_key(options)
+            check = self.service.line_check(options)  # at once, before any optimisation
+        except ValueError as exc:  # the lines typed, or a DUT that cannot be resolved
+            problems.append(f"lines: {exc}" if "lines" not in str(exc) else str(exc))
+        else:
+            problems += list(check.errors)
+            warnings += [w for w in check.warnings if "mains" in w]
+            if not problems:  # a new line list is optimised off this thread
+                future = self.plans.ask(key)
         if future is None:
             self.peaks.setText("")
         elif not future.done():
@@ -377,25 +389,14 @@ class SetupTab(QWidget):
             self.peaks.setText("")
             QTimer.singleShot(200, self, self.validate)  # look again when it may be ready
         else:
-            plan = future.result()  # optimised at 1 m/s^2 per line: scaled to the level
-            report = check_preflight(  # the same preflight as the CLI and the run itself
-                plan,
-                self.config,
-                self.config_chain(),
-                self.nominal.value() or None,
-                level_scale=self.level.value(),
-            )
-            peaks, limits = report.peaks, self.config.limits
-            self.peaks.setText(
-                f"acceleration {peaks.acceleration_ms2:.1f} m/s² (limit "
-                f"{limits.acceleration_peak_ms2:g}), velocity "
-                f"{1e3 * peaks.velocity_m_per_s:.0f} mm/s (limit "
-                f"{1e3 * limits.velocity_peak_m_per_s:g}), displacement "
-                f"{1e3 * peaks.displacement_peak_to_peak_m:.2f} mm p-p (limit "
-                f"{1e3 * limits.displacement_peak_to_peak_m:g}); crest factor "
-                f"{report.crest_factor:.2f}"
-            )
-            problems += list(report.problems)
+            error = future.exception()
+            if error is not None:
+                problems += list(getattr(error, "problems", None) or [str(error)])
+                self.peaks.setText("")
+            else:
+                self.preview = self.service.preview(options, future.result())
+                problems += list(self.preview.problems)
+                self.peaks.setText(describe_preview(self.preview, self.config.limits))
         text = "".join(f"<div style='color:#c0392b'>✖ {shown_unit(p)}</div>" for p in problems)
         if pending:
             text += f"<div style='color:#2e4053'>⏳ {pending}</div>"
@@ -420,3 +421,21 @@ class SetupTab(QWidget):
         """The plan and TEDS worker pools end (the window closes)."""
         self.plans.close()
         self.teds.close()
+
+
+def describe_preview(preview: PlanPreview, limits: Any) -> str:
+    """The previewed plan in one paragraph: its lines (Hz) and its predicted peaks against the
+    stand's limits (m/s^2, mm/s, mm peak-to-peak) and its crest factor."""
+    report, lines = preview.report, preview.lines_hz
+    if report is None or not lines:
+        return ""
+    peaks = report.peaks
+    return (
+        f"{len(lines)} lines, {min(lines):g} to {max(lines):g} Hz; acceleration "
+        f"{peaks.acceleration_ms2:.1f} m/s² (limit {limits.acceleration_peak_ms2:g}), velocity "
+        f"{1e3 * peaks.velocity_m_per_s:.0f} mm/s (limit "
+        f"{1e3 * limits.velocity_peak_m_per_s:g}), displacement "
+        f"{1e3 * peaks.displacement_peak_to_peak_m:.2f} mm p-p (limit "
+        f"{1e3 * limits.displacement_peak_to_peak_m:g}); crest factor "
+        f"{report.crest_factor:.2f}"
+    )

@@ -15,7 +15,7 @@ from PySide6.QtWidgets import QLabel, QSizePolicy, QVBoxLayout, QWidget
 
 from app.gui.table_items import shown_unit
 from app.procedure.verdict import FAIL, INDETERMINATE, PASS
-from app.records.run_record import RunRecord
+from app.records.run_record import RunRecord, verdict_stated
 from dsp.conformity import DECISION_RULE_SHORT
 
 COLOURS: dict[str, str] = {PASS: "#1e8449", FAIL: "#c0392b", INDETERMINATE: "#b9770e"}
@@ -29,18 +29,11 @@ def verdict_of(
     when neither states one (an aborted run, a run from before verdicts)."""
     verdict = getattr(results, "verdict", None)
     reasons = list(getattr(results, "verdict_reasons", ()) or ())
-    if verdict is None and isinstance(record, RunRecord):
-        verdict = record.verdict or (record.results or {}).get("verdict")
-        reasons = list(
-            record.verdict_reasons or (record.results or {}).get("verdict_reasons") or ()
+    if verdict is None and record is not None:  # as the records read it
+        stated, stored = (
+            record.stated_verdict if isinstance(record, RunRecord) else verdict_stated(record)
         )
-    elif verdict is None and isinstance(record, Mapping):
-        verdict = record.get("verdict") or (record.get("results") or {}).get("verdict")
-        reasons = list(
-            record.get("verdict_reasons")
-            or (record.get("results") or {}).get("verdict_reasons")
-            or ()
-        )
+        verdict, reasons = stated, list(stored)
     return (str(verdict) if verdict else NOT_ASSESSED), reasons
 
 

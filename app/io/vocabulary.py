@@ -1,6 +1,7 @@
 """The words stored files spell, each defined once as a StrEnum (members are the strings
 themselves, so HDF5 attributes, results.json and the database hold the same text as before):
-how a run ended (`RunStatus`) and its excitation (`Mode`). Importable light (no numpy, h5py).
+how a run ended (`RunStatus`), its excitation (`Mode`) and the stand's acquisition
+(`Backend`). Importable light (no numpy, h5py).
 
 Here, at the bottom of app/, because the recording (app.io.hdf5), the stored stand responses
 (app.stand.response), the run record and folder (app.records) and the procedure all use them.
@@ -24,3 +25,11 @@ class Mode(StrEnum):
 
     MULTISINE = "multisine"
     STEPPED_SINE = "stepped-sine"
+
+
+class Backend(StrEnum):
+    """The data acquisition behind a stand: the built-in simulator or NI-DAQmx hardware
+    (a stand file's [daq] backend)."""
+
+    SIM = "sim"
+    NIDAQMX = "nidaqmx"

@@ -190,17 +190,16 @@ def _compare(
     task: Task, record: RunRecord, recording: Recording, table: CorrectedTable
 ) -> RunImpact:
     """Old (stored table) and new (corrected table) analyses of one verified recording."""
-    settings = record.settings
-    estimator = str(settings.get("estimator") or "periodic")
-    probability = float(settings.get("probability") or 0.9545)
-    rule = str(settings.get("rule") or "gum")
-    tolerance = settings.get("tolerance_percent")
+    settings = record.analysis
     catalogue = record.dut.catalogue if record.dut else None
     tolerances = tolerances_for(
-        catalogue, recording.plan.reference_frequency_hz, float(tolerance) if tolerance else None
+        catalogue, recording.plan.reference_frequency_hz, settings.tolerance_percent
     )
     options: dict[str, Any] = dict(
-        estimator=estimator, probability=probability, rule=rule, tolerances=tolerances
+        estimator=settings.estimator,
+        probability=settings.probability,
+        rule=settings.rule,
+        tolerances=tolerances,
     )
     old = analyze(recording, **options).results
     new = analyze(dataclasses.replace(recording, chain=table.chain(recording.chain)), **options)
@@ -208,7 +207,7 @@ def _compare(
 
 
 def _impact(task: Task, record: RunRecord, old: Results, new: Results) -> RunImpact:
-    stored = (record.results or {}).get("reference") or {}
+    stored = record.reference_result
     u_old = old.reference.expanded_uncertainty_mv_per_ms2
     s_old, s_new = old.reference.sensitivity_mv_per_ms2, new.reference.sensitivity_mv_per_ms2
     worst, worst_f = None, None
@@ -222,7 +221,7 @@ def _impact(task: Task, record: RunRecord, old: Results, new: Results) -> RunImp
         task,
         True,
         reference_frequency_hz=old.reference.frequency_hz,
-        stored_sensitivity=stored.get("sensitivity_mv_per_ms2"),
+        stored_sensitivity=stored.sensitivity_mv_per_ms2 if stored is not None else None,
         old_sensitivity=s_old,
         new_sensitivity=s_new,
         expanded_uncertainty=u_old,

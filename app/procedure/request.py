@@ -9,6 +9,7 @@ Units in the names: levels in m/s^2 peak per line, sensitivities in mV/(m/s^2), 
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -17,26 +18,23 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from app.errors import Refusal
+from app.io.vocabulary import Backend, Mode
 from app.procedure.errors import PreflightError
-from app.procedure.modes import MODE_MULTISINE
 from app.procedure.reference import (
     ReferenceRefusal,
     ResolvedReference,
     audit_overrides,
     open_records,
-    reference_budget,
     reference_from_records,
     resolve_reference,
-    table_phases,
 )
 from app.records.run_record import DutIdentity, Override, technician_name
 from app.stand.dut import DutSpec, Tolerances, spec_from_record, spec_from_stand, spec_from_teds
-from app.stand.response import ResponseStore
-from app.stand.simulated import CATALOGUE, catalogue_spec, plan_preset_for
-from dsp.estimators import DEFAULT_ESTIMATOR
-from dsp.multisine import PRESETS, Plan, preset_plan
+from app.stand.simulated import CATALOGUE, catalogue_spec
+from dsp.estimators import DEFAULT_ESTIMATOR, Estimator
+from dsp.multisine import PRESETS
+from dsp.profiles import Profile
 from dsp.spectral import MIN_PERIODS
-from dsp.uncertainty import Budget
 
 if TYPE_CHECKING:
     from app.procedure.settings import RunSettings
@@ -60,6 +58,7 @@ __all__ = [
     "check_request",
     "resolve_dut",
     "resolve_reference",
+    "resolve_request",
     "spec_from_sensor",
 ]
 
@@ -113,8 +112,10 @@ class RunIdentity:
 
 @dataclass(frozen=True)
 class RunRequest:
-    """What the operator asked for (units in the names); `dut_spec` is the DUT's specification
-    (None: the simulated catalogue DUT `dut` on the simulated stand, else an unknown DUT)."""
+    """What the operator asked for, resolved (units in the names): a plain value, it opens and
+    reads nothing (the run service, app.procedure.service, loads the stand file and the
+    records once and hands their values on). `dut_spec` is the DUT's specification (None: the
+    simulated catalogue DUT `dut` on the simulated stand, else an unknown DUT)."""
 
     stand_file: Path | None = None
     dut: str = "piezo"
@@ -125,8 +126,8 @@ class RunRequest:
     periods: int = 8
     target_type_a: float | None = None
     max_acquisition_s: float | None = None
-    estimator: str = DEFAULT_ESTIMATOR
-    mode: str = MODE_MULTISINE
+    estimator: Estimator = DEFAULT_ESTIMATOR
+    mode: Mode = Mode.MULTISINE
     tolerance_percent: float | None = None
     nominal_mv_per_ms2: float | None = None
     seed: int = 0
@@ -144,7 +145,7 @@ class RunRequest:
     sample_rate_hz: float | None = None
     period_samples: int | None = None
     reference_frequency_hz: float | None = None
-    profile: str = "acceleration"  # dsp.profiles.Profile
+    profile: Profile = Profile.ACCELERATION
     corner_hz: float | None = None
     exciter: str | None = None  # simulated stand: a name of its exciter catalogue
     fade_in_s: float | None = None  # lpm: the fade-in before the record (None: 2 cycles)
@@ -154,37 +155,12 @@ class RunRequest:
     overrides: tuple[Override, ...] = ()  # checks gone past with a stated reason
     technician: str | None = None  # who runs it (run --technician, the GUI's Technician)
 
-    def stand_config(self) -> StandConfig:
-        """The stand file (ConfigError when unusable) with the reference standard's
-        certificate and table from the records when they hold it."""
-        from app.stand import config as stand_config
-
-        config = stand_config.load(self.stand_file)
-        ref = self.reference
-        if ref is None:
-            return config
-        return config.with_reference_certificate(
-            ref.certificate_number,
-            ref.calibration_date.isoformat(),
-            ref.frequencies_hz,
-            ref.sensitivity_mv_per_ms2,
-            table_phases(ref),
-            due_date=ref.due_date.isoformat(),
-        )
-
-    def budget(self, budget: Budget) -> Budget:
-        """The stand's type B `budget` with the reference standard's calibration uncertainty
-        from the records when the run takes its table from them (`reference_budget`)."""
-        if self.reference is None:
-            return budget
-        return reference_budget(budget, self.reference)
-
-    def spec(self, backend: str) -> DutSpec:
+    def spec(self, backend: Backend) -> DutSpec:
         """The DUT's specification on a stand of `backend`, with what the request states
         (serial, nominal, tolerance, mass) over it."""
         base = self.dut_spec
         if base is None:
-            base = catalogue_spec(self.dut) if backend == "sim" else DutSpec()
+            base = catalogue_spec(self.dut) if backend == Backend.SIM else DutSpec()
         return base.with_options(
             serial=self.dut_id,
             nominal_mv_per_ms2=self.nominal_mv_per_ms2,
@@ -192,71 +168,27 @@ class RunRequest:
             mass_g=self.dut_mass_g,
         )
 
-    def tolerances(self, backend: str, reference_frequency_hz: float) -> Tolerances:
+    def tolerances(self, backend: Backend, reference_frequency_hz: float) -> Tolerances:
         """What the verdict checks, from the DUT's specification (see `spec`)."""
         return self.spec(backend).tolerances(reference_frequency_hz)
 
-    def mass_g(self, backend: str) -> float | None:
+    def mass_g(self, backend: Backend) -> float | None:
         """The DUT mass the run states (g): given, else the DUT spec's, else (simulated stand)
         the catalogue DUT's; on real hardware without one, not stated."""
         mass = self.spec(backend).mass_g
-        if mass is None and backend == "sim":
+        if mass is None and backend == Backend.SIM:
             return catalogue_spec(self.dut).mass_g
         return mass
 
-    def identity(self, backend: str) -> RunIdentity:
+    def identity(self, backend: Backend) -> RunIdentity:
         """The run's identity as config.json and the run record store it."""
         return RunIdentity(
             DutIdentity(
-                self.dut if backend == "sim" else None, self.dut_id, self.nominal_mv_per_ms2
+                self.dut if backend == Backend.SIM else None, self.dut_id, self.nominal_mv_per_ms2
             ),
             self.level_ms2,
             overrides=self.overrides,
             technician=technician_name(self.technician),
-        )
-
-    def store(self) -> ResponseStore | None:
-        """The stored-response store the run reads and refreshes, or None (--fresh-response)."""
-        if not self.stored_response:
-            return None
-        if self.response_store is not None:
-            return ResponseStore(self.response_store)
-        return ResponseStore.default()
-
-    def plan(self, stroke_peak_to_peak_m: float | None = None) -> Plan:
-        """The plan: the preset asked for, else the DUT's, with any custom lines (Hz), rate,
-        period and profile (app.procedure.planning), clipped and checked by the stroke (m)."""
-        from app.procedure.planning import PlanRequest, build_plan
-
-        spec_preset = self.dut_spec.preset if self.dut_spec is not None else None
-        name = self.preset or spec_preset or plan_preset_for(self.dut)
-        custom = (
-            self.frequencies_hz,
-            self.sample_rate_hz,
-            self.period_samples,
-            self.reference_frequency_hz,
-            self.corner_hz,
-        )
-        if (
-            all(v is None for v in custom)
-            and self.phases_rad is None
-            and self.profile == "acceleration"
-            and stroke_peak_to_peak_m is None
-        ):
-            return preset_plan(name, level_ms2=self.level_ms2)
-        return build_plan(
-            PlanRequest(
-                preset=name,
-                frequencies_hz=self.frequencies_hz,
-                sample_rate_hz=self.sample_rate_hz,
-                period_samples=self.period_samples,
-                level_ms2=self.level_ms2,
-                reference_frequency_hz=self.reference_frequency_hz,
-                profile=self.profile,
-                corner_hz=self.corner_hz,
-            ),
-            stroke_peak_to_peak_m=stroke_peak_to_peak_m,
-            phases_rad=self.phases_rad,
         )
 
     @property
@@ -264,7 +196,7 @@ class RunRequest:
         """True when the plan is more than a preset at one level (then the stroke clips it)."""
         return (
             self.exciter is not None
-            or self.profile != "acceleration"
+            or self.profile != Profile.ACCELERATION
             or any(
                 v is not None
                 for v in (
@@ -276,8 +208,8 @@ class RunRequest:
             )
         )
 
-    def settings(self, backend: str) -> RunSettings:
-        """How to run on a stand of `backend` ("sim" or "nidaqmx": it decides the DUT mass)."""
+    def settings(self, backend: Backend) -> RunSettings:
+        """How to run on a stand of `backend` (it decides the DUT mass)."""
         from app.procedure.settings import RunSettings
 
         return RunSettings(
@@ -404,7 +336,7 @@ def spec_from_sensor(sensor: SensorDefaults) -> DutSpec:
     )
 
 
-def resolve_dut(choice: DutChoice, backend: str, certificate: Mapping[str, Any]) -> ResolvedDut:
+def resolve_dut(choice: DutChoice, backend: Backend, certificate: Mapping[str, Any]) -> ResolvedDut:
     """The DUT `choice` names on a stand of `backend` whose stand file's [certificate] table is
     `certificate`: from the records (a sensor, or the TEDS identity on record), else the TEDS,
     else the simulated catalogue (simulated stand) or the stand file; what the operator gave
@@ -422,7 +354,9 @@ def resolve_dut(choice: DutChoice, backend: str, certificate: Mapping[str, Any])
             raise RequestError(f"--dut-id: {choice.dut_id!r} differs from --sensor {spec.serial!r}")
         notes.append(f"sensor {spec.serial}: {spec.description}")
     if spec is None:
-        spec = catalogue_spec(choice.dut) if backend == "sim" else spec_from_stand(certificate)
+        spec = (
+            catalogue_spec(choice.dut) if backend == Backend.SIM else spec_from_stand(certificate)
+        )
     nominal = choice.nominal_mv_per_ms2 or (spec.nominal_mv_per_ms2 if known else None)
     tolerance = choice.tolerance_percent
     if tolerance is None and known:
@@ -439,17 +373,30 @@ def resolve_dut(choice: DutChoice, backend: str, certificate: Mapping[str, Any])
     )
 
 
-def build_request(choice: DutChoice, **run: Any) -> tuple[RunRequest, tuple[str, ...]]:
-    """The run request of `choice` and the run's other settings `run` (RunRequest's fields:
-    periods, estimator, mode, out, faults...), and notes for the operator. Refuses (a Refusal)
-    a DUT that cannot be resolved; with the records in use, a reference standard not on record
-    or past its due date without an override reason, or one whose stand-file table differs
-    from the records'; a stand file that cannot be read (ConfigError). An override granted is
-    in the request (for results.json) and in the records' audit trail."""
-    from app.records.db.audit import current_actor
+def build_request(
+    choice: DutChoice, *, config: StandConfig | None = None, **run: Any
+) -> tuple[RunRequest, tuple[str, ...]]:
+    """`resolve_request` of `choice` on the stand file it names (loaded here unless `config`
+    is given) and the run's other settings `run` (RunRequest's fields). The run service
+    (app.procedure.service) calls `resolve_request` itself with typed values."""
     from app.stand import config as stand_config
 
-    config = stand_config.load(choice.stand_file)
+    if config is None:
+        config = stand_config.load(choice.stand_file)
+    return resolve_request(choice, config, RunRequest(**run))
+
+
+def resolve_request(
+    choice: DutChoice, config: StandConfig, run: RunRequest
+) -> tuple[RunRequest, tuple[str, ...]]:
+    """The run request of `choice` on the stand of `config` (loaded once by the caller) with
+    the run's other settings from `run` (periods, estimator, mode, out, faults...), and notes
+    for the operator. Refuses (a Refusal) a DUT that cannot be resolved; with the records in
+    use, a reference standard not on record or past its due date without an override reason,
+    or one whose stand-file table differs from the records'. An override granted is in the
+    request (for results.json) and in the records' audit trail."""
+    from app.records.db.audit import current_actor
+
     resolved = resolve_dut(choice, config.backend, config.raw.get("certificate") or {})
     notes = list(resolved.notes)
     reference, lab = ResolvedReference(), None
@@ -466,7 +413,8 @@ def build_request(choice: DutChoice, **run: Any) -> tuple[RunRequest, tuple[str,
                 today=choice.today,
             )
             notes += reference.notes
-    request = RunRequest(
+    request = dataclasses.replace(
+        run,
         stand_file=choice.stand_file,
         dut=choice.dut,
         dut_id=resolved.dut_id,
@@ -479,7 +427,6 @@ def build_request(choice: DutChoice, **run: Any) -> tuple[RunRequest, tuple[str,
         dut_spec=resolved.spec,
         reference=reference.table,
         overrides=reference.overrides,
-        **run,
     )
     if lab is not None and reference.overrides:
         audit_overrides(lab, config, reference.overrides)

@@ -6,9 +6,12 @@ from __future__ import annotations
 import dataclasses
 import signal
 import threading
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
+from app.io.vocabulary import Backend
 from app.procedure import Finished, Listener, Procedure
+from app.procedure.planning import PlanRequest, build_plan
+from app.procedure.reference import reference_budget, table_phases
 from app.procedure.request import (
     DutChoice,
     RequestError,
@@ -18,9 +21,16 @@ from app.procedure.request import (
     check_request,
 )
 from app.records.run_folder import RunFolder
+from app.stand import config as stand_config
 from app.stand.config import StandConfig, StandPlan
 from app.stand.open import open_stand
-from app.stand.simulated import EXCITERS, exciter_stroke_m
+from app.stand.response import ResponseStore
+from app.stand.simulated import EXCITERS, exciter_stroke_m, plan_preset_for
+from dsp.multisine import Plan, preset_plan
+from dsp.profiles import Profile
+
+if TYPE_CHECKING:
+    from app.records.db.references import ReferenceTable
 
 __all__ = [
     "DutChoice",
@@ -29,22 +39,38 @@ __all__ = [
     "build_request",
     "check_request",
     "execute",
+    "plan_request",
     "prepare",
+    "request_plan",
+    "response_store",
     "start",
+    "with_reference",
 ]
 
 
-def prepare(request: RunRequest, listener: Listener | None = None) -> tuple[Procedure, Any]:
-    """Load the stand, build the plan and check it before anything moves (PreflightError,
-    ConfigError, PlanError on refusal; nothing is created then). Returns the procedure and the
-    stand (to close)."""
+def prepare(
+    request: RunRequest,
+    listener: Listener | None = None,
+    *,
+    config: StandConfig | None = None,
+) -> tuple[Procedure, Any]:
+    """Open the stand, build the plan and check it before anything moves (PreflightError,
+    ConfigError, PlanError on refusal; nothing is created then). `config`: the stand file as
+    the run service loaded it (None: loaded here from `request.stand_file`). Returns the
+    procedure and the stand (to close)."""
     check_request(request)
+    if config is None:
+        config = stand_config.load(request.stand_file)
     # the stand file, with the reference standard's table from the records when they hold it
-    config = with_exciter(request.stand_config(), request.exciter)
+    config = with_exciter(with_reference(config, request.reference), request.exciter)
     request = with_stand_plan(request, config.plan)
-    plan = request.plan(  # a custom plan is clipped and checked by the stroke before it opens
-        config.limits.displacement_peak_to_peak_m if request.custom_plan else None
+    plan = request_plan(  # a custom plan is clipped and checked by the stroke before it opens
+        request, config.limits.displacement_peak_to_peak_m if request.custom_plan else None
     )
+    chain, budget = None, None
+    if request.reference is not None:  # the records' table, not the simulator's own
+        chain = config.reference_chain()
+        budget = reference_budget(config.budget, request.reference)  # and its uncertainty
     stand = open_stand(
         config,
         dut=request.dut,
@@ -53,11 +79,10 @@ def prepare(request: RunRequest, listener: Listener | None = None) -> tuple[Proc
         faults=request.faults,
         dut_mass_g=request.dut_mass_g,
         exciter=request.exciter,
+        chain=chain,
+        budget=budget,
     )
     try:
-        if request.reference is not None:  # the records' table, not the simulator's own
-            stand.chain = config.reference_chain()
-            stand.budget = request.budget(stand.budget)  # and its uncertainty
         procedure = Procedure(
             stand,
             plan,
@@ -65,7 +90,7 @@ def prepare(request: RunRequest, listener: Listener | None = None) -> tuple[Proc
             None,
             listener,
             identity=request.identity(config.backend),
-            response_store=request.store(),
+            response_store=response_store(request),
             tolerances=request.tolerances(config.backend, plan.reference_frequency_hz),
         )
         procedure.preflight()
@@ -75,6 +100,68 @@ def prepare(request: RunRequest, listener: Listener | None = None) -> tuple[Proc
     return procedure, stand
 
 
+def with_reference(config: StandConfig, reference: ReferenceTable | None) -> StandConfig:
+    """The stand configuration with the reference standard's certificate and table from the
+    records when the run takes them from there (`reference`), else `config` itself."""
+    if reference is None:
+        return config
+    return config.with_reference_certificate(
+        reference.certificate_number,
+        reference.calibration_date.isoformat(),
+        reference.frequencies_hz,
+        reference.sensitivity_mv_per_ms2,
+        table_phases(reference),
+        due_date=reference.due_date.isoformat(),
+    )
+
+
+def response_store(request: RunRequest) -> ResponseStore | None:
+    """The stored-response store the run reads and refreshes, or None (--fresh-response)."""
+    if not request.stored_response:
+        return None
+    if request.response_store is not None:
+        return ResponseStore(request.response_store)
+    return ResponseStore.default()
+
+
+def plan_request(request: RunRequest, level_ms2: float | None = None) -> PlanRequest:
+    """What the request's plan is: the preset asked for, else the DUT's, with any custom lines
+    (Hz), rate, period, profile and corner; at `level_ms2` (None: the request's level)."""
+    spec_preset = request.dut_spec.preset if request.dut_spec is not None else None
+    return PlanRequest(
+        preset=request.preset or spec_preset or plan_preset_for(request.dut),
+        frequencies_hz=request.frequencies_hz,
+        sample_rate_hz=request.sample_rate_hz,
+        period_samples=request.period_samples,
+        level_ms2=request.level_ms2 if level_ms2 is None else level_ms2,
+        reference_frequency_hz=request.reference_frequency_hz,
+        profile=request.profile,
+        corner_hz=request.corner_hz,
+    )
+
+
+def request_plan(request: RunRequest, stroke_peak_to_peak_m: float | None = None) -> Plan:
+    """The request's plan (`plan_request`; app.procedure.planning), clipped and checked by the
+    stroke (m), with the request's phases (rad) when it carries them for these lines."""
+    wanted = plan_request(request)
+    phases = request.phases_rad
+    custom = (
+        request.frequencies_hz,
+        request.sample_rate_hz,
+        request.period_samples,
+        request.reference_frequency_hz,
+        request.corner_hz,
+    )
+    if (
+        all(v is None for v in custom)
+        and phases is None
+        and request.profile == Profile.ACCELERATION
+        and stroke_peak_to_peak_m is None
+    ):
+        return preset_plan(wanted.preset, level_ms2=request.level_ms2)
+    return build_plan(wanted, stroke_peak_to_peak_m=stroke_peak_to_peak_m, phases_rad=phases)
+
+
 def with_stand_plan(request: RunRequest, plan: StandPlan) -> RunRequest:
     """The request with the stand file's [plan] where the request states nothing (its own
     options win; the profile when the request keeps the default, acceleration)."""
@@ -82,7 +169,7 @@ def with_stand_plan(request: RunRequest, plan: StandPlan) -> RunRequest:
     for name in ("frequencies_hz", "sample_rate_hz", "period_samples", "reference_frequency_hz"):
         if getattr(request, name) is None and getattr(plan, name) is not None:
             changes[name] = getattr(plan, name)
-    if request.profile == "acceleration" and plan.profile is not None:
+    if request.profile == Profile.ACCELERATION and plan.profile is not None:
         changes["profile"] = plan.profile
     if request.corner_hz is None and plan.corner_hz is not None:
         changes["corner_hz"] = plan.corner_hz
@@ -94,7 +181,7 @@ def with_exciter(config: StandConfig, exciter: str | None) -> StandConfig:
     limit (RequestError: unknown, or not a simulated stand)."""
     if exciter is None:
         return config
-    if config.backend != "sim":
+    if config.backend != Backend.SIM:
         raise RequestError("--exciter: only the simulated stand has an exciter catalogue")
     if exciter not in EXCITERS:
         raise RequestError(f"--exciter: {exciter!r} is not one of {', '.join(EXCITERS)}")
@@ -104,10 +191,12 @@ def with_exciter(config: StandConfig, exciter: str | None) -> StandConfig:
     return dataclasses.replace(config, limits=limits)
 
 
-def start(request: RunRequest, listener: Listener | None = None) -> tuple[Procedure, Any]:
+def start(
+    request: RunRequest, listener: Listener | None = None, *, config: StandConfig | None = None
+) -> tuple[Procedure, Any]:
     """Prepare a run and give it its folder: the procedure (to `run()` on any thread, to
     `abort()` or `emergency_stop()` from another) and the stand (to close afterwards)."""
-    procedure, stand = prepare(request, listener)
+    procedure, stand = prepare(request, listener, config=config)
     try:
         procedure.folder = RunFolder.create(request.out, request.dut_id or request.dut)
         procedure.folder.records_chain_head = request.records_chain_head
@@ -117,13 +206,15 @@ def start(request: RunRequest, listener: Listener | None = None) -> tuple[Proced
     return procedure, stand
 
 
-def execute(request: RunRequest, listener: Listener | None = None) -> Finished:
+def execute(
+    request: RunRequest, listener: Listener | None = None, *, config: StandConfig | None = None
+) -> Finished:
     """Run a calibration to its end (complete or aborted) in a new run folder.
 
     SIGTERM, SIGHUP (terminal closed) and a first Ctrl-C ask for a fade-out; a second Ctrl-C
     stops at once. The drive ends at 0 V in every case (the procedure's own `finally`).
     """
-    procedure, stand = prepare(request, listener)
+    procedure, stand = prepare(request, listener, config=config)
     try:
         procedure.folder = RunFolder.create(request.out, request.dut_id or request.dut)
         procedure.folder.records_chain_head = request.records_chain_head

@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from app.procedure.modes import MODE_MULTISINE, MODE_STEPPED_SINE, MODES, Mode
+from dsp.estimators import ESTIMATORS, RULES, Estimator, UncertaintyRule
 from dsp.spectral import RECORD_ESTIMATORS, check_periods
 
 __all__ = ["MODES", "MODE_MULTISINE", "MODE_STEPPED_SINE", "RunSettings"]
@@ -26,13 +27,13 @@ class RunSettings:
     equalisation_tolerance: float = 0.01
     max_equalisation_iterations: int = 8
     identification_drive_v: float = 1e-3
-    estimator: str = "periodic"
+    estimator: Estimator = Estimator.PERIODIC
     probability: float = 0.9545
-    rule: str = "gum"
+    rule: UncertaintyRule = UncertaintyRule.GUM
     tolerance_percent: float | None = None
     dut_nominal_mv_per_ms2: float | None = None
     plausible_ratio: float = 2.0
-    mode: str = Mode.MULTISINE  # a Mode
+    mode: Mode = Mode.MULTISINE
     stepped_block_s: float = 0.25
     dut_mass_g: float | None = None  # its mass class picks the stored stand response
     stored_response_max_age_days: float = 30.0  # an older stored response is not used
@@ -40,6 +41,16 @@ class RunSettings:
     stored_response_tolerance: float = 0.1
 
     def __post_init__(self) -> None:
+        if self.mode not in MODES:
+            raise ValueError(f"mode: one of {', '.join(MODES)}, got {self.mode!r}")
+        if self.estimator not in ESTIMATORS:
+            raise ValueError(f"estimator: one of {', '.join(ESTIMATORS)}, got {self.estimator!r}")
+        if self.rule not in RULES:
+            raise ValueError(f"rule: one of {', '.join(RULES)}, got {self.rule!r}")
+        # the stored strings typed once here (a plain string given is the same member)
+        object.__setattr__(self, "mode", Mode(self.mode))
+        object.__setattr__(self, "estimator", Estimator(self.estimator))
+        object.__setattr__(self, "rule", UncertaintyRule(self.rule))
         if self.target_type_a is None:
             check_periods(self.estimator, self.periods)  # issue 13 point 5: MIN_PERIODS
         if self.target_type_a is not None and not 0 < self.target_type_a < 1:
@@ -62,5 +73,3 @@ class RunSettings:
             raise ValueError(f"estimator: {self.estimator} analyses a multisine record only")
         if self.fade_in_s is not None and not 0.001 <= self.fade_in_s <= 60:
             raise ValueError("fade-in: must be between 0.001 and 60 s")
-        if self.mode not in MODES:
-            raise ValueError(f"mode: one of {', '.join(MODES)}, got {self.mode!r}")

@@ -22,6 +22,7 @@ from app.procedure import Finished, Listener, PreflightError
 from app.procedure.run import RunRequest, execute, prepare
 from app.records.run_folder import new_run_id
 from app.records.sweep_summary import SweepSummary, SweepTable
+from app.stand.config import StandConfig
 
 
 @dataclass(frozen=True)
@@ -49,21 +50,28 @@ def linearity(sensitivity: np.ndarray) -> np.ndarray:
     return np.max(np.abs(sensitivity / mean - 1.0), axis=0)
 
 
-def run_sweep(request: RunRequest, levels: list[float], listener: Listener | None = None) -> Sweep:
-    """Run `request` at each level (ascending); stop at the first run that does not complete."""
+def run_sweep(
+    request: RunRequest,
+    levels: list[float],
+    listener: Listener | None = None,
+    *,
+    config: StandConfig | None = None,
+) -> Sweep:
+    """Run `request` at each level (ascending); stop at the first run that does not complete.
+    `config`: the stand file as the run service loaded it (None: loaded per run)."""
     if len(levels) < 2:
         raise ValueError("--levels: a sweep needs at least two levels")
     if any(not level > 0 for level in levels):
         raise ValueError("--levels: every level must be > 0 m/s^2")
     for level in sorted(levels):  # every level is checked before anything moves
         try:
-            _, stand = prepare(dataclasses.replace(request, level_ms2=level))
+            _, stand = prepare(dataclasses.replace(request, level_ms2=level), config=config)
         except PreflightError as exc:
             raise PreflightError(f"level {level:g} m/s^2: {exc}") from None
         stand.close()
     runs = []
     for level in sorted(levels):
-        finished = execute(dataclasses.replace(request, level_ms2=level), listener)
+        finished = execute(dataclasses.replace(request, level_ms2=level), listener, config=config)
         runs.append(finished)
         if finished.status != RunStatus.COMPLETE:
             break

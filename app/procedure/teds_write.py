@@ -29,13 +29,11 @@ def calibrated_teds(current: tuple[int, ...], record: RunRecord, initials: str) 
     teds = decode(current)
     if teds.accelerometer is None:
         raise TedsError(f"TEDS: template {teds.template_id} is no accelerometer template (25)")
-    if not record.complete or not record.results:
+    reference = record.reference_result if record.complete else None
+    if reference is None or reference.sensitivity_mv_per_ms2 is None:
         raise TedsError("run: only a complete run's result is written to a TEDS")
-    reference = record.results["reference"]
     when = date.fromisoformat(record.finished_utc[:10])
-    new = teds.accelerometer.with_sensitivity(
-        float(reference["sensitivity_mv_per_ms2"]), when, initials
-    )
+    new = teds.accelerometer.with_sensitivity(reference.sensitivity_mv_per_ms2, when, initials)
     return Teds(teds.basic, teds.selector, teds.template_id, new, teds.trailing_bits)
 
 

@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING, Any
 
 from app.errors import Refusal
 from app.io.vocabulary import Mode, RunStatus
+from dsp.estimators import Estimator, UncertaintyRule
 
 if TYPE_CHECKING:
     from dsp.calibration import Results
@@ -140,6 +141,12 @@ class StandInfo:
             dict(data.get("reference") or {}),
         )
 
+    @property
+    def verify_url(self) -> str | None:
+        """The laboratory's public verification URL ([laboratory] verify_url), None unset."""
+        url = self.laboratory.get("verify_url")
+        return str(url) if url else None
+
     def to_dict(self) -> dict[str, Any]:
         return {
             "description": self.description,
@@ -147,6 +154,81 @@ class StandInfo:
             "laboratory": dict(self.laboratory),
             "reference": dict(self.reference),
         }
+
+
+@dataclass(frozen=True)
+class AnalysisSettings:
+    """How a run's results were analysed, as results.json's "settings" holds it (the
+    defaults where a run from before a setting existed does not state it)."""
+
+    estimator: Estimator = Estimator.PERIODIC
+    probability: float = 0.9545
+    rule: UncertaintyRule = UncertaintyRule.GUM
+    tolerance_percent: float | None = None
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> AnalysisSettings:
+        try:
+            tolerance = data.get("tolerance_percent")
+            return cls(
+                Estimator(str(data.get("estimator") or Estimator.PERIODIC)),
+                float(data.get("probability") or 0.9545),
+                UncertaintyRule(str(data.get("rule") or UncertaintyRule.GUM)),
+                float(tolerance) if tolerance else None,
+            )
+        except (TypeError, ValueError) as exc:
+            raise RunRecordError(f"results.json: settings: {exc}") from None
+
+
+@dataclass(frozen=True)
+class ReferenceResult:
+    """The result at the reference frequency as results.json holds it: frequency (Hz),
+    sensitivity and its expanded uncertainty (mV/(m/s^2))."""
+
+    frequency_hz: float | None
+    sensitivity_mv_per_ms2: float | None
+    expanded_uncertainty_mv_per_ms2: float | None
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> ReferenceResult:
+        def number(key: str) -> float | None:
+            value = data.get(key)
+            return None if value is None else float(value)
+
+        try:
+            return cls(
+                number("frequency_hz"),
+                number("sensitivity_mv_per_ms2"),
+                number("expanded_uncertainty_mv_per_ms2"),
+            )
+        except (TypeError, ValueError) as exc:
+            raise RunRecordError(f"results.json: results.reference: {exc}") from None
+
+
+@dataclass(frozen=True)
+class StoredPlan:
+    """The plan a run stored (results.json "plan"), as the certificate states it: nominal
+    line frequencies (Hz), sample rate (Hz) and period (samples); 0 where not stored."""
+
+    frequencies_hz: tuple[float, ...] = ()
+    sample_rate_hz: float = 0.0
+    period_samples: int = 0
+
+    @property
+    def period_s(self) -> float:
+        return self.period_samples / self.sample_rate_hz if self.sample_rate_hz else 0.0
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> StoredPlan:
+        try:
+            lines = data.get("lines") or ()
+            return cls(
+                tuple(float(line["nominal_frequency_hz"]) for line in lines),
+                float(data.get("sample_rate_hz") or 0.0),
+                int(data.get("period_samples") or 0),
+            )
+        except (KeyError, TypeError, ValueError) as exc:
+            raise RunRecordError(f"results.json: plan: {exc}") from None
 
 
 # keys written only when they have a value (as before schema_version existed)
@@ -201,6 +283,34 @@ class RunRecord:
     @property
     def complete(self) -> bool:
         return self.status == RunStatus.COMPLETE
+
+    @property
+    def analysis(self) -> AnalysisSettings:
+        """The analysis settings the run stored (typed: estimator, probability, rule)."""
+        return AnalysisSettings.from_dict(self.settings)
+
+    @property
+    def stored_plan(self) -> StoredPlan:
+        """The plan the run stored (typed: lines, rate, period)."""
+        return StoredPlan.from_dict(self.plan)
+
+    @property
+    def reference_result(self) -> ReferenceResult | None:
+        """The stored result at the reference frequency; None without results."""
+        reference = (self.results or {}).get("reference")
+        return ReferenceResult.from_dict(reference) if isinstance(reference, Mapping) else None
+
+    @property
+    def stated_verdict(self) -> tuple[str | None, tuple[str, ...]]:
+        """The verdict and its reasons as stored (the record's own, else its results'), None
+        when the run states none."""
+        return verdict_stated(
+            {
+                "verdict": self.verdict,
+                "verdict_reasons": list(self.verdict_reasons),
+                "results": self.results,
+            }
+        )
 
     def results_object(self) -> Results | None:
         """The stored results rebuilt (dsp.calibration.Results), or None."""
@@ -330,6 +440,15 @@ class RunRecord:
         except json.JSONDecodeError as exc:
             raise RunRecordError(f"results.json: not JSON ({exc})") from None
         return cls.from_dict(data)
+
+
+def verdict_stated(data: Mapping[str, Any]) -> tuple[str | None, tuple[str, ...]]:
+    """The verdict and its reasons a results.json document (or any part of one holding them)
+    states: its own, else its results'; None when it states none."""
+    results = data.get("results") or {}
+    verdict = data.get("verdict") or results.get("verdict")
+    reasons = data.get("verdict_reasons") or results.get("verdict_reasons") or ()
+    return (str(verdict) if verdict else None), tuple(str(r) for r in reasons)
 
 
 def technician_name(value: Any) -> str | None:

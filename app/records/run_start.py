@@ -46,6 +46,12 @@ class RunStart:
         return _table((self.stand or {}).get("laboratory"))
 
     @property
+    def verify_url(self) -> str | None:
+        """The [laboratory] verify_url the run started with, None unset."""
+        url = self.laboratory.get("verify_url")
+        return str(url) if url else None
+
+    @property
     def reference(self) -> dict[str, Any]:
         """The stand file's [reference] table (id, model, serial, certificate_number, ...)."""
         return _table((self.stand or {}).get("reference"))

@@ -39,13 +39,14 @@ from urllib.parse import urlsplit
 
 from app.errors import Refusal
 from app.io.checks import MAX_TEXT_BYTES, InputFileError, check_input_file
+from app.io.vocabulary import Backend
 from dsp.annex_a import missing_components
 from dsp.budget_terms import skew_phase_component
 from dsp.calibration import ReferenceChain
 from dsp.uncertainty import Budget
 from hardware.interfaces import InputChannel, OutputChannel
 
-BACKENDS = ("sim", "nidaqmx")
+BACKENDS = tuple(b.value for b in Backend)
 
 _INPUT_KEYS = frozenset({"physical", "range_v", "coupling", "iepe_current_a", "terminal"})
 # Every key a stand file may hold, per table ("" is the top level). [[component]] entries are
@@ -190,7 +191,7 @@ class StandConfig:
 
     source: str
     laboratory: dict[str, str]
-    backend: str
+    backend: Backend
     device: str
     skew_s: float
     output: OutputChannel
@@ -491,7 +492,7 @@ def _parse(data: dict[str, Any], text: str, source: str) -> StandConfig:
             raise r.fail("daq.skew_tolerance_s", f"a component is already named {skew_term.name!r}")
         budget = Budget((*budget.components, skew_term))
     simulation = data.get("simulation", {})
-    if backend != "sim" and simulation:
+    if backend != Backend.SIM and simulation:
         raise r.fail("simulation", "only for the simulated stand (daq.backend = 'sim')")
     measuring = amps.get("measuring")
     power = amps.get("power")
@@ -501,7 +502,7 @@ def _parse(data: dict[str, Any], text: str, source: str) -> StandConfig:
     return StandConfig(
         source=source,
         laboratory=laboratory,
-        backend=backend,
+        backend=Backend(backend),
         device=r.value(daq, "daq", "device", str, "sim"),
         skew_s=skew,
         output=output,

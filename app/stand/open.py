@@ -20,9 +20,10 @@ from sim.stand import POWER_AMPLIFIER_FAULT_KINDS, Fault, SimBudget, SimulatedSt
 log = logging.getLogger(__name__)
 
 
-@dataclass
+@dataclass(frozen=True)
 class Stand:
-    """What the procedure drives and what the analysis may know about it."""
+    """What the procedure drives and what the analysis may know about it; frozen: what the
+    run knows of the stand is set when it is opened (`open_stand`), never changed after."""
 
     config: StandConfig
     daq: Daq
@@ -62,10 +63,15 @@ def open_stand(
     model: StandModel | None = None,
     dut_mass_g: float | None = None,
     exciter: str | None = None,
+    chain: ReferenceChain | None = None,
+    budget: Budget | None = None,
 ) -> Stand:
     """The stand of `config`; the simulated one needs a catalogue DUT (`dut`), carrying
     `dut_mass_g` (g) instead of its catalogue mass when given, and `exciter` (a name of
-    the simulated exciter catalogue) instead of the default one."""
+    the simulated exciter catalogue) instead of the default one. `chain` and `budget`: the
+    reference chain and type B budget the analysis uses when the run takes them from
+    elsewhere than the stand (the records' certificate table); the stand is not changed
+    after it is opened."""
     if config.backend == "sim":
         # without a power amplifier only the legacy `amplifier-fault` (raised by the DAQ) works
         kinds = {f.kind for f in faults} & (set(POWER_AMPLIFIER_FAULT_KINDS) - {"amplifier-fault"})
@@ -91,12 +97,11 @@ def open_stand(
             faults=faults,
             systematic=systematic,
         )
-        chain = sim.reference_chain(dut_gain=config.dut_gain)
         return Stand(
             config=config,
             daq=sim,
-            chain=chain,
-            budget=config.budget,
+            chain=chain if chain is not None else sim.reference_chain(dut_gain=config.dut_gain),
+            budget=budget if budget is not None else config.budget,
             measuring_amplifier=sim.measuring_amplifier() if config.measuring_amplifier else None,
             power_amplifier=sim.power_amplifier() if config.power_amplifier else None,
             truth=sim.truth,
@@ -129,8 +134,8 @@ def open_stand(
     return Stand(
         config=config,
         daq=daq,
-        chain=config.reference_chain(),
-        budget=config.budget,
+        chain=chain if chain is not None else config.reference_chain(),
+        budget=budget if budget is not None else config.budget,
         measuring_amplifier=measuring,
         power_amplifier=power,
         description=f"NI-DAQmx device {config.device}",

@@ -95,14 +95,18 @@ def reference_due_note(
     return None
 
 
-def index_finished_run(folder: Path, url: str | None) -> str:
-    """Index a finished run folder into the records; a one-line report, never an exception
-    (the folder is the record: an unreachable database loses nothing)."""
+def index_finished_run(folder: Path, url: str | None, *, lab: Any = None) -> str:
+    """Index a finished run folder into the records (`lab` when already open, else those at
+    `url`): the one indexing of every face (app.procedure.service). Its report, one line and
+    a "WARNING ..." line per control-chart warning of the import, never an exception (the
+    folder is the record: an unreachable database loses nothing)."""
     try:
-        from app.records.db.engine import open_engine
-        from app.records.db.lab import Lab
+        if lab is None:
+            from app.records.db.engine import open_engine
+            from app.records.db.lab import Lab
 
-        report = Lab(open_engine(url)).import_runs(folder)
+            lab = Lab(open_engine(url))
+        report = lab.import_runs(folder)
     except Exception as exc:  # any failure of the database must not fail a recorded run
         log.warning("run %s not indexed: %s", folder, exc)
         return (

@@ -17,7 +17,7 @@ from app.procedure.request import (
     build_request,
     resolve_dut,
 )
-from app.procedure.run import prepare
+from app.procedure.run import prepare, request_plan
 from app.procedure.verdict import FAIL, PASS, assess
 from app.records.db.engine import open_engine
 from app.records.db.lab import Lab
@@ -177,6 +177,6 @@ def test_a_spec_the_face_resolved_is_used_as_it_is() -> None:
 def test_phases_given_with_the_request_are_the_plans() -> None:
     phases = tuple(0.1 * k for k in range(3))
     request = RunRequest(preset="piezo", frequencies_hz=(40.0, 80.0, 160.0), phases_rad=phases)
-    plan = request.plan()
+    plan = request_plan(request)  # the request is a plain value: its plan is made by run
     assert tuple(plan.phases_rad) == pytest.approx(phases)
     assert tuple(plan.nominal_frequencies_hz) == (40.0, 80.0, 160.0)

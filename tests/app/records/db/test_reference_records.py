@@ -173,7 +173,11 @@ def test_a_stand_file_table_that_differs_from_the_records_is_refused_naming_both
     )
     request, _ = build_request(DutChoice(stand_file=same, db=url, records=True), out=tmp_path)
     assert request.reference is not None
-    assert request.stand_config().reference.sensitivity_mv_per_ms2 == (1.0, 1.01)
+    from app.procedure.run import with_reference
+    from app.stand import config as stand_config
+
+    config = with_reference(stand_config.load(same), request.reference)
+    assert config.reference.sensitivity_mv_per_ms2 == (1.0, 1.01)
     out = tmp_path / "runs"
     assert main(["run", *ARGS, "--stand", str(other), "--db", url, "--out", str(out)]) == 2
     err = capsys.readouterr().err

@@ -1,0 +1,362 @@
+"""Every option of a calibration run, once: `RunOptions` (typed values, units in the names) and
+`RUN_OPTIONS`, the table of each option's flag, unit, bounds, help and parser, from which
+`accelcal run`'s parser (app.cli.parser) and the GUI's Setup tab bindings are made.
+
+Parsing text is one callable per option (`OptionSpec.parse`, ValueError naming the fault), so a
+unit-aware parser drops in without touching the faces. Levels in m/s^2 peak per line,
+sensitivities in mV/(m/s^2), masses in g, times in s, the type A target as a fraction.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from app.io.vocabulary import Mode
+from app.lines import parse_frequencies
+from app.stand.simulated import CATALOGUE, EXCITERS
+from dsp.estimators import DEFAULT_ESTIMATOR, Estimator
+from dsp.multisine import PRESETS
+from dsp.profiles import Profile
+
+if TYPE_CHECKING:
+    from app.stand.dut import DutSpec
+    from app.stand.simulated import Fault
+
+TARGET_UA = (0.0, 1.0)  # the type A target: (0, 100 %]
+MAX_TIME_S = 24 * 3600.0  # the acquisition time bound: (0, 24 h]
+
+
+@dataclass(frozen=True)
+class Bounds:
+    """A closed or open interval [low, high] of a numeric option; `whole`: integers only."""
+
+    low: float
+    high: float
+    open_low: bool = False
+    open_high: bool = False
+    whole: bool = False
+
+    def describe(self, unit: str = "") -> str:
+        """The range as --help and the GUI's tooltips print it, e.g. '(0, 1000] m/s^2'."""
+        left, right = "(" if self.open_low else "[", ")" if self.open_high else "]"
+        spec = "d" if self.whole else "g"
+        low, high = (int(self.low), int(self.high)) if self.whole else (self.low, self.high)
+        return f"{left}{low:{spec}}, {high:{spec}}{right}" + (f" {unit}" if unit else "")
+
+    def contains(self, value: float) -> bool:
+        too_low = value <= self.low if self.open_low else value < self.low
+        too_high = value >= self.high if self.open_high else value > self.high
+        return math.isfinite(value) and not (too_low or too_high)
+
+
+def _percent_fraction(text: str) -> float:
+    """The type A target: '0.2%' -> 0.002; a bare number is a fraction ('0.002')."""
+    stripped = text.strip()
+    try:
+        value = float(stripped[:-1]) / 100 if stripped.endswith("%") else float(stripped)
+    except ValueError:
+        raise ValueError(f"{text!r} is not a number or percentage") from None
+    low, high = TARGET_UA
+    if not (math.isfinite(value) and low < value <= high):
+        raise ValueError(f"must be in (0, 100 %], got {text!r}")
+    return value
+
+
+def _seconds(text: str) -> float:
+    """A duration: '30s', '2min', '500ms', '1h' or bare seconds."""
+    value = text.strip().lower()
+    scale = 1.0
+    for suffix, factor in (("min", 60.0), ("ms", 1e-3), ("s", 1.0), ("h", 3600.0)):
+        if value.endswith(suffix):
+            value, scale = value[: -len(suffix)], factor
+            break
+    try:
+        seconds = float(value) * scale
+    except ValueError:
+        raise ValueError(f"{text!r} is not a duration (e.g. 30s)") from None
+    if not (math.isfinite(seconds) and 0 < seconds <= MAX_TIME_S):
+        raise ValueError(f"must be in (0, 24 h], got {text!r}")
+    return seconds
+
+
+def _lines(text: str) -> tuple[float, ...]:
+    return tuple(parse_frequencies(text))
+
+
+@dataclass(frozen=True)
+class OptionSpec:
+    """One run option: its RunOptions field `name`, command-line `flag`, `unit`, `bounds`
+    (numbers), `choices` (words), `help`, and `parse` (text -> value; ValueError says why).
+    `parse` None: a number within `bounds` (the face's own bounded parser)."""
+
+    name: str
+    flag: str
+    help: str
+    unit: str = ""
+    bounds: Bounds | None = None
+    choices: tuple[str, ...] = ()
+    parse: Callable[[str], Any] | None = None
+    metavar: str | None = None
+
+    @property
+    def dest(self) -> str:
+        """The argparse destination the flag makes (--dut-id -> dut_id)."""
+        return self.flag.lstrip("-").replace("-", "_")
+
+    def full_help(self) -> str:
+        """The help with the bounds, as --help and the GUI's tooltip show it."""
+        if self.bounds is None:
+            return self.help
+        return f"{self.help}; {self.bounds.describe(self.unit)}"
+
+
+_POSITIVE_HZ = Bounds(0.0, 1e6, open_low=True)
+
+# The run options that are numbers, words or lists (flags stay as `accelcal run` always had them).
+RUN_OPTIONS: tuple[OptionSpec, ...] = (
+    OptionSpec("dut", "--dut", "simulated DUT from the catalogue", choices=tuple(CATALOGUE)),
+    OptionSpec("dut_id", "--dut-id", "serial number / identification of the DUT"),
+    OptionSpec(
+        "technician",
+        "--technician",
+        "who runs the calibration (stored with the run; the certificate's Prepared by)",
+        metavar="NAME",
+    ),
+    OptionSpec(
+        "nominal_mv_per_ms2",
+        "--nominal-sensitivity",
+        "DUT nominal, mV/(m/s^2)",
+        unit="mV/(m/s^2)",
+        bounds=Bounds(0.0, 1e6, open_low=True),
+    ),
+    OptionSpec("preset", "--preset", "plan (default: by DUT kind)", choices=tuple(sorted(PRESETS))),
+    OptionSpec(
+        "level_ms2",
+        "--level",
+        "peak acceleration per line, m/s^2 (default 5)",
+        unit="m/s^2",
+        bounds=Bounds(0.0, 1000.0, open_low=True),
+    ),
+    OptionSpec(
+        "periods",
+        "--periods",
+        "periods to acquire (default 8; lpm: 1, one record)",
+        bounds=Bounds(1, 10_000, whole=True),
+    ),
+    OptionSpec(
+        "frequencies_hz",
+        "--frequencies",
+        "line list in Hz, e.g. 0.4,...,8 (ISO 266 fill)",
+        unit="Hz",
+        parse=_lines,
+    ),
+    OptionSpec(
+        "sample_rate_hz",
+        "--sample-rate",
+        "sample rate in Hz",
+        unit="Hz",
+        bounds=Bounds(1.0, 1e7),
+    ),
+    OptionSpec(
+        "period_samples",
+        "--period",
+        "period in samples (default: the shortest that fits)",
+        unit="samples",
+        bounds=Bounds(4, 2**24, whole=True),
+    ),
+    OptionSpec(
+        "reference_frequency_hz",
+        "--reference-frequency",
+        "reference frequency in Hz",
+        unit="Hz",
+        bounds=_POSITIVE_HZ,
+    ),
+    OptionSpec(
+        "profile",
+        "--profile",
+        "per-line level: constant acceleration, or constant velocity or displacement below "
+        "--corner (then --level above it); every line clipped by the exciter's stroke",
+        choices=tuple(p.value for p in Profile),
+    ),
+    OptionSpec(
+        "corner_hz",
+        "--corner",
+        "corner frequency of the profile, Hz",
+        unit="Hz",
+        bounds=_POSITIVE_HZ,
+    ),
+    OptionSpec(
+        "exciter",
+        "--exciter",
+        "simulated stand's exciter (long-stroke: 150 mm, 0.4 Hz up); its stroke clips and "
+        "checks the plan",
+        choices=tuple(EXCITERS),
+    ),
+    OptionSpec(
+        "fade_in_s",
+        "--fade-in",
+        "lpm: fade-in before the record, s (default 2 cycles)",
+        unit="s",
+        bounds=Bounds(0.001, 60.0),
+    ),
+    OptionSpec(
+        "target_type_a",
+        "--target-ua",
+        "stop at this relative type A, e.g. 0.2%; (0, 100 %]",
+        unit="%",
+        parse=_percent_fraction,
+    ),
+    OptionSpec(
+        "max_acquisition_s",
+        "--max-time",
+        "bound on the acquisition time, e.g. 30s; (0, 24 h]",
+        unit="s",
+        parse=_seconds,
+    ),
+    OptionSpec(
+        "estimator", "--estimator", "line estimator", choices=tuple(e.value for e in Estimator)
+    ),
+    OptionSpec("mode", "--mode", "excitation", choices=tuple(m.value for m in Mode)),
+    OptionSpec(
+        "tolerance_percent",
+        "--tolerance",
+        "DUT tolerance of the characteristic, %",
+        unit="%",
+        bounds=Bounds(0.0, 100.0, open_low=True),
+    ),
+    OptionSpec(
+        "dut_mass_g",
+        "--dut-mass",
+        "DUT mass in g: its class picks the stand's stored response (default: the simulated "
+        "DUT's catalogue mass; on real hardware not stated)",
+        unit="g",
+        bounds=Bounds(0.0, 100_000.0),
+    ),
+    OptionSpec(
+        "seed", "--seed", "simulated stand: random seed", bounds=Bounds(0, 2**32 - 1, whole=True)
+    ),
+    OptionSpec(
+        "reference_override",
+        "--reference-override",
+        "with records in use: use a reference standard past its due date or not in the "
+        "records, for this stated reason (recorded in results.json, the audit trail and on "
+        "the certificate)",
+        metavar="REASON",
+    ),
+)
+
+OPTION_BY_NAME: Mapping[str, OptionSpec] = {spec.name: spec for spec in RUN_OPTIONS}
+
+
+def option(name: str) -> OptionSpec:
+    """The spec of RunOptions field `name` (KeyError: no such option)."""
+    return OPTION_BY_NAME[name]
+
+
+@dataclass(frozen=True)
+class RunOptions:
+    """What the operator asks of one run, every option once (None: not given, the DUT's or
+    the stand file's value or the default applies). Units in the names."""
+
+    stand_file: Path | None = None  # None: the simulated stand
+    dut: str = "piezo"  # the simulated stand's catalogue DUT
+    dut_id: str | None = None
+    sensor: str | None = None  # a serial in the records: the DUT's settings from there
+    dut_spec: DutSpec | None = None  # resolved already (the GUI's serial look-up)
+    teds: bool = False  # identify the DUT by its TEDS
+    technician: str | None = None
+    nominal_mv_per_ms2: float | None = None
+    tolerance_percent: float | None = None
+    dut_mass_g: float | None = None
+    preset: str | None = None
+    level_ms2: float | None = None  # None: the DUT's, else 5 m/s^2
+    periods: int | None = None  # None: 8; lpm: 1
+    frequencies_hz: tuple[float, ...] | None = None
+    sample_rate_hz: float | None = None
+    period_samples: int | None = None
+    reference_frequency_hz: float | None = None
+    profile: Profile = Profile.ACCELERATION
+    corner_hz: float | None = None
+    exciter: str | None = None
+    fade_in_s: float | None = None
+    target_type_a: float | None = None  # fraction: 0.002 = 0.2 %
+    max_acquisition_s: float | None = None
+    estimator: Estimator = DEFAULT_ESTIMATOR
+    mode: Mode = Mode.MULTISINE
+    stored_response: bool = True  # start equalisation from the stand's stored response
+    seed: int = 0
+    paced: bool = False
+    faults: tuple[Fault, ...] = ()
+    out: Path = Path("runs")
+    db: str | None = None  # records URL (None: $ACCELCAL_DB, else the default file)
+    records: bool | None = None  # records in use; None: when a sensor or a records file is
+    reference_override: str | None = None  # the reason to go past the reference check
+    fail_exit: bool = False  # a completed run whose verdict is FAIL exits EXIT_FAIL_VERDICT
+
+    def __post_init__(self) -> None:
+        for name, enum in (("estimator", Estimator), ("mode", Mode), ("profile", Profile)):
+            value = getattr(self, name)
+            try:
+                object.__setattr__(self, name, enum(value))
+            except ValueError:
+                words = ", ".join(m.value for m in enum)
+                raise ValueError(f"{name}: {value!r} is not one of {words}") from None
+
+    @property
+    def periods_to_run(self) -> int:
+        """The periods acquired: as given, else one record of one period (lpm) or 8."""
+        if self.periods is not None:
+            return self.periods
+        return 1 if self.estimator == Estimator.LPM else 8
+
+    def replace(self, **changes: Any) -> RunOptions:
+        return dataclasses.replace(self, **changes)
+
+    @classmethod
+    def from_values(cls, values: Mapping[str, Any], **more: Any) -> RunOptions:
+        """Options from parsed values keyed by the table's argparse destinations (a face's
+        parsed command line: None and absent are "not given"), and `more` by field name."""
+        given: dict[str, Any] = {}
+        for spec in RUN_OPTIONS:
+            value = values.get(spec.dest)
+            if value is not None:
+                given[spec.name] = value
+        given.update(more)
+        return cls(**given)
+
+
+def parse_option(name: str, text: str) -> Any:
+    """`text` parsed as the option `name` (ValueError naming its flag): the option's own
+    parser, else a number within its bounds."""
+    spec = option(name)
+    try:
+        if spec.parse is not None:
+            return spec.parse(text)
+        if spec.choices:
+            if text not in spec.choices:
+                raise ValueError(f"{text!r} is not one of {', '.join(spec.choices)}")
+            return text
+        if spec.bounds is None:
+            return text
+        value = float(text)
+    except ValueError as exc:
+        raise ValueError(f"{spec.flag}: {exc}") from None
+    if not spec.bounds.contains(value) or (spec.bounds.whole and value != int(value)):
+        raise ValueError(f"{spec.flag}: must be in {spec.bounds.describe(spec.unit)}, got {text}")
+    return int(value) if spec.bounds.whole else value
+
+
+__all__ = [
+    "OPTION_BY_NAME",
+    "RUN_OPTIONS",
+    "Bounds",
+    "OptionSpec",
+    "RunOptions",
+    "option",
+    "parse_option",
+]
