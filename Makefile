@@ -9,20 +9,41 @@ DEMO_DIR ?= demo-output
 
 venv: $(STAMP)
 
-# requirements.lock pins every dependency (and theirs) to what CI tested; `make lock` renews it
-$(STAMP): pyproject.toml requirements.lock
+# requirements.lock pins the program's dependencies (and theirs) to what CI tested, and
+# requirements-test.lock adds the test tools (pytest, ruff, mypy, ...) at versions resolved
+# alongside them; `make lock` renews both. `make demo`, `make gui` and `make validate` install
+# the program only (RUNTIME_STAMP); the test, lint, typecheck and bench targets add the tools.
+RUNTIME_STAMP := $(VENV)/.installed-runtime
+
+$(RUNTIME_STAMP): pyproject.toml requirements.lock
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -r requirements.lock
+	$(BIN)/python -m pip install --quiet --no-deps -e .
+	@touch $(RUNTIME_STAMP)
+
+$(STAMP): $(RUNTIME_STAMP) requirements-test.lock
+	$(BIN)/python -m pip install --quiet -r requirements-test.lock
 	$(BIN)/python -m pip install --quiet --no-deps -e '.[test]'
 	@touch $(STAMP)
 
+# the program's dependencies resolved alone (requirements.lock), then the test extra installed
+# under those pins: requirements-test.lock lists what it adds (and includes requirements.lock)
 lock:
 	rm -rf .lock-venv && $(PYTHON) -m venv .lock-venv
 	.lock-venv/bin/python -m pip install --quiet --upgrade pip
-	.lock-venv/bin/python -m pip install --quiet -e '.[test]'
-	.lock-venv/bin/python -m pip freeze --exclude-editable | grep -v '^accelcal' \
-	    > requirements.lock
+	.lock-venv/bin/python -m pip install --quiet -e .
+	{ echo "# The program's dependencies, pinned: what CI tested. \`make\` installs from here;"; \
+	  echo "# \`make lock\` renews it (from pyproject.toml, in a fresh virtual environment)."; \
+	  .lock-venv/bin/python -m pip freeze --exclude-editable | grep -v '^accelcal'; \
+	} > requirements.lock
+	.lock-venv/bin/python -m pip install --quiet -c requirements.lock -e '.[test]'
+	{ echo "# The test tools (pyproject's test extra), pinned, over the program's own pins."; \
+	  echo "# \`make lock\` renews it with requirements.lock."; \
+	  echo "-r requirements.lock"; \
+	  .lock-venv/bin/python -m pip freeze --exclude-editable | grep -v '^accelcal' \
+	      | grep -vxF -f requirements.lock; \
+	} > requirements-test.lock
 	rm -rf .lock-venv
 
 # a real X server for the GUI soak test, the X libraries Qt's xcb plugin loads, and pdftoppm
@@ -71,7 +92,7 @@ test-fast: $(STAMP)
 # self-contained: its records file and stored stand responses live in $(DEMO_DIR)/data, so it
 # neither reads nor writes the user's data directory and its timing does not depend on earlier runs
 demo: export ACCELCAL_DATA_DIR = $(abspath $(DEMO_DIR))/data
-demo: $(STAMP)
+demo: $(RUNTIME_STAMP)
 	rm -rf $(DEMO_DIR)/data
 	$(BIN)/accelcal plan --preset piezo
 	$(BIN)/accelcal run --sim --dut piezo --dut-id SN-DEMO-0001 --level 5 --periods 8 --seed 1 \
@@ -81,11 +102,11 @@ demo: $(STAMP)
 	    --mounting "stud-mounted back-to-back on the reference, 2 N m"
 
 # the ISO/IEC 17025 7.11.2 software validation report of this version (exit 1: a case failed)
-validate: $(STAMP)
+validate: $(RUNTIME_STAMP)
 	mkdir -p $(DEMO_DIR)
 	$(BIN)/accelcal validate --out $(DEMO_DIR)/validation-$$(date -u +%Y%m%dT%H%M%SZ).pdf
 
-gui: $(STAMP)
+gui: $(RUNTIME_STAMP)
 	$(BIN)/accelcal gui --sim
 
 bench: $(STAMP)

@@ -10,7 +10,9 @@ samples (0.5 s, bins 2 Hz), 5 m/s^2 per line, reference line 160 Hz:
 - recording.csv   its 8 analysed periods, reference and DUT in V, with the skew header line
 - recording.tdms  the same in a TDMS file (group Accel, channels ref and dut; wf_increment,
                   unit_string V, accelcal_skew_s on the DUT channel)
-- runs/<run-id>/  a complete run folder of `accelcal run --sim` on that plan (4 periods)
+- runs/<run-id>/  a complete run folder of `accelcal run --sim` on that plan (4 periods); a
+                  run folder is never overwritten: remove the old one (and change its name in
+                  README.md) when regenerating
 - ref-table.csv   the simulated reference standard's calibration table (for `accelcal refs add`)
 
 The simulated stand's reference channel carries 1.0 mV/(m/s^2) nominal through a conditioning
@@ -53,7 +55,9 @@ def write_recordings(out: Path) -> None:
     from app.procedure.simulate import simulate
 
     h5 = out / "recording.h5"
-    simulate(h5, dut="piezo", level_ms2=LEVEL_MS2, periods=8, seed=SEED, plan=small_plan())
+    simulate(
+        h5, dut="piezo", level_ms2=LEVEL_MS2, periods=8, seed=SEED, plan=small_plan(), overwrite=True
+    )
     rec = read_recording(h5)
     start = rec.settle_periods * rec.period_samples
     reference, dut = rec.reference_v[start:], rec.dut_v[start:]

@@ -2,12 +2,13 @@
 thread.
 
 The URL is `--db URL`, else $ACCELCAL_DB, else the default SQLite file
-(`app.records.db.engine`). Opening may take a while (a PostgreSQL server that does not answer);
-it runs on its own thread and the window polls it. When the records cannot be opened, `error`
-says why and everything else in the window works without them. Queries afterwards take
-milliseconds and run on the GUI thread; finishing a run (the run service indexes it, verifying
-every file of its folder by SHA-256) runs on the records' own thread, and its report comes back
-to the GUI thread.
+(`app.records.db.engine`), which the window never creates: until `accelcal db upgrade` has made
+it, `error` says so and how (shown in the Sensors and Register tabs). Opening may take a while
+(a PostgreSQL server that does not answer); it runs on its own thread and the window polls it.
+When the records cannot be opened, `error` says why and everything else in the window works
+without them. Queries afterwards take milliseconds and run on the GUI thread; finishing a run
+(the run service indexes it, verifying every file of its folder by SHA-256) runs on the
+records' own thread, and its report comes back to the GUI thread.
 Nothing here computes: it reads and writes through `Lab` and the run service only.
 """
 
@@ -80,14 +81,23 @@ class RecordsLink(QObject):
         self._future = None
         if not self._jobs:
             self._timer.stop()
+        from app.records.db.engine import RecordsMissing
+
+        missing = False  # none created yet (the normal first state): said, not warned
         try:
             self.lab = future.result()
+        except RecordsMissing as exc:
+            self.error, missing = str(exc), True
         except RecordsInputError as exc:
             self.error = str(exc)
         except Exception as exc:  # any failure of the database: the window works without it
             self.error = f"{type(exc).__name__}: {exc}"
         if self.error:
-            log.warning("records not available: %s", self.error)
+            log.log(
+                logging.INFO if missing else logging.WARNING,
+                "records not available: %s",
+                self.error,
+            )
         self.changed.emit()
 
     def describe(self) -> str:

@@ -15,6 +15,7 @@ from typing import Any
 from PySide6.QtWidgets import QInputDialog
 
 from app.gui.field_marks import ERROR
+from app.procedure.reference import simulators_own
 
 log = logging.getLogger(__name__)
 
@@ -42,7 +43,12 @@ def describe_reference(config: Any, link: Any = None, today: date | None = None)
         return "<br/>".join(lines)
     record = link.reference(ref.id)
     if record is None:
-        lines.append("<i>not in the records (the stand file's data is used)</i>")
+        lines.append(
+            "<i>not in the records: the simulator's own reference standard, used as such "
+            "(a real stand's must be on record)</i>"
+            if simulators_own(config)
+            else "<i>not in the records (the stand file's data is used)</i>"
+        )
     elif record.due_date < today:
         lines.append(
             f"<span style='color:#c0392b'><b>records: EXPIRED, due on {record.due_date}</b> "

@@ -28,6 +28,7 @@ __all__ = [
     "reference_budget",
     "reference_from_records",
     "resolve_reference",
+    "simulators_own",
     "table_phases",
 ]
 
@@ -52,6 +53,7 @@ class ResolvedReference:
 
 
 REFERENCE_COMPONENT = "reference standard calibration"  # the stand file's, replaced
+SIMULATED_BACKEND = "sim"  # [daq] backend of a simulated stand: its reference is the simulator's
 
 
 def reference_budget(budget: Budget, table: ReferenceTable) -> Budget:
@@ -137,6 +139,15 @@ def _same_table(config: StandConfig, table: ReferenceTable) -> bool:
     )
 
 
+def simulators_own(config: StandConfig) -> bool:
+    """Whether the stand's reference standard is the simulator's own: a simulated stand
+    (`daq.backend = "sim"`) whose stand file gives its reference no table, so the simulator
+    draws it (the built-in stand's REF-8305-SIM). Such a reference cannot be a laboratory's
+    standard; a stand file that states its reference's table (a lab's stand, or a test of the
+    rule) is held to the rule like a real stand."""
+    return config.backend == SIMULATED_BACKEND and not config.reference.frequencies_hz
+
+
 def resolve_reference(
     config: StandConfig,
     table: ReferenceTable | None,
@@ -150,10 +161,20 @@ def resolve_reference(
     not on record) on `today`: refused (ReferenceRefusal naming it) when not on record or past its
     due date, unless `override_reason` is given (an Override by `who` at `now_utc`), and when
     the stand file carries a table that differs from the records' (no override: two sources
-    for one reference are never right)."""
+    for one reference are never right). The simulator's own reference (`simulators_own`) not
+    on record is used as such (a note, no override): it cannot be a laboratory's standard, so
+    it has no certificate to record; on record, the rule applies to it as to any. A real
+    stand's reference is always held to the rule (docs/records.md)."""
     ref = config.reference
     reason = (override_reason or "").strip() or None
     when = now_utc.isoformat(timespec="seconds")
+    if table is None and simulators_own(config):
+        note = (
+            f"reference standard {ref.id} (serial {ref.serial}) of {config.source}: the "
+            "simulator's own (simulated stand, not a laboratory's standard), its table drawn "
+            "by the simulator; not looked up in the records"
+        )
+        return ResolvedReference(None, (), (note,))
     if table is None:
         what = (
             f"reference standard {ref.id} (serial {ref.serial}) of {config.source} is not in "

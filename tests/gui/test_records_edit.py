@@ -22,6 +22,7 @@ from app.gui.records_dialogs import ReferenceDialog
 from app.records.db.engine import open_engine
 from app.records.db.lab import Lab
 from tests.app.records.db.test_run_records import add_sim_reference
+from tests.lab_stand import lab_stand_file
 from tests.records_db import new_records
 
 
@@ -324,12 +325,19 @@ def test_the_sensors_tab_shows_a_run_of_the_selected_sensor_when_it_ends(qtbot, 
 
 
 def test_start_refuses_a_reference_standard_not_on_record_unless_a_reason_is_given(
-    window, qtbot, url, monkeypatch, caplog
+    qtbot, url, tmp_path, monkeypatch, caplog
 ):
-    """Issue 24 point 2, as the CLI: with records open, the simulated stand's reference
-    standard (REF-8305-SIM, not in these records) refuses Start naming it; cancelled or blank,
-    nothing starts; with a reason the run goes on under a recorded override."""
+    """Issue 24 point 2, as the CLI: with records open, a stand's reference standard that is a
+    lab's (REF-8305-SIM with its table in the stand file, not in these records) refuses Start
+    naming it; cancelled or blank, nothing starts; with a reason the run goes on under a
+    recorded override. (The built-in stand's own reference is exempt: test_first_use.)"""
     from app.gui import reference_view
+
+    window = MainWindow(
+        stand_file=lab_stand_file(tmp_path), out=tmp_path / "runs", paced=False, seed=4, db=url
+    )
+    qtbot.addWidget(window)
+    window.records.wait()
 
     asked: list[str] = []
     answers = iter([("", False), ("   ", True), ("new certificate in transit", True)])

@@ -5,8 +5,10 @@ The URL comes from `--db URL`, else the environment variable ACCELCAL_DB, else a
 runs in WAL mode with a busy timeout, and every transaction starts with BEGIN IMMEDIATE so two
 writers queue instead of failing half-way. PostgreSQL is reached through psycopg 3
 (`postgresql://...` URLs are mapped to `postgresql+psycopg://`). A database whose schema is
-older than this program's is refused until `accelcal db upgrade`; only the default SQLite file
-is created on first use.
+older than this program's is refused until `accelcal db upgrade`. Nothing here creates a
+database as a side effect of opening it: `accelcal db upgrade` (`upgrade`) creates the schema,
+and until then the records are not in use (`records_url` answers None for a missing default
+file), so opening the GUI or running a command never changes what a later command accepts.
 """
 
 from __future__ import annotations
@@ -31,6 +33,11 @@ SQLITE_BUSY_TIMEOUT_S = 30.0
 
 class DatabaseError(RecordsInputError):
     """The records database cannot be used; the message says why and what to do."""
+
+
+class RecordsMissing(DatabaseError):
+    """No records database yet (its SQLite file does not exist): the normal state until
+    `accelcal db upgrade` creates it."""
 
 
 def default_url() -> str:
@@ -159,11 +166,30 @@ def _has_tables(engine: Engine) -> bool:
     return bool(inspect(engine).get_table_names())
 
 
-def open_engine(url: str | None = None, *, create: bool | None = None) -> Engine:
-    """An engine on a database whose schema is this program's. The default SQLite file (or
-    any empty database when `create`) is created on first use; a database at an older
-    revision, or one of unknown origin, is refused with what to do."""
+def _missing_sqlite_file(url: str) -> Path | None:
+    """The file of an SQLite `url` when it does not exist yet (None: it exists, or the URL is
+    in memory or another engine's)."""
+    parsed = make_url(url)
+    database = parsed.database
+    if parsed.get_backend_name() != "sqlite" or not database or database == ":memory:":
+        return None
+    path = Path(database)
+    return None if path.is_file() else path
+
+
+def open_engine(url: str | None = None, *, create: bool = False) -> Engine:
+    """An engine on a database whose schema is this program's. A database without the schema
+    (an SQLite file that does not exist, an empty server database) is created only when
+    `create` (`accelcal db upgrade` and the tests say so); otherwise it is refused with what to
+    do, and a missing SQLite file is left missing. A database at an older revision, or one of
+    unknown origin, is refused with what to do."""
     resolved = resolve_url(url)
+    missing = _missing_sqlite_file(resolved)
+    if missing is not None and not create:
+        raise RecordsMissing(
+            f"records database {missing}: does not exist; `accelcal db upgrade` creates it "
+            "(records are created only on request)"
+        )
     engine = make_engine(resolved)
     try:
         current = current_revision(engine)
@@ -174,8 +200,6 @@ def open_engine(url: str | None = None, *, create: bool | None = None) -> Engine
     if current == head:
         return engine
     if current is None:
-        if create is None:
-            create = url is None and os.environ.get(ENV_VAR) is None
         if create and not _has_tables(engine):
             upgrade(engine)
             return engine

@@ -14,6 +14,7 @@ from app.procedure.request import ReferenceRefusal, RunIdentity, resolve_referen
 from app.records.db.references import ReferenceTable
 from app.records.run_record import Override, OverrideKind, RunRecord, RunRecordError
 from app.stand import config as stand_config
+from tests.lab_stand import lab_stand_file
 
 NOW = datetime(2026, 11, 25, 8, 30, tzinfo=UTC)
 TODAY = NOW.date()
@@ -109,10 +110,21 @@ def test_a_reference_due_today_needs_no_override_one_due_yesterday_does() -> Non
     assert resolved.table is not None  # the records' table, under the override
 
 
-def test_a_reference_not_on_record_is_refused_unless_overridden() -> None:
-    with pytest.raises(ReferenceRefusal, match=r"REF-8305-SIM \(serial SIM-0001\) of built-in"):
-        _resolve(None, None)
-    resolved = _resolve(None, "bought last week")
+def test_a_reference_not_on_record_is_refused_unless_overridden(tmp_path) -> None:
+    """A stand whose reference is a lab's (its stand file states the table): not on record,
+    refused naming it; the simulator's own (the built-in stand's) is used as such."""
+    lab = stand_config.load(lab_stand_file(tmp_path))
+    with pytest.raises(ReferenceRefusal, match=r"REF-8305-SIM \(serial SIM-0001\) of .*lab-stand"):
+        _resolve(None, None, lab)
+    real = replace(stand_config.load(None), backend="nidaqmx")  # a real stand, no table
+    with pytest.raises(ReferenceRefusal, match="is not in the records"):
+        _resolve(None, None, real)
+    own = _resolve(None, None)  # the built-in simulated stand: the simulator's own reference
+    assert own.table is None and own.overrides == ()
+    (note,) = own.notes
+    assert "REF-8305-SIM (serial SIM-0001) of built-in simulated stand" in note
+    assert "the simulator's own" in note
+    resolved = _resolve(None, "bought last week", lab)
     (override,) = resolved.overrides
     assert override.kind == OverrideKind.UNRECORDED_REFERENCE
     assert override.who == "alice" and override.when_utc == "2026-11-25T08:30:00+00:00"

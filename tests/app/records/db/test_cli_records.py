@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sqlite3
 from pathlib import Path
 
 import pytest
@@ -157,6 +158,10 @@ def test_a_lab_day_through_the_command_line(
 def test_a_database_at_an_older_schema_is_refused_with_what_to_do(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    url = f"sqlite:///{tmp_path / 'empty.sqlite'}"
+    path = tmp_path / "empty.sqlite"
+    url = f"sqlite:///{path}"
+    err = _refused(["sensors", "list", "--db", url], capsys)
+    assert "does not exist; `accelcal db upgrade` creates it" in err and not path.exists()
+    sqlite3.connect(path).close()  # an empty database: no schema at all
     err = _refused(["sensors", "list", "--db", url], capsys)
     assert "no accelcal schema; run `accelcal db upgrade`" in err

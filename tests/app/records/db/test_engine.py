@@ -35,12 +35,15 @@ def test_urls_resolve_from_option_then_environment_then_the_user_data_dir(
         resolve_url("records.sqlite")
 
 
-def test_the_default_sqlite_file_is_created_on_first_use_in_wal_mode(
+def test_the_default_sqlite_file_is_created_only_on_request_in_wal_mode(
     monkeypatch: pytest.MonkeyPatch, tmp_path: Path
 ) -> None:
     monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path))
     monkeypatch.delenv("ACCELCAL_DB", raising=False)
-    engine = open_engine()
+    with pytest.raises(DatabaseError, match="does not exist; `accelcal db upgrade` creates it"):
+        open_engine()  # opening is no first use: nothing created
+    assert not (tmp_path / "accelcal").exists()
+    engine = open_engine(create=True)  # `accelcal db upgrade`'s request
     assert (tmp_path / "accelcal" / "records.sqlite").is_file()
     assert current_revision(engine) == head_revision(engine) == "0010"
     with engine.connect() as conn:
@@ -49,8 +52,15 @@ def test_the_default_sqlite_file_is_created_on_first_use_in_wal_mode(
 
 
 def test_a_database_named_explicitly_is_never_created_silently(empty_url: str) -> None:
-    with pytest.raises(DatabaseError, match="no accelcal schema; run `accelcal db upgrade`"):
+    sqlite = empty_url.startswith("sqlite")
+    said = "does not exist; `accelcal db upgrade` creates it" if sqlite else "no accelcal schema"
+    with pytest.raises(DatabaseError, match=said):
         open_engine(empty_url)
+    if sqlite:  # not even an empty file is left behind
+        assert not Path(empty_url.removeprefix("sqlite:///")).exists()
+    else:
+        with pytest.raises(DatabaseError, match="no accelcal schema; run `accelcal db upgrade`"):
+            open_engine(empty_url)
 
 
 def test_an_older_schema_is_refused_until_upgraded_and_keeps_its_data(empty_url: str) -> None:

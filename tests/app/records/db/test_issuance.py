@@ -19,7 +19,7 @@ from sqlalchemy import Engine
 from app.certificate.leftovers import LeftoverKind, carried_number
 from app.certificate.register_issue import leftovers_in_records
 from app.cli import main
-from app.records.db.engine import open_engine, records_url
+from app.records.db.engine import DatabaseError, open_engine, records_url
 from app.records.db.lab import Lab, RecordsError
 from tests.records_db import seed_lab
 
@@ -111,7 +111,10 @@ def test_with_the_default_records_file_no_certificate_is_unregistered(
 ) -> None:
     monkeypatch.delenv("ACCELCAL_DB", raising=False)
     assert records_url() is None  # no file yet: per-folder numbering
-    Lab(open_engine(None)).add_customer("ACME Ltd")  # creates the default file; no sensor SN-42
+    with pytest.raises(DatabaseError, match="does not exist"):  # opening never creates it
+        open_engine(None)
+    assert records_url() is None
+    Lab(open_engine(None, create=True)).add_customer("ACME Ltd")  # as `db upgrade`; no SN-42
     assert records_url() is not None
     run = _copy(complete_run, tmp_path)
     argv = ["certificate", str(run), *BASE, "--customer", "ACME Ltd", "--dut-model", "m"]

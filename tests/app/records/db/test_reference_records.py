@@ -20,6 +20,7 @@ from app.records.db.models import AuditEntry
 from app.records.db.reference_table import read_reference_table
 from app.records.db.references import ReferenceTable
 from app.records.db.store import RecordsError
+from tests.lab_stand import lab_stand_file
 from tests.records_db import new_records, seed_lab
 
 ARGS = ["--dut", "piezo", "--periods", "3", "--seed", "1", "--fresh-response"]
@@ -64,8 +65,11 @@ def _overrides_in_audit(url: str) -> list[AuditEntry]:
 def test_a_reference_not_on_record_refuses_the_run_naming_it_unless_overridden(
     url: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
+    """On a stand whose reference is a lab's (its table in the stand file); the simulator's
+    own reference is exempt (tests/app/test_first_use.py)."""
     out = tmp_path / "runs"
-    assert main([*RUN, "--db", url, "--out", str(out)]) == 2
+    lab = ["run", "--stand", str(lab_stand_file(tmp_path)), *ARGS]  # RUN on that stand
+    assert main([*lab, "--db", url, "--out", str(out)]) == 2
     err = capsys.readouterr().err
     assert "reference standard REF-8305-SIM (serial SIM-0001)" in err
     assert "is not in the records" in err and "Traceback" not in err
@@ -73,7 +77,7 @@ def test_a_reference_not_on_record_refuses_the_run_naming_it_unless_overridden(
     assert _overrides_in_audit(url) == []
 
     why = "bought last week, entry pending"
-    assert main([*RUN, "--db", url, "--out", str(out), "--reference-override", why]) == 0
+    assert main([*lab, "--db", url, "--out", str(out), "--reference-override", why]) == 0
     folder = _folder(out)
     record = json.loads((folder / "results.json").read_text())
     (override,) = record["overrides"]
