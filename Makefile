@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 DEMO_DIR ?= demo-output
 
-.PHONY: venv test test-fast demo gui bench lint typecheck clean xvfb lock browser validate
+.PHONY: venv test test-fast demo gui bench lint typecheck clean xvfb lock browser validate phases
 
 venv: $(STAMP)
 
@@ -121,6 +121,12 @@ bench: $(STAMP)
 	$(BIN)/python bench/import.py
 	$(BIN)/python bench/impact.py 10000
 	QT_QPA_PLATFORM=offscreen $(BIN)/python bench/gui_responsiveness.py
+
+# the preset plans' optimised phases shipped in app/data/phases (app.procedure.phase_store):
+# regenerate after a change to dsp/crestfactor.py or to a preset
+# (tests/app/procedure/test_phase_store.py fails until then)
+phases: $(STAMP)
+	$(BIN)/python -m app.procedure.phase_store --write
 
 typecheck: $(STAMP)
 	$(BIN)/mypy dsp hardware sim app --ignore-missing-imports

@@ -34,12 +34,13 @@ is reachable for the piezo plan (only in its best basin) but not for the capacit
 from __future__ import annotations
 
 import inspect
-import time
 from collections.abc import Callable
 
 import numpy as np
 
 __all__ = [
+    "ALGORITHM_VERSION",
+    "DEFAULT_MAX_EVALUATIONS",
     "crest_factor",
     "optimise_phases",
     "random_phases",
@@ -49,8 +50,14 @@ __all__ = [
 
 TWO_PI = 2.0 * np.pi
 
+#: Changes whenever optimise_phases may return other phases for the same arguments (a stored
+#: result, e.g. app.procedure.phases, is keyed by it). 1: CPU-time safety cap; 2: counts only,
+#: amplitudes normalised to their maximum first.
+ALGORITHM_VERSION = 2
+
 # Work schedule of optimise_phases. Every stage is bounded by counts (starts, norms, L-BFGS
-# iterations), so the result depends only on the inputs and the seed, never on machine speed.
+# iterations, objective evaluations), so the result depends only on the inputs and the seed,
+# never on machine speed or load: no clock is read.
 _SCREEN_SAMPLES = 600_000  # starts x period samples screened: 50 starts for N = 12000
 _MIN_STARTS, _MAX_STARTS = 8, 64
 _P_SCREEN = (4.0, 16.0)  # every start is taken to a minimum of these norms in turn
@@ -60,7 +67,11 @@ _SAME_OPTIMUM = 1e-5  # J_16 values closer than this are taken as the same optim
 _P_REFINE = (32.0, 64.0, 128.0, 256.0, 512.0, 1024.0)
 _REFINE_FTOL = 1e-8
 _MAXITER = 200  # L-BFGS iterations per norm
-_SCREEN_SHARE = 0.7  # share of time_budget_s after which screening stops (safety cap only)
+_SCREEN_SHARE = 0.7  # share of max_evaluations after which no further start is screened
+#: Objective evaluations (one FFT pair, or one line-product sum, each) after which the best
+#: phases so far are returned. The seed plans need 2100-4500 (bench/crest_factor.py); the cap
+#: only bounds the work for plans far off that (about 1 ms each for N = 12000).
+DEFAULT_MAX_EVALUATIONS = 20_000
 
 
 def crest_factor(x: np.ndarray) -> float:
@@ -134,11 +145,13 @@ def optimise_phases(
     period_samples: int,
     *,
     seed: int = 0,
-    time_budget_s: float = 1.5,
+    max_evaluations: int = DEFAULT_MAX_EVALUATIONS,
 ) -> np.ndarray:
     """Phases in rad, in [0, 2 pi), that minimise the crest factor of `synthesize(...)`.
 
     `bins` and `amplitudes` (> 0, any unit) as for `synthesize`; N = `period_samples`.
+    Only the amplitudes' ratios matter: they are divided by their maximum first, so the same
+    lines at any level give bit-identical phases.
     Method (Guillaume et al. 1991): minimise J_p = log((mean|x|^p)^(1/p) / rms), which tends
     to the log crest factor as p grows, with L-BFGS and the analytic gradient (_lbfgs,
     _LpProblem), for increasing p:
@@ -153,17 +166,16 @@ def optimise_phases(
 
     The clipping algorithm (Van der Ouderaa et al. 1988) is not used: see the module notes.
 
-    The work is fixed by counts (starts, norms, iterations), so the result is the same on
-    every call and does not depend on machine speed (only, in the last bits, on the CPU's
-    floating-point kernels). The CPU time of the calling thread (time.thread_time; the
-    computation uses no other thread, and busy threads elsewhere in the application do not
-    count) is compared with `time_budget_s` in seconds only as a safety cap, which the seed
-    plans do not reach: past 70 % of it no further starts are screened, past all of it the
-    best phases so far are returned; only then does the result depend on the machine.
+    The work is bounded by counts only (starts, norms, L-BFGS iterations and
+    `max_evaluations` objective evaluations; past 70 % of these no further start is screened,
+    past all of them the best phases so far are returned); no clock is read. The result is
+    therefore a function of the arguments alone: the same on every call, at any machine load
+    and speed (given the same numpy floating-point kernels). The seed plans stop on their own
+    well before the default evaluation cap.
 
-    Measured on the development machine (2-core AMD EPYC VM): 0.5-0.9 s for the piezo plan
-    (crest factor 2.486 for 39 of 40 seeds, 2.512 for one), 0.55-0.85 s for the capacitive
-    plan (2.605) and 0.5-0.9 s for the piezo plan with 1/f amplitudes (2.162; Schroeder 2.95).
+    Measured on the development machine (2-core AMD EPYC VM, docs/benchmarks.md): 0.5-0.9 s
+    of CPU for the piezo plan (crest factor 2.486), 0.55-0.85 s for the capacitive plan
+    (2.605) and 0.5-0.9 s for the piezo plan with 1/f amplitudes (2.162; Schroeder 2.95).
     """
     n = _check_period(period_samples)
     m = _check_bins(bins, n)
@@ -171,16 +183,20 @@ def optimise_phases(
     if np.any(a <= 0.0):
         bad = m[np.flatnonzero(a <= 0.0)[0]]
         raise ValueError(f"optimise_phases: amplitude of bin {bad} must be > 0")
-    if not time_budget_s > 0.0:
-        raise ValueError(f"optimise_phases: time_budget_s must be > 0, got {time_budget_s}")
+    if isinstance(max_evaluations, bool) or not (
+        int(max_evaluations) == max_evaluations and max_evaluations >= 1
+    ):
+        raise ValueError(
+            f"optimise_phases: max_evaluations must be an integer >= 1, got {max_evaluations!r}"
+        )
     if m.size == 1:
         return np.zeros(1)
 
-    t0 = time.thread_time()  # CPU time of this thread: other busy threads do not count
+    a = a / np.max(a)  # only the ratios matter: the same phases at any level
     rng = np.random.default_rng(seed)
     n_starts = min(max(_SCREEN_SAMPLES // n, _MIN_STARTS), _MAX_STARTS)
     starts = [schroeder_phases(a)] + [random_phases(m.size, rng) for _ in range(n_starts - 1)]
-    problem = _LpProblem(m, a, n, deadline=t0 + _SCREEN_SHARE * time_budget_s)
+    problem = _LpProblem(m, a, n, max_evaluations=int(_SCREEN_SHARE * max_evaluations))
     problem.evaluate(starts[0])  # never worse than Schroeder's phases
 
     screened: list[tuple[float, np.ndarray]] = []
@@ -196,7 +212,9 @@ def optimise_phases(
     for value, phases in screened:  # symmetric copies of one optimum share their J_16
         if len(chosen) < _N_REFINE and all(abs(value - v) > _SAME_OPTIMUM for v, _ in chosen):
             chosen.append((value, phases))
-    problem.deadline = t0 + time_budget_s
+    if not chosen:  # the cap came before the first start was screened: refine the best so far
+        chosen.append((np.inf, problem.best_phases))
+    problem.max_evaluations = int(max_evaluations)
     try:
         for _, phases in chosen:
             for p in _P_REFINE:
@@ -207,19 +225,22 @@ def optimise_phases(
 
 
 class _BudgetExhausted(Exception):
-    """Raised inside an objective evaluation when the CPU-time safety cap is reached."""
+    """Raised before an objective evaluation once `max_evaluations` of them were made."""
 
 
 class _LpProblem:
     """p-norm objective of the unit-rms multisine as a function of the phases (rad).
 
-    Tracks the lowest crest factor over every waveform it synthesises.
+    Tracks the lowest crest factor over every waveform it synthesises, and counts the
+    objective evaluations (`objective_evaluations`): past `max_evaluations` of them the next
+    one raises _BudgetExhausted.
     """
 
-    def __init__(self, bins: np.ndarray, amplitudes: np.ndarray, n: int, deadline: float):
+    def __init__(self, bins: np.ndarray, amplitudes: np.ndarray, n: int, *, max_evaluations: int):
         self.bins = bins
         self.n = n
-        self.deadline = deadline
+        self.max_evaluations = max_evaluations
+        self.objective_evaluations = 0
         rms = float(np.sqrt(0.5 * np.sum(amplitudes**2)))
         self.amp = amplitudes / rms  # amplitudes of the unit-rms signal
         self._coef = 0.5 * n * self.amp
@@ -261,16 +282,17 @@ class _LpProblem:
             self.best_crest = crest
             self.best_phases = np.array(phases, dtype=float)
 
-    def _check_deadline(self) -> None:
-        if time.thread_time() > self.deadline:
+    def _count_evaluation(self) -> None:
+        if self.objective_evaluations >= self.max_evaluations:
             raise _BudgetExhausted
+        self.objective_evaluations += 1
 
     def lp_value_and_grad(self, phases: np.ndarray, p: float) -> tuple[float, np.ndarray]:
         """log of the p-mean (mean|x|^p)^(1/p) of the unit-rms signal and its gradient (1/rad).
 
         With G = rfft(|x|^(p-2) x): d/dphi_k sum_i |x_i|^p = p A_k Re(exp(j phi_k) G*[m_k]).
         """
-        self._check_deadline()
+        self._count_evaluation()
         x = self.waveform(phases)
         peak = max(float(x.max()), -float(x.min()))
         self._record(peak, phases)
@@ -294,7 +316,7 @@ class _LpProblem:
 
         Exact on the N-sample grid; only used when 4 K^2 <= N/2 where it is the cheaper way.
         """
-        self._check_deadline()
+        self._count_evaluation()
         k = self.bins.size
         half = 0.5 * self.amp * np.exp(1j * (phases - np.pi / 2.0))
         c = np.concatenate((half, half.conj()))  # x(i) = sum_s c_s exp(j 2 pi f_s i / N)

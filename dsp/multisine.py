@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -26,6 +26,16 @@ MAX_FREQUENCY_FRACTION = 0.45  # of fs: multiplexed boards have no anti-alias fi
 HARMONICS_CHECKED = (2, 3, 4, 5)  # SPEC s.3: 2nd..5th harmonic of a line
 PEAK_OVERSAMPLING = 8  # predicted peaks are taken on an 8x oversampled waveform
 PLAN_FORMAT_VERSION = 1
+
+
+class PhaseOptimiser(Protocol):
+    """Where a plan's crest-factor phases come from: `dsp.crestfactor.optimise_phases` or
+    anything returning exactly what it returns for the same arguments (e.g. a store of its
+    results, app.procedure.phases). Bins, amplitudes (any unit), period in samples; rad."""
+
+    def __call__(
+        self, bins: np.ndarray, amplitudes: np.ndarray, period_samples: int, *, seed: int = 0
+    ) -> np.ndarray: ...
 
 
 class PlanError(InputRefused):
@@ -377,12 +387,15 @@ def make_plan(
     shift_mains_lines: bool = False,
     phases_rad: Sequence[float] | None = None,
     seed: int = 0,
+    optimiser: PhaseOptimiser | None = None,
 ) -> Plan:
     """Build a checked plan; PlanError lists every failing line.
 
     Amplitudes are target peak table accelerations (m/s^2), one value for all lines or one per
-    line. Without `phases_rad`, phases minimise the crest factor (deterministic for `seed`).
-    `shift_mains_lines` moves a line sitting on a mains harmonic up by one bin.
+    line. Without `phases_rad`, phases minimise the crest factor: `optimiser` (default
+    dsp.crestfactor.optimise_phases; they depend only on the lines, the amplitudes' ratios,
+    the period and `seed`). `shift_mains_lines` moves a line sitting on a mains harmonic up by
+    one bin.
     """
     nominal = [float(f) for f in nominal_frequencies_hz]
     amplitudes = np.asarray(amplitude_ms2, dtype=float)
@@ -430,9 +443,8 @@ def make_plan(
             raise PlanError(check.errors)
 
     if phases_rad is None:
-        phases = crestfactor.optimise_phases(
-            np.asarray(bins), amplitudes, int(period_samples), seed=seed
-        )
+        optimise = crestfactor.optimise_phases if optimiser is None else optimiser
+        phases = optimise(np.asarray(bins), amplitudes, int(period_samples), seed=seed)
     else:
         phases = np.asarray(phases_rad, dtype=float)
     lines = tuple(
@@ -494,8 +506,10 @@ def preset_plan(
     level_ms2: float | None = None,
     reference_frequency_hz: float | None = None,
     mains_frequency_hz: float = 50.0,
+    optimiser: PhaseOptimiser | None = None,
 ) -> Plan:
-    """The plan of a named preset (`piezo`, `capacitive`) at a per-line level in m/s^2 peak."""
+    """The plan of a named preset (`piezo`, `capacitive`) at a per-line level in m/s^2 peak;
+    phases from `optimiser` as for `make_plan`."""
     try:
         preset = PRESETS[name]
     except KeyError:
@@ -509,6 +523,7 @@ def preset_plan(
         preset.level_ms2 if level_ms2 is None else level_ms2,
         preset.reference_frequency_hz if reference_frequency_hz is None else reference_frequency_hz,
         mains_frequency_hz=mains_frequency_hz,
+        optimiser=optimiser,
     )
 
 

@@ -7,18 +7,26 @@
 pyvisa keeps one library object per definitions path, so every manager returned with
 `fresh=False` (the default) talks to the same simulated instruments for as long as one of them
 is alive: their settings persist between users. `fresh=True` gives instruments of their own,
-in their default state (the definitions are loaded from a private copy of the file).
+in their default state.
+
+The YAML file is parsed once per process (about 0.1 s; a simulated run opens two fresh
+managers): every library builds its own instruments from a copy of that one parsed definition,
+so no two managers share state unless they share the library.
 """
 
 from __future__ import annotations
 
+import copy
 import importlib.resources
-import shutil
-import tempfile
-from pathlib import Path
+import itertools
+import threading
 from typing import Any
 
 import pyvisa
+from pyvisa.rname import to_canonical_name
+from pyvisa_sim import parser
+from pyvisa_sim.devices import Devices
+from pyvisa_sim.highlevel import SimVisaLibrary
 
 __all__ = [
     "SIM_DEFINITIONS",
@@ -41,13 +49,64 @@ def simulated_resource_manager(*, fresh: bool = False) -> pyvisa.ResourceManager
     """A pyvisa resource manager on the `@sim` backend serving `sim/amplifiers.yaml`."""
     definitions = importlib.resources.files("sim") / SIM_DEFINITIONS
     with importlib.resources.as_file(definitions) as path:
-        if not fresh:
-            return pyvisa.ResourceManager(f"{path}@sim")
-        # pyvisa-sim parses the file when the library is created, so the copy can go at once.
-        with tempfile.TemporaryDirectory(prefix="accelcal-visa-sim-") as tmp:
-            copy = Path(tmp) / SIM_DEFINITIONS
-            shutil.copyfile(path, copy)
-            return pyvisa.ResourceManager(f"{copy}@sim")
+        name = str(path)
+        if fresh:  # a library path of its own: pyvisa keeps one library object per path
+            name += f"{_FRESH_MARK}{next(_fresh_count)}"
+        return pyvisa.ResourceManager(_SharedDefinitionsLibrary(name))
+
+
+_FRESH_MARK = "#fresh-"
+_fresh_count = itertools.count(1)
+_parsed: dict[str, dict[str, Any]] = {}
+_parsed_lock = threading.Lock()
+
+
+def parsed_definitions(path: str) -> dict[str, Any]:
+    """The parsed pyvisa-sim definitions of the file at `path`, parsed once per process (a
+    copy each call: the instruments built from it are the caller's own)."""
+    with _parsed_lock:
+        data = _parsed.get(path)
+        if data is None:
+            data = _parsed[path] = parser.parse_file(path)
+    return copy.deepcopy(data)
+
+
+class _CachedLoader(parser.Loader):
+    """pyvisa-sim's loader taking the definitions from `parsed_definitions`."""
+
+    def _load(self, filename: Any, bundled: bool, required_version: int) -> dict[str, Any]:
+        if bundled:
+            return super()._load(filename, bundled, required_version)
+        data = parsed_definitions(str(filename))
+        version = parser._ver_to_tuple(data["spec"])[0]
+        if version != required_version:
+            raise ValueError(f"{filename}: spec version {version}, need {required_version}")
+        return data
+
+
+class _SharedDefinitionsLibrary(SimVisaLibrary):
+    """pyvisa-sim's library with its instruments built from the once-parsed definitions
+    (pyvisa_sim.parser.get_devices, with `_CachedLoader`). Its library path is the file's,
+    with `#fresh-<n>` appended for a fresh one."""
+
+    def _init(self) -> None:
+        self.sessions: dict[int, Any] = {}
+        path = str(self.library_path).split(_FRESH_MARK)[0]
+        loader = _CachedLoader(path, False)
+        devices = Devices()
+        for resource_name, resource in loader.data.get("resources", {}).items():
+            device_name = resource["device"]
+            definition = loader.get_device_dict(
+                device_name,
+                resource.get("filename", None),
+                resource.get("bundled", False),
+                parser.SPEC_VERSION_TUPLE[0],
+            )
+            devices.add_device(
+                to_canonical_name(resource_name),
+                parser.get_device(device_name, definition, loader, resource),
+            )
+        self.devices = devices
 
 
 class FailingResource:

@@ -7,12 +7,10 @@ import atexit
 import os
 import shutil
 import tempfile
-import threading
 from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
 import pytest
 
 if TYPE_CHECKING:
@@ -29,66 +27,6 @@ atexit.register(shutil.rmtree, _CONFIG_HOME, ignore_errors=True)
 _DATA_HOME = tempfile.mkdtemp(prefix="accelcal-tests-data-")
 os.environ["XDG_DATA_HOME"] = _DATA_HOME
 atexit.register(shutil.rmtree, _DATA_HOME, ignore_errors=True)
-
-
-# The crest-factor phase optimisation (dsp.crestfactor.optimise_phases, 0.5-0.9 s of CPU) is a
-# pure function of its arguments: its work is fixed by counts, and its time budget is only a
-# safety cap the seed plans do not reach (see its docstring). Hundreds of simulated runs and
-# GUI windows of the suite optimise the same few plans, so outside REAL_OPTIMISATION_PATHS the
-# result is computed once per test process and then returned (as a copy) for the same
-# arguments. The dsp tests, which check the optimisation itself (its result, determinism, time
-# budget, call counts), always run the real function.
-REAL_OPTIMISATION_PATHS = ("dsp/",)
-_real_optimise_phases = None
-_optimised: dict[tuple, np.ndarray] = {}
-_optimised_lock = threading.Lock()
-_current_test_path = [""]  # the test being set up, run or torn down (relative to tests/)
-
-
-def _memoised_optimise_phases(bins, amplitudes, period_samples, *, seed=0, time_budget_s=1.5):
-    """optimise_phases, remembered per argument set except in the dsp tests."""
-    assert _real_optimise_phases is not None
-    if _relative_is_real(_current_test_path[0]):
-        return _real_optimise_phases(
-            bins, amplitudes, period_samples, seed=seed, time_budget_s=time_budget_s
-        )
-    b, a = np.asarray(bins), np.asarray(amplitudes)
-    key = (b.dtype.str, b.shape, b.tobytes(), a.dtype.str, a.shape, a.tobytes())
-    key += (repr(period_samples), repr(seed), repr(time_budget_s))
-    with _optimised_lock:
-        known = _optimised.get(key)
-    if known is None:
-        known = _real_optimise_phases(
-            bins, amplitudes, period_samples, seed=seed, time_budget_s=time_budget_s
-        )
-        with _optimised_lock:
-            _optimised[key] = known.copy()
-    return known.copy()
-
-
-def _relative_is_real(relative: str) -> bool:
-    """Whether the test file (relative to tests/) gets the real, unremembered optimisation."""
-    return relative.startswith(REAL_OPTIMISATION_PATHS)
-
-
-def pytest_configure(config: pytest.Config) -> None:
-    """optimise_phases is remembered (above) from here on, before any test module is imported."""
-    global _real_optimise_phases
-    from dsp import crestfactor
-
-    if _real_optimise_phases is None:
-        _real_optimise_phases = crestfactor.optimise_phases
-        crestfactor.optimise_phases = _memoised_optimise_phases  # type: ignore[assignment]
-
-
-@pytest.hookimpl(wrapper=True)
-def pytest_runtest_protocol(item: pytest.Item, nextitem: pytest.Item | None):
-    """Note which test runs (its fixtures too): the dsp tests get the real optimisation."""
-    _current_test_path[0] = _relative(item)
-    try:
-        return (yield)
-    finally:
-        _current_test_path[0] = ""
 
 
 def _relative(item: pytest.Item) -> str:

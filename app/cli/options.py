@@ -14,6 +14,9 @@ from typing import TYPE_CHECKING, Any
 from app import lines
 from app.cli.exits import UsageError
 from app.files import FileExistsRefusal, check_target
+from app.io import quantities
+from app.io.quantities import Quantity, QuantityError
+from app.procedure.phase_store import stored_phases
 from app.stand.simulated import CATALOGUE, parse_faults
 from dsp.multisine import PRESETS, Plan, make_plan
 
@@ -63,10 +66,33 @@ class Bounded:
         return int(value) if self.kind is int else value
 
 
+class QuantityType:
+    """An argparse type: a quantity with its unit or a bare number in the quantity's unit
+    (app.io.quantities), within its range, divided by `per`; the reason of a refusal is
+    argparse's message."""
+
+    def __init__(self, quantity: Quantity, *, per: float = 1.0) -> None:
+        self.quantity, self.per = quantity, per  # the value is the quantity / per (% -> 1)
+        self.__name__ = quantity.dimension.noun.split()[-1]  # argparse names the type
+
+    def describe(self) -> str:
+        """The range and the units accepted, as printed in --help."""
+        dimension = self.quantity.dimension
+        if dimension is quantities.PERCENT:  # its help states the percent rule
+            return self.quantity.describe()
+        return f"{self.quantity.describe()} (units: {dimension.accepted})"
+
+    def __call__(self, text: str) -> float:
+        try:
+            return self.quantity.parse(text, "") / self.per
+        except QuantityError as exc:
+            raise argparse.ArgumentTypeError(exc.reason) from None
+
+
 def numeric_option(
     p: argparse.ArgumentParser | argparse._ArgumentGroup,
     flag: str,
-    bounded: Bounded,
+    bounded: Bounded | QuantityType,
     help: str,
     **kwargs: Any,
 ) -> None:
@@ -76,31 +102,31 @@ def numeric_option(
 
 
 # The bounds of every numeric option (also in docs/reliability.md).
-SAMPLE_RATE = Bounded(float, 1.0, 1e7, unit="Hz")
+SAMPLE_RATE = QuantityType(quantities.SAMPLE_RATE)
 
 PERIOD = Bounded(int, 4, 2**24, unit="samples")  # 100 s at 102.4 kS/s fits
 
-FADE_IN = Bounded(float, 0.001, 60.0, unit="s")
+FADE_IN = QuantityType(quantities.FADE_IN)
 
-LEVEL = Bounded(float, 0.0, 1000.0, open_low=True, unit="m/s^2")
+LEVEL = QuantityType(quantities.LEVEL)
 
-FREQUENCY = Bounded(float, 0.0, 1e6, open_low=True, unit="Hz")
+FREQUENCY = QuantityType(quantities.LINE_FREQUENCY)
 
-MAINS = Bounded(float, 1.0, 1000.0, unit="Hz")
+MAINS = QuantityType(quantities.MAINS)
 
 SEGMENTS = Bounded(int, 1, 10_000)
 
 COVERAGE = Bounded(float, 0.0, 1.0, open_low=True, open_high=True)
 
-TOLERANCE = Bounded(float, 0.0, 100.0, open_low=True, unit="%")
+TOLERANCE = QuantityType(quantities.TOLERANCE)
 
-SENSITIVITY = Bounded(float, 0.0, 1e6, open_low=True, unit="mV/(m/s^2)")
+SENSITIVITY = QuantityType(quantities.NOMINAL_SENSITIVITY)
 
-DUT_MASS = Bounded(float, 0.0, 100_000.0, unit="g")
+DUT_MASS = QuantityType(quantities.DUT_MASS)
 
 GAIN = Bounded(float, 0.0, 1e6, open_low=True, unit="V/V")
 
-SKEW = Bounded(float, -1e-3, 1e-3, unit="s")
+SKEW = QuantityType(quantities.SKEW)
 
 SETTLE_PERIODS = Bounded(int, 0, 10_000)
 
@@ -115,10 +141,6 @@ SIM_SETTLE = Bounded(int, 0, 1000)
 SEED = Bounded(int, 0, 2**32 - 1)
 
 TEMPERATURE = Bounded(float, -50.0, 150.0, unit="deg C")
-
-TARGET_UA = (0.0, 1.0)  # --target-ua: (0, 100 %]
-
-MAX_TIME_S = 24 * 3600.0  # --max-time: (0, 24 h]
 
 
 def parse_frequencies(text: str) -> list[float]:
@@ -155,6 +177,7 @@ def plan_from_options(args: argparse.Namespace, *, optimise: bool) -> Plan:
         mains_frequency_hz=args.mains if args.mains is not None else 50.0,
         shift_mains_lines=getattr(args, "shift_mains", False),
         phases_rad=None if optimise else [0.0] * len(freqs),
+        optimiser=stored_phases,
     )
 
 
@@ -167,35 +190,6 @@ def dut_name(text: str) -> str:
     raise argparse.ArgumentTypeError(
         f"{text!r} is not in the DUT catalogue ({', '.join(CATALOGUE)}){hint}"
     )
-
-
-def parse_percent(text: str, option: str) -> float:
-    """'0.2%' -> 0.002; '0.002' -> 0.002."""
-    try:
-        value = float(text[:-1]) / 100 if text.strip().endswith("%") else float(text)
-    except ValueError:
-        raise UsageError(f"{option}: {text!r} is not a number or percentage") from None
-    low, high = TARGET_UA
-    if not (math.isfinite(value) and low < value <= high):
-        raise UsageError(f"{option}: must be in (0, 100 %], got {text!r}")
-    return value
-
-
-def parse_seconds(text: str, option: str) -> float:
-    """'30s', '2min', '45' -> seconds."""
-    value = text.strip().lower()
-    scale = 1.0
-    for suffix, factor in (("min", 60.0), ("ms", 1e-3), ("s", 1.0), ("h", 3600.0)):
-        if value.endswith(suffix):
-            value, scale = value[: -len(suffix)], factor
-            break
-    try:
-        seconds = float(value) * scale
-    except ValueError:
-        raise UsageError(f"{option}: {text!r} is not a duration (e.g. 30s)") from None
-    if not (math.isfinite(seconds) and 0 < seconds <= MAX_TIME_S):
-        raise UsageError(f"{option}: must be in (0, 24 h], got {text!r}")
-    return seconds
 
 
 def faults_option(texts: list[str]) -> tuple[Fault, ...]:

@@ -30,11 +30,13 @@ from app.cli.options import (
     TEMPERATURE,
     TOLERANCE,
     Bounded,
+    QuantityType,
     dut_name,
     numeric_option,
 )
 from app.cli.records import Handler
 from app.cli.records import add_commands as add_records_commands
+from app.io.quantities import PERCENT_RULE
 from app.procedure.modes import MODE_MULTISINE
 from app.procedure.options import OptionSpec, option
 from app.stand.simulated import EXCITERS, FAULT_KINDS
@@ -43,6 +45,7 @@ from dsp.multisine import PRESETS
 from dsp.profiles import Profile
 
 WORKERS = Bounded(int, 1, 64)
+PERCENT_HELP = PERCENT_RULE.replace("%", "%%")  # argparse %-formats help texts
 RECORDS_COMMANDS: dict[str, Handler] = {}  # filled by build_parser (app.cli.records)
 
 MCM_TRIALS = Bounded(int, 1000, 10_000_000, unit="trials")  # JCGM 101 7.2: 10^6 for 95 %
@@ -89,7 +92,7 @@ def _add_plan_options(p: argparse.ArgumentParser | argparse._ArgumentGroup) -> N
     p.add_argument("--frequencies", help="line list in Hz, e.g. 10,12.5,...,2500 (ISO 266 fill)")
     numeric_option(p, "--sample-rate", SAMPLE_RATE, "sample rate in Hz")
     numeric_option(p, "--period", PERIOD, "period length in samples")
-    numeric_option(p, "--level", LEVEL, "target peak acceleration per line, m/s^2")
+    numeric_option(p, "--level", LEVEL, "target peak acceleration per line, e.g. 5 or 0.5g")
     numeric_option(p, "--reference-frequency", FREQUENCY, "reference frequency in Hz")
     numeric_option(p, "--mains", MAINS, "mains frequency in Hz (50)", default=None)
 
@@ -126,13 +129,17 @@ def _run_option(
     p: argparse.ArgumentParser | argparse._ArgumentGroup, name: str, **kwargs: Any
 ) -> None:
     """Add the run option `name` as app.procedure.options.RUN_OPTIONS states it: its flag, its
-    parser (a number within its bounds by `Bounded`, else the table's own), choices and help."""
+    parser (a quantity with its unit by `QuantityType`, a number within its bounds by
+    `Bounded`, else the table's own), choices and help."""
     spec = option(name)
     help_text = spec.help.replace("%", "%%")  # argparse %-formats help texts
     if spec.metavar:
         kwargs.setdefault("metavar", spec.metavar)
     if "type" in kwargs:
         pass
+    elif spec.quantity is not None:  # with its unit (0.5g, 100mV/g, 2min, 0.2%)
+        numeric_option(p, spec.flag, QuantityType(spec.quantity, per=spec.per), help_text, **kwargs)
+        return
     elif spec.parse is not None:
         kwargs["type"] = _table_parser(spec)
     elif spec.choices:
@@ -172,7 +179,8 @@ def _add_run_options(r: argparse.ArgumentParser) -> None:
     _run_option(r, "preset")
     _run_option(r, "level_ms2")
     r.add_argument(
-        "--levels", help=f"amplitude sweep: levels in m/s^2, e.g. 4,5,6,7,8; {LEVEL.describe()}"
+        "--levels",
+        help=f"amplitude sweep: levels, e.g. 4,5,6,7,8 (m/s^2) or 0.4g,0.5g; {LEVEL.describe()}",
     )
     _run_option(r, "periods")
     g = r.add_argument_group("range (issue 26): lines, rate, period, profile, exciter")
@@ -274,7 +282,9 @@ def build_parser() -> argparse.ArgumentParser:
         const=1_000_000,
         default=None,
     )
-    numeric_option(a, "--tolerance", TOLERANCE, "DUT tolerance of the characteristic, %%")
+    numeric_option(
+        a, "--tolerance", TOLERANCE, f"DUT tolerance of the characteristic, {PERCENT_HELP}"
+    )
     a.add_argument("--json", action="store_true", help="results as JSON")
     a.add_argument("--csv", type=Path, help="also write the per-line results as CSV here")
     a.add_argument("--overwrite", action="store_true", help="--csv may replace an existing file")
@@ -284,7 +294,9 @@ def build_parser() -> argparse.ArgumentParser:
         "refused; a TDMS file gives the sample rate, 1/wf_increment)"
     )
     _add_plan_options(csv_group)
-    numeric_option(csv_group, "--reference-sensitivity", SENSITIVITY, "mV/(m/s^2)")
+    numeric_option(
+        csv_group, "--reference-sensitivity", SENSITIVITY, "e.g. 1.02 (mV/(m/s^2)) or 10mV/g"
+    )
     numeric_option(csv_group, "--reference-gain", GAIN, "V/V", default=None)
     numeric_option(csv_group, "--dut-gain", GAIN, "V/V", default=None)
     numeric_option(
@@ -376,7 +388,7 @@ def build_parser() -> argparse.ArgumentParser:
     s = sub.add_parser("simulate", help="record a calibration on the simulated stand")
     s.add_argument("--list", action="store_true", help="print the simulated catalogue")
     s.add_argument("--dut", type=dut_name, default="piezo", help="catalogue DUT (see --list)")
-    numeric_option(s, "--level", LEVEL, "peak acceleration per line, m/s^2", default=5.0)
+    numeric_option(s, "--level", LEVEL, "peak acceleration per line, e.g. 5 or 0.5g", default=5.0)
     numeric_option(s, "--periods", SIM_PERIODS, "periods to record after settling", default=8)
     numeric_option(s, "--settle", SIM_SETTLE, "settling periods after the fade-in", default=2)
     numeric_option(s, "--seed", SEED, "random seed (noise, stand deviations)", default=0)

@@ -5,14 +5,27 @@ only when one of these commands runs (app.cli stays quick to start)."""
 from __future__ import annotations
 
 import argparse
+import json
 from collections.abc import Callable
 from datetime import UTC, date, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from app.cli.db_verify import add_verify, cmd_db_verify
-from app.cli.options import Bounded, numeric_option
+from app.cli.listing import (
+    certificate_row,
+    control_row,
+    customer_row,
+    due_row,
+    history_object,
+    model_row,
+    print_rows,
+    reference_row,
+    sensor_row,
+)
+from app.cli.options import FREQUENCY, LEVEL, TOLERANCE, Bounded, numeric_option
 from app.cli.reviews import REVIEW_ACTIONS, add_review_commands
+from app.io.quantities import PERCENT_RULE
 from app.records.db.errors import RecordsInputError
 
 if TYPE_CHECKING:
@@ -21,9 +34,6 @@ if TYPE_CHECKING:
 Handler = Callable[[argparse.Namespace], int]
 
 NOMINAL = Bounded(float, 0.0, 1e6, open_low=True)
-TOLERANCE = Bounded(float, 0.0, 100.0, open_low=True, unit="%")
-FREQUENCY = Bounded(float, 0.0, 1e6, open_low=True, unit="Hz")
-LEVEL = Bounded(float, 0.0, 1000.0, open_low=True, unit="m/s^2")
 PHASE_TOLERANCE = Bounded(float, 0.0, 180.0, open_low=True, unit="deg")
 INTERVAL = Bounded(int, 1, 120, unit="months")
 DAYS = Bounded(int, 0, 3650, unit="days")
@@ -56,6 +66,16 @@ def _db_option(p: argparse.ArgumentParser) -> None:
     )
 
 
+def _list_options(p: argparse.ArgumentParser) -> None:
+    """--db and --json of a list command."""
+    p.add_argument(
+        "--json",
+        action="store_true",
+        help="a JSON array of objects (stable keys, ISO 8601 dates, numbers as numbers)",
+    )
+    _db_option(p)
+
+
 def add_commands(sub: argparse._SubParsersAction) -> dict[str, Handler]:  # type: ignore[type-arg]
     """Add the records commands to the top-level subparsers; their handlers by name."""
     d = sub.add_parser("db", help="records database: upgrade (create or migrate), import runs")
@@ -73,7 +93,7 @@ def add_commands(sub: argparse._SubParsersAction) -> dict[str, Handler]:  # type
     ca.add_argument("name")
     ca.add_argument("--address", default="")
     _db_option(ca)
-    _db_option(csub.add_parser("list", help="list customers"))
+    _list_options(csub.add_parser("list", help="list customers"))
 
     m = sub.add_parser("models", help="sensor models: add, list")
     msub = m.add_subparsers(dest="action", required=True, metavar="ACTION")
@@ -82,14 +102,16 @@ def add_commands(sub: argparse._SubParsersAction) -> dict[str, Handler]:  # type
     ma.add_argument("model")
     numeric_option(ma, "--nominal", NOMINAL, "nominal sensitivity in --unit", required=True)
     ma.add_argument("--unit", required=True, help="mV/(m/s^2), pC/(m/s^2) or mV/g")
-    numeric_option(ma, "--tolerance", TOLERANCE, "tolerance", required=True)
+    numeric_option(
+        ma, "--tolerance", TOLERANCE, f"tolerance, {PERCENT_RULE.replace('%', '%%')}", required=True
+    )
     numeric_option(ma, "--fmin", FREQUENCY, "lowest frequency", required=True)
     numeric_option(ma, "--fmax", FREQUENCY, "highest frequency", required=True)
     ma.add_argument("--preset", default="piezo", help="default plan")
-    numeric_option(ma, "--level", LEVEL, "default level", default=5.0)
+    numeric_option(ma, "--level", LEVEL, "default level, e.g. 5 or 0.5g", default=5.0)
     numeric_option(ma, "--phase-tolerance", PHASE_TOLERANCE, "phase tolerance")
     _db_option(ma)
-    _db_option(msub.add_parser("list", help="list sensor models"))
+    _list_options(msub.add_parser("list", help="list sensor models"))
 
     s = sub.add_parser("sensors", help="sensors: add, list, show")
     ssub = s.add_subparsers(dest="action", required=True, metavar="ACTION")
@@ -105,7 +127,7 @@ def add_commands(sub: argparse._SubParsersAction) -> dict[str, Handler]:  # type
     _db_option(sa)
     sl = ssub.add_parser("list", help="list sensors")
     sl.add_argument("--search", default="", help="part of the serial")
-    _db_option(sl)
+    _list_options(sl)
     sw = ssub.add_parser("show", help="one sensor and its last calibration")
     sw.add_argument("serial")
     _db_option(sw)
@@ -128,26 +150,29 @@ def add_commands(sub: argparse._SubParsersAction) -> dict[str, Handler]:  # type
         "an uncertainty column not named in percent is refused",
     )
     _db_option(ra)
-    _db_option(rsub.add_parser("list", help="list reference standards"))
+    _list_options(rsub.add_parser("list", help="list reference standards"))
 
     due = sub.add_parser("due", help="sensors and reference standards due for calibration")
     numeric_option(due, "--days", DAYS, "horizon (default 30)", default=30)
-    _db_option(due)
+    _list_options(due)
 
     h = sub.add_parser("history", help="a sensor's calibrations over time and its drift")
     h.add_argument("serial")
     h.add_argument("--plot", type=Path, help="write a drift chart (PNG) here")
+    h.add_argument(
+        "--json", action="store_true", help="one JSON object: serial, points, drift (scripts)"
+    )
     _db_option(h)
 
     k = sub.add_parser("control", help="a check standard's control chart on each stand")
     k.add_argument("serial")
-    _db_option(k)
+    _list_options(k)
 
     g = sub.add_parser(
         "register", help="the certificate register: list, withdraw, review, reviews, set"
     )
     gsub = g.add_subparsers(dest="action", required=True, metavar="ACTION")
-    _db_option(gsub.add_parser("list", help="every certificate, issued, replaced, withdrawn"))
+    _list_options(gsub.add_parser("list", help="every certificate, issued, replaced, withdrawn"))
     # `register issue` (a number without its PDF) was removed: `accelcal certificate RUN`
     # numbers, writes the PDF and DCC and enters them in one step; the name stays to say so
     gi = gsub.add_parser("issue", help="removed: use `accelcal certificate RUN_FOLDER`")
@@ -156,7 +181,7 @@ def add_commands(sub: argparse._SubParsersAction) -> dict[str, Handler]:  # type
     gw.add_argument("number")
     gw.add_argument("--reason", required=True)
     _db_option(gw)
-    add_review_commands(gsub, _db_option)
+    add_review_commands(gsub, _db_option, _list_options)
     gs = gsub.add_parser("set", help="lab settings: certificate_pattern, two_person_rule")
     gs.add_argument("key", choices=("certificate_pattern", "two_person_rule"))
     gs.add_argument("value")
@@ -215,7 +240,11 @@ def cmd_customers(args: argparse.Namespace) -> int:
     if args.action == "add":
         print(f"customer {lab.add_customer(args.name, args.address).name} added")
         return 0
-    for customer in lab.customers():
+    customers = lab.customers()
+    if args.json:
+        print_rows(customer_row(c) for c in customers)
+        return 0
+    for customer in customers:
         print(customer.name)
     return 0
 
@@ -237,7 +266,11 @@ def cmd_models(args: argparse.Namespace) -> int:
         )
         print(f"model {row.maker} {row.model} added")
         return 0
-    for m in lab.models():
+    models = lab.models()
+    if args.json:
+        print_rows(model_row(m) for m in models)
+        return 0
+    for m in models:
         print(
             f"{m.maker} {m.model}: {m.nominal_sensitivity:g} {m.unit} "
             f"±{m.tolerance_percent:g} %, {m.frequency_min_hz:g}-{m.frequency_max_hz:g} Hz"
@@ -259,7 +292,11 @@ def cmd_sensors(args: argparse.Namespace) -> int:
         print(f"sensor {row.serial} ({row.model.maker} {row.model.model}) added")
         return 0
     if args.action == "list":
-        for row in lab.sensors(args.search):
+        sensors = lab.sensors(args.search)
+        if args.json:
+            print_rows(sensor_row(s) for s in sensors)
+            return 0
+        for row in sensors:
             print(f"{row.serial}\t{row.model.maker} {row.model.model}\t{row.owner.name}")
         return 0
     row = lab.sensor(args.serial)
@@ -292,7 +329,11 @@ def cmd_refs(args: argparse.Namespace) -> int:
         )
         print(f"reference {row.identifier} added ({len(table)} table rows, due {row.due_date})")
         return 0
-    for ref in lab.references():
+    references = lab.references()
+    if args.json:
+        print_rows(reference_row(r) for r in references)
+        return 0
+    for ref in references:
         print(
             f"{ref.identifier}\t{ref.model} {ref.serial}\t{ref.certificate_number}\t"
             f"calibrated {ref.calibration_date}\tdue {ref.due_date}\t{len(ref.points)} rows"
@@ -303,6 +344,9 @@ def cmd_refs(args: argparse.Namespace) -> int:
 def cmd_due(args: argparse.Namespace) -> int:
     today = datetime.now(UTC).date()
     items = _lab(args).due(today=today, days=args.days)
+    if args.json:
+        print_rows(due_row(item, today) for item in items)
+        return 0
     for item in items:
         when = "never calibrated here" if item.due is None else f"due {item.due}"
         overdue = " (OVERDUE)" if item.due is not None and item.due < today else ""
@@ -315,6 +359,11 @@ def cmd_history(args: argparse.Namespace) -> int:
     history = _lab(args).history(args.serial)
     if args.plot is not None and not history.points:
         raise RecordsUsageError(f"--plot: no calibrations of {args.serial} on record to plot")
+    if args.json and args.plot is None:
+        print(json.dumps(history_object(history), indent=2, ensure_ascii=False))
+        return 0
+    if args.json:
+        raise RecordsUsageError("--json: prints the history alone; --plot writes a chart (one)")
     for p in history.points:
         u = (
             "n/a"
@@ -362,7 +411,11 @@ def cmd_register(args: argparse.Namespace) -> int:
         print(f"{args.key} = {args.value}")
         return 0
     under_review = {r.number: r.subject for r in lab.reviews(open_only=True)}
-    for c in lab.register():
+    register = lab.register()
+    if args.json:
+        print_rows(certificate_row(c, under_review) for c in register)
+        return 0
+    for c in register:
         note = f" replaces {c.replaces}" if c.replaces else ""
         if c.number in under_review:
             note += f" UNDER REVIEW ({under_review[c.number]})"
@@ -378,6 +431,9 @@ def cmd_register(args: argparse.Namespace) -> int:
 
 def cmd_control(args: argparse.Namespace) -> int:
     charts = _lab(args).control_chart(args.serial)
+    if args.json:
+        print_rows(control_row(chart) for chart in charts)
+        return 0
     if not charts:
         print(f"{args.serial}: no complete runs on record")
     for chart in charts:

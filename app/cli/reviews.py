@@ -9,12 +9,19 @@ import argparse
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
+from app.cli.listing import print_rows, review_row
+
 if TYPE_CHECKING:
     from app.records.db.lab import Lab
 
 
-def add_review_commands(gsub: Any, db_option: Callable[[argparse.ArgumentParser], None]) -> None:
-    """Add `review` and `reviews` to the register's subcommands."""
+def add_review_commands(
+    gsub: Any,
+    db_option: Callable[[argparse.ArgumentParser], None],
+    list_options: Callable[[argparse.ArgumentParser], None],
+) -> None:
+    """Add `review` and `reviews` to the register's subcommands (`reviews` a list command:
+    `list_options` gives it --db and --json)."""
     gr = gsub.add_parser("review", help="close a certificate's review: confirmed or amended")
     gr.add_argument("number", help="the certificate under review")
     how = gr.add_mutually_exclusive_group(required=True)
@@ -26,7 +33,7 @@ def add_review_commands(gsub: Any, db_option: Callable[[argparse.ArgumentParser]
     )
     gr.add_argument("--reason", required=True, help="why (kept in the register and audited)")
     db_option(gr)
-    db_option(gsub.add_parser("reviews", help="the certificates under review (open reviews)"))
+    list_options(gsub.add_parser("reviews", help="the certificates under review (open reviews)"))
 
 
 def cmd_review(lab: Lab, args: argparse.Namespace) -> int:
@@ -44,6 +51,9 @@ def cmd_review(lab: Lab, args: argparse.Namespace) -> int:
 def cmd_reviews(lab: Lab, args: argparse.Namespace) -> int:
     """The open reviews, oldest first, and their count."""
     reviews = lab.reviews(open_only=True)
+    if args.json:
+        print_rows(review_row(r) for r in reviews)
+        return 0
     for review in reviews:
         print(f"{review.number}\t{review.opened_utc:%Y-%m-%d}\t{review.subject}\t{review.reason}")
     print(f"{len(reviews)} certificate review{'' if len(reviews) == 1 else 's'} open")

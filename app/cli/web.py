@@ -1,6 +1,7 @@
-"""`accelcal web` (the lab's read-only web view, the options of `python -m app.web`) and
-`accelcal records user add NAME` (a staff user of the web view; the password is read from a
-prompt or, with --password-stdin, from standard input: never from the command line)."""
+"""`accelcal web` (the lab's read-only web view, the options of `python -m app.web`),
+`accelcal records user list` and `accelcal records user add NAME` (a staff user of the web
+view; the password is read from a prompt or, with --password-stdin, from standard input:
+never from the command line)."""
 
 from __future__ import annotations
 
@@ -17,7 +18,7 @@ def add_web_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[t
 
     w = sub.add_parser("web", help="the lab's read-only web view (register, verification)")
     add_options(w)
-    r = sub.add_parser("records", help="records administration: user add")
+    r = sub.add_parser("records", help="records administration: user add, user list")
     rsub = r.add_subparsers(dest="records_command", required=True, metavar="WHAT")
     u = rsub.add_parser("user", help="staff users of the web view")
     usub = u.add_subparsers(dest="user_action", required=True, metavar="ACTION")
@@ -28,6 +29,13 @@ def add_web_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[t
         "--password-stdin", action="store_true", help="read the password from standard input"
     )
     ua.add_argument("--db", metavar="URL", help="records database (default $ACCELCAL_DB)")
+    ul = usub.add_parser("list", help="the staff users: name, display name, active, created")
+    ul.add_argument(
+        "--json",
+        action="store_true",
+        help="a JSON array of objects (stable keys, ISO 8601 dates, numbers as numbers)",
+    )
+    ul.add_argument("--db", metavar="URL", help="records database (default $ACCELCAL_DB)")
 
 
 def cmd_web(args: argparse.Namespace) -> int:
@@ -51,6 +59,9 @@ def _password(args: argparse.Namespace) -> str:
 
 def cmd_records(args: argparse.Namespace) -> int:
     from app.records.db.engine import open_engine
+
+    if args.user_action == "list":
+        return _list_users(args)
     from app.web.users import add_user
 
     password = _password(args)
@@ -61,4 +72,21 @@ def cmd_records(args: argparse.Namespace) -> int:
         display_name=args.display_name or args.name,
     )
     print(f"user {args.name.strip()} added")
+    return EXIT_OK
+
+
+def _list_users(args: argparse.Namespace) -> int:
+    """`accelcal records user list`: one line per staff user, or --json."""
+    from app.cli.listing import print_rows, user_row
+    from app.records.db.engine import open_engine
+    from app.web.users import list_users
+
+    users = list_users(open_engine(args.db))
+    if args.json:
+        print_rows(user_row(u) for u in users)
+        return EXIT_OK
+    for user in users:
+        state = "active" if user.active else "locked"
+        print(f"{user.username}\t{user.display_name}\t{state}\tsince {user.created_utc:%Y-%m-%d}")
+    print(f"{len(users)} user{'' if len(users) == 1 else 's'}")
     return EXIT_OK

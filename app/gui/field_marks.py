@@ -20,6 +20,13 @@ from app.gui.table_items import shown_unit
 ERROR, WARNING, INFO = "error", "warning", "info"
 STYLE = {ERROR: "#c0392b", WARNING: "#b9770e", INFO: "#1e8449"}
 SYMBOL = {ERROR: "✖", WARNING: "⚠", INFO: "✔"}
+# the refusal of a quantity field starts with its name (app.gui.quantity_edit): the field
+FIELD_PREFIXES = {
+    "level:": "level",
+    "nominal sensitivity:": "nominal",
+    "tolerance:": "tolerance",
+    "type a target:": "target",
+}
 
 
 def field_for(problem: str, fields: dict[str, QWidget]) -> QWidget | None:
@@ -27,6 +34,9 @@ def field_for(problem: str, fields: dict[str, QWidget]) -> QWidget | None:
     text = problem.lower()
     if text.startswith("optimising"):
         return None
+    for prefix, name in FIELD_PREFIXES.items():  # a field's own refusal ("level: ...")
+        if text.startswith(prefix):
+            return fields.get(name)
     if any(word in text for word in ("displacement", "velocity", "acceleration")):
         return fields.get("level")
     if text.startswith(("lines:", "line ", "reference frequency")):
@@ -157,5 +167,8 @@ def install(setup: Any) -> FieldMarks:
             "frequencies": setup.frequencies,
             "level": setup.level,
             "dut_id": setup.dut_id,
+            "nominal": setup.nominal,
+            "tolerance": setup.tolerance,
+            "target": setup.target,
         }
     )

@@ -1,8 +1,9 @@
-"""Multisine plans optimised off the GUI thread (the phase optimisation takes about a second):
-one future per phase key (app.procedure.service.RunService.phase_key: the lines, rate, period
-and reference of the plan that will run, at 1 m/s^2 per line; the phases do not depend on the
-level). The run service makes each plan (`RunService.unit_plan`); this only keeps the futures,
-so Start does not block the window.
+"""Multisine plans made off the GUI thread (a custom plan's phase optimisation takes about a
+second the first time; app.procedure.phase_store keeps the result): one future per phase key
+(app.procedure.service.RunService.phase_key: the lines, rate, period and reference of the plan
+that will run, at 1 m/s^2 per line; the phases do not depend on the level). The run service
+makes each plan (`RunService.unit_plan`); this only keeps the futures, so Start does not block
+the window.
 """
 
 from __future__ import annotations

@@ -37,6 +37,8 @@ from PySide6.QtWidgets import (
 
 from app.gui.field_marks import ERROR, FieldMarks
 from app.gui.table_items import read_only_item, shown_unit
+from app.io import quantities
+from app.io.quantities import Quantity, QuantityError
 from app.records.db.errors import RecordsInputError
 from app.records.db.reference_table import TableRow, read_reference_table
 from app.records.db.units import SENSITIVITY_UNITS
@@ -74,6 +76,19 @@ class Checked:
             return number(edit, field, optional=optional)
         except FieldError as exc:
             self.errors.append(exc)
+            return None
+
+    def quantity(self, edit: QLineEdit, field: str, quantity: Quantity) -> float | None:
+        """The quantity typed in `edit`, a bare number or with its unit, read as the command
+        line reads it (app.io.quantities); None when refused (the reason kept)."""
+        text = edit.text().strip()
+        if not text:
+            self.errors.append(FieldError(field, "must not be blank"))
+            return None
+        try:
+            return quantity.parse(text, field)
+        except QuantityError as exc:  # its reason names the field, as the records' own do
+            self.errors.append(FieldError(field, str(exc)))
             return None
 
     def text(self, edit: QLineEdit, field: str) -> str:
@@ -257,6 +272,7 @@ class ModelDialog(RecordDialog):
         self.tolerance = self.add(
             "tolerance", "Tolerance (%)", line(c.tolerance_percent if c else 5.0)
         )
+        self.tolerance.setToolTip("in percent: 5 and 5 % both mean 5 %")
         self.frequency_min = self.add(
             "frequency_min", "Lowest frequency (Hz)", line(c.frequency_min_hz if c else None)
         )
@@ -271,6 +287,7 @@ class ModelDialog(RecordDialog):
         self.level = self.add(
             "level", "Level (m/s² peak per line)", line(c.level_ms2 if c else 5.0)
         )
+        self.level.setToolTip("in m/s², or with its unit: e.g. 0.5 g (standard gravity)")
         self.phase_tolerance = self.add(
             "phase_tolerance",
             "Phase tolerance (°)",
@@ -285,11 +302,11 @@ class ModelDialog(RecordDialog):
             "model": read.text(self.model, "model"),
             "nominal_sensitivity": read.number(self.nominal, "nominal"),
             "unit": self.unit.currentData(),
-            "tolerance_percent": read.number(self.tolerance, "tolerance"),
+            "tolerance_percent": read.quantity(self.tolerance, "tolerance", quantities.TOLERANCE),
             "frequency_min_hz": read.number(self.frequency_min, "frequency_min"),
             "frequency_max_hz": read.number(self.frequency_max, "frequency_max"),
             "preset": self.preset.currentText(),
-            "level_ms2": read.number(self.level, "level"),
+            "level_ms2": read.quantity(self.level, "level", quantities.LEVEL),
             "phase_tolerance_deg": read.number(
                 self.phase_tolerance, "phase_tolerance", optional=True
             ),

@@ -15,7 +15,6 @@ from typing import Any
 from PySide6.QtCore import QSettings, Qt, QTimer, Signal
 from PySide6.QtWidgets import (
     QComboBox,
-    QDoubleSpinBox,
     QFileDialog,
     QFormLayout,
     QGroupBox,
@@ -31,12 +30,15 @@ from PySide6.QtWidgets import (
 from app.gui import field_marks
 from app.gui.actions import START, with_key
 from app.gui.plan_cache import PlanCache
+from app.gui.quantity_edit import QuantityEdit
 from app.gui.reference_view import describe_reference
 from app.gui.results_tab import wrapping_label
 from app.gui.sensor_entry import SerialEntry
 from app.gui.table_items import shown_unit
 from app.gui.teds_entry import TedsEntry
 from app.gui.templates import TemplatePicker
+from app.io import quantities
+from app.io.quantities import QuantityError
 from app.io.vocabulary import Mode
 from app.lines import parse_frequencies
 from app.procedure.options import RunOptions, option
@@ -111,8 +113,8 @@ class SetupTab(QWidget):
         self.serial_entry.sensor_changed.connect(self.templates.show_for)
         for widget in (self.preset, self.estimator, self.mode, self.dut):
             widget.currentTextChanged.connect(self.validate)
-        for spin in (self.level, self.nominal, self.tolerance):
-            spin.valueChanged.connect(self.validate)
+        for edit in self.quantity_fields():
+            edit.edited.connect(self.validate)
         self.periods.valueChanged.connect(self.validate)
         self.frequencies.textChanged.connect(self.validate)
 
@@ -152,9 +154,12 @@ class SetupTab(QWidget):
         # never restored from the last session: another day's sensor is another serial
         self.dut_id = QLineEdit()
         self.dut_id.setPlaceholderText("serial number of the sensor on the stand")
-        self.nominal = QDoubleSpinBox(decimals=3, maximum=10000.0, suffix=" mV/(m/s²)")
-        self.nominal.setSpecialValueText("not given, mV/(m/s²)")
-        self.tolerance = QDoubleSpinBox(decimals=1, maximum=50.0, value=5.0, suffix=" %")
+        # quantity fields: a number in the row's unit, or with its unit (0.5g, 100 mV/g, 0.2 %),
+        # read as the command line reads it (app.gui.quantity_edit)
+        self.nominal = QuantityEdit(
+            quantities.NOMINAL_SENSITIVITY, "nominal sensitivity", blank="not given"
+        )
+        self.tolerance = QuantityEdit(quantities.TOLERANCE, "tolerance", value=5.0, blank="none")
         form.addRow("DUT", self.dut)
         form.addRow("DUT serial", self.dut_id)
         self.teds = TedsEntry(self, self.records)
@@ -171,12 +176,14 @@ class SetupTab(QWidget):
         self.preset.addItems(list(PRESETS))
         self.frequencies = QLineEdit()
         self.frequencies.setPlaceholderText("preset lines; or e.g. 10,12.5,...,1000 (Hz)")
-        self.level = QDoubleSpinBox(
-            decimals=2, minimum=0.01, maximum=1000.0, value=5.0, suffix=" m/s² peak per line"
-        )
+        self.level = QuantityEdit(quantities.LEVEL, "level", value=5.0, suffix="m/s² peak per line")
         self.periods = QSpinBox(minimum=3, maximum=10000, value=8, suffix=" periods")
-        self.target = QDoubleSpinBox(decimals=3, maximum=10.0, suffix=" % type A target")
-        self.target.setSpecialValueText("off (% type A): acquire the periods above")
+        self.target = QuantityEdit(
+            quantities.TARGET_UA,
+            "type A target",
+            blank="off: acquire the periods above",
+            suffix="% type A target",
+        )
         self.max_time = QSpinBox(maximum=100_000, suffix=" s at most")
         self.max_time.setSpecialValueText("no time bound (s)")
         self.estimator = QComboBox()
@@ -277,6 +284,14 @@ class SetupTab(QWidget):
         self.running = running
         self.validate()
 
+    def quantity_fields(self) -> tuple[QuantityEdit, ...]:
+        """The fields that take a quantity (with its unit, or a bare number in the row's)."""
+        return (self.nominal, self.tolerance, self.level, self.target)
+
+    def field_errors(self) -> list[str]:
+        """Why each refused quantity field is refused ("level: ..."), in form order."""
+        return [e for e in (f.error() for f in self.quantity_fields()) if e is not None]
+
     def custom_lines(self) -> tuple[float, ...] | None:
         """The typed line list (Hz), None for the preset's; ValueError says what is wrong."""
         text = self.frequencies.text().strip()
@@ -287,7 +302,10 @@ class SetupTab(QWidget):
         `accelcal run`'s): the catalogue DUT (simulated stand), the serial and, when its
         look-up found it on record, its specification; what the operator states over the
         record. The records in use are the window's own (`prepare` passes them). ValueError
-        names a field that does not parse."""
+        names a field that does not parse (a refused quantity field: QuantityError, never a
+        run with a value the field does not show)."""
+        for refused in self.field_errors():
+            raise QuantityError("", refused)
         options = self.options
         return RunOptions(
             stand_file=self.stand_file,
@@ -366,7 +384,7 @@ class SetupTab(QWidget):
     def validate(self) -> list[str]:
         """The preview of the plan that will run (the run service's: the stand file's [plan]
         applied) and its checks beside the fields; Start only when nothing fails."""
-        problems: list[str] = []
+        problems: list[str] = self.field_errors()  # a refused quantity field: its reason
         warnings: list[str] = []
         pending = ""  # work in progress (not an error): Start waits for it
         self.preview = None
@@ -375,6 +393,8 @@ class SetupTab(QWidget):
             options = self.run_options()
             key = self.service.phase_key(options)
             check = self.service.line_check(options)  # at once, before any optimisation
+        except QuantityError:
+            pass  # a refused field, said at the field (no plan checked until it reads)
         except ValueError as exc:  # the lines typed, or a DUT that cannot be resolved
             problems.append(f"lines: {exc}" if "lines" not in str(exc) else str(exc))
         else:

@@ -2,9 +2,12 @@
 `RUN_OPTIONS`, the table of each option's flag, unit, bounds, help and parser, from which
 `accelcal run`'s parser (app.cli.parser) and the GUI's Setup tab bindings are made.
 
-Parsing text is one callable per option (`OptionSpec.parse`, ValueError naming the fault), so a
-unit-aware parser drops in without touching the faces. Levels in m/s^2 peak per line,
-sensitivities in mV/(m/s^2), masses in g, times in s, the type A target as a fraction.
+Parsing text is one callable per option (`OptionSpec.parse`, ValueError naming the fault); a
+quantity (`OptionSpec.quantity`) is read with its unit or as a bare number in the field's unit
+by app.io.quantities (`0.5g`, `100mV/g`, `2min`), and every percent option reads a bare number
+as percent (`0.2` and `0.2%` are 0.2 %). Levels in m/s^2 peak per line, sensitivities in
+mV/(m/s^2), masses in g, times in s, the type A target as a fraction (the percent typed / 100,
+converted here, once).
 """
 
 from __future__ import annotations
@@ -16,6 +19,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from app.io import quantities
+from app.io.quantities import Quantity
 from app.io.vocabulary import Mode
 from app.lines import parse_frequencies
 from app.stand.simulated import CATALOGUE, EXCITERS
@@ -26,9 +31,6 @@ from dsp.profiles import Profile
 if TYPE_CHECKING:
     from app.stand.dut import DutSpec
     from app.stand.simulated import Fault
-
-TARGET_UA = (0.0, 1.0)  # the type A target: (0, 100 %]
-MAX_TIME_S = 24 * 3600.0  # the acquisition time bound: (0, 24 h]
 
 
 @dataclass(frozen=True)
@@ -54,36 +56,6 @@ class Bounds:
         return math.isfinite(value) and not (too_low or too_high)
 
 
-def _percent_fraction(text: str) -> float:
-    """The type A target: '0.2%' -> 0.002; a bare number is a fraction ('0.002')."""
-    stripped = text.strip()
-    try:
-        value = float(stripped[:-1]) / 100 if stripped.endswith("%") else float(stripped)
-    except ValueError:
-        raise ValueError(f"{text!r} is not a number or percentage") from None
-    low, high = TARGET_UA
-    if not (math.isfinite(value) and low < value <= high):
-        raise ValueError(f"must be in (0, 100 %], got {text!r}")
-    return value
-
-
-def _seconds(text: str) -> float:
-    """A duration: '30s', '2min', '500ms', '1h' or bare seconds."""
-    value = text.strip().lower()
-    scale = 1.0
-    for suffix, factor in (("min", 60.0), ("ms", 1e-3), ("s", 1.0), ("h", 3600.0)):
-        if value.endswith(suffix):
-            value, scale = value[: -len(suffix)], factor
-            break
-    try:
-        seconds = float(value) * scale
-    except ValueError:
-        raise ValueError(f"{text!r} is not a duration (e.g. 30s)") from None
-    if not (math.isfinite(seconds) and 0 < seconds <= MAX_TIME_S):
-        raise ValueError(f"must be in (0, 24 h], got {text!r}")
-    return seconds
-
-
 def _lines(text: str) -> tuple[float, ...]:
     return tuple(parse_frequencies(text))
 
@@ -91,8 +63,9 @@ def _lines(text: str) -> tuple[float, ...]:
 @dataclass(frozen=True)
 class OptionSpec:
     """One run option: its RunOptions field `name`, command-line `flag`, `unit`, `bounds`
-    (numbers), `choices` (words), `help`, and `parse` (text -> value; ValueError says why).
-    `parse` None: a number within `bounds` (the face's own bounded parser)."""
+    (numbers), `choices` (words), `help`, and `parse` (text -> value; ValueError says why),
+    or `quantity` (a number with its unit, within the quantity's range; the field's value is
+    it divided by `per`). Neither: a number within `bounds` (the face's own bounded parser)."""
 
     name: str
     flag: str
@@ -102,6 +75,8 @@ class OptionSpec:
     choices: tuple[str, ...] = ()
     parse: Callable[[str], Any] | None = None
     metavar: str | None = None
+    quantity: Quantity | None = None  # read with its unit (app.io.quantities), in range
+    per: float = 1.0  # the field holds the quantity / per (the type A target: % / 100)
 
     @property
     def dest(self) -> str:
@@ -110,12 +85,12 @@ class OptionSpec:
 
     def full_help(self) -> str:
         """The help with the bounds, as --help and the GUI's tooltip show it."""
+        if self.quantity is not None:
+            return f"{self.help}; {self.quantity.describe()}"
         if self.bounds is None:
             return self.help
         return f"{self.help}; {self.bounds.describe(self.unit)}"
 
-
-_POSITIVE_HZ = Bounds(0.0, 1e6, open_low=True)
 
 # The run options that are numbers, words or lists (flags stay as `accelcal run` always had them).
 RUN_OPTIONS: tuple[OptionSpec, ...] = (
@@ -130,17 +105,17 @@ RUN_OPTIONS: tuple[OptionSpec, ...] = (
     OptionSpec(
         "nominal_mv_per_ms2",
         "--nominal-sensitivity",
-        "DUT nominal, mV/(m/s^2)",
+        "DUT nominal, e.g. 10.2 (mV/(m/s^2)) or 100mV/g",
         unit="mV/(m/s^2)",
-        bounds=Bounds(0.0, 1e6, open_low=True),
+        quantity=quantities.NOMINAL_SENSITIVITY,
     ),
     OptionSpec("preset", "--preset", "plan (default: by DUT kind)", choices=tuple(sorted(PRESETS))),
     OptionSpec(
         "level_ms2",
         "--level",
-        "peak acceleration per line, m/s^2 (default 5)",
+        "peak acceleration per line, e.g. 5 or 0.5g (default 5)",
         unit="m/s^2",
-        bounds=Bounds(0.0, 1000.0, open_low=True),
+        quantity=quantities.LEVEL,
     ),
     OptionSpec(
         "periods",
@@ -160,7 +135,7 @@ RUN_OPTIONS: tuple[OptionSpec, ...] = (
         "--sample-rate",
         "sample rate in Hz",
         unit="Hz",
-        bounds=Bounds(1.0, 1e7),
+        quantity=quantities.SAMPLE_RATE,
     ),
     OptionSpec(
         "period_samples",
@@ -174,7 +149,7 @@ RUN_OPTIONS: tuple[OptionSpec, ...] = (
         "--reference-frequency",
         "reference frequency in Hz",
         unit="Hz",
-        bounds=_POSITIVE_HZ,
+        quantity=quantities.LINE_FREQUENCY,
     ),
     OptionSpec(
         "profile",
@@ -188,7 +163,7 @@ RUN_OPTIONS: tuple[OptionSpec, ...] = (
         "--corner",
         "corner frequency of the profile, Hz",
         unit="Hz",
-        bounds=_POSITIVE_HZ,
+        quantity=quantities.LINE_FREQUENCY,
     ),
     OptionSpec(
         "exciter",
@@ -202,21 +177,22 @@ RUN_OPTIONS: tuple[OptionSpec, ...] = (
         "--fade-in",
         "lpm: fade-in before the record, s (default 2 cycles)",
         unit="s",
-        bounds=Bounds(0.001, 60.0),
+        quantity=quantities.FADE_IN,
     ),
     OptionSpec(
         "target_type_a",
         "--target-ua",
-        "stop at this relative type A, e.g. 0.2%; (0, 100 %]",
+        f"stop at this relative type A, {quantities.PERCENT_RULE}",
         unit="%",
-        parse=_percent_fraction,
+        quantity=quantities.TARGET_UA,
+        per=100.0,  # RunOptions holds the fraction
     ),
     OptionSpec(
         "max_acquisition_s",
         "--max-time",
-        "bound on the acquisition time, e.g. 30s; (0, 24 h]",
+        "bound on the acquisition time, e.g. 30s or 2min",
         unit="s",
-        parse=_seconds,
+        quantity=quantities.MAX_TIME,
     ),
     OptionSpec(
         "estimator", "--estimator", "line estimator", choices=tuple(e.value for e in Estimator)
@@ -225,9 +201,9 @@ RUN_OPTIONS: tuple[OptionSpec, ...] = (
     OptionSpec(
         "tolerance_percent",
         "--tolerance",
-        "DUT tolerance of the characteristic, %",
+        f"DUT tolerance of the characteristic, {quantities.PERCENT_RULE}",
         unit="%",
-        bounds=Bounds(0.0, 100.0, open_low=True),
+        quantity=quantities.TOLERANCE,
     ),
     OptionSpec(
         "dut_mass_g",
@@ -235,7 +211,7 @@ RUN_OPTIONS: tuple[OptionSpec, ...] = (
         "DUT mass in g: its class picks the stand's stored response (default: the simulated "
         "DUT's catalogue mass; on real hardware not stated)",
         unit="g",
-        bounds=Bounds(0.0, 100_000.0),
+        quantity=quantities.DUT_MASS,
     ),
     OptionSpec(
         "seed", "--seed", "simulated stand: random seed", bounds=Bounds(0, 2**32 - 1, whole=True)
@@ -334,6 +310,8 @@ def parse_option(name: str, text: str) -> Any:
     """`text` parsed as the option `name` (ValueError naming its flag): the option's own
     parser, else a number within its bounds."""
     spec = option(name)
+    if spec.quantity is not None:  # its refusal names the flag already
+        return spec.quantity.parse(text, spec.flag) / spec.per
     try:
         if spec.parse is not None:
             return spec.parse(text)

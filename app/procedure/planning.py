@@ -17,6 +17,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from app.procedure.phase_store import stored_phases
 from dsp import lpm
 from dsp.multisine import PRESETS, Plan, PlanError, make_plan
 from dsp.profiles import AmplitudeProfile, Profile, check_stroke
@@ -102,6 +103,7 @@ def build_plan(
         mains_frequency_hz=request.mains_frequency_hz,
         shift_mains_lines=request.shift_mains_lines,
         phases_rad=phases_rad if phases_rad is not None or optimise else [0.0] * len(freqs),
+        optimiser=stored_phases,
     )
     if stroke_peak_to_peak_m is not None:
         check_stroke(plan, stroke_peak_to_peak_m)

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Any
 
 from app.io.vocabulary import Backend
 from app.procedure import Finished, Listener, Procedure
+from app.procedure.phase_store import stored_phases
 from app.procedure.planning import PlanRequest, build_plan
 from app.procedure.reference import reference_budget, table_phases
 from app.procedure.request import (
@@ -158,7 +159,7 @@ def request_plan(request: RunRequest, stroke_peak_to_peak_m: float | None = None
         and request.profile == Profile.ACCELERATION
         and stroke_peak_to_peak_m is None
     ):
-        return preset_plan(wanted.preset, level_ms2=request.level_ms2)
+        return preset_plan(wanted.preset, level_ms2=request.level_ms2, optimiser=stored_phases)
     return build_plan(wanted, stroke_peak_to_peak_m=stroke_peak_to_peak_m, phases_rad=phases)
 
 

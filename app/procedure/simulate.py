@@ -18,6 +18,7 @@ from app.errors import Refusal
 from app.files import FileExistsRefusal, check_target, staged
 from app.io.hdf5 import RecordingWriter, Truth
 from app.io.vocabulary import RunStatus
+from app.procedure.phase_store import stored_phases
 from app.records.run_folder import refuse_in_run_folder
 from dsp.crestfactor import synthesize
 from dsp.multisine import Plan, fade_envelope, preset_plan
@@ -97,7 +98,7 @@ def simulate(
         raise SimulationError(f"--periods: must be >= 1, got {periods}")
     path = _target(out, overwrite)
     if plan is None:
-        plan = preset_plan(plan_preset_for(dut), level_ms2=level_ms2)
+        plan = preset_plan(plan_preset_for(dut), level_ms2=level_ms2, optimiser=stored_phases)
     stand = SimulatedStand(dut, seed=seed, faults=faults, paced=paced, systematic=systematic)
     sensor = stand.dut
     peaks = plan.predicted_peaks()

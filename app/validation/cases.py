@@ -97,10 +97,11 @@ def _channel(plan, sensitivity: np.ndarray, rng=None, noise_v: float = 0.0, peri
 def known_answer_lowpass() -> list[CaseResult]:
     """Noiseless piezo-plan multisine, flat 1 mV/(m/s^2) reference, analytic low-pass DUT: the
     periodic estimate must equal S(f) to rounding, magnitude and phase, at every line."""
+    from app.procedure.phase_store import stored_phases
     from dsp.multisine import preset_plan
     from dsp.spectral import SpectralAccumulator
 
-    plan = preset_plan("piezo")
+    plan = preset_plan("piezo", optimiser=stored_phases)
     truth = lowpass(plan.frequencies_hz)
     accumulator = SpectralAccumulator(plan.period_samples, plan.bins)
     reference = _channel(plan, np.ones(len(plan.lines), dtype=complex))
@@ -166,10 +167,11 @@ def peer_h1_scipy() -> list[CaseResult]:
     per segment, no overlap) at every line, to rounding."""
     import scipy.signal
 
+    from app.procedure.phase_store import stored_phases
     from dsp.multisine import preset_plan
     from dsp.spectral import SpectralAccumulator
 
-    plan = preset_plan("piezo")
+    plan = preset_plan("piezo", optimiser=stored_phases)
     rng = np.random.default_rng(27)
     periods = 6
     reference = _channel(plan, np.ones(len(plan.lines), dtype=complex), rng, 1e-4, periods)

@@ -1,8 +1,9 @@
 """Staff users of the web view: argon2id password hashes (argon2-cffi, its default RFC 9106
 low-memory parameters), adding a user and checking a password.
 
-`add_user` is the one writer: it audits the new row like every records write, but with the
-hash left out of the audit trail (which is append-only and must not keep password material).
+`add_user` is the one writer (`list_users` reads them): it audits the new row like every
+records write, but with the hash left out of the audit trail (which is append-only and must
+not keep password material).
 """
 
 from __future__ import annotations
@@ -52,6 +53,13 @@ def dummy_check(password: str) -> None:
     if not _DUMMY_HASH:
         _DUMMY_HASH.append(hash_password("not a password of anyone"))
     password_matches(_DUMMY_HASH[0], password)
+
+
+def list_users(engine: Engine) -> list[User]:
+    """Every staff user, by user name (the rows carry their hash: show only the other
+    columns)."""
+    with Session(engine) as s:
+        return list(s.scalars(select(User).order_by(User.username)).all())
 
 
 def add_user(

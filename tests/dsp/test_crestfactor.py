@@ -158,7 +158,7 @@ def test_schroeder_beats_the_median_of_random_phases_on_the_piezo_plan():
 def test_lp_gradient_matches_finite_differences(p):
     rng = np.random.default_rng(7)
     amplitudes = rng.uniform(0.2, 2.0, PIEZO_BINS.size)
-    problem = crestfactor._LpProblem(PIEZO_BINS, amplitudes, PIEZO_N, deadline=np.inf)
+    problem = crestfactor._LpProblem(PIEZO_BINS, amplitudes, PIEZO_N, max_evaluations=10**9)
     phases = random_phases(PIEZO_BINS.size, rng)
     _, grad = problem.lp_value_and_grad(phases, p)
     h = 1e-6
@@ -179,7 +179,7 @@ def test_lp_value_is_the_log_p_mean_of_the_unit_rms_signal():
     rng = np.random.default_rng(8)
     amplitudes = rng.uniform(0.2, 2.0, PIEZO_BINS.size)
     phases = random_phases(PIEZO_BINS.size, rng)
-    problem = crestfactor._LpProblem(PIEZO_BINS, amplitudes, PIEZO_N, deadline=np.inf)
+    problem = crestfactor._LpProblem(PIEZO_BINS, amplitudes, PIEZO_N, max_evaluations=10**9)
     x = synthesize(PIEZO_BINS, amplitudes, phases, PIEZO_N)
     x /= np.sqrt(np.mean(x * x))
     for p in (4.0, 10.0):
@@ -192,7 +192,7 @@ def test_frequency_domain_4_norm_equals_the_fft_one_including_aliased_products()
     bins = np.array([30, 45, 70, 99])
     rng = np.random.default_rng(9)
     amplitudes = rng.uniform(0.5, 2.0, bins.size)
-    problem = crestfactor._LpProblem(bins, amplitudes, 200, deadline=np.inf)
+    problem = crestfactor._LpProblem(bins, amplitudes, 200, max_evaluations=10**9)
     assert problem._use_pairs
     for _ in range(5):
         phases = random_phases(bins.size, rng)
@@ -230,15 +230,78 @@ def test_unequal_amplitudes_still_improve_on_schroeder():
     assert cf < schroeder_cf - 0.5, (cf, schroeder_cf)
 
 
-def test_time_budget_is_a_safety_cap_that_still_returns_usable_phases():
+def _counting_problems(monkeypatch) -> list:
+    """The _LpProblem instances optimise_phases creates from now on (to read their counts)."""
+    made = []
+
+    class Counted(crestfactor._LpProblem):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            made.append(self)
+
+    monkeypatch.setattr(crestfactor, "_LpProblem", Counted)
+    return made
+
+
+def test_the_seed_plan_stops_on_its_own_counts_well_below_the_evaluation_cap(monkeypatch):
+    made = _counting_problems(monkeypatch)
+    optimise_phases(PIEZO_BINS, PIEZO_AMPS, PIEZO_N, seed=0)
+    (problem,) = made
+    assert 1000 < problem.objective_evaluations < crestfactor.DEFAULT_MAX_EVALUATIONS / 2
+
+
+def test_the_evaluation_cap_is_what_stops_a_short_budget_and_the_phases_stay_usable(
+    monkeypatch, piezo_optimised
+):
+    made = _counting_problems(monkeypatch)
     t0 = time.process_time()
-    phases = optimise_phases(PIEZO_BINS, PIEZO_AMPS, PIEZO_N, time_budget_s=0.02)
+    phases = optimise_phases(PIEZO_BINS, PIEZO_AMPS, PIEZO_N, max_evaluations=40)
     assert time.process_time() - t0 < 0.5
+    (problem,) = made
+    assert problem.objective_evaluations == 40  # stopped by the count, at the count
+    again = optimise_phases(PIEZO_BINS, PIEZO_AMPS, PIEZO_N, max_evaluations=40)
+    np.testing.assert_array_equal(again, phases)  # a capped run is as reproducible
+    assert not np.array_equal(phases, piezo_optimised[0])  # and the cap did change the work
     cf = crest_factor(synthesize(PIEZO_BINS, PIEZO_AMPS, phases, PIEZO_N))
     schroeder_cf = crest_factor(
         synthesize(PIEZO_BINS, PIEZO_AMPS, schroeder_phases(PIEZO_AMPS), PIEZO_N)
     )
-    assert cf <= schroeder_cf
+    assert cf < schroeder_cf
+
+
+def test_no_clock_decides_the_phases_even_one_that_jumps(monkeypatch, piezo_optimised):
+    """Every clock of the time module jumps by an hour per reading (a loaded machine, a
+    suspended VM, a clock step): the phases are bit-identical to an undisturbed call."""
+    readings = [0]
+
+    def jumping(*_args: object) -> float:
+        readings[0] += 1
+        return 3600.0 * readings[0]
+
+    def jumping_ns(*_args: object) -> int:
+        return int(jumping() * 1e9)
+
+    for name in ("time", "monotonic", "perf_counter", "process_time", "thread_time"):
+        monkeypatch.setattr(time, name, jumping)
+        monkeypatch.setattr(time, name + "_ns", jumping_ns)
+    phases = optimise_phases(PIEZO_BINS, PIEZO_AMPS, PIEZO_N, seed=0)
+    capped = optimise_phases(PIEZO_BINS, PIEZO_AMPS, PIEZO_N, seed=0, max_evaluations=300)
+    monkeypatch.undo()
+    assert phases.tobytes() == piezo_optimised[0].tobytes()
+    unhurried = optimise_phases(PIEZO_BINS, PIEZO_AMPS, PIEZO_N, seed=0, max_evaluations=300)
+    assert capped.tobytes() == unhurried.tobytes()
+    assert not hasattr(crestfactor, "time")  # the module reads no clock at all
+
+
+def test_the_same_lines_at_another_level_give_bit_identical_phases(piezo_optimised):
+    louder = optimise_phases(PIEZO_BINS, 7.3 * PIEZO_AMPS, PIEZO_N, seed=0)
+    assert louder.tobytes() == piezo_optimised[0].tobytes()
+
+
+@pytest.mark.parametrize("cap", [0, -5, 2.5, True])
+def test_an_evaluation_cap_that_is_not_a_positive_count_is_refused(cap):
+    with pytest.raises(ValueError, match="max_evaluations"):
+        optimise_phases(PIEZO_BINS, PIEZO_AMPS, PIEZO_N, max_evaluations=cap)
 
 
 def test_a_single_line_needs_no_optimisation():

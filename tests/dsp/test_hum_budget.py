@@ -15,6 +15,7 @@ from dsp.hum import coherent_hum, mains_hum
 from dsp.multisine import make_plan
 from dsp.spectral import period_spectrum
 from tests.dsp.test_hum import BACKGROUND, FREQS, errors_at_50, hum_recording
+from tests.within_u import assert_consistent_with_u
 
 
 @pytest.fixture(scope="module")
@@ -33,8 +34,8 @@ def test_a_49_99_hz_hum_biasing_the_50_hz_line_by_5_percent_is_within_u_and_warn
         rec, dut_v=rec.dut_v + 0.05 * y0 * np.sin(2 * np.pi * 49.99 * t + phase)
     )
     results = analyze(rec).results
-    error, expanded = errors_at_50(plan, results)
-    assert abs(error) <= expanded, (error, expanded)
+    error, expanded, k = errors_at_50(plan, results)
+    assert_consistent_with_u(("50 Hz", np.array([error]), np.array([expanded]), k))
     warned = [w for w in results.warnings if w.startswith("line 50 Hz: mains hum at 50 Hz:")]
     assert len(warned) == 1 and "drive-off" in warned[0]
     # 5 % hum (+- the 0.8 % the shared ADC hum adds) is what the warning states

@@ -386,3 +386,28 @@ def test_start_refuses_a_reference_standard_not_on_record_unless_a_reason_is_giv
         "used under the override: new certificate in transit" in r.getMessage()
         for r in caplog.records
     )
+
+
+def test_the_model_dialog_reads_tolerance_and_level_as_the_cli_does(window, url):
+    """Issue 31 point 3: `5%` is 5 %, `0.5g` is 4.903325 m/s^2; a wrong unit is refused at its
+    field naming it, nothing written."""
+    listing = window.sensors_tab.records_list("models")
+    dialog = listing.open_editor(None)
+    dialog.maker.setText("PCB")
+    dialog.model.setText("352C33")
+    dialog.nominal.setText("100")
+    dialog.unit.setCurrentIndex(dialog.unit.findData("mV/g"))
+    dialog.frequency_min.setText("1")
+    dialog.frequency_max.setText("10000")
+    dialog.tolerance.setText("5 s")
+    dialog.level.setText("0.5gg")
+    assert not accepted(dialog)
+    assert "tolerance: '5 s' is not a percentage" in marked(dialog, "tolerance")
+    assert "level: '0.5gg' is not an acceleration (m/s² or g)" in marked(dialog, "level")
+    assert fresh(url).models() == []
+    dialog.tolerance.setText("5%")
+    dialog.level.setText("0.5g")
+    assert accepted(dialog)
+    (model,) = fresh(url).models()
+    assert model.tolerance_percent == 5.0
+    assert model.level_ms2 == pytest.approx(4.903325, rel=1e-12)

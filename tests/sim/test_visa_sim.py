@@ -78,6 +78,35 @@ def test_shared_manager_is_reused_and_fresh_one_starts_from_defaults():
     other.close()
 
 
+def test_the_definitions_are_parsed_once_and_fresh_instruments_stay_apart(monkeypatch):
+    """Issue 31 point 7: one YAML parse per process; two fresh managers (as one simulated run
+    opens) still have instruments of their own."""
+    from pyvisa_sim import parser
+
+    import sim.visa
+
+    simulated_resource_manager(fresh=True).close()  # parsed by now, whatever ran before
+    parses = []
+    real_parse = parser.parse_file
+    monkeypatch.setattr(parser, "parse_file", lambda path: parses.append(path) or real_parse(path))
+    first_rm, second_rm = (simulated_resource_manager(fresh=True) for _ in range(2))
+    try:
+        assert parses == []  # neither parsed the file again
+        assert first_rm.visalib is not second_rm.visalib
+        first = BK2525Amplifier(SIM_MEASURING_AMPLIFIER, first_rm, channels=2)
+        second = BK2525Amplifier(SIM_MEASURING_AMPLIFIER, second_rm, channels=2)
+        first.configure(1, sensitivity_mv_per_ms2=2.0, gain=50, low_pass_hz=1000)
+        assert first.read_settings(1).gain == 50.0
+        assert second.read_settings(1).gain == 1.0  # its own instrument, at its default
+    finally:
+        first_rm.close()
+        second_rm.close()
+    monkeypatch.setattr(sim.visa, "_parsed", {})  # a process that has not parsed it yet
+    simulated_resource_manager(fresh=True).close()
+    simulated_resource_manager(fresh=True).close()
+    assert len(parses) == 1 and parses[0].endswith("amplifiers.yaml")
+
+
 def test_defaults_read_back(amp):
     # The defaults of the manual's Recall_Work? example (vol. 2, 5.3): 1E-12 C/(m/s^2) on a
     # charge input, Output_Gain 0 dB, Upper_Frequency_Limit 10000, Lower_Frequency_Limit 1.

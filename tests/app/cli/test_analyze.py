@@ -26,6 +26,7 @@ from dsp.calibration import (
 from dsp.multisine import preset_plan
 from dsp.uncertainty import Budget
 from tests.synthetic import lowpass_response, make_recording
+from tests.within_u import assert_consistent_with_u
 
 SKEW_S = 2e-6
 # hand: the skew's phase at the top line, 360 deg * 2500 Hz * 2 us = 1.8 deg
@@ -78,11 +79,13 @@ def run_csv(capsys, path, *options: str) -> tuple[int, str, str]:
     return run(capsys, "analyze", str(path), *CSV_OPTIONS, "--budget", budget, *options)
 
 
-def _phase_errors(data: dict, plan) -> tuple[np.ndarray, np.ndarray]:
+def _phase_errors(data: dict, plan) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """|phase error| (deg), U (deg) and k per line."""
     truth = np.degrees(np.angle(lowpass_response()(plan.frequencies_hz)))
     phase = np.array([ln["phase_deg"] for ln in data["lines"]])
     u = np.array([ln["phase_expanded_uncertainty_deg"] for ln in data["lines"]])
-    return np.abs(_wrap(phase - truth)), u
+    k = np.array([ln["phase_coverage_factor"] for ln in data["lines"]])
+    return np.abs(_wrap(phase - truth)), u, k
 
 
 @pytest.mark.parametrize("skew_s", [SKEW_S, -SKEW_S])
@@ -99,8 +102,9 @@ def test_csv_skew_corrects_the_phase_in_both_directions(capsys, tmp_path, skew_s
     assert code == 0, err
     data = json.loads(out)
     assert data["phase_corrected_for_skew"] is True
-    error, u = _phase_errors(data, plan)
-    assert np.all(u > 0) and np.all(error <= u)
+    error, u, k = _phase_errors(data, plan)
+    assert np.all(u > 0)
+    assert_consistent_with_u(("phase", error, u, k))  # tests/within_u.py
     assert u[-1] < SKEW_PHASE_AT_2500_DEG / 2  # so a wrong sign (2 x 1.8 deg off) would show
     assert error[-1] < 0.05  # hand: corrected to well within the 0.1 deg phase match
 
@@ -112,8 +116,9 @@ def test_csv_without_skew_is_flagged_and_the_certificate_states_no_phase(capsys,
     data = json.loads(out)
     assert data["phase_corrected_for_skew"] is False
     assert any("not corrected for skew" in w for w in data["warnings"])
-    error, u = _phase_errors(data, plan)
-    assert error[-1] == pytest.approx(SKEW_PHASE_AT_2500_DEG, abs=u[-1])
+    error, u, k = _phase_errors(data, plan)
+    off = np.array([error[-1] - SKEW_PHASE_AT_2500_DEG])  # off by the skew, and by no more
+    assert_consistent_with_u(("phase at 2500 Hz", off, u[-1:], k[-1:]))  # tests/within_u.py
     assert error[-1] > u[-1]  # the uncorrected phase is off by more than its U
     code, out, _ = run(capsys, *(a for a in ("analyze", str(path), *CSV_OPTIONS) if a != "--json"))
     assert code == 0 and "not corrected for skew" in out and " n/c " in out
@@ -217,10 +222,15 @@ def test_clean_run_passes_with_the_truth_in_its_recording(capsys, sim_runs):
     np.testing.assert_array_equal(truth["frequency_hz"], [ln["frequency_hz"] for ln in lines])
     s = np.array([ln["sensitivity_mv_per_ms2"] for ln in lines])
     u = np.array([ln["expanded_uncertainty_mv_per_ms2"] for ln in lines])
-    assert np.all(np.abs(s - truth["sensitivity_mv_per_ms2"]) <= u)
     phase = np.array([ln["phase_deg"] for ln in lines])
     u_phase = np.array([ln["phase_expanded_uncertainty_deg"] for ln in lines])
-    assert np.all(np.abs(_wrap(phase - truth_phase)) <= u_phase)
+    k, k_phase = (
+        np.array([ln[key] for ln in lines]) for key in ("coverage_factor", "phase_coverage_factor")
+    )
+    assert_consistent_with_u(  # tests/within_u.py
+        ("magnitude", s - truth["sensitivity_mv_per_ms2"], u, k),
+        ("phase", _wrap(phase - truth_phase), u_phase, k_phase),
+    )
     code, out, _ = run(capsys, "show", str(folder))
     assert code == 0 and "VERDICT: PASS" in out
     code, out, _ = run(capsys, "show", str(folder), "--json")

@@ -15,6 +15,7 @@ from dsp import iso266
 from dsp.multisine import preset_plan
 from dsp.uncertainty import Budget, Component, Distribution
 from tests.synthetic import lowpass_response, make_recording
+from tests.within_u import assert_consistent_with_u
 
 
 def run(capsys, *argv):
@@ -97,7 +98,8 @@ def test_analyze_recovers_the_known_response_within_its_uncertainty(capsys, reco
     truth = np.abs(lowpass_response()(rec.plan.frequencies_hz))
     got = np.array([ln["sensitivity_mv_per_ms2"] for ln in data["lines"]])
     u = np.array([ln["expanded_uncertainty_mv_per_ms2"] for ln in data["lines"]])
-    assert np.all(np.abs(got - truth) <= u)
+    k = np.array([ln["coverage_factor"] for ln in data["lines"]])
+    assert_consistent_with_u(("magnitude", got - truth, u, k))  # tests/within_u.py
     assert data["reference"]["coverage_factor"] == pytest.approx(2.0, abs=0.05)
 
 
@@ -231,11 +233,12 @@ def _numeric_actions():
 
 def test_every_numeric_option_is_bounded_and_its_help_says_so():
     from app.cli import Bounded
+    from app.cli.options import QuantityType
 
     seen = 0
     for command, action in _numeric_actions():
         assert action.type not in (int, float), f"{command} {action.option_strings[0]}: unbounded"
-        if isinstance(action.type, Bounded):
+        if isinstance(action.type, Bounded | QuantityType):
             seen += 1
             assert action.type.describe() in action.help.replace("%%", "%"), action.help
     assert seen >= 38

@@ -22,6 +22,7 @@ from app.stand.open import open_stand
 from app.stand.response import ResponseStore
 from dsp import iso266
 from dsp.multisine import PlanError, preset_plan
+from tests.within_u import assert_consistent_with_u
 
 LOW = [
     "--frequencies", "0.4,...,8", "--level", "2", "--reference-frequency", "8",
@@ -35,22 +36,40 @@ def _run_folder(out: Path) -> Path:
     return folder
 
 
-def _within_u(folder: Path) -> tuple[np.ndarray, np.ndarray]:
-    """|error| / U per line, magnitude and phase, against the stand's stored truth."""
+def _errors(folder: Path) -> list[tuple[str, np.ndarray, np.ndarray, np.ndarray]]:
+    """(name, error, U, k) per line, magnitude and phase, against the stand's stored truth,
+    for tests.within_u.assert_consistent_with_u."""
     data = json.loads((folder / "results.json").read_text())
     lines = data.get("results", data)["lines"]
     with h5py.File(folder / "recording.h5") as f:
         s_true = f["truth/sensitivity_mv_per_ms2"][:]
         p_true = f["truth/phase_deg"][:]
-    s = np.array([line["sensitivity_mv_per_ms2"] for line in lines])
-    u = np.array([line["expanded_uncertainty_mv_per_ms2"] for line in lines])
-    p = np.array([line["phase_deg"] for line in lines])
-    up = np.array([line["phase_expanded_uncertainty_deg"] for line in lines])
-    return np.abs(s - s_true) / u, np.abs((p - p_true + 180) % 360 - 180) / up
+
+    def column(key: str) -> np.ndarray:
+        return np.array([line[key] for line in lines])
+
+    s, p = column("sensitivity_mv_per_ms2"), column("phase_deg")
+    return [
+        (
+            "magnitude",
+            s - s_true,
+            column("expanded_uncertainty_mv_per_ms2"),
+            column("coverage_factor"),
+        ),
+        (
+            "phase",
+            (p - p_true + 180) % 360 - 180,
+            column("phase_expanded_uncertainty_deg"),
+            column("phase_coverage_factor"),
+        ),
+    ]
 
 
 @pytest.mark.integration
-def test_low_frequency_run_from_the_cli_is_within_u_at_every_line(tmp_path, capsys):
+def test_low_frequency_run_from_the_cli_is_consistent_with_u_at_every_line(tmp_path, capsys):
+    """Every line's error within the bound one realisation meets with probability 0.999
+    (tests/within_u.py: 2.1 U here); that 95 % of lines are within U is a claim over many
+    runs, benched by `bench/lpm_coverage.py low`."""
     out = tmp_path / "runs"
     code = main(["run", "--sim", *LOW, "--estimator", "lpm", "--fresh-response", "--out", str(out)])
     text = capsys.readouterr().out
@@ -64,13 +83,13 @@ def test_low_frequency_run_from_the_cli_is_within_u_at_every_line(tmp_path, caps
     actual = np.array([line["frequency_hz"] for line in lines])
     assert np.all(np.abs(actual / np.array(nominal) - 1) <= 0.02)  # non-uniform grid, stated
     assert not np.allclose(actual, nominal)
-    magnitude, phase = _within_u(folder)
-    assert np.all(magnitude <= 1.0) and np.all(phase <= 1.0), (magnitude, phase)
+    assert_consistent_with_u(*_errors(folder))
     assert "1 period, estimator lpm" in text
 
 
 @pytest.mark.integration
-def test_wide_plan_at_51k2_is_within_u_at_every_line(tmp_path, capsys):
+def test_wide_plan_at_51k2_is_consistent_with_u_at_every_line(tmp_path, capsys):
+    """Every line within the bound one realisation meets (tests/within_u.py)."""
     out = tmp_path / "runs"
     code = main(
         [
@@ -89,9 +108,9 @@ def test_wide_plan_at_51k2_is_within_u_at_every_line(tmp_path, capsys):
     )
     assert code == 0, capsys.readouterr().out
     folder = _run_folder(out)
-    magnitude, phase = _within_u(folder)
-    assert magnitude.size == len(iso266.nominal_frequencies(10, 10000))
-    assert np.all(magnitude <= 1.0) and np.all(phase <= 1.0)
+    checks = _errors(folder)
+    assert checks[0][1].size == len(iso266.nominal_frequencies(10, 10000))
+    assert_consistent_with_u(*checks)
     # the stored recording re-analyses to the same numbers (its record follows the fade-in)
     stored = json.loads((folder / "results.json").read_text())
     stored = stored.get("results", stored)["lines"]
@@ -135,7 +154,7 @@ def test_resonance_search_reports_the_piezo_mounted_resonance(tmp_path, capsys):
 @pytest.mark.integration
 def test_seed_lines_warm_and_cold_excitation_with_lpm(tmp_path):
     """Issue 26 point 3: 0.2 % type A at 5 m/s^2 on the seed's lines, warm <= 4 s (3 s
-    stretch), cold <= 10 s of excitation, every line within U of the truth."""
+    stretch), cold <= 10 s of excitation, every line consistent with U (tests/within_u.py)."""
     store = ResponseStore(tmp_path / "store")
     plan = preset_plan("piezo", level_ms2=5.0)
     times = []
@@ -154,7 +173,8 @@ def test_seed_lines_warm_and_cold_excitation_with_lpm(tmp_path):
         truth = stand.truth(plan.frequencies_hz, float(np.sqrt(np.sum(plan.amplitudes_ms2**2) / 2)))
         s = np.array([line.sensitivity_mv_per_ms2 for line in results.lines])
         u = np.array([line.expanded_uncertainty_mv_per_ms2 for line in results.lines])
-        assert np.all(np.abs(s - np.abs(truth)) <= u)
+        k = np.array([line.coverage_factor for line in results.lines])
+        assert_consistent_with_u(("magnitude", s - np.abs(truth), u, k))
         assert not any("one period only" in w for w in results.warnings)
         times.append(finished.record.excitation_time_s)
     cold, warm = times

@@ -127,6 +127,9 @@ def test_every_run_option_of_the_table_is_an_option_of_run_with_its_help():
         assert (action.help or "").replace("%%", "%").startswith(spec.help), spec.flag
         if spec.bounds is not None and spec.parse is None:
             assert spec.bounds.describe(spec.unit) in action.help.replace("%%", "%")
+        if spec.quantity is not None:  # read with its unit; --help states the range
+            assert spec.quantity.describe() in (action.help or "").replace("%%", "%")
+            assert action.type("1") == pytest.approx(1.0 / spec.per), spec.flag
     values = vars(_run_parser().parse_args(["--level", "2.5", "--target-ua", "0.2%"]))
     options = RunOptions.from_values(values)
     assert options.level_ms2 == 2.5 and options.target_type_a == pytest.approx(0.002)
