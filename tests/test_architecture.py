@@ -33,7 +33,7 @@ PACKAGES = ("dsp", "hardware", "sim", "app")
 BELOW_APP = {
     "dsp": {"numpy", "scipy"},
     "hardware": {"numpy", "nidaqmx", "pyvisa"},
-    "sim": {"numpy", "scipy", "pyvisa", "yaml", "dsp", "hardware"},
+    "sim": {"numpy", "scipy", "pyvisa", "pyvisa_sim", "yaml", "dsp", "hardware"},
 }
 STDLIB = frozenset(sys.stdlib_module_names)
 

@@ -140,12 +140,14 @@ def test_aborted_run_is_refused(aborted_run, tmp_path):
         build(run, INFO, tmp_path / "x.pdf")
 
 
-def test_cli_certificate_default_place_and_exit_codes(complete_run, capsys):
+def test_cli_certificate_default_place_and_exit_codes(complete_run, tmp_path, capsys):
     from app.cli import main
 
+    run = tmp_path / "runs" / complete_run.name  # the session's run stays as it is
+    shutil.copytree(complete_run, run)
     argv = [
         "certificate",
-        str(complete_run),
+        str(run),
         "--customer",
         "ACME Ltd",
         "--authorised-by",
@@ -156,10 +158,10 @@ def test_cli_certificate_default_place_and_exit_codes(complete_run, capsys):
         "stud",
     ]
     assert main(argv) == 0
-    assert (complete_run / "certificate.pdf").exists()
+    assert (run / "certificate.pdf").exists()
     capsys.readouterr()
     assert main(argv) == 2  # not overwritten
-    assert main(["certificate", str(complete_run), "--out", "/tmp/never.pdf"]) == 2
+    assert main(["certificate", str(run), "--out", "/tmp/never.pdf"]) == 2
     assert "missing mandatory item(s)" in capsys.readouterr().err
 
 
