@@ -129,7 +129,7 @@ phases: $(STAMP)
 	$(BIN)/python -m app.procedure.phase_store --write
 
 typecheck: $(STAMP)
-	$(BIN)/mypy dsp app --ignore-missing-imports
+	$(BIN)/mypy dsp hardware sim app --ignore-missing-imports
 
 lint: $(STAMP)
 	$(BIN)/ruff check dsp hardware sim app tests bench

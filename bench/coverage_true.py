@@ -6,7 +6,7 @@ deliberately missing term (coverage must drop where it matters), and the GUM/MCM
 (JCGM 101 clause 8) at the three worst lines.
 
 Run: python bench/coverage_true.py [RUNS] [--smoke] [--missing=KIND] [--dut=NAME]   (default
-400 runs per DUT, two processes; --smoke: 6 runs, 20000 Monte Carlo trials, to see that it
+400 runs per DUT, two processes; --smoke: 2 runs, one a process, 20000 Monte Carlo trials, to see it
 works; --missing: the dsp.annex_a kind left out of the second analysis, default
 transverse_motion; --dut: one DUT of the catalogue only)
 """
@@ -166,7 +166,7 @@ def _duts_from_argv() -> tuple[str, ...]:
 def main() -> None:
     smoke = "--smoke" in sys.argv
     args = [a for a in sys.argv[1:] if not a.startswith("--")]
-    runs = 6 if smoke else int(args[0]) if args else 400
+    runs = 2 if smoke else int(args[0]) if args else 400
     trials = 20_000 if smoke else 1_000_000
     t0 = time.perf_counter()
     for dut in _duts_from_argv():

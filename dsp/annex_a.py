@@ -115,7 +115,7 @@ def _stated(components: Iterable[_Tagged]) -> set[tuple[ComponentKind, str]]:
 
 
 def incomplete_budget_text(missing: Iterable[str]) -> str:
-    """The one wording of the blocking "incomplete budget" warning (app.procedure.warnings
+    """The one wording of the blocking "incomplete budget" warning (app.records.warnings
     classifies it by its start)."""
     names = "; ".join(missing)
     return f"incomplete budget: results for review only; the stand's budget does not state {names}"

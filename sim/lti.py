@@ -301,15 +301,22 @@ class MultiZoh:
         return out
 
 
-class ZohFilter(MultiZoh):
-    """One model behind a ZOH at `sample_rate_hz`, output sampled `delay_s` late."""
+class ZohFilter:
+    """One model behind a ZOH at `sample_rate_hz`, output sampled `delay_s` late: a `MultiZoh`
+    of one output, its block in and its block out (no dict of named outputs)."""
 
     def __init__(self, model: Model, sample_rate_hz: float, delay_s: float = 0.0):
-        super().__init__(Network().add("y", model), {"y": ("y", delay_s)}, sample_rate_hz)
+        self._zoh = MultiZoh(Network().add("y", model), {"y": ("y", delay_s)}, sample_rate_hz)
         self.model = model
 
-    def process(self, u: np.ndarray) -> np.ndarray:  # type: ignore[override]
-        return super().process(u)["y"]
+    def process(self, u: np.ndarray) -> np.ndarray:
+        """The output for the input block `u`; state carries across blocks."""
+        return self._zoh.process(u)["y"]
 
-    def discrete_response(self, frequency_hz: np.ndarray, sample_rate_hz: float) -> np.ndarray:  # type: ignore[override]
-        return super().discrete_response("y", frequency_hz, sample_rate_hz)
+    def reset(self) -> None:
+        """Back to rest (zero state)."""
+        self._zoh.reset()
+
+    def discrete_response(self, frequency_hz: np.ndarray, sample_rate_hz: float) -> np.ndarray:
+        """Steady-state response to a sampled sine (ZOH and delay included)."""
+        return self._zoh.discrete_response("y", frequency_hz, sample_rate_hz)

@@ -7,9 +7,14 @@ import atexit
 import os
 import shutil
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import pytest
+
+if TYPE_CHECKING:
+    from sqlalchemy import Engine
 
 # before anything creates a QSettings: the whole session's Qt settings live in a temporary
 # folder, never in the user's ~/.config (tests also get one folder each, below)
@@ -95,6 +100,101 @@ def complete_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return out / str(finished.record.run_id)
 
 
+@pytest.fixture(scope="session")
+def sweep_run(tmp_path_factory: pytest.TempPathFactory) -> Any:
+    """One amplitude sweep for the whole session (capacitive DUT SN-7, whose cubic term
+    compresses with level; 3 periods, seed 2, at 3, 5 and 7 m/s^2): its app.procedure.sweep
+    Sweep, whose runs and summary live under one runs root. Tests copy; nothing may change it."""
+    from app.procedure.run import RunRequest
+    from app.procedure.sweep import run_sweep
+
+    out = tmp_path_factory.mktemp("sweep")
+    sweep = run_sweep(
+        RunRequest(dut="capacitive", dut_id="SN-7", periods=3, seed=2, out=out), [3.0, 5.0, 7.0]
+    )
+    assert sweep.complete
+    return sweep
+
+
+@pytest.fixture(scope="session")
+def aborted_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """One aborted simulated run for the whole session (piezo, 4 periods, the DAQ lost 15 s in):
+    its run folder, as the procedure leaves it. Tests copy it; nothing may change it."""
+    from app.io.vocabulary import RunStatus
+    from app.procedure.run import RunRequest, execute
+    from sim.stand import Fault
+
+    out = tmp_path_factory.mktemp("aborted")
+    finished = execute(RunRequest(periods=4, faults=(Fault("device-lost", 15.0),), out=out))
+    assert finished.status == RunStatus.ABORTED
+    return out / str(finished.record.run_id)
+
+
+# --- records databases: migrated once per process, copied per test (tests/records_db.py) -----
+
+
+@pytest.fixture(scope="session")
+def postgres_server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
+    """The URL of a PostgreSQL server private to this test process (pgserver, in a temporary
+    folder). With CI=true a PostgreSQL that cannot start fails the suite."""
+    from tests.pg_server import start_pgserver
+
+    try:
+        # tmp_path_factory is per xdist worker: each worker has a server of its own
+        server = start_pgserver(tmp_path_factory.mktemp("pg"))
+    except Exception as exc:  # no wheel, no start
+        if os.environ.get("CI") == "true":
+            pytest.fail(f"PostgreSQL could not start in CI: {exc}")
+        pytest.skip(f"PostgreSQL could not start: {exc}")
+    try:
+        yield server.get_uri()
+    finally:
+        server.cleanup()
+
+
+@pytest.fixture(params=["sqlite", "postgresql"])
+def empty_url(request: pytest.FixtureRequest, tmp_path: Path) -> str:
+    """The URL of an empty database (no schema) on each engine."""
+    from app.records.db.engine import resolve_url
+    from tests.records_db import postgres_database
+
+    if request.param == "sqlite":
+        return f"sqlite:///{tmp_path / 'records.sqlite'}"
+    return resolve_url(postgres_database(request.getfixturevalue("postgres_server")))
+
+
+@pytest.fixture(params=["sqlite", "postgresql"])
+def migrated_url(request: pytest.FixtureRequest, tmp_path: Path) -> str:
+    """The URL of a database at the newest schema on each engine: a copy of one migrated once
+    (an SQLite file; a PostgreSQL template database)."""
+    from app.records.db.engine import resolve_url
+    from tests.records_db import migrated_postgres_template, new_records, postgres_database
+
+    if request.param == "sqlite":
+        return resolve_url(new_records(tmp_path / "records.sqlite"))
+    server = request.getfixturevalue("postgres_server")
+    return resolve_url(postgres_database(server, template=migrated_postgres_template(server)))
+
+
+@pytest.fixture
+def engine(migrated_url: str) -> Iterator[Engine]:
+    """An engine on a database at the newest schema, on each engine."""
+    from app.records.db.engine import make_engine
+
+    engine = make_engine(migrated_url)
+    yield engine
+    engine.dispose()
+
+
+@pytest.fixture
+def records_url(tmp_path: Path) -> str:
+    """The URL of a new SQLite records database at the newest schema, tmp_path/records.sqlite
+    (a copy of the one migrated once per process)."""
+    from tests.records_db import new_records
+
+    return new_records(tmp_path / "records.sqlite")
+
+
 # The fast tier (`make test-fast`: dsp, units, CLI parsing) leaves out whatever runs a
 # calibration, a subprocess, the GUI, a database or a Monte Carlo study. Whole files are marked
 # here by path, tests of other files by the fixtures they use (a completed calibration run, the
@@ -122,7 +222,7 @@ INTEGRATION_PATHS = (
     "hostile/test_processes.py",  # subprocesses
 )
 
-INTEGRATION_FIXTURES = frozenset({"complete_run", "qtbot"})
+INTEGRATION_FIXTURES = frozenset({"complete_run", "aborted_run", "sweep_run", "qtbot"})
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:

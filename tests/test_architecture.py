@@ -1,10 +1,15 @@
 """The shape of the code (docs/architecture.md), checked from the source's import statements:
-no import cycle between modules of app/, no package importing one above it, sim imported only
-where the simulated stand is opened, app/ root at most 8 modules, no module over 600 lines."""
+no import cycle between modules of dsp/, hardware/, sim/ and app/; no package importing one
+above it (imports under `if TYPE_CHECKING:` count: a type is a dependency too); dsp/ imports
+only numpy, scipy, the standard library and itself; hardware/ and sim/ never import app/, only
+sim/ may import hardware/ and sim/ (below app, which imports sim only where the simulated stand
+is opened); app/ root at most 8 modules, no module over 600 lines."""
 
 from __future__ import annotations
 
 import ast
+import functools
+import sys
 from pathlib import Path
 
 import pytest
@@ -23,20 +28,38 @@ RANKS = {
     "app.cli": 7, "app.gui": 7, "app.web": 7, "app.__main__": 8,
 }  # fmt: skip
 SIM_OPENERS = {"app.stand.open", "app.stand.simulated", "app.procedure.simulate"}
+PACKAGES = ("dsp", "hardware", "sim", "app")
+# what each package below app/ may import besides itself and the standard library
+BELOW_APP = {
+    "dsp": {"numpy", "scipy"},
+    "hardware": {"numpy", "nidaqmx", "pyvisa"},
+    "sim": {"numpy", "scipy", "pyvisa", "pyvisa_sim", "yaml", "dsp", "hardware"},
+}
+STDLIB = frozenset(sys.stdlib_module_names)
 
 
-def _modules() -> dict[str, Path]:
+def _modules(packages: tuple[str, ...] = ("app",)) -> dict[str, Path]:
     out = {}
-    for path in (ROOT / "app").rglob("*.py"):
-        name = ".".join(path.relative_to(ROOT).with_suffix("").parts)
-        out[name.removesuffix(".__init__")] = path
+    for package in packages:
+        for path in (ROOT / package).rglob("*.py"):
+            name = ".".join(path.relative_to(ROOT).with_suffix("").parts)
+            out[name.removesuffix(".__init__")] = path
     return out
 
 
-def _imports(path: Path, modules: dict[str, Path]) -> tuple[set[str], set[str]]:
-    """(app modules imported at run time, top-level packages imported), TYPE_CHECKING blocks
-    left out."""
-    tree = ast.parse(path.read_text(encoding="utf-8"))
+@functools.cache
+def _parsed(path: Path) -> ast.Module:
+    """The file's syntax tree, parsed once per test process (the tests here walk every file
+    several times)."""
+    return ast.parse(path.read_text(encoding="utf-8"))
+
+
+def _imports(
+    path: Path, modules: dict[str, Path], *, typing: bool = False, source: str | None = None
+) -> tuple[set[str], set[str]]:
+    """(modules of `modules` imported, top-level packages imported): at run time, or with
+    `typing` also those under `if TYPE_CHECKING:`. `source` stands for the file's text."""
+    tree = _parsed(path) if source is None else ast.parse(source)
     typing_only: set[int] = set()
     for node in ast.walk(tree):
         if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
@@ -44,7 +67,7 @@ def _imports(path: Path, modules: dict[str, Path]) -> tuple[set[str], set[str]]:
     found: set[str] = set()
     tops: set[str] = set()
     for node in ast.walk(tree):
-        if id(node) in typing_only:
+        if id(node) in typing_only and not typing:
             continue
         names: list[str] = []
         if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
@@ -64,9 +87,41 @@ def _package(module: str) -> str:
     return ".".join(parts[:2])
 
 
-def _graph() -> dict[str, set[str]]:
-    modules = _modules()
-    return {name: _imports(path, modules)[0] - {name} for name, path in modules.items()}
+def _graph(packages: tuple[str, ...] = ("app",), *, typing: bool = False) -> dict[str, set[str]]:
+    """Module -> the modules it imports (of `packages`; with `typing` also type-only ones)."""
+    modules = _modules(packages)
+    return {
+        name: _imports(path, modules, typing=typing)[0] - {name} for name, path in modules.items()
+    }
+
+
+def _rank_violations(graph: dict[str, set[str]]) -> list[str]:
+    """'importer -> imported' for every app module importing a package ranked above its own."""
+    wrong = []
+    for module, imported in graph.items():
+        if not module.startswith("app"):
+            continue
+        mine = RANKS[_package(module)]
+        for other in imported:
+            if other.startswith("app") and RANKS[_package(other)] > mine:
+                wrong.append(f"{module} -> {other}")
+    return sorted(wrong)
+
+
+def _foreign_imports(package: str, extra: dict[str, str] | None = None) -> list[str]:
+    """'module: name' for every top-level package a module of `package` (below app) imports
+    beyond the standard library, itself and BELOW_APP[package], type-only imports included.
+    `extra`: more modules of the package, by name, as source text."""
+    allowed = STDLIB | BELOW_APP[package] | {package}
+    modules = _modules((package,))
+    sources: dict[str, tuple[Path, str | None]] = {n: (p, None) for n, p in modules.items()}
+    sources.update({n: (ROOT / package / "extra.py", text) for n, text in (extra or {}).items()})
+    return sorted(
+        f"{name}: {top}"
+        for name, (path, text) in sources.items()
+        for top in _imports(path, modules, typing=True, source=text)[1]
+        if top not in allowed
+    )
 
 
 def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
@@ -105,7 +160,7 @@ def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
 
 
 def test_no_import_cycle_between_modules() -> None:
-    assert _cycles(_graph()) == []
+    assert _cycles(_graph(PACKAGES)) == []
 
 
 def test_the_cycle_finder_finds_one() -> None:
@@ -113,13 +168,45 @@ def test_the_cycle_finder_finds_one() -> None:
 
 
 def test_no_package_imports_one_above_it() -> None:
-    wrong = []
-    for module, imported in _graph().items():
-        mine = RANKS[_package(module)]
-        for other in imported:
-            if RANKS[_package(other)] > mine:
-                wrong.append(f"{module} -> {other}")
-    assert wrong == []
+    assert _rank_violations(_graph(typing=True)) == []
+
+
+def test_a_type_checking_import_that_breaks_the_ranks_is_caught() -> None:
+    """A stand module (rank 3) naming the run record (records, rank 4) for its type hints only:
+    invisible at run time, still a dependency upwards."""
+    source = (
+        "from typing import TYPE_CHECKING\n"
+        "if TYPE_CHECKING:\n"
+        "    from app.records.run_record import RunRecord\n"
+        "def f(record: 'RunRecord') -> None: ...\n"
+    )
+    modules = _modules()
+    module = ROOT / "app" / "stand" / "typed_upwards.py"
+    runtime, _ = _imports(module, modules, source=source)
+    typed, _ = _imports(module, modules, typing=True, source=source)
+    assert runtime == set() and typed == {"app.records.run_record"}
+    graph = {"app.stand.typed_upwards": typed, "app.records.run_record": set()}
+    assert _rank_violations(graph) == ["app.stand.typed_upwards -> app.records.run_record"]
+
+
+@pytest.mark.parametrize("package", sorted(BELOW_APP))
+def test_the_packages_below_app_import_only_what_their_rank_allows(package: str) -> None:
+    """dsp: numpy, scipy and the standard library; hardware: its drivers' libraries; sim also
+    dsp and hardware; none of them app (type-only imports included)."""
+    assert _foreign_imports(package) == []
+
+
+def test_an_import_below_app_that_breaks_the_ranks_is_caught() -> None:
+    typed_app = (
+        "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from app.records import x\n"
+    )
+    assert _foreign_imports("sim", {"sim.upwards": typed_app}) == ["sim.upwards: app"]
+    assert _foreign_imports("hardware", {"hardware.up": "import sim.stand\n"}) == [
+        "hardware.up: sim"
+    ]
+    lazy = "def f():\n    from hardware import teds\n    import h5py\n"
+    assert _foreign_imports("dsp", {"dsp.up": lazy}) == ["dsp.up: h5py", "dsp.up: hardware"]
+    assert _foreign_imports("sim", {"sim.down": "import hardware.teds\nimport dsp\n"}) == []
 
 
 def test_app_imports_sim_only_where_the_simulated_stand_is_opened() -> None:

@@ -4,7 +4,7 @@ record, results, budget and config.json as a RunStart) and, optionally, its swee
 Nothing is recomputed; a run that does not verify or did not complete is refused by
 CertificateError saying why, and so is one whose stored budget does not state the ISO 16063-21
 Annex A components or whose results carry a warning that blocks the certificate
-(app.procedure.warnings; issue 25 points 1 and 2): checked from the sealed budget and results,
+(app.records.warnings; issue 25 points 1 and 2): checked from the sealed budget and results,
 not from the stored verdict.
 """
 
@@ -16,12 +16,12 @@ from pathlib import Path
 from app.certificate.info import CertificateError
 from app.io.checks import MAX_TEXT_BYTES, InputFileError, check_input_file
 from app.procedure.verdict import run_warnings
-from app.procedure.warnings import blocking
 from app.records.run_folder import STATUS_COMPLETE, load_run
 from app.records.run_record import RunRecord
 from app.records.run_start import RunStart, RunStartError
 from app.records.seal import named_seal
 from app.records.sweep_summary import SweepSummary, SweepSummaryError
+from app.records.warnings import blocking
 from dsp.annex_a import missing_components
 from dsp.calibration import Results
 from dsp.uncertainty import Budget

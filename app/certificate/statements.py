@@ -1,5 +1,5 @@
 """What a certificate states besides the numbers (issue 25 points 2 and 5): every warning of
-the run that does not block it (app.procedure.warnings), and the JCGM 101 Monte Carlo
+the run that does not block it (app.records.warnings), and the JCGM 101 Monte Carlo
 interval of each line whose GUM interval failed the clause 8 check (stored per line by
 --mcm). Plain strings; the PDF draws them (app.certificate.pdf). Magnitude in %, phase in
 degrees.
@@ -13,7 +13,7 @@ from reportlab.lib.styles import ParagraphStyle
 from reportlab.platypus import Paragraph
 
 from app.procedure.verdict import run_warnings
-from app.procedure.warnings import printed
+from app.records.warnings import printed
 from dsp.calibration import Results
 
 __all__ = ["mcm_statements", "printed_warnings", "warnings_section"]

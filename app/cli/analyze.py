@@ -29,7 +29,7 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         output_target(args.csv, "--csv", (args.file, args.budget), args.overwrite)
         writable_folder(args.csv.parent, "--csv")
     if args.seed_rule:
-        from app.procedure.warnings import SEED_RULE_WARNING
+        from app.records.warnings import SEED_RULE_WARNING
 
         print(f"accelcal analyze: warning: {SEED_RULE_WARNING}", file=sys.stderr)
     recording = load_recording(args)

@@ -11,6 +11,7 @@
     procedure.py       Procedure: the phases in order, every way out, the run record
     request.py         the run request: the DUT resolved into a DutSpec, the run identity
     run.py             a request run: the stand opened, the procedure, the run folder
+    teds_write.py      a run's result written to the DUT's TEDS (`accelcal teds write`)
     settings.py, events.py, errors.py, context.py
 
 It drives any `hardware.interfaces.Daq` (and amplifiers), emits typed events to a listener,

@@ -17,8 +17,8 @@ import numpy as np
 from app.io.hdf5 import Recording, RecordingError, iter_batches, read_recording
 from app.io.vocabulary import RunStatus
 from app.procedure.verdict import Tolerances, tolerances_for, with_verdict
-from app.procedure.warnings import SEED_RULE_WARNING
 from app.records.run_folder import FolderState, inspect_run, is_run_folder
+from app.records.warnings import SEED_RULE_WARNING
 from dsp.calibration import Results, compute_results
 from dsp.hum import mains_hum
 from dsp.lpm_record import record_estimate

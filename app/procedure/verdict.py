@@ -11,7 +11,7 @@ per band (deviation from the reference frequency's sensitivity, %), and the phas
 (|phase|, degrees). Overall: FAIL when any check fails; PASS when every check passes and
 nothing else stands in the way; otherwise INDETERMINATE (an inconclusive or unstated check, no
 tolerance at all, a mounting warning, a recording that did not complete, or any warning that
-app.procedure.warnings says blocks PASS: an incomplete budget (ISO 16063-21 Annex A), low
+app.records.warnings says blocks PASS: an incomplete budget (ISO 16063-21 Annex A), low
 coherence or SNR, DUT distortion, inseparable hum, a line over the ISO limit, a reference line
 outside its certificate, the seed rule, an uncorrected skew).
 
@@ -27,7 +27,7 @@ from __future__ import annotations
 import dataclasses
 
 from app.io.vocabulary import RunStatus
-from app.procedure.warnings import RunWarning, blocking, iso_over_warning
+from app.records.warnings import RunWarning, blocking, iso_over_warning
 from app.stand.dut import Band, Tolerances
 from dsp import conformity
 from dsp import uncertainty as unc

@@ -1,19 +1,15 @@
-"""Reading and writing the DUT's TEDS on a stand (simulated or NI-DAQmx), and the new TEDS a
-calibration gives: the sensitivity at the reference frequency and the date of a stored,
-verified, complete run. Writing is never implicit: `accelcal teds write` asks first."""
+"""Reading and writing the DUT's TEDS on a stand (simulated or NI-DAQmx): the port, the TEDS in
+words, a write read back. Writing a run's result to a TEDS (which needs the run's record) is
+the use case `app.procedure.teds_write`; it is never implicit: `accelcal teds write` asks
+first."""
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
-from datetime import date
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-if TYPE_CHECKING:
-    from app.records.run_record import RunRecord
-
-from hardware.teds import Teds, TedsError, decode, encode
+from hardware.teds import Teds, TedsError, encode
 
 
 @dataclass(frozen=True)
@@ -78,19 +74,6 @@ def describe(teds: Teds) -> list[str]:
     return lines
 
 
-def calibrated_teds(current: tuple[int, ...], record: RunRecord, initials: str) -> Teds:
-    """The TEDS `current` with the sensitivity and date of a complete run's record."""
-    teds = decode(current)
-    if teds.accelerometer is None:
-        raise TedsError(f"TEDS: template {teds.template_id} is no accelerometer template (25)")
-    reference = record.reference_result if record.complete else None
-    if reference is None or reference.sensitivity_mv_per_ms2 is None:
-        raise TedsError("run: only a complete run's result is written to a TEDS")
-    when = date.fromisoformat(record.finished_utc[:10])
-    new = teds.accelerometer.with_sensitivity(reference.sensitivity_mv_per_ms2, when, initials)
-    return Teds(teds.basic, teds.selector, teds.template_id, new, teds.trailing_bits)
-
-
 def sensor_named(teds: Teds) -> str:
     """The sensor a TEDS names, for people: serial, model and manufacturer ids, identity."""
     b = teds.basic
@@ -98,28 +81,6 @@ def sensor_named(teds: Teds) -> str:
         f"serial {b.serial_number}, model {b.model_number}, manufacturer {b.manufacturer_id} "
         f"(TEDS identity {b.identity})"
     )
-
-
-def identity_mismatch(teds: Teds, record: RunRecord, expected: str | None = None) -> str | None:
-    """Why the sensor whose TEDS this is is not the run's DUT (None: it is). `expected`: the
-    TEDS identity the records keep for the run's sensor ('manufacturer/model/version/serial':
-    serial and model compared); else the run's DUT serial must be the TEDS serial (the same
-    number, or TEDS-<identity> as `run --teds` names a DUT without records)."""
-    basic = teds.basic
-    if expected:
-        if basic.identity != expected.strip():
-            return (
-                f"the TEDS names {sensor_named(teds)}, the run's sensor has TEDS identity "
-                f"{expected.strip()} in the records"
-            )
-        return None
-    serial = ((record.dut.id if record.dut else None) or "").strip()
-    if serial == f"TEDS-{basic.identity.replace('/', '-')}" or serial == str(basic.serial_number):
-        return None
-    digits = re.search(r"(\d+)$", serial)
-    if digits and int(digits.group(1)) == basic.serial_number:
-        return None
-    return f"the TEDS names {sensor_named(teds)}, the run's DUT is {serial or 'not named'}"
 
 
 def write_checked(port: TedsPort, teds: Teds) -> None:

@@ -352,7 +352,7 @@ class BK2525Amplifier(VisaInstrument):
                 f"transducer sensitivity reads {settings.sensitivity_mv_per_ms2:g}, "
                 f"sent {sent_sensitivity:g}"
             )
-        wanted_gain = float(_GAIN_CHOICES.canonical(gain))  # type: ignore[arg-type]
+        wanted_gain = float(_GAIN_CHOICES.canonical(gain))
         if not math.isclose(settings.gain, wanted_gain, rel_tol=1e-6):
             mismatches.append(f"output gain reads {settings.gain:g}, sent {wanted_gain:g}")
         for name, got, wanted in (

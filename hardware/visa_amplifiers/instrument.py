@@ -51,7 +51,7 @@ def _open_resource(
     if not isinstance(resource, pyvisa.resources.MessageBasedResource):
         resource.close()
         raise InstrumentError(f"{label}: {name} is not a message-based instrument")
-    return resource  # type: ignore[return-value]
+    return resource
 
 
 class VisaInstrument:

@@ -20,6 +20,7 @@ from pyvisa import errors as visa_errors
 from hardware.errors import DeviceLostError, HardwareError, InstrumentError, VisaTimeoutError
 
 T = TypeVar("T")
+C = TypeVar("C")  # the type of a OneOf's choices (float, str, bool, float | None)
 
 
 class VisaResourceLike(Protocol):
@@ -101,14 +102,14 @@ def _same_choice(choice: object, value: object) -> bool:
 
 
 @dataclass(frozen=True)
-class OneOf:
+class OneOf(Generic[C]):
     """One of a fixed set of values; `choices` maps each allowed value to its wire text.
 
     Numbers match within a relative 1e-9 (so 0.1 + 0.2 - 0.2 still counts as 0.1), strings
     case-insensitively, None only None (None stands for "off").
     """
 
-    choices: Mapping[object, str]
+    choices: Mapping[C, str]
     unit: str = ""
 
     def to_wire(self, value: object) -> str:
@@ -117,7 +118,7 @@ class OneOf:
                 return wire
         raise ValueError(f"{value!r} is not one of the allowed values")
 
-    def canonical(self, value: object) -> object:
+    def canonical(self, value: object) -> C:
         """The declared choice equal to `value` (e.g. the exact float of the list)."""
         for choice in self.choices:
             if _same_choice(choice, value):

@@ -30,6 +30,7 @@ from app.records.db.engine import open_engine
 from app.records.db.lab import Lab
 from hardware.teds import TedsError
 from tests.app.records.db.test_run_records import add_sim_reference
+from tests.records_db import new_records
 
 MG = 9.80665  # m/s^2 per g
 LINES_A = "40,80,160,315,630"
@@ -41,8 +42,8 @@ def lab_url(tmp_path: Path) -> str:
     """Two customers, two models (one in mV/g), three sensors, a template per model; the
     two-person rule on; the simulated stand's reference standard on record, due 2099-01-01
     (issue 24: with records in use, Start refuses a reference standard not on record)."""
-    url = f"sqlite:///{tmp_path / 'lab.sqlite'}"
-    lab = Lab(open_engine(url, create=True), actor="setup")
+    url = new_records(tmp_path / "lab.sqlite")
+    lab = Lab(open_engine(url), actor="setup")
     add_sim_reference(url, date(2099, 1, 1))
     lab.add_customer("ACME Ltd", "1 Main Street, Springfield")
     lab.add_customer("Vibration Labs GmbH", "Hauptstraße 2, Bremen")

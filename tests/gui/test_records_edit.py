@@ -23,12 +23,13 @@ from app.records.db.engine import open_engine
 from app.records.db.lab import Lab
 from tests.app.records.db.test_run_records import add_sim_reference
 from tests.lab_stand import lab_stand_file
+from tests.records_db import new_records
 
 
 @pytest.fixture
 def url(tmp_path: Path) -> str:
-    url = f"sqlite:///{tmp_path / 'lab.sqlite'}"
-    Lab(open_engine(url, create=True), actor="t").add_customer("Existing Ltd")
+    url = new_records(tmp_path / "lab.sqlite")
+    Lab(open_engine(url), actor="t").add_customer("Existing Ltd")
     return url
 
 

@@ -21,6 +21,7 @@ from app.records.db.engine import open_engine
 from app.records.db.lab import Lab
 from app.records.db.models import Run, Stand
 from tests.app.records.db.test_run_records import add_sim_reference
+from tests.records_db import new_records
 
 ROOT = Path(__file__).resolve().parents[2]
 TODAY = date(2026, 11, 24)
@@ -50,8 +51,8 @@ def _history_run(lab: Lab, serial: str, run_id: str, day: date, s: float, u: flo
 
 @pytest.fixture
 def lab_url(tmp_path: Path) -> str:
-    url = f"sqlite:///{tmp_path / 'lab.sqlite'}"
-    lab = Lab(open_engine(url, create=True), actor="t")
+    url = new_records(tmp_path / "lab.sqlite")
+    lab = Lab(open_engine(url), actor="t")
     lab.add_customer("ACME Ltd", "1 Main Street")
     lab.add_customer("Other GmbH")
     lab.add_model(

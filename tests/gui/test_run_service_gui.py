@@ -25,6 +25,7 @@ from app.records.db.engine import open_engine
 from app.records.db.lab import Lab
 from app.records.db.models import Run, Stand
 from app.records.seal import read_seal
+from tests.records_db import new_records
 
 ROOT = Path(__file__).resolve().parents[2]
 FIVE_LINES = (40.0, 80.0, 160.0, 315.0, 630.0)  # not the piezo preset's 25 lines
@@ -42,8 +43,8 @@ def _stand_with_plan(tmp_path: Path) -> Path:
 def _lab(tmp_path: Path) -> str:
     """Records with the simulated stand's reference standard on record and in date, a
     customer, a model and a check standard CS-1."""
-    url = f"sqlite:///{tmp_path / 'lab.sqlite'}"
-    lab = Lab(open_engine(url, create=True), actor="t")
+    url = new_records(tmp_path / "lab.sqlite")
+    lab = Lab(open_engine(url), actor="t")
     lab.add_customer("ACME Ltd")
     lab.add_model(
         "Lab",

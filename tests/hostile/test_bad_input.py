@@ -11,6 +11,7 @@ real processes with a timeout and a memory limit instead (test_processes.py).
 from __future__ import annotations
 
 import os
+import shutil
 from collections.abc import Callable
 from pathlib import Path
 
@@ -324,7 +325,9 @@ def test_bad_certificate_fields_are_refused_by_name(
 
 
 def test_a_certificate_number_is_never_reused(complete_run, tmp_path, capsys):
-    argv = ["certificate", str(complete_run), *CERTIFICATE_OK, "--certificate-number", "H-1"]
+    run = tmp_path / "runs" / complete_run.name  # a register of its own, not the session's
+    shutil.copytree(complete_run, run)
+    argv = ["certificate", str(run), *CERTIFICATE_OK, "--certificate-number", "H-1"]
     assert main([*argv, "--out", str(tmp_path / "a.pdf")]) == 0
     capsys.readouterr()
     assert main([*argv, "--out", str(tmp_path / "b.pdf")]) == 2

@@ -20,9 +20,10 @@ from app.certificate import CertificateInfo
 from app.certificate.register_issue import issue_registered
 from app.certificate.sign import Signer
 from app.cli import main
-from app.records.db.engine import make_engine, resolve_url, upgrade
+from app.records.db.engine import make_engine, resolve_url
 from app.records.db.lab import Lab
 from app.web.users import add_user
+from tests.records_db import new_records
 
 USER, PASSWORD = "qm", "correct horse battery"
 SERIAL = "SN-WEB-1"
@@ -76,9 +77,8 @@ def _run(out: Path, seed: int) -> Path:
 def records(tmp_path_factory: pytest.TempPathFactory) -> Records:
     base = tmp_path_factory.mktemp("web")
     runs_root = base / "runs"
-    url = resolve_url(f"sqlite:///{base / 'records.sqlite'}")
+    url = resolve_url(new_records(base / "records.sqlite"))
     engine = make_engine(url)
-    upgrade(engine)
     lab = Lab(engine, actor="test")
     lab.add_customer("ACME Ltd", "1 Test Street, Testville")
     lab.add_customer("Other GmbH")

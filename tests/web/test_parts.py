@@ -28,6 +28,7 @@ from app.web.documents import (
 from app.web.store import open_read_only
 from app.web.users import add_user, password_matches
 from tests.pg_server import start_pgserver
+from tests.records_db import new_records
 from tests.web.conftest import Records
 
 MANIFEST = "ab" * 32
@@ -90,6 +91,8 @@ def test_chart_ticks_are_round_numbers_within_the_range(low, high, expected) -> 
 
 
 def _migrated(tmp_path: Path, revision: str = "head") -> str:
+    if revision == "head":  # a copy of the database migrated once per process
+        return resolve_url(new_records(tmp_path / "r.sqlite"))
     url = resolve_url(f"sqlite:///{tmp_path / 'r.sqlite'}")
     engine = make_engine(url)
     upgrade(engine, revision)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import json
 import shutil
 import stat
 import subprocess
@@ -13,7 +14,6 @@ from pypdf import PdfReader
 
 from app import formatting as fmt
 from app.certificate import CertificateError, CertificateInfo, build
-from app.procedure.run import RunRequest, execute
 from app.records.run_folder import load_run
 
 INFO = CertificateInfo(
@@ -132,21 +132,22 @@ def test_missing_items_are_refused_by_name(complete_run, tmp_path):
     assert not (tmp_path / "x.pdf").exists()
 
 
-def test_aborted_run_is_refused(tmp_path):
-    from sim.stand import Fault
-
-    finished = execute(RunRequest(faults=(Fault("device-lost", 15.0),), out=tmp_path))
-    assert finished.status == "aborted"
+def test_aborted_run_is_refused(aborted_run, tmp_path):
+    run = tmp_path / aborted_run.name
+    shutil.copytree(aborted_run, run)
+    assert json.loads((run / "results.json").read_text())["status"] == "aborted"
     with pytest.raises(CertificateError, match="the run is aborted"):
-        build(tmp_path / finished.record.run_id, INFO, tmp_path / "x.pdf")
+        build(run, INFO, tmp_path / "x.pdf")
 
 
-def test_cli_certificate_default_place_and_exit_codes(complete_run, capsys):
+def test_cli_certificate_default_place_and_exit_codes(complete_run, tmp_path, capsys):
     from app.cli import main
 
+    run = tmp_path / "runs" / complete_run.name  # the session's run stays as it is
+    shutil.copytree(complete_run, run)
     argv = [
         "certificate",
-        str(complete_run),
+        str(run),
         "--customer",
         "ACME Ltd",
         "--authorised-by",
@@ -157,10 +158,10 @@ def test_cli_certificate_default_place_and_exit_codes(complete_run, capsys):
         "stud",
     ]
     assert main(argv) == 0
-    assert (complete_run / "certificate.pdf").exists()
+    assert (run / "certificate.pdf").exists()
     capsys.readouterr()
     assert main(argv) == 2  # not overwritten
-    assert main(["certificate", str(complete_run), "--out", "/tmp/never.pdf"]) == 2
+    assert main(["certificate", str(run), "--out", "/tmp/never.pdf"]) == 2
     assert "missing mandatory item(s)" in capsys.readouterr().err
 
 
@@ -175,8 +176,11 @@ def test_the_pdf_renders(complete_run, tmp_path):
 def test_sweep_section_with_sensitivity_against_level_and_linearity(tmp_path):
     from pathlib import Path
 
+    from app.procedure.run import RunRequest
     from app.procedure.sweep import run_sweep
 
+    # its own piezo sweep: the session's (tests/conftest.py sweep_run) is of the capacitive DUT,
+    # whose compression at 7 m/s^2 brings warnings that block a certificate
     sweep = run_sweep(RunRequest(dut="piezo", dut_id="SN-7", periods=3, out=tmp_path), [3.0, 6.0])
     run = tmp_path / sweep.summary["run_ids"][0]
     assert stat.S_IMODE(Path(sweep.summary["path"]).stat().st_mode) == 0o444  # stored, read-only

@@ -27,6 +27,7 @@ from app.records.run_start import RunStart
 from dsp import conformity
 from dsp.calibration import LineResult, ReferenceResult, Results
 from dsp.multisine import preset_plan
+from tests.records_db import new_records
 from tests.synthetic import lowpass_response, make_recording
 
 # Hand values: U(dev) = (1 + dev) * U_rel(S). Line 2: +20 % with U_rel 2.5 % -> 1.2 * 2.5 = 3.0 %;
@@ -154,8 +155,8 @@ def test_every_face_follows_the_one_ilac_g8_decision(capsys, monkeypatch, record
 
 @pytest.mark.integration
 def test_one_register_the_database_with_records_the_json_file_without(tmp_path):
-    url = f"sqlite:///{tmp_path / 'lab.sqlite'}"
-    lab = Lab(open_engine(url, create=True), actor="t")
+    url = new_records(tmp_path / "lab.sqlite")
+    lab = Lab(open_engine(url), actor="t")
     lab.add_customer("ACME Ltd", "1 Main Street")
     lab.add_model(
         "Sim",

@@ -13,15 +13,14 @@ from sqlalchemy.orm import Session
 from app.cli import main
 from app.records.db.engine import open_engine
 from app.records.db.models import AuditEntry, User
+from tests.records_db import new_records
 
 pytestmark = pytest.mark.integration
 
 
 @pytest.fixture
 def db_url(tmp_path: Path) -> str:
-    url = f"sqlite:///{tmp_path / 'records.sqlite'}"
-    open_engine(url, create=True).dispose()
-    return url
+    return new_records(tmp_path / "records.sqlite")
 
 
 def test_user_add_reads_the_password_from_stdin_and_audits_no_hash(

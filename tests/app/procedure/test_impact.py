@@ -23,6 +23,7 @@ from app.records.db.engine import open_engine
 from app.records.db.lab import Lab, RecordsError
 from app.records.db.models import AuditEntry, Run
 from app.records.run_folder import MANIFEST_NAME
+from tests.records_db import new_records, seed_lab
 
 pytestmark = pytest.mark.integration
 
@@ -65,23 +66,15 @@ def lab_runs(tmp_path_factory: pytest.TempPathFactory) -> tuple[str, Path, dict[
             )
         )
         made[label] = str(finished.record.run_id)
-    url = f"sqlite:///{base / 'records.sqlite'}"
-    engine = open_engine(url, create=True)
-    lab = Lab(engine, actor="tester")
-    lab.add_customer("Alpha GmbH", "1 Main St")
-    lab.add_customer("Beta Ltd")
-    lab.add_model(
-        "PCB",
-        "352C33",
+    url = new_records(base / "records.sqlite")
+    engine = open_engine(url)
+    lab = seed_lab(
+        Lab(engine, actor="tester"),
+        {"SN-A": "Alpha GmbH", "SN-C": "Alpha GmbH", "SN-B": "Beta Ltd"},
         nominal_sensitivity=10.0,
-        unit="mV/(m/s^2)",
-        tolerance_percent=5,
         frequency_min_hz=10,
-        frequency_max_hz=10000,
+        addresses={"Alpha GmbH": "1 Main St"},
     )
-    lab.add_sensor("SN-A", model="352C33", owner="Alpha GmbH")
-    lab.add_sensor("SN-C", model="352C33", owner="Alpha GmbH")
-    lab.add_sensor("SN-B", model="352C33", owner="Beta Ltd")
     report = lab.import_runs(runs)
     assert len(report.imported) == 4, report
     with Session(engine) as s, s.begin():  # the first run dates from before the window

@@ -311,15 +311,13 @@ def test_stepped_sine_and_multisine_agree_within_their_uncertainties(tmp_path):
         read_recording(stepped_folder / "recording.h5")
 
 
-def test_amplitude_sweep_resolves_the_mems_compression(tmp_path):
-    from app.procedure.sweep import run_sweep
+def test_amplitude_sweep_resolves_the_mems_compression(sweep_run):
     from sim.models import DUT_CATALOGUE
 
-    request = RunRequest(dut="capacitive", periods=3, seed=2, out=tmp_path)
-    sweep = run_sweep(request, [3.0, 5.0, 7.0])
-    summary = sweep.summary
+    sweep = sweep_run  # capacitive, 3 periods, seed 2, at 3, 5 and 7 m/s^2 (tests/conftest.py)
+    summary, root = sweep.summary, Path(sweep_run.summary["path"]).parent
     assert sweep.complete and len(summary["run_ids"]) == 3
-    assert all((tmp_path / run_id / "results.json").exists() for run_id in summary["run_ids"])
+    assert all((root / run_id / "results.json").exists() for run_id in summary["run_ids"])
     k = summary["frequencies_hz"].index(160.0)
     s = np.array(summary["sensitivity_mv_per_ms2"])[:, k]
     assert s[0] > s[1] > s[2]  # the cubic term compresses with level

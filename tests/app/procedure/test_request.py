@@ -25,6 +25,7 @@ from app.records.run_record import DutIdentity
 from app.stand.dut import Band, DutSpec, spec_from_record
 from app.stand.simulated import catalogue_spec
 from tests.app.procedure.test_verdict import _results
+from tests.records_db import new_records
 
 # a sensor model on record: 9.8 mV/(m/s^2) +-4 %, phase within 2 degrees from 10 to 1000 Hz
 RECORDED = spec_from_record(
@@ -111,9 +112,9 @@ def test_resolve_dut_by_source() -> None:
 
 
 def test_build_request_from_the_records(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    url = f"sqlite:///{tmp_path / 'lab.sqlite'}"
+    url = new_records(tmp_path / "lab.sqlite")
     monkeypatch.delenv("ACCELCAL_DB", raising=False)
-    lab = Lab(open_engine(url, create=True), actor="t")
+    lab = Lab(open_engine(url), actor="t")
     lab.add_customer("ACME Ltd")
     lab.add_model(
         "Maker",

@@ -20,7 +20,7 @@ from app.cli import main
 from app.procedure.analysis import analyze
 from app.procedure.simulate import simulate
 from app.procedure.verdict import with_verdict
-from app.procedure.warnings import SEED_RULE_WARNING
+from app.records.warnings import SEED_RULE_WARNING
 from app.stand.dut import Tolerances
 from dsp.calibration import compute_results
 

@@ -51,17 +51,12 @@ INFO = {
 
 
 @pytest.fixture(scope="module")
-def stored(tmp_path_factory):
-    """Two complete runs and an aborted one, as the procedure leaves them (read-only)."""
+def stored(tmp_path_factory, complete_run, aborted_run):
+    """Two complete runs and an aborted one, as the procedure leaves them (read-only): the
+    session's complete (SN-42) and aborted runs, and one more of SN-2."""
     out = tmp_path_factory.mktemp("stored")
-    runs = {}
-    for name, request in {
-        "a": RunRequest(dut="piezo", dut_id="SN-1", periods=4, seed=1, out=out),
-        "b": RunRequest(dut="piezo", dut_id="SN-2", periods=4, seed=2, out=out),
-        "aborted": RunRequest(periods=4, faults=(Fault("device-lost", 15.0),), out=out),
-    }.items():
-        finished = execute(request)
-        runs[name] = out / finished.record.run_id
+    finished = execute(RunRequest(dut="piezo", dut_id="SN-2", periods=4, seed=2, out=out))
+    runs = {"a": complete_run, "b": out / finished.record.run_id, "aborted": aborted_run}
     assert [load(runs[k])["status"] for k in ("a", "b", "aborted")] == [
         "complete",
         "complete",
@@ -441,7 +436,6 @@ def test_certificate_numbers_are_never_reused_under_a_runs_root(capsys, root, st
 def test_the_procedure_marks_its_recording_complete_or_aborted(tmp_path):
     from app.io.hdf5 import read_recording
     from app.procedure.run import RunRequest, execute
-    from sim.stand import Fault
 
     done = execute(RunRequest(dut="piezo", periods=3, out=tmp_path / "ok"))
     cut = execute(

@@ -24,8 +24,8 @@ from app.records.db.engine import make_engine, resolve_url, upgrade
 from app.records.db.lab import Lab
 from app.records.db.models import Certificate, Run, Sensor, Stand
 from app.records.seal import write_seal
-from tests.app.records.db.conftest import _postgres_database
 from tests.app.records.db.test_run_records import add_sim_reference
+from tests.records_db import postgres_database, seed_lab
 
 
 def _sealed_folder(folder: Path, head: str | None) -> str:
@@ -41,18 +41,9 @@ def _sealed_folder(folder: Path, head: str | None) -> str:
 def _lab_day(engine: Engine, runs: Path, *, seal_head: str | None = "chain") -> Lab:
     """A customer, model, sensor, reference, a run indexed from a sealed folder (whose seal
     names the chain head, unless `seal_head` says otherwise) and its certificate."""
-    lab = Lab(engine, actor="alice")
-    lab.add_customer("ACME Ltd", "1 Road")
-    lab.add_model(
-        "PCB",
-        "352C33",
-        nominal_sensitivity=10.2,
-        unit="mV/(m/s^2)",
-        tolerance_percent=5,
-        frequency_min_hz=1,
-        frequency_max_hz=10000,
+    lab = seed_lab(
+        Lab(engine, actor="alice"), {"SN-1": "ACME Ltd"}, addresses={"ACME Ltd": "1 Road"}
     )
-    lab.add_sensor("SN-1", model="352C33", owner="ACME Ltd")
     lab.add_reference(
         "REF-1",
         model="8305",
@@ -377,7 +368,7 @@ def test_the_application_role_cannot_disable_triggers_and_works(
 ) -> None:
     """docs/records.md: an owner role migrates, the application role only reads and writes."""
     server = request.getfixturevalue("postgres_server")
-    url = resolve_url(_postgres_database(server))
+    url = resolve_url(postgres_database(server))
     owner = make_engine(url)
     upgrade(owner)
     database = owner.url.database

@@ -11,6 +11,7 @@ from sqlalchemy.orm import Session
 
 from app.records.db.lab import Lab
 from app.records.db.models import Certificate, Run, Sensor, Stand
+from tests.records_db import seed_lab
 
 WORKER = """
 import sys
@@ -23,18 +24,7 @@ for i in range(50):  # one certificate per run: each stand certifies runs of its
 
 
 def test_two_processes_issue_100_distinct_numbers_without_a_gap(engine: Engine) -> None:
-    lab = Lab(engine, actor="setup")
-    lab.add_customer("ACME Ltd")
-    lab.add_model(
-        "PCB",
-        "352C33",
-        nominal_sensitivity=10.2,
-        unit="mV/(m/s^2)",
-        tolerance_percent=5,
-        frequency_min_hz=1,
-        frequency_max_hz=10000,
-    )
-    lab.add_sensor("SN-1", model="352C33", owner="ACME Ltd")
+    seed_lab(Lab(engine, actor="setup"), {"SN-1": "ACME Ltd"})
     with Session(engine) as s:
         stand = Stand(stand_file_sha256="b" * 64, name="stand")
         sensor = s.scalar(select(Sensor))

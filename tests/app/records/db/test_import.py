@@ -5,8 +5,6 @@ from __future__ import annotations
 import os
 import shutil
 import stat
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -16,36 +14,21 @@ from sqlalchemy.orm import Session
 from app.cli import main
 from app.records.db.lab import Lab
 from app.records.db.models import Run, Stand
+from tests.records_db import seed_lab
 
 
 @pytest.fixture(scope="module")
 def runs_root(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """Two short simulated runs of SN-1, each a sealed folder."""
+    """Two short simulated runs of SN-1, each a sealed folder (made in this process: the
+    procedure writes the same folder as `accelcal run` does, without a fresh interpreter)."""
+    from app.procedure.run import RunRequest, execute
+
     root = tmp_path_factory.mktemp("runs")
-    for dut_id, seed in (("SN-1", "1"), ("SN-1", "2")):
-        subprocess.run(
-            [
-                sys.executable,
-                "-m",
-                "app",
-                "run",
-                "--sim",
-                "--dut",
-                "piezo",
-                "--dut-id",
-                dut_id,
-                "--level",
-                "5",
-                "--periods",
-                "4",
-                "--seed",
-                seed,
-                "--out",
-                str(root),
-            ],
-            check=True,
-            capture_output=True,
+    for seed in (1, 2):
+        request = RunRequest(
+            dut="piezo", dut_id="SN-1", level_ms2=5.0, periods=4, seed=seed, out=root
         )
+        assert execute(request).status == "complete"
     return root
 
 
@@ -59,18 +42,7 @@ def _writable_copy(source: Path, target: Path) -> Path:
 def test_import_indexes_verified_runs_once_and_lists_the_rest(
     engine: Engine, runs_root: Path, tmp_path: Path
 ) -> None:
-    lab = Lab(engine, actor="t")
-    lab.add_customer("ACME Ltd")
-    lab.add_model(
-        "PCB",
-        "352C33",
-        nominal_sensitivity=10.2,
-        unit="mV/(m/s^2)",
-        tolerance_percent=5,
-        frequency_min_hz=1,
-        frequency_max_hz=10000,
-    )
-    lab.add_sensor("SN-1", model="352C33", owner="ACME Ltd")
+    lab = seed_lab(Lab(engine, actor="t"), {"SN-1": "ACME Ltd"})
     root = tmp_path / "runs"
     for folder in sorted(runs_root.iterdir()):
         _writable_copy(folder, root / folder.name)

@@ -21,6 +21,7 @@ from app.certificate.register_issue import leftovers_in_records
 from app.cli import main
 from app.records.db.engine import DatabaseError, open_engine, records_url
 from app.records.db.lab import Lab, RecordsError
+from tests.records_db import seed_lab
 
 BASE = [
     "--prepared-by",
@@ -36,20 +37,7 @@ BASE = [
 
 def _lab(url: str) -> Lab:
     lab = Lab(open_engine(url), actor="t")
-    lab.add_customer("ACME Ltd")
-    lab.add_customer("Other GmbH")
-    lab.add_model(
-        "PCB",
-        "352C33",
-        nominal_sensitivity=10.0,
-        unit="mV/(m/s^2)",
-        tolerance_percent=5,
-        frequency_min_hz=1,
-        frequency_max_hz=10000,
-    )
-    lab.add_sensor("SN-42", model="352C33", owner="ACME Ltd")
-    lab.add_sensor("SN-43", model="352C33", owner="Other GmbH")
-    return lab
+    return seed_lab(lab, {"SN-42": "ACME Ltd", "SN-43": "Other GmbH"}, nominal_sensitivity=10.0)
 
 
 @pytest.fixture

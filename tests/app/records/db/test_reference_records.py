@@ -10,17 +10,18 @@ from datetime import UTC, date, datetime
 from pathlib import Path
 
 import pytest
-from sqlalchemy import Engine, select
+from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from app.cli import main
-from app.records.db.engine import make_engine, open_engine, resolve_url, upgrade
+from app.records.db.engine import open_engine
 from app.records.db.lab import Lab
 from app.records.db.models import AuditEntry
 from app.records.db.reference_table import read_reference_table
 from app.records.db.references import ReferenceTable
 from app.records.db.store import RecordsError
 from tests.lab_stand import lab_stand_file
+from tests.records_db import new_records, seed_lab
 
 ARGS = ["--dut", "piezo", "--periods", "3", "--seed", "1", "--fresh-response"]
 RUN = ["run", "--sim", *ARGS]
@@ -28,25 +29,11 @@ FLAT = [(160.0, 1.0, 0.005, None)]
 
 
 @pytest.fixture
-def url(empty_url: str, monkeypatch: pytest.MonkeyPatch) -> str:
+def url(migrated_url: str, monkeypatch: pytest.MonkeyPatch) -> str:
     """A lab on each engine with customer, model and sensor SN-7; no reference standard."""
     monkeypatch.delenv("ACCELCAL_DB", raising=False)
-    engine: Engine = make_engine(resolve_url(empty_url))
-    upgrade(engine)
-    engine.dispose()
-    lab = Lab(open_engine(empty_url), actor="t")
-    lab.add_customer("ACME Ltd")
-    lab.add_model(
-        "PCB",
-        "352C33",
-        nominal_sensitivity=10.2,
-        unit="mV/(m/s^2)",
-        tolerance_percent=5,
-        frequency_min_hz=1,
-        frequency_max_hz=10000,
-    )
-    lab.add_sensor("SN-7", model="352C33", owner="ACME Ltd")
-    return empty_url
+    seed_lab(Lab(open_engine(migrated_url), actor="t"), {"SN-7": "ACME Ltd"})
+    return migrated_url
 
 
 def _add_reference(url: str, table: list, *, due: date = date(2099, 1, 1)) -> None:
@@ -150,8 +137,7 @@ def test_the_records_table_is_the_one_the_run_uses(url: str, tmp_path: Path) -> 
     factor = 1.25
     changed = [(f, s * factor if f == 1000.0 else s, u, p) for f, s, u, p in rows]
     second = tmp_path / "second.sqlite"
-    second_url = f"sqlite:///{second}"
-    Lab(open_engine(second_url, create=True), actor="t")
+    second_url = new_records(second)
     sensitivities = []
     for db, table, out in ((url, rows, "a"), (second_url, changed, "b")):
         _add_reference(db, table)

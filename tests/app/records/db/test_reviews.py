@@ -17,6 +17,7 @@ from app.procedure.run import RunRequest, execute
 from app.records.db.lab import Lab, RecordsError
 from app.records.db.models import AuditEntry, Certificate
 from app.records.db.reviews import impact_subject
+from tests.records_db import seed_lab
 
 SUBJECT = impact_subject("SIM-0001")
 
@@ -36,18 +37,7 @@ def lab_numbers(
     """Records with certificate A of SN-42's run (under review for SUBJECT), its amendment B
     (same run, replaces A) not yet issued, and C of SN-43's run: (lab, url, A, C)."""
     lab = Lab(engine, actor="qm")
-    lab.add_customer("ACME Ltd")
-    lab.add_model(
-        "PCB",
-        "352C33",
-        nominal_sensitivity=10.0,
-        unit="mV/(m/s^2)",
-        tolerance_percent=5,
-        frequency_min_hz=1,
-        frequency_max_hz=10000,
-    )
-    lab.add_sensor("SN-42", model="352C33", owner="ACME Ltd")
-    lab.add_sensor("SN-43", model="352C33", owner="ACME Ltd")
+    seed_lab(lab, {"SN-42": "ACME Ltd", "SN-43": "ACME Ltd"}, nominal_sensitivity=10.0)
     for run in (complete_run, other_run):
         copy = tmp_path / "runs" / run.name
         shutil.copytree(run, copy)

@@ -15,6 +15,7 @@ from app.records.db.engine import open_engine
 from app.records.db.lab import Lab
 from app.records.db.models import AuditEntry
 from app.records.run_folder import inspect_run
+from tests.records_db import new_records
 
 RUN = ["run", "--sim", "--dut", "piezo", "--periods", "3", "--seed", "1"]
 
@@ -44,9 +45,9 @@ def lab_url(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> str:
 
 def new_lab(path: Path, monkeypatch: pytest.MonkeyPatch) -> str:
     """A lab with customer ACME Ltd, model 4533-B and sensor SN-7; no reference standard."""
-    url = f"sqlite:///{path}"
+    url = new_records(path)
     monkeypatch.delenv("ACCELCAL_DB", raising=False)
-    lab = Lab(open_engine(url, create=True), actor="t")
+    lab = Lab(open_engine(url), actor="t")
     lab.add_customer("ACME Ltd")
     lab.add_model(
         "Brüel & Kjær",

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from app.procedure.warnings import (
+from app.records.warnings import (
     POLICY,
     SEED_RULE_WARNING,
     Policy,
@@ -113,7 +113,7 @@ def test_docs_state_the_same_table():
 
 
 def test_budget_warning_for_the_shipped_and_an_empty_stand_budget():
-    from app.procedure.warnings import budget_warning
+    from app.records.warnings import budget_warning
     from app.stand import config
 
     assert budget_warning(config.load().budget) is None
