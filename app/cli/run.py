@@ -9,7 +9,7 @@ import json
 import sys
 from typing import TYPE_CHECKING
 
-from app.cli.exits import EXIT_ABORTED, EXIT_BAD_INPUT, UsageError
+from app.cli.exits import UsageError
 from app.cli.options import faults_option, levels_option, writable_folder
 from app.cli.printers import TerminalProgress, print_run_end, print_sweep
 
@@ -70,14 +70,6 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.resonance and outcome.results is not None:
         print(resonance_text(outcome.results))
     return int(outcome.exit_status)
-
-
-def exit_of_aborted(abort_reason: str | None) -> int:
-    """2 for a run refused before anything moved or before a level was played (the
-    predicted displacement of the drive about to be played), 3 for one stopped."""
-    from app.procedure.errors import refused
-
-    return EXIT_BAD_INPUT if refused(abort_reason) else EXIT_ABORTED
 
 
 def run_levels(

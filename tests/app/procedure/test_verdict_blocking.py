@@ -195,19 +195,24 @@ def test_a_line_outside_the_reference_certificate_is_refused_unless_a_term_carri
 
 def test_a_run_refused_mid_way_exits_2_and_a_stopped_one_3() -> None:
     """Point 7: the stored-response refusal ("refused before it is played ... predicted
-    displacement", a PreflightError inside the run) is bad input to the stand: exit 2."""
-    from app.cli.run import exit_of_aborted
+    displacement", a PreflightError inside the run) is bad input to the stand: exit 2. The
+    exit status every face returns (app.procedure.outcome.exit_status)."""
     from app.procedure.errors import REFUSED_BEFORE
+    from app.procedure.outcome import exit_status
+    from app.records.run_record import RunRecord
+
+    def aborted(reason: str | None) -> int:
+        return int(exit_status(RunRecord(run_id="r", status="aborted", abort_reason=reason)))
 
     reason = (
         f"{REFUSED_BEFORE}stored stand response off by 70 % at its check: its drive at level "
         "would give a predicted displacement of 17.70 mm p-p (...): refused before it is played"
     )
-    assert exit_of_aborted(reason) == 2
-    assert exit_of_aborted("emergency stop") == 3
-    assert exit_of_aborted("interrupted (Ctrl-C)") == 3
-    assert exit_of_aborted(None) == 3
-    assert exit_of_aborted(f"the recording ended: {REFUSED_BEFORE}") == 3  # a prefix, not a find
+    assert aborted(reason) == 2
+    assert aborted("emergency stop") == 3
+    assert aborted("interrupted (Ctrl-C)") == 3
+    assert aborted(None) == 3
+    assert aborted(f"the recording ended: {REFUSED_BEFORE}") == 3  # a prefix, not a find
 
 
 def test_the_certificate_prints_every_warning_that_does_not_block(complete_run, tmp_path) -> None:
