@@ -24,9 +24,16 @@ import numpy as np
 
 from dsp import conformity
 from dsp import uncertainty as unc
-from dsp.annex_a import incomplete_budget_text, missing_components
+from dsp.annex_a import (
+    implausible_budget_text,
+    implausible_components,
+    incomplete_budget_text,
+    missing_components,
+    plausible_floor,
+)
 from dsp.budget_terms import reference_range
-from dsp.characteristic import ratio_uncertainty
+from dsp.characteristic import deviation_floor_percent, ratio_uncertainty
+from dsp.cmc import Cmc, no_cmc_text, outside_cmc_text
 from dsp.conformity import NOT_STATED as NOT_STATED  # re-exported for its callers
 from dsp.conformity import uncertainty_stated as uncertainty_stated
 from dsp.errors import InputRefused
@@ -155,8 +162,16 @@ class LineResult:
     iso_verdict: str
     tolerance_verdict: str | None = None
     # U of deviation_percent, %, by dsp.characteristic's correlated model (common factors
-    # cancel, the reference line's type A added); NaN in results stored before issue 25
+    # cancel, the reference line's type A added); 0 at the reference line, whose deviation is
+    # 0 by definition (issue 32 point 7); NaN in results stored before issue 25
     deviation_expanded_percent: float = math.nan
+    # the least U at this line a conformity statement may rest on (issue 32 points 1 and 7):
+    # the laboratory's CMC where its scope covers the line, else the plausible floor of a full
+    # budget (dsp.annex_a.plausible_floor); % of the sensitivity and degrees. NaN: stored before
+    magnitude_floor_percent: float = math.nan
+    phase_floor_deg: float = math.nan
+    # which stated uncertainties the CMC raised to its value here, e.g. "U, phase U"; "" none
+    cmc_bounds: str = ""
 
 
 @dataclass(frozen=True)
@@ -197,6 +212,8 @@ class Results:
     missing_components: tuple[str, ...] = field(default=())
     # JCGM 101 validation per line and quantity (dsp.mcm.McmLine.to_dict), with --mcm only
     mcm: tuple[dict[str, Any], ...] = field(default=())
+    # the laboratory's CMC the stated U was bounded by (dsp.cmc.Cmc.to_list); () none stated
+    cmc: tuple[dict[str, float], ...] = field(default=())
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready nested dict (NaN and inf become None)."""
@@ -209,6 +226,7 @@ class Results:
         data["mcm"] = [dict(m) for m in self.mcm]
         if not self.mcm:
             del data["mcm"]  # results without --mcm keep their pre-issue-25 shape
+        data["cmc"] = [dict(b) for b in self.cmc]
         return _json_safe(data)
 
     @classmethod
@@ -233,6 +251,7 @@ class Results:
                 verdict_reasons=tuple(data.get("verdict_reasons", ())),
                 missing_components=tuple(str(m) for m in data.get("missing_components", ())),
                 mcm=tuple(dict(m) for m in data.get("mcm", ())),
+                cmc=tuple(dict(b) for b in data.get("cmc", ())),
             )
         except (KeyError, TypeError) as exc:
             raise ValueError(f"results: missing or malformed field ({exc})") from None
@@ -267,7 +286,7 @@ def _json_safe(value: Any) -> Any:
 
 
 def _nan(item: dict[str, Any]) -> dict[str, Any]:
-    optional = {"iso_limit", "tolerance_verdict"}
+    optional = {"iso_limit", "tolerance_verdict", "cmc_bounds"}
     return {k: (float("nan") if v is None and k not in optional else v) for k, v in item.items()}
 
 
@@ -292,11 +311,16 @@ def compute_results(
     rule: str = "gum",
     tolerance_percent: float | None = None,
     extra_warnings: Sequence[str] = (),
+    cmc: Cmc | None = None,
 ) -> Results:
     """Sensitivity, characteristic, phase and uncertainty per line from an estimate.
 
     `tolerance_percent` is the DUT's permitted deviation of its characteristic from the
     reference sensitivity (e.g. the manufacturer's 5 %); verdicts use guarded acceptance.
+    `cmc` is the laboratory's CMC: a stated U (sensitivity, deviation, phase) is never below
+    it (the line says where it bounds one); without it, or at a line outside its bands, a
+    blocking warning (issue 32 point 1). A U below the line's floor (the CMC, else the
+    plausible floor of a full budget) gets no ISO or tolerance statement.
     Raises AnalysisError for a dead channel.
     """
     warnings = list(extra_warnings)
@@ -342,6 +366,15 @@ def compute_results(
         )
     elif missing:
         warnings.append(incomplete_budget_text(missing))
+    refused = implausible_components(budget)
+    if refused:
+        warnings.append(implausible_budget_text(refused))
+    if cmc is None:
+        warnings.append(no_cmc_text())
+    else:
+        outside = [f for f in plan.nominal_frequencies_hz if cmc.at(float(f)) is None]
+        if outside:
+            warnings.append(outside_cmc_text(outside, cmc))
     if len(chain.frequencies_hz) > 1:  # a one-point (flat) reference is stated everywhere
         span = reference_range(frequencies.tolist(), chain.frequencies_hz, budget)
         warnings.extend(span.messages(list(plan.nominal_frequencies_hz), *_span(chain)))
@@ -372,8 +405,22 @@ def compute_results(
             periods=estimate.periods,
         )
         deviation = sensitivity[k] / s0 - 1.0
-        if k == ref_index:  # dev = 0 by definition: stated with the line's own U_rel
-            u_deviation = 100.0 * mag.expanded
+        nominal = float(plan.nominal_frequencies_hz[k])
+        band = cmc.at(nominal) if cmc is not None else None  # the scope names nominal lines
+        mag_floor = band.magnitude_percent / 100 if band else plausible_floor("magnitude")
+        ph_floor = band.phase_deg if band else plausible_floor("phase")
+        bounds: list[str] = []
+        u_mag = mag.expanded
+        u_phase = ph.expanded
+        if band is not None:  # ILAC P14: no stated U below the laboratory's CMC
+            if uncertainty_stated(u_mag) and u_mag < mag_floor:
+                u_mag = mag_floor
+                bounds.append("U")
+            if uncertainty_stated(u_phase) and u_phase < ph_floor:
+                u_phase = ph_floor
+                bounds.append("phase U")
+        if k == ref_index:  # dev = 0 by definition, with no uncertainty (issue 32 point 7)
+            u_deviation = 0.0
         else:
             ratio = ratio_uncertainty(
                 float(estimate.relative_type_a[k]),
@@ -388,14 +435,21 @@ def compute_results(
                 periods=estimate.periods,
             )
             u_deviation = 100.0 * (1.0 + float(deviation)) * ratio.expanded
-        verdict: str = unc.iso_verdict(f, mag.expanded)
-        if verdict != unc.Verdict.NOT_APPLICABLE and not uncertainty_stated(mag.expanded):
-            verdict = NOT_STATED  # no U: neither within nor over the ISO limit
+            least = deviation_floor_percent(100 * float(deviation), 100 * mag_floor)
+            if band is not None and uncertainty_stated(u_deviation) and u_deviation < least:
+                u_deviation = least  # the CMC of the ratio, in % of the reference's sensitivity
+                bounds.append("U of the deviation")
+        verdict: str = unc.iso_verdict(f, u_mag)
+        if verdict != unc.Verdict.NOT_APPLICABLE and not uncertainty_stated(u_mag, mag_floor):
+            verdict = NOT_STATED  # no U, or one below the floor: neither within nor over
         tolerance = (
             None
-            if tolerance_percent is None
+            if tolerance_percent is None or k == ref_index  # the reference line: 0 by definition
             else conformity.decide(  # looked up here: one function, a test can replace it
-                100 * deviation, u_deviation, tolerance_percent
+                100 * deviation,
+                u_deviation,
+                tolerance_percent,
+                deviation_floor_percent(100 * float(deviation), 100 * mag_floor),
             )
         )
         lines.append(
@@ -410,11 +464,11 @@ def compute_results(
                 relative_type_a=float(estimate.relative_type_a[k]),
                 relative_type_b=mag.type_b,
                 relative_standard_uncertainty=mag.standard,
-                relative_expanded_uncertainty=mag.expanded,
-                expanded_uncertainty_mv_per_ms2=float(mag.expanded * sensitivity[k]),
+                relative_expanded_uncertainty=u_mag,
+                expanded_uncertainty_mv_per_ms2=float(u_mag * sensitivity[k]),
                 coverage_factor=mag.coverage_factor,
                 effective_dof=mag.dof,
-                phase_expanded_uncertainty_deg=ph.expanded,
+                phase_expanded_uncertainty_deg=u_phase,
                 phase_coverage_factor=ph.coverage_factor,
                 coherence=float(estimate.coherence[k]),
                 reference_snr_db=float(estimate.reference_snr_db[k]),
@@ -424,6 +478,9 @@ def compute_results(
                 iso_verdict=str(verdict),
                 tolerance_verdict=tolerance,
                 deviation_expanded_percent=u_deviation,
+                magnitude_floor_percent=100 * mag_floor,
+                phase_floor_deg=ph_floor,
+                cmc_bounds=", ".join(bounds),
             )
         )
         warnings.extend(_line_warnings(label, estimate, k, chain, f))
@@ -455,6 +512,7 @@ def compute_results(
         warnings=tuple(warnings),
         phase_corrected_for_skew=skew_known,
         missing_components=tuple(missing),
+        cmc=tuple(cmc.to_list()) if cmc is not None else (),
     )
 
 

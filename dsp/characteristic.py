@@ -107,6 +107,15 @@ def line_deviation_expanded_percent(line: LineResult) -> float:
     return deviation_expanded_percent(line.deviation_percent, line.relative_expanded_uncertainty)
 
 
+def deviation_floor_percent(deviation_percent: float, floor_percent: float) -> float:
+    """The least U of a deviation (%) given the least relative U of a sensitivity (%, the CMC
+    or the plausible floor): (1 + dev) * floor, as U_dev = (1 + dev) * U_rel of the ratio.
+    NaN (results stored before issue 32) gives 0: no floor known."""
+    if not math.isfinite(floor_percent):
+        return 0.0
+    return floor_percent * (1.0 + deviation_percent / 100.0)
+
+
 def deviation_expanded_percent(deviation_percent: float, relative_expanded: float) -> float:
     """U of the deviation in % from the deviation (%) and the sensitivity's relative U
     (fraction): (1 + dev) * U_rel * 100; NaN where U_rel is not finite."""

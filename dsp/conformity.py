@@ -26,7 +26,7 @@ class Outcome(StrEnum):
     PASS = "pass"
     FAIL = "fail"
     INCONCLUSIVE = "inconclusive"
-    NOT_STATED = "not stated"  # the check needs an uncertainty which is 0 or undefined
+    NOT_STATED = "not stated"  # the check needs an uncertainty: 0, undefined or below its floor
 
 
 NOT_STATED = Outcome.NOT_STATED
@@ -39,16 +39,19 @@ DECISION_RULE = (
 DECISION_RULE_SHORT = "guarded acceptance (ILAC-G8) against the DUT's tolerances"
 
 
-def uncertainty_stated(expanded: float) -> bool:
-    """True when an expanded uncertainty can support a statement: finite and > 0."""
-    return math.isfinite(expanded) and expanded > 0
+def uncertainty_stated(expanded: float, floor: float = 0.0) -> bool:
+    """True when an expanded uncertainty can support a statement: finite, > 0 and not below
+    `floor` (same unit: the laboratory's CMC, or the plausible floor of a full budget,
+    dsp.annex_a.plausible_floor; a U under it is rounding noise or a budget left out)."""
+    return math.isfinite(expanded) and expanded > 0 and not expanded < floor
 
 
-def decide(deviation: float, expanded: float, tolerance: float) -> Outcome:
+def decide(deviation: float, expanded: float, tolerance: float, floor: float = 0.0) -> Outcome:
     """Guarded acceptance of |deviation| against `tolerance` with expanded uncertainty
     `expanded` (all three in one unit, e.g. % or degrees): PASS if |dev| + U <= T, FAIL if
-    |dev| - U > T, otherwise INCONCLUSIVE; NOT_STATED when U is 0, negative or not finite."""
-    if not uncertainty_stated(expanded):
+    |dev| - U > T, otherwise INCONCLUSIVE; NOT_STATED when U is 0, negative, not finite or
+    below `floor` (same unit; see uncertainty_stated)."""
+    if not uncertainty_stated(expanded, 0.0 if math.isnan(floor) else floor):
         return Outcome.NOT_STATED
     if not math.isfinite(deviation):
         return Outcome.INCONCLUSIVE

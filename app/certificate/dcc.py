@@ -349,7 +349,13 @@ def _statements(admin: ET.Element, results: Results, record: RunRecord) -> None:
     conformity = text.dcc_conformity(verdict)
     if conformity is not None:
         _d(statement, "conformity", conformity)
+    cmc = _d(statements, "statement")
+    _text(cmc, "name", CMC_NAME)
+    _text(cmc, "declaration", text.cmc_statement(results))
     _override_statements(statements, record)
+
+
+CMC_NAME = "Calibration and measurement capability"
 
 
 def _override_statements(statements: ET.Element, record: RunRecord) -> None:

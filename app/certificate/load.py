@@ -22,7 +22,7 @@ from app.records.run_start import RunStart, RunStartError
 from app.records.seal import named_seal
 from app.records.sweep_summary import SweepSummary, SweepSummaryError
 from app.records.warnings import blocking
-from dsp.annex_a import missing_components
+from dsp.annex_a import implausible_components, missing_components
 from dsp.calibration import Results
 from dsp.uncertainty import Budget
 
@@ -67,8 +67,21 @@ def load_stored_run(path: str | Path) -> StoredRun:
 
 
 def check_certifiable(run: StoredRun) -> None:
-    """CertificateError when the run's budget lacks ISO 16063-21 Annex A components (named) or
-    a warning of the run blocks the certificate (each named): results for review only."""
+    """CertificateError when the run's budget has an implausible component or lacks ISO
+    16063-21 Annex A components (named), the run states no CMC (issue 32 point 1), or a warning
+    of the run blocks the certificate (each named): results for review only."""
+    refused = implausible_components(run.budget)
+    if refused:
+        raise CertificateError(
+            f"{run.path}: no certificate: the run's budget has implausible component(s): "
+            f"{'; '.join(refused)}; the run is results for review only"
+        )
+    if not run.results.cmc:
+        raise CertificateError(
+            f"{run.path}: no certificate: the run states no CMC of the laboratory, so nothing "
+            "bounds its uncertainty from below (ILAC P14); state the scope's [[cmc]] bands in "
+            "the stand file and run again"
+        )
     missing = missing_components(run.budget)
     if missing:
         raise CertificateError(

@@ -312,6 +312,7 @@ def _line_table(results: Results, in_g: bool = False) -> list[Any]:
         "Sensitivity\nmV/(m/s²)",
         "U\nmV/(m/s²)",
         "Deviation\n%",
+        "U dev.\n%",
         "Deviation\ndB",
         "Phase\n°",
         "U phase\n°",
@@ -325,11 +326,14 @@ def _line_table(results: Results, in_g: bool = False) -> list[Any]:
     for index, line in enumerate(printed_lines(results), start=1):  # as the DCC and verify
         cells = table_cells(line, stated, in_g)
         rows.append([MarkedText(value, column, index) for column, value in cells])
-    widths: tuple[int, ...] = (15, 15, 19, 16, 16, 16, 15, 14, 13, 11, 16)
+    widths: tuple[int, ...] = (14, 14, 18, 15, 15, 14, 14, 14, 14, 13, 10, 15)
     if in_g:
-        widths = (15, 15, 19, 14, 14, 14, 13, 13, 12, 9, 15, 17)
+        widths = (13, 13, 17, 13, 13, 13, 12, 12, 12, 12, 9, 14, 15)
     table = _table(rows, [w * mm for w in widths], size=7.3 if not in_g else 7.0, marked=True)
-    notes = [Paragraph(text.line_table_note(results.phase_corrected_for_skew), SMALL)]
+    notes = [
+        Paragraph(text.line_table_note(results.phase_corrected_for_skew), SMALL),
+        Paragraph(text.cmc_statement(results), SMALL),  # where the CMC bounds U (issue 32)
+    ]
     if results.phase_corrected_for_skew:
         notes.append(Paragraph(text.PHASE_CONVENTION, SMALL))
     return [Paragraph("Results per frequency", HEAD), table, Spacer(1, 1.5 * mm), *notes]
@@ -406,7 +410,7 @@ def _budget_section(run: StoredRun, results: Results) -> list[Any]:
     rows = [["Component", "Value", "Distribution", "Standard\nuncertainty", "Degrees of\nfreedom"]]
     rows.append(
         [
-            "Repeatability (type A, this calibration)",
+            "Type A within this run (scatter of the periods)",
             "",
             "normal (t)",
             f"{100 * line.relative_type_a:.3g} %",

@@ -42,6 +42,7 @@ class Column(StrEnum):
     SENSITIVITY = "s"  # mV/(m/s^2)
     EXPANDED = "u"  # U of the sensitivity, mV/(m/s^2)
     DEVIATION = "dev"  # from the reference-frequency sensitivity, %
+    DEVIATION_EXPANDED = "u_dev"  # U of the deviation (the characteristic's U), %
     DEVIATION_DB = "dev_db"  # the same in dB
     PHASE = "ph"  # degrees, or n/s
     PHASE_EXPANDED = "u_ph"  # degrees, or n/s
@@ -94,12 +95,21 @@ def round_signed(value: float, uncertainty: float) -> tuple[str, str]:
     return fmt.signed(float(text), decimals), u
 
 
+def is_reference_line(ln: LineResult) -> bool:
+    """True for the reference line as stored since issue 32: its deviation and the deviation's
+    U are exactly 0 (by definition); results stored before state the sensitivity's U there."""
+    return ln.deviation_percent == 0.0 and ln.deviation_expanded_percent == 0.0
+
+
 def printed_line(ln: LineResult) -> PrintedLine:
     """The printed form of one line of dsp.calibration.Results."""
     s, u = fmt.round_gum(ln.sensitivity_mv_per_ms2, ln.expanded_uncertainty_mv_per_ms2)
     ph, u_ph = fmt.round_gum(ln.phase_deg, ln.phase_expanded_uncertainty_deg)
     u_dev = line_deviation_expanded_percent(ln)
-    dev, u_dev_text = round_signed(ln.deviation_percent, u_dev)
+    if is_reference_line(ln):  # 0 by definition, and so is its U (issue 32 point 7)
+        dev, u_dev_text = "0", "0"
+    else:
+        dev, u_dev_text = round_signed(ln.deviation_percent, u_dev)
     rel = 100 * ln.relative_expanded_uncertainty
     return PrintedLine(
         nominal_frequency_hz=ln.nominal_frequency_hz,
@@ -153,6 +163,7 @@ def table_cells(
         (Column.SENSITIVITY, line.sensitivity),
         (Column.EXPANDED, line.expanded),
         (Column.DEVIATION, line.deviation),
+        (Column.DEVIATION_EXPANDED, line.deviation_expanded),
         (Column.DEVIATION_DB, line.deviation_in_db),
         (Column.PHASE, line.phase if phase_stated else NOT_STATED_SHORT),
         (Column.PHASE_EXPANDED, line.phase_expanded if phase_stated else NOT_STATED_SHORT),

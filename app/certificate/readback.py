@@ -217,7 +217,7 @@ def items_from_dcc(root: Any) -> PrintedItems:
 def items_from_pdf(marks: PageMarks) -> PrintedItems:
     """The printed items of a certificate as its marked text layer states them
     (app.certificate.pdf_marks.read_marks): a wrapped item keeps its line breaks ('\n', see
-    `differences`), a table line its cells (no U of the deviation: the table has none)."""
+    `differences`), a table line its cells (the deviation's U included, as in the DCC)."""
     items = {item.value: marks.item(item) for item in Item}
 
     def cell(line: int, column: Column) -> str:
@@ -232,7 +232,7 @@ def items_from_pdf(marks: PageMarks) -> PrintedItems:
             u_ph=cell(n, Column.PHASE_EXPANDED),
             k=cell(n, Column.K),
             dev=cell(n, Column.DEVIATION),
-            u_dev=None,
+            u_dev=cell(n, Column.DEVIATION_EXPANDED),
         )
         for n in range(1, marks.lines + 1)
     )

@@ -13,6 +13,7 @@ from app.io.vocabulary import Mode
 from app.records.run_record import RunRecord
 from dsp import iso266
 from dsp.calibration import Results
+from dsp.cmc import Cmc
 from dsp.conformity import DECISION_RULE, DECISION_RULE_SHORT, NOT_STATED, Outcome, Verdict
 
 PHASE_NOT_STATED = "not stated (not corrected for the inter-channel delay)"
@@ -93,13 +94,35 @@ def dcc_method_text(record: RunRecord, results: Results) -> str:
 def line_table_note(phase_stated: bool) -> str:
     """The note under the table of results per frequency."""
     return (
-        "Deviation: sensitivity relative to the sensitivity at the reference frequency. "
-        "U: expanded "
-        "uncertainty with the coverage factor k of its line. ISO 16063-21: relative expanded "
+        "Deviation: sensitivity relative to the sensitivity at the reference frequency; at "
+        "the reference frequency it is 0 by definition, and so is its U. U, U dev.: expanded "
+        "uncertainty of the sensitivity and of the deviation (the characteristic), with the "
+        "coverage factor k of its line. ISO 16063-21: relative expanded "
         "uncertainty within the standard's suggested limits (2 % to 1 kHz, 4 % to 2 kHz, 6 % "
-        "to 10 kHz) or over them; n/s: not stated (no expanded uncertainty"
+        "to 10 kHz) or over them; n/s: not stated (no expanded uncertainty, or one below the "
+        "laboratory's CMC or a full budget's plausible floor"
         + ("" if phase_stated else "; phase: " + PHASE_NOT_STATED)
         + ")."
+    )
+
+
+def cmc_statement(results: Results) -> str:
+    """Where the laboratory's CMC bounds the stated uncertainties (issue 32 point 1): its
+    bands, and each line whose U (sensitivity, deviation or phase) it set."""
+    if not results.cmc:
+        return "The laboratory states no CMC: no uncertainty here is bounded by one."
+    bands = Cmc.from_list(results.cmc).text()
+    bound = [
+        f"{ln.nominal_frequency_hz:g} Hz ({ln.cmc_bounds})" for ln in results.lines if ln.cmc_bounds
+    ]
+    where = (
+        "it sets the stated value at " + "; ".join(bound)
+        if bound
+        else "the stated values are all above it"
+    )
+    return (
+        "No stated uncertainty is smaller than the laboratory's calibration and measurement "
+        f"capability (CMC, expanded, per band: {bands}); {where}."
     )
 
 
@@ -135,11 +158,13 @@ def conformity_statement(
     """The PDF's statement of conformity: the overall verdict's (every check: sensitivity,
     amplitude characteristic, phase, mounting) in words, with the characteristic's per-line
     outcomes (dsp.conformity's words: pass, fail, inconclusive, not stated)."""
-    v = list(verdicts)
+    v = [x for x in verdicts if x is not None]  # None: the reference line, 0 by definition
     result = _VERDICT_WORDS.get(verdict or "", "<b>conformity not stated</b> (no verdict)")
     tally = (
         f" Amplitude characteristic within ±{tolerance_percent:g} % of the sensitivity at the "
-        f"reference frequency: {v.count(Outcome.PASS)} pass, {v.count(Outcome.FAIL)} fail, "
+        "reference frequency, at every other frequency (not stated: no U, or one below the "
+        "laboratory's CMC or a full budget's plausible floor): "
+        f"{v.count(Outcome.PASS)} pass, {v.count(Outcome.FAIL)} fail, "
         f"{v.count(Outcome.INCONCLUSIVE)} inconclusive, {v.count(NOT_STATED)} not stated of "
         f"{len(v)} frequencies."
         if tolerance_percent is not None

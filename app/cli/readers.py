@@ -5,6 +5,7 @@ recording of this program (which stores its plan, chain and budget), a CSV or a 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import tomllib
 from pathlib import Path
@@ -16,6 +17,7 @@ from app.io.checks import MAX_TEXT_BYTES, InputFileError, check_input_file
 
 if TYPE_CHECKING:
     from dsp.calibration import ReferenceChain
+    from dsp.cmc import Cmc
     from dsp.uncertainty import Budget
 
 
@@ -76,9 +78,9 @@ def load_recording(args: argparse.Namespace):
             "--preset, or --frequencies with --sample-rate and --period: a CSV recording "
             "needs its plan"
         )
-    chain, budget = _chain_and_budget(args, "CSV")
+    chain, budget, cmc = _chain_and_budget(args, "CSV")
     plan = plan_from_options(args, optimise=False)
-    return read_csv(
+    recording = read_csv(
         args.file,
         plan,
         chain,
@@ -86,6 +88,7 @@ def load_recording(args: argparse.Namespace):
         settle_periods=args.settle_periods or 0,
         range_v=args.range_v,
     )
+    return dataclasses.replace(recording, cmc=cmc)
 
 
 def _load_tdms(args: argparse.Namespace):
@@ -110,10 +113,10 @@ def _load_tdms(args: argparse.Namespace):
                 f"--sample-rate: {args.sample_rate:g} Hz disagrees with {args.file.name}'s "
                 f"{rate:g} Hz (1 / wf_increment)"
             )
-    chain, budget = _chain_and_budget(args, "TDMS")
+    chain, budget, cmc = _chain_and_budget(args, "TDMS")
     plan_args = argparse.Namespace(**{**vars(args), "sample_rate": rate or args.sample_rate})
     plan = plan_from_options(plan_args, optimise=False)
-    return read_tdms(
+    recording = read_tdms(
         args.file,
         plan,
         chain,
@@ -124,10 +127,13 @@ def _load_tdms(args: argparse.Namespace):
         range_v=args.range_v,
         source=source,
     )
+    return dataclasses.replace(recording, cmc=cmc)
 
 
-def _chain_and_budget(args: argparse.Namespace, kind: str) -> tuple[ReferenceChain, Budget]:
-    """The reference chain and budget of a CSV or TDMS recording, from the options."""
+def _chain_and_budget(
+    args: argparse.Namespace, kind: str
+) -> tuple[ReferenceChain, Budget, Cmc | None]:
+    """The reference chain, budget and CMC of a CSV or TDMS recording, from the options."""
     from dsp.calibration import ReferenceChain
     from dsp.uncertainty import Budget
 
@@ -143,11 +149,16 @@ def _chain_and_budget(args: argparse.Namespace, kind: str) -> tuple[ReferenceCha
         dut_gain=args.dut_gain or 1.0,
         skew_s=args.skew,  # None: from the file (header line, property), else unknown
     )
-    budget = _read_budget(args.budget) if args.budget else Budget(())
-    return chain, budget
+    if not args.budget:
+        return chain, Budget(()), None
+    return (chain, *_read_budget(args.budget))
 
 
-def _read_budget(path: Path) -> Budget:
+def _read_budget(path: Path) -> tuple[Budget, Cmc | None]:
+    """--budget: its [[component]] tables (each plausible, one Annex A kind each) and its
+    optional [[cmc]] tables (the laboratory's CMC, dsp.cmc); UsageError naming what is wrong."""
+    from dsp.annex_a import implausible_components
+    from dsp.cmc import Cmc
     from dsp.uncertainty import Budget
 
     try:
@@ -164,6 +175,14 @@ def _read_budget(path: Path) -> Budget:
     if not isinstance(entries, list):
         raise UsageError(f"--budget: {path}: expected [[component]] tables")
     try:
-        return Budget.from_list(entries)
+        budget = Budget.from_list(entries)
+        cmc_entries = data.get("cmc")
+        if cmc_entries is not None and not isinstance(cmc_entries, list):
+            raise ValueError("cmc: must be [[cmc]] tables")
+        cmc = Cmc.from_list(cmc_entries) if cmc_entries is not None else None
     except ValueError as exc:
         raise UsageError(f"--budget: {path}: {exc}") from None
+    refused = implausible_components(budget)
+    if refused:
+        raise UsageError(f"--budget: {path}: component refused: {'; '.join(refused)}")
+    return budget, cmc

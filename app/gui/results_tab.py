@@ -160,7 +160,7 @@ class ResultsTab(QWidget):
         )
         rows = [
             (
-                "repeatability (type A, this run)",
+                "type A within this run (scatter of the periods)",
                 "",
                 "normal (t)",
                 f"{100 * line.relative_type_a:.3g} %",

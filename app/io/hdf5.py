@@ -12,7 +12,8 @@ HDF5 layout (format "accelcal-recording", version 1):
     /signals/reference  float64 V, chunked one period, resizable; attrs unit, range_v (0 = unknown)
     /signals/dut        idem
     /signals/drive      idem, optional (the DAQ output)
-    /config           attrs (JSON text): plan, reference_chain, budget
+    /config           attrs (JSON text): plan, reference_chain, budget, cmc (optional: the
+                      laboratory's CMC bands, dsp.cmc; absent when the stand stated none)
     /truth            optional (simulated recordings): datasets frequency_hz,
                       sensitivity_mv_per_ms2, phase_deg at the line frequencies; attrs describe
                       the simulated DUT and level
@@ -50,6 +51,7 @@ from app.io.checks import (
 from app.io.vocabulary import Mode, RunStatus
 from app.version import software_version
 from dsp.calibration import ReferenceChain
+from dsp.cmc import Cmc
 from dsp.multisine import Plan, PlanError
 from dsp.uncertainty import Budget
 
@@ -138,6 +140,7 @@ class Recording:
     truth: Truth | None = None
     acquired_periods: int | None = None
     status: RunStatus | None = None  # None: not recorded by this program (CSV, in memory)
+    cmc: Cmc | None = None  # the laboratory's CMC (the stand's, or --budget's [[cmc]])
 
     @property
     def periods(self) -> int:
@@ -168,6 +171,7 @@ class RecordingWriter:
         with_drive: bool = False,
         ranges_v: dict[str, float] | None = None,
         created_utc: str | None = None,
+        cmc: Cmc | None = None,
     ):
         self.path = Path(path)
         self._period_bytes = 8 * 3 * int(plan.period_samples)  # float64, up to three channels
@@ -185,6 +189,8 @@ class RecordingWriter:
         config.attrs["plan"] = json.dumps(plan.to_dict())
         config.attrs["reference_chain"] = json.dumps(chain.to_dict())
         config.attrs["budget"] = json.dumps(budget.to_list())
+        if cmc is not None:
+            config.attrs["cmc"] = json.dumps(cmc.to_list())
         signals = f.create_group("signals")
         names = (*CHANNELS, "drive") if with_drive else CHANNELS
         ranges_v = ranges_v or {}
@@ -309,6 +315,7 @@ def write_recording(path: str | Path, recording: Recording) -> None:
         settle_periods=recording.settle_periods,
         with_drive=recording.drive_v is not None,
         ranges_v=recording.ranges_v,
+        cmc=recording.cmc,
     ) as writer:
         writer.append(recording.reference_v, recording.dut_v, recording.drive_v)
         if recording.truth is not None:
@@ -359,6 +366,11 @@ def read_recording(path: str | Path) -> Recording:
                 parsed[key] = json.loads(config.attrs[key])
             except json.JSONDecodeError as exc:
                 raise RecordingError(f"{name}: /config '{key}' is not valid JSON ({exc})") from None
+        if "cmc" in config.attrs:
+            try:
+                parsed["cmc"] = json.loads(config.attrs["cmc"])
+            except json.JSONDecodeError as exc:
+                raise RecordingError(f"{name}: /config 'cmc' is not valid JSON ({exc})") from None
         signals: dict[str, np.ndarray] = {}
         ranges: dict[str, float] = {}
         for channel in (*CHANNELS, "drive"):
@@ -383,6 +395,7 @@ def read_recording(path: str | Path) -> Recording:
     try:
         chain = ReferenceChain.from_dict(parsed["reference_chain"])
         budget = Budget.from_list(parsed["budget"])
+        cmc = Cmc.from_list(parsed["cmc"]) if "cmc" in parsed else None
     except ValueError as exc:
         raise RecordingError(f"{name}: {exc}") from None
     if plan.sample_rate_hz != float(attrs["sample_rate_hz"]) or plan.period_samples != int(
@@ -406,6 +419,7 @@ def read_recording(path: str | Path) -> Recording:
         truth=truth,
         acquired_periods=acquired,
         status=status,
+        cmc=cmc,
     )
     validate(recording, name)
     return recording

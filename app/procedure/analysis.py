@@ -101,6 +101,7 @@ def analyze(
         rule=rule,
         tolerance_percent=tolerance_percent,
         extra_warnings=warnings,
+        cmc=recording.cmc,
     )
     if tolerances is None:
         catalogue = recording.truth.attrs.get("dut") if recording.truth is not None else None

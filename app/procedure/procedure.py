@@ -315,6 +315,7 @@ class Procedure:
                 self.stand.budget,
                 with_drive=True,
                 ranges_v=self.io.ranges,
+                cmc=self.stand.config.cmc,
             )
             self._write_truth()
 

@@ -20,6 +20,7 @@ from app.io.hdf5 import RecordingWriter, Truth
 from app.io.vocabulary import RunStatus
 from app.procedure.phase_store import stored_phases
 from app.records.run_folder import refuse_in_run_folder
+from app.stand.config import load as load_stand
 from dsp.crestfactor import synthesize
 from dsp.multisine import Plan, fade_envelope, preset_plan
 from hardware.errors import HardwareError
@@ -158,6 +159,7 @@ def simulate(
                 settle_periods=settle_periods,
                 with_drive=True,
                 ranges_v={**ranges, "drive": AO_RANGE_V},
+                cmc=load_stand(None).cmc,  # the built-in stand's, whose budget it records
             ) as writer:
                 writer.write_truth(truth)
                 error = _record(stand, writer, drive, plan, settle_periods + periods)

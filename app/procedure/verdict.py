@@ -31,8 +31,12 @@ from app.records.warnings import RunWarning, blocking, iso_over_warning
 from app.stand.dut import Band, Tolerances
 from dsp import conformity
 from dsp import uncertainty as unc
-from dsp.calibration import LOW_COHERENCE, Results
-from dsp.characteristic import deviation_expanded_percent, line_deviation_expanded_percent
+from dsp.calibration import LOW_COHERENCE, LineResult, Results
+from dsp.characteristic import (
+    deviation_expanded_percent,
+    deviation_floor_percent,
+    line_deviation_expanded_percent,
+)
 from dsp.conformity import NOT_STATED, Outcome, Verdict
 from dsp.conformity import decide as decide  # the one ILAC-G8 function (dsp.conformity)
 
@@ -134,6 +138,12 @@ def _summary(name: str, outcomes: list[tuple[str, str]]) -> tuple[str, str]:
     return worst, f"{name}: {'; '.join(parts)}"
 
 
+def _reference_line(results: Results) -> LineResult:
+    """The line at the reference frequency."""
+    r = results.reference
+    return next(ln for ln in results.lines if ln.nominal_frequency_hz == r.frequency_hz)
+
+
 def assess(
     results: Results, tolerances: Tolerances, status: str | None = None
 ) -> tuple[str, list[str], list[str]]:
@@ -146,7 +156,8 @@ def assess(
     if nominal is not None and tolerances.sensitivity_percent is not None:
         deviation = 100 * (r.sensitivity_mv_per_ms2 / nominal - 1)
         u_deviation = deviation_expanded_percent(deviation, r.relative_expanded_uncertainty)
-        outcome = conformity.decide(deviation, u_deviation, tolerances.sensitivity_percent)
+        floor = deviation_floor_percent(deviation, _reference_line(results).magnitude_floor_percent)
+        outcome = conformity.decide(deviation, u_deviation, tolerances.sensitivity_percent, floor)
         outcomes.append(outcome)
         reasons.append(
             f"sensitivity at {r.frequency_hz:g} Hz: {outcome} ({deviation:+.2f} % from the "
@@ -167,12 +178,15 @@ def assess(
             label = f"{ln.nominal_frequency_hz:g} Hz"
             if unit == "%":
                 u = line_deviation_expanded_percent(ln)  # the correlated model
-                checked.append((conformity.decide(ln.deviation_percent, u, band.tolerance), label))
+                # the CMC, or a full budget's plausible floor, on the deviation's scale
+                floor = deviation_floor_percent(ln.deviation_percent, ln.magnitude_floor_percent)
+                outcome = conformity.decide(ln.deviation_percent, u, band.tolerance, floor)
+                checked.append((outcome, label))
             elif not results.phase_corrected_for_skew:
                 checked.append((NOT_STATED, label))
             else:
-                u = ln.phase_expanded_uncertainty_deg
-                checked.append((conformity.decide(ln.phase_deg, u, band.tolerance), label))
+                u, floor = ln.phase_expanded_uncertainty_deg, ln.phase_floor_deg
+                checked.append((conformity.decide(ln.phase_deg, u, band.tolerance, floor), label))
         if not checked:
             reasons.append(f"{name}: no tolerance given, not checked")
             continue

@@ -36,6 +36,8 @@ class WarningKind(StrEnum):
     """What a warning is about."""
 
     INCOMPLETE_BUDGET = "incomplete budget"
+    IMPLAUSIBLE_BUDGET = "implausible budget"
+    NO_CMC = "no CMC"
     NO_UNCERTAINTY = "no uncertainty"
     LOW_COHERENCE = "low coherence"
     LOW_SNR = "low SNR"
@@ -74,6 +76,16 @@ POLICY: dict[WarningKind, Rule] = {
         Policy.BLOCKS,
         "the stated U leaves out ISO 16063-21 Annex A components: results for review only",
         r"^(no type B budget|incomplete budget)",
+    ),
+    WarningKind.IMPLAUSIBLE_BUDGET: Rule(
+        Policy.BLOCKS,
+        "a component stands for several Annex A kinds or is below its kind's plausible minimum",
+        r"^implausible budget",
+    ),
+    WarningKind.NO_CMC: Rule(
+        Policy.BLOCKS,
+        "no CMC of the laboratory bounds the stated U at a line (ILAC P14)",
+        r"^no CMC",
     ),
     WarningKind.NO_UNCERTAINTY: Rule(
         Policy.BLOCKS,

@@ -20,6 +20,11 @@ Sections (units in the names):
     [[component]] the type B budget (dsp.uncertainty.Component fields, with `kind`: the
                   ISO 16063-21 Annex A component(s) it states, dsp.annex_a, and `law`,
                   `law_frequency_hz`, `law_exponent` for terms growing with frequency)
+    [[cmc]]       the laboratory's CMC (its accreditation scope) per band: min_frequency_hz,
+                  max_frequency_hz, magnitude_percent (relative expanded U, %), phase_deg;
+                  no stated U is below it, and a stand without it states no PASS and gets no
+                  certificate (dsp.cmc; issue 32 point 1). A component tagged with several
+                  kinds, or below its kind's plausible minimum (dsp.annex_a), is refused
     [simulation]  simulated stand only: which components it draws its deviations from
 
 With no file, the built-in simulated stand (`sim/stand.toml`) is used.
@@ -40,9 +45,10 @@ from urllib.parse import urlsplit
 from app.errors import Refusal
 from app.io.checks import MAX_TEXT_BYTES, InputFileError, check_input_file
 from app.io.vocabulary import Backend
-from dsp.annex_a import missing_components
+from dsp.annex_a import implausible_components, missing_components
 from dsp.budget_terms import skew_phase_component
 from dsp.calibration import ReferenceChain
+from dsp.cmc import Cmc
 from dsp.uncertainty import Budget
 from hardware.interfaces import InputChannel, OutputChannel
 
@@ -66,6 +72,7 @@ SCHEMA: dict[str, frozenset[str]] = {
             "simulation",
             "certificate",
             "plan",
+            "cmc",
         }
     ),
     "plan": frozenset(  # issue 26: the stand's own plan (app.procedure.planning)
@@ -205,6 +212,7 @@ class StandConfig:
     budget: Budget
     simulation: dict[str, str] = field(default_factory=dict)
     plan: StandPlan = field(default_factory=StandPlan)
+    cmc: Cmc | None = None  # the laboratory's CMC ([[cmc]]); None: none stated
     raw: dict[str, Any] = field(default_factory=dict, repr=False)
     text: str = field(default="", repr=False)  # the stand file as read (copied into each run)
 
@@ -491,6 +499,10 @@ def _parse(data: dict[str, Any], text: str, source: str) -> StandConfig:
         if any(c.name == skew_term.name for c in budget.components):
             raise r.fail("daq.skew_tolerance_s", f"a component is already named {skew_term.name!r}")
         budget = Budget((*budget.components, skew_term))
+    refused = implausible_components(budget)
+    if refused:
+        raise r.fail("component", f"refused: {'; '.join(refused)}")
+    cmc = _cmc(r, data)
     simulation = data.get("simulation", {})
     if backend != Backend.SIM and simulation:
         raise r.fail("simulation", "only for the simulated stand (daq.backend = 'sim')")
@@ -516,9 +528,23 @@ def _parse(data: dict[str, Any], text: str, source: str) -> StandConfig:
         budget=budget,
         simulation=dict(simulation),
         plan=_plan(r),
+        cmc=cmc,
         raw=data,
         text=text,
     )
+
+
+def _cmc(r: _Reader, data: dict[str, Any]) -> Cmc | None:
+    """[[cmc]] as a Cmc (a ConfigError naming the entry and key); None when absent."""
+    entries = data.get("cmc")
+    if entries is None:
+        return None
+    if not isinstance(entries, list):
+        raise r.fail("cmc", "must be an array of tables ([[cmc]])")
+    try:
+        return Cmc.from_list(entries)
+    except ValueError as exc:
+        raise r.fail("cmc", str(exc)) from None
 
 
 def _plan(r: _Reader) -> StandPlan:

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from app.stand import config
-from dsp.annex_a import ANNEX_A, ComponentKind, missing_components
+from dsp.annex_a import ANNEX_A, ComponentKind, implausible_components, missing_components
 from dsp.budget_terms import reference_range, skew_phase_component
 from dsp.uncertainty import Budget, Component, Law, Quantity, combine
 
@@ -39,11 +39,17 @@ def test_untagged_terms_do_not_count_and_a_magnitude_term_says_nothing_of_phase(
     )
 
 
-def test_one_component_may_state_several_kinds():
+def test_a_component_tagged_with_several_kinds_states_none_of_them_and_is_named():
+    """Issue 32 point 1 (it reversed issue 25's rule): one value cannot stand for several
+    independent effects; a stored one still reads back (old records), but counts for none."""
     c = Component("DAQ", 0.0015, kind=["daq_gain", "daq_linearity"])
     assert c.kind == (ComponentKind.DAQ_GAIN, ComponentKind.DAQ_LINEARITY)
     missing = missing_components(Budget((c,)))
-    assert not any("DAQ" in m for m in missing)
+    assert "magnitude: DAQ gain (daq_gain)" in missing
+    assert "magnitude: DAQ linearity (daq_linearity)" in missing
+    assert implausible_components(Budget((c,))) == [
+        "'DAQ' is tagged with several kinds (daq_gain, daq_linearity): one component per kind"
+    ]
     assert Component.from_dict(c.to_dict()) == c
 
 

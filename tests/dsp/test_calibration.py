@@ -85,7 +85,11 @@ def test_budget_enters_uncertainty_and_iso_verdicts(plan):
     assert low.iso_verdict == "within" and high.iso_limit == 0.06 and high.iso_verdict == "within"
     assert low.phase_expanded_uncertainty_deg >= 0.5 / math.sqrt(3) * 1.9
     # a 35 mV low-pass at 200 Hz deviates hugely at 2500 Hz: a clear fail at +-5 %
-    assert high.tolerance_verdict == "fail" and results.lines[4].tolerance_verdict == "pass"
+    assert high.tolerance_verdict == "fail"
+    # the reference line (160 Hz): deviation 0 by definition, with U 0: no statement (issue 32)
+    ref = results.lines[4]
+    assert ref.nominal_frequency_hz == 160.0 and ref.tolerance_verdict is None
+    assert ref.deviation_percent == 0.0 and ref.deviation_expanded_percent == 0.0
 
 
 def test_results_serialise_to_json_and_csv_and_back(plan):

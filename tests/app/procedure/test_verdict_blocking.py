@@ -98,7 +98,12 @@ def test_a_line_below_the_coherence_limit_keeps_the_run_from_pass(recording) -> 
     coherence[5] = 0.98  # under dsp.calibration.LOW_COHERENCE (0.99)
     low = dataclasses.replace(estimate, coherence=coherence)
     results = compute_results(
-        low, recording.plan, recording.chain, _full_budget(recording), tolerance_percent=5.0
+        low,
+        recording.plan,
+        recording.chain,
+        _full_budget(recording),
+        tolerance_percent=5.0,
+        cmc=_stand_cmc(),
     )
     judged = with_verdict(results, _tolerance_5())
     assert judged.verdict == "INDETERMINATE"
@@ -110,6 +115,7 @@ def test_a_line_below_the_coherence_limit_keeps_the_run_from_pass(recording) -> 
         recording.chain,
         _full_budget(recording),
         tolerance_percent=5.0,
+        cmc=_stand_cmc(),
     )
     assert with_verdict(ok, _tolerance_5()).verdict == "PASS"
 
@@ -149,6 +155,13 @@ def _full_budget(recording):
     return stand_config.load().budget
 
 
+def _stand_cmc():
+    """The built-in stand's CMC (issue 32: without one no run is PASS)."""
+    from app.stand import config as stand_config
+
+    return stand_config.load().cmc
+
+
 def test_a_line_outside_the_reference_certificate_is_refused_unless_a_term_carries_it(
     recording,
 ) -> None:
@@ -167,7 +180,9 @@ def test_a_line_outside_the_reference_certificate_is_refused_unless_a_term_carri
         skew_s=recording.chain.skew_s,
     )
     budget = _full_budget(recording)
-    plain = compute_results(estimate, recording.plan, chain, budget, tolerance_percent=5.0)
+    plain = compute_results(
+        estimate, recording.plan, chain, budget, tolerance_percent=5.0, cmc=_stand_cmc()
+    )
     outside = [w for w in plain.warnings if "outside the reference certificate" in w]
     assert [w.split(":")[0] for w in outside] == ["line 10 Hz", "line 12.5 Hz", "line 16 Hz"]
     assert all(": refused" in w for w in outside)
@@ -183,7 +198,12 @@ def test_a_line_outside_the_reference_certificate_is_refused_unless_a_term_carri
         for q in (Quantity.MAGNITUDE, Quantity.PHASE)
     )
     carried = compute_results(
-        estimate, recording.plan, chain, Budget((*budget.components, *terms)), tolerance_percent=5.0
+        estimate,
+        recording.plan,
+        chain,
+        Budget((*budget.components, *terms)),
+        tolerance_percent=5.0,
+        cmc=_stand_cmc(),
     )
     texts = [w for w in carried.warnings if "outside the reference certificate" in w]
     assert len(texts) == 3 and all("stated extrapolation term" in w for w in texts)

@@ -22,7 +22,8 @@ def test_built_in_simulated_stand_and_the_example_load():
     chain = real.reference_chain()
     assert chain.reference_gain == 10.0 and chain.skew_s == 4e-6
     assert real.reference.certificate_date == "2026-03-15"
-    assert len(real.budget.components) == 13  # 12 stated, the skew tolerance's phase term
+    assert len(real.budget.components) == 14  # 13 stated (one per kind), the skew term
+    assert real.cmc is not None and real.cmc.at(160.0).magnitude_percent == 0.5
     assert real.missing_components() == [] and sim.missing_components() == []
 
 
