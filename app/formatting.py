@@ -4,6 +4,12 @@ from __future__ import annotations
 
 import math
 from decimal import ROUND_HALF_UP, Decimal, localcontext
+from typing import TYPE_CHECKING
+
+from dsp.cmc import Cmc
+
+if TYPE_CHECKING:
+    from dsp.calibration import Results
 
 
 def _round_half_up(x: float, exponent: int) -> Decimal:
@@ -74,3 +80,31 @@ def table(headers: list[str], rows: list[list[str]]) -> str:
     lines.append("  ".join("-" * w for w in widths))
     lines += ["  ".join(c.rjust(w) for c, w in zip(r, widths, strict=True)) for r in rows]
     return "\n".join(lines)
+
+
+def cmc_statement(results: Results) -> str:
+    """Where the laboratory's CMC bounds the stated uncertainties (issue 32 point 1): its
+    bands, and each line whose U (sensitivity, deviation or phase) it set."""
+    if not results.cmc:
+        return "The laboratory states no CMC: no uncertainty here is bounded by one."
+    bands = Cmc.from_list(results.cmc).text()
+    runs: list[tuple[str, list[float]]] = []  # consecutive lines the CMC bounds alike
+    for ln in results.lines:
+        if runs and runs[-1][0] == ln.cmc_bounds:
+            runs[-1][1].append(ln.nominal_frequency_hz)
+        else:
+            runs.append((ln.cmc_bounds, [ln.nominal_frequency_hz]))
+    bound = [
+        f"{what} at {f[0]:g} Hz" if len(f) == 1 else f"{what} at {f[0]:g} to {f[-1]:g} Hz"
+        for what, f in runs
+        if what
+    ]
+    where = (
+        "it sets the stated value of " + "; ".join(bound)
+        if bound
+        else "the stated values are all above it"
+    )
+    return (
+        "No stated uncertainty is smaller than the laboratory's calibration and measurement "
+        f"capability (CMC, expanded, per band: {bands}); {where}."
+    )

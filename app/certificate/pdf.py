@@ -307,13 +307,13 @@ def _line_table(results: Results, in_g: bool = False) -> list[Any]:
     """The results per frequency, each cell drawn inside its mark (column, line) from
     app.certificate.printed.table_cells; with `in_g` a last column, the sensitivity in mV/g."""
     header = [
-        "Nominal\nfrequency\nHz",
-        "Actual\nfrequency\nHz",
+        "Nominal\nfreq.\nHz",
+        "Actual\nfreq.\nHz",
         "Sensitivity\nmV/(m/s²)",
         "U\nmV/(m/s²)",
         "Deviation\n%",
         "U dev.\n%",
-        "Deviation\ndB",
+        "Dev.\ndB",
         "Phase\n°",
         "U phase\n°",
         "U rel.\n%",
@@ -326,9 +326,9 @@ def _line_table(results: Results, in_g: bool = False) -> list[Any]:
     for index, line in enumerate(printed_lines(results), start=1):  # as the DCC and verify
         cells = table_cells(line, stated, in_g)
         rows.append([MarkedText(value, column, index) for column, value in cells])
-    widths: tuple[int, ...] = (14, 14, 18, 15, 15, 14, 14, 14, 14, 13, 10, 15)
+    widths: tuple[int, ...] = (13, 13, 20, 15, 15, 13, 13, 12, 13, 12, 9, 16)
     if in_g:
-        widths = (13, 13, 17, 13, 13, 13, 12, 12, 12, 12, 9, 14, 15)
+        widths = (12, 12, 19, 14, 14, 12, 12, 12, 12, 11, 8, 14, 18)
     table = _table(rows, [w * mm for w in widths], size=7.3 if not in_g else 7.0, marked=True)
     notes = [
         Paragraph(text.line_table_note(results.phase_corrected_for_skew), SMALL),

@@ -9,11 +9,11 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+from app.formatting import cmc_statement as cmc_statement  # one wording: CLI, PDF, DCC
 from app.io.vocabulary import Mode
 from app.records.run_record import RunRecord
 from dsp import iso266
 from dsp.calibration import Results
-from dsp.cmc import Cmc
 from dsp.conformity import DECISION_RULE, DECISION_RULE_SHORT, NOT_STATED, Outcome, Verdict
 
 PHASE_NOT_STATED = "not stated (not corrected for the inter-channel delay)"
@@ -103,26 +103,6 @@ def line_table_note(phase_stated: bool) -> str:
         "laboratory's CMC or a full budget's plausible floor"
         + ("" if phase_stated else "; phase: " + PHASE_NOT_STATED)
         + ")."
-    )
-
-
-def cmc_statement(results: Results) -> str:
-    """Where the laboratory's CMC bounds the stated uncertainties (issue 32 point 1): its
-    bands, and each line whose U (sensitivity, deviation or phase) it set."""
-    if not results.cmc:
-        return "The laboratory states no CMC: no uncertainty here is bounded by one."
-    bands = Cmc.from_list(results.cmc).text()
-    bound = [
-        f"{ln.nominal_frequency_hz:g} Hz ({ln.cmc_bounds})" for ln in results.lines if ln.cmc_bounds
-    ]
-    where = (
-        "it sets the stated value at " + "; ".join(bound)
-        if bound
-        else "the stated values are all above it"
-    )
-    return (
-        "No stated uncertainty is smaller than the laboratory's calibration and measurement "
-        f"capability (CMC, expanded, per band: {bands}); {where}."
     )
 
 

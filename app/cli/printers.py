@@ -87,6 +87,8 @@ def print_results(results: Results, source: str = "", status: str | None = None)
     )
     for warning in results.warnings:
         print(f"warning: {warning}")
+    if results.cmc:  # without one, the blocking "no CMC" warning says so
+        print(fmt.cmc_statement(results))
     if any(not math.isfinite(ln.coherence) for ln in results.lines):
         print(fmt.COHERENCE_NOT_AVAILABLE)
     if not results.phase_corrected_for_skew:
