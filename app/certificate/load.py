@@ -76,18 +76,18 @@ def check_certifiable(run: StoredRun) -> None:
             f"{run.path}: no certificate: the run's budget has implausible component(s): "
             f"{'; '.join(refused)}; the run is results for review only"
         )
-    if not run.results.cmc:
-        raise CertificateError(
-            f"{run.path}: no certificate: the run states no CMC of the laboratory, so nothing "
-            "bounds its uncertainty from below (ILAC P14); state the scope's [[cmc]] bands in "
-            "the stand file and run again"
-        )
     missing = missing_components(run.budget)
     if missing:
         raise CertificateError(
             f"{run.path}: no certificate: the run's budget does not state the ISO 16063-21 "
             f"Annex A component(s) {'; '.join(missing)}; the run is results for review only "
             "(state them in the stand file's [[component]] entries with their kind)"
+        )
+    if not run.results.cmc:
+        raise CertificateError(
+            f"{run.path}: no certificate: the run states no CMC of the laboratory, so nothing "
+            "bounds its uncertainty from below (ILAC P14); state the scope's [[cmc]] bands in "
+            "the stand file and run again"
         )
     blocked = blocking(run_warnings(run.results))
     if blocked:

@@ -125,7 +125,7 @@ def test_csv_without_skew_is_flagged_and_the_certificate_states_no_phase(capsys,
     # the certificate's pieces: no phase values, no phase chart
     results = Results.from_dict(data)
     cells = _line_table(results)[1]._cellvalues
-    assert {row[6] for row in cells[1:]} == {"n/s"} and {row[7] for row in cells[1:]} == {"n/s"}
+    assert {row[7] for row in cells[1:]} == {"n/s"} and {row[8] for row in cells[1:]} == {"n/s"}
     flow = _charts(results)[0]._content
     texts = [getattr(item, "text", "") for item in flow]
     assert any("Phase-frequency characteristic: not stated" in t for t in texts)
