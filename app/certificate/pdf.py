@@ -437,9 +437,21 @@ def _budget_section(run: StoredRun, results: Results) -> list[Any]:
             _dof(line.effective_dof),
         ]
     )
+    combined = 100 * line.coverage_factor * line.relative_standard_uncertainty
+    if "U" in line.cmc_bounds.split(", "):  # k u_c below the CMC: the CMC is stated
+        rows.append(
+            [
+                f"k u_c (k = {line.coverage_factor:.2f}), below the laboratory's CMC",
+                "",
+                "",
+                f"{fmt.significant(combined)} %",
+                "",
+            ]
+        )
     rows.append(
         [
-            f"Expanded uncertainty (k = {line.coverage_factor:.2f})",
+            f"Expanded uncertainty (k = {line.coverage_factor:.2f})"
+            + (", the CMC" if "U" in line.cmc_bounds.split(", ") else ""),
             "",
             "",
             f"{fmt.significant(100 * line.relative_expanded_uncertainty)} %",
