@@ -243,6 +243,7 @@ def test_type_a_target_and_time_bound(tmp_path):
     assert finished.results.periods == 3  # the piezo reaches 0.2 % at once (2 reused + 1)
 
 
+@pytest.mark.long
 def test_sigterm_fades_out_and_leaves_an_aborted_readable_run(tmp_path):
     out = tmp_path / "runs"
     process = subprocess.Popen(

@@ -360,6 +360,7 @@ def _log_text(out: Path) -> str:
     return "".join(p.read_text() for p in out.glob("*/run.log"))
 
 
+@pytest.mark.long
 @pytest.mark.parametrize("signum", [signal.SIGHUP, signal.SIGTERM], ids=["SIGHUP", "SIGTERM"])
 def test_sighup_and_sigterm_fade_out_and_exit_3(tmp_path, signum):
     out = tmp_path / "runs"
@@ -402,7 +403,7 @@ raise SystemExit(run())
 """
 
 
-@pytest.mark.parametrize("stage", ["numpy", "scipy.stats", "h5py", "sim.stand"])
+@pytest.mark.parametrize("stage", ["numpy", "scipy.special", "h5py", "sim.stand"])
 def test_ctrl_c_while_starting_exits_130_with_one_line(tmp_path, stage):
     """Ctrl-C while importing numpy, scipy, h5py or the stand: one line, exit 130."""
     process = subprocess.Popen(
