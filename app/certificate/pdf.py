@@ -437,27 +437,12 @@ def _budget_section(run: StoredRun, results: Results) -> list[Any]:
             _dof(line.effective_dof),
         ]
     )
-    combined = 100 * line.coverage_factor * line.relative_standard_uncertainty
-    if "U" in line.cmc_bounds.split(", "):  # k u_c below the CMC: the CMC is stated
-        rows.append(
-            [
-                f"k u_c (k = {line.coverage_factor:.2f}), below the laboratory's CMC",
-                "",
-                "",
-                f"{fmt.significant(combined)} %",
-                "",
-            ]
-        )
-    rows.append(
-        [
-            f"Expanded uncertainty (k = {line.coverage_factor:.2f})"
-            + (", the CMC" if "U" in line.cmc_bounds.split(", ") else ""),
-            "",
-            "",
-            f"{fmt.significant(100 * line.relative_expanded_uncertainty)} %",
-            "",
-        ]
-    )
+    bounded = "U" in line.cmc_bounds.split(", ")  # k u_c below the CMC: the CMC is stated
+    combined = fmt.significant(100 * line.coverage_factor * line.relative_standard_uncertainty)
+    label = f"Expanded uncertainty (k = {line.coverage_factor:.2f})"
+    label += f": the CMC (k u_c = {combined} % is below it)" if bounded else ""
+    u_text = f"{fmt.significant(100 * line.relative_expanded_uncertainty)} %"
+    rows.append([Paragraph(label, SMALL), "", "", u_text, ""])
     table = _table(rows, [w * mm for w in (78, 18, 24, 26, 22)], size=7.5)
     return [
         KeepTogether(

@@ -42,7 +42,11 @@ def test_conformity_is_not_stated_without_an_uncertainty(tmp_path):
     one_period = make_recording(preset_plan("piezo"), lowpass_response(), periods=1)
     results = analyze(one_period, tolerance_percent=5.0).results  # one period: U undefined
     assert {ln.iso_verdict for ln in results.lines} == {"not stated"}
-    assert {ln.tolerance_verdict for ln in results.lines} == {"not stated"}
+    # the reference line: deviation 0 by definition, unchecked (issue 32 point 7)
+    assert {ln.tolerance_verdict for ln in results.lines} == {"not stated", None}
+    assert [ln.nominal_frequency_hz for ln in results.lines if ln.tolerance_verdict is None] == [
+        results.reference.frequency_hz
+    ]
     assert results.verdict == INDETERMINATE
     paragraphs = _statements(results, CertificateInfo(), "95.45 %")
     text = " ".join(getattr(p, "text", "") for p in paragraphs)
