@@ -179,7 +179,8 @@ def with_stand_plan(request: RunRequest, plan: StandPlan) -> RunRequest:
 
 def with_exciter(config: StandConfig, exciter: str | None) -> StandConfig:
     """The stand configuration with the simulated exciter `exciter`'s stroke as its travel
-    limit (RequestError: unknown, or not a simulated stand)."""
+    limit and its own budget terms (StandConfig.with_exciter_budget; RequestError: unknown,
+    or not a simulated stand)."""
     if exciter is None:
         return config
     if config.backend != Backend.SIM:
@@ -189,7 +190,7 @@ def with_exciter(config: StandConfig, exciter: str | None) -> StandConfig:
     limits = dataclasses.replace(
         config.limits, displacement_peak_to_peak_m=exciter_stroke_m(exciter)
     )
-    return dataclasses.replace(config, limits=limits)
+    return dataclasses.replace(config.with_exciter_budget(exciter), limits=limits)
 
 
 def start(

@@ -66,6 +66,7 @@ SCHEMA: dict[str, frozenset[str]] = {
             "simulation",
             "certificate",
             "plan",
+            "exciters",
         }
     ),
     "plan": frozenset(  # issue 26: the stand's own plan (app.procedure.planning)
@@ -205,6 +206,9 @@ class StandConfig:
     budget: Budget
     simulation: dict[str, str] = field(default_factory=dict)
     plan: StandPlan = field(default_factory=StandPlan)
+    # the simulated stand's exciters' own budget terms by exciter name ([exciters.<name>]
+    # [[component]]): on that exciter they replace the stand's components of their kinds
+    exciter_components: dict[str, Budget] = field(default_factory=dict)
     raw: dict[str, Any] = field(default_factory=dict, repr=False)
     text: str = field(default="", repr=False)  # the stand file as read (copied into each run)
 
@@ -212,6 +216,18 @@ class StandConfig:
         """ISO 16063-21 Annex A components the stand's budget does not state (dsp.annex_a);
         empty for a full budget. A run on a stand with any missing is for review only."""
         return missing_components(self.budget)
+
+    def with_exciter_budget(self, exciter: str) -> StandConfig:
+        """This stand's budget on the exciter `exciter` (issue 32 point 5: a long-stroke
+        exciter has its own rocking mode, guidance errors and low-frequency terms): each
+        component of a kind the exciter's [exciters.<name>] entries state is replaced by
+        those entries; the stand itself when it states none for that exciter."""
+        own = self.exciter_components.get(exciter)
+        if own is None:
+            return self
+        kinds = {k for c in own.components for k in c.kind}
+        kept = [c for c in self.budget.components if not kinds.intersection(c.kind)]
+        return replace(self, budget=Budget((*kept, *own.components)))
 
     def with_reference_certificate(
         self,
@@ -494,6 +510,7 @@ def _parse(data: dict[str, Any], text: str, source: str) -> StandConfig:
     simulation = data.get("simulation", {})
     if backend != Backend.SIM and simulation:
         raise r.fail("simulation", "only for the simulated stand (daq.backend = 'sim')")
+    exciters = _exciters(r, data, backend)
     measuring = amps.get("measuring")
     power = amps.get("power")
     for key, value in (("measuring", measuring), ("power", power)):
@@ -516,9 +533,33 @@ def _parse(data: dict[str, Any], text: str, source: str) -> StandConfig:
         budget=budget,
         simulation=dict(simulation),
         plan=_plan(r),
+        exciter_components=exciters,
         raw=data,
         text=text,
     )
+
+
+def _exciters(r: _Reader, data: dict[str, Any], backend: str) -> dict[str, Budget]:
+    """[exciters.<name>] with its [[exciters.<name>.component]] entries (the simulated
+    stand's exciter catalogue names them; checked where the exciter is chosen), each
+    component checked as [[component]] is (a ConfigError naming exciters.<name>...)."""
+    table = data.get("exciters", {})
+    if not isinstance(table, dict):
+        raise r.fail("exciters", "must be a table of exciter names")
+    if table and backend != Backend.SIM:
+        raise r.fail("exciters", "only for the simulated stand (daq.backend = 'sim')")
+    out = {}
+    for name, entry in table.items():
+        where = f"exciters.{name}"
+        if not isinstance(entry, dict) or set(entry) - {"component"}:
+            raise r.fail(where, "holds only [[component]] entries")
+        try:
+            out[name] = Budget.from_list(entry.get("component", []))
+        except ValueError as exc:
+            raise r.fail(f"{where}.component", str(exc)) from None
+        if not out[name].components:
+            raise r.fail(where, "states no component")
+    return out
 
 
 def _plan(r: _Reader) -> StandPlan:
