@@ -146,7 +146,8 @@ class TerminalProgress:
                 f"  equalisation {event.iteration}: worst line {100 * event.worst:.2f} %", True
             )
         elif isinstance(event, PeriodEstimate):
-            lines = [ln for ln in event.results.lines if ln.stated] or event.results.lines
+            stated = [ln for ln in event.results.lines if math.isfinite(ln.relative_type_a)]
+            lines = stated or event.results.lines  # a line not stated has no type A
             worst = max(lines, key=lambda ln: ln.relative_type_a)
             self._periods = event.periods
             self._worst = (

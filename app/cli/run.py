@@ -93,4 +93,3 @@ def run_levels(
     else:
         print_sweep(summary)
     return int(status)
-

@@ -132,18 +132,22 @@ class ResultsTab(QWidget):
         for row, ln in enumerate(results.lines):
             s, us = fmt.round_gum(ln.sensitivity_mv_per_ms2, ln.expanded_uncertainty_mv_per_ms2)
             p, up = fmt.round_gum(ln.phase_deg, ln.phase_expanded_uncertainty_deg)
-            cells = _not_stated_cells(ln) if not ln.stated else [
-                f"{ln.nominal_frequency_hz:g}",
-                s,
-                us,
-                fmt.signed(ln.deviation_percent, 2),
-                p,
-                up,
-                fmt.significant(100 * ln.relative_expanded_uncertainty),
-                f"{ln.coverage_factor:.2f}",
-                ln.iso_verdict,
-                ln.tolerance_verdict or "",
-            ]
+            cells = (
+                _not_stated_cells(ln)
+                if not ln.stated
+                else [
+                    f"{ln.nominal_frequency_hz:g}",
+                    s,
+                    us,
+                    fmt.signed(ln.deviation_percent, 2),
+                    p,
+                    up,
+                    fmt.significant(100 * ln.relative_expanded_uncertainty),
+                    f"{ln.coverage_factor:.2f}",
+                    ln.iso_verdict,
+                    ln.tolerance_verdict or "",
+                ]
+            )
             for column, text in enumerate(cells):
                 self.table.setItem(row, column, QTableWidgetItem(text))
             if not ln.stated:
