@@ -82,13 +82,22 @@ class ResonanceSearch:
             note = str(data.get("note", ""))
             if not data["found"]:
                 return cls(None, str(data["reason"]), note)
-            fields = {
-                k: (math.nan if data[k] is None else data[k])
-                for k in Resonance.__dataclass_fields__
-                if k in data
-            }
-            fields["lines_used"] = int(fields["lines_used"])
-            return cls(Resonance(**fields), "", note)
+
+            def number(key: str) -> float:
+                value = data.get(key)
+                return math.nan if value is None else float(value)
+
+            found = Resonance(
+                frequency_hz=number("frequency_hz"),
+                q=number("q"),
+                peak_ratio=number("peak_ratio"),
+                lines_used=int(data["lines_used"]),
+                frequency_expanded_hz=number("frequency_expanded_hz"),
+                q_expanded=number("q_expanded"),
+                coverage_factor=number("coverage_factor"),
+                coverage_probability=number("coverage_probability"),
+            )
+            return cls(found, "", note)
         except (KeyError, TypeError) as exc:
             raise ValueError(f"resonance: missing or malformed field ({exc})") from None
 

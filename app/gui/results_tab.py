@@ -150,8 +150,9 @@ class ResultsTab(QWidget):
             )
             for column, text in enumerate(cells):
                 self.table.setItem(row, column, QTableWidgetItem(text))
-            if not ln.stated:
-                self.table.item(row, 0).setToolTip(f"not stated: {ln.not_stated}")
+            first = self.table.item(row, 0)
+            if not ln.stated and first is not None:
+                first.setToolTip(f"not stated: {ln.not_stated}")
         draw_bands(self.result_mag, self.result_phase, results)
         self.charts.show_chart(True)
         self._fill_budget(results, record)
