@@ -5,8 +5,8 @@ A low-level plan of closely spaced lines up to 20 kHz or more gives the DUT/refe
 H(f) per line (complex, e.g. dsp.lpm.estimate). The mounted resonance is the largest peak of |H|
 above the mid band, fitted near the peak by one second-order mode,
 H(w) (w0^2 - w^2 + j w w0/Q) = n (Levy's linearised least squares: real unknowns a = w0^2 and
-b = w0/Q, complex n, over the lines within the half-power band of the peak and one line each
-side). Frequencies in Hz.
+b = w0/Q, complex n, over the lines within the half-power band of the peak, the flanks' lines
+down to FIT_LEVEL of the peak, and one line beyond on each side). Frequencies in Hz.
 
 A resonance is stated only when the plan brackets it: the peak at an interior line, a line on
 each side of it below the half-power level |H|peak/sqrt(2), and the fitted f0 between those
@@ -16,7 +16,8 @@ not bracket says nothing about the mounting).
 Uncertainty of f0 and Q: the lines' standard uncertainties (relative, of both the real and the
 imaginary part of H, e.g. the estimator's type A) propagated through the fit (its Jacobian,
 by central differences), scaled by sqrt(chi^2/nu) when the fit's residual is larger than
-those uncertainties explain (nu = 2 m - 4 for m lines fitted; the coverage factor is then
+those uncertainties explain (nu = 2 m - 4 for m lines fitted, 2 m - 6 with the numerator's
+slope; the coverage factor is then
 Student's t at nu degrees of freedom, else k for the normal distribution). Without stated
 line uncertainties the residual alone sets them.
 """
@@ -32,6 +33,8 @@ import numpy as np
 from scipy import stats
 
 MIN_RISE = 1.2  # a peak must stand this far above the mid band (|H| ratio) to count
+FIT_LEVEL = 0.25  # the fit takes the lines down to this fraction of the peak's |H|
+SLOPE_LINES = 5  # from this many lines fitted the numerator takes a slope too
 NOT_FOUND = "not found within the plan"
 
 
@@ -190,6 +193,10 @@ def find_resonance(
             f"{NOT_FOUND}: the peak near {f[peak]:g} Hz has no line {side} it under its "
             "half-power level; add lines around it"
         )
+    while lo > reference and magnitude[lo - 1] >= FIT_LEVEL * magnitude[peak]:
+        lo -= 1  # closely spaced lines: the fit takes the flanks too (a smaller U)
+    while hi < f.size - 1 and magnitude[hi + 1] >= FIT_LEVEL * magnitude[peak]:
+        hi += 1
     window = slice(lo, hi + 1)
     scale = 2.0 * math.pi * f[peak]
     w = 2.0 * math.pi * f[window] / scale  # normalised angular frequency
@@ -217,20 +224,28 @@ def find_resonance(
 
 def _fit(w: np.ndarray, h: np.ndarray, scale: float) -> tuple[float, float, np.ndarray]:
     """Levy's fit over normalised angular frequencies `w`: f0 (Hz), Q and the model at `w`
-    (NaN, NaN when the peak does not fit one mode)."""
+    (NaN, NaN when the peak does not fit one mode). From SLOPE_LINES lines on, the numerator
+    is n0 + n1 w, which takes up a smooth tilt across the band (the reference's own response
+    beyond its certificate, a neighbouring mode) that would otherwise shift f0."""
     jwh = 1j * w * h
-    rows = np.vstack(
-        [
-            np.column_stack([h.real, jwh.real, -np.ones(w.size), np.zeros(w.size)]),
-            np.column_stack([h.imag, jwh.imag, np.zeros(w.size), -np.ones(w.size)]),
-        ]
-    )
+    ones, zeros = np.ones(w.size), np.zeros(w.size)
+    real = [h.real, jwh.real, -ones, zeros]
+    imag = [h.imag, jwh.imag, zeros, -ones]
+    slope = w.size >= SLOPE_LINES
+    if slope:
+        real += [-w, zeros]
+        imag += [zeros, -w]
+    rows = np.vstack([np.column_stack(real), np.column_stack(imag)])
     rhs = np.concatenate([(w**2 * h).real, (w**2 * h).imag])
-    (a, b, n_re, n_im), *_ = np.linalg.lstsq(rows, rhs, rcond=None)
+    solution, *_ = np.linalg.lstsq(rows, rhs, rcond=None)
+    a, b = solution[0], solution[1]
     if not (a > 0 and b > 0):
         return math.nan, math.nan, np.full(w.size, np.nan, dtype=complex)
+    numerator = complex(solution[2], solution[3]) + (
+        complex(solution[4], solution[5]) * w if slope else 0.0
+    )
     w0 = math.sqrt(a)
-    model = complex(n_re, n_im) / (a - w**2 + 1j * w * b)
+    model = numerator / (a - w**2 + 1j * w * b)
     return float(w0 * scale / (2.0 * math.pi)), float(w0 / b), model
 
 
@@ -245,7 +260,7 @@ def _uncertainty(
     """Standard uncertainties of f0 (Hz) and Q, and the coverage factor (module docstring).
     `sigma`: the absolute standard uncertainty of the real and of the imaginary part of each
     line of `h`."""
-    nu = 2 * w.size - 4
+    nu = 2 * w.size - (6 if w.size >= SLOPE_LINES else 4)
     residual = np.abs(h - model) ** 2
     rms = math.sqrt(float(residual.sum()) / (2 * nu)) if nu > 0 else 0.0
     from_residual = not np.any(sigma > 0)
