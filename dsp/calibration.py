@@ -33,7 +33,7 @@ from dsp.conformity import NOT_STATED as NOT_STATED  # re-exported for its calle
 from dsp.conformity import uncertainty_stated as uncertainty_stated
 from dsp.errors import InputRefused
 from dsp.multisine import Plan
-from dsp.resonance import NOT_FOUND, ResonanceError, ResonanceSearch, search_resonance
+from dsp.resonance import search_response
 from dsp.spectral import MIN_PERIODS, Estimate
 
 RESULTS_FORMAT_VERSION = 1
@@ -516,40 +516,17 @@ def compute_results(
         phase_corrected_for_skew=skew_known,
         missing_components=tuple(missing),
         resonance=(
-            resonance_search(estimate, plan, chain, sensitivity, phase).to_dict()
+            search_response(
+                frequencies,
+                sensitivity * np.exp(1j * np.radians(phase)),  # mV/(m/s^2), complex
+                np.nan_to_num(np.asarray(estimate.relative_type_a, dtype=float), nan=0.0),
+                mid_band_hz=f0,
+                calibrated_hz=_span(chain) if len(chain.frequencies_hz) > 1 else None,
+            ).to_dict()
             if resonance
             else None
         ),
     )
-
-
-def resonance_search(
-    estimate: Estimate,
-    plan: Plan,
-    chain: ReferenceChain,
-    sensitivity: np.ndarray,
-    phase_deg: np.ndarray,
-) -> ResonanceSearch:
-    """The mounted resonance in the DUT's complex sensitivity per line (mV/(m/s^2), degrees)
-    with the estimator's type A per line, referred to the reference line (dsp.resonance).
-    Lines outside the reference's certificate take its end value (noted): a resonance is a
-    shape, stated with its own uncertainty, not a sensitivity."""
-    f = plan.frequencies_hz
-    h = sensitivity * np.exp(1j * np.radians(phase_deg))
-    u = np.nan_to_num(np.asarray(estimate.relative_type_a, dtype=float), nan=0.0)
-    try:
-        found = search_resonance(f, h, u, mid_band_hz=float(f[plan.reference_index]))
-    except ResonanceError as exc:
-        return ResonanceSearch(None, f"{NOT_FOUND}: {exc}")
-    lo, hi = _span(chain)
-    beyond = [x for x in f if not lo <= x <= hi] if len(chain.frequencies_hz) > 1 else []
-    if not beyond:
-        return found
-    note = (
-        f"lines beyond the reference's certificate ({lo:g}-{hi:g} Hz) take its response at "
-        "the nearer end point"
-    )
-    return dataclasses.replace(found, note=note)
 
 
 _NOT_STATED_FIELDS = (

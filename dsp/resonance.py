@@ -128,6 +128,37 @@ def search_resonance(
     return ResonanceSearch(found)
 
 
+def search_response(
+    frequencies_hz: np.ndarray,
+    response: np.ndarray,
+    relative_uncertainty: np.ndarray,
+    *,
+    mid_band_hz: float,
+    calibrated_hz: tuple[float, float] | None,
+) -> ResonanceSearch:
+    """The search in a calibration's complex sensitivity per line (dsp.calibration: with the
+    estimator's type A, referred to the reference line) as stored with its results: bad input
+    is "not found" too, with the reason. `calibrated_hz`: the reference's certificate span;
+    lines beyond it take its end value (noted): a resonance is a shape, stated with its own
+    uncertainty, not a sensitivity."""
+    try:
+        found = search_resonance(
+            frequencies_hz, response, relative_uncertainty, mid_band_hz=mid_band_hz
+        )
+    except ResonanceError as exc:
+        return ResonanceSearch(None, f"{NOT_FOUND}: {exc}")
+    if calibrated_hz is None:
+        return found
+    lo, hi = calibrated_hz
+    if all(lo <= f <= hi for f in frequencies_hz):
+        return found
+    note = (
+        f"lines beyond the reference's certificate ({lo:g}-{hi:g} Hz) take its response at "
+        "the nearer end point"
+    )
+    return ResonanceSearch(found.resonance, found.reason, note)
+
+
 class _NotBracketed(ResonanceError):
     """The plan does not bracket a resonance (the message says why)."""
 

@@ -40,6 +40,7 @@ from urllib.parse import urlsplit
 from app.errors import Refusal
 from app.io.checks import MAX_TEXT_BYTES, InputFileError, check_input_file
 from app.io.vocabulary import Backend
+from app.stand.exciters import parse_exciters
 from dsp.annex_a import missing_components
 from dsp.budget_terms import skew_phase_component
 from dsp.calibration import ReferenceChain
@@ -206,8 +207,7 @@ class StandConfig:
     budget: Budget
     simulation: dict[str, str] = field(default_factory=dict)
     plan: StandPlan = field(default_factory=StandPlan)
-    # the simulated stand's exciters' own budget terms by exciter name ([exciters.<name>]
-    # [[component]]): on that exciter they replace the stand's components of their kinds
+    # [exciters.<name>] [[component]]: the simulated exciters' own terms (app.stand.exciters)
     exciter_components: dict[str, Budget] = field(default_factory=dict)
     raw: dict[str, Any] = field(default_factory=dict, repr=False)
     text: str = field(default="", repr=False)  # the stand file as read (copied into each run)
@@ -216,18 +216,6 @@ class StandConfig:
         """ISO 16063-21 Annex A components the stand's budget does not state (dsp.annex_a);
         empty for a full budget. A run on a stand with any missing is for review only."""
         return missing_components(self.budget)
-
-    def with_exciter_budget(self, exciter: str) -> StandConfig:
-        """This stand's budget on the exciter `exciter` (issue 32 point 5: a long-stroke
-        exciter has its own rocking mode, guidance errors and low-frequency terms): each
-        component of a kind the exciter's [exciters.<name>] entries state is replaced by
-        those entries; the stand itself when it states none for that exciter."""
-        own = self.exciter_components.get(exciter)
-        if own is None:
-            return self
-        kinds = {k for c in own.components for k in c.kind}
-        kept = [c for c in self.budget.components if not kinds.intersection(c.kind)]
-        return replace(self, budget=Budget((*kept, *own.components)))
 
     def with_reference_certificate(
         self,
@@ -510,7 +498,10 @@ def _parse(data: dict[str, Any], text: str, source: str) -> StandConfig:
     simulation = data.get("simulation", {})
     if backend != Backend.SIM and simulation:
         raise r.fail("simulation", "only for the simulated stand (daq.backend = 'sim')")
-    exciters = _exciters(r, data, backend)
+    try:
+        exciters = parse_exciters(data, simulated=backend == Backend.SIM)
+    except ValueError as exc:
+        raise ConfigError(f"{r.source}: {exc}") from None
     measuring = amps.get("measuring")
     power = amps.get("power")
     for key, value in (("measuring", measuring), ("power", power)):
@@ -537,29 +528,6 @@ def _parse(data: dict[str, Any], text: str, source: str) -> StandConfig:
         raw=data,
         text=text,
     )
-
-
-def _exciters(r: _Reader, data: dict[str, Any], backend: str) -> dict[str, Budget]:
-    """[exciters.<name>] with its [[exciters.<name>.component]] entries (the simulated
-    stand's exciter catalogue names them; checked where the exciter is chosen), each
-    component checked as [[component]] is (a ConfigError naming exciters.<name>...)."""
-    table = data.get("exciters", {})
-    if not isinstance(table, dict):
-        raise r.fail("exciters", "must be a table of exciter names")
-    if table and backend != Backend.SIM:
-        raise r.fail("exciters", "only for the simulated stand (daq.backend = 'sim')")
-    out = {}
-    for name, entry in table.items():
-        where = f"exciters.{name}"
-        if not isinstance(entry, dict) or set(entry) - {"component"}:
-            raise r.fail(where, "holds only [[component]] entries")
-        try:
-            out[name] = Budget.from_list(entry.get("component", []))
-        except ValueError as exc:
-            raise r.fail(f"{where}.component", str(exc)) from None
-        if not out[name].components:
-            raise r.fail(where, "states no component")
-    return out
 
 
 def _plan(r: _Reader) -> StandPlan:
