@@ -30,7 +30,8 @@ from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
-from scipy import stats
+
+from dsp.uncertainty import coverage_factor
 
 MIN_RISE = 1.2  # a peak must stand this far above the mid band (|H| ratio) to count
 FIT_LEVEL = 0.25  # the fit takes the lines down to this fraction of the peak's |H|
@@ -315,8 +316,5 @@ def _uncertainty(
     variance = (jacobian * weights) ** 2 @ np.ones(2 * w.size) * scaled
     if not np.all(np.isfinite(variance)):
         return math.inf, math.inf, math.nan
-    if (from_residual or scaled > 1.0) and nu > 0:
-        k = float(stats.t.ppf(0.5 + probability / 2, nu))
-    else:
-        k = float(stats.norm.ppf(0.5 + probability / 2))
+    k = coverage_factor(nu if (from_residual or scaled > 1.0) and nu > 0 else math.inf, probability)
     return math.sqrt(float(variance[0])), math.sqrt(float(variance[1])), k
