@@ -74,6 +74,7 @@ class RunContext:
             tolerance_percent=s.tolerance_percent,
             extra_warnings=tuple(self.notes.warnings),
             cmc=self.stand.config.cmc,
+            resonance=s.resonance,
         )
         self.check_plausible(results)
         self.notes.results = results

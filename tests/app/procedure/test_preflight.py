@@ -8,6 +8,7 @@ import pytest
 
 from app.procedure import check_preflight
 from app.procedure.errors import PreflightError
+from app.procedure.phase_store import stored_phases
 from app.procedure.preflight import check_drive, predict_drive_peaks
 from app.stand import config as stand_config
 from app.stand.config import Limits
@@ -23,7 +24,7 @@ def target(plan):
 
 
 def test_the_drive_through_its_own_response_gives_the_plans_peaks():
-    plan = preset_plan("piezo")
+    plan = preset_plan("piezo", optimiser=stored_phases)
     response = np.linspace(2.0, 40.0, len(plan.lines)) * np.exp(1j * 0.3)  # (m/s^2)/V
     peaks = predict_drive_peaks(plan, target(plan) / response, response)
     expected = plan.predicted_peaks()
@@ -56,7 +57,7 @@ def test_a_drive_past_the_stroke_is_refused_naming_the_predicted_displacement():
 def test_preflight_reports_peaks_and_scales_with_the_level():
     stand = open_stand(CONFIG, dut="piezo")
     try:
-        plan = preset_plan("piezo", level_ms2=1.0)
+        plan = preset_plan("piezo", level_ms2=1.0, optimiser=stored_phases)
         ok = check_preflight(plan, stand.config, stand.chain)
         assert ok.ok and ok.summary().startswith("preflight: peaks")
         at_50 = check_preflight(plan, stand.config, stand.chain, level_scale=50.0)
@@ -66,3 +67,18 @@ def test_preflight_reports_peaks_and_scales_with_the_level():
             at_50.raise_if_refused()
     finally:
         stand.close()
+
+
+def test_a_reference_frequency_outside_the_reference_range_is_refused_before_the_run():
+    """Issue 32 point 5: no line of such a run could be stated; refused naming the range."""
+    from dsp.calibration import ReferenceChain
+
+    chain = ReferenceChain((10.0, 160.0, 5000.0), (1.0, 1.0, 1.0), (0.0, 0.0, 0.0))
+    freqs = [10.0, 160.0, 1000.0, 8000.0]
+    phases = [0.0] * 4
+    inside = make_plan(freqs, 51200, 51200, 1.0, 160.0, phases_rad=phases)
+    assert check_preflight(inside, CONFIG, chain).problems == ()
+    outside = make_plan(freqs, 51200, 51200, 1.0, 8000.0, phases_rad=phases)
+    (problem,) = check_preflight(outside, CONFIG, chain).problems
+    assert problem.startswith("reference frequency 8000 Hz (played at 8000 Hz): outside the ")
+    assert "calibrated range (10-5000 Hz)" in problem

@@ -11,6 +11,7 @@ import math
 from app.certificate import CertificateInfo
 from app.certificate.pdf import _statements
 from app.procedure.analysis import analyze
+from app.procedure.phase_store import stored_phases
 from app.procedure.verdict import (
     FAIL,
     INDETERMINATE,
@@ -19,12 +20,14 @@ from app.procedure.verdict import (
     Tolerances,
     assess,
     decide,
+    mounting_warnings,
     with_verdict,
 )
 from dsp.calibration import (
     LineResult,
     ReferenceResult,
     Results,
+    not_stated_line,
 )
 from dsp.conformity import decide as conformity_decide
 from dsp.multisine import preset_plan
@@ -39,7 +42,9 @@ def test_conformity_is_not_stated_without_an_uncertainty(tmp_path):
     assert conformity_decide(1.0, math.inf, 5.0) == "not stated"
     assert conformity_decide(4.0, 1.0, 5.0) == "pass"  # 4 + 1 <= 5: the boundary passes
     assert decide(1.0, 0.0, 5.0) == "not stated"
-    one_period = make_recording(preset_plan("piezo"), lowpass_response(), periods=1)
+    one_period = make_recording(
+        preset_plan("piezo", optimiser=stored_phases), lowpass_response(), periods=1
+    )
     results = analyze(one_period, tolerance_percent=5.0).results  # one period: U undefined
     assert {ln.iso_verdict for ln in results.lines} == {"not stated"}
     # the reference line: deviation 0 by definition, unchecked (issue 32 point 7)
@@ -176,3 +181,18 @@ def test_verdict_survives_the_round_trip():
     results = with_verdict(_results(), SPEC)
     again = Results.from_dict(json.loads(json.dumps(results.to_dict())))
     assert again.verdict == PASS and again.verdict_reasons == results.verdict_reasons
+
+
+def test_a_peak_beside_a_line_not_stated_blames_no_mount():
+    """Issue 32 point 5: the plan's 20 kHz line rose +176 % with 25 kHz beyond the reference's
+    certificate; a peak not bracketed by stated lines is no mounted resonance."""
+    spec = dataclasses.replace(SPEC, characteristic=())
+    results = _results((0, 0, 0, 30, 10))
+    assert mounting_warnings(results)  # bracketed by stated lines: the mount is suspect
+    lines = list(results.lines)
+    lines[4] = not_stated_line(lines[4], "outside the reference's calibrated range")
+    unbracketed = dataclasses.replace(results, lines=tuple(lines))
+    assert mounting_warnings(unbracketed) == []
+    verdict, reasons, _ = assess(unbracketed, spec)
+    assert not any("mounting" in r for r in reasons)
+    assert verdict == INDETERMINATE and any("not stated at 2500 Hz" in r for r in reasons)
