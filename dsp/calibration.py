@@ -26,21 +26,16 @@ import numpy as np
 
 from dsp import conformity
 from dsp import uncertainty as unc
-from dsp.annex_a import (
-    implausible_budget_text,
-    implausible_components,
-    incomplete_budget_text,
-    missing_components,
-    plausible_floor,
-)
+from dsp.annex_a import incomplete_budget_text, missing_components
 from dsp.budget_terms import reference_range
 from dsp.characteristic import deviation_floor_percent, ratio_uncertainty
-from dsp.cmc import Cmc, no_cmc_text, outside_cmc_text
+from dsp.cmc import Cmc, bound_line, scope_warnings
 from dsp.conformity import NOT_STATED as NOT_STATED  # re-exported for its callers
 from dsp.conformity import uncertainty_stated as uncertainty_stated
 from dsp.errors import InputRefused
 from dsp.multisine import Plan
 from dsp.resonance import search_response
+from dsp.result_values import _db, _fmt, _json_safe, _nan, _wrap_deg
 from dsp.spectral import MIN_PERIODS, Estimate
 
 RESULTS_FORMAT_VERSION = 1
@@ -168,12 +163,10 @@ class LineResult:
     # cancel, the reference line's type A added); 0 at the reference line, whose deviation is
     # 0 by definition (issue 32 point 7); NaN in results stored before issue 25
     deviation_expanded_percent: float = math.nan
-    # the least U at this line a conformity statement may rest on (issue 32 points 1 and 7):
-    # the laboratory's CMC where its scope covers the line, else the plausible floor of a full
-    # budget (dsp.annex_a.plausible_floor); % of the sensitivity and degrees. NaN: stored before
+    # issue 32: the least U a conformity statement rests on (%, degrees: the CMC, else a full
+    # budget's plausible floor; NaN: stored before) and what the CMC raised (dsp.cmc.bound_line)
     magnitude_floor_percent: float = math.nan
     phase_floor_deg: float = math.nan
-    # which stated uncertainties the CMC raised to its value here, e.g. "U, phase U"; "" none
     cmc_bounds: str = ""
     # why the line is not stated ("" when it is): outside the reference's calibrated range
     # with no extrapolation term (issue 32 point 5). Such a line carries no sensitivity,
@@ -311,40 +304,6 @@ def _refused_not_stated(
     )
 
 
-def _fmt(value: Any) -> str:
-    if isinstance(value, float):
-        return repr(value) if math.isfinite(value) else ""
-    return str(value)
-
-
-def _json_safe(value: Any) -> Any:
-    if isinstance(value, dict):
-        return {k: _json_safe(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_json_safe(v) for v in value]
-    if isinstance(value, float | np.floating):
-        return float(value) if math.isfinite(value) else None
-    if isinstance(value, np.integer):
-        return int(value)
-    return value
-
-
-def _nan(item: dict[str, Any]) -> dict[str, Any]:
-    optional = {"iso_limit", "tolerance_verdict", "cmc_bounds", "not_stated"}
-    return {k: (float("nan") if v is None and k not in optional else v) for k, v in item.items()}
-
-
-def _db(sensitivity_mv_per_ms2: float) -> float:
-    """Level in dB re 1 mV/(m/s^2)."""
-    return 20.0 * math.log10(sensitivity_mv_per_ms2) if sensitivity_mv_per_ms2 > 0 else math.nan
-
-
-def _wrap_deg(phase_deg: np.ndarray) -> np.ndarray:
-    """Wrap to (-180, 180] degrees."""
-    wrapped = -((-np.asarray(phase_deg) + 180.0) % 360.0 - 180.0)
-    return wrapped
-
-
 def compute_results(
     estimate: Estimate,
     plan: Plan,
@@ -362,10 +321,8 @@ def compute_results(
 
     `tolerance_percent` is the DUT's permitted deviation of its characteristic from the
     reference sensitivity (e.g. the manufacturer's 5 %); verdicts use guarded acceptance.
-    `cmc` is the laboratory's CMC: a stated U (sensitivity, deviation, phase) is never below
-    it (the line says where it bounds one); without it, or at a line outside its bands, a
-    blocking warning (issue 32 point 1). A U below the line's floor (the CMC, else the
-    plausible floor of a full budget) gets no ISO or tolerance statement.
+    `cmc`: the laboratory's CMC, which no stated U is below (dsp.cmc.bound_line); a U below a
+    line's floor gets no ISO or tolerance statement; no CMC blocks (issue 32 point 1).
     A line outside the reference's calibrated range without an extrapolation term is not
     stated (`not_stated_line`). `resonance`: search the mounted resonance in the response
     (`resonance_search`). Raises AnalysisError for a dead channel, or for a reference
@@ -414,15 +371,7 @@ def compute_results(
         )
     elif missing:
         warnings.append(incomplete_budget_text(missing))
-    implausible = implausible_components(budget)
-    if implausible:
-        warnings.append(implausible_budget_text(implausible))
-    if cmc is None:
-        warnings.append(no_cmc_text())
-    else:
-        outside = [f for f in plan.nominal_frequencies_hz if cmc.at(float(f)) is None]
-        if outside:
-            warnings.append(outside_cmc_text(outside, cmc))
+    warnings.extend(scope_warnings(cmc, plan.nominal_frequencies_hz, budget))  # issue 32
     refused = [False] * len(labels)
     if len(chain.frequencies_hz) > 1:  # a one-point (flat) reference is stated everywhere
         span = reference_range(frequencies.tolist(), chain.frequencies_hz, budget)
@@ -463,20 +412,6 @@ def compute_results(
             periods=estimate.periods,
         )
         deviation = sensitivity[k] / s0 - 1.0
-        nominal = float(plan.nominal_frequencies_hz[k])
-        band = cmc.at(nominal) if cmc is not None else None  # the scope names nominal lines
-        mag_floor = band.magnitude_percent / 100 if band else plausible_floor("magnitude")
-        ph_floor = band.phase_deg if band else plausible_floor("phase")
-        bounds: list[str] = []
-        u_mag = mag.expanded
-        u_phase = ph.expanded
-        if band is not None:  # ILAC P14: no stated U below the laboratory's CMC
-            if uncertainty_stated(u_mag) and u_mag < mag_floor:
-                u_mag = mag_floor
-                bounds.append("U")
-            if uncertainty_stated(u_phase) and u_phase < ph_floor:
-                u_phase = ph_floor
-                bounds.append("phase U")
         if k == ref_index:  # dev = 0 by definition, with no uncertainty (issue 32 point 7)
             u_deviation = 0.0
         else:
@@ -493,10 +428,9 @@ def compute_results(
                 periods=estimate.periods,
             )
             u_deviation = 100.0 * (1.0 + float(deviation)) * ratio.expanded
-            least = deviation_floor_percent(100 * float(deviation), 100 * mag_floor)
-            if band is not None and uncertainty_stated(u_deviation) and u_deviation < least:
-                u_deviation = least  # the CMC of the ratio, in % of the reference's sensitivity
-                bounds.append("U of the deviation")
+        b = bound_line(cmc, plan.nominal_frequencies_hz[k], mag.expanded, ph.expanded,
+                       u_deviation, float(deviation))  # ILAC P14, issue 32  # fmt: skip
+        u_mag, u_deviation, mag_floor = b.magnitude, b.deviation_percent, b.magnitude_floor
         verdict: str = unc.iso_verdict(f, u_mag)
         if verdict != unc.Verdict.NOT_APPLICABLE and not uncertainty_stated(u_mag, mag_floor):
             verdict = NOT_STATED  # no U, or one below the floor: neither within nor over
@@ -526,7 +460,7 @@ def compute_results(
                 expanded_uncertainty_mv_per_ms2=float(u_mag * sensitivity[k]),
                 coverage_factor=mag.coverage_factor,
                 effective_dof=mag.dof,
-                phase_expanded_uncertainty_deg=u_phase,
+                phase_expanded_uncertainty_deg=b.phase_deg,
                 phase_coverage_factor=ph.coverage_factor,
                 coherence=float(estimate.coherence[k]),
                 reference_snr_db=float(estimate.reference_snr_db[k]),
@@ -537,8 +471,8 @@ def compute_results(
                 tolerance_verdict=tolerance,
                 deviation_expanded_percent=u_deviation,
                 magnitude_floor_percent=100 * mag_floor,
-                phase_floor_deg=ph_floor,
-                cmc_bounds=", ".join(bounds),
+                phase_floor_deg=b.phase_floor_deg,
+                cmc_bounds=b.bounds,
             )
         )
         if refused[k]:

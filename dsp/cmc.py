@@ -16,7 +16,19 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
-__all__ = ["CMC_KEYS", "Cmc", "CmcBand", "no_cmc_text", "outside_cmc_text"]
+from dsp.annex_a import implausible_budget_text, implausible_components, plausible_floor
+from dsp.conformity import uncertainty_stated
+
+__all__ = [
+    "CMC_KEYS",
+    "Cmc",
+    "CmcBand",
+    "LineBound",
+    "bound_line",
+    "no_cmc_text",
+    "outside_cmc_text",
+    "scope_warnings",
+]
 
 CMC_KEYS = ("min_frequency_hz", "max_frequency_hz", "magnitude_percent", "phase_deg")
 
@@ -128,3 +140,62 @@ def outside_cmc_text(frequencies_hz: Iterable[float], cmc: Cmc) -> str:
     """The blocking warning for lines outside every CMC band (app.records.warnings)."""
     lines = ", ".join(f"{f:g} Hz" for f in frequencies_hz)
     return f"no CMC at {lines}: outside the laboratory's scope ({cmc.text()})"
+
+
+@dataclass(frozen=True)
+class LineBound:
+    """One line's uncertainties after the CMC (expanded: relative, degrees, % of the reference
+    line's sensitivity), the floors a conformity statement needs (fraction, degrees) and what
+    the CMC raised ("U", "phase U", "U of the deviation", comma-separated; "" nothing)."""
+
+    magnitude: float
+    phase_deg: float
+    deviation_percent: float
+    magnitude_floor: float
+    phase_floor_deg: float
+    bounds: str
+
+
+def bound_line(
+    cmc: Cmc | None,
+    nominal_hz: float,
+    magnitude: float,
+    phase_deg: float,
+    deviation_u_percent: float,
+    deviation: float,
+) -> LineBound:
+    """Raise each stated U of a line to the CMC at `nominal_hz` (ILAC P14; the deviation's,
+    in % of the reference line's sensitivity, to (1 + `deviation`) times it; `deviation` a
+    fraction); a U not stated (0, NaN) stays as it is. Without a band there the floors are
+    the plausible floors of a full budget (dsp.annex_a.plausible_floor) and nothing is raised."""
+    band = cmc.at(nominal_hz) if cmc is not None else None
+    if band is None:
+        floors = plausible_floor("magnitude"), plausible_floor("phase")
+        return LineBound(magnitude, phase_deg, deviation_u_percent, floors[0], floors[1], "")
+    bounds = []
+    mag_floor, ph_floor = band.magnitude_percent / 100, band.phase_deg
+    dev_floor = band.magnitude_percent * (1.0 + deviation)
+    out = []
+    for u, least, what in (
+        (magnitude, mag_floor, "U"),
+        (phase_deg, ph_floor, "phase U"),
+        (deviation_u_percent, dev_floor, "U of the deviation"),
+    ):
+        if uncertainty_stated(u) and u < least:
+            u = least
+            bounds.append(what)
+        out.append(u)
+    return LineBound(out[0], out[1], out[2], mag_floor, ph_floor, ", ".join(bounds))
+
+
+def scope_warnings(cmc: Cmc | None, nominal_hz: Iterable[float], budget: Any) -> list[str]:
+    """The blocking warnings of a budget and a CMC: implausible components (named), no CMC,
+    or lines outside it."""
+    out = []
+    implausible = implausible_components(budget)
+    if implausible:
+        out.append(implausible_budget_text(implausible))
+    if cmc is None:
+        return [*out, no_cmc_text()]
+    outside = [float(f) for f in nominal_hz if cmc.at(float(f)) is None]
+    return [*out, outside_cmc_text(outside, cmc)] if outside else out

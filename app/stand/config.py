@@ -20,11 +20,8 @@ Sections (units in the names):
     [[component]] the type B budget (dsp.uncertainty.Component fields, with `kind`: the
                   ISO 16063-21 Annex A component(s) it states, dsp.annex_a, and `law`,
                   `law_frequency_hz`, `law_exponent` for terms growing with frequency)
-    [[cmc]]       the laboratory's CMC (its accreditation scope) per band: min_frequency_hz,
-                  max_frequency_hz, magnitude_percent (relative expanded U, %), phase_deg;
-                  no stated U is below it, and a stand without it states no PASS and gets no
-                  certificate (dsp.cmc; issue 32 point 1). A component tagged with several
-                  kinds, or below its kind's plausible minimum (dsp.annex_a), is refused
+    [[cmc]]       the laboratory's CMC per band (dsp.cmc: min_frequency_hz, max_frequency_hz,
+                  magnitude_percent, phase_deg); without it no PASS, no certificate (issue 32)
     [simulation]  simulated stand only: which components it draws its deviations from
 
 With no file, the built-in simulated stand (`sim/stand.toml`) is used.
@@ -546,12 +543,10 @@ def _parse(data: dict[str, Any], text: str, source: str) -> StandConfig:
 def _cmc(r: _Reader, data: dict[str, Any]) -> Cmc | None:
     """[[cmc]] as a Cmc (a ConfigError naming the entry and key); None when absent."""
     entries = data.get("cmc")
-    if entries is None:
-        return None
-    if not isinstance(entries, list):
-        raise r.fail("cmc", "must be an array of tables ([[cmc]])")
     try:
-        return Cmc.from_list(entries)
+        if entries is not None and not isinstance(entries, list):
+            raise ValueError("must be an array of tables ([[cmc]])")
+        return None if entries is None else Cmc.from_list(entries)
     except ValueError as exc:
         raise r.fail("cmc", str(exc)) from None
 
