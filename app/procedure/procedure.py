@@ -36,6 +36,7 @@ from app.procedure.errors import (
 from app.procedure.events import Event, Finished, Listener, State
 from app.procedure.identification import Identification
 from app.procedure.preflight import check_preflight
+from app.procedure.ranging import run_resolution, with_resolution
 from app.procedure.record_run import RecordRun
 from app.procedure.request import RunIdentity
 from app.procedure.settings import RunSettings
@@ -51,6 +52,7 @@ from app.stand.response import ResponseStore
 from dsp.calibration import AnalysisError
 from dsp.multisine import Plan
 from dsp.spectral import RECORD_ESTIMATORS
+from dsp.uncertainty import Budget
 from hardware.errors import AmplifierFaultError, HardwareError, OverloadError
 from hardware.interfaces import DaqConfig
 
@@ -109,10 +111,20 @@ class Procedure:
     def preflight(self) -> None:
         """The checks made before anything moves; PreflightError says what is refused."""
         report = check_preflight(
-            self.plan, self.stand.config, self.stand.chain, self.settings.dut_nominal_mv_per_ms2
+            self.plan,
+            self.stand.config,
+            self.stand.chain,
+            self.settings.dut_nominal_mv_per_ms2,
+            offered_v=self.stand.input_ranges_v,
+            per_line=self.settings.mode == Mode.STEPPED_SINE,
         )
         report.raise_if_refused()
         self._log(report.summary())
+        for text in report.resolution_warnings:  # the measured amplitude decides: logged only
+            self._log(text)
+        self.notes.ranges = report.ranges
+        if report.ranges is not None:
+            self.io.set_ranges(report.ranges.run_ranges)
 
     def run(self) -> Finished:
         """The whole run, to its end (complete or aborted): the drive at 0 V afterwards."""
@@ -183,6 +195,7 @@ class Procedure:
             equalised.settled.lines,
             self.settings.background_periods,
         )
+        budget = self._with_resolution(budget, equalised.settled.lines, background.noise())
         self.notes.budget = budget
         Acquisition(self.ctx, budget, equalised.reusable_blocks).run()
         self.io.fade_out()
@@ -217,6 +230,24 @@ class Procedure:
         equalised = equalisation.run(response)
         assert equalised is not None  # no give_up_above: always an Equalised
         return self._measured(equalised)
+
+    def _with_resolution(
+        self, budget: Budget, lines: tuple[np.ndarray, np.ndarray], noise: np.ndarray
+    ) -> Budget:
+        """The budget with every line's resolution term (app.procedure.ranging) from its settled
+        amplitude and the background's noise at the run's ranges; a line too few LSB above
+        the converter's step is warned (blocking) and carries none."""
+        resolution = run_resolution(
+            self.plan,
+            (np.abs(lines[0]), np.abs(lines[1])),
+            noise,
+            self.io.ranges,
+            self.stand.config.converter,
+        )
+        budget, too_few = with_resolution(budget, resolution)
+        for text in too_few:
+            self.ctx.warn(text)
+        return budget
 
     def _measured(self, equalised: Equalised) -> Equalised:
         """Note the response equalisation converged with, to keep when the run completes."""

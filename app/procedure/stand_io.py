@@ -20,6 +20,7 @@ from app.io.hdf5 import RecordingWriter
 from app.procedure.errors import Aborted, DriveLimitError, ProcedureError
 from app.procedure.events import Event, PeriodBlock, State
 from app.procedure.preflight import OVERLOAD_FRACTION
+from app.procedure.ranging import with_ranges
 from app.procedure.settings import RunSettings
 from app.stand.open import Stand
 from dsp.multisine import Plan, fade_envelope, fade_out_envelope, fade_out_samples
@@ -127,6 +128,12 @@ class StandIO:
             pass
 
     # --- output -----------------------------------------------------------------------------
+
+    def set_ranges(self, ranges: dict[str, float]) -> None:
+        """The named input channels' +-ranges (V) from the next DAQ configuration on (the
+        overload check follows them)."""
+        self.inputs = with_ranges(self.inputs, ranges)
+        self.ranges = {c.name: c.range_v for c in self.inputs}
 
     def split_channels(self, block: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(reference, DUT) samples of a period as read."""

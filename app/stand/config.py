@@ -6,9 +6,14 @@ Sections (units in the names):
                   public /verify address the certificate's QR code leads to)
     [daq]         backend = "sim" | "nidaqmx", device, skew_s (DUT channel's sampling delay),
                   skew_tolerance_s (its tolerance, half-width: the phase term 360 f tau deg)
+                  input_ranges_v (the +-ranges, V, its inputs offer; optional, else the
+                  device's own list: each run picks per channel from the predicted peaks,
+                  issue 32), adc_bits (16), adc_linearity_lsb (the converter's nonlinearity
+                  near its codes, half-width in LSB, from its data sheet; 1)
     [daq.output]  physical, range_v
     [daq.reference] / [daq.dut] / [daq.drive] (optional loopback):
-                  physical, range_v, coupling ("dc"/"ac"), iepe_current_a, terminal
+                  physical, range_v (the largest range the channel may use), coupling
+                  ("dc"/"ac"), iepe_current_a, terminal
     [amplifiers]  measuring (VISA resource), reference_channel, power (VISA resource, optional)
     [limits]      displacement_peak_to_peak_m, velocity_peak_m_per_s, acceleration_peak_ms2,
                   drive_peak_v
@@ -43,8 +48,9 @@ from app.io.vocabulary import Backend
 from dsp.annex_a import missing_components
 from dsp.budget_terms import skew_phase_component
 from dsp.calibration import ReferenceChain
+from dsp.resolution import Converter
 from dsp.uncertainty import Budget
-from hardware.interfaces import InputChannel, OutputChannel
+from hardware.interfaces import InputChannel, OutputChannel, input_ranges
 
 BACKENDS = tuple(b.value for b in Backend)
 
@@ -80,7 +86,19 @@ SCHEMA: dict[str, frozenset[str]] = {
     ),
     "laboratory": frozenset({"name", "address", "country", "accreditation", "verify_url"}),
     "daq": frozenset(
-        {"backend", "device", "skew_s", "skew_tolerance_s", "output", "reference", "dut", "drive"}
+        {
+            "backend",
+            "device",
+            "skew_s",
+            "skew_tolerance_s",
+            "input_ranges_v",
+            "adc_bits",
+            "adc_linearity_lsb",
+            "output",
+            "reference",
+            "dut",
+            "drive",
+        }
     ),
     "daq.output": frozenset({"physical", "range_v"}),
     "daq.reference": _INPUT_KEYS,
@@ -205,6 +223,9 @@ class StandConfig:
     budget: Budget
     simulation: dict[str, str] = field(default_factory=dict)
     plan: StandPlan = field(default_factory=StandPlan)
+    # the +-ranges (V) the inputs offer, as the stand file states them (() : the device's own)
+    input_ranges_v: tuple[float, ...] = ()
+    converter: Converter = field(default_factory=Converter)
     raw: dict[str, Any] = field(default_factory=dict, repr=False)
     text: str = field(default="", repr=False)  # the stand file as read (copied into each run)
 
@@ -436,6 +457,7 @@ def _parse(data: dict[str, Any], text: str, source: str) -> StandConfig:
         c for c in (_channel(r, "reference"), _channel(r, "dut"), _channel(r, "drive", False)) if c
     )
     _distinct_channels(inputs, r)
+    offered, converter = _converter(r, daq)
     skew = r.value(daq, "daq", "skew_s", float, 0.0)
     if not 0 <= skew < 1e-3:
         raise r.fail("daq.skew_s", f"must be between 0 and 1 ms, got {skew:g} s")
@@ -516,9 +538,30 @@ def _parse(data: dict[str, Any], text: str, source: str) -> StandConfig:
         budget=budget,
         simulation=dict(simulation),
         plan=_plan(r),
+        input_ranges_v=offered,
+        converter=converter,
         raw=data,
         text=text,
     )
+
+
+def _converter(r: _Reader, daq: dict[str, Any]) -> tuple[tuple[float, ...], Converter]:
+    """[daq] input_ranges_v, adc_bits and adc_linearity_lsb, each checked (ConfigError naming
+    daq.<key>)."""
+    offered: tuple[float, ...] = ()
+    if "input_ranges_v" in daq:
+        try:
+            offered = input_ranges(daq["input_ranges_v"], "daq.input_ranges_v")
+        except ValueError as exc:
+            raise r.fail("daq.input_ranges_v", str(exc).split(": ", 1)[-1]) from None
+    bits = r.value(daq, "daq", "adc_bits", int, 16)
+    linearity = r.value(daq, "daq", "adc_linearity_lsb", float, 1.0)
+    try:
+        converter = Converter(bits, linearity)
+    except ValueError as exc:
+        key = "adc_bits" if "bits" in str(exc) else "adc_linearity_lsb"
+        raise r.fail(f"daq.{key}", str(exc).split(": ", 1)[-1]) from None
+    return offered, converter
 
 
 def _plan(r: _Reader) -> StandPlan:
