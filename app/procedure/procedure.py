@@ -33,7 +33,7 @@ from app.procedure.errors import (
     RunNotRecordedError,
     advice,
 )
-from app.procedure.events import Event, Finished, Listener, State
+from app.procedure.events import Event, Finished, InputRanges, Listener, State
 from app.procedure.identification import Identification
 from app.procedure.preflight import check_preflight
 from app.procedure.ranging import run_resolution, with_resolution
@@ -125,6 +125,7 @@ class Procedure:
         self.notes.ranges = report.ranges
         if report.ranges is not None:
             self.io.set_ranges(report.ranges.run_ranges)
+            self._emit(InputRanges(report.ranges_text()))
 
     def run(self) -> Finished:
         """The whole run, to its end (complete or aborted): the drive at 0 V afterwards."""

@@ -13,7 +13,7 @@ from app.io.vocabulary import Mode
 from app.procedure.background import BackgroundLevels, budget_with_background
 from app.procedure.context import RunContext
 from app.procedure.equalisation import Equalisation, Equalised
-from app.procedure.events import Progress, State
+from app.procedure.events import InputRanges, Progress, State
 from app.procedure.identification import Identification
 from app.procedure.ranging import measured_resolution, with_resolution
 from app.procedure.stand_io import Segment
@@ -107,11 +107,13 @@ class SteppedSine:
                 )
                 if smaller is None:
                     break
-                ctx.log(
-                    f"stepped sine: line {line.label} re-ranged to reference "
-                    f"+-{smaller['reference']:g} V, DUT +-{smaller['dut']:g} V from its measured "
-                    "amplitudes (the converter's resolution)"
+                text = (
+                    f"line {line.label} re-ranged to reference +-{smaller['reference']:g} V, "
+                    f"DUT +-{smaller['dut']:g} V from its measured amplitudes (the converter's "
+                    "resolution): measured again"
                 )
+                ctx.log(f"stepped sine: {text}")
+                ctx.emit(InputRanges(text))
                 io.fade_out()
                 wanted, start = smaller, complex(equalised.response[0])
             line_ranges.append((io.ranges["reference"], io.ranges["dut"]))
