@@ -156,7 +156,7 @@ def resolution_components(
     it from PASS); a line of no amplitude gets a term of 100 %."""
     out: list[Component] = []
     for ref, dut in per_line:
-        u = min(math.hypot(ref.half_width, dut.half_width), math.sqrt(3.0)) / math.sqrt(3.0)
+        u = min(math.hypot(ref.half_width, dut.half_width), 1.0) / math.sqrt(3.0)
         f = ref.frequency_hz
         common = {
             "distribution": Distribution.STANDARD,
