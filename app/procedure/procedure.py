@@ -36,7 +36,7 @@ from app.procedure.errors import (
 from app.procedure.events import Event, Finished, InputRanges, Listener, State
 from app.procedure.identification import Identification
 from app.procedure.preflight import check_preflight
-from app.procedure.ranging import run_resolution, with_resolution
+from app.procedure.ranging import level_peaks, run_resolution, with_resolution
 from app.procedure.record_run import RecordRun
 from app.procedure.request import RunIdentity
 from app.procedure.settings import RunSettings
@@ -95,6 +95,7 @@ class Procedure:
         self.notes = RunNotes(budget=stand.budget)
         self.ctx = RunContext(stand, plan, settings, self.io, self.notes, self._emit, self._log)
         self.memory = StandMemory(response_store, stand, plan, settings, self._log)
+        self._ranges_text = ""  # the preflight's input ranges, told once the run starts
 
     # --- control (thread-safe) ------------------------------------------------------------
 
@@ -123,9 +124,7 @@ class Procedure:
         for text in report.resolution_warnings:  # the measured amplitude decides: logged only
             self._log(text)
         self.notes.ranges = report.ranges
-        if report.ranges is not None:
-            self.io.set_ranges(report.ranges.run_ranges)
-            self._emit(InputRanges(report.ranges_text()))
+        self._ranges_text = report.ranges_text()
 
     def run(self) -> Finished:
         """The whole run, to its end (complete or aborted): the drive at 0 V afterwards."""
@@ -138,6 +137,8 @@ class Procedure:
         try:
             self.ctx.state(State.PREFLIGHT)
             self.preflight()
+            if self._ranges_text:
+                self._emit(InputRanges(self._ranges_text))
             self._configure()
             self._phases()
         except Aborted as exc:
@@ -208,7 +209,10 @@ class Procedure:
         `stored_response_tolerance` at any line."""
         equalisation = Equalisation(self.ctx, noise)
         stored = self.memory.recall()
+        ranges = self.notes.ranges
         if stored is not None:
+            if ranges is not None:  # the level is known: the ranges the preflight predicted
+                self.io.reconfigure(ranges.run_ranges)
             equalised = equalisation.run(
                 stored.response, give_up_above=self.settings.stored_response_tolerance
             )
@@ -227,7 +231,20 @@ class Procedure:
             )
         else:
             self.notes.stand_response = self.memory.describe(None, "identified")
-        response = Identification(self.ctx, noise).run()
+        if ranges is not None:  # identification plays a fixed voltage: the stand file's ranges
+            self.io.reconfigure(ranges.top_v)
+        identification = Identification(self.ctx, noise)
+        response = identification.run()
+        if ranges is not None and ranges.chosen and identification.settled is not None:
+            peaks = level_peaks(self.plan, identification.settled)
+            if self.io.reconfigure(ranges.measured_peaks(peaks)):
+                text = (
+                    "input ranges from what identification measured, at the level: "
+                    f"reference +-{self.io.ranges['reference']:g} V, "
+                    f"DUT +-{self.io.ranges['dut']:g} V"
+                )
+                self._log(text)
+                self._emit(InputRanges(text))
         equalised = equalisation.run(response)
         assert equalised is not None  # no give_up_above: always an Equalised
         return self._measured(equalised)

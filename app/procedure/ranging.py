@@ -6,9 +6,14 @@ budget (each line's measured amplitude in LSB as a term, dsp.resolution).
 A channel's range is the smallest the stand's DAQ offers (`Stand.input_ranges_v`, or the stand
 file's `daq.input_ranges_v` before a stand is opened) that holds the predicted peak times a
 headroom, and never above the channel's `range_v` (the largest the stand file lets it use; the
-preflight refuses a peak too close to that). The reference channel's peak is predicted from its
-certificate, the DUT's from its nominal sensitivity (its response is what is measured); without
-a nominal, or without a list of ranges, a channel keeps its `range_v`. Units: V, Hz, m/s^2.
+preflight refuses a peak too close to that). Before anything is measured the reference
+channel's peak is predicted from its certificate, the DUT's from its nominal sensitivity;
+without a nominal, or without a list of ranges, a channel keeps its `range_v`. Identification
+(a fixed drive voltage, whatever the level) always runs on the `range_v`s; a multisine then
+takes its ranges from what identification measured, scaled to the level (`measured_peaks`), and
+a stepped-sine line is re-ranged down once from its measured amplitude when it is under
+`RE_RANGE_BELOW_LSB`, the next line predicted from the DUT/reference ratio it measured.
+Units: V, Hz, m/s^2.
 """
 
 from __future__ import annotations
@@ -20,23 +25,26 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from dsp.crestfactor import synthesize
 from dsp.multisine import Plan
 from dsp.resolution import Converter, LineResolution, line_resolution, resolution_components
 from dsp.uncertainty import Budget
 from hardware.interfaces import InputChannel, choose_range
 
 if TYPE_CHECKING:
+    from app.procedure.stand_io import Settled
     from app.stand.config import StandConfig
     from dsp.calibration import ReferenceChain
 
-#: The reference's response is known (its certificate): room for the level loop and noise.
-REFERENCE_HEADROOM = 1.5
-#: The DUT's nominal sensitivity stands in for its unknown response (a resonance near the top
-#: line, a loose mount), and a stepped-sine line's first level step starts from a response
-#: extrapolated within a factor of two (app.procedure.stepped).
-DUT_HEADROOM = 2.5
-#: A line measured at its final level: room for its noise and hum on top of its amplitude.
+#: A peak predicted before it was measured: the DUT's nominal stands in for its unknown
+#: response (a resonance near the top line, a loose mount), and a stepped-sine line's first
+#: level step starts from a response extrapolated within a factor of two (app.procedure.stepped).
+PREDICTED_HEADROOM = 2.5
+#: A peak measured and scaled to the level: room for the level loop's first step, noise, hum.
 MEASURED_HEADROOM = 1.5
+#: A stepped-sine line is measured again on a smaller range only when it is under this many
+#: LSB on its own (its resolution term then over 0.06 %; above, a second measurement buys little).
+RE_RANGE_BELOW_LSB = 2000.0
 
 
 @dataclass(frozen=True)
@@ -53,6 +61,18 @@ class RangePlan:
     chosen: bool  # picked among offered ranges (False: the stand file's range_v as they stand)
     # the offered ranges each channel may use (up to its range_v), V
     allowed_v: dict[str, tuple[float, ...]] = field(default_factory=dict)
+    top_v: dict[str, float] = field(default_factory=dict)  # each channel's range_v
+    bits: int = 16  # the converter's
+
+    def measured_peaks(self, peaks_v: dict[str, float]) -> dict[str, float]:
+        """The run's ranges from peaks measured (identification) and scaled to the level (V);
+        a channel not measured keeps its range_v."""
+        out = dict(self.top_v)
+        for name, peak in peaks_v.items():
+            picked = self._pick(name, peak, MEASURED_HEADROOM)
+            if picked is not None:
+                out[name] = picked
+        return out
 
     def _pick(self, name: str, peak_v: float, headroom: float) -> float | None:
         allowed = self.allowed_v.get(name, ())
@@ -65,7 +85,9 @@ class RangePlan:
         last line measured (V/V) when its nominal did not predict it."""
         out = self.ranges_at(k)
         if self.dut_amplitude_v is None:
-            dut = self._pick("dut", self.reference_amplitude_v[k] * dut_per_reference, DUT_HEADROOM)
+            dut = self._pick(
+                "dut", self.reference_amplitude_v[k] * dut_per_reference, PREDICTED_HEADROOM
+            )
             if dut is not None:
                 out["dut"] = dut
         return out
@@ -73,12 +95,16 @@ class RangePlan:
     def re_ranged(
         self, amplitudes_v: dict[str, float], current_v: dict[str, float]
     ) -> dict[str, float] | None:
-        """Smaller ranges for a line whose measured amplitudes (V peak) fit one (re-ranged
-        down, never up: a peak too close to its range overloads and stops the run); None
-        when no channel's range would change."""
+        """Smaller ranges for a line whose measured amplitudes (V peak) are under
+        `RE_RANGE_BELOW_LSB` on their range and fit a smaller one with the predicted headroom
+        (the next line's level step may overshoot as this one's could); never up (a peak too
+        close to its range overloads and stops the run). None when nothing changes."""
         out = dict(current_v)
         for name, amplitude in amplitudes_v.items():
-            smaller = self._pick(name, amplitude, MEASURED_HEADROOM)
+            lsb = 2.0 * current_v[name] / 2**self.bits
+            if not amplitude < RE_RANGE_BELOW_LSB * lsb:
+                continue
+            smaller = self._pick(name, amplitude, PREDICTED_HEADROOM)
             if smaller is not None and smaller < current_v[name]:
                 out[name] = smaller
         return out if out != current_v else None
@@ -207,13 +233,15 @@ def plan_ranges(
     )
     return RangePlan(
         tuple(freqs.tolist()),
-        pick(ref_peaks, "reference", REFERENCE_HEADROOM),
-        pick(dut_peaks, "dut", DUT_HEADROOM),
+        pick(ref_peaks, "reference", PREDICTED_HEADROOM),
+        pick(dut_peaks, "dut", PREDICTED_HEADROOM),
         tuple(ref_amplitude.tolist()),
         None if dut_per_ms2 is None else tuple((amplitudes * dut_per_ms2).tolist()),
         per_line,
         bool(offered),
         allowed if offered else {},
+        dict(limits),
+        config.converter.bits,
     )
 
 
@@ -285,3 +313,19 @@ def run_resolution(
         ([ranges_v["reference"]] * count, [ranges_v["dut"]] * count),
         converter,
     )
+
+
+def level_peaks(plan: Plan, settled: Settled) -> dict[str, float]:
+    """Each channel's peak (V) at the plan's level from what identification settled at: its
+    line phasors scaled by target / measured table acceleration per line, one period
+    synthesised (the phasor convention of the procedure, x(t) = Re sum X_k e^{j w_k t})."""
+    scale = np.asarray(plan.amplitudes_ms2, float) / np.maximum(
+        np.abs(settled.acceleration), np.finfo(float).tiny
+    )
+    n = plan.period_samples
+    out = {}
+    for name, lines in zip(("reference", "dut"), settled.lines, strict=True):
+        phasors = np.asarray(lines, complex) * scale
+        wave = synthesize(plan.bins, np.abs(phasors), np.angle(phasors) + np.pi / 2, n)
+        out[name] = float(np.max(np.abs(wave)))
+    return out

@@ -16,7 +16,7 @@ from app.procedure.equalisation import Equalisation, Equalised
 from app.procedure.events import InputRanges, Progress, State
 from app.procedure.identification import Identification
 from app.procedure.ranging import measured_resolution, with_resolution
-from app.procedure.stand_io import Segment
+from app.procedure.stand_io import InputRangeOverload, Segment
 from app.procedure.stopping import StoppingRule
 from app.stand.response import StoredResponse
 from dsp.multisine import Line, Plan
@@ -77,12 +77,14 @@ class SteppedSine:
             noise = self.background.noise()[:, [k]] * np.sqrt(plan.period_samples / n)
             wanted: dict[str, float] | None = None
             if ranges is not None:  # this line's own input ranges (app.procedure.ranging)
-                wanted = (
-                    ranges.ranges_at(k)
-                    if dut_per_reference is None
-                    else ranges.from_ratio(k, dut_per_reference)
-                )
+                if k == 0:  # identification may play here: a fixed voltage, the top ranges
+                    wanted = dict(ranges.top_v)
+                elif dut_per_reference is None:
+                    wanted = ranges.ranges_at(k)
+                else:
+                    wanted = ranges.from_ratio(k, dut_per_reference)
             start: complex | None = None  # the response a re-ranged line starts from
+            overloaded = False  # once a range overloaded, this line stays on the largest
             while True:
                 ctx.stand.daq.stop()
                 if wanted is not None:
@@ -93,10 +95,24 @@ class SteppedSine:
                     f"stepped sine: line {line.label}, blocks of {n} samples, ranges reference "
                     f"+-{io.ranges['reference']:g} V, DUT +-{io.ranges['dut']:g} V"
                 )
-                equalised, estimate = self._line(k, active, noise, responses, start, rule)
+                try:
+                    equalised, estimate = self._line(k, active, noise, responses, start, rule)
+                except InputRangeOverload as exc:
+                    if ranges is None or overloaded or io.ranges == {**io.ranges, **ranges.top_v}:
+                        raise
+                    overloaded = True
+                    # the level loop's first step overshot a range picked from a prediction:
+                    # the line again on the stand file's ranges, re-ranged from what it measures
+                    io.set_ranges(ranges.top_v)  # the check follows; the DAQ clipped below it
+                    io.fade_out()
+                    text = f"line {line.label}: {exc}: measured again on the largest ranges"
+                    ctx.log(f"stepped sine: {text}")
+                    ctx.emit(InputRanges(text))
+                    wanted, start = dict(ranges.top_v), None
+                    continue
                 smaller = (
                     None
-                    if ranges is None or start is not None  # re-ranged once at most
+                    if ranges is None or start is not None or overloaded  # once at most
                     else ranges.re_ranged(
                         {
                             "reference": float(estimate.reference_amplitude_v[0]),

@@ -10,8 +10,8 @@ import pytest
 
 from app.procedure.preflight import check_preflight
 from app.procedure.ranging import (
-    DUT_HEADROOM,
     MEASURED_HEADROOM,
+    PREDICTED_HEADROOM,
     per_sample_noise_v,
     plan_ranges,
     with_ranges,
@@ -51,7 +51,7 @@ def test_stepped_sine_picks_per_line_and_keeps_under_each_channels_range_v():
     amplitudes = plan.amplitudes_ms2
     # reference: 10 mV/(m/s^2) at the DAQ; DUT: its nominal 10.2 mV/(m/s^2)
     assert ranges.reference_amplitude_v == pytest.approx(tuple(amplitudes * 10e-3))
-    assert ranges.dut_v == (0.1, 0.1, choose_range(5.0 * 10.2e-3, OFFERED, DUT_HEADROOM))
+    assert ranges.dut_v == (0.1, 0.1, choose_range(5.0 * 10.2e-3, OFFERED, PREDICTED_HEADROOM))
     assert ranges.dut_v[2] == 0.2
     assert ranges.ranges_at(2) == {"reference": ranges.reference_v[2], "dut": 0.2}
     assert ranges.run_ranges["dut"] == 0.2  # the background's: the largest of the lines
@@ -65,7 +65,7 @@ def test_a_multisine_picks_one_range_per_channel_from_the_whole_plans_peak():
     ranges = plan_ranges(plan, CONFIG, CHAIN, 10.2, OFFERED, per_line=False)
     peak = plan.predicted_peaks().acceleration_ms2
     assert len(set(ranges.dut_v)) == 1 and len(set(ranges.reference_v)) == 1
-    assert ranges.dut_v[0] == choose_range(peak * 10.2e-3, OFFERED, DUT_HEADROOM)
+    assert ranges.dut_v[0] == choose_range(peak * 10.2e-3, OFFERED, PREDICTED_HEADROOM)
 
 
 def test_without_a_nominal_or_a_list_the_channels_keep_their_range_v():
@@ -90,7 +90,7 @@ def test_a_line_is_re_ranged_down_from_its_measured_amplitude_and_the_next_predi
     # the next line's DUT range from the ratio the last line measured (V/V)
     ratio = 0.7  # the piezo's high-pass below 1 Hz
     k = 2
-    expected = choose_range(ranges.reference_amplitude_v[k] * ratio, OFFERED, DUT_HEADROOM)
+    expected = choose_range(ranges.reference_amplitude_v[k] * ratio, OFFERED, PREDICTED_HEADROOM)
     assert ranges.from_ratio(k, ratio)["dut"] == expected
     known = plan_ranges(plan, CONFIG, CHAIN, 10.2, OFFERED, per_line=True)
     assert known.from_ratio(k, 100.0) == known.ranges_at(k)  # the nominal's prediction stands
