@@ -297,7 +297,8 @@ class SimulatedStand:
         self._pending.clear()
         self._running = True
         self.output.stopped = False
-        self._wall_start = time.monotonic()
+        # paced: simulated time goes on from where it was (a restart between segments)
+        self._wall_start = time.monotonic() - self.sim_time_s
 
     def write_period(self, period_v: np.ndarray) -> None:
         """Queue one period: it plays after the periods written before it, from a period

@@ -36,11 +36,11 @@ from app.procedure.errors import (
 from app.procedure.events import Event, Finished, InputRanges, Listener, State
 from app.procedure.identification import Identification
 from app.procedure.preflight import check_preflight
-from app.procedure.ranging import level_peaks, run_resolution, with_resolution
+from app.procedure.ranging import run_resolution, with_resolution
 from app.procedure.record_run import RecordRun
 from app.procedure.request import RunIdentity
 from app.procedure.settings import RunSettings
-from app.procedure.stand_io import StandIO
+from app.procedure.stand_io import InputRangeOverload, StandIO
 from app.procedure.stand_memory import StandMemory
 from app.procedure.stepped import SteppedSine
 from app.procedure.verdict import Tolerances, tolerances_for, with_verdict
@@ -125,6 +125,8 @@ class Procedure:
             self._log(text)
         self.notes.ranges = report.ranges
         self._ranges_text = report.ranges_text()
+        if report.ranges is not None and self.settings.mode != Mode.STEPPED_SINE:
+            self.io.set_ranges(report.ranges.run_ranges)  # stepped sine: per line
 
     def run(self) -> Finished:
         """The whole run, to its end (complete or aborted): the drive at 0 V afterwards."""
@@ -211,8 +213,6 @@ class Procedure:
         stored = self.memory.recall()
         ranges = self.notes.ranges
         if stored is not None:
-            if ranges is not None:  # the level is known: the ranges the preflight predicted
-                self.io.reconfigure(ranges.run_ranges)
             equalised = equalisation.run(
                 stored.response, give_up_above=self.settings.stored_response_tolerance
             )
@@ -231,21 +231,20 @@ class Procedure:
             )
         else:
             self.notes.stand_response = self.memory.describe(None, "identified")
-        if ranges is not None:  # identification plays a fixed voltage: the stand file's ranges
+        try:
+            response = Identification(self.ctx, noise).run()
+            equalised = equalisation.run(response)
+        except InputRangeOverload as exc:
+            if ranges is None or self.io.ranges == {**self.io.ranges, **ranges.top_v}:
+                raise
+            # identification plays a fixed voltage whatever the level, and its level step may
+            # overshoot: once more, on the stand file's ranges
+            text = f"{exc}: identified again on the largest ranges"
+            self._log(text)
+            self._emit(InputRanges(text))
             self.io.reconfigure(ranges.top_v)
-        identification = Identification(self.ctx, noise)
-        response = identification.run()
-        if ranges is not None and ranges.chosen and identification.settled is not None:
-            peaks = level_peaks(self.plan, identification.settled)
-            if self.io.reconfigure(ranges.measured_peaks(peaks)):
-                text = (
-                    "input ranges from what identification measured, at the level: "
-                    f"reference +-{self.io.ranges['reference']:g} V, "
-                    f"DUT +-{self.io.ranges['dut']:g} V"
-                )
-                self._log(text)
-                self._emit(InputRanges(text))
-        equalised = equalisation.run(response)
+            response = Identification(self.ctx, noise).run()
+            equalised = equalisation.run(response)
         assert equalised is not None  # no give_up_above: always an Equalised
         return self._measured(equalised)
 

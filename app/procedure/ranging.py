@@ -8,11 +8,13 @@ file's `daq.input_ranges_v` before a stand is opened) that holds the predicted p
 headroom, and never above the channel's `range_v` (the largest the stand file lets it use; the
 preflight refuses a peak too close to that). Before anything is measured the reference
 channel's peak is predicted from its certificate, the DUT's from its nominal sensitivity;
-without a nominal, or without a list of ranges, a channel keeps its `range_v`. Identification
-(a fixed drive voltage, whatever the level) always runs on the `range_v`s; a multisine then
-takes its ranges from what identification measured, scaled to the level (`measured_peaks`), and
-a stepped-sine line is re-ranged down once from its measured amplitude when it is under
-`RE_RANGE_BELOW_LSB`, the next line predicted from the DUT/reference ratio it measured.
+without a nominal, or without a list of ranges, a channel keeps its `range_v`. A multisine
+runs on its predicted ranges; when identification (a fixed drive voltage, whatever the level)
+or its first level step overloads one, it is identified again on the `range_v`s
+(app.procedure.procedure). A stepped-sine line's first measurement is on the `range_v`s only
+for the first line (identification); a line is re-ranged down once from its measured amplitude
+when it is under `RE_RANGE_BELOW_LSB`, the next line predicted from the DUT/reference ratio it
+measured, and a line whose first level step overloads is measured again on the `range_v`s.
 Units: V, Hz, m/s^2.
 """
 
@@ -25,14 +27,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from dsp.crestfactor import synthesize
 from dsp.multisine import Plan
 from dsp.resolution import Converter, LineResolution, line_resolution, resolution_components
 from dsp.uncertainty import Budget
 from hardware.interfaces import InputChannel, choose_range
 
 if TYPE_CHECKING:
-    from app.procedure.stand_io import Settled
     from app.stand.config import StandConfig
     from dsp.calibration import ReferenceChain
 
@@ -40,8 +40,6 @@ if TYPE_CHECKING:
 #: response (a resonance near the top line, a loose mount), and a stepped-sine line's first
 #: level step starts from a response extrapolated within a factor of two (app.procedure.stepped).
 PREDICTED_HEADROOM = 2.5
-#: A peak measured and scaled to the level: room for the level loop's first step, noise, hum.
-MEASURED_HEADROOM = 1.5
 #: A stepped-sine line is measured again on a smaller range only when it is under this many
 #: LSB on its own (its resolution term then over 0.06 %; above, a second measurement buys little).
 RE_RANGE_BELOW_LSB = 2000.0
@@ -63,16 +61,6 @@ class RangePlan:
     allowed_v: dict[str, tuple[float, ...]] = field(default_factory=dict)
     top_v: dict[str, float] = field(default_factory=dict)  # each channel's range_v
     bits: int = 16  # the converter's
-
-    def measured_peaks(self, peaks_v: dict[str, float]) -> dict[str, float]:
-        """The run's ranges from peaks measured (identification) and scaled to the level (V);
-        a channel not measured keeps its range_v."""
-        out = dict(self.top_v)
-        for name, peak in peaks_v.items():
-            picked = self._pick(name, peak, MEASURED_HEADROOM)
-            if picked is not None:
-                out[name] = picked
-        return out
 
     def _pick(self, name: str, peak_v: float, headroom: float) -> float | None:
         allowed = self.allowed_v.get(name, ())
@@ -313,19 +301,3 @@ def run_resolution(
         ([ranges_v["reference"]] * count, [ranges_v["dut"]] * count),
         converter,
     )
-
-
-def level_peaks(plan: Plan, settled: Settled) -> dict[str, float]:
-    """Each channel's peak (V) at the plan's level from what identification settled at: its
-    line phasors scaled by target / measured table acceleration per line, one period
-    synthesised (the phasor convention of the procedure, x(t) = Re sum X_k e^{j w_k t})."""
-    scale = np.asarray(plan.amplitudes_ms2, float) / np.maximum(
-        np.abs(settled.acceleration), np.finfo(float).tiny
-    )
-    n = plan.period_samples
-    out = {}
-    for name, lines in zip(("reference", "dut"), settled.lines, strict=True):
-        phasors = np.asarray(lines, complex) * scale
-        wave = synthesize(plan.bins, np.abs(phasors), np.angle(phasors) + np.pi / 2, n)
-        out[name] = float(np.max(np.abs(wave)))
-    return out

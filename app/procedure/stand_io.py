@@ -148,6 +148,8 @@ class StandIO:
         if all(self.ranges.get(name) == value for name, value in ranges.items()):
             return False
         if np.any(self.drive != 0):
+            # the check during the fade on the larger of the two (the DAQ clips at its own)
+            self.set_ranges({n: max(v, self.ranges.get(n, v)) for n, v in ranges.items()})
             self.fade_out()
         self.stand.daq.stop()
         self.set_ranges(ranges)

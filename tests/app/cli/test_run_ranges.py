@@ -66,9 +66,10 @@ def test_stepped_sine_at_low_frequencies_picks_small_ranges_and_states_lines_wit
     CLI, the shipped stand); four lines only."""
     record, truth, log = _run(tmp_path)
     results = record["results"]
-    # the DUT's nominal is not known to the run: its first line measured on the stand file's
-    # +-5 V, then re-ranged from its measured amplitude, and the next lines predicted from it
-    assert "ranges reference +-0.1 V, DUT +-5 V" in log
+    # the first line (identification: a fixed voltage) on the stand file's ranges, re-ranged
+    # from its measured amplitudes; the DUT's nominal is not known to the run: the next lines'
+    # DUT ranges predicted from the DUT/reference ratio the last line measured
+    assert "line 0.5 Hz, blocks of 12000 samples, ranges reference +-1 V, DUT +-5 V" in log
     assert "line 0.5 Hz re-ranged to reference +-0.1 V, DUT +-0.1 V" in log
     assert "DUT +-0.1 V" in log.split("stepped sine: line 8 Hz, blocks of")[1].splitlines()[0]
     not_stated = _stated_within_u(results, truth)

@@ -10,7 +10,6 @@ import pytest
 
 from app.procedure.preflight import check_preflight
 from app.procedure.ranging import (
-    MEASURED_HEADROOM,
     PREDICTED_HEADROOM,
     per_sample_noise_v,
     plan_ranges,
@@ -86,7 +85,9 @@ def test_a_line_is_re_ranged_down_from_its_measured_amplitude_and_the_next_predi
     assert ranges.re_ranged({"reference": 200e-6, "dut": 144e-6}, smaller) is None
     # never up: a line measured larger than its range holds is not re-ranged here
     assert ranges.re_ranged({"reference": 1e-4, "dut": 0.09}, {**current, "dut": 0.1}) is None
-    assert choose_range(0.06, OFFERED, MEASURED_HEADROOM) == 0.1
+    # nor when it is over 2000 LSB where it is (a second measurement buys little)
+    loud = {"reference": 0.3, "dut": 0.5}
+    assert ranges.re_ranged(loud, {"reference": 1.0, "dut": 5.0}) is None
     # the next line's DUT range from the ratio the last line measured (V/V)
     ratio = 0.7  # the piezo's high-pass below 1 Hz
     k = 2
