@@ -239,7 +239,7 @@ class SimulatedStand:
     def configure(self, config: DaqConfig) -> DaqStatus:
         """Build the exact sampled models for this sample rate and channel set; each input's
         range coerced up to an offered one (HardwareError above the largest)."""
-        ranges = {}
+        ranges: dict[str, float] = {}
         for channel in config.inputs:
             used = self.model.adc.coerced_range(channel.range_v)
             if used is None:

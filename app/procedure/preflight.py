@@ -115,7 +115,7 @@ def check_preflight(
                 f"mV/(m/s^2)) is too close to its +-{ranges['dut']:g} V range "
                 "(raise the range or lower the level)"
             )
-    ranges = plan_ranges(
+    range_plan = plan_ranges(
         plan,
         config,
         chain,
@@ -124,7 +124,9 @@ def check_preflight(
         per_line=per_line,
         level_scale=level_scale,
     )
-    return PreflightReport(peaks, plan.crest_factor(), tuple(problems), ranges, config.converter)
+    return PreflightReport(
+        peaks, plan.crest_factor(), tuple(problems), range_plan, config.converter
+    )
 
 
 def limit_problems(peaks: PredictedPeaks, limits: Limits) -> list[str]:

@@ -36,6 +36,8 @@ if TYPE_CHECKING:
     from app.stand.config import StandConfig
     from dsp.calibration import ReferenceChain
 
+Floats = Sequence[float] | np.ndarray  # per line
+
 #: A peak predicted before it was measured: the DUT's nominal stands in for its unknown
 #: response (a resonance near the top line, a loose mount), and a stepped-sine line's first
 #: level step starts from a response extrapolated within a factor of two (app.procedure.stepped).
@@ -151,7 +153,7 @@ class RangePlan:
         """One line for run.log, the preflight and the preview: the ranges and the fewest LSB."""
         how = "chosen from the predicted peaks" if self.chosen else "as the stand file sets them"
 
-        def ranges(values: Sequence[float]) -> str:
+        def ranges(values: Floats) -> str:
             distinct = sorted(set(values))
             if len(distinct) == 1:
                 return f"+-{distinct[0]:g} V"
@@ -185,7 +187,7 @@ def plan_ranges(
 ) -> RangePlan:
     """The ranges of a run of `plan` (module docstring): one per channel from the whole plan's
     predicted peak, or (`per_line`, stepped sine) one per line from that line's amplitude."""
-    limits = {c.name: c.range_v for c in config.inputs}
+    limits: dict[str, float] = {c.name: c.range_v for c in config.inputs}
     freqs = np.asarray(plan.frequencies_hz, float)
     amplitudes = np.asarray(plan.amplitudes_ms2, float) * level_scale
     if chain is not None:
@@ -251,11 +253,11 @@ def per_sample_noise_v(noise_per_period_v: float, samples: int, step_v: float) -
 
 
 def measured_resolution(
-    frequencies_hz: Sequence[float],
-    amplitudes_v: tuple[Sequence[float], Sequence[float]],
-    noise_per_period_v: tuple[Sequence[float], Sequence[float]],
+    frequencies_hz: Floats,
+    amplitudes_v: tuple[Floats, Floats],
+    noise_per_period_v: tuple[Floats, Floats],
     samples: Sequence[int],
-    ranges_v: tuple[Sequence[float], Sequence[float]],
+    ranges_v: tuple[Floats, Floats],
     converter: Converter,
 ) -> list[tuple[LineResolution, LineResolution]]:
     """Per line (reference, DUT): its measured amplitude (V peak) and noise (per period, V)
@@ -285,7 +287,7 @@ def with_resolution(
 
 def run_resolution(
     plan: Plan,
-    amplitudes_v: tuple[Sequence[float], Sequence[float]],
+    amplitudes_v: tuple[Floats, Floats],
     noise_per_period_v: np.ndarray,
     ranges_v: dict[str, float],
     converter: Converter,

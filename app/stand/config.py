@@ -55,6 +55,8 @@ from hardware.interfaces import InputChannel, OutputChannel, input_ranges
 BACKENDS = tuple(b.value for b in Backend)
 
 _INPUT_KEYS = frozenset({"physical", "range_v", "coupling", "iepe_current_a", "terminal"})
+_DAQ_KEYS = frozenset(("backend", "device", "skew_s", "skew_tolerance_s", "output", "reference"))
+_DAQ_KEYS |= {"dut", "drive", "input_ranges_v", "adc_bits", "adc_linearity_lsb"}
 # Every key a stand file may hold, per table ("" is the top level). [[component]] entries are
 # checked by dsp.uncertainty.Component and [simulation] by sim.stand; an unknown key anywhere
 # else is refused, naming the nearest known one (a typo such as skew_seconds would otherwise
@@ -85,21 +87,7 @@ SCHEMA: dict[str, frozenset[str]] = {
         }
     ),
     "laboratory": frozenset({"name", "address", "country", "accreditation", "verify_url"}),
-    "daq": frozenset(
-        {
-            "backend",
-            "device",
-            "skew_s",
-            "skew_tolerance_s",
-            "input_ranges_v",
-            "adc_bits",
-            "adc_linearity_lsb",
-            "output",
-            "reference",
-            "dut",
-            "drive",
-        }
-    ),
+    "daq": _DAQ_KEYS,
     "daq.output": frozenset({"physical", "range_v"}),
     "daq.reference": _INPUT_KEYS,
     "daq.dut": _INPUT_KEYS,
@@ -546,8 +534,7 @@ def _parse(data: dict[str, Any], text: str, source: str) -> StandConfig:
 
 
 def _converter(r: _Reader, daq: dict[str, Any]) -> tuple[tuple[float, ...], Converter]:
-    """[daq] input_ranges_v, adc_bits and adc_linearity_lsb, each checked (ConfigError naming
-    daq.<key>)."""
+    """[daq] input_ranges_v, adc_bits, adc_linearity_lsb (ConfigError naming daq.<key>)."""
     offered: tuple[float, ...] = ()
     if "input_ranges_v" in daq:
         try:
