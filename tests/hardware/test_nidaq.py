@@ -801,9 +801,7 @@ def test_a_range_chosen_per_line_reaches_the_channels_min_and_max_at_every_confi
         FS,
         N,
         CONFIG.output,
-        tuple(
-            dataclasses.replace(c, range_v=0.1) if c.name == "dut" else c for c in CONFIG.inputs
-        ),
+        tuple(dataclasses.replace(c, range_v=0.1) if c.name == "dut" else c for c in CONFIG.inputs),
     )
     daq.stop()
     daq.configure(narrow)
