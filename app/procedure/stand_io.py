@@ -153,6 +153,8 @@ class StandIO:
             self.fade_out()
         self.stand.daq.stop()
         self.set_ranges(ranges)
+        if self.writer is not None:
+            self.writer.widen_ranges(self.ranges)
         plan = self.segment.plan
         self.stand.daq.configure(
             DaqConfig(
