@@ -61,6 +61,7 @@ def _stated_within_u(results: dict, truth: dict) -> list[float]:
 
 
 @pytest.mark.slow
+@pytest.mark.integration
 def test_stepped_sine_at_low_frequencies_picks_small_ranges_and_states_lines_within_u(tmp_path):
     """About 4 s of CPU: the acceptance of issue 32 point 2 through the path users take (the
     CLI, the shipped stand); four lines only."""
@@ -84,6 +85,7 @@ def test_stepped_sine_at_low_frequencies_picks_small_ranges_and_states_lines_wit
 
 
 @pytest.mark.slow
+@pytest.mark.integration
 def test_fixed_ranges_leave_the_low_lines_not_stated_and_within_their_bound(tmp_path):
     """About 4 s of CPU (a second run of the acceptance's four lines). A stand file naming only
     +-5 and 10 V for its inputs (the DUT kept on +-5 V, the reference on its +-1 V, as before
