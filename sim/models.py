@@ -17,6 +17,7 @@ Signal chain, all at the DAQ sample rate and exact at the sample instants (sim.l
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from dataclasses import dataclass, field
 
@@ -241,20 +242,44 @@ class SensorModel:
 @dataclass(frozen=True)
 class AdcModel:
     """One analog input: white noise (V rms), hum at the mains frequency and harmonics
-    (V peak each), 16-bit quantisation of its +-range, clipping at the range."""
+    (V peak each), 16-bit quantisation of its +-range, clipping at the range; the +-ranges it
+    offers (a requested range is coerced up to one of them)."""
 
     noise_v: float = 20e-6
     hum_v: tuple[float, ...] = (40e-6, 12e-6, 8e-6, 5e-6, 3e-6)
     bits: int = 16
+    ranges_v: tuple[float, ...] = (0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0)  # M-series-like, +-V
+    # differential nonlinearity: each code transition moved by a fixed amount, uniform within
+    # +-dnl_lsb (drawn once, the same converter for every seed: a property of the board)
+    dnl_lsb: float = 0.25
+
+    def coerced_range(self, range_v: float) -> float | None:
+        """The range the converter uses for a requested +-`range_v` (V): the smallest offered
+        one that holds it, as DAQmx coerces; None above the largest."""
+        return next((r for r in sorted(self.ranges_v) if range_v <= r * (1 + 1e-9)), None)
 
     def quantise(self, x: np.ndarray, range_v: float) -> np.ndarray:
-        """Round to the ADC step (2 range / 2^bits) and clip to the code range."""
+        """Round to the ADC step (2 range / 2^bits), the transition between codes c and c + 1
+        at c + 1/2 - d[c] (the converter's DNL pattern), and clip to the code range."""
         step = 2.0 * range_v / 2**self.bits
         codes = x / step
-        np.rint(codes, out=codes)
+        floor = np.floor(codes)
+        codes -= floor
+        if self.dnl_lsb:
+            codes += _transition_offsets(self.bits, self.dnl_lsb)[
+                floor.astype(np.int64) & (2**self.bits - 1)
+            ]
+        codes = floor + (codes >= 0.5)
         np.clip(codes, -(2 ** (self.bits - 1)), 2 ** (self.bits - 1) - 1, out=codes)
         codes *= step
         return codes
+
+
+@functools.lru_cache(maxsize=4)
+def _transition_offsets(bits: int, dnl_lsb: float) -> np.ndarray:
+    """The fixed DNL pattern of a simulated converter: per code (mod 2^bits), how far (LSB) its
+    upper transition moves down, uniform within +-dnl_lsb."""
+    return np.random.default_rng(1451).uniform(-dnl_lsb, dnl_lsb, 2**bits)
 
 
 REFERENCE = SensorModel(

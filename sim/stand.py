@@ -130,6 +130,7 @@ class SimulatedStand:
         self._hum_table: tuple[np.ndarray, float] | None = None  # (2, k spans + n), fs
         self.output = OutputRecord()
         self._config: DaqConfig | None = None
+        self._ranges: dict[str, float] = {}  # per input channel, the range quantised at
         self._buffer: np.ndarray | None = None  # the period playing (regenerated)
         # written, not yet played, in order: (the read from which it may play, period)
         self._pending: deque[tuple[int, np.ndarray]] = deque()
@@ -226,8 +227,28 @@ class SimulatedStand:
 
     # --- the Daq protocol -------------------------------------------------------------------
 
+    def input_ranges_v(self) -> tuple[float, ...]:
+        """The +-ranges (V) the simulated converter offers on every input."""
+        return tuple(sorted(self.model.adc.ranges_v))
+
+    @property
+    def input_ranges_used_v(self) -> dict[str, float]:
+        """Per configured input channel, the +-range (V) the converter quantises at."""
+        return dict(self._ranges)
+
     def configure(self, config: DaqConfig) -> DaqStatus:
-        """Build the exact sampled models for this sample rate and channel set."""
+        """Build the exact sampled models for this sample rate and channel set; each input's
+        range coerced up to an offered one (HardwareError above the largest)."""
+        ranges: dict[str, float] = {}
+        for channel in config.inputs:
+            used = self.model.adc.coerced_range(channel.range_v)
+            if used is None:
+                raise HardwareError(
+                    f"simulated DAQ: {channel.name} channel range +-{channel.range_v:g} V is "
+                    f"above the largest it offers (+-{max(self.model.adc.ranges_v):g} V)"
+                )
+            ranges[channel.name] = used
+        self._ranges = ranges
         self._config = config
         fs = config.sample_rate_hz
         m, d = self.model, self.deviations
@@ -276,7 +297,8 @@ class SimulatedStand:
         self._pending.clear()
         self._running = True
         self.output.stopped = False
-        self._wall_start = time.monotonic()
+        # paced: simulated time goes on from where it was (a restart between segments)
+        self._wall_start = time.monotonic() - self.sim_time_s
 
     def write_period(self, period_v: np.ndarray) -> None:
         """Queue one period: it plays after the periods written before it, from a period
@@ -455,10 +477,9 @@ class SimulatedStand:
         noise *= adc.noise_v
         dut += noise
         out = {"reference": reference, "dut": dut, "drive": drive.copy()}
-        ranges = {c.name: c.range_v for c in config.inputs}
         for name in ("reference", "dut", "drive"):
-            if name in ranges:
-                out[name] = m.adc.quantise(out[name], ranges[name])
+            if name in self._ranges:
+                out[name] = m.adc.quantise(out[name], self._ranges[name])
         return out
 
     def _hum(self, n: int, fs: float) -> tuple[np.ndarray, np.ndarray]:

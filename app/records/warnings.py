@@ -48,6 +48,7 @@ class WarningKind(StrEnum):
     SEED_RULE = "seed rule"
     SKEW_NOT_CORRECTED = "skew not corrected"
     MOUNTING = "mounting"
+    ADC_RESOLUTION = "ADC resolution"
     GUM_NOT_VALIDATED = "GUM not validated"
     PLAN = "plan"
     OTHER = "other"
@@ -134,6 +135,12 @@ POLICY: dict[WarningKind, Rule] = {
         Policy.BLOCKS,
         "a resonance or rattle inside the calibrated range: the mounting is suspect",
         r"^mounting: ",
+    ),
+    WarningKind.ADC_RESOLUTION: Rule(
+        Policy.BLOCKS,
+        "a line too few LSB above the converter's step: its resolution is not stated "
+        "(dsp.resolution); re-ranged or raised, never PASS",
+        r" LSB on its \+-[\d.e+-]+ V range \(< [\d.]+ LSB\): resolution not stated",
     ),
     WarningKind.GUM_NOT_VALIDATED: Rule(
         Policy.PRINTED,
