@@ -299,7 +299,7 @@ def compute_results(
     reference sensitivity (e.g. the manufacturer's 5 %); verdicts use guarded acceptance.
     Raises AnalysisError for a dead channel.
     """
-    warnings = list(extra_warnings)
+    warnings = [*extra_warnings, *estimate.warnings]
     labels = [f"{f:g} Hz" for f in plan.nominal_frequencies_hz]
     for channel, snr in (("reference", estimate.reference_snr_db), ("DUT", estimate.dut_snr_db)):
         alive = snr > DEAD_SNR_DB

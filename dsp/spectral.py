@@ -125,7 +125,8 @@ class Estimate:
     magnitude, radians for the phase, with `dof` degrees of freedom: 2 (L - 1) for the complex
     estimators, L - 1 for `seed` (NaN before L = 2).
     Amplitudes and noise are peak-scaled DFT magnitudes in volts; SNR is per period, in dB;
-    distortion is the rss of harmonics 2..5 relative to the line (a ratio).
+    distortion is the rss of harmonics 2..5 relative to the line (a ratio); `warnings` are
+    the estimator's own, one line of text each, joined to the run's by dsp.calibration.
     """
 
     estimator: str
@@ -141,6 +142,7 @@ class Estimate:
     dut_noise_v: np.ndarray
     reference_distortion: np.ndarray
     dut_distortion: np.ndarray
+    warnings: tuple[str, ...] = ()  # the estimator's own (dsp.lpm_record: nonlinear distortion)
 
     @property
     def reference_snr_db(self) -> np.ndarray:
