@@ -101,7 +101,6 @@ def record_estimate(
             found,
             result.reference_lines_v,
             lines,
-            result.response,
             reference_record,
             excluded,
         )
@@ -160,7 +159,7 @@ def nonlinear_warnings(
     worst = int(np.argmax(size))
     out = [
         f"nonlinear distortion of the DUT: {100 * found.fraction:.2g} % of the signal (orders "
-        f"{'-'.join(str(o) for o in nonlinear.ORDERS)}, measured at {found.product_bins} "
+        f"{'-'.join(str(o) for o in nonlinear.ORDERS)}, measured at {found.tested_bins} "
         "detection bins of this record); the best linear approximation at this excitation is "
         f"stated, its stochastic part at the lines removed (largest {100 * size[worst]:.2g} % at "
         f"{labels[worst]}) and its estimate's uncertainty carried in type A"
@@ -168,10 +167,11 @@ def nonlinear_warnings(
     if not found.adequate:
         reached = [lab for lab, hit in zip(labels, found.reached_lines(type_a), strict=True) if hit]
         out.append(
-            f"nonlinear distortion at lines {', '.join(reached or labels)}: the products at "
-            f"the detection bins are {found.model_ratio:.3g} x their noise after the order "
-            f"{'-'.join(str(o) for o in nonlinear.ORDERS)} model; U does not cover the distortion"
-            " it leaves at these lines"
+            f"nonlinear distortion at lines {', '.join(reached or labels)}: the order "
+            f"{'-'.join(str(o) for o in nonlinear.ORDERS)} model does not explain the products at "
+            f"the detection bins (orders {'-'.join(str(o) for o in nonlinear.CHECK_ORDERS)} "
+            f"add to it, p = {found.model_p_value:.1g}); U does not cover the distortion it "
+            "leaves at these lines"
         )
     return out
 

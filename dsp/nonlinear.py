@@ -30,10 +30,10 @@ lines with a model of the DUT's distortion:
       e_k = (theta_2 X2(k) + theta_3 X3s(k)) / (a_k (1 + theta_3 beta_k)),
       known from the record. It is removed (the stated H is the BLA estimate) and the
       uncertainty of theta carried to the line (real part: magnitude, imaginary: phase).
-  (4) The free bins' residual after the model, standardised by the local residual level of
-      the bins with no product, tests the model: products the model does not explain (a
-      nonlinearity of higher order or a different structure) make `adequate` False, and the
-      caller then blocks PASS naming the lines the distortion reaches.
+  (4) The model is tested by fitting orders 4 and 5 with it (a nested-model Wald test, HC0,
+      at MODEL_FALSE_ALARM): products the model does not explain (a nonlinearity of higher
+      order) make `adequate` False, and the caller then blocks PASS naming the lines the
+      distortion reaches.
 
 The fitted products are also removed from the free bins before the LPM (`cleaned`), so that its
 windows hold noise only. Spectra are peak-scaled, (2/N) rfft, volts; ratios out.
@@ -51,9 +51,9 @@ from scipy import stats
 NONLINEAR_FALSE_ALARM = 0.01  # probability per record that noise alone is taken for distortion
 MODEL_FALSE_ALARM = 0.01  # probability per record that a right model is called inadequate
 ORDERS = (2, 3)  # the polynomial orders of the distortion model
-PRODUCT_BINS_SNR = 10.0  # a free bin is a "product bin" where the fitted product is 10x its noise
-LOCAL_HALF_WIDTH_BINS = 40  # the noise level of a free bin: clean bins within this reach
-MIN_CLEAN_BINS = 8  # fewer clean neighbours: the bin is not used in the model test
+FIT_PASSES = 3  # refits with H_lin (the lines' H holds the compression and e_k: 0.5 % in theta)
+CHECK_ORDERS = (4, 5)  # orders the model leaves out: the test of relation (4)
+ALL_ORDERS = (*ORDERS, *CHECK_ORDERS)
 
 
 @dataclass(frozen=True)
@@ -64,8 +64,9 @@ class NonlinearEstimate:
     excitation's rms (ratio); per line (plan order) `relative_error` e_k of this record's H
     against the BLA (complex ratio, removed from the stated H when found) and its standard
     uncertainty from theta's, real part (magnitude, ratio) and imaginary part (phase, rad);
-    `model_ratio` the free bins' residual power at the products over its noise level (about
-    1 when the model explains them), `adequate` whether that passes its test."""
+    `linear_response` the DUT's linear part H_lin per line (V/V, the BLA without compression);
+    `model_p_value` the p-value of relation (4)'s test, `adequate` whether the model passes
+    it (True when nothing was found), `tested_bins` the number of detection bins."""
 
     coefficients: np.ndarray
     covariance: np.ndarray
@@ -75,9 +76,10 @@ class NonlinearEstimate:
     relative_error: np.ndarray
     magnitude_u: np.ndarray
     phase_u_rad: np.ndarray
-    model_ratio: float
+    linear_response: np.ndarray
+    model_p_value: float
     adequate: bool
-    product_bins: int
+    tested_bins: int
 
     def reached_lines(self, type_a: np.ndarray, share: float = 0.3) -> np.ndarray:
         """Per line, whether the distortion at it is at least `share` of `type_a` (ratio):
@@ -133,12 +135,22 @@ def estimate(
     bussgang = 0.75 * power + 1.5 * (power.sum() - power)  # relation (3), per line
 
     free = free_bins(size, lines, excluded_bins)
-    h_free = _interpolated(lines, np.asarray(response, complex), free.astype(float))
-    residual = y_spec[free] - h_free * u_spec[free]
-    design = np.stack([scale * h_free * r[free] for r in regressors], axis=1)  # (bins, orders)
-    real_design = np.vstack([design.real, design.imag])
-    real_residual = np.concatenate([residual.real, residual.imag])
-    theta, *_ = np.linalg.lstsq(real_design, real_residual, rcond=None)
+    raw_at_lines = np.stack([r[lines] for r in regressors], axis=1)  # (lines, orders)
+    third = ORDERS.index(3)
+    linear = np.asarray(response, complex)
+    for _ in range(FIT_PASSES):  # the free bins see H_lin, the lines H_lin (1 + bussgang)(1 + e)
+        h_free = _interpolated(lines, linear, free.astype(float))
+        residual = y_spec[free] - h_free * u_spec[free]
+        design = np.stack([scale * h_free * r[free] for r in regressors], axis=1)
+        real_design = np.vstack([design.real, design.imag])
+        real_residual = np.concatenate([residual.real, residual.imag])
+        theta, *_ = np.linalg.lstsq(real_design, real_residual, rcond=None)
+        at_lines = raw_at_lines.copy()
+        at_lines[:, third] -= bussgang * a  # the phase-independent part belongs to the BLA
+        compression = 1.0 + theta[third] * bussgang
+        sensitivity = at_lines / (a * compression)[:, None]  # d e_k / d theta
+        relative_error = sensitivity @ theta
+        linear = np.asarray(response, complex) / (compression * (1.0 + relative_error))
     error = real_residual - real_design @ theta
     gram_inv = np.linalg.pinv(real_design.T @ real_design)
     meat = real_design.T @ (real_design * (error**2)[:, None])
@@ -150,16 +162,10 @@ def estimate(
     distortion = sum(t * x**order for t, order in zip(theta, ORDERS, strict=True))
     fraction = float(np.sqrt(np.mean(np.asarray(distortion) ** 2)))
 
-    at_lines = np.stack([r[lines] for r in regressors], axis=1)  # (lines, orders)
-    third = ORDERS.index(3)
-    at_lines[:, third] -= bussgang * a  # the phase-independent part belongs to the BLA
-    denominator = a * (1.0 + theta[third] * bussgang)
-    sensitivity = at_lines / denominator[:, None]  # d e_k / d theta
-    relative_error = sensitivity @ theta
     magnitude_u = np.sqrt(np.einsum("li,ij,lj->l", sensitivity.real, covariance, sensitivity.real))
     phase_u = np.sqrt(np.einsum("li,ij,lj->l", sensitivity.imag, covariance, sensitivity.imag))
 
-    ratio, adequate, products = _model_test(error, design @ theta, free)
+    model_p = _model_test(residual, h_free, scale, x, free)
     return NonlinearEstimate(
         coefficients=theta,
         covariance=covariance,
@@ -169,38 +175,33 @@ def estimate(
         relative_error=relative_error,
         magnitude_u=magnitude_u,
         phase_u_rad=phase_u,
-        model_ratio=ratio,
-        adequate=adequate or not found,
-        product_bins=products,
+        linear_response=linear,
+        model_p_value=model_p,
+        adequate=model_p >= MODEL_FALSE_ALARM or not found,
+        tested_bins=int(free.size),
     )
 
 
 def _model_test(
-    real_error: np.ndarray, fitted: np.ndarray, free: np.ndarray
-) -> tuple[float, bool, int]:
-    """Relation (4): the mean residual power at the product bins over the local level of the
-    clean free bins (no fitted product above 1/PRODUCT_BINS_SNR of the median residual),
-    with a one-sided F test at MODEL_FALSE_ALARM. (ratio, adequate, product bins tested)."""
-    count = free.size
-    res_power = real_error[:count] ** 2 + real_error[count:] ** 2
-    level = float(np.median(res_power)) if count else 0.0
-    product = np.abs(fitted) ** 2 > PRODUCT_BINS_SNR * level
-    clean = ~product
-    clean_bins = free[clean]
-    clean_power = res_power[clean]
-    cumulative = np.concatenate([[0.0], np.cumsum(clean_power)])
-    lo = np.searchsorted(clean_bins, free - LOCAL_HALF_WIDTH_BINS)
-    hi = np.searchsorted(clean_bins, free + LOCAL_HALF_WIDTH_BINS, side="right")
-    neighbours = hi - lo
-    usable = product & (neighbours >= MIN_CLEAN_BINS)
-    tested = int(usable.sum())
-    if tested == 0:
-        return math.nan, True, 0
-    local = (cumulative[hi] - cumulative[lo])[usable] / neighbours[usable]
-    ratio = float(np.mean(res_power[usable] / local))
-    dof_clean = 2 * int(np.median(neighbours[usable]))
-    threshold = float(stats.f.isf(MODEL_FALSE_ALARM, 2 * tested, dof_clean))
-    return ratio, ratio <= threshold, tested
+    residual: np.ndarray, h_free: np.ndarray, scale: float, x: np.ndarray, free: np.ndarray
+) -> float:
+    """Relation (4): the p-value of the Wald test (HC0) that the orders CHECK_ORDERS add
+    nothing to the model at the free bins, both fitted together."""
+    n = x.size
+    design = np.stack(
+        [scale * h_free * (np.fft.rfft(x**order) * (2.0 / n))[free] for order in ALL_ORDERS],
+        axis=1,
+    )
+    real_design = np.vstack([design.real, design.imag])
+    real_residual = np.concatenate([residual.real, residual.imag])
+    theta, *_ = np.linalg.lstsq(real_design, real_residual, rcond=None)
+    error = real_residual - real_design @ theta
+    gram_inv = np.linalg.pinv(real_design.T @ real_design)
+    covariance = gram_inv @ (real_design.T @ (real_design * (error**2)[:, None])) @ gram_inv
+    extra = slice(len(ORDERS), len(ALL_ORDERS))
+    added = theta[extra]
+    wald = float(added @ np.linalg.pinv(covariance[extra, extra]) @ added)
+    return float(stats.chi2.sf(wald, len(CHECK_ORDERS)))
 
 
 def cleaned(
@@ -208,7 +209,6 @@ def cleaned(
     nonlinear: NonlinearEstimate,
     u_lines: np.ndarray,
     line_bins: np.ndarray,
-    response: np.ndarray,
     reference_v: np.ndarray,
     excluded_bins: Iterable[int] = (),
 ) -> np.ndarray:
@@ -218,7 +218,7 @@ def cleaned(
     n = 2 * (size - 1)
     x, scale = _excitation(reference_v, u_lines)
     free = free_bins(size, lines, excluded_bins)
-    h_free = _interpolated(lines, np.asarray(response, complex), free.astype(float))
+    h_free = _interpolated(lines, nonlinear.linear_response, free.astype(float))
     out = y_spec.copy()
     for theta, order in zip(nonlinear.coefficients, ORDERS, strict=True):
         out[free] -= theta * scale * h_free * (np.fft.rfft(x**order) * (2.0 / n))[free]
