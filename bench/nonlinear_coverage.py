@@ -15,9 +15,9 @@ which the simulator cubes), H_cubic the response of the DUT's cubic path
 (its dynamics behind the ZOH the simulator uses), c3 the DUT's cubic coefficient and
 beta_k = 0.75 |A_k|^2 + 1.5 sum_{m != k} |A_m|^2 the phase-independent (Bussgang) gain of the
 cubic at line k for the table amplitudes A (peak, m/s^2) as played (the exciter compresses
-them by about 1 %: taken from the reference channel, whose noise is 1e-5 of the line). The DUT "mems-cubic" (sim.models)
-has a cubic of 0.6 % of the signal (rms of the cubic term over the linear term's) at this
-plan's level.
+them by about 1 %: taken from the reference channel, whose noise is 1e-5 of the line). The
+DUT "mems-cubic" (sim.models) has a cubic of 0.6 % of the signal (rms of the cubic term over
+the linear term's) at this plan's level.
 
 Coverage per line: |Re(H/H_BLA - 1)| <= k u (magnitude) and |Im(H/H_BLA - 1)| <= k u_phase
 (phase), k = Student t at 95.45 % for the stated dof, counted over the runs in which the line
@@ -129,7 +129,9 @@ def run_once(args: tuple[str, int]) -> dict[str, np.ndarray | bool | float]:
     blocked = bool(blocking(e.warnings))
     mag, ph = _hits(e.response, e.relative_type_a, e.phase_type_a_rad, e.dof, truth)
     plain = lpm.estimate(data[0], data[1], bins, excluded_bins=_mains(plan))
-    mag0, ph0 = _hits(plain.response, plain.relative_type_a, plain.phase_type_a_rad, plain.dof, truth)
+    mag0, ph0 = _hits(
+        plain.response, plain.relative_type_a, plain.phase_type_a_rad, plain.dof, truth
+    )
     nl = record.nonlinear
     assert nl is not None
     return {
@@ -148,7 +150,10 @@ def run_once(args: tuple[str, int]) -> dict[str, np.ndarray | bool | float]:
 
 def _mains(plan: Plan) -> set[int]:
     return lpm.mains_bins(
-        plan.resolution_hz, plan.period_samples // 2 + 1, plan.mains_frequency_hz, plan.mains_harmonics
+        plan.resolution_hz,
+        plan.period_samples // 2 + 1,
+        plan.mains_frequency_hz,
+        plan.mains_harmonics,
     )
 
 
@@ -181,7 +186,7 @@ def report(dut: str, runs: int, workers: int) -> list[str]:
     stated = [r for r in results if not r["blocked"]]
     blocked = runs - len(stated)
     found = sum(bool(r["found"]) for r in results)
-    fraction = np.median([float(r["fraction"]) for r in results])  # type: ignore[arg-type]
+    fraction = np.median([float(r["fraction"]) for r in results])
     rows = [
         f"{dut}: {runs} runs in {elapsed:.0f} s; distortion found in {found}, PASS blocked in "
         f"{blocked}; median measured distortion {100 * fraction:.3f} % of the signal",

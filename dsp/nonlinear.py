@@ -25,11 +25,14 @@ lines with a model of the DUT's distortion:
   (3) At line k, X3(k) holds the Bussgang part U_k (0.75 |a_k|^2 + 1.5 sum_m!=k |a_m|^2)
       (a the normalised line amplitudes: the phase-independent part, which is the BLA's for
       a pure multisine of these amplitudes) and a rest X3s(k) (the stochastic part, and the
-      cross products with the exciter's distortion, which belong to the stand, not the DUT); X2 has no phase-independent part at a line. The relative
-      error of this record's H against the BLA is then
+      cross products with the exciter's distortion, which belong to the stand, not the DUT);
+      X2 has no phase-independent part at a line. The relative error of this record's H
+      against the BLA is then
       e_k = (theta_2 X2(k) + theta_3 X3s(k)) / (a_k (1 + theta_3 beta_k)),
       known from the record. It is removed (the stated H is the BLA estimate) and the
       uncertainty of theta carried to the line (real part: magnitude, imaginary: phase).
+      The free bins see the DUT's linear part H_lin = H / ((1 + theta_3 beta) (1 + e)), so
+      the fit is repeated with it (FIT_PASSES).
   (4) The model is tested by fitting orders 4 and 5 with it (a nested-model Wald test, HC0,
       at MODEL_FALSE_ALARM): products the model does not explain (a nonlinearity of higher
       order) make `adequate` False, and the caller then blocks PASS naming the lines the
@@ -41,7 +44,6 @@ windows hold noise only. Spectra are peak-scaled, (2/N) rfft, volts; ratios out.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable
 from dataclasses import dataclass
 
