@@ -62,11 +62,8 @@ def record_estimate(
             f"{ref.shape} and {dut.shape}"
         )
     periods = ref.shape[0]
-    record_bins = periods * n // 2 + 1
     lines = plan.bins * periods
-    excluded = lpm.mains_bins(
-        plan.resolution_hz / periods, record_bins, plan.mains_frequency_hz, plan.mains_harmonics
-    )
+    excluded = hum_bins(plan, periods)
     drive = None if drive_blocks is None else np.asarray(drive_blocks, float).reshape(1, -1)
     try:
         result = lpm.estimate(
@@ -94,7 +91,6 @@ def record_estimate(
     )
     response = result.response
     magnitude_u, phase_u, dof = result.relative_type_a, result.phase_type_a_rad, result.dof
-    warnings: list[str] = []
     if found.found:
         cleaned = nonlinear.cleaned(
             y_spec,
@@ -116,11 +112,11 @@ def record_estimate(
             )
         except lpm.LpmError as exc:
             raise AnalysisError(f"lpm: {exc}") from None
-        response = result.response / (1.0 + found.relative_error)
-        magnitude_u = np.hypot(result.relative_type_a, found.magnitude_u)
-        phase_u = np.hypot(result.phase_type_a_rad, found.phase_u_rad)
-        dof = _welch(result.relative_type_a, result.dof, magnitude_u)
-        warnings.extend(nonlinear_warnings(found, plan, magnitude_u))
+        carried = nonlinear.carry(
+            result.response, result.relative_type_a, result.phase_type_a_rad, result.dof, found
+        )
+        response, magnitude_u, phase_u = carried.response, carried.magnitude_u, carried.phase_u_rad
+        dof = carried.dof
     per_period = math.sqrt(periods)  # record noise -> one period's (white noise), for the SNR
     estimate = Estimate(
         estimator=ESTIMATOR,
@@ -136,44 +132,18 @@ def record_estimate(
         dut_noise_v=result.dut_noise_v * per_period,
         reference_distortion=harmonic_distortion(u_spec, lines),
         dut_distortion=harmonic_distortion(y_spec, lines),
-        warnings=tuple(warnings),
+        nonlinear=found,
     )
     return RecordEstimate(estimate, result, periods, found)
 
 
-def _welch(u_lpm: np.ndarray, dof_lpm: np.ndarray, u_total: np.ndarray) -> np.ndarray:
-    """Welch-Satterthwaite dof of the LPM's type A joined by the distortion model's (whose
-    coefficients come from thousands of bins: infinite dof)."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        out = u_total**4 / (u_lpm**4 / dof_lpm)
-    return np.where(np.isfinite(out), out, dof_lpm)
-
-
-def nonlinear_warnings(
-    found: nonlinear.NonlinearEstimate, plan: Plan, type_a: np.ndarray
-) -> list[str]:
-    """The warnings of a record whose DUT distortion was found: printed when the model carries
-    it (the largest line named), blocking naming the lines it reaches when it does not."""
-    labels = [line.label for line in plan.lines]
-    size = np.abs(found.relative_error)
-    worst = int(np.argmax(size))
-    out = [
-        f"nonlinear distortion of the DUT: {100 * found.fraction:.2g} % of the signal (orders "
-        f"{'-'.join(str(o) for o in nonlinear.ORDERS)}, measured at {found.tested_bins} "
-        "detection bins of this record); the best linear approximation at this excitation is "
-        f"stated, its stochastic part at the lines removed (largest {100 * size[worst]:.2g} % at "
-        f"{labels[worst]}) and its estimate's uncertainty carried in type A"
-    ]
-    if not found.adequate:
-        reached = [lab for lab, hit in zip(labels, found.reached_lines(type_a), strict=True) if hit]
-        out.append(
-            f"nonlinear distortion at lines {', '.join(reached or labels)}: the order "
-            f"{'-'.join(str(o) for o in nonlinear.ORDERS)} model does not explain the products at "
-            f"the detection bins (orders {'-'.join(str(o) for o in nonlinear.CHECK_ORDERS)} "
-            f"add to it, p = {found.model_p_value:.1g}); U does not cover the distortion it "
-            "leaves at these lines"
-        )
-    return out
+def hum_bins(plan: Plan, periods: int = 1) -> set[int]:
+    """The bins of a record of `periods` periods of `plan` that hold mains hum (left out of the
+    LPM's windows and of the detection bins of dsp.nonlinear)."""
+    record_bins = periods * plan.period_samples // 2 + 1
+    return lpm.mains_bins(
+        plan.resolution_hz / periods, record_bins, plan.mains_frequency_hz, plan.mains_harmonics
+    )
 
 
 def harmonic_distortion(spectrum: np.ndarray, line_bins: np.ndarray) -> np.ndarray:

@@ -225,3 +225,64 @@ def cleaned(
     for theta, order in zip(nonlinear.coefficients, ORDERS, strict=True):
         out[free] -= theta * scale * h_free * (np.fft.rfft(x**order) * (2.0 / n))[free]
     return out
+
+
+@dataclass(frozen=True)
+class Carried:
+    """An estimator's per-line result with the distortion carried: H the BLA estimate (V/V),
+    type A of magnitude (ratio) and phase (rad), and their Welch-Satterthwaite dof."""
+
+    response: np.ndarray
+    magnitude_u: np.ndarray
+    phase_u_rad: np.ndarray
+    dof: np.ndarray
+
+
+def carry(
+    response: np.ndarray,
+    magnitude_u: np.ndarray,
+    phase_u_rad: np.ndarray,
+    dof: float | np.ndarray,
+    found: NonlinearEstimate,
+) -> Carried:
+    """Relation (3) applied to an estimator's result: the record's stochastic part removed
+    from H, the model's uncertainty joined to the type A (the model's dof are infinite: its
+    coefficients come from thousands of bins)."""
+    magnitude = np.hypot(magnitude_u, found.magnitude_u)
+    phase = np.hypot(phase_u_rad, found.phase_u_rad)
+    dofs = np.broadcast_to(np.asarray(dof, dtype=float), magnitude.shape)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        welch = magnitude**4 / (np.asarray(magnitude_u, dtype=float) ** 4 / dofs)
+    return Carried(
+        response=np.asarray(response) / (1.0 + found.relative_error),
+        magnitude_u=magnitude,
+        phase_u_rad=phase,
+        dof=np.where(np.isfinite(welch), welch, dofs),
+    )
+
+
+def warnings(found: NonlinearEstimate, labels: list[str], type_a: np.ndarray) -> list[str]:
+    """The warnings of a result whose DUT distortion was found (none otherwise): printed when
+    the model carries it (the largest line named), blocking naming the lines it reaches when
+    the model does not explain the products."""
+    if not found.found:
+        return []
+    size = np.abs(found.relative_error)
+    worst = int(np.argmax(size))
+    orders = "-".join(str(o) for o in ORDERS)
+    out = [
+        f"nonlinear distortion of the DUT: {100 * found.fraction:.2g} % of the signal (orders "
+        f"{orders}, measured at {found.tested_bins} detection bins); the best linear "
+        "approximation at this excitation is stated, its stochastic part at the lines removed "
+        f"(largest {100 * size[worst]:.2g} % at {labels[worst]}) and its estimate's uncertainty "
+        "carried in type A"
+    ]
+    if not found.adequate:
+        reached = [lab for lab, hit in zip(labels, found.reached_lines(type_a), strict=True) if hit]
+        out.append(
+            f"nonlinear distortion at lines {', '.join(reached or labels)}: the order {orders} "
+            "model does not explain the products at the detection bins (orders "
+            f"{'-'.join(str(o) for o in CHECK_ORDERS)} add to it, p = "
+            f"{found.model_p_value:.1g}); U does not cover the distortion it leaves at these lines"
+        )
+    return out
