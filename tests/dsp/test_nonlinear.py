@@ -15,6 +15,7 @@ from dsp import iso266, lpm, nonlinear
 from dsp.crestfactor import synthesize
 from dsp.lpm_record import record_estimate
 from dsp.multisine import make_plan
+from dsp.spectral import SpectralAccumulator
 from sim.models import DUT_CATALOGUE, MEMS_CUBIC_FRACTION, MEMS_CUBIC_RMS_MS2
 
 FS, N = 2000.0, 4000  # 0.5 Hz bins, one 2 s period
@@ -101,6 +102,27 @@ def test_distortion_the_model_does_not_explain_blocks_pass_naming_the_lines():
     assert [w.kind for w in blocked] == [WarningKind.NONLINEAR_NOT_COVERED]
     assert blocked[0].text.startswith("nonlinear distortion at lines ")
     assert "Hz" in blocked[0].text
+
+
+def test_the_periodic_estimator_states_the_bla_where_it_was_blind():
+    """Every period repeats the same stochastic part: the between-period type A cannot see it;
+    measured at the detection bins of the mean period, it is removed."""
+    plan = _plan()
+    c = _cubic_for(0.006)
+    measured = SpectralAccumulator(N, plan.bins, nonlinear_excluded_bins=())
+    plain = SpectralAccumulator(N, plan.bins)
+    for seed in range(4):
+        ref, dut = _record(plan, lambda u: u + c * u**3, noise=1e-4, seed=seed)
+        measured.add_periods(ref, dut)
+        plain.add_periods(ref, dut)
+    e, p = measured.estimate("periodic"), plain.estimate("periodic")
+    assert e.nonlinear is not None and e.nonlinear.found and p.nonlinear is None
+    error = e.response / _bla(plan, c) - 1.0
+    assert np.all(np.abs(error.real) <= 4 * e.relative_type_a)
+    assert np.all(np.abs(error.imag) <= 4 * e.phase_type_a_rad)
+    blind = p.response / _bla(plan, c) - 1.0
+    assert np.max(np.abs(blind.real) / p.relative_type_a) > 10
+    assert np.all(np.asarray(e.dof) >= 6)  # 2 (L - 1), joined by the model's (infinite) dof
 
 
 def test_detection_bins_are_every_free_bin():
