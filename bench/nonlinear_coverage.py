@@ -44,7 +44,7 @@ from scipy import stats
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from app.records.warnings import blocking
-from dsp import lpm
+from dsp import lpm, nonlinear
 from dsp.crestfactor import synthesize
 from dsp.lpm_record import record_estimate
 from dsp.multisine import PRESETS, Line, Plan, fade_envelope
@@ -126,7 +126,9 @@ def run_once(args: tuple[str, int]) -> dict[str, np.ndarray | bool | float]:
     truth = linear / (chain.discrete_response("reference", f, fs) * model.reference_gain)
 
     e = record.estimate
-    blocked = bool(blocking(e.warnings))
+    assert e.nonlinear is not None
+    labels = [line.label for line in plan.lines]
+    blocked = bool(blocking(nonlinear.warnings(e.nonlinear, labels, e.relative_type_a)))
     mag, ph = _hits(e.response, e.relative_type_a, e.phase_type_a_rad, e.dof, truth)
     plain = lpm.estimate(data[0], data[1], bins, excluded_bins=_mains(plan))
     mag0, ph0 = _hits(

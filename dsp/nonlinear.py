@@ -53,6 +53,7 @@ from scipy import stats
 NONLINEAR_FALSE_ALARM = 0.01  # probability per record that noise alone is taken for distortion
 MODEL_FALSE_ALARM = 0.01  # probability per record that a right model is called inadequate
 ORDERS = (2, 3)  # the polynomial orders of the distortion model
+MIN_FRACTION = 1e-6  # below: rounding in a noise-free record, never reported as distortion
 FIT_PASSES = 3  # refits with H_lin (the lines' H holds the compression and e_k: 0.5 % in theta)
 CHECK_ORDERS = (4, 5)  # orders the model leaves out: the test of relation (4)
 ALL_ORDERS = (*ORDERS, *CHECK_ORDERS)
@@ -159,10 +160,9 @@ def estimate(
     covariance = gram_inv @ meat @ gram_inv
     wald = float(theta @ np.linalg.pinv(covariance) @ theta)
     p_value = float(stats.chi2.sf(wald, len(ORDERS)))
-    found = p_value < NONLINEAR_FALSE_ALARM
-
     distortion = sum(t * x**order for t, order in zip(theta, ORDERS, strict=True))
     fraction = float(np.sqrt(np.mean(np.asarray(distortion) ** 2)))
+    found = p_value < NONLINEAR_FALSE_ALARM and fraction > MIN_FRACTION
 
     magnitude_u = np.sqrt(np.einsum("li,ij,lj->l", sensitivity.real, covariance, sensitivity.real))
     phase_u = np.sqrt(np.einsum("li,ij,lj->l", sensitivity.imag, covariance, sensitivity.imag))

@@ -92,6 +92,15 @@ def test_a_linear_dut_is_left_as_the_plain_lpm_states_it():
     np.testing.assert_array_equal(record.estimate.relative_type_a, plain.relative_type_a)
 
 
+def test_rounding_in_a_noise_free_record_is_never_distortion():
+    plan = _plan()
+    for seed in range(3):
+        ref, dut = _record(_plan(seed), lambda u: u, noise=0.0)
+        record = record_estimate(ref, dut, _plan(seed))
+        assert record.nonlinear is not None and not record.nonlinear.found
+    assert plan.bins.size == len(FREQUENCIES)
+
+
 def test_distortion_the_model_does_not_explain_blocks_pass_naming_the_lines():
     plan = _plan()
     ref, dut = _record(plan, lambda u: u - 2e-5 * u**5)  # fifth order, 4 %: not in the model
