@@ -191,6 +191,9 @@ EXCITER_CATALOGUE: dict[str, ExciterModel] = {
 }
 
 
+CUBIC_RMS_FACTOR = math.sqrt(15.0)  # sqrt(E x^6)/sigma^3 of a Gaussian x
+
+
 @dataclass(frozen=True)
 class SensorModel:
     """An accelerometer with its conditioning, output in V per m/s^2 of table acceleration.
@@ -231,6 +234,20 @@ class SensorModel:
             stages.append(resonance(self.mount_resonance_hz, self.mount_q))
         gain = 0.0 if self.dead else self.sensitivity_mv_per_ms2 * 1e-3
         return Model(tuple(stages), gain)
+
+    def cubic_fraction(self, rms_ms2: float) -> float:
+        """The cubic term's rms over the linear term's rms (a ratio) for a Gaussian-like
+        excitation (a many-line random-phase multisine) of rms `rms_ms2` m/s^2:
+        |c3| sqrt(E a^6)/sqrt(E a^2) = sqrt(15) |c3| rms^2."""
+        return CUBIC_RMS_FACTOR * abs(self.cubic_per_ms2_sq) * rms_ms2**2
+
+    def with_cubic_fraction(self, fraction: float, rms_ms2: float) -> SensorModel:
+        """This sensor with a compressive cubic of `fraction` (ratio, e.g. 0.006 for 0.6 %) of
+        the signal at an excitation of rms `rms_ms2` m/s^2 (see `cubic_fraction`)."""
+        if not (math.isfinite(fraction) and fraction >= 0 and rms_ms2 > 0):
+            raise ValueError(f"cubic: fraction >= 0 and rms > 0 m/s^2, got {fraction}, {rms_ms2}")
+        cubic = -fraction / (CUBIC_RMS_FACTOR * rms_ms2**2)
+        return dataclasses.replace(self, cubic_per_ms2_sq=cubic)
 
     def sensitivity(self, frequency_hz: np.ndarray, rms_ms2: float = 0.0) -> np.ndarray:
         """True complex sensitivity in mV/(m/s^2) at frequencies, at an excitation with total
@@ -294,6 +311,9 @@ REFERENCE = SensorModel(
     noise_g_per_rthz=2e-7,
 )
 
+MEMS_CUBIC_FRACTION = 0.006  # the "mems-cubic" DUT's cubic: 0.6 % of the signal ...
+MEMS_CUBIC_RMS_MS2 = math.sqrt(27 * 5.0**2 / 2)  # ... at the capacitive plan's rms, m/s^2
+
 DUT_CATALOGUE: dict[str, SensorModel] = {
     "piezo": SensorModel(
         name="piezo",
@@ -319,6 +339,20 @@ DUT_CATALOGUE: dict[str, SensorModel] = {
         noise_g_per_rthz=200e-6,
         cubic_per_ms2_sq=-1e-6,
     ),
+    # issue 32 point 4: a DUT with a stated nonlinearity, for tests and bench/nonlinear_coverage
+    "mems-cubic": SensorModel(
+        name="mems-cubic",
+        description="capacitive MEMS accelerometer as 'capacitive' with a compressive cubic of "
+        f"{100 * MEMS_CUBIC_FRACTION:g} % of the signal at {MEMS_CUBIC_RMS_MS2:g} m/s^2 rms (the "
+        "capacitive plan's 27 lines at 5 m/s^2)",
+        kind="capacitive",
+        sensitivity_mv_per_ms2=35.0,
+        lowpass_hz=200.0,
+        lowpass_q=0.707,
+        transverse_sensitivity=0.01,
+        noise_g_per_rthz=200e-6,
+        cubic_per_ms2_sq=-MEMS_CUBIC_FRACTION / (CUBIC_RMS_FACTOR * MEMS_CUBIC_RMS_MS2**2),
+    ),
     "loose": SensorModel(
         name="loose",
         description="faulty: piezoelectric accelerometer on a loose mount (resonance 1.2 kHz)",
@@ -342,7 +376,7 @@ DUT_CATALOGUE: dict[str, SensorModel] = {
 
 #: The plan preset (dsp.multisine.PRESETS) a catalogue DUT is calibrated with by default:
 #: the one place CLI, GUI and `simulate` look it up.
-PLAN_PRESET_BY_DUT: dict[str, str] = {"capacitive": "capacitive"}
+PLAN_PRESET_BY_DUT: dict[str, str] = {"capacitive": "capacitive", "mems-cubic": "capacitive"}
 DEFAULT_PLAN_PRESET = "piezo"  # every other catalogue DUT
 
 

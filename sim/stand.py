@@ -275,16 +275,19 @@ class SimulatedStand:
             .add("dut", dut_model, "dut_input")
         )
         skew = m.skew_s
-        self._chain = MultiZoh(
-            network,
-            {
-                "acceleration": ("acceleration", 0.0),
-                "displacement": ("displacement", 0.0),
-                "reference": ("reference", 0.0),
-                "dut": ("dut", skew),
-            },
-            fs,
-        )
+        outputs = {
+            "acceleration": ("acceleration", 0.0),
+            "displacement": ("displacement", 0.0),
+            "reference": ("reference", 0.0),
+            "dut": ("dut", skew),
+        }
+        if self.dut.cubic_per_ms2_sq:
+            # the cubic of the table motion sampled mid-hold: held over the next sample
+            # interval, its ZOH is centred on the instant it was taken (no half-sample lag
+            # against the linear path, which is exact), so the DUT's distortion products reach
+            # the lines with the DUT's own phase (issue 32 point 4)
+            outputs["cubic_input"] = ("acceleration", 0.5 / fs)
+        self._chain = MultiZoh(network, outputs, fs)
         self._cubic = ZohFilter(dut_model, fs, skew) if self.dut.cubic_per_ms2_sq else None
         return DaqStatus(actual_sample_rate_hz=fs, skew_s=skew)
 
@@ -460,7 +463,7 @@ class SimulatedStand:
         reference += noise
         dut = chain["dut"]
         if self._cubic is not None:
-            dut += self._cubic.process(self.dut.cubic_per_ms2_sq * chain["acceleration"] ** 3)
+            dut += self._cubic.process(self.dut.cubic_per_ms2_sq * chain["cubic_input"] ** 3)
         noise = self._noise["dut_sensor"].standard_normal(n)
         noise *= self.dut.noise_g_per_rthz * sensor_noise * self.dut.sensitivity_mv_per_ms2 * 1e-3
         dut += noise

@@ -40,6 +40,8 @@ class WarningKind(StrEnum):
     LOW_COHERENCE = "low coherence"
     LOW_SNR = "low SNR"
     DUT_DISTORTION = "DUT distortion"
+    NONLINEAR_CARRIED = "nonlinear distortion carried"
+    NONLINEAR_NOT_COVERED = "nonlinear distortion not covered"
     HUM_NOT_SEPARABLE = "hum not separable"
     HUM_MEASURED = "hum measured"
     ISO_OVER = "ISO over"
@@ -95,6 +97,17 @@ POLICY: dict[WarningKind, Rule] = {
         Policy.BLOCKS,
         "over 1 % distortion the DUT is not calibrated at a sinusoidal level (ISO 16063-21)",
         r"the DUT adds [\d.]+ % harmonic distortion",
+    ),
+    WarningKind.NONLINEAR_CARRIED: Rule(
+        Policy.PRINTED,
+        "the DUT's distortion measured at the detection bins: the best linear approximation at "
+        "this excitation is stated, its stochastic part removed and its estimate in U",
+        r"^nonlinear distortion of the DUT: ",
+    ),
+    WarningKind.NONLINEAR_NOT_COVERED: Rule(
+        Policy.BLOCKS,
+        "distortion the order 2-3 model does not explain: U does not cover it at the named lines",
+        r"^nonlinear distortion at lines ",
     ),
     WarningKind.HUM_NOT_SEPARABLE: Rule(
         Policy.BLOCKS,
