@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from dsp import conformity
+from dsp import conformity, nonlinear
 from dsp import uncertainty as unc
 from dsp.annex_a import incomplete_budget_text, missing_components
 from dsp.budget_terms import reference_range
@@ -330,6 +330,8 @@ def compute_results(
     """
     warnings = list(extra_warnings)
     labels = [f"{f:g} Hz" for f in plan.nominal_frequencies_hz]
+    if estimate.nonlinear is not None:  # issue 32 point 4
+        warnings.extend(nonlinear.warnings(estimate.nonlinear, labels, estimate.relative_type_a))
     for channel, snr in (("reference", estimate.reference_snr_db), ("DUT", estimate.dut_snr_db)):
         alive = snr > DEAD_SNR_DB
         if not np.median(snr) > DEAD_SNR_DB:  # hum alone can light up a few lines

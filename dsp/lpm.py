@@ -237,6 +237,7 @@ class LpmEstimate:
     dut_noise_v: np.ndarray
     reference_transient_v: np.ndarray
     dut_transient_v: np.ndarray
+    reference_lines_v: np.ndarray | None = None  # U_hat, complex (mean over realisations)
     dut_per_drive: np.ndarray | None = None  # G_yr, V per drive V (mean over realisations)
     reference_per_drive: np.ndarray | None = None  # G_ur
 
@@ -384,6 +385,7 @@ def _combine(
         dut_noise_v=np.sqrt(np.mean([np.real(p.cov[:, 0, 0]) for p in parts], axis=0)),
         reference_transient_v=mean_abs(p.transient_u for p in parts),
         dut_transient_v=mean_abs(p.transient_y for p in parts),
+        reference_lines_v=np.mean([p.u_hat for p in parts], axis=0),
         dut_per_drive=None if per_drive is None else per_drive[0],
         reference_per_drive=None if per_drive is None else per_drive[1],
     )

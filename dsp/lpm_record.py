@@ -3,7 +3,13 @@ fade-in, as one record -> a dsp.spectral.Estimate for dsp.calibration (issue 26 
 
 The record's DFT has M bins per period bin, so the lines sit at bins plan.bins * M and the
 windows of non-excited bins lie between them; type A is the LPM's, with Student t at its
-degrees of freedom per line (2 q real). Coherence is not defined for one record (NaN);
+degrees of freedom per line (2 q real). The DUT's nonlinear distortion is measured at the
+free (detection) bins of the record and carried to every line (dsp.nonlinear, issue 32 point
+4): when found, the stated H is the best linear approximation at this excitation (the record's
+stochastic nonlinear part removed, its estimate's uncertainty in type A, the LPM run on the
+record with the fitted products taken out of its windows) and a printed warning says so; when
+the model does not explain the products, a blocking warning names the lines they reach.
+Coherence is not defined for one record (NaN);
 distortion is the periodic content at the free 2nd..5th harmonic bins of each line, counted
 where it stands clear of the local noise (exponential law of |X|^2 for noise alone, Sidak
 over the bins tested, 1 % false alarm per run) and bias-corrected for it. Volts in, V/V out.
@@ -16,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dsp import lpm
+from dsp import lpm, nonlinear
 from dsp.calibration import AnalysisError
 from dsp.multisine import Plan
 from dsp.spectral import DISTORTION_FALSE_ALARM, HARMONICS, Estimate
@@ -33,6 +39,7 @@ class RecordEstimate:
     estimate: Estimate
     lpm: lpm.LpmEstimate
     periods: int
+    nonlinear: nonlinear.NonlinearEstimate | None = None
 
 
 def record_estimate(
@@ -55,11 +62,8 @@ def record_estimate(
             f"{ref.shape} and {dut.shape}"
         )
     periods = ref.shape[0]
-    record_bins = periods * n // 2 + 1
     lines = plan.bins * periods
-    excluded = lpm.mains_bins(
-        plan.resolution_hz / periods, record_bins, plan.mains_frequency_hz, plan.mains_harmonics
-    )
+    excluded = hum_bins(plan, periods)
     drive = None if drive_blocks is None else np.asarray(drive_blocks, float).reshape(1, -1)
     try:
         result = lpm.estimate(
@@ -74,14 +78,53 @@ def record_estimate(
         raise AnalysisError(f"lpm: {exc}") from None
     y_spec = np.fft.rfft(dut.reshape(-1)) * (2.0 / (periods * n))
     u_spec = np.fft.rfft(ref.reshape(-1)) * (2.0 / (periods * n))
+    assert result.reference_lines_v is not None
+    reference_record = ref.reshape(-1)
+    found = nonlinear.estimate(
+        y_spec,
+        u_spec,
+        lines,
+        result.reference_lines_v,
+        result.response,
+        reference_record,
+        excluded_bins=excluded,
+    )
+    response = result.response
+    magnitude_u, phase_u, dof = result.relative_type_a, result.phase_type_a_rad, result.dof
+    if found.found:
+        cleaned = nonlinear.cleaned(
+            y_spec,
+            found,
+            result.reference_lines_v,
+            lines,
+            reference_record,
+            excluded,
+        )
+        record = np.fft.irfft(cleaned, periods * n) * (periods * n / 2.0)
+        try:
+            result = lpm.estimate(
+                ref.reshape(1, -1),
+                record.reshape(1, -1),
+                lines,
+                settings=settings,
+                excluded_bins=excluded,
+                drive_v=drive,
+            )
+        except lpm.LpmError as exc:
+            raise AnalysisError(f"lpm: {exc}") from None
+        carried = nonlinear.carry(
+            result.response, result.relative_type_a, result.phase_type_a_rad, result.dof, found
+        )
+        response, magnitude_u, phase_u = carried.response, carried.magnitude_u, carried.phase_u_rad
+        dof = carried.dof
     per_period = math.sqrt(periods)  # record noise -> one period's (white noise), for the SNR
     estimate = Estimate(
         estimator=ESTIMATOR,
         periods=periods,
-        response=result.response,
-        relative_type_a=result.relative_type_a,
-        phase_type_a_rad=result.phase_type_a_rad,
-        dof=result.dof.astype(float),
+        response=response,
+        relative_type_a=magnitude_u,
+        phase_type_a_rad=phase_u,
+        dof=np.asarray(dof, dtype=float),
         coherence=np.full(lines.size, np.nan),
         reference_amplitude_v=result.reference_amplitude_v,
         dut_amplitude_v=result.dut_amplitude_v,
@@ -89,8 +132,18 @@ def record_estimate(
         dut_noise_v=result.dut_noise_v * per_period,
         reference_distortion=harmonic_distortion(u_spec, lines),
         dut_distortion=harmonic_distortion(y_spec, lines),
+        nonlinear=found,
     )
-    return RecordEstimate(estimate, result, periods)
+    return RecordEstimate(estimate, result, periods, found)
+
+
+def hum_bins(plan: Plan, periods: int = 1) -> set[int]:
+    """The bins of a record of `periods` periods of `plan` that hold mains hum (left out of the
+    LPM's windows and of the detection bins of dsp.nonlinear)."""
+    record_bins = periods * plan.period_samples // 2 + 1
+    return lpm.mains_bins(
+        plan.resolution_hz / periods, record_bins, plan.mains_frequency_hz, plan.mains_harmonics
+    )
 
 
 def harmonic_distortion(spectrum: np.ndarray, line_bins: np.ndarray) -> np.ndarray:

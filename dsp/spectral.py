@@ -44,14 +44,16 @@ and bias-corrected for it, relative to the line.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from scipy import special  # the quantile functions themselves: scipy.stats costs ~1 s to import
 
+from dsp import nonlinear
 from dsp.estimators import DEFAULT_ESTIMATOR as DEFAULT_ESTIMATOR
 from dsp.estimators import ESTIMATORS as ESTIMATORS
+from dsp.nonlinear import NonlinearEstimate
 
 HARMONICS = (2, 3, 4, 5)
 FLOOR_HALF_WIDTH_BINS = 12
@@ -125,7 +127,9 @@ class Estimate:
     magnitude, radians for the phase, with `dof` degrees of freedom: 2 (L - 1) for the complex
     estimators, L - 1 for `seed` (NaN before L = 2).
     Amplitudes and noise are peak-scaled DFT magnitudes in volts; SNR is per period, in dB;
-    distortion is the rss of harmonics 2..5 relative to the line (a ratio).
+    distortion is the rss of harmonics 2..5 relative to the line (a ratio); `nonlinear` the
+    DUT's distortion measured at the detection bins (dsp.nonlinear; when found, `response`
+    is the best linear approximation and the type A carries the model's uncertainty).
     """
 
     estimator: str
@@ -141,6 +145,7 @@ class Estimate:
     dut_noise_v: np.ndarray
     reference_distortion: np.ndarray
     dut_distortion: np.ndarray
+    nonlinear: NonlinearEstimate | None = None  # the DUT's distortion, when it was measured
 
     @property
     def reference_snr_db(self) -> np.ndarray:
@@ -236,9 +241,20 @@ class SpectralAccumulator:
     """
 
     def __init__(
-        self, period_samples: int, bins: Sequence[int] | np.ndarray, *, track_floor: bool = True
+        self,
+        period_samples: int,
+        bins: Sequence[int] | np.ndarray,
+        *,
+        track_floor: bool = True,
+        nonlinear_excluded_bins: Iterable[int] | None = None,
     ):
         self.period_samples = int(period_samples)
+        # issue 32 point 4: with the bins to leave out (mains harmonics), the periodic and h1
+        # estimates measure the DUT's distortion at the detection bins of the mean period and
+        # state the best linear approximation (dsp.nonlinear); None: not measured
+        self.nonlinear_excluded = (
+            None if nonlinear_excluded_bins is None else tuple(nonlinear_excluded_bins)
+        )
         self.bins = np.asarray(bins, dtype=np.int64)
         if self.bins.ndim != 1 or self.bins.size == 0:
             raise ValueError("accumulator: needs at least one line bin")
@@ -347,6 +363,18 @@ class SpectralAccumulator:
                     u_phase = circular_sd / np.sqrt(count)
                 else:
                     u_mag = u_phase = np.full(self.bins.size, np.nan)
+        found = None
+        dof: float | np.ndarray = _type_a_dof(estimator, count)
+        if stated and estimator in ("periodic", "h1"):
+            found = self._nonlinear(response)
+            if found is not None and found.found:
+                carried = nonlinear.carry(response, u_mag, u_phase, dof, found)
+                response, u_mag, u_phase = (
+                    carried.response,
+                    carried.magnitude_u,
+                    carried.phase_u_rad,
+                )
+                dof = carried.dof
         noise_u, noise_y, dist_u, dist_y = self._floor()
         return Estimate(
             estimator=estimator,
@@ -354,7 +382,7 @@ class SpectralAccumulator:
             response=response,
             relative_type_a=np.asarray(u_mag, dtype=float),
             phase_type_a_rad=np.asarray(u_phase, dtype=float),
-            dof=_type_a_dof(estimator, count),
+            dof=dof,
             coherence=coherence,
             reference_amplitude_v=np.abs(m.mean_u),
             dut_amplitude_v=np.abs(m.mean_y),
@@ -362,7 +390,27 @@ class SpectralAccumulator:
             dut_noise_v=noise_y,
             reference_distortion=dist_u,
             dut_distortion=dist_y,
+            nonlinear=found,
         )
+
+    def _nonlinear(self, response: np.ndarray) -> NonlinearEstimate | None:
+        """The DUT's distortion at the detection bins of the mean period (when asked for)."""
+        if self.nonlinear_excluded is None or self._bins is None:
+            return None
+        b, n = self._bins, self.period_samples
+        reference = np.fft.irfft(b.mean_u, n) * (n / 2.0)
+        try:
+            return nonlinear.estimate(
+                b.mean_y,
+                b.mean_u,
+                self.bins,
+                b.mean_u[self.bins],
+                response,
+                reference,
+                excluded_bins=self.nonlinear_excluded,
+            )
+        except ValueError:  # no signal at the lines: dsp.calibration names the dead channel
+            return None
 
     def _floor(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Per-line noise (V, peak-scaled, per period) and harmonic distortion (ratio)."""

@@ -8,6 +8,7 @@ Units: volts, hertz, seconds, mV/(m/s^2) for transducer sensitivities.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Literal, Protocol, runtime_checkable
 
@@ -92,6 +93,38 @@ def checked_output_period(period_v: np.ndarray, config: DaqConfig, device: str) 
             f"{device}: output peak {peak:.3g} V exceeds the AO range +-{config.output.range_v:g} V"
         )
     return np.array(x, dtype=float, order="C")  # a copy: the caller's array may change
+
+
+def input_ranges(values: object, where: str) -> tuple[float, ...]:
+    """+-ranges (V) as a sorted tuple of distinct positive numbers; InputRefused naming `where`
+    otherwise."""
+    if not isinstance(values, list | tuple) or not values:
+        raise InputRefused(f"{where}: must be a non-empty list of +-ranges in V")
+    out = set()
+    for v in values:
+        if isinstance(v, bool) or not isinstance(v, int | float) or not 0 < v < 1e4:
+            raise InputRefused(f"{where}: every range must be a number of volts > 0, got {v!r}")
+        out.add(float(v))
+    return tuple(sorted(out))
+
+
+def choose_range(peak_v: float, offered_v: tuple[float, ...], headroom: float) -> float | None:
+    """The smallest offered +-range (V) that holds `peak_v` (V) times `headroom` (>= 1); None
+    when even the largest does not."""
+    if not (math.isfinite(peak_v) and peak_v >= 0) or not headroom >= 1:
+        raise InputRefused(f"input range: peak {peak_v!r} V or headroom {headroom!r} not usable")
+    for range_v in sorted(offered_v):
+        if peak_v * headroom <= range_v:
+            return range_v
+    return None
+
+
+@runtime_checkable
+class OffersInputRanges(Protocol):
+    """A DAQ that says which +-input ranges (V) its analog inputs offer (every range is
+    offered on every input channel; DAQmx lists them per device)."""
+
+    def input_ranges_v(self) -> tuple[float, ...]: ...
 
 
 @runtime_checkable

@@ -286,6 +286,25 @@ class NiDaq:
         """The last value written to the output (0.0 when stopped; None if unknown)."""
         return self._output_v
 
+    def input_ranges_v(self) -> tuple[float, ...]:
+        """The device's bipolar analog input ranges, +-V (DAQmx `ai_voltage_rngs`: pairs of
+        low, high; a range is kept when it is symmetric about 0 V)."""
+        try:
+            system = self._system
+            if system is None:
+                system = import_nidaqmx().system.System.local()
+            pairs = list(system.devices[self.device].ai_voltage_rngs)
+        except Exception as exc:
+            raise translate_error(exc, self._context) from None
+        ranges = {
+            float(high)
+            for low, high in zip(pairs[0::2], pairs[1::2], strict=False)
+            if high > 0 and math.isclose(-low, high, rel_tol=1e-6)
+        }
+        if not ranges:
+            raise DaqNotSupportedError(f"{self._context}: the device lists no bipolar AI range")
+        return tuple(sorted(ranges))
+
     # --- internals --------------------------------------------------------------------------
 
     def _new_task(self) -> Any:

@@ -17,6 +17,7 @@ Signal chain, all at the DAQ sample rate and exact at the sample instants (sim.l
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from dataclasses import dataclass, field
 
@@ -190,6 +191,9 @@ EXCITER_CATALOGUE: dict[str, ExciterModel] = {
 }
 
 
+CUBIC_RMS_FACTOR = math.sqrt(15.0)  # sqrt(E x^6)/sigma^3 of a Gaussian x
+
+
 @dataclass(frozen=True)
 class SensorModel:
     """An accelerometer with its conditioning, output in V per m/s^2 of table acceleration.
@@ -231,6 +235,20 @@ class SensorModel:
         gain = 0.0 if self.dead else self.sensitivity_mv_per_ms2 * 1e-3
         return Model(tuple(stages), gain)
 
+    def cubic_fraction(self, rms_ms2: float) -> float:
+        """The cubic term's rms over the linear term's rms (a ratio) for a Gaussian-like
+        excitation (a many-line random-phase multisine) of rms `rms_ms2` m/s^2:
+        |c3| sqrt(E a^6)/sqrt(E a^2) = sqrt(15) |c3| rms^2."""
+        return CUBIC_RMS_FACTOR * abs(self.cubic_per_ms2_sq) * rms_ms2**2
+
+    def with_cubic_fraction(self, fraction: float, rms_ms2: float) -> SensorModel:
+        """This sensor with a compressive cubic of `fraction` (ratio, e.g. 0.006 for 0.6 %) of
+        the signal at an excitation of rms `rms_ms2` m/s^2 (see `cubic_fraction`)."""
+        if not (math.isfinite(fraction) and fraction >= 0 and rms_ms2 > 0):
+            raise ValueError(f"cubic: fraction >= 0 and rms > 0 m/s^2, got {fraction}, {rms_ms2}")
+        cubic = -fraction / (CUBIC_RMS_FACTOR * rms_ms2**2)
+        return dataclasses.replace(self, cubic_per_ms2_sq=cubic)
+
     def sensitivity(self, frequency_hz: np.ndarray, rms_ms2: float = 0.0) -> np.ndarray:
         """True complex sensitivity in mV/(m/s^2) at frequencies, at an excitation with total
         rms acceleration `rms_ms2`: the cubic term's Bussgang gain 1 + 3 c3 rms^2."""
@@ -241,20 +259,44 @@ class SensorModel:
 @dataclass(frozen=True)
 class AdcModel:
     """One analog input: white noise (V rms), hum at the mains frequency and harmonics
-    (V peak each), 16-bit quantisation of its +-range, clipping at the range."""
+    (V peak each), 16-bit quantisation of its +-range, clipping at the range; the +-ranges it
+    offers (a requested range is coerced up to one of them)."""
 
     noise_v: float = 20e-6
     hum_v: tuple[float, ...] = (40e-6, 12e-6, 8e-6, 5e-6, 3e-6)
     bits: int = 16
+    ranges_v: tuple[float, ...] = (0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0)  # M-series-like, +-V
+    # differential nonlinearity: each code transition moved by a fixed amount, uniform within
+    # +-dnl_lsb (drawn once, the same converter for every seed: a property of the board)
+    dnl_lsb: float = 0.25
+
+    def coerced_range(self, range_v: float) -> float | None:
+        """The range the converter uses for a requested +-`range_v` (V): the smallest offered
+        one that holds it, as DAQmx coerces; None above the largest."""
+        return next((r for r in sorted(self.ranges_v) if range_v <= r * (1 + 1e-9)), None)
 
     def quantise(self, x: np.ndarray, range_v: float) -> np.ndarray:
-        """Round to the ADC step (2 range / 2^bits) and clip to the code range."""
+        """Round to the ADC step (2 range / 2^bits), the transition between codes c and c + 1
+        at c + 1/2 - d[c] (the converter's DNL pattern), and clip to the code range."""
         step = 2.0 * range_v / 2**self.bits
         codes = x / step
-        np.rint(codes, out=codes)
+        floor = np.floor(codes)
+        codes -= floor
+        if self.dnl_lsb:
+            codes += _transition_offsets(self.bits, self.dnl_lsb)[
+                floor.astype(np.int64) & (2**self.bits - 1)
+            ]
+        codes = floor + (codes >= 0.5)
         np.clip(codes, -(2 ** (self.bits - 1)), 2 ** (self.bits - 1) - 1, out=codes)
         codes *= step
         return codes
+
+
+@functools.lru_cache(maxsize=4)
+def _transition_offsets(bits: int, dnl_lsb: float) -> np.ndarray:
+    """The fixed DNL pattern of a simulated converter: per code (mod 2^bits), how far (LSB) its
+    upper transition moves down, uniform within +-dnl_lsb."""
+    return np.random.default_rng(1451).uniform(-dnl_lsb, dnl_lsb, 2**bits)
 
 
 REFERENCE = SensorModel(
@@ -268,6 +310,9 @@ REFERENCE = SensorModel(
     transverse_sensitivity=0.0,
     noise_g_per_rthz=2e-7,
 )
+
+MEMS_CUBIC_FRACTION = 0.006  # the "mems-cubic" DUT's cubic: 0.6 % of the signal ...
+MEMS_CUBIC_RMS_MS2 = math.sqrt(27 * 5.0**2 / 2)  # ... at the capacitive plan's rms, m/s^2
 
 DUT_CATALOGUE: dict[str, SensorModel] = {
     "piezo": SensorModel(
@@ -294,6 +339,20 @@ DUT_CATALOGUE: dict[str, SensorModel] = {
         noise_g_per_rthz=200e-6,
         cubic_per_ms2_sq=-1e-6,
     ),
+    # issue 32 point 4: a DUT with a stated nonlinearity, for tests and bench/nonlinear_coverage
+    "mems-cubic": SensorModel(
+        name="mems-cubic",
+        description="capacitive MEMS accelerometer as 'capacitive' with a compressive cubic of "
+        f"{100 * MEMS_CUBIC_FRACTION:g} % of the signal at {MEMS_CUBIC_RMS_MS2:g} m/s^2 rms (the "
+        "capacitive plan's 27 lines at 5 m/s^2)",
+        kind="capacitive",
+        sensitivity_mv_per_ms2=35.0,
+        lowpass_hz=200.0,
+        lowpass_q=0.707,
+        transverse_sensitivity=0.01,
+        noise_g_per_rthz=200e-6,
+        cubic_per_ms2_sq=-MEMS_CUBIC_FRACTION / (CUBIC_RMS_FACTOR * MEMS_CUBIC_RMS_MS2**2),
+    ),
     "loose": SensorModel(
         name="loose",
         description="faulty: piezoelectric accelerometer on a loose mount (resonance 1.2 kHz)",
@@ -317,7 +376,7 @@ DUT_CATALOGUE: dict[str, SensorModel] = {
 
 #: The plan preset (dsp.multisine.PRESETS) a catalogue DUT is calibrated with by default:
 #: the one place CLI, GUI and `simulate` look it up.
-PLAN_PRESET_BY_DUT: dict[str, str] = {"capacitive": "capacitive"}
+PLAN_PRESET_BY_DUT: dict[str, str] = {"capacitive": "capacitive", "mems-cubic": "capacitive"}
 DEFAULT_PLAN_PRESET = "piezo"  # every other catalogue DUT
 
 

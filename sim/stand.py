@@ -130,6 +130,7 @@ class SimulatedStand:
         self._hum_table: tuple[np.ndarray, float] | None = None  # (2, k spans + n), fs
         self.output = OutputRecord()
         self._config: DaqConfig | None = None
+        self._ranges: dict[str, float] = {}  # per input channel, the range quantised at
         self._buffer: np.ndarray | None = None  # the period playing (regenerated)
         # written, not yet played, in order: (the read from which it may play, period)
         self._pending: deque[tuple[int, np.ndarray]] = deque()
@@ -226,8 +227,28 @@ class SimulatedStand:
 
     # --- the Daq protocol -------------------------------------------------------------------
 
+    def input_ranges_v(self) -> tuple[float, ...]:
+        """The +-ranges (V) the simulated converter offers on every input."""
+        return tuple(sorted(self.model.adc.ranges_v))
+
+    @property
+    def input_ranges_used_v(self) -> dict[str, float]:
+        """Per configured input channel, the +-range (V) the converter quantises at."""
+        return dict(self._ranges)
+
     def configure(self, config: DaqConfig) -> DaqStatus:
-        """Build the exact sampled models for this sample rate and channel set."""
+        """Build the exact sampled models for this sample rate and channel set; each input's
+        range coerced up to an offered one (HardwareError above the largest)."""
+        ranges: dict[str, float] = {}
+        for channel in config.inputs:
+            used = self.model.adc.coerced_range(channel.range_v)
+            if used is None:
+                raise HardwareError(
+                    f"simulated DAQ: {channel.name} channel range +-{channel.range_v:g} V is "
+                    f"above the largest it offers (+-{max(self.model.adc.ranges_v):g} V)"
+                )
+            ranges[channel.name] = used
+        self._ranges = ranges
         self._config = config
         fs = config.sample_rate_hz
         m, d = self.model, self.deviations
@@ -254,16 +275,19 @@ class SimulatedStand:
             .add("dut", dut_model, "dut_input")
         )
         skew = m.skew_s
-        self._chain = MultiZoh(
-            network,
-            {
-                "acceleration": ("acceleration", 0.0),
-                "displacement": ("displacement", 0.0),
-                "reference": ("reference", 0.0),
-                "dut": ("dut", skew),
-            },
-            fs,
-        )
+        outputs = {
+            "acceleration": ("acceleration", 0.0),
+            "displacement": ("displacement", 0.0),
+            "reference": ("reference", 0.0),
+            "dut": ("dut", skew),
+        }
+        if self.dut.cubic_per_ms2_sq:
+            # the cubic of the table motion sampled mid-hold: held over the next sample
+            # interval, its ZOH is centred on the instant it was taken (no half-sample lag
+            # against the linear path, which is exact), so the DUT's distortion products reach
+            # the lines with the DUT's own phase (issue 32 point 4)
+            outputs["cubic_input"] = ("acceleration", 0.5 / fs)
+        self._chain = MultiZoh(network, outputs, fs)
         self._cubic = ZohFilter(dut_model, fs, skew) if self.dut.cubic_per_ms2_sq else None
         return DaqStatus(actual_sample_rate_hz=fs, skew_s=skew)
 
@@ -276,7 +300,8 @@ class SimulatedStand:
         self._pending.clear()
         self._running = True
         self.output.stopped = False
-        self._wall_start = time.monotonic()
+        # paced: simulated time goes on from where it was (a restart between segments)
+        self._wall_start = time.monotonic() - self.sim_time_s
 
     def write_period(self, period_v: np.ndarray) -> None:
         """Queue one period: it plays after the periods written before it, from a period
@@ -438,7 +463,7 @@ class SimulatedStand:
         reference += noise
         dut = chain["dut"]
         if self._cubic is not None:
-            dut += self._cubic.process(self.dut.cubic_per_ms2_sq * chain["acceleration"] ** 3)
+            dut += self._cubic.process(self.dut.cubic_per_ms2_sq * chain["cubic_input"] ** 3)
         noise = self._noise["dut_sensor"].standard_normal(n)
         noise *= self.dut.noise_g_per_rthz * sensor_noise * self.dut.sensitivity_mv_per_ms2 * 1e-3
         dut += noise
@@ -455,10 +480,9 @@ class SimulatedStand:
         noise *= adc.noise_v
         dut += noise
         out = {"reference": reference, "dut": dut, "drive": drive.copy()}
-        ranges = {c.name: c.range_v for c in config.inputs}
         for name in ("reference", "dut", "drive"):
-            if name in ranges:
-                out[name] = m.adc.quantise(out[name], ranges[name])
+            if name in self._ranges:
+                out[name] = m.adc.quantise(out[name], self._ranges[name])
         return out
 
     def _hum(self, n: int, fs: float) -> tuple[np.ndarray, np.ndarray]:

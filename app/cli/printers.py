@@ -128,6 +128,7 @@ class TerminalProgress:
     def __call__(self, event) -> None:
         from app.procedure import (
             EqualisationStep,
+            InputRanges,
             PeriodEstimate,
             Progress,
             State,
@@ -160,6 +161,8 @@ class TerminalProgress:
             self._line(self._progress_text(event), final=not self._tty)
         elif isinstance(event, WarningRaised):
             self._line(f"  warning: {event.text}", final=True)
+        elif isinstance(event, InputRanges):
+            self._line(f"  {event.text}", final=True)
 
     def _progress_text(self, event) -> str:
         """A progress event as one line: what is done of what, the share, the time left."""

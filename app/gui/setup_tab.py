@@ -445,7 +445,8 @@ class SetupTab(QWidget):
 
 def describe_preview(preview: PlanPreview, limits: Any) -> str:
     """The previewed plan in one paragraph: its lines (Hz) and its predicted peaks against the
-    stand's limits (m/s^2, mm/s, mm peak-to-peak) and its crest factor."""
+    stand's limits (m/s^2, mm/s, mm peak-to-peak), its crest factor, and the input ranges with
+    each channel's fewest LSB per line (app.procedure.ranging)."""
     report, lines = preview.report, preview.lines_hz
     if report is None or not lines:
         return ""
@@ -458,4 +459,6 @@ def describe_preview(preview: PlanPreview, limits: Any) -> str:
         f"{1e3 * peaks.displacement_peak_to_peak_m:.2f} mm p-p (limit "
         f"{1e3 * limits.displacement_peak_to_peak_m:g}); crest factor "
         f"{report.crest_factor:.2f}"
+        + (f"; {report.ranges_text()}" if report.ranges is not None else "")
+        + "".join(f"; {w}" for w in report.resolution_warnings)
     )

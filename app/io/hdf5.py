@@ -258,6 +258,15 @@ class RecordingWriter:
         self._file.attrs["acquired_periods"] = int(periods)
         self._file.flush()
 
+    def widen_ranges(self, ranges_v: dict[str, float]) -> None:
+        """A run re-ranged (issue 32): each channel's stored range (V) becomes the larger of the
+        two, so a re-read's overload check never flags what the wider range held."""
+        for name, value in ranges_v.items():
+            ds = self._datasets.get(name)
+            if ds is not None:
+                ds.attrs["range_v"] = max(float(ds.attrs["range_v"]), float(value))
+        self._file.flush()
+
     def set_budget(self, budget: Budget) -> None:
         """Store the budget as used (e.g. with the background measured at the start)."""
         self._file["config"].attrs["budget"] = json.dumps(budget.to_list())

@@ -10,6 +10,7 @@ import numpy as np
 from app.procedure.context import RunContext
 from app.procedure.events import Progress, State
 from app.procedure.stopping import Stop, StoppingRule
+from dsp.lpm_record import hum_bins
 from dsp.spectral import MIN_PERIODS, SpectralAccumulator
 from dsp.uncertainty import Budget
 
@@ -26,7 +27,9 @@ class Acquisition:
     def run(self) -> None:
         ctx, s, plan = self.ctx, self.ctx.settings, self.ctx.plan
         io = ctx.io
-        accumulator = SpectralAccumulator(plan.period_samples, plan.bins)
+        accumulator = SpectralAccumulator(
+            plan.period_samples, plan.bins, nonlinear_excluded_bins=hum_bins(plan)
+        )
         if io.writer is not None:
             io.writer.set_settle_periods(io.periods_read - len(self.pending))
             io.writer.set_budget(self.budget)

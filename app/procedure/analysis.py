@@ -21,7 +21,7 @@ from app.records.run_folder import FolderState, inspect_run, is_run_folder
 from app.records.warnings import SEED_RULE_WARNING
 from dsp.calibration import Results, compute_results
 from dsp.hum import mains_hum
-from dsp.lpm_record import record_estimate
+from dsp.lpm_record import hum_bins, record_estimate
 from dsp.mcm import validate_lines
 from dsp.multisine import Plan, PlanError
 from dsp.segments import segment_line_spectra, segment_plan
@@ -68,7 +68,9 @@ def analyze(
             raise RecordingError("--segments: the lpm estimator analyses whole periods")
         estimate = _record_estimate(recording)
     elif segments is None:
-        accumulator = SpectralAccumulator(plan.period_samples, plan.bins)
+        accumulator = SpectralAccumulator(
+            plan.period_samples, plan.bins, nonlinear_excluded_bins=hum_bins(plan)
+        )
         for reference, dut in iter_batches(recording):
             accumulator.add_periods(reference, dut)
     else:

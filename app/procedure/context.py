@@ -12,6 +12,7 @@ import numpy as np
 
 from app.procedure.errors import ProcedureError
 from app.procedure.events import Event, PeriodEstimate, State, StateChanged, WarningRaised
+from app.procedure.ranging import RangePlan
 from app.procedure.settings import RunSettings
 from app.procedure.stand_io import StandIO
 from app.stand.open import Stand
@@ -36,6 +37,7 @@ class RunNotes:
     stand_response: dict[str, Any] | None = None  # where equalisation started (run record)
     measured_response: np.ndarray | None = None  # converged response, (m/s^2)/V per line
     measured_response_error: float | None = None  # its equalisation error (fraction)
+    ranges: RangePlan | None = None  # the input ranges per line, from the preflight
 
 
 @dataclass

@@ -79,6 +79,14 @@ class WarningRaised:
 
 
 @dataclass(frozen=True)
+class InputRanges:
+    """The input ranges the run uses and each channel's fewest LSB per line (after the
+    preflight), or a stepped-sine line re-ranged from its measured amplitude."""
+
+    text: str
+
+
+@dataclass(frozen=True)
 class Finished:
     """How the run ended; `record` is what results.json holds (app.records.run_record.RunRecord)."""
 
@@ -95,6 +103,7 @@ Event = (
     | EqualisationStep
     | PeriodEstimate
     | WarningRaised
+    | InputRanges
     | Finished
 )
 Listener = Callable[[Event], None]

@@ -7,6 +7,7 @@ import numpy as np
 from app.procedure.context import RunContext
 from app.procedure.errors import ProcedureError
 from app.procedure.events import State
+from app.procedure.stand_io import Settled
 from dsp.crestfactor import synthesize
 
 
@@ -18,6 +19,7 @@ class Identification:
     def __init__(self, ctx: RunContext, noise: np.ndarray):
         self.ctx = ctx
         self.noise = noise  # per-period noise (V), rows (reference, DUT), the segment's lines
+        self.settled: Settled | None = None  # what identification settled at (after run())
 
     def run(self) -> np.ndarray:
         ctx = self.ctx
@@ -26,7 +28,8 @@ class Identification:
         amplitude = np.full(len(plan.lines), ctx.settings.identification_drive_v)
         drive = synthesize(plan.bins, amplitude, plan.phases_rad, plan.period_samples)
         ctx.io.crossfade(drive, State.IDENTIFYING)
-        measured = ctx.io.settle(self.noise, State.IDENTIFYING).acceleration
+        self.settled = ctx.io.settle(self.noise, State.IDENTIFYING)
+        measured = self.settled.acceleration
         drive_line = amplitude * np.exp(1j * (plan.phases_rad - np.pi / 2))
         response = measured / drive_line
         if np.any(np.abs(response) == 0) or not np.all(np.isfinite(response)):

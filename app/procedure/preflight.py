@@ -1,21 +1,26 @@
 """Preflight: the one check made before anything moves, for the CLI, the GUI and the run.
 
 The plan's predicted peaks (stroke, velocity, acceleration) against the stand's limits and the
-channels' predicted peaks against their ranges: refused, never clipped. Before every drive is
-played at level (issue 25 point 7), the peaks the drive itself will give through the stand's
-response (the latest measured one) are checked against the same limits: `check_drive`.
+channels' predicted peaks against their ranges: refused, never clipped. The input ranges the run
+will use (app.procedure.ranging: per run, per line in stepped sine) and each line's predicted
+resolution in LSB are part of the report, so the preview shows them before anything moves.
+Before every drive is played at level (issue 25 point 7), the peaks the drive itself will give
+through the stand's response (the latest measured one) are checked against the same limits:
+`check_drive`.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from app.procedure.errors import PreflightError
+from app.procedure.ranging import RangePlan, plan_ranges
 from dsp.crestfactor import synthesize
 from dsp.multisine import PEAK_OVERSAMPLING, Plan, PredictedPeaks
+from dsp.resolution import Converter
 
 if TYPE_CHECKING:
     from app.stand.config import Limits, StandConfig
@@ -33,10 +38,22 @@ class PreflightReport:
     peaks: PredictedPeaks
     crest_factor: float
     problems: tuple[str, ...]
+    ranges: RangePlan | None = None
+    converter: Converter = field(default_factory=Converter)
 
     @property
     def ok(self) -> bool:
         return not self.problems
+
+    @property
+    def resolution_warnings(self) -> tuple[str, ...]:
+        """The lines predicted too few LSB above the converter's step (not stated unless the
+        measured amplitude turns out larger)."""
+        return () if self.ranges is None else tuple(self.ranges.warnings(self.converter))
+
+    def ranges_text(self) -> str:
+        """The input ranges and the fewest LSB per channel, one line ("" without ranges)."""
+        return "" if self.ranges is None else self.ranges.summary(self.converter)
 
     def raise_if_refused(self) -> None:
         """PreflightError naming every problem, if any."""
@@ -46,12 +63,13 @@ class PreflightReport:
     def summary(self) -> str:
         """One line for run.log."""
         p = self.peaks
-        return (
+        text = (
             f"preflight: peaks {p.acceleration_ms2:.1f} m/s^2, "
             f"{1e3 * p.velocity_m_per_s:.1f} mm/s, "
             f"{1e3 * p.displacement_peak_to_peak_m:.3f} mm p-p; crest factor "
             f"{self.crest_factor:.2f}"
         )
+        return f"{text}; {self.ranges_text()}" if self.ranges is not None else text
 
 
 def check_preflight(
@@ -61,11 +79,15 @@ def check_preflight(
     nominal_mv_per_ms2: float | None = None,
     *,
     level_scale: float = 1.0,
+    offered_v: tuple[float, ...] | None = None,
+    per_line: bool = False,
 ) -> PreflightReport:
     """Check `plan` (its amplitudes times `level_scale`) on the stand of `config` with the
     reference `chain` and, when known, the DUT's nominal sensitivity (mV/(m/s^2)). Without a
     chain (a window before its stand is opened) the reference channel is not checked here;
-    the run's own preflight checks it before anything moves."""
+    the run's own preflight checks it before anything moves. The ranges are picked among
+    `offered_v` (V; None: the stand file's `daq.input_ranges_v`), per line when `per_line`
+    (stepped sine)."""
     limits = config.limits
     ranges = {c.name: c.range_v for c in config.inputs}
     raw = plan.predicted_peaks()
@@ -94,7 +116,18 @@ def check_preflight(
                 "(raise the range or lower the level)"
             )
     problems += reference_line_problems(plan, chain)
-    return PreflightReport(peaks, plan.crest_factor(), tuple(problems))
+    range_plan = plan_ranges(
+        plan,
+        config,
+        chain,
+        nominal_mv_per_ms2,
+        config.input_ranges_v if offered_v is None else offered_v,
+        per_line=per_line,
+        level_scale=level_scale,
+    )
+    return PreflightReport(
+        peaks, plan.crest_factor(), tuple(problems), range_plan, config.converter
+    )
 
 
 def reference_line_problems(plan: Plan, chain: ReferenceChain | None) -> list[str]:

@@ -33,13 +33,14 @@ from app.procedure.errors import (
     RunNotRecordedError,
     advice,
 )
-from app.procedure.events import Event, Finished, Listener, State
+from app.procedure.events import Event, Finished, InputRanges, Listener, State
 from app.procedure.identification import Identification
 from app.procedure.preflight import check_preflight
+from app.procedure.ranging import run_resolution, with_resolution
 from app.procedure.record_run import RecordRun
 from app.procedure.request import RunIdentity
 from app.procedure.settings import RunSettings
-from app.procedure.stand_io import StandIO
+from app.procedure.stand_io import InputRangeOverload, StandIO
 from app.procedure.stand_memory import StandMemory
 from app.procedure.stepped import SteppedSine
 from app.procedure.verdict import Tolerances, tolerances_for, with_verdict
@@ -51,6 +52,7 @@ from app.stand.response import ResponseStore
 from dsp.calibration import AnalysisError
 from dsp.multisine import Plan
 from dsp.spectral import RECORD_ESTIMATORS
+from dsp.uncertainty import Budget
 from hardware.errors import AmplifierFaultError, HardwareError, OverloadError
 from hardware.interfaces import DaqConfig
 
@@ -93,6 +95,7 @@ class Procedure:
         self.notes = RunNotes(budget=stand.budget)
         self.ctx = RunContext(stand, plan, settings, self.io, self.notes, self._emit, self._log)
         self.memory = StandMemory(response_store, stand, plan, settings, self._log)
+        self._ranges_text = ""  # the preflight's input ranges, told once the run starts
 
     # --- control (thread-safe) ------------------------------------------------------------
 
@@ -109,10 +112,21 @@ class Procedure:
     def preflight(self) -> None:
         """The checks made before anything moves; PreflightError says what is refused."""
         report = check_preflight(
-            self.plan, self.stand.config, self.stand.chain, self.settings.dut_nominal_mv_per_ms2
+            self.plan,
+            self.stand.config,
+            self.stand.chain,
+            self.settings.dut_nominal_mv_per_ms2,
+            offered_v=self.stand.input_ranges_v,
+            per_line=self.settings.mode == Mode.STEPPED_SINE,
         )
         report.raise_if_refused()
         self._log(report.summary())
+        for text in report.resolution_warnings:  # the measured amplitude decides: logged only
+            self._log(text)
+        self.notes.ranges = report.ranges
+        self._ranges_text = report.ranges_text()
+        if report.ranges is not None and self.settings.mode != Mode.STEPPED_SINE:
+            self.io.set_ranges(report.ranges.run_ranges)  # stepped sine: per line
 
     def run(self) -> Finished:
         """The whole run, to its end (complete or aborted): the drive at 0 V afterwards."""
@@ -125,6 +139,8 @@ class Procedure:
         try:
             self.ctx.state(State.PREFLIGHT)
             self.preflight()
+            if self._ranges_text:
+                self._emit(InputRanges(self._ranges_text))
             self._configure()
             self._phases()
         except Aborted as exc:
@@ -183,6 +199,7 @@ class Procedure:
             equalised.settled.lines,
             self.settings.background_periods,
         )
+        budget = self._with_resolution(budget, equalised.settled.lines, background.noise())
         self.notes.budget = budget
         Acquisition(self.ctx, budget, equalised.reusable_blocks).run()
         self.io.fade_out()
@@ -194,6 +211,7 @@ class Procedure:
         `stored_response_tolerance` at any line."""
         equalisation = Equalisation(self.ctx, noise)
         stored = self.memory.recall()
+        ranges = self.notes.ranges
         if stored is not None:
             equalised = equalisation.run(
                 stored.response, give_up_above=self.settings.stored_response_tolerance
@@ -213,10 +231,40 @@ class Procedure:
             )
         else:
             self.notes.stand_response = self.memory.describe(None, "identified")
-        response = Identification(self.ctx, noise).run()
-        equalised = equalisation.run(response)
+        try:
+            response = Identification(self.ctx, noise).run()
+            equalised = equalisation.run(response)
+        except InputRangeOverload as exc:
+            if ranges is None or self.io.ranges == {**self.io.ranges, **ranges.top_v}:
+                raise
+            # identification plays a fixed voltage whatever the level, and its level step may
+            # overshoot: once more, on the stand file's ranges
+            text = f"{exc}: identified again on the largest ranges"
+            self._log(text)
+            self._emit(InputRanges(text))
+            self.io.reconfigure(ranges.top_v)
+            response = Identification(self.ctx, noise).run()
+            equalised = equalisation.run(response)
         assert equalised is not None  # no give_up_above: always an Equalised
         return self._measured(equalised)
+
+    def _with_resolution(
+        self, budget: Budget, lines: tuple[np.ndarray, np.ndarray], noise: np.ndarray
+    ) -> Budget:
+        """The budget with every line's resolution term (app.procedure.ranging) from its settled
+        amplitude and the background's noise at the run's ranges; a line too few LSB above
+        the converter's step is warned (blocking) and carries none."""
+        resolution = run_resolution(
+            self.plan,
+            (np.abs(lines[0]), np.abs(lines[1])),
+            noise,
+            self.io.ranges,
+            self.stand.config.converter,
+        )
+        budget, too_few = with_resolution(budget, resolution)
+        for text in too_few:
+            self.ctx.warn(text)
+        return budget
 
     def _measured(self, equalised: Equalised) -> Equalised:
         """Note the response equalisation converged with, to keep when the run completes."""

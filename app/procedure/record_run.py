@@ -22,6 +22,7 @@ from app.procedure.background import BackgroundLevels, budget_with_background
 from app.procedure.context import RunContext
 from app.procedure.errors import PreflightError, ProcedureError
 from app.procedure.events import EqualisationStep, Progress, State
+from app.procedure.ranging import run_resolution, with_resolution
 from app.procedure.stand_memory import StandMemory
 from app.procedure.stopping import Stop, StoppingRule
 from dsp.crestfactor import synthesize
@@ -189,6 +190,16 @@ class RecordRun:
             (record.estimate.reference_amplitude_v, record.estimate.dut_amplitude_v),
             s.background_periods,
         )
+        resolution = run_resolution(
+            plan,
+            (record.estimate.reference_amplitude_v, record.estimate.dut_amplitude_v),
+            self.background.noise(),
+            io.ranges,
+            ctx.stand.config.converter,
+        )
+        budget, too_few = with_resolution(budget, resolution)
+        for text in too_few:
+            ctx.warn(text)
         ctx.notes.budget = budget
         if io.writer is not None:
             io.writer.set_settle_periods(io.periods_read - 1)

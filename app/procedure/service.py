@@ -19,6 +19,7 @@ from datetime import date
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from app.io.vocabulary import Mode
 from app.procedure.errors import PreflightError
 from app.procedure.options import RunOptions
 from app.procedure.outcome import ExitStatus, RunOutcome, exit_status
@@ -294,7 +295,13 @@ class RunService:
             chain = config.reference_chain()
         except stand_config.ConfigError:
             chain = None  # the simulated stand's chain comes with the stand when it opens
-        report = check_preflight(plan, config, chain, request.nominal_mv_per_ms2)
+        report = check_preflight(
+            plan,
+            config,
+            chain,
+            request.nominal_mv_per_ms2,
+            per_line=request.mode == Mode.STEPPED_SINE,
+        )
         return PlanPreview(plan, report, report.problems, tuple(plan.warnings))
 
     # --- the run ------------------------------------------------------------------------

@@ -20,12 +20,14 @@ from app.io.hdf5 import RecordingWriter
 from app.procedure.errors import Aborted, DriveLimitError, ProcedureError
 from app.procedure.events import Event, PeriodBlock, State
 from app.procedure.preflight import OVERLOAD_FRACTION
+from app.procedure.ranging import with_ranges
 from app.procedure.settings import RunSettings
 from app.stand.open import Stand
 from dsp.multisine import Plan, fade_envelope, fade_out_envelope, fade_out_samples
 from dsp.sinefit import sine_fit
 from dsp.spectral import period_spectrum, periods_agree
 from hardware.errors import AmplifierFaultError, DeviceLostError, HardwareError, OverloadError
+from hardware.interfaces import DaqConfig
 
 log = logging.getLogger(__name__)
 
@@ -67,6 +69,11 @@ class Settled:
     acceleration: np.ndarray
     lines: tuple[np.ndarray, np.ndarray]
     blocks: tuple[np.ndarray, np.ndarray]
+
+
+class InputRangeOverload(OverloadError):
+    """A DAQ input reached the limit of the range it is configured with (not the measuring
+    amplifier's overload): a run that picked that range may go back to a larger one."""
 
 
 class StandIO:
@@ -127,6 +134,39 @@ class StandIO:
             pass
 
     # --- output -----------------------------------------------------------------------------
+
+    def set_ranges(self, ranges: dict[str, float]) -> None:
+        """The named input channels' +-ranges (V) from the next DAQ configuration on (the
+        overload check follows them)."""
+        self.inputs = with_ranges(self.inputs, ranges)
+        self.ranges = {c.name: c.range_v for c in self.inputs}
+
+    def reconfigure(self, ranges: dict[str, float]) -> bool:
+        """The input ranges changed between phases: fade out, stop, the DAQ configured anew
+        with them at the segment's rate and period, the segment begun again from 0 V. False
+        (nothing done) when the ranges are those in use."""
+        if all(self.ranges.get(name) == value for name, value in ranges.items()):
+            return False
+        if np.any(self.drive != 0):
+            # the check during the fade on the larger of the two (the DAQ clips at its own)
+            self.set_ranges({n: max(v, self.ranges.get(n, v)) for n, v in ranges.items()})
+            self.fade_out()
+        self.stand.daq.stop()
+        self.set_ranges(ranges)
+        if self.writer is not None:
+            self.writer.widen_ranges(self.ranges)
+        plan = self.segment.plan
+        self.stand.daq.configure(
+            DaqConfig(
+                plan.sample_rate_hz, plan.period_samples, self.stand.config.output, self.inputs
+            )
+        )
+        self.begin(self.segment)
+        self.log(
+            "input ranges: "
+            + ", ".join(f"{name} +-{value:g} V" for name, value in sorted(self.ranges.items()))
+        )
+        return True
 
     def split_channels(self, block: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(reference, DUT) samples of a period as read."""
@@ -331,7 +371,7 @@ class StandIO:
             limit = OVERLOAD_FRACTION * self.ranges[name]
             over = int(np.count_nonzero(np.abs(x) >= limit))
             if over:
-                raise OverloadError(
+                raise InputRangeOverload(
                     f"{name} channel: {over} sample(s) at its +-{self.ranges[name]:g} V range "
                     "limit",
                     channel=name,

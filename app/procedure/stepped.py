@@ -13,9 +13,10 @@ from app.io.vocabulary import Mode
 from app.procedure.background import BackgroundLevels, budget_with_background
 from app.procedure.context import RunContext
 from app.procedure.equalisation import Equalisation, Equalised
-from app.procedure.events import Progress, State
+from app.procedure.events import InputRanges, Progress, State
 from app.procedure.identification import Identification
-from app.procedure.stand_io import Segment
+from app.procedure.ranging import measured_resolution, with_resolution
+from app.procedure.stand_io import InputRangeOverload, Segment
 from app.procedure.stopping import StoppingRule
 from app.stand.response import StoredResponse
 from dsp.multisine import Line, Plan
@@ -61,6 +62,10 @@ class SteppedSine:
         )
         rule = StoppingRule(s.periods, s.target_type_a, per_line_bound)
         converged, worst_final = True, 0.0
+        ranges = ctx.notes.ranges
+        line_ranges: list[tuple[float, float]] = []  # (reference, DUT) +-V per line
+        block_samples: list[int] = []
+        dut_per_reference: float | None = None  # amplitude ratio (V/V) the last line measured
         for k, line in enumerate(plan.lines):
             n = integer_cycle_block(
                 line.frequency_hz, fs, s.stepped_block_s, (plan.mains_frequency_hz,)
@@ -68,41 +73,76 @@ class SteppedSine:
             m = round(line.frequency_hz * n / fs)
             one = Line(line.nominal_frequency_hz, line.frequency_hz, m, line.amplitude_ms2, 0.0)
             active = Plan(fs, n, (one,), line.nominal_frequency_hz, plan.mains_frequency_hz, 0)
-            ctx.stand.daq.stop()
-            ctx.stand.daq.configure(DaqConfig(fs, n, ctx.stand.config.output, io.inputs))
-            io.begin(Segment(active, one_line=True))
-            ctx.log(f"stepped sine: line {line.label}, blocks of {n} samples")
             # one line in a shorter block: more noise per bin than the plan's period
             noise = self.background.noise()[:, [k]] * np.sqrt(plan.period_samples / n)
-            equalised = self._from_stored(k, noise)
-            if equalised is None:
-                if not responses:
-                    response = Identification(ctx, noise).run()
-                else:  # the level loop starts from the response extrapolated from the last lines
-                    response = np.array([extrapolated(responses, line.frequency_hz)])
-                equalised = Equalisation(ctx, noise).run(response)
-                assert equalised is not None  # no give_up_above: always an Equalised
+            wanted: dict[str, float] | None = None
+            if ranges is not None:  # this line's own input ranges (app.procedure.ranging)
+                if k == 0:  # identification may play here: a fixed voltage, the top ranges
+                    wanted = dict(ranges.top_v)
+                elif dut_per_reference is None:
+                    wanted = ranges.ranges_at(k)
+                else:
+                    wanted = ranges.from_ratio(k, dut_per_reference)
+            start: complex | None = None  # the response a re-ranged line starts from
+            overloaded = False  # once a range overloaded, this line stays on the largest
+            while True:
+                ctx.stand.daq.stop()
+                if wanted is not None:
+                    io.set_ranges(wanted)
+                ctx.stand.daq.configure(DaqConfig(fs, n, ctx.stand.config.output, io.inputs))
+                io.begin(Segment(active, one_line=True))
+                ctx.log(
+                    f"stepped sine: line {line.label}, blocks of {n} samples, ranges reference "
+                    f"+-{io.ranges['reference']:g} V, DUT +-{io.ranges['dut']:g} V"
+                )
+                try:
+                    equalised, estimate = self._line(k, active, noise, responses, start, rule)
+                except InputRangeOverload as exc:
+                    if ranges is None or overloaded or io.ranges == {**io.ranges, **ranges.top_v}:
+                        raise
+                    overloaded = True
+                    # the level loop's first step overshot a range picked from a prediction:
+                    # the line again on the stand file's ranges, re-ranged from what it measures
+                    io.set_ranges(ranges.top_v)  # the check follows; the DAQ clipped below it
+                    io.fade_out()
+                    text = f"line {line.label}: {exc}: measured again on the largest ranges"
+                    ctx.log(f"stepped sine: {text}")
+                    ctx.emit(InputRanges(text))
+                    wanted, start = dict(ranges.top_v), None
+                    continue
+                smaller = (
+                    None
+                    if ranges is None or start is not None or overloaded  # once at most
+                    else ranges.re_ranged(
+                        {
+                            "reference": float(estimate.reference_amplitude_v[0]),
+                            "dut": float(estimate.dut_amplitude_v[0]),
+                        },
+                        {"reference": io.ranges["reference"], "dut": io.ranges["dut"]},
+                    )
+                )
+                if smaller is None:
+                    break
+                text = (
+                    f"line {line.label} re-ranged to reference +-{smaller['reference']:g} V, "
+                    f"DUT +-{smaller['dut']:g} V from its measured amplitudes (the converter's "
+                    "resolution): measured again"
+                )
+                ctx.log(f"stepped sine: {text}")
+                ctx.emit(InputRanges(text))
+                io.fade_out()
+                wanted, start = smaller, complex(equalised.response[0])
+            line_ranges.append((io.ranges["reference"], io.ranges["dut"]))
+            block_samples.append(n)
+            if estimate.reference_amplitude_v[0] > 0:
+                dut_per_reference = float(
+                    estimate.dut_amplitude_v[0] / estimate.reference_amplitude_v[0]
+                )
             responses.append((line.frequency_hz, complex(equalised.response[0])))
             converged = converged and equalised.converged
             worst_final = max(worst_final, ctx.notes.equalisation[-1])
             settled_ref.append(equalised.settled.lines[0][0])
             settled_dut.append(equalised.settled.lines[1][0])
-            accumulator = SpectralAccumulator(n, [m], track_floor=False)
-            started = io.excited_s
-            pending = equalised.reusable_blocks  # settled at the final drive: reused
-            while True:
-                if pending:
-                    ref, dut = sine_fit(io.pair(pending.pop(0)), line.frequency_hz, fs)[:, None]
-                else:
-                    ref, dut = io.period(State.ACQUIRING)
-                accumulator.add_line_spectra(ref[None, :], dut[None, :])
-                count = accumulator.periods
-                if count < MIN_LINE_PERIODS:
-                    continue
-                estimate = accumulator.estimate(s.estimator)
-                type_a = float(estimate.relative_type_a[0])
-                if rule.decide(count, type_a, io.excited_s - started, active.period_s):
-                    break
             estimates.append(estimate)
             io.fade_out()
             done = (k + 1) / len(plan.lines)
@@ -120,8 +160,62 @@ class SteppedSine:
         budget = budget_with_background(
             ctx.stand.budget, plan, self.background, settled, s.background_periods
         )
+        estimate = combine(estimates)
+        resolution = measured_resolution(
+            plan.frequencies_hz,
+            (estimate.reference_amplitude_v, estimate.dut_amplitude_v),
+            (estimate.reference_noise_v, estimate.dut_noise_v),
+            block_samples,
+            ([r for r, _ in line_ranges], [d for _, d in line_ranges]),
+            ctx.stand.config.converter,
+        )
+        budget, too_few = with_resolution(budget, resolution)
+        for text in too_few:
+            ctx.warn(text)
         ctx.notes.budget = budget
-        ctx.publish(combine(estimates), budget)
+        ctx.publish(estimate, budget)
+
+    def _line(
+        self,
+        k: int,
+        active: Plan,
+        noise: np.ndarray,
+        responses: list[tuple[float, complex]],
+        start: complex | None,
+        rule: StoppingRule,
+    ) -> tuple[Equalised, Estimate]:
+        """Line k (the one line of `active`) brought to its level and acquired: from `start`
+        (a re-ranged line), the stored response, identification (the first line) or the
+        response extrapolated from the last lines."""
+        ctx, s, io = self.ctx, self.ctx.settings, self.ctx.io
+        line = active.lines[0]
+        fs, n = active.sample_rate_hz, active.period_samples
+        equalised = None if start is not None else self._from_stored(k, noise)
+        if equalised is None:
+            if start is not None:
+                response = np.array([start])
+            elif not responses:
+                response = Identification(ctx, noise).run()
+            else:  # the level loop starts from the response extrapolated from the last lines
+                response = np.array([extrapolated(responses, line.frequency_hz)])
+            equalised = Equalisation(ctx, noise).run(response)
+            assert equalised is not None  # no give_up_above: always an Equalised
+        accumulator = SpectralAccumulator(n, list(active.bins), track_floor=False)
+        started = io.excited_s
+        pending = equalised.reusable_blocks  # settled at the final drive: reused
+        while True:
+            if pending:
+                ref, dut = sine_fit(io.pair(pending.pop(0)), line.frequency_hz, fs)[:, None]
+            else:
+                ref, dut = io.period(State.ACQUIRING)
+            accumulator.add_line_spectra(ref[None, :], dut[None, :])
+            count = accumulator.periods
+            if count < MIN_LINE_PERIODS:
+                continue
+            estimate = accumulator.estimate(s.estimator)
+            type_a = float(estimate.relative_type_a[0])
+            if rule.decide(count, type_a, io.excited_s - started, active.period_s):
+                return equalised, estimate
 
     def _from_stored(self, k: int, noise: np.ndarray) -> Equalised | None:
         """Line k equalised from the stored response, or None (none, or off by more than

@@ -42,6 +42,8 @@ class WarningKind(StrEnum):
     LOW_COHERENCE = "low coherence"
     LOW_SNR = "low SNR"
     DUT_DISTORTION = "DUT distortion"
+    NONLINEAR_CARRIED = "nonlinear distortion carried"
+    NONLINEAR_NOT_COVERED = "nonlinear distortion not covered"
     HUM_NOT_SEPARABLE = "hum not separable"
     HUM_MEASURED = "hum measured"
     ISO_OVER = "ISO over"
@@ -50,6 +52,7 @@ class WarningKind(StrEnum):
     SEED_RULE = "seed rule"
     SKEW_NOT_CORRECTED = "skew not corrected"
     MOUNTING = "mounting"
+    ADC_RESOLUTION = "ADC resolution"
     GUM_NOT_VALIDATED = "GUM not validated"
     PLAN = "plan"
     OTHER = "other"
@@ -107,6 +110,17 @@ POLICY: dict[WarningKind, Rule] = {
         "over 1 % distortion the DUT is not calibrated at a sinusoidal level (ISO 16063-21)",
         r"the DUT adds [\d.]+ % harmonic distortion",
     ),
+    WarningKind.NONLINEAR_CARRIED: Rule(
+        Policy.PRINTED,
+        "the DUT's distortion measured at the detection bins: the best linear approximation at "
+        "this excitation is stated, its stochastic part removed and its estimate in U",
+        r"^nonlinear distortion of the DUT: ",
+    ),
+    WarningKind.NONLINEAR_NOT_COVERED: Rule(
+        Policy.BLOCKS,
+        "distortion the order 2-3 model does not explain: U does not cover it at the named lines",
+        r"^nonlinear distortion at lines ",
+    ),
     WarningKind.HUM_NOT_SEPARABLE: Rule(
         Policy.BLOCKS,
         "hum at the line was not measured, only guessed from other bins",
@@ -146,6 +160,12 @@ POLICY: dict[WarningKind, Rule] = {
         Policy.BLOCKS,
         "a resonance or rattle inside the calibrated range: the mounting is suspect",
         r"^mounting: ",
+    ),
+    WarningKind.ADC_RESOLUTION: Rule(
+        Policy.BLOCKS,
+        "a line too few LSB above the converter's step: its resolution is not stated "
+        "(dsp.resolution); re-ranged or raised, never PASS",
+        r" LSB on its \+-[\d.e+-]+ V range \(< [\d.]+ LSB\): resolution not stated",
     ),
     WarningKind.GUM_NOT_VALIDATED: Rule(
         Policy.PRINTED,

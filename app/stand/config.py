@@ -6,9 +6,14 @@ Sections (units in the names):
                   public /verify address the certificate's QR code leads to)
     [daq]         backend = "sim" | "nidaqmx", device, skew_s (DUT channel's sampling delay),
                   skew_tolerance_s (its tolerance, half-width: the phase term 360 f tau deg)
+                  input_ranges_v (the +-ranges, V, its inputs offer; optional, else the
+                  device's own list: each run picks per channel from the predicted peaks,
+                  issue 32), adc_bits (16), adc_linearity_lsb (the converter's nonlinearity
+                  near its codes, half-width in LSB, from its data sheet; 1)
     [daq.output]  physical, range_v
     [daq.reference] / [daq.dut] / [daq.drive] (optional loopback):
-                  physical, range_v, coupling ("dc"/"ac"), iepe_current_a, terminal
+                  physical, range_v (the largest range the channel may use), coupling
+                  ("dc"/"ac"), iepe_current_a, terminal
     [amplifiers]  measuring (VISA resource), reference_channel, power (VISA resource, optional)
     [limits]      displacement_peak_to_peak_m, velocity_peak_m_per_s, acceleration_peak_ms2,
                   drive_peak_v
@@ -43,94 +48,16 @@ from app.errors import Refusal
 from app.io.checks import MAX_TEXT_BYTES, InputFileError, check_input_file
 from app.io.vocabulary import Backend
 from app.stand.exciters import parse_exciters
+from app.stand.schema import SCHEMA
 from dsp.annex_a import implausible_components, missing_components
 from dsp.budget_terms import skew_phase_component
 from dsp.calibration import ReferenceChain
 from dsp.cmc import Cmc
+from dsp.resolution import Converter
 from dsp.uncertainty import Budget
-from hardware.interfaces import InputChannel, OutputChannel
+from hardware.interfaces import InputChannel, OutputChannel, input_ranges
 
 BACKENDS = tuple(b.value for b in Backend)
-
-_INPUT_KEYS = frozenset({"physical", "range_v", "coupling", "iepe_current_a", "terminal"})
-# Every key a stand file may hold, per table ("" is the top level). [[component]] entries are
-# checked by dsp.uncertainty.Component and [simulation] by sim.stand; an unknown key anywhere
-# else is refused, naming the nearest known one (a typo such as skew_seconds would otherwise
-# silently mean the default).
-SCHEMA: dict[str, frozenset[str]] = {
-    "": frozenset(
-        {
-            "laboratory",
-            "daq",
-            "amplifiers",
-            "limits",
-            "reference",
-            "dut_channel",
-            "component",
-            "simulation",
-            "certificate",
-            "plan",
-            "cmc",
-            "exciters",
-        }
-    ),
-    "plan": frozenset(  # issue 26: the stand's own plan (app.procedure.planning)
-        {
-            "frequencies_hz",
-            "sample_rate_hz",
-            "period_samples",
-            "reference_frequency_hz",
-            "profile",
-            "corner_hz",
-        }
-    ),
-    "laboratory": frozenset({"name", "address", "country", "accreditation", "verify_url"}),
-    "daq": frozenset(
-        {"backend", "device", "skew_s", "skew_tolerance_s", "output", "reference", "dut", "drive"}
-    ),
-    "daq.output": frozenset({"physical", "range_v"}),
-    "daq.reference": _INPUT_KEYS,
-    "daq.dut": _INPUT_KEYS,
-    "daq.drive": _INPUT_KEYS,
-    "amplifiers": frozenset({"measuring", "reference_channel", "power"}),
-    "limits": frozenset(
-        {
-            "displacement_peak_to_peak_m",
-            "velocity_peak_m_per_s",
-            "acceleration_peak_ms2",
-            "drive_peak_v",
-        }
-    ),
-    "reference": frozenset(
-        {
-            "id",
-            "model",
-            "serial",
-            "certificate_number",
-            "certificate_date",
-            "gain",
-            "frequencies_hz",
-            "sensitivity_mv_per_ms2",
-            "phase_deg",
-        }
-    ),
-    "dut_channel": frozenset({"gain"}),
-    "certificate": frozenset(  # defaults of app.certificate.CertificateInfo
-        {
-            "customer",
-            "customer_address",
-            "authorised_by",
-            "dut_model",
-            "dut_serial",
-            "dut_type",
-            "temperature_c",
-            "mounting",
-            "certificate_number",
-            "issue_date",
-            "notes",
-        }
-    ),
-}
 
 
 class ConfigError(Refusal):
@@ -214,6 +141,9 @@ class StandConfig:
     cmc: Cmc | None = None  # the laboratory's CMC ([[cmc]]); None: none stated
     # [exciters.<name>] [[component]]: the simulated exciters' own terms (app.stand.exciters)
     exciter_components: dict[str, Budget] = field(default_factory=dict)
+    # the +-ranges (V) the inputs offer, as the stand file states them (() : the device's own)
+    input_ranges_v: tuple[float, ...] = ()
+    converter: Converter = field(default_factory=Converter)
     raw: dict[str, Any] = field(default_factory=dict, repr=False)
     text: str = field(default="", repr=False)  # the stand file as read (copied into each run)
 
@@ -445,6 +375,7 @@ def _parse(data: dict[str, Any], text: str, source: str) -> StandConfig:
         c for c in (_channel(r, "reference"), _channel(r, "dut"), _channel(r, "drive", False)) if c
     )
     _distinct_channels(inputs, r)
+    offered, converter = _converter(r, daq)
     skew = r.value(daq, "daq", "skew_s", float, 0.0)
     if not 0 <= skew < 1e-3:
         raise r.fail("daq.skew_s", f"must be between 0 and 1 ms, got {skew:g} s")
@@ -535,6 +466,8 @@ def _parse(data: dict[str, Any], text: str, source: str) -> StandConfig:
         plan=_plan(r),
         cmc=cmc,
         exciter_components=exciters,
+        input_ranges_v=offered,
+        converter=converter,
         raw=data,
         text=text,
     )
@@ -549,6 +482,24 @@ def _cmc(r: _Reader, data: dict[str, Any]) -> Cmc | None:
         return None if entries is None else Cmc.from_list(entries)
     except ValueError as exc:
         raise r.fail("cmc", str(exc)) from None
+
+
+def _converter(r: _Reader, daq: dict[str, Any]) -> tuple[tuple[float, ...], Converter]:
+    """[daq] input_ranges_v, adc_bits, adc_linearity_lsb (ConfigError naming daq.<key>)."""
+    offered: tuple[float, ...] = ()
+    if "input_ranges_v" in daq:
+        try:
+            offered = input_ranges(daq["input_ranges_v"], "daq.input_ranges_v")
+        except ValueError as exc:
+            raise r.fail("daq.input_ranges_v", str(exc).split(": ", 1)[-1]) from None
+    bits = r.value(daq, "daq", "adc_bits", int, 16)
+    linearity = r.value(daq, "daq", "adc_linearity_lsb", float, 1.0)
+    try:
+        converter = Converter(bits, linearity)
+    except ValueError as exc:
+        key = "adc_bits" if "bits" in str(exc) else "adc_linearity_lsb"
+        raise r.fail(f"daq.{key}", str(exc).split(": ", 1)[-1]) from None
+    return offered, converter
 
 
 def _plan(r: _Reader) -> StandPlan:

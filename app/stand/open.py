@@ -13,7 +13,7 @@ import numpy as np
 from app.stand.config import ConfigError, StandConfig
 from dsp.calibration import ReferenceChain
 from dsp.uncertainty import Budget
-from hardware.interfaces import Daq, MeasuringAmplifier, PowerAmplifier
+from hardware.interfaces import Daq, MeasuringAmplifier, OffersInputRanges, PowerAmplifier
 from sim.models import DUT_CATALOGUE, EXCITER_CATALOGUE, StandModel
 from sim.stand import POWER_AMPLIFIER_FAULT_KINDS, Fault, SimBudget, SimulatedStand
 
@@ -35,6 +35,8 @@ class Stand:
     description: str = ""
     # what else than the stand file makes this stand what it is: the simulated stand's seed
     realisation: str = ""
+    # the +-ranges (V) its inputs may use (`offered_ranges`); () : the stand file's range_v only
+    input_ranges_v: tuple[float, ...] = ()
 
     def close(self) -> None:
         """Stop the drive and release every device (safe to call twice)."""
@@ -98,6 +100,7 @@ def open_stand(
             systematic=systematic,
         )
         return Stand(
+            input_ranges_v=offered_ranges(config, sim),
             config=config,
             daq=sim,
             chain=chain if chain is not None else sim.reference_chain(dut_gain=config.dut_gain),
@@ -128,7 +131,11 @@ def open_stand(
             measuring = BK2525Amplifier(config.measuring_amplifier)
         if config.power_amplifier:
             power = ScpiPowerAmplifier(config.power_amplifier)
+        offered = offered_ranges(config, daq)
     except BaseException:
+        for device in (measuring, power):
+            if device is not None:
+                device.close()
         daq.close()
         raise
     return Stand(
@@ -139,4 +146,26 @@ def open_stand(
         measuring_amplifier=measuring,
         power_amplifier=power,
         description=f"NI-DAQmx device {config.device}",
+        input_ranges_v=offered,
     )
+
+
+def offered_ranges(config: StandConfig, daq: Daq) -> tuple[float, ...]:
+    """The +-ranges (V) a run may pick from: the stand file's `daq.input_ranges_v`, each one
+    offered by the device (ConfigError naming one it does not offer), else the device's own
+    list; () when neither says (the channels' range_v are used as they stand)."""
+    device: tuple[float, ...] = ()
+    if isinstance(daq, OffersInputRanges):
+        device = daq.input_ranges_v()
+    if not config.input_ranges_v:
+        return device
+    if device:
+        missing = [
+            r for r in config.input_ranges_v if not any(abs(r - d) <= 1e-9 * d for d in device)
+        ]
+        if missing:
+            raise ConfigError(
+                f"{config.source}: daq.input_ranges_v: +-{missing[0]:g} V is not a range the "
+                f"device offers ({', '.join(f'{d:g}' for d in device)} V)"
+            )
+    return config.input_ranges_v

@@ -3,6 +3,7 @@ sequence on every path, and error translation. No NI hardware or driver needed."
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import sys
 import threading
@@ -790,3 +791,35 @@ def test_no_task_for_the_on_demand_zero_is_logged(fake, caplog):
         "NI-DAQ Dev1: could not write the zero period: boom",
         "NI-DAQ Dev1: could not set the output to 0 V: NI-DAQ Dev1: no task",
     ]
+
+
+def test_a_range_chosen_per_line_reaches_the_channels_min_and_max_at_every_configure(rig, daq):
+    """Issue 32: stepped sine configures the DAQ per line with that line's ranges; each
+    configure creates the AI channels with the chosen +-range as min_val/max_val."""
+    daq.configure(CONFIG)
+    narrow = DaqConfig(
+        FS,
+        N,
+        CONFIG.output,
+        tuple(dataclasses.replace(c, range_v=0.1) if c.name == "dut" else c for c in CONFIG.inputs),
+    )
+    daq.stop()
+    daq.configure(narrow)
+    ai = rig.tasks[2]  # a new AI task for the new configuration
+    dut_call = ai.ai_channels.add_ai_voltage_chan.call_args_list[2]
+    assert dut_call.args == ("Dev1/ai1",)
+    assert dut_call.kwargs["min_val"] == -0.1 and dut_call.kwargs["max_val"] == 0.1
+    ref_call = ai.ai_channels.add_ai_voltage_chan.call_args_list[0]
+    assert ref_call.kwargs["max_val"] == 10.0  # the others as configured
+
+
+def test_the_devices_bipolar_input_ranges_are_read_from_daqmx():
+    device = SimpleNamespace(ai_voltage_rngs=[-0.1, 0.1, -10.0, 10.0, 0.0, 5.0, -1.0, 1.0])
+    system = SimpleNamespace(devices={"Dev1": device})
+    assert NiDaq("Dev1", system=system).input_ranges_v() == (0.1, 1.0, 10.0)  # 0-5 V: unipolar
+    lost = SimpleNamespace(devices={})
+    with pytest.raises(HardwareError, match="NI-DAQ Dev1"):
+        NiDaq("Dev1", system=lost).input_ranges_v()
+    none = SimpleNamespace(devices={"Dev1": SimpleNamespace(ai_voltage_rngs=[0.0, 5.0])})
+    with pytest.raises(DaqNotSupportedError, match="no bipolar AI range"):
+        NiDaq("Dev1", system=none).input_ranges_v()

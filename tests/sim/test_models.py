@@ -80,12 +80,25 @@ def test_mems_dut_is_3_db_down_at_its_cut_off_and_piezo_is_flat():
 
 def test_quantisation_step_is_span_over_2_to_the_16_and_clips():
     adc = AdcModel()
-    x = np.linspace(-1.2, 1.2, 100_001)
+    x = np.linspace(-1.2, 1.2, 400_001)  # 0.2 LSB apart: every code of width >= 0.5 LSB is hit
     q = adc.quantise(x, 1.0)
     step = 2.0 / 2**16
     np.testing.assert_allclose(np.round(q / step), q / step, atol=1e-9)
-    assert np.unique(np.round(np.diff(np.unique(q)) / step)).tolist() == [1.0]
+    assert np.unique(np.round(np.diff(np.unique(q)) / step)).tolist() == [1.0]  # no missing code
     assert q.max() == pytest.approx(1.0 - step) and q.min() == -1.0
+
+
+def test_the_simulated_converter_has_its_stated_dnl_and_offers_its_ranges():
+    adc = AdcModel(dnl_lsb=0.25)
+    step = 2 * 0.1 / 2**16
+    x = np.arange(-200.0, 200.0, 0.01) * step  # 100 samples per LSB near zero
+    codes = np.round(adc.quantise(x, 0.1) / step)
+    widths = np.diff(np.flatnonzero(np.diff(codes))) * 0.01  # LSB, codes wholly inside the ramp
+    assert 0.5 - 0.02 <= widths.min() < 0.8 and 1.2 < widths.max() <= 1.5 + 0.02
+    ideal = np.round(AdcModel(dnl_lsb=0.0).quantise(x, 0.1) / step)
+    assert np.max(np.abs(codes - ideal)) == 1  # a transition moves by less than one LSB
+    assert adc.coerced_range(0.1) == 0.1 and adc.coerced_range(0.3) == 0.5
+    assert adc.coerced_range(10.0) == 10.0 and adc.coerced_range(10.5) is None
 
 
 def test_anti_imaging_filter_passes_045_fs_and_stops_images():

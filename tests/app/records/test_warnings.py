@@ -33,6 +33,16 @@ K = WarningKind
         ("line 10 Hz: DUT SNR 14.2 dB is below 20 dB", K.LOW_SNR),
         ("line 80 Hz: the DUT adds 2.3 % harmonic distortion (reference 0.1 %)", K.DUT_DISTORTION),
         (
+            "nonlinear distortion of the DUT: 0.57 % of the signal (orders 2-3, measured at 23999 "
+            "detection bins of this record); the best linear approximation ...",
+            K.NONLINEAR_CARRIED,
+        ),
+        (
+            "nonlinear distortion at lines 10 Hz, 12.5 Hz: the order 2-3 model does not explain "
+            "the products at the detection bins (orders 4-5 add to it, p = 1e-09); ...",
+            K.NONLINEAR_NOT_COVERED,
+        ),
+        (
             "line 50 Hz: mains hum at 50 Hz: 0.8 % of the line (reference 0.1 %, DUT 0.8 %), "
             "not separable from the line (no drive-off background): estimated from ...",
             K.HUM_NOT_SEPARABLE,
@@ -97,6 +107,7 @@ def test_the_issue_lists_these_as_blocking():
         K.LOW_COHERENCE,
         K.LOW_SNR,
         K.DUT_DISTORTION,
+        K.NONLINEAR_NOT_COVERED,
         K.HUM_NOT_SEPARABLE,
         K.ISO_OVER,
         K.REFERENCE_REFUSED,

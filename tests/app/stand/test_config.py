@@ -199,3 +199,47 @@ def test_an_exciter_section_is_checked_naming_the_field(added, message):
     real = EXAMPLE.read_text() + '\n[[exciters."long-stroke".component]]\nname = "x"\n'
     with pytest.raises(ConfigError, match="exciters: only for the simulated stand"):
         parse(real, "stand.toml")
+
+
+@pytest.mark.parametrize(
+    ("new", "message"),
+    [
+        ("input_ranges_v = []", "daq.input_ranges_v: must be a non-empty list"),
+        ("input_ranges_v = [0.1, -1.0]", "daq.input_ranges_v: every range must be a number"),
+        ('input_ranges_v = ["0.1"]', "daq.input_ranges_v: every range must be a number"),
+        ("adc_bits = 4", "daq.adc_bits: bits must be an integer 8..32"),
+        ("adc_bits = 16.5", "daq.adc_bits: must be an integer"),
+        ("adc_linearity_lsb = -0.5", "daq.adc_linearity_lsb: linearity_lsb must be 0..64"),
+    ],
+)
+def test_the_converters_keys_are_checked_naming_the_field(new, message):
+    with pytest.raises(ConfigError) as info:
+        parse(mutate("skew_s = 4e-6", f"skew_s = 4e-6\n{new}"), "stand.toml")
+    assert message in str(info.value)
+
+
+def test_the_ranges_and_converter_a_stand_file_states():
+    stand = parse(
+        mutate(
+            "skew_s = 4e-6",
+            "skew_s = 4e-6\ninput_ranges_v = [10, 0.2, 1, 0.2]\nadc_bits = 18\n"
+            "adc_linearity_lsb = 2",
+        ),
+        "stand.toml",
+    )
+    assert stand.input_ranges_v == (0.2, 1.0, 10.0)  # sorted, distinct
+    assert stand.converter.bits == 18 and stand.converter.linearity_lsb == 2.0
+    plain = stand_config.load(EXAMPLE)
+    assert plain.input_ranges_v == () and plain.converter.bits == 16  # the device's own list
+
+
+def test_a_range_the_simulated_daq_does_not_offer_is_refused_by_name():
+    text = (Path(stand_config.__file__).parents[2] / "sim" / "stand.toml").read_text()
+    config = parse(text.replace("[0.1, 0.2, 0.5,", "[0.05, 0.2, 0.5,"), "stand.toml")
+    with pytest.raises(ConfigError, match=r"daq.input_ranges_v: \+-0.05 V is not a range"):
+        open_stand(config)
+    stand = open_stand(stand_config.load())
+    try:
+        assert stand.input_ranges_v == (0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0)
+    finally:
+        stand.close()

@@ -1,0 +1,83 @@
+"""Every key a stand file may hold, per table (app.stand.config checks a stand file against
+it). [[component]] entries are checked by dsp.uncertainty.Component and [simulation] by
+sim.stand; an unknown key anywhere else is refused, naming the nearest known one (a typo such as
+skew_seconds would otherwise silently mean the default)."""
+
+from __future__ import annotations
+
+_INPUT_KEYS = frozenset({"physical", "range_v", "coupling", "iepe_current_a", "terminal"})
+_DAQ_KEYS = frozenset(("backend", "device", "skew_s", "skew_tolerance_s", "output", "reference"))
+_DAQ_KEYS |= {"dut", "drive", "input_ranges_v", "adc_bits", "adc_linearity_lsb"}
+# per table ("" is the top level)
+SCHEMA: dict[str, frozenset[str]] = {
+    "": frozenset(
+        {
+            "laboratory",
+            "daq",
+            "amplifiers",
+            "limits",
+            "reference",
+            "dut_channel",
+            "component",
+            "simulation",
+            "certificate",
+            "plan",
+            "cmc",
+            "exciters",
+        }
+    ),
+    "plan": frozenset(  # issue 26: the stand's own plan (app.procedure.planning)
+        {
+            "frequencies_hz",
+            "sample_rate_hz",
+            "period_samples",
+            "reference_frequency_hz",
+            "profile",
+            "corner_hz",
+        }
+    ),
+    "laboratory": frozenset({"name", "address", "country", "accreditation", "verify_url"}),
+    "daq": _DAQ_KEYS,
+    "daq.output": frozenset({"physical", "range_v"}),
+    "daq.reference": _INPUT_KEYS,
+    "daq.dut": _INPUT_KEYS,
+    "daq.drive": _INPUT_KEYS,
+    "amplifiers": frozenset({"measuring", "reference_channel", "power"}),
+    "limits": frozenset(
+        {
+            "displacement_peak_to_peak_m",
+            "velocity_peak_m_per_s",
+            "acceleration_peak_ms2",
+            "drive_peak_v",
+        }
+    ),
+    "reference": frozenset(
+        {
+            "id",
+            "model",
+            "serial",
+            "certificate_number",
+            "certificate_date",
+            "gain",
+            "frequencies_hz",
+            "sensitivity_mv_per_ms2",
+            "phase_deg",
+        }
+    ),
+    "dut_channel": frozenset({"gain"}),
+    "certificate": frozenset(  # defaults of app.certificate.CertificateInfo
+        {
+            "customer",
+            "customer_address",
+            "authorised_by",
+            "dut_model",
+            "dut_serial",
+            "dut_type",
+            "temperature_c",
+            "mounting",
+            "certificate_number",
+            "issue_date",
+            "notes",
+        }
+    ),
+}
