@@ -10,7 +10,9 @@ import numpy as np
 from app.procedure.context import RunContext
 from app.procedure.events import Progress, State
 from app.procedure.stopping import Stop, StoppingRule
-from dsp.spectral import MIN_PERIODS, SpectralAccumulator
+from dsp.calibration import Results
+from dsp.hum import driven_hum
+from dsp.spectral import MIN_PERIODS, Estimate, SpectralAccumulator
 from dsp.uncertainty import Budget
 
 
@@ -56,6 +58,7 @@ class Acquisition:
             stop = rule.decide(count, worst_a, acquired_s, period_s)
             if stop is None:
                 continue
+            results = self._with_driven_hum(accumulator, estimate, results)
             if stop is Stop.TARGET and s.target_type_a is not None:
                 ctx.log(f"type A target {100 * s.target_type_a:g} % reached after {count} periods")
             elif stop is Stop.TIME_BOUND and s.target_type_a is not None:
@@ -66,3 +69,24 @@ class Acquisition:
                 ctx.warn(text)
                 ctx.notes.results = dataclasses.replace(results, warnings=(*results.warnings, text))
             return
+
+    def _with_driven_hum(
+        self, accumulator: SpectralAccumulator, estimate: Estimate, results: Results
+    ) -> Results:
+        """The results again with the hum measured in the driven periods (dsp.hum.driven_hum:
+        the tones at the non-excited bins beside the lines) in the budget and its warnings
+        (issue 32 point 3); unchanged when it reaches no line."""
+        ctx = self.ctx
+        spectra = accumulator.mean_spectra()
+        if spectra is None:
+            return results
+        hum = driven_hum(ctx.plan, *spectra)
+        if not hum.affected.any():
+            return results
+        self.budget = hum.merged_into(self.budget)
+        ctx.notes.budget = self.budget
+        if ctx.io.writer is not None:
+            ctx.io.writer.set_budget(self.budget)
+        for text in hum.warnings():
+            ctx.warn(text)
+        return ctx.publish(estimate, self.budget)

@@ -38,7 +38,7 @@ import numpy as np
 
 from app.files import data_dir, write_new
 from dsp import crestfactor
-from dsp.multisine import PRESETS, snap_to_bin
+from dsp.multisine import PRESETS, mains_shifted_bins, snap_to_bin
 
 log = logging.getLogger(__name__)
 
@@ -221,7 +221,9 @@ def preset_keys() -> dict[str, PhaseKey]:
     keys = {}
     for name, preset in PRESETS.items():
         fs, n = preset.sample_rate_hz, preset.period_samples
-        bins = [snap_to_bin(f, fs, n) for f in preset.nominal_frequencies_hz]
+        bins = mains_shifted_bins(  # as preset_plan makes them (50 Hz mains)
+            [snap_to_bin(f, fs, n) for f in preset.nominal_frequencies_hz], fs / n
+        )
         keys[name] = PhaseKey.of(bins, np.ones(len(bins)), n, SEED)
     return keys
 

@@ -182,6 +182,7 @@ class Procedure:
             background,
             equalised.settled.lines,
             self.settings.background_periods,
+            warn=self.ctx.warn,
         )
         self.notes.budget = budget
         Acquisition(self.ctx, budget, equalised.reusable_blocks).run()

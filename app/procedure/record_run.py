@@ -188,6 +188,7 @@ class RecordRun:
             self.background,
             (record.estimate.reference_amplitude_v, record.estimate.dut_amplitude_v),
             s.background_periods,
+            warn=ctx.warn,
         )
         ctx.notes.budget = budget
         if io.writer is not None:

@@ -24,7 +24,8 @@ from app.procedure.settings import RunSettings
 from app.stand.open import Stand
 from dsp.multisine import Plan, fade_envelope, fade_out_envelope, fade_out_samples
 from dsp.sinefit import sine_fit
-from dsp.spectral import period_spectrum, periods_agree
+from dsp.spectral import period_spectrum, settle_excess
+from dsp.tones import LineLeak, line_leak
 from hardware.errors import AmplifierFaultError, DeviceLostError, HardwareError, OverloadError
 
 log = logging.getLogger(__name__)
@@ -344,22 +345,45 @@ class StandIO:
         within `settle_tolerance` of the line or 6 `noise` standard deviations (V, per period,
         shape (2, lines) of the segment)."""
         s = self.settings
-        previous = previous_block = None
+        previous = previous_block = previous_spectra = None
+        excess = interference = None
+        leaks: list[LineLeak] = []
+        bins = self.segment.plan.bins
         for _ in range(s.max_settle_periods):
             block = self.read(state)
-            lines = self.segment.lines(self.pair(block))
+            pair = self.pair(block)
+            if self.segment.one_line:
+                spectra, lines = None, self.segment.lines(pair)
+            else:  # every bin: a tone beside a line is told from a transient (issue 32)
+                spectra = period_spectrum(pair)
+                lines = spectra[:, bins]
             ref, dut = lines[0], lines[1]
-            if previous is not None and periods_agree(previous, lines, noise, s.settle_tolerance):
-                assert previous_block is not None
-                return Settled(
-                    self.to_acceleration((ref + previous[0]) / 2),
-                    (ref, dut),
-                    (previous_block, block),
-                )
-            previous, previous_block = lines, block
+            if previous is not None:
+                interference = None
+                if spectra is not None and previous_spectra is not None:
+                    leaks = [line_leak(spectra[c] - previous_spectra[c], bins) for c in (0, 1)]
+                    interference = np.array([np.where(k.separable, k.leak_v, 0.0) for k in leaks])
+                tolerance = s.settle_tolerance
+                excess = settle_excess(previous, lines, noise, tolerance, interference)
+                if np.all(excess <= 0):
+                    assert previous_block is not None
+                    if interference is not None and np.any(interference > 0):
+                        self.log(_hum_note(self.segment.plan, leaks, interference, lines))
+                    return Settled(
+                        self.to_acceleration((ref + previous[0]) / 2),
+                        (ref, dut),
+                        (previous_block, block),
+                    )
+            previous, previous_block, previous_spectra = lines, block, spectra
+        named = _unsettled_hum(self.segment.plan, leaks, excess, previous)
         raise ProcedureError(
             f"the table did not settle within {s.max_settle_periods} periods (consecutive "
-            "periods still differ): check for a loose mount, a resonance or an unstable amplifier"
+            + (
+                f"periods still differ): {named}"
+                if named
+                else "periods still differ): check for a loose mount, a resonance or an "
+                "unstable amplifier"
+            )
         )
 
     def to_acceleration(self, reference_lines: np.ndarray) -> np.ndarray:
@@ -368,3 +392,55 @@ class StandIO:
         magnitude, phase = chain.sensitivity_at(self.segment.plan.frequencies_hz)
         volts_per_ms2 = magnitude * 1e-3 * chain.reference_gain * np.exp(1j * np.radians(phase))
         return reference_lines / volts_per_ms2
+
+
+def _hum_note(
+    plan: Plan, leaks: list[LineLeak], interference: np.ndarray, lines: np.ndarray
+) -> str:
+    """run.log's note that a tone beside lines was allowed for in the settle test."""
+    worst = np.nanargmax(np.max(interference / np.maximum(np.abs(lines), 1e-300), axis=0))
+    tone = _tone_hz(plan, leaks, int(worst))
+    return (
+        f"settle: a tone at {tone:.4g} Hz beside line {plan.lines[worst].label} (hum while "
+        "driven?) changes from period to period; allowed for, it is measured and carried in "
+        "the budget"
+    )
+
+
+def _tone_hz(plan: Plan, leaks: list[LineLeak], k: int) -> float:
+    """The nearest tone to line k in either channel's period-to-period change (Hz)."""
+    positions = [leak.tone_bin[k] for leak in leaks if np.isfinite(leak.tone_bin[k])]
+    if not positions:
+        return math.nan
+    m = plan.bins[k]
+    return float(min(positions, key=lambda p: abs(p - m))) * plan.resolution_hz
+
+
+def _unsettled_hum(
+    plan: Plan,
+    leaks: list[LineLeak],
+    excess: np.ndarray | None,
+    lines: np.ndarray | None,
+) -> str:
+    """What keeps a line from settling when it is a tone beside it (hum a little off a bin,
+    e.g. while driven: a power-amplifier ground loop), naming the line and the tone; "" when
+    no tone sits within a bin of a line that failed."""
+    if excess is None or not leaks or lines is None:
+        return ""
+    failing = np.flatnonzero(np.any(excess > 0, axis=0))
+    named = []
+    for k in failing:
+        tone = _tone_hz(plan, leaks, int(k))
+        if not math.isfinite(tone) or abs(tone - plan.frequencies_hz[k]) > plan.resolution_hz:
+            continue
+        named.append(
+            f"line {plan.lines[k].label} ({plan.frequencies_hz[k]:g} Hz) with a tone at "
+            f"{tone:.4g} Hz"
+        )
+    if not named:
+        return ""
+    return (
+        f"{'; '.join(named)}: hum (mains hum while driven, e.g. a power-amplifier ground loop) "
+        f"within a bin of the line turns against it from period to period and cannot be told "
+        "from it; remove the hum (ground loop), or change the period or the line"
+    )
