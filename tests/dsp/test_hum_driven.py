@@ -150,7 +150,7 @@ def test_the_settle_test_allows_a_tone_beside_a_line_but_not_a_transient():
     """Two periods of a line with a 50.3 Hz tone beside it differ by the tone's turn; the
     tone's measured change at the line is allowed on top, a change of the line itself is not."""
     p = plan()
-    ref, dut = periods(lambda t: 2e-4 * np.sin(2 * np.pi * 50.3 * t), count=2)
+    _, dut = periods(lambda t: 2e-4 * np.sin(2 * np.pi * 50.3 * t), count=2)
     spectra = [period_spectrum(dut[i]) for i in (0, 1)]
     noise = np.full(4, 1e-7)
     lines = [s[p.bins] for s in spectra]
