@@ -38,6 +38,15 @@ Hum amplitude at the line bin, per channel (issue 25 point 3):
   combined half-width). The line is flagged as not separable (`separable` False): a
   drive-off background or a line shifted off the mains harmonic (plan option
   shift_mains_lines) settles it.
+
+Hum while driven (issue 32 point 3; `DrivenHum`, `driven_hum`): hum that comes with the drive
+(a power-amplifier ground loop) is invisible to the drive-off background. The default plans
+move their lines one bin off the mains harmonics (dsp.multisine.mains_shifted_bins), so hum
+at a mains harmonic falls on a free bin and leaks onto no line; hum a little off a bin leaks
+onto the lines beside it, and dsp.tones locates it in the driven periods' averaged spectra
+(in the motion-free residual Y - H U, so the exciter's own non-periodic motion, on both
+channels in the ratio, is not taken for hum) and states what reaches each line. A line kept
+on a mains harmonic (exact bins) is bounded by its departure from its neighbours' response.
 """
 
 from __future__ import annotations
