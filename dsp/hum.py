@@ -57,6 +57,7 @@ from typing import Any
 
 import numpy as np
 
+from dsp.mains import mains_harmonic_of_bin
 from dsp.multisine import Plan
 from dsp.spectral import period_spectrum
 from dsp.tones import ON_LINE_BINS, line_leak
@@ -173,13 +174,13 @@ def mains_harmonic_of_lines(plan: Plan) -> np.ndarray:
     """The mains harmonic h (1..plan.mains_harmonics) each line's bin sits on, 0 for none
     (within half a bin, as the plan check of SPEC s.3)."""
     resolution = plan.sample_rate_hz / plan.period_samples
-    out = np.zeros(len(plan.lines), dtype=int)
-    for k, m in enumerate(plan.bins):
-        for h in range(1, plan.mains_harmonics + 1):
-            if abs(h * plan.mains_frequency_hz / resolution - m) < 0.5:
-                out[k] = h
-                break
-    return out
+    return np.array(
+        [
+            mains_harmonic_of_bin(int(m), resolution, plan.mains_frequency_hz, plan.mains_harmonics)
+            for m in plan.bins
+        ],
+        dtype=int,
+    )
 
 
 def mains_hum(

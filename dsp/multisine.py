@@ -21,6 +21,7 @@ import numpy as np
 
 from dsp import crestfactor, iso266
 from dsp.errors import InputRefused
+from dsp.mains import mains_harmonic_of_bin, mains_shifted_bins
 
 MAX_FREQUENCY_FRACTION = 0.45  # of fs: multiplexed boards have no anti-alias filter (SPEC s.3)
 HARMONICS_CHECKED = (2, 3, 4, 5)  # SPEC s.3: 2nd..5th harmonic of a line
@@ -256,34 +257,6 @@ class Plan:
 def snap_to_bin(frequency_hz: float, sample_rate_hz: float, period_samples: int) -> int:
     """Nearest DFT bin m of the period for a frequency in Hz (f = m fs / N_p)."""
     return round(frequency_hz * period_samples / sample_rate_hz)
-
-
-def mains_harmonic_of_bin(
-    m: int, resolution_hz: float, mains_frequency_hz: float, mains_harmonics: int
-) -> int:
-    """The mains harmonic h (1..mains_harmonics) within half a bin of bin m, 0 for none
-    (SPEC s.3)."""
-    for h in range(1, mains_harmonics + 1):
-        if abs(h * mains_frequency_hz / resolution_hz - m) < 0.5:
-            return h
-    return 0
-
-
-def mains_shifted_bins(
-    bins: Sequence[int],
-    resolution_hz: float,
-    mains_frequency_hz: float = 50.0,
-    mains_harmonics: int = 5,
-) -> list[int]:
-    """The bins with every one on a mains harmonic moved one bin up (issue 32 point 3: the
-    default plans keep their lines off the mains harmonics, where hum while driven cannot be
-    told from the line; the hum's own bin is then free and measured). Hz."""
-    return [
-        int(m) + 1
-        if mains_harmonic_of_bin(int(m), resolution_hz, mains_frequency_hz, mains_harmonics)
-        else int(m)
-        for m in bins
-    ]
 
 
 def _reference_index(nominal_hz: np.ndarray, reference_frequency_hz: float) -> int:

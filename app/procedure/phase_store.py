@@ -38,7 +38,8 @@ import numpy as np
 
 from app.files import data_dir, write_new
 from dsp import crestfactor
-from dsp.multisine import PRESETS, mains_shifted_bins, snap_to_bin
+from dsp.mains import mains_shifted_bins
+from dsp.multisine import PRESETS, snap_to_bin
 
 log = logging.getLogger(__name__)
 

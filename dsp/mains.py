@@ -1,0 +1,36 @@
+"""Lines and the mains harmonics (SPEC s.3; issue 32 point 3): which mains harmonic a bin
+sits on, and the bins with every line on one moved one bin up. Hz, bins."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+__all__ = ["mains_harmonic_of_bin", "mains_shifted_bins"]
+
+
+def mains_harmonic_of_bin(
+    m: int, resolution_hz: float, mains_frequency_hz: float, mains_harmonics: int
+) -> int:
+    """The mains harmonic h (1..mains_harmonics) within half a bin of bin m, 0 for none
+    (SPEC s.3)."""
+    for h in range(1, mains_harmonics + 1):
+        if abs(h * mains_frequency_hz / resolution_hz - m) < 0.5:
+            return h
+    return 0
+
+
+def mains_shifted_bins(
+    bins: Sequence[int],
+    resolution_hz: float,
+    mains_frequency_hz: float = 50.0,
+    mains_harmonics: int = 5,
+) -> list[int]:
+    """The bins with every one on a mains harmonic moved one bin up (issue 32 point 3: the
+    default plans keep their lines off the mains harmonics, where hum while driven cannot be
+    told from the line; the hum's own bin is then free and measured). Hz."""
+    return [
+        int(m) + 1
+        if mains_harmonic_of_bin(int(m), resolution_hz, mains_frequency_hz, mains_harmonics)
+        else int(m)
+        for m in bins
+    ]
