@@ -391,7 +391,7 @@ class DrivenHum:
         """Lines the hum while driven reaches (bool): not separable, or over NEGLIGIBLE_HUM."""
         return ~self.separable | (self.relative >= NEGLIGIBLE_HUM)
 
-    def component_name(self, k: int, phase: bool = False) -> str:
+    def component_name(self, k: int | np.integer, phase: bool = False) -> str:
         f = float(self.nominal_frequencies_hz[k])
         return f"{DRIVEN}{' (phase)' if phase else ''} at {f:g} Hz"
 

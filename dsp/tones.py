@@ -98,11 +98,11 @@ def noise_power(spectrum: np.ndarray, free: np.ndarray, reach: int = FLOOR_REACH
     positions = np.searchsorted(index, np.arange(spectrum.size))
     # medians on a coarse grid of free-bin positions, then held (tones are sparse)
     step = max(1, reach // 2)
-    anchors = np.arange(0, index.size, step)
+    anchors = range(0, index.size, step)
     medians = np.array(
         [np.median(power[max(0, a - reach) : a + reach + 1]) / math.log(2) for a in anchors]
     )
-    slot = np.clip(np.rint(positions / step).astype(int), 0, anchors.size - 1)
+    slot = np.clip(np.rint(positions / step).astype(int), 0, len(anchors) - 1)
     out[:] = medians[slot]
     return out
 
