@@ -1,5 +1,5 @@
 """Lines and the mains harmonics (SPEC s.3; issue 32 point 3): which mains harmonic a bin
-sits on, and the bins with every line on one moved one bin up. Hz, bins."""
+sits on, and the bins with every line on one moved one bin. Hz, bins."""
 
 from __future__ import annotations
 
@@ -25,12 +25,16 @@ def mains_shifted_bins(
     mains_frequency_hz: float = 50.0,
     mains_harmonics: int = 5,
 ) -> list[int]:
-    """The bins with every one on a mains harmonic moved one bin up (issue 32 point 3: the
+    """The bins with every one on a mains harmonic moved one bin (issue 32 point 3: the
     default plans keep their lines off the mains harmonics, where hum while driven cannot be
-    told from the line; the hum's own bin is then free and measured). Hz."""
-    return [
-        int(m) + 1
-        if mains_harmonic_of_bin(int(m), resolution_hz, mains_frequency_hz, mains_harmonics)
-        else int(m)
-        for m in bins
-    ]
+    told from the line; the hum's own bin is then free and measured). In order of frequency
+    the moved lines go alternately up and down (50.5, 99.5, 200.5, 249.5 Hz on 0.5 Hz bins),
+    so they do not all lean one way: the presets' predicted table displacement stays below
+    the exact bins' (capacitive at 7 m/s^2: 3.77 mm peak, against 4.31 mm all up). Hz."""
+    out = [int(m) for m in bins]
+    moved = 0
+    for k in sorted(range(len(out)), key=lambda i: out[i]):
+        if mains_harmonic_of_bin(out[k], resolution_hz, mains_frequency_hz, mains_harmonics):
+            out[k] += 1 if moved % 2 == 0 else -1
+            moved += 1
+    return out

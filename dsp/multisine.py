@@ -325,7 +325,7 @@ def check_lines(
     shifted = {  # bin -> the mains harmonic its line was moved off (mains_shifted_bins)
         m: h
         for s, m in zip(snapped, bins, strict=True)
-        if m == s + 1
+        if abs(m - s) == 1
         and (h := mains_harmonic_of_bin(s, resolution, mains_frequency_hz, mains_harmonics))
     }
 
@@ -387,8 +387,8 @@ def check_lines(
                 warnings.append(
                     f"line {label}: on the {_ordinal(harmonic)} mains harmonic "
                     f"({harmonic * mains_frequency_hz:g} Hz); a periodic average does not "
-                    f"remove hum; the default plan moves it one bin to {(m + 1) * resolution:g}"
-                    " Hz (kept here by --exact-mains-bins)"
+                    "remove hum; the default plan moves it one bin (kept here by "
+                    "--exact-mains-bins)"
                 )
     return PlanCheck(tuple(errors), tuple(warnings))
 
@@ -413,7 +413,7 @@ def make_plan(
     line. Without `phases_rad`, phases minimise the crest factor: `optimiser` (default
     dsp.crestfactor.optimise_phases; they depend only on the lines, the amplitudes' ratios,
     the period and `seed`). `shift_mains_lines` (the default, issue 32) moves a line sitting on
-    a mains harmonic up by one bin (`mains_shifted_bins`; a plan warning states where); False
+    a mains harmonic by one bin (`mains_shifted_bins`; a plan warning states where); False
     keeps the exact bins (the line then carries the hum it cannot separate).
     """
     nominal = [float(f) for f in nominal_frequencies_hz]

@@ -187,7 +187,7 @@ _WARNING_KINDS = (  # (one warning after "line X Hz: ", the grouped wording)
     (
         re.compile(r"on the \w+ mains harmonic"),
         "{lines} lines on a mains harmonic: {labels} Hz; a periodic average does not remove "
-        "hum; the default plan moves each one bin up (kept by --exact-mains-bins)",
+        "hum; the default plan moves each one bin (kept by --exact-mains-bins)",
     ),
     (
         re.compile(r"moved one bin off the \w+ mains harmonic"),

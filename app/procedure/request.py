@@ -134,7 +134,7 @@ class RunRequest:
     paced: bool = False
     faults: tuple[Fault, ...] = ()
     sim_hum: tuple[DrivenHum, ...] = ()  # simulated stand: hum only while driven
-    exact_mains_bins: bool = False  # keep lines on mains harmonics (default: one bin up)
+    exact_mains_bins: bool = False  # keep lines on mains harmonics (default: moved one bin)
     out: Path = Path("runs")
     dut_mass_g: float | None = None  # None: the DUT spec's, on the simulated stand its catalogue's
     stored_response: bool = True  # start equalisation from the stand's stored response

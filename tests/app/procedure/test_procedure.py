@@ -219,7 +219,7 @@ def test_preflight_refuses_before_anything_moves(tmp_path):
 
 def test_preflight_checks_the_dut_channel_range_from_its_nominal_sensitivity():
     stand = open_stand(CONFIG, dut="piezo")
-    plan = preset_plan("piezo")
+    plan = preset_plan("piezo", shift_mains_lines=False)  # the seed's bins: crest factor 2.5
     Procedure(stand, plan, RunSettings(dut_nominal_mv_per_ms2=10.0)).preflight()  # fits
     too_sensitive = RunSettings(dut_nominal_mv_per_ms2=100.0)  # ~4.9 V peaks on +-5 V
     expected = r"DUT channel: predicted peak 4.9. V \(nominal 100 mV"
