@@ -88,8 +88,9 @@ class _Version(argparse.Action):
 
 
 EXACT_MAINS_HELP = (
-    "keep lines on mains harmonics on their exact bins (default: each moved one bin, alternately up and down, and "
-    "stated at its actual frequency; a line kept there cannot be told from hum while driven)"
+    "keep lines on mains harmonics on their exact bins (default: each moved one bin, "
+    "alternately up and down, and stated at its actual frequency; a line kept there cannot be "
+    "told from hum while driven)"
 )
 
 
