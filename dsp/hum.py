@@ -361,7 +361,7 @@ def _free_mains_bins(plan: Plan) -> np.ndarray:
     return np.array([], dtype=np.int64)
 
 
-NEGLIGIBLE_HUM = 5e-5  # relative: hum while driven below this at a line is not stated
+NEGLIGIBLE_HUM = 1e-4  # relative: hum while driven below 0.01 % at a line is not stated
 DRIVEN = "hum while driven"
 
 

@@ -73,20 +73,32 @@ class Acquisition:
     def _with_driven_hum(
         self, accumulator: SpectralAccumulator, estimate: Estimate, results: Results
     ) -> Results:
-        """The results again with the hum measured in the driven periods (dsp.hum.driven_hum:
-        the tones at the non-excited bins beside the lines) in the budget and its warnings
-        (issue 32 point 3); unchanged when it reaches no line."""
-        ctx = self.ctx
+        """The results with the hum measured in the driven periods (`with_driven_hum`)."""
         spectra = accumulator.mean_spectra()
         if spectra is None:
             return results
-        hum = driven_hum(ctx.plan, *spectra)
-        if not hum.affected.any():
-            return results
-        self.budget = hum.merged_into(self.budget)
-        ctx.notes.budget = self.budget
-        if ctx.io.writer is not None:
-            ctx.io.writer.set_budget(self.budget)
-        for text in hum.warnings():
-            ctx.warn(text)
-        return ctx.publish(estimate, self.budget)
+        budget, again = with_driven_hum(self.ctx, self.budget, spectra, estimate)
+        self.budget = budget
+        return again or results
+
+
+def with_driven_hum(
+    ctx: RunContext,
+    budget: Budget,
+    spectra: tuple[np.ndarray, np.ndarray],
+    estimate: Estimate,
+) -> tuple[Budget, Results | None]:
+    """The budget with the hum measured in the driven periods' averaged `spectra` (reference,
+    DUT; complex, V; dsp.hum.driven_hum: the tones at the non-excited bins beside the lines),
+    its warnings given to the run, and the results published again with it (issue 32 point
+    3); the budget as it was and None when the hum reaches no line."""
+    hum = driven_hum(ctx.plan, *spectra)
+    if not hum.affected.any():
+        return budget, None
+    budget = hum.merged_into(budget)
+    ctx.notes.budget = budget
+    if ctx.io.writer is not None:
+        ctx.io.writer.set_budget(budget)
+    for text in hum.warnings():
+        ctx.warn(text)
+    return budget, ctx.publish(estimate, budget)

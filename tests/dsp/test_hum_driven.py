@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from app.records.warnings import Policy, WarningKind, classify
-from dsp.hum import DrivenHum, driven_hum, driven_hum_of_periods, merged
+from dsp.hum import NEGLIGIBLE_HUM, DrivenHum, driven_hum, driven_hum_of_periods, merged
 from dsp.multisine import make_plan
 from dsp.spectral import period_spectrum, periods_agree
 from dsp.tones import ON_LINE_BINS, find_tones, line_leak
@@ -87,7 +87,7 @@ def test_table_motion_off_the_bins_cancels_in_the_ratio_and_is_not_taken_for_hum
     hum_alone = y - period_spectrum(periods(lambda t: 0 * t)[1].mean(axis=0))
     expected = np.abs(hum_alone[p.bins]) / np.abs(y[p.bins])  # after averaging 4 periods
     np.testing.assert_allclose(found.relative, expected, rtol=0.05, atol=2e-6)
-    assert found.affected.tolist() == (expected >= 5e-5).tolist()
+    assert found.affected.tolist() == (expected >= NEGLIGIBLE_HUM).tolist()
     assert found.affected[1] and not found.affected[3]  # 50.5 Hz reached, 160 Hz not
     assert found.separable.all() and abs(found.tone_hz[1] - 50.3) < 0.01
 

@@ -24,11 +24,11 @@ pytestmark = pytest.mark.slow  # each case is a whole simulated run through the 
 
 
 def run(tmp_path: Path, capsys, *extra: str) -> tuple[dict, Path]:
-    """One `accelcal run` of the piezo DUT, 4 periods, as JSON; its run folder."""
+    """One `accelcal run` of the piezo DUT (4 periods unless `extra` says), as JSON; its run
+    folder."""
     out = tmp_path / "runs"
-    code = main(
-        ["run", "--sim", "--dut", "piezo", "--periods", "4", "--out", str(out), "--json", *extra]
-    )
+    periods = [] if "lpm" in extra else ["--periods", "4"]
+    code = main(["run", "--sim", "--dut", "piezo", *periods, "--out", str(out), "--json", *extra])
     record = json.loads(capsys.readouterr().out)
     assert code == 0, record.get("abort_reason")
     return record, next(out.iterdir())
@@ -107,3 +107,15 @@ def test_hum_within_a_fifth_of_a_bin_of_a_line_completes_flagged_not_separable(t
     assert any("line 50 Hz: hum while driven" in t and "not separable" in t for t in flagged)
     assert record["results"]["verdict"] != "PASS"
     assert "line 50 Hz left out" in (folder / "run.log").read_text()
+
+
+def test_the_lpm_record_carries_the_hum_while_driven(tmp_path, capsys):
+    """The one-record lpm run (one period: the hum does not average down at all) measures
+    the same tone beside the 50 Hz line and carries it: within U or flagged, never PASS."""
+    record, folder = run(tmp_path, capsys, "--estimator", "lpm", "--sim-hum", "2mV@50.3Hz")
+    assert record["status"] == "complete"
+    line = line_of(record, 50.0)
+    budget = {c["name"]: c["value"] for c in record["budget"]}
+    assert budget.get("hum while driven at 50 Hz", 0.0) > 0.01  # about 3 % of the line
+    flagged = blocking(run_warnings(stored_results(folder)))
+    assert error_over_u(folder, line) <= 1.0 or (flagged and record["results"]["verdict"] != "PASS")
