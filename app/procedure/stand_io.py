@@ -374,8 +374,8 @@ class StandIO:
                 change = np.max(np.abs(lines - previous), axis=0)
                 if leaks:
                     on_line = ~(leaks[0].separable & leaks[1].separable)
-                    growing = last_change is not None and change >= STEADY_RATIO * last_change
-                    steady = np.where(on_line & growing, steady + 1, 0)
+                    holding = last_change is not None and change >= STEADY_RATIO * last_change
+                    steady = np.where(on_line & holding, steady + 1, 0)
                 last_change = change
                 hummed = steady >= STEADY_PAIRS
                 if np.all((excess <= 0) | hummed[None, :]):
