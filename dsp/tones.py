@@ -160,7 +160,13 @@ def _fit(p: int, x: np.ndarray, free: np.ndarray, floor: np.ndarray) -> Tone | N
     nu, c = float(solution[0]), complex(solution[1], solution[2])
     if not (math.isfinite(nu) and abs(nu - p) <= FIT_REACH):
         return None
-    return Tone(nu, c, p, float(abs(x[p])))
+    tone = Tone(nu, c, p, float(abs(x[p])))
+    # significance: the fitted flanks must hold DETECT_POWER noise powers between them (noise
+    # alone in FIT_REACH bins each side reaches that with probability ~1e-3; a tone on bin p
+    # has no flanks, and fitting its neighbours' noise must not invent one)
+    if np.sum(np.abs(tone.spread(j)) ** 2) < DETECT_POWER * float(np.mean(floor[near])):
+        return None
+    return tone
 
 
 def line_leak(spectrum: np.ndarray, line_bins: np.ndarray) -> LineLeak:

@@ -52,6 +52,18 @@ def test_a_tone_on_a_bin_leaks_nothing_and_noise_alone_finds_no_tone():
         assert [t for t in find_tones(noise, LINE_BINS) if t.c != 0] == []
 
 
+def test_noise_beside_a_tone_on_its_bin_invents_no_tone_next_to_a_line():
+    """The shipped stand's case: the ADC's 50 Hz hum on its free bin beside the 50.5 Hz line,
+    noise around it. Fitting the neighbours' noise found a "tone" 0.13 bin from the line,
+    "not separable", which blocked an ordinary run; the flanks must now hold 16 noise powers."""
+    for seed in range(40):
+        rng = np.random.default_rng(seed)
+        x = lines_signal() + tone(50.0, 3e-3, seed) + rng.normal(0, 1e-4, N)
+        leak = line_leak(period_spectrum(x), LINE_BINS)
+        assert leak.separable.all(), seed
+        assert np.all(leak.leak_v < 9e-6), seed  # noise-level: 1.8e-6 V per bin
+
+
 def test_a_tone_within_a_fifth_of_a_bin_of_a_line_is_not_separable():
     spectrum = period_spectrum(lines_signal() + tone(50.45, 0.01))  # 0.1 bin from 50.5 Hz
     leak = line_leak(spectrum, LINE_BINS)
