@@ -1,6 +1,10 @@
 # accelcal: every target creates the virtual environment when it is missing.
 PYTHON ?= python3.11
 VENV := .venv
+# Python caches compiled modules (and pytest its rewritten tests) in __pycache__ folders; a shell
+# that sets PYTHONDONTWRITEBYTECODE would make every test process and every `accelcal` the tests
+# start compile the program again (about 10 s of each test worker's start)
+unexport PYTHONDONTWRITEBYTECODE
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 DEMO_DIR ?= demo-output

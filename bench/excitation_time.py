@@ -45,6 +45,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from app.io.vocabulary import Mode, RunStatus
 from app.procedure import PeriodBlock, PeriodEstimate, Procedure, RunSettings
+from app.procedure.phase_store import stored_phases
 from app.procedure.run import with_exciter
 from app.stand.config import load
 from app.stand.open import open_stand
@@ -66,7 +67,7 @@ STEPPED_BLOCKS_S = (
 def plan_of(level: float, period_samples: int | None = None) -> Plan:
     """The seed's piezo plan at `level` m/s^2 per line, on its own or another period."""
     if period_samples is None:
-        return preset_plan("piezo", level_ms2=level)
+        return preset_plan("piezo", level_ms2=level, optimiser=stored_phases)
     preset = PRESETS["piezo"]
     return make_plan(
         preset.nominal_frequencies_hz,

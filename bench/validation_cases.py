@@ -26,6 +26,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from app.io.hdf5 import Recording, read_recording
 from app.procedure.analysis import analyze
+from app.procedure.phase_store import stored_phases
 from app.procedure.run import RunRequest, execute
 from app.procedure.verdict import Band, Tolerances
 from dsp.calibration import ReferenceChain, Results
@@ -90,7 +91,7 @@ SKEW_TOLERANCES = Tolerances(
 
 def skew_case(name: str, skew_s: float, told: float | None) -> Case:
     """A synthetic recording of a flat DUT sampled `skew_s` late, analysed knowing `told`."""
-    plan = preset_plan("piezo")
+    plan = preset_plan("piezo", optimiser=stored_phases)
     budget = Budget(
         (
             Component("reference calibration", 0.005, Distribution.NORMAL),

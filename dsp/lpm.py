@@ -62,7 +62,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy import stats
+from scipy import special  # the quantile functions themselves: scipy.stats costs ~1 s to import
 
 NONLINEAR_FALSE_ALARM = 0.01  # probability per line that noise alone is taken for nonlinearity
 TOTAL = "total"  # P = 1: noise and whatever nonlinear distortion reaches the non-excited bins
@@ -355,7 +355,7 @@ def _combine(
         relative = responses / response - 1.0
         between = np.sum(np.abs(relative - relative.mean(axis=0)) ** 2, axis=0) / (p_count - 1)
         nonlinear = np.maximum(between - noise, 0.0)
-        threshold = stats.f.isf(NONLINEAR_FALSE_ALARM, 2 * (p_count - 1), noise_dof)
+        threshold = special.fdtri(2 * (p_count - 1), noise_dof, 1.0 - NONLINEAR_FALSE_ALARM)
         found = between / noise > threshold
         kinds = tuple(NOISE_AND_NONLINEAR if f else NOISE for f in found)
         variance_of_mean = np.where(found, between, noise) / p_count

@@ -48,7 +48,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import stats
+from scipy import special  # the quantile functions themselves: scipy.stats costs ~1 s to import
 
 from dsp.estimators import DEFAULT_ESTIMATOR as DEFAULT_ESTIMATOR
 from dsp.estimators import ESTIMATORS as ESTIMATORS
@@ -80,7 +80,7 @@ def detection_threshold(periods: int, tests: int, false_alarm: float = DISTORTIO
     """Threshold on T = |mean X|^2 / (s2_X / L) at one bin: the F(2, 2 (L - 1)) quantile at
     alpha_bin = 1 - (1 - false_alarm)^(1/tests) (Sidak over `tests` bins; module docstring)."""
     alpha = -np.expm1(np.log1p(-false_alarm) / max(int(tests), 1))
-    return float(stats.f.isf(alpha, 2, 2 * (periods - 1)))
+    return float(special.fdtri(2, 2 * (periods - 1), 1.0 - alpha))
 
 
 def period_spectrum(blocks: np.ndarray) -> np.ndarray:

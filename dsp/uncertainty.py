@@ -20,7 +20,7 @@ from enum import StrEnum
 from typing import Any
 
 import numpy as np
-from scipy import stats
+from scipy import special  # the quantile functions themselves: scipy.stats costs ~1 s to import
 
 from dsp.annex_a import ComponentKind
 from dsp.estimators import RULES
@@ -412,8 +412,8 @@ def coverage_factor(dof: float, probability: float = 0.9545) -> float:
         raise ValueError(f"coverage_factor: dof must be > 0 (inf allowed), got {dof!r}")
     q = (1.0 + p) / 2.0
     if math.isinf(nu):
-        return float(stats.norm.ppf(q))
-    return float(stats.t.ppf(q, nu))
+        return float(special.ndtri(q))
+    return float(special.stdtrit(nu, q))
 
 
 def seed_coverage_factor(periods: int) -> float:

@@ -61,7 +61,21 @@ def _isolated_data_dir(tmp_path_factory: pytest.TempPathFactory, monkeypatch) ->
     """Each test gets its own user data directory (platformdirs honours XDG_DATA_HOME): the
     stand's stored responses of one test never change how another one runs, and nothing is
     written to the user's own ~/.local/share."""
-    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path_factory.mktemp("data-home")))
+    home = tmp_path_factory.mktemp("data-home")
+    monkeypatch.setenv("XDG_DATA_HOME", str(home))
+    # ... except the custom plans' optimised phases (app.procedure.phase_store), which depend
+    # only on the plan: one cache per test process, so a plan is optimised once per session,
+    # not once per test (the store checks every entry it reads; tests of the store itself give
+    # it a data directory of their own)
+    (home / "accelcal").mkdir()
+    (home / "accelcal" / "phases").symlink_to(_shared_phase_cache(tmp_path_factory))
+
+
+def _shared_phase_cache(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """This test process's one folder of cached phases (made on first use)."""
+    folder = tmp_path_factory.getbasetemp() / "shared-phase-cache"
+    folder.mkdir(exist_ok=True)
+    return folder
 
 
 @pytest.fixture(autouse=True)
@@ -226,9 +240,13 @@ INTEGRATION_FIXTURES = frozenset({"complete_run", "aborted_run", "sweep_run", "q
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """Mark the tests of INTEGRATION_PATHS, and those using INTEGRATION_FIXTURES, `integration`."""
+    """Mark the tests of INTEGRATION_PATHS, and those using INTEGRATION_FIXTURES, `integration`;
+    then put the tests marked `long` first (a stable sort: otherwise in collection order), so
+    that pytest-xdist deals them out at the start and the suite never ends waiting for one of
+    them on a single worker."""
     for item in items:
         relative = _relative(item)
         fixtures = set(getattr(item, "fixturenames", ()))
         if relative.startswith(INTEGRATION_PATHS) or fixtures & INTEGRATION_FIXTURES:
             item.add_marker(pytest.mark.integration)
+    items.sort(key=lambda item: item.get_closest_marker("long") is None)

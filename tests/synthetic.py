@@ -14,6 +14,7 @@ from collections.abc import Callable
 import numpy as np
 
 from app.io.hdf5 import Recording, write_recording
+from app.procedure.phase_store import stored_phases
 from dsp.calibration import ReferenceChain
 from dsp.crestfactor import synthesize
 from dsp.multisine import Plan, preset_plan
@@ -137,7 +138,7 @@ def main(argv: list[str] | None = None) -> int:
     from pathlib import Path
 
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    plan = preset_plan("piezo", level_ms2=5.0)
+    plan = preset_plan("piezo", level_ms2=5.0, optimiser=stored_phases)
     recording = make_recording(
         plan,
         lowpass_response(),

@@ -24,6 +24,7 @@ def test_every_bench_script_is_listed():
     assert set(SMOKE_ARGS) <= set(BENCHES), "smoke arguments for a script that is gone"
 
 
+@pytest.mark.long
 @pytest.mark.parametrize("script", BENCHES)
 def test_bench_runs_in_smoke_mode(script, tmp_path):
     env = dict(os.environ, PYTHONPATH=str(ROOT), QT_QPA_PLATFORM="offscreen")

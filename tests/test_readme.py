@@ -361,6 +361,7 @@ def _run(command: Command, work: Path, env: dict[str, str], last_run: str | None
     return folders[-1] if folders else last_run
 
 
+@pytest.mark.long
 @pytest.mark.integration
 def test_every_readme_command_runs_in_order_as_written(
     fresh_home: tuple[Path, dict[str, str]],

@@ -20,6 +20,7 @@ from app.records.run_folder import inspect_run
 ROOT = Path(__file__).resolve().parents[2]
 
 
+@pytest.mark.long
 def test_a_killed_gui_leaves_a_readable_run_listed_as_interrupted(qtbot, tmp_path):
     out = tmp_path / "runs"
     env = dict(os.environ, QT_QPA_PLATFORM="offscreen", PYTHONPATH=str(ROOT))

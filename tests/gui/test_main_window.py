@@ -204,6 +204,7 @@ def test_custom_lines_are_checked_as_typed_and_run(window, qtbot):
     assert window.results_tab.result_mag.listDataItems()  # the band and the curve are drawn
 
 
+@pytest.mark.long
 def test_stop_fades_out_to_0_v_and_keeps_an_aborted_run(qtbot, tmp_path):
     w = MainWindow(out=tmp_path / "runs", paced=True, seed=5)
     qtbot.addWidget(w)

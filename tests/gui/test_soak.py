@@ -60,6 +60,7 @@ def xvfb_display() -> Iterator[str]:
     yield from xvfb_server()
 
 
+@pytest.mark.long
 @pytest.mark.xvfb
 def test_fifty_runs_in_one_gui_session_leave_fifty_complete_records(xvfb_display, tmp_path):
     out, summary = tmp_path / "runs", tmp_path / "summary.json"

@@ -83,6 +83,7 @@ def browser() -> Iterator:
         driver.quit()
 
 
+@pytest.mark.long
 def test_login_search_certificate_and_the_qr_code_to_the_public_status(
     server: str, browser, records: Records
 ) -> None:

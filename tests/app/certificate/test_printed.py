@@ -19,6 +19,7 @@ from app.certificate.text import dcc_conformity
 from app.cli import main
 from app.gui.plots import characteristic as gui_characteristic
 from app.io.hdf5 import write_recording
+from app.procedure.phase_store import stored_phases
 from app.procedure.run import RunRequest, execute
 from app.records.db.engine import open_engine
 from app.records.db.lab import Lab
@@ -102,7 +103,7 @@ def test_the_gui_and_the_certificate_draw_the_same_deviation_band(monkeypatch):
 def recording(tmp_path_factory):
     """A clean 8-period HDF5 recording: every tolerance check passes by itself."""
     rec = make_recording(
-        preset_plan("piezo"),
+        preset_plan("piezo", optimiser=stored_phases),
         lowpass_response(corner_hz=50000.0),
         periods=8,
         dut_noise_v=2e-4,

@@ -16,6 +16,7 @@ from app.cli import main
 from app.io.csv import read_csv
 from app.io.hdf5 import RecordingError, write_recording
 from app.procedure.analysis import analyze, read_for_analysis, reanalysis
+from app.procedure.phase_store import stored_phases
 from app.procedure.verdict import (
     PASS,
 )
@@ -49,7 +50,7 @@ def _wrap(deg: np.ndarray) -> np.ndarray:
 def _skewed_csv(tmp_path, skew_s: float, header: str | None = None):
     """A CSV of a low-pass DUT sampled `skew_s` after the reference (fractional delay made in
     the frequency domain by tests.synthetic), with a little noise so that U > 0."""
-    plan = preset_plan("piezo")
+    plan = preset_plan("piezo", optimiser=stored_phases)
     rec = make_recording(
         plan,
         lowpass_response(),
@@ -138,7 +139,12 @@ def test_skew_option_and_header_must_agree(capsys, tmp_path):
     assert code == 2 and "disagrees" in err and "skew_s" in err
     path.write_text("# skew_s = fast\n1,2\n")
     with pytest.raises(RecordingError, match="line 1: skew_s 'fast'"):
-        read_csv(path, preset_plan("piezo"), ReferenceChain.flat(1.0, skew_s=None), Budget(()))
+        read_csv(
+            path,
+            preset_plan("piezo", optimiser=stored_phases),
+            ReferenceChain.flat(1.0, skew_s=None),
+            Budget(()),
+        )
 
 
 # --- point 2: options on an HDF5 re-analysis ---------------------------------------------------
@@ -148,7 +154,11 @@ def test_skew_option_and_header_must_agree(capsys, tmp_path):
 def stored(tmp_path_factory):
     """An 8-period HDF5 recording of a known low-pass DUT."""
     rec = make_recording(
-        preset_plan("piezo"), lowpass_response(), periods=8, dut_noise_v=2e-4, seed=3
+        preset_plan("piezo", optimiser=stored_phases),
+        lowpass_response(),
+        periods=8,
+        dut_noise_v=2e-4,
+        seed=3,
     )
     path = tmp_path_factory.mktemp("h5") / "recording.h5"
     write_recording(path, rec)

@@ -11,6 +11,7 @@ import pytest
 
 from app.cli import main, parse_frequencies
 from app.io.hdf5 import write_recording
+from app.procedure.phase_store import stored_phases
 from dsp import iso266
 from dsp.multisine import preset_plan
 from dsp.uncertainty import Budget, Component, Distribution
@@ -74,7 +75,7 @@ def test_frequency_ellipsis_fills_iso_266_values():
 @pytest.fixture(scope="module")
 def recorded(tmp_path_factory):
     """A piezo-plan recording of a known low-pass DUT with noise and a type B budget."""
-    plan = preset_plan("piezo")
+    plan = preset_plan("piezo", optimiser=stored_phases)
     budget = Budget((Component("reference calibration", 0.01, Distribution.NORMAL),))
     rec = make_recording(
         plan,

@@ -11,6 +11,7 @@ import pytest
 from app.cli import main
 from app.io.hdf5 import RecordingError, write_recording
 from app.io.tdms import SKEW_PROPERTY, inspect_tdms
+from app.procedure.phase_store import stored_phases
 from dsp.multisine import preset_plan
 from tests.synthetic import lowpass_response, make_recording, write_tdms
 from tests.within_u import assert_consistent_with_u
@@ -30,7 +31,7 @@ def recorded(tmp_path_factory):
     """A piezo-plan recording (6 kS/s) of the known low-pass DUT sampled SKEW_S late, with
     noise on both channels, as TDMS with the skew as a file property."""
     rec = make_recording(
-        preset_plan("piezo"),
+        preset_plan("piezo", optimiser=stored_phases),
         lowpass_response(),
         periods=8,
         reference_noise_v=2e-4,
@@ -206,7 +207,7 @@ def test_channels_not_in_volts_refused(recorded, tmp_path):
 
 
 def test_tdms_options_refused_for_other_files(capsys, tmp_path):
-    plan = preset_plan("piezo")
+    plan = preset_plan("piezo", optimiser=stored_phases)
     rec = make_recording(plan, lowpass_response(), periods=3, dut_noise_v=1e-3)
     h5 = tmp_path / "rec.h5"
     write_recording(h5, rec)

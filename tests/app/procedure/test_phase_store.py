@@ -4,6 +4,7 @@ blindly (app.procedure.phase_store)."""
 
 from __future__ import annotations
 
+import functools
 import json
 import logging
 from pathlib import Path
@@ -45,8 +46,31 @@ def optimiser_calls(monkeypatch) -> list[tuple]:
     return calls
 
 
-def _real(bins=CUSTOM_BINS, amps=CUSTOM_AMPS, n=CUSTOM_N, seed=0) -> np.ndarray:
-    return OPTIMISE(bins, amps, n, seed=seed)
+@functools.cache
+def _optimised(seed: int) -> bytes:
+    return OPTIMISE(CUSTOM_BINS, CUSTOM_AMPS, CUSTOM_N, seed=seed).tobytes()
+
+
+def _real(seed: int = 0) -> np.ndarray:
+    """What the real optimiser gives for the custom plan (computed once per test process)."""
+    return np.frombuffer(_optimised(seed))
+
+
+@pytest.fixture(scope="module")
+def custom_entry(tmp_path_factory) -> tuple[str, str]:
+    """The cache entry the product writes for the custom plan: its file name and text
+    (made once; a test copies it into its own data directory)."""
+    with pytest.MonkeyPatch.context() as patch:
+        folder = tmp_path_factory.mktemp("custom-entry")
+        patch.setenv("ACCELCAL_DATA_DIR", str(folder))
+        stored_phases(CUSTOM_BINS, CUSTOM_AMPS, CUSTOM_N)
+        (path,) = (folder / "phases").iterdir()
+        return path.name, path.read_text()
+
+
+def _with_entry(data: Path, entry: tuple[str, str]) -> None:
+    (data / "phases").mkdir(parents=True)
+    (data / "phases" / entry[0]).write_text(entry[1])
 
 
 def _cache_file(data: Path) -> Path:
@@ -243,17 +267,19 @@ CORRUPTIONS = [
 
 @pytest.mark.parametrize("how", CORRUPTIONS)
 def test_an_untrustworthy_cache_entry_is_ignored_recomputed_and_rewritten(
-    data, optimiser_calls, caplog, how
+    data, custom_entry, optimiser_calls, caplog, how
 ):
-    stored_phases(CUSTOM_BINS, CUSTOM_AMPS, CUSTOM_N)
+    _with_entry(data, custom_entry)
+    assert stored_phases(CUSTOM_BINS, CUSTOM_AMPS, CUSTOM_N).tobytes() == _real().tobytes()
+    assert not optimiser_calls  # the entry as written is trusted
     _corrupt(_cache_file(data), how)
     with caplog.at_level(logging.WARNING, logger="app.procedure.phase_store"):
         phases = stored_phases(CUSTOM_BINS, CUSTOM_AMPS, CUSTOM_N)
-    assert len(optimiser_calls) == 2  # computed again
+    assert len(optimiser_calls) == 1  # computed again
     assert phases.tobytes() == _real().tobytes()
     assert "computing the phases again" in caplog.text
     again = stored_phases(CUSTOM_BINS, CUSTOM_AMPS, CUSTOM_N)
-    assert len(optimiser_calls) == 2 and again.tobytes() == phases.tobytes()  # rewritten
+    assert len(optimiser_calls) == 1 and again.tobytes() == phases.tobytes()  # rewritten
 
 
 def test_another_plans_entry_under_this_plans_name_is_not_used(data, optimiser_calls):

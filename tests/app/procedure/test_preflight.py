@@ -8,6 +8,7 @@ import pytest
 
 from app.procedure import check_preflight
 from app.procedure.errors import PreflightError
+from app.procedure.phase_store import stored_phases
 from app.procedure.preflight import check_drive, predict_drive_peaks
 from app.stand import config as stand_config
 from app.stand.config import Limits
@@ -23,7 +24,7 @@ def target(plan):
 
 
 def test_the_drive_through_its_own_response_gives_the_plans_peaks():
-    plan = preset_plan("piezo")
+    plan = preset_plan("piezo", optimiser=stored_phases)
     response = np.linspace(2.0, 40.0, len(plan.lines)) * np.exp(1j * 0.3)  # (m/s^2)/V
     peaks = predict_drive_peaks(plan, target(plan) / response, response)
     expected = plan.predicted_peaks()
@@ -56,7 +57,7 @@ def test_a_drive_past_the_stroke_is_refused_naming_the_predicted_displacement():
 def test_preflight_reports_peaks_and_scales_with_the_level():
     stand = open_stand(CONFIG, dut="piezo")
     try:
-        plan = preset_plan("piezo", level_ms2=1.0)
+        plan = preset_plan("piezo", level_ms2=1.0, optimiser=stored_phases)
         ok = check_preflight(plan, stand.config, stand.chain)
         assert ok.ok and ok.summary().startswith("preflight: peaks")
         at_50 = check_preflight(plan, stand.config, stand.chain, level_scale=50.0)

@@ -27,6 +27,7 @@ from app.procedure import (
     StateChanged,
 )
 from app.procedure.analysis import analyze
+from app.procedure.phase_store import stored_phases
 from app.procedure.run import RunRequest, execute
 from app.records.run_folder import RunFolder, load_run
 from app.stand import config as stand_config
@@ -42,7 +43,9 @@ CONFIG = stand_config.load()
 def run(tmp_path, dut="piezo", *, level=5.0, settings=None, events=None, exact=False, **stand_kw):
     stand = open_stand(CONFIG, dut=dut, **stand_kw)
     preset = "capacitive" if dut == "capacitive" else "piezo"
-    plan = preset_plan(preset, level_ms2=level, shift_mains_lines=not exact)
+    plan = preset_plan(
+        preset, level_ms2=level, shift_mains_lines=not exact, optimiser=stored_phases
+    )
     folder = RunFolder.create(tmp_path, dut)
     listener = events.append if events is not None else None
     try:
@@ -139,7 +142,9 @@ def test_equalisation_converges_on_a_strongly_resonant_nonlinear_exciter(tmp_pat
     stand = open_stand(config, dut="piezo", model=model, systematic=False)
     events = []
     folder = RunFolder.create(tmp_path, "harsh")
-    finished = Procedure(stand, preset_plan("piezo"), RunSettings(), folder, events.append).run()
+    finished = Procedure(
+        stand, preset_plan("piezo", optimiser=stored_phases), RunSettings(), folder, events.append
+    ).run()
     stand.close()
     assert finished.status == "complete", finished.abort_reason
     steps = [e for e in events if isinstance(e, EqualisationStep)]
@@ -198,7 +203,9 @@ def test_natural_overload_stops_the_run(tmp_path):
     )
     stand = open_stand(config, dut="piezo")
     folder = RunFolder.create(tmp_path, "x")
-    finished = Procedure(stand, preset_plan("piezo"), RunSettings(), folder).run()
+    finished = Procedure(
+        stand, preset_plan("piezo", optimiser=stored_phases), RunSettings(), folder
+    ).run()
     stand.close()
     assert finished.status == "aborted"
     assert "dut channel" in finished.abort_reason and "range limit" in finished.abort_reason
@@ -208,7 +215,9 @@ def test_natural_overload_stops_the_run(tmp_path):
 
 def test_preflight_refuses_before_anything_moves(tmp_path):
     stand = open_stand(CONFIG, dut="piezo")
-    procedure = Procedure(stand, preset_plan("piezo", level_ms2=50.0), RunSettings())
+    procedure = Procedure(
+        stand, preset_plan("piezo", level_ms2=50.0, optimiser=stored_phases), RunSettings()
+    )
     with pytest.raises(PreflightError, match=r"displacement .* exceeds the exciter's 8 mm"):
         procedure.preflight()
     assert stand.daq.output.periods == []  # nothing was played
@@ -219,7 +228,8 @@ def test_preflight_refuses_before_anything_moves(tmp_path):
 
 def test_preflight_checks_the_dut_channel_range_from_its_nominal_sensitivity():
     stand = open_stand(CONFIG, dut="piezo")
-    plan = preset_plan("piezo", shift_mains_lines=False)  # the seed's bins: crest factor 2.5
+    # the seed's bins: crest factor 2.5
+    plan = preset_plan("piezo", shift_mains_lines=False, optimiser=stored_phases)
     Procedure(stand, plan, RunSettings(dut_nominal_mv_per_ms2=10.0)).preflight()  # fits
     too_sensitive = RunSettings(dut_nominal_mv_per_ms2=100.0)  # ~4.9 V peaks on +-5 V
     expected = r"DUT channel: predicted peak 4.9. V \(nominal 100 mV"
@@ -244,6 +254,7 @@ def test_type_a_target_and_time_bound(tmp_path):
     assert finished.results.periods == 3  # the piezo reaches 0.2 % at once (2 reused + 1)
 
 
+@pytest.mark.long
 def test_sigterm_fades_out_and_leaves_an_aborted_readable_run(tmp_path):
     out = tmp_path / "runs"
     process = subprocess.Popen(
@@ -342,7 +353,7 @@ def test_sweep_checks_every_level_before_anything_moves(tmp_path):
 def test_an_abort_fades_out_before_stopping(tmp_path):
     """abort() (Stop, SIGTERM, closing the window) plays the fade-out to exactly 0 V."""
     stand = open_stand(CONFIG, dut="piezo", systematic=False)
-    plan = preset_plan("piezo")
+    plan = preset_plan("piezo", optimiser=stored_phases)
     procedure = Procedure(stand, plan, RunSettings(periods=50))
 
     def listener(event):
@@ -374,7 +385,7 @@ def test_a_board_whose_output_lags_a_period_is_calibrated_safely(tmp_path):
     agreeing periods, so it never takes the fade-in for the stand's response (which would make
     the first equalisation step overdrive the exciter into its over-travel interlock)."""
     stand = lagging_stand(1, seed=2)
-    plan = preset_plan("piezo")
+    plan = preset_plan("piezo", optimiser=stored_phases)
     finished = Procedure(stand, plan, RunSettings(), RunFolder.create(tmp_path, "lag")).run()
     stand.close()
     assert finished.status == "complete", finished.abort_reason
@@ -394,7 +405,7 @@ def test_the_drive_never_jumps_even_when_a_crossfade_is_cut_short(
     recording holds the drive as played."""
     stand = lagging_stand(latency_periods, systematic=False)
     folder = RunFolder.create(tmp_path, "cut")
-    plan = preset_plan("piezo")
+    plan = preset_plan("piezo", optimiser=stored_phases)
     procedure = Procedure(stand, plan, RunSettings(), folder)
 
     def listener(event):
@@ -447,7 +458,7 @@ def test_without_a_drive_loopback_the_recording_holds_the_drive_as_played(tmp_pa
     )
     stand = open_stand(config, dut="piezo", systematic=False)
     folder = RunFolder.create(tmp_path, "no-loopback")
-    plan = preset_plan("piezo")
+    plan = preset_plan("piezo", optimiser=stored_phases)
     procedure = Procedure(stand, plan, RunSettings(), folder)
 
     def listener(event):
@@ -521,7 +532,7 @@ def _run_with_store(store, *, mode="multisine", declared_g=10.0, physical_g=None
     settings = RunSettings(
         mode=mode, target_type_a=0.002, max_acquisition_s=600.0, dut_mass_g=declared_g
     )
-    plan = plan or preset_plan("piezo")
+    plan = plan or preset_plan("piezo", optimiser=stored_phases)
     try:
         finished = Procedure(stand, plan, settings, response_store=store).run()
     finally:

@@ -14,6 +14,7 @@ from app.cli import main
 from app.io.vocabulary import RunStatus
 from app.procedure import Procedure, RunSettings
 from app.procedure.analysis import analyze, read_for_analysis
+from app.procedure.phase_store import stored_phases
 from app.procedure.planning import PlanRequest, build_plan, choose_period
 from app.procedure.record_run import fade_in_samples
 from app.procedure.stopping import Stop, StoppingRule
@@ -156,7 +157,7 @@ def test_seed_lines_warm_and_cold_excitation_with_lpm(tmp_path):
     """Issue 26 point 3: 0.2 % type A at 5 m/s^2 on the seed's lines, warm <= 4 s (3 s
     stretch), cold <= 10 s of excitation, every line consistent with U (tests/within_u.py)."""
     store = ResponseStore(tmp_path / "store")
-    plan = preset_plan("piezo", level_ms2=5.0)
+    plan = preset_plan("piezo", level_ms2=5.0, optimiser=stored_phases)
     times = []
     for _ in ("cold", "warm"):
         stand = open_stand(load(), dut="piezo", seed=5, systematic=False)
@@ -257,7 +258,7 @@ def test_an_abort_during_the_lpm_record_fades_out_to_0_v(tmp_path):
     """The drive ends at 0 V on every path: an operator's stop while the record grows."""
     from app.procedure import PeriodEstimate
 
-    plan = preset_plan("piezo", level_ms2=5.0)
+    plan = preset_plan("piezo", level_ms2=5.0, optimiser=stored_phases)
     stand = open_stand(load(), dut="piezo", seed=2, systematic=False)
     box: dict[str, Procedure] = {}
     played: list[np.ndarray] = []

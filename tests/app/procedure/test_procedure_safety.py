@@ -26,6 +26,7 @@ import app.procedure.stand_io as gate_module
 from app.cli import main
 from app.io.hdf5 import DiskFullError, RecordingWriter, read_recording
 from app.procedure import PeriodBlock, Procedure, RunSettings, State, StateChanged
+from app.procedure.phase_store import stored_phases
 from app.records.run_folder import RunFolder, inspect_run, load_run
 from app.records.run_record import RunRecord
 from app.stand import config as stand_config
@@ -112,7 +113,9 @@ def test_power_amplifier_is_on_only_while_the_run_plays(tmp_path):
     folder = RunFolder.create(tmp_path, "pa")
     settings = RunSettings(periods=3)
     try:
-        finished = Procedure(stand, preset_plan("piezo"), settings, folder, listener).run()
+        finished = Procedure(
+            stand, preset_plan("piezo", optimiser=stored_phases), settings, folder, listener
+        ).run()
         assert finished.status == "complete"
         assert stand.daq.power_output_on is False  # switched off by the run itself
     finally:
@@ -132,7 +135,9 @@ def test_amplifier_faults_come_through_the_amplifier_and_leave_it_off(tmp_path, 
     stand = open_stand(CONFIG, dut="piezo", faults=(Fault(kind, FAULT_AT_S),))
     folder = RunFolder.create(tmp_path, kind)
     try:
-        finished = Procedure(stand, preset_plan("piezo"), RunSettings(), folder).run()
+        finished = Procedure(
+            stand, preset_plan("piezo", optimiser=stored_phases), RunSettings(), folder
+        ).run()
         assert stand.daq.power_output_on is False
     finally:
         stand.close()
@@ -160,7 +165,9 @@ def test_natural_over_travel_opens_the_interlock_and_ends_the_run(tmp_path):
     stand = open_stand(config, dut="piezo", model=short)
     folder = RunFolder.create(tmp_path, "travel")
     try:
-        finished = Procedure(stand, preset_plan("piezo"), RunSettings(), folder).run()
+        finished = Procedure(
+            stand, preset_plan("piezo", optimiser=stored_phases), RunSettings(), folder
+        ).run()
         assert stand.daq.power_output_on is False
     finally:
         stand.close()
@@ -172,7 +179,7 @@ def test_natural_over_travel_opens_the_interlock_and_ends_the_run(tmp_path):
 
 
 def small_plan():
-    piezo = preset_plan("piezo")
+    piezo = preset_plan("piezo", optimiser=stored_phases)
     return make_plan((80.0, 160.0, 315.0), piezo.sample_rate_hz, piezo.period_samples, 5.0, 160.0)
 
 
@@ -205,7 +212,7 @@ def test_no_sample_over_a_low_drive_limit_is_ever_written(tmp_path, mode):
     limits = dataclasses.replace(CONFIG.limits, drive_peak_v=limit_v)
     stand = open_stand(dataclasses.replace(CONFIG, limits=limits), dut="piezo")
     folder = RunFolder.create(tmp_path, mode)
-    plan = preset_plan("piezo") if mode == "multisine" else small_plan()
+    plan = preset_plan("piezo", optimiser=stored_phases) if mode == "multisine" else small_plan()
     try:
         finished = Procedure(stand, plan, RunSettings(mode=mode), folder).run()
     finally:
@@ -231,7 +238,7 @@ def test_the_gate_refuses_over_the_limit_and_non_finite():
 
 
 def test_recording_stops_before_the_disk_is_full_and_stays_readable(tmp_path, monkeypatch):
-    plan = preset_plan("piezo")
+    plan = preset_plan("piezo", optimiser=stored_phases)
     stand = open_stand(CONFIG, dut="piezo")
     path = tmp_path / "r.h5"
     writer = RecordingWriter(path, plan, stand.chain, stand.budget, with_drive=True)
@@ -250,7 +257,7 @@ def test_recording_stops_before_the_disk_is_full_and_stays_readable(tmp_path, mo
 
 
 def test_an_enospc_from_hdf5_is_a_disk_full_error(tmp_path):
-    plan = preset_plan("piezo")
+    plan = preset_plan("piezo", optimiser=stored_phases)
     stand = open_stand(CONFIG, dut="piezo")
     writer = RecordingWriter(tmp_path / "r.h5", plan, stand.chain, stand.budget)
     stand.close()
@@ -284,7 +291,9 @@ def test_a_disk_full_during_a_crossfade_fades_out_from_where_it_ends(
             full["now"] = True  # the crossfade into this state is the next period recorded
 
     try:
-        finished = Procedure(stand, preset_plan("piezo"), RunSettings(), folder, listener).run()
+        finished = Procedure(
+            stand, preset_plan("piezo", optimiser=stored_phases), RunSettings(), folder, listener
+        ).run()
     finally:
         stand.close()
     assert finished.status == "aborted" and finished.abort_reason.startswith("disk full")
@@ -360,6 +369,7 @@ def _log_text(out: Path) -> str:
     return "".join(p.read_text() for p in out.glob("*/run.log"))
 
 
+@pytest.mark.long
 @pytest.mark.parametrize("signum", [signal.SIGHUP, signal.SIGTERM], ids=["SIGHUP", "SIGTERM"])
 def test_sighup_and_sigterm_fade_out_and_exit_3(tmp_path, signum):
     out = tmp_path / "runs"
@@ -402,7 +412,7 @@ raise SystemExit(run())
 """
 
 
-@pytest.mark.parametrize("stage", ["numpy", "scipy.stats", "h5py", "sim.stand"])
+@pytest.mark.parametrize("stage", ["numpy", "scipy.special", "h5py", "sim.stand"])
 def test_ctrl_c_while_starting_exits_130_with_one_line(tmp_path, stage):
     """Ctrl-C while importing numpy, scipy, h5py or the stand: one line, exit 130."""
     process = subprocess.Popen(

@@ -11,6 +11,7 @@ import math
 from app.certificate import CertificateInfo
 from app.certificate.pdf import _statements
 from app.procedure.analysis import analyze
+from app.procedure.phase_store import stored_phases
 from app.procedure.verdict import (
     FAIL,
     INDETERMINATE,
@@ -39,7 +40,9 @@ def test_conformity_is_not_stated_without_an_uncertainty(tmp_path):
     assert conformity_decide(1.0, math.inf, 5.0) == "not stated"
     assert conformity_decide(4.0, 1.0, 5.0) == "pass"  # 4 + 1 <= 5: the boundary passes
     assert decide(1.0, 0.0, 5.0) == "not stated"
-    one_period = make_recording(preset_plan("piezo"), lowpass_response(), periods=1)
+    one_period = make_recording(
+        preset_plan("piezo", optimiser=stored_phases), lowpass_response(), periods=1
+    )
     results = analyze(one_period, tolerance_percent=5.0).results  # one period: U undefined
     assert {ln.iso_verdict for ln in results.lines} == {"not stated"}
     assert {ln.tolerance_verdict for ln in results.lines} == {"not stated"}
