@@ -7,6 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from app.procedure.phase_store import stored_phases
 from dsp import iso266
 from dsp.multisine import (
     Plan,
@@ -25,7 +26,7 @@ def errors_of(freqs, fs=6000.0, n=12000, ref=160.0, **kw):
 
 
 def test_seed_piezo_plan_lines_sit_on_the_half_hertz_grid():
-    plan = preset_plan("piezo", shift_mains_lines=False)  # the seed's exact bins
+    plan = preset_plan("piezo", shift_mains_lines=False, optimiser=stored_phases)  # exact
     assert len(plan.lines) == 25
     assert plan.resolution_hz == 0.5
     np.testing.assert_array_equal(plan.frequencies_hz, plan.nominal_frequencies_hz)
@@ -38,7 +39,7 @@ def test_piezo_preset_keeps_its_lines_off_the_mains_harmonics_and_says_where():
     """Issue 32 point 3: 50, 100, 200 and 250 Hz move one bin, alternately up and down (the
     moved lines do not all lean one way), stated at their actual
     frequency; every other line stays on its exact bin."""
-    plan = preset_plan("piezo")
+    plan = preset_plan("piezo", optimiser=stored_phases)  # the shipped phases
     moved = {
         ln.nominal_frequency_hz: ln.frequency_hz
         for ln in plan.lines
@@ -54,17 +55,21 @@ def test_piezo_preset_keeps_its_lines_off_the_mains_harmonics_and_says_where():
     assert not any("on the 1st mains harmonic" in w for w in plan.warnings)
     # the optimiser's phases for the moved bins: 2.61 (exact bins: <= 2.5, above)
     assert plan.crest_factor() <= 2.62
-    at60 = preset_plan("piezo", mains_frequency_hz=60.0)  # 60 Hz mains: 120, 180, ... Hz
+    at60 = preset_plan(
+        "piezo", mains_frequency_hz=60.0, optimiser=stored_phases
+    )  # 60 Hz mains: 120, 180, ... Hz
     assert all(ln.frequency_hz == ln.nominal_frequency_hz for ln in at60.lines)
 
 
 def test_capacitive_preset():
-    plan = preset_plan("capacitive", shift_mains_lines=False)
+    plan = preset_plan("capacitive", shift_mains_lines=False, optimiser=stored_phases)
     assert len(plan.lines) == 27 and plan.sample_rate_hz == 12000 and plan.period_s == 2.0
     # 27 log-spaced lines: the best optimum found by an exhaustive search is 2.603
     # (bench/crest_factor.py); random phases give ~3.9, Schroeder 4.0
     assert plan.crest_factor() <= 2.62
-    moved = preset_plan("capacitive")  # lines off the mains harmonics (issue 32): 2.72
+    moved = preset_plan(
+        "capacitive", optimiser=stored_phases
+    )  # lines off the mains harmonics (issue 32): 2.72
     assert len(moved.lines) == 27 and moved.crest_factor() <= 2.73
     # ... and its predicted displacement at 7 m/s^2 within the small exciter's +-4 mm
     assert moved.with_amplitudes(7.0).predicted_peaks().displacement_m <= 3.8e-3
