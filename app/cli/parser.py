@@ -102,6 +102,7 @@ def _add_plan_options(p: argparse.ArgumentParser | argparse._ArgumentGroup) -> N
     numeric_option(p, "--level", LEVEL, "target peak acceleration per line, e.g. 5 or 0.5g")
     numeric_option(p, "--reference-frequency", FREQUENCY, "reference frequency in Hz")
     numeric_option(p, "--mains", MAINS, "mains frequency in Hz (50)", default=None)
+    p.add_argument("--exact-mains-bins", action="store_true", help=EXACT_MAINS_HELP)
 
 
 def _add_range_options(p: argparse.ArgumentParser) -> None:
@@ -276,7 +277,6 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="move lines off mains harmonics (the default; kept for old scripts)",
     )
-    p.add_argument("--exact-mains-bins", action="store_true", help=EXACT_MAINS_HELP)
     _add_range_options(p)
     p.add_argument("--json", action="store_true", help="machine-readable output")
 
