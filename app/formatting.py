@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from decimal import ROUND_HALF_UP, Decimal, localcontext
+from typing import Any
 
 
 def _round_half_up(x: float, exponent: int) -> Decimal:
@@ -53,6 +55,22 @@ def percent(ratio: float, decimals: int = 2) -> str:
     return f"{100 * ratio:.{decimals}f} %" if math.isfinite(ratio) else "n/a"
 
 
+NOT_STATED_SHORT = "n/s"  # a table cell of a line that is not stated
+
+
+def not_stated_notes(lines: Sequence[Any]) -> list[str]:
+    """One note per reason a line is not stated (dsp.calibration.LineResult.not_stated),
+    naming the lines: "n/s (not stated) at 25000, 31500 Hz: outside ..."."""
+    reasons: dict[str, list[str]] = {}
+    for ln in lines:
+        if ln.not_stated:
+            reasons.setdefault(ln.not_stated, []).append(f"{ln.nominal_frequency_hz:g}")
+    return [
+        f"{NOT_STATED_SHORT} (not stated) at {', '.join(hz)} Hz: {why}"
+        for why, hz in reasons.items()
+    ]
+
+
 COHERENCE_NOT_AVAILABLE = (
     "coherence n/a: one period analysed (the LPM takes its type A from the non-excited bins; "
     "a coherence needs two or more periods)"
@@ -74,3 +92,25 @@ def table(headers: list[str], rows: list[list[str]]) -> str:
     lines.append("  ".join("-" * w for w in widths))
     lines += ["  ".join(c.rjust(w) for c, w in zip(r, widths, strict=True)) for r in rows]
     return "\n".join(lines)
+
+
+def resonance_text(resonance: dict[str, Any] | None) -> str:
+    """The mounted-resonance search stored with the results (dsp.resonance.ResonanceSearch's
+    dict) in one line: f0 and Q with their expanded uncertainties rounded per GUM 7.2.6, or
+    "not found within the plan" with the reason; "not searched" without one."""
+    from dsp.resonance import ResonanceSearch
+
+    if resonance is None:
+        return "resonance: not searched (run with --resonance)"
+    search = ResonanceSearch.from_dict(resonance)
+    found = search.resonance
+    if found is None:
+        return f"resonance: {search.reason}"
+    f0, u_f0 = round_gum(found.frequency_hz, found.frequency_expanded_hz)
+    q, u_q = round_gum(found.q, found.q_expanded)
+    text = (
+        f"resonance: f0 = ({f0} ± {u_f0}) Hz, Q = {q} ± {u_q} (k = {found.coverage_factor:.2f}, "
+        f"p = {100 * found.coverage_probability:.2f} %), {found.peak_ratio:.2f} x the "
+        f"reference line, {found.lines_used} lines fitted"
+    )
+    return f"{text}; {search.note}" if search.note else text

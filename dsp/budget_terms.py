@@ -58,8 +58,8 @@ class ReferenceRange:
             span = f"outside the reference certificate ({lo:g}-{hi:g} Hz)"
             if ref:
                 out.append(
-                    f"line {f:g} Hz: {span}: refused (state a 'reference_extrapolation' "
-                    "component in the stand file to carry it)"
+                    f"line {f:g} Hz: {span}: refused, not stated (state a "
+                    "'reference_extrapolation' component in the stand file to carry it)"
                 )
             elif ext:
                 out.append(f"line {f:g} Hz: {span}: carried with the stated extrapolation term")

@@ -14,8 +14,10 @@ application.
 from __future__ import annotations
 
 import csv
+import dataclasses
 import io
 import math
+import re
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any
@@ -31,6 +33,7 @@ from dsp.conformity import NOT_STATED as NOT_STATED  # re-exported for its calle
 from dsp.conformity import uncertainty_stated as uncertainty_stated
 from dsp.errors import InputRefused
 from dsp.multisine import Plan
+from dsp.resonance import search_response
 from dsp.spectral import MIN_PERIODS, Estimate
 
 RESULTS_FORMAT_VERSION = 1
@@ -157,6 +160,15 @@ class LineResult:
     # U of deviation_percent, %, by dsp.characteristic's correlated model (common factors
     # cancel, the reference line's type A added); NaN in results stored before issue 25
     deviation_expanded_percent: float = math.nan
+    # why the line is not stated ("" when it is): outside the reference's calibrated range
+    # with no extrapolation term (issue 32 point 5). Such a line carries no sensitivity,
+    # deviation, phase or U (NaN, None in JSON, empty in CSV) and "not stated" verdicts.
+    not_stated: str = ""
+
+    @property
+    def stated(self) -> bool:
+        """True when the line's values are stated (see `not_stated`)."""
+        return not self.not_stated
 
 
 @dataclass(frozen=True)
@@ -197,6 +209,8 @@ class Results:
     missing_components: tuple[str, ...] = field(default=())
     # JCGM 101 validation per line and quantity (dsp.mcm.McmLine.to_dict), with --mcm only
     mcm: tuple[dict[str, Any], ...] = field(default=())
+    # the mounted-resonance search (dsp.resonance.ResonanceSearch.to_dict), when asked for
+    resonance: dict[str, Any] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready nested dict (NaN and inf become None)."""
@@ -209,6 +223,8 @@ class Results:
         data["mcm"] = [dict(m) for m in self.mcm]
         if not self.mcm:
             del data["mcm"]  # results without --mcm keep their pre-issue-25 shape
+        if self.resonance is None:
+            del data["resonance"]  # and without a resonance search their pre-issue-32 shape
         return _json_safe(data)
 
     @classmethod
@@ -216,7 +232,10 @@ class Results:
         """Rebuild stored results (None back to NaN for numbers)."""
         try:
             reference = ReferenceResult(**_nan(data["reference"]))
-            lines = tuple(LineResult(**_nan(item)) for item in data["lines"])
+            warnings = tuple(data.get("warnings", ()))
+            lines = _refused_not_stated(
+                tuple(LineResult(**_nan(item)) for item in data["lines"]), warnings
+            )
             return cls(
                 estimator=data["estimator"],
                 periods=int(data["periods"]),
@@ -227,12 +246,13 @@ class Results:
                 reference=reference,
                 lines=lines,
                 tolerance_percent=data.get("tolerance_percent"),
-                warnings=tuple(data.get("warnings", ())),
+                warnings=warnings,
                 phase_corrected_for_skew=bool(data.get("phase_corrected_for_skew", True)),
                 verdict=data.get("verdict"),
                 verdict_reasons=tuple(data.get("verdict_reasons", ())),
                 missing_components=tuple(str(m) for m in data.get("missing_components", ())),
                 mcm=tuple(dict(m) for m in data.get("mcm", ())),
+                resonance=dict(data["resonance"]) if data.get("resonance") else None,
             )
         except (KeyError, TypeError) as exc:
             raise ValueError(f"results: missing or malformed field ({exc})") from None
@@ -246,6 +266,30 @@ class Results:
         for line in self.lines:
             writer.writerow(["" if v is None else _fmt(v) for v in asdict(line).values()])
         return out.getvalue()
+
+
+_REFUSED = re.compile(r"^line (\S+) Hz: outside the reference certificate \(([^)]*) Hz\): refused")
+
+
+def _refused_not_stated(
+    lines: tuple[LineResult, ...], warnings: Sequence[str]
+) -> tuple[LineResult, ...]:
+    """Results stored before issue 32 kept numbers for a line they warned "refused" (outside
+    the reference's certificate): such a line is read back as not stated."""
+    refused: dict[str, str] = {}
+    for text in warnings:
+        match = _REFUSED.match(text)
+        if match:
+            span = match.group(2)
+            refused[match.group(1)] = f"outside the reference's calibrated range ({span} Hz)"
+    if not refused:
+        return lines
+    return tuple(
+        not_stated_line(ln, refused[label])
+        if ln.stated and (label := f"{ln.nominal_frequency_hz:g}") in refused
+        else ln
+        for ln in lines
+    )
 
 
 def _fmt(value: Any) -> str:
@@ -267,7 +311,7 @@ def _json_safe(value: Any) -> Any:
 
 
 def _nan(item: dict[str, Any]) -> dict[str, Any]:
-    optional = {"iso_limit", "tolerance_verdict"}
+    optional = {"iso_limit", "tolerance_verdict", "not_stated"}
     return {k: (float("nan") if v is None and k not in optional else v) for k, v in item.items()}
 
 
@@ -292,12 +336,16 @@ def compute_results(
     rule: str = "gum",
     tolerance_percent: float | None = None,
     extra_warnings: Sequence[str] = (),
+    resonance: bool = False,
 ) -> Results:
     """Sensitivity, characteristic, phase and uncertainty per line from an estimate.
 
     `tolerance_percent` is the DUT's permitted deviation of its characteristic from the
     reference sensitivity (e.g. the manufacturer's 5 %); verdicts use guarded acceptance.
-    Raises AnalysisError for a dead channel.
+    A line outside the reference's calibrated range without an extrapolation term is not
+    stated (`not_stated_line`). `resonance`: search the mounted resonance in the response
+    (`resonance_search`). Raises AnalysisError for a dead channel, or for a reference
+    frequency outside the reference's calibrated range.
     """
     warnings = list(extra_warnings)
     labels = [f"{f:g} Hz" for f in plan.nominal_frequencies_hz]
@@ -342,9 +390,19 @@ def compute_results(
         )
     elif missing:
         warnings.append(incomplete_budget_text(missing))
+    refused = [False] * len(labels)
     if len(chain.frequencies_hz) > 1:  # a one-point (flat) reference is stated everywhere
         span = reference_range(frequencies.tolist(), chain.frequencies_hz, budget)
         warnings.extend(span.messages(list(plan.nominal_frequencies_hz), *_span(chain)))
+        refused = list(span.refused)
+        if refused[ref_index]:
+            lo, hi = _span(chain)
+            raise AnalysisError(
+                f"reference frequency {plan.reference_frequency_hz:g} Hz (played at "
+                f"{frequencies[ref_index]:g} Hz): outside the reference certificate "
+                f"({lo:g}-{hi:g} Hz), so no line can be stated; choose a reference frequency "
+                "inside it"
+            )
     lines = []
     dofs = np.broadcast_to(np.asarray(estimate.dof, dtype=float), (len(labels),))
     f0 = float(frequencies[ref_index])
@@ -426,6 +484,8 @@ def compute_results(
                 deviation_expanded_percent=u_deviation,
             )
         )
+        if refused[k]:
+            lines[-1] = not_stated_line(lines[-1], _outside_text(chain))
         warnings.extend(_line_warnings(label, estimate, k, chain, f))
     r = lines[ref_index]
     reference = ReferenceResult(
@@ -455,7 +515,56 @@ def compute_results(
         warnings=tuple(warnings),
         phase_corrected_for_skew=skew_known,
         missing_components=tuple(missing),
+        resonance=(
+            search_response(
+                frequencies,
+                sensitivity * np.exp(1j * np.radians(phase)),  # mV/(m/s^2), complex
+                np.nan_to_num(np.asarray(estimate.relative_type_a, dtype=float), nan=0.0),
+                mid_band_hz=f0,
+                calibrated_hz=_span(chain) if len(chain.frequencies_hz) > 1 else None,
+            ).to_dict()
+            if resonance
+            else None
+        ),
     )
+
+
+_NOT_STATED_FIELDS = (
+    "sensitivity_mv_per_ms2",
+    "sensitivity_db",
+    "deviation_percent",
+    "deviation_db",
+    "phase_deg",
+    "relative_type_a",
+    "relative_type_b",
+    "relative_standard_uncertainty",
+    "relative_expanded_uncertainty",
+    "expanded_uncertainty_mv_per_ms2",
+    "coverage_factor",
+    "effective_dof",
+    "phase_expanded_uncertainty_deg",
+    "phase_coverage_factor",
+    "deviation_expanded_percent",
+)
+
+
+def not_stated_line(line: LineResult, reason: str) -> LineResult:
+    """`line` with no value stated: sensitivity, deviation, phase and every U NaN, the ISO and
+    tolerance verdicts "not stated", `reason` kept (the frequencies, coherence, SNR and
+    distortion stay: they state no result)."""
+    cleared: dict[str, Any] = dict.fromkeys(_NOT_STATED_FIELDS, math.nan)
+    return dataclasses.replace(
+        line,
+        **cleared,
+        iso_verdict=NOT_STATED,
+        tolerance_verdict=None if line.tolerance_verdict is None else NOT_STATED,
+        not_stated=reason,
+    )
+
+
+def _outside_text(chain: ReferenceChain) -> str:
+    lo, hi = _span(chain)
+    return f"outside the reference's calibrated range ({lo:g}-{hi:g} Hz)"
 
 
 def _span(chain: ReferenceChain) -> tuple[float, float]:

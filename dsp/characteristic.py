@@ -128,8 +128,10 @@ class Characteristic:
 
 
 def characteristic(results: Results) -> Characteristic:
-    """The characteristic of `results` (dsp.calibration.Results), see the module docstring."""
-    lines = results.lines
+    """The characteristic of `results` (dsp.calibration.Results), see the module docstring,
+    over the stated lines only: a line that is not stated (outside the reference's calibrated
+    range) is not drawn, with no value and no U."""
+    lines = [ln for ln in results.lines if ln.stated]
     deviation = np.array([ln.deviation_percent for ln in lines], dtype=float)
     return Characteristic(
         frequency_hz=np.array([ln.frequency_hz for ln in lines], dtype=float),

@@ -478,11 +478,14 @@ def design_grid(
     step_s: float = 0.05,
     mains_hz: float = 50.0,
     mains_harmonics: int = 5,
+    within_hz: tuple[float, float] | None = None,
 ) -> LpmGrid:
     """The shortest period (a multiple of `step_s`, within [min_period_s, max_period_s]) that
     puts every line on a bin within `tolerance` (relative) of its nominal frequency, on
     distinct bins below 0.45 fs, each with q >= settings.min_dof in a record of `periods`
-    periods (mains hum bins excluded). With tolerance 0 the lines sit exactly on their nominal
+    periods (mains hum bins excluded), and, given `within_hz` (lo, hi), every line's bin within
+    [lo, hi] Hz (issue 32: a 0.4 Hz line played at 0.3966 Hz lies outside a reference
+    calibrated from 0.4 Hz). With tolerance 0 the lines sit exactly on their nominal
     frequencies; a low-frequency plan whose exact bins would need a 100 s period takes a
     tolerance and reports the actual frequencies. LpmError when no period qualifies."""
     settings = settings or LpmSettings()
@@ -505,6 +508,10 @@ def design_grid(
             continue
         if np.any(np.abs(actual - nominal) > tolerance * nominal + 1e-9 * nominal):
             continue
+        if within_hz is not None and (
+            actual.min() < within_hz[0] * (1 - 1e-9) or actual.max() > within_hz[1] * (1 + 1e-9)
+        ):
+            continue
         record_bins = n * periods // 2 + 1
         excluded = mains_bins(resolution / periods, record_bins, mains_hz, mains_harmonics)
         q = line_dof(bins * periods, record_bins, settings, excluded)
@@ -520,6 +527,7 @@ def design_grid(
             )
     raise LpmError(
         f"grid: no period of {min_period_s:g}-{max_period_s:g} s puts every line within "
-        f"{100 * tolerance:g} % of its nominal frequency with q >= {settings.min_dof}; "
-        "allow a longer period or a frequency tolerance"
+        f"{100 * tolerance:g} % of its nominal frequency with q >= {settings.min_dof}"
+        + (f" inside {within_hz[0]:g}-{within_hz[1]:g} Hz" if within_hz is not None else "")
+        + "; allow a longer period or a frequency tolerance"
     )

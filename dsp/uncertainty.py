@@ -59,6 +59,7 @@ class Law(StrEnum):
 
     CONSTANT = "constant"  # value at every f
     POWER_ABOVE = "power-above"  # value below f0, value (f/f0)^n above
+    POWER_BELOW = "power-below"  # value above f0, value (f0/f)^n below (low-frequency terms)
     POWER = "power"  # value (f/f0)^n at every f
 
 
@@ -212,7 +213,7 @@ class Component:
 
     def scale_at(self, frequency_hz: float) -> float:
         """The law's factor at `frequency_hz` (Hz): 1, or (f/f0)^n (above f0 only for
-        'power-above')."""
+        'power-above'), or (f0/f)^n below f0 for 'power-below'."""
         if self.law is Law.CONSTANT:
             return 1.0
         f = _check_frequency(f"component {self.name!r}", frequency_hz)
@@ -220,6 +221,8 @@ class Component:
         ratio = f / self.law_frequency_hz
         if self.law is Law.POWER_ABOVE and ratio <= 1.0:
             return 1.0
+        if self.law is Law.POWER_BELOW:
+            return 1.0 if ratio >= 1.0 else float(ratio**-self.law_exponent)
         return float(ratio**self.law_exponent)
 
     def standard_uncertainty_at(self, frequency_hz: float) -> float:

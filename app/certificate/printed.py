@@ -51,7 +51,7 @@ class Column(StrEnum):
     SENSITIVITY_G = "s_g"  # mV/g (models stated in mV/g only)
 
 
-NOT_STATED_SHORT = "n/s"
+NOT_STATED_SHORT = fmt.NOT_STATED_SHORT
 ISO_WORDS = {"within": "within", "over": "over", "n/a": "n/a", NOT_STATED: NOT_STATED_SHORT}
 
 
@@ -95,7 +95,10 @@ def round_signed(value: float, uncertainty: float) -> tuple[str, str]:
 
 
 def printed_line(ln: LineResult) -> PrintedLine:
-    """The printed form of one line of dsp.calibration.Results."""
+    """The printed form of one line of dsp.calibration.Results; a line that is not stated
+    (outside the reference's calibrated range) prints "n/s" in every value and U cell."""
+    if not ln.stated:
+        return _not_stated(ln)
     s, u = fmt.round_gum(ln.sensitivity_mv_per_ms2, ln.expanded_uncertainty_mv_per_ms2)
     ph, u_ph = fmt.round_gum(ln.phase_deg, ln.phase_expanded_uncertainty_deg)
     u_dev = line_deviation_expanded_percent(ln)
@@ -128,6 +131,36 @@ def printed_line(ln: LineResult) -> PrintedLine:
     )
 
 
+def _not_stated(ln: LineResult) -> PrintedLine:
+    """A line that is not stated: its frequencies, NaN numbers, "n/s" strings."""
+    nan = math.nan
+    return PrintedLine(
+        nominal_frequency_hz=ln.nominal_frequency_hz,
+        frequency_hz=ln.frequency_hz,
+        sensitivity_mv_per_ms2=nan,
+        expanded_mv_per_ms2=nan,
+        coverage_factor=nan,
+        phase_deg=nan,
+        phase_expanded_deg=nan,
+        deviation_percent=nan,
+        deviation_expanded_percent=nan,
+        deviation_db=nan,
+        relative_expanded_percent=nan,
+        frequency=f"{ln.frequency_hz:g}",
+        sensitivity=NOT_STATED_SHORT,
+        expanded=NOT_STATED_SHORT,
+        k=NOT_STATED_SHORT,
+        phase=NOT_STATED_SHORT,
+        phase_expanded=NOT_STATED_SHORT,
+        deviation=NOT_STATED_SHORT,
+        deviation_expanded=NOT_STATED_SHORT,
+        deviation_in_db=NOT_STATED_SHORT,
+        relative_expanded=NOT_STATED_SHORT,
+        iso_verdict=NOT_STATED_SHORT,
+        tolerance_verdict=ln.tolerance_verdict,
+    )
+
+
 def printed_lines(results: Results) -> tuple[PrintedLine, ...]:
     """Every line of `results` as printed, in order."""
     return tuple(printed_line(ln) for ln in results.lines)
@@ -141,7 +174,9 @@ def table_cells(
     phase "n/s" when not stated; with `in_g` last the sensitivity in mV/g, 1 g = 9.80665
     m/s^2, rounded as its mV/(m/s^2) value)."""
     in_mv_per_g: tuple[tuple[Column, str], ...] = ()
-    if in_g:
+    if in_g and not math.isfinite(line.sensitivity_mv_per_ms2):
+        in_mv_per_g = ((Column.SENSITIVITY_G, NOT_STATED_SHORT),)
+    elif in_g:
         value, _ = fmt.round_gum(
             line.sensitivity_mv_per_ms2 * STANDARD_GRAVITY_MS2,
             line.expanded_mv_per_ms2 * STANDARD_GRAVITY_MS2,

@@ -49,6 +49,18 @@ def print_results(results: Results, source: str = "", status: str | None = None)
     )
     rows = []
     for ln in results.lines:
+        if not ln.stated:  # issue 32 point 5: no number with U, the reason below the table
+            rows.append(
+                [
+                    f"{ln.nominal_frequency_hz:g}",
+                    f"{ln.frequency_hz:g}",
+                    *([fmt.NOT_STATED_SHORT] * 7),
+                    fmt.coherence(ln.coherence),
+                    f"{ln.dut_snr_db:.0f}",
+                    ln.iso_verdict,
+                ]
+            )
+            continue
         s, us = fmt.round_gum(ln.sensitivity_mv_per_ms2, ln.expanded_uncertainty_mv_per_ms2)
         rows.append(
             [
@@ -87,6 +99,8 @@ def print_results(results: Results, source: str = "", status: str | None = None)
     )
     for warning in results.warnings:
         print(f"warning: {warning}")
+    for note in fmt.not_stated_notes(results.lines):
+        print(note)
     if any(not math.isfinite(ln.coherence) for ln in results.lines):
         print(fmt.COHERENCE_NOT_AVAILABLE)
     if not results.phase_corrected_for_skew:
@@ -132,7 +146,8 @@ class TerminalProgress:
                 f"  equalisation {event.iteration}: worst line {100 * event.worst:.2f} %", True
             )
         elif isinstance(event, PeriodEstimate):
-            lines = event.results.lines
+            stated = [ln for ln in event.results.lines if math.isfinite(ln.relative_type_a)]
+            lines = stated or event.results.lines  # a line not stated has no type A
             worst = max(lines, key=lambda ln: ln.relative_type_a)
             self._periods = event.periods
             self._worst = (

@@ -12,11 +12,11 @@ from typing import TYPE_CHECKING
 from app.cli.exits import UsageError
 from app.cli.options import faults_option, levels_option, sim_hum_option, writable_folder
 from app.cli.printers import TerminalProgress, print_run_end, print_sweep
+from app.formatting import resonance_text
 
 if TYPE_CHECKING:
     from app.procedure.options import RunOptions
     from app.procedure.service import PreparedRun, RunService
-    from dsp.calibration import Results
 
 
 def run_options(args: argparse.Namespace) -> RunOptions:
@@ -41,6 +41,7 @@ def run_options(args: argparse.Namespace) -> RunOptions:
             exact_mains_bins=args.exact_mains_bins,
             out=args.out,
             fail_exit=args.fail_exit,
+            resonance=args.resonance,
         )
     except ValueError as exc:
         raise UsageError(str(exc)) from None
@@ -70,7 +71,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     else:
         print_run_end(record, outcome.results, args.out / str(record.run_id))
     if args.resonance and outcome.results is not None:
-        print(resonance_text(outcome.results))
+        print(resonance_text(outcome.results.resonance))
     return int(outcome.exit_status)
 
 
@@ -94,26 +95,3 @@ def run_levels(
     else:
         print_sweep(summary)
     return int(status)
-
-
-def resonance_text(results: Results) -> str:
-    """The mounted resonance the run's response shows (dsp.resonance), one line."""
-    import numpy as np
-
-    from dsp.resonance import ResonanceError, find_resonance
-
-    f = np.array([line.frequency_hz for line in results.lines])
-    h = np.array(
-        [
-            line.sensitivity_mv_per_ms2 * np.exp(1j * np.radians(line.phase_deg))
-            for line in results.lines
-        ]
-    )
-    try:
-        found = find_resonance(f, h)
-    except ResonanceError as exc:
-        return f"resonance: none found ({exc})"
-    return (
-        f"resonance: mounted resonance at {found.frequency_hz:.0f} Hz, Q {found.q:.1f}, "
-        f"{found.peak_ratio:.2f} x the lowest line ({found.lines_used} lines fitted)"
-    )

@@ -22,7 +22,7 @@ from app import formatting as fmt
 from app.gui.plots import ChartStack, draw_bands, frequency_axis
 from app.gui.verdict_view import VerdictView, verdict_of
 from app.records.run_record import RunRecord
-from dsp.calibration import Results
+from dsp.calibration import LineResult, Results
 from dsp.uncertainty import Budget, Quantity
 
 COLUMNS = (  # name over unit: the table fits its half of a 1366 px window unscrolled
@@ -132,20 +132,27 @@ class ResultsTab(QWidget):
         for row, ln in enumerate(results.lines):
             s, us = fmt.round_gum(ln.sensitivity_mv_per_ms2, ln.expanded_uncertainty_mv_per_ms2)
             p, up = fmt.round_gum(ln.phase_deg, ln.phase_expanded_uncertainty_deg)
-            cells = [
-                f"{ln.nominal_frequency_hz:g}",
-                s,
-                us,
-                fmt.signed(ln.deviation_percent, 2),
-                p,
-                up,
-                fmt.significant(100 * ln.relative_expanded_uncertainty),
-                f"{ln.coverage_factor:.2f}",
-                ln.iso_verdict,
-                ln.tolerance_verdict or "",
-            ]
+            cells = (
+                _not_stated_cells(ln)
+                if not ln.stated
+                else [
+                    f"{ln.nominal_frequency_hz:g}",
+                    s,
+                    us,
+                    fmt.signed(ln.deviation_percent, 2),
+                    p,
+                    up,
+                    fmt.significant(100 * ln.relative_expanded_uncertainty),
+                    f"{ln.coverage_factor:.2f}",
+                    ln.iso_verdict,
+                    ln.tolerance_verdict or "",
+                ]
+            )
             for column, text in enumerate(cells):
                 self.table.setItem(row, column, QTableWidgetItem(text))
+            first = self.table.item(row, 0)
+            if not ln.stated and first is not None:
+                first.setToolTip(f"not stated: {ln.not_stated}")
         draw_bands(self.result_mag, self.result_phase, results)
         self.charts.show_chart(True)
         self._fill_budget(results, record)
@@ -193,3 +200,13 @@ class ResultsTab(QWidget):
         for r, row in enumerate(rows):
             for c, text in enumerate(row):
                 self.budget.setItem(r, c, QTableWidgetItem(text))
+
+
+def _not_stated_cells(ln: LineResult) -> list[str]:
+    """A line that is not stated (outside the reference's calibrated range): "n/s" in every
+    value, U and verdict cell, its reason in the tooltip of the row's first cell."""
+    return [
+        f"{ln.nominal_frequency_hz:g}",
+        *([fmt.NOT_STATED_SHORT] * 8),
+        ln.tolerance_verdict or "",
+    ]

@@ -138,7 +138,13 @@ def with_mcm(
     found = []
     for quantity, type_a in (
         (Quantity.MAGNITUDE, [ln.relative_type_a for ln in results.lines]),
-        (Quantity.PHASE, [math.degrees(float(u)) for u in estimate.phase_type_a_rad]),
+        (
+            Quantity.PHASE,
+            [
+                math.degrees(float(u)) if ln.stated else math.nan  # no statement to check
+                for u, ln in zip(estimate.phase_type_a_rad, results.lines, strict=True)
+            ],
+        ),
     ):
         found += validate_lines(
             frequencies, type_a, dof, budget, quantity, probability=probability, trials=trials

@@ -73,6 +73,7 @@ class RunContext:
             rule=s.rule,
             tolerance_percent=s.tolerance_percent,
             extra_warnings=tuple(self.notes.warnings),
+            resonance=s.resonance,
         )
         self.check_plausible(results)
         self.notes.results = results

@@ -213,7 +213,7 @@ def _impact(task: Task, record: RunRecord, old: Results, new: Results) -> RunImp
     worst, worst_f = None, None
     for a, b in zip(old.lines, new.lines, strict=True):
         u = a.expanded_uncertainty_mv_per_ms2
-        if u and math.isfinite(u) and u > 0:
+        if u and math.isfinite(u) and u > 0 and b.stated:  # a line not stated: no change
             change = (b.sensitivity_mv_per_ms2 - a.sensitivity_mv_per_ms2) / u
             if worst is None or abs(change) > abs(worst):
                 worst, worst_f = change, a.nominal_frequency_hz

@@ -275,6 +275,7 @@ class RunOptions:
     records: bool | None = None  # records in use; None: when a sensor or a records file is
     reference_override: str | None = None  # the reason to go past the reference check
     fail_exit: bool = False  # a completed run whose verdict is FAIL exits EXIT_FAIL_VERDICT
+    resonance: bool = False  # search the mounted resonance in the response (dsp.resonance)
 
     def __post_init__(self) -> None:
         for name, enum in (("estimator", Estimator), ("mode", Mode), ("profile", Profile)):

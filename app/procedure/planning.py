@@ -7,8 +7,10 @@ Without a period the preset's is kept when every line sits exactly on its bins; 
 shortest period (dsp.lpm.design_grid, a multiple of 50 ms up to `EXACT_MAX_PERIOD_S`) that
 puts every line exactly on a bin with q >= 8 non-excited degrees of freedom; failing that (low
 frequencies: exact ISO 266 bins can need a 100 s period), lines within `GRID_TOLERANCE` of
-their nominal frequency on a non-uniform grid, the actual frequencies stated by the plan's
-warnings and used for the results.
+their nominal frequency on a non-uniform grid and none outside the nominal span (the lowest
+line not below its nominal frequency, the highest not above: a reference calibrated over the
+span covers every line), the actual frequencies stated by the plan's warnings and used for
+the results.
 """
 
 from __future__ import annotations
@@ -57,9 +59,14 @@ def choose_period(frequencies: Sequence[float], fs: float, preset_period: int) -
         return lpm.design_grid(frequencies, fs, max_period_s=EXACT_MAX_PERIOD_S).period_samples
     except lpm.LpmError:
         pass
-    try:
+    try:  # the end lines never played outside the nominal span: a reference calibrated
+        # over it (e.g. from 0.4 Hz) covers every line (issue 32 point 5)
         grid = lpm.design_grid(
-            frequencies, fs, tolerance=GRID_TOLERANCE, max_period_s=LONGEST_PERIOD_S
+            frequencies,
+            fs,
+            tolerance=GRID_TOLERANCE,
+            max_period_s=LONGEST_PERIOD_S,
+            within_hz=(min(frequencies), max(frequencies)),
         )
     except lpm.LpmError as exc:
         raise PlanError([f"period: {exc}"]) from None

@@ -93,7 +93,24 @@ def check_preflight(
                 f"mV/(m/s^2)) is too close to its +-{ranges['dut']:g} V range "
                 "(raise the range or lower the level)"
             )
+    problems += reference_line_problems(plan, chain)
     return PreflightReport(peaks, plan.crest_factor(), tuple(problems))
+
+
+def reference_line_problems(plan: Plan, chain: ReferenceChain | None) -> list[str]:
+    """The plan's reference line outside the reference's calibrated range (issue 32 point 5:
+    no line could then be stated): refused before anything moves, not after the run."""
+    if chain is None or len(chain.frequencies_hz) < 2:
+        return []
+    f = float(plan.frequencies_hz[plan.reference_index])
+    lo, hi = chain.frequencies_hz[0], chain.frequencies_hz[-1]
+    if lo <= f <= hi:
+        return []
+    return [
+        f"reference frequency {plan.reference_frequency_hz:g} Hz (played at {f:g} Hz): outside "
+        f"the reference's calibrated range ({lo:g}-{hi:g} Hz), so no line could be stated; "
+        "choose a reference frequency inside it"
+    ]
 
 
 def limit_problems(peaks: PredictedPeaks, limits: Limits) -> list[str]:

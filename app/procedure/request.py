@@ -152,6 +152,7 @@ class RunRequest:
     corner_hz: float | None = None
     exciter: str | None = None  # simulated stand: a name of its exciter catalogue
     fade_in_s: float | None = None  # lpm: the fade-in before the record (None: 2 cycles)
+    resonance: bool = False  # search the mounted resonance in the response (dsp.resonance)
     records_chain_head: str | None = None  # hex: the records' chain head, named by the seal
     # the reference standard as on record (None: the stand file's, or the simulated stand's)
     reference: ReferenceTable | None = None
@@ -225,6 +226,7 @@ class RunRequest:
             tolerance_percent=self.tolerance_percent,
             dut_nominal_mv_per_ms2=self.nominal_mv_per_ms2,
             fade_in_s=self.fade_in_s,
+            resonance=self.resonance,
         )
 
 

@@ -24,6 +24,7 @@ from app.procedure.request import (
 from app.records.run_folder import RunFolder
 from app.stand import config as stand_config
 from app.stand.config import StandConfig, StandPlan
+from app.stand.exciters import with_exciter_budget
 from app.stand.open import open_stand
 from app.stand.response import ResponseStore
 from app.stand.simulated import EXCITERS, exciter_stroke_m, plan_preset_for
@@ -186,7 +187,8 @@ def with_stand_plan(request: RunRequest, plan: StandPlan) -> RunRequest:
 
 def with_exciter(config: StandConfig, exciter: str | None) -> StandConfig:
     """The stand configuration with the simulated exciter `exciter`'s stroke as its travel
-    limit (RequestError: unknown, or not a simulated stand)."""
+    limit and its own budget terms (app.stand.exciters; RequestError: unknown,
+    or not a simulated stand)."""
     if exciter is None:
         return config
     if config.backend != Backend.SIM:
@@ -196,7 +198,7 @@ def with_exciter(config: StandConfig, exciter: str | None) -> StandConfig:
     limits = dataclasses.replace(
         config.limits, displacement_peak_to_peak_m=exciter_stroke_m(exciter)
     )
-    return dataclasses.replace(config, limits=limits)
+    return dataclasses.replace(with_exciter_budget(config, exciter), limits=limits)
 
 
 def start(

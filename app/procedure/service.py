@@ -213,6 +213,7 @@ class RunService:
             exciter=options.exciter,
             fade_in_s=options.fade_in_s,
             technician=options.technician,
+            resonance=options.resonance,
         )
 
     def draft(self, options: RunOptions, *, stand_plan: bool = True) -> RunRequest:

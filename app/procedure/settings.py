@@ -39,6 +39,7 @@ class RunSettings:
     stored_response_max_age_days: float = 30.0  # an older stored response is not used
     # a stored response off by more than this at its first check is dropped: re-identify
     stored_response_tolerance: float = 0.1
+    resonance: bool = False  # search the mounted resonance in the response (dsp.resonance)
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:

@@ -95,10 +95,12 @@ def summarise(runs: list[Finished], levels: list[float]) -> SweepSummary:
         return summary
     results = [r.results for r in complete if r.results is not None]
     first = results[0]
-    frequencies = [ln.nominal_frequency_hz for ln in first.lines]
-    table = np.array([[ln.sensitivity_mv_per_ms2 for ln in r.lines] for r in results])
+    # the lines stated at every level (a line outside the reference's range is never stated)
+    stated = [k for k in range(len(first.lines)) if all(r.lines[k].stated for r in results)]
+    frequencies = [first.lines[k].nominal_frequency_hz for k in stated]
+    table = np.array([[r.lines[k].sensitivity_mv_per_ms2 for k in stated] for r in results])
     lin = linearity(table)
-    ref = [ln.nominal_frequency_hz for ln in first.lines].index(first.reference.frequency_hz)
+    ref = frequencies.index(first.reference.frequency_hz)
     return dataclasses.replace(
         summary,
         table=SweepTable(

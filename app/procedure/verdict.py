@@ -16,7 +16,8 @@ coherence or SNR, DUT distortion, inseparable hum, a line over the ISO limit, a 
 outside its certificate, the seed rule, an uncorrected skew).
 
 Mounting check: a resonance inside the calibrated range (an interior line whose sensitivity
-exceeds both neighbours' and the reference frequency's by more than RESONANCE_RISE), or a
+exceeds both neighbours' and the reference frequency's by more than RESONANCE_RISE, all three
+stated: a peak the stated lines do not bracket blames no mount), or a
 coherence drop that noise cannot explain (coherence below LOW_COHERENCE at a line where both
 channels' SNR is at least CLEAN_SNR_DB), is a named warning ("mounting: ..."); with one the
 verdict is never PASS.
@@ -80,6 +81,8 @@ def mounting_warnings(results: Results) -> list[str]:
     s0 = results.reference.sensitivity_mv_per_ms2
     out = []
     for k in range(1, len(lines) - 1):
+        if not all(ln.stated for ln in lines[k - 1 : k + 2]):
+            continue  # a peak beside a line not stated is not bracketed: no mount blamed
         s = lines[k].sensitivity_mv_per_ms2
         rise = s / s0 - 1.0
         if (

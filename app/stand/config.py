@@ -40,6 +40,7 @@ from urllib.parse import urlsplit
 from app.errors import Refusal
 from app.io.checks import MAX_TEXT_BYTES, InputFileError, check_input_file
 from app.io.vocabulary import Backend
+from app.stand.exciters import parse_exciters
 from dsp.annex_a import missing_components
 from dsp.budget_terms import skew_phase_component
 from dsp.calibration import ReferenceChain
@@ -66,6 +67,7 @@ SCHEMA: dict[str, frozenset[str]] = {
             "simulation",
             "certificate",
             "plan",
+            "exciters",
         }
     ),
     "plan": frozenset(  # issue 26: the stand's own plan (app.procedure.planning)
@@ -205,6 +207,8 @@ class StandConfig:
     budget: Budget
     simulation: dict[str, str] = field(default_factory=dict)
     plan: StandPlan = field(default_factory=StandPlan)
+    # [exciters.<name>] [[component]]: the simulated exciters' own terms (app.stand.exciters)
+    exciter_components: dict[str, Budget] = field(default_factory=dict)
     raw: dict[str, Any] = field(default_factory=dict, repr=False)
     text: str = field(default="", repr=False)  # the stand file as read (copied into each run)
 
@@ -494,6 +498,10 @@ def _parse(data: dict[str, Any], text: str, source: str) -> StandConfig:
     simulation = data.get("simulation", {})
     if backend != Backend.SIM and simulation:
         raise r.fail("simulation", "only for the simulated stand (daq.backend = 'sim')")
+    try:
+        exciters = parse_exciters(data, simulated=backend == Backend.SIM)
+    except ValueError as exc:
+        raise ConfigError(f"{r.source}: {exc}") from None
     measuring = amps.get("measuring")
     power = amps.get("power")
     for key, value in (("measuring", measuring), ("power", power)):
@@ -516,6 +524,7 @@ def _parse(data: dict[str, Any], text: str, source: str) -> StandConfig:
         budget=budget,
         simulation=dict(simulation),
         plan=_plan(r),
+        exciter_components=exciters,
         raw=data,
         text=text,
     )

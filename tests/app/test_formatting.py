@@ -168,3 +168,22 @@ def test_table_header_wider_than_cells_and_no_rows():
 def test_table_refuses_a_row_of_the_wrong_length():
     with pytest.raises((ValueError, IndexError)):
         table(["a", "b"], [["1", "2", "3"]])
+
+
+def test_the_resonance_is_stated_with_its_u_or_not_found_within_the_plan():
+    """Issue 32 point 5: f0 and Q with their U rounded per GUM; an unbracketed peak is
+    "not found within the plan" with the reason; nothing searched says so."""
+    import numpy as np
+
+    from app.formatting import resonance_text
+    from dsp.resonance import search_resonance
+
+    f = np.arange(20000.0, 30001.0, 250.0)
+    mode = 1 / (1 - (f / 25000.0) ** 2 + 1j * f / (25000.0 * 35.0))
+    text = resonance_text(search_resonance(f, mode, np.full(f.size, 0.002)).to_dict())
+    assert text.startswith("resonance: f0 = (25000") and "Q = 35" in text and "k = 2.00" in text
+    assert " ± " in text.split("Q =")[0] and " ± " in text.split("Q =")[1]
+    missed = resonance_text(search_resonance(f[:21], mode[:21]).to_dict())
+    assert missed.startswith("resonance: not found within the plan: still rising")
+    assert "mount" not in missed
+    assert resonance_text(None) == "resonance: not searched (run with --resonance)"

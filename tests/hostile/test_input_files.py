@@ -14,11 +14,20 @@ from app.io.checks import InputFileError, check_input_file
 from app.io.csv import read_csv
 from app.io.hdf5 import RecordingError, read_recording, write_recording
 from dsp.calibration import ReferenceChain
+from dsp.crestfactor import schroeder_phases
 from dsp.multisine import make_plan
 from dsp.uncertainty import Budget
 from tests.synthetic import lowpass_response, make_recording
 
-PLAN = make_plan([10.0, 40.0, 160.0, 630.0], 6000, 12000, 5.0, 160.0)
+# Schroeder's phases: no optimisation while the tests are collected (the phases do not matter here)
+PLAN = make_plan(
+    [10.0, 40.0, 160.0, 630.0],
+    6000,
+    12000,
+    5.0,
+    160.0,
+    phases_rad=list(schroeder_phases(np.ones(4))),
+)
 
 
 def test_a_regular_file_within_the_cap_passes(tmp_path):

@@ -199,3 +199,20 @@ def test_one_register_the_database_with_records_the_json_file_without(tmp_path):
     rows = items_from_dcc(parse_inert((tmp_path / "plain.xml").read_bytes())).lines
     assert [r.u_dev for r in rows] == [p.deviation_expanded for p in printed]
     assert [r.dev for r in rows] == [p.deviation for p in printed] and len(printed) > 10
+
+
+def test_a_line_not_stated_prints_n_s_in_every_value_and_u_cell():
+    """Issue 32 point 5: a line outside the reference's calibrated range carries no number
+    with U in the certificate's table, the DCC's strings or the charts."""
+    from app.certificate.printed import Column, table_cells
+    from dsp.calibration import not_stated_line
+
+    results = _results()
+    lines = (*results.lines[:2], not_stated_line(results.lines[2], "outside (10-2000 Hz)"))
+    results = dataclasses.replace(results, lines=lines)
+    last = printed_lines(results)[2]
+    cells = dict(table_cells(last, phase_stated=True, in_g=True))
+    assert cells.pop(Column.NOMINAL) == "2500" and cells.pop(Column.FREQUENCY) == "2500"
+    assert set(cells.values()) == {"n/s"}
+    assert gui_characteristic(results).frequency_hz.tolist() == [160.0, 1000.0]
+    assert printed_lines(results)[1].sensitivity == "12.00"  # the stated lines as before

@@ -111,3 +111,25 @@ def test_a_coherence_that_is_not_defined_prints_n_a_with_the_reason(capsys):
     out = capsys.readouterr().out
     assert "nan" not in out.lower().replace("nanometre", "")
     assert " n/a " in out and COHERENCE_NOT_AVAILABLE in out
+
+
+def test_a_line_not_stated_prints_n_s_and_its_reason(capsys):
+    """Issue 32 point 5 (run and show print this table): no number with U, the reason."""
+    import dataclasses
+
+    from app.cli.printers import print_results
+    from app.procedure.analysis import analyze
+    from dsp.calibration import not_stated_line
+    from dsp.multisine import make_plan
+    from tests.synthetic import lowpass_response, make_recording
+
+    plan = make_plan([10.0, 80.0, 160.0, 630.0], 6000, 12000, 5.0, 160.0)
+    results = analyze(make_recording(plan, lowpass_response(), periods=3)).results
+    why = "outside the reference's calibrated range (20-1000 Hz)"
+    lines = (not_stated_line(results.lines[0], why), *results.lines[1:])
+    print_results(dataclasses.replace(results, lines=lines))
+    out = capsys.readouterr().out
+    row = next(t.split() for t in out.splitlines() if t.strip().startswith("10 "))
+    assert row[2:9] == ["n/s"] * 7 and row[-2:] == ["not", "stated"]
+    assert f"n/s (not stated) at 10 Hz: {why}" in out
+    assert "nan" not in out.lower()

@@ -67,3 +67,18 @@ def test_preflight_reports_peaks_and_scales_with_the_level():
             at_50.raise_if_refused()
     finally:
         stand.close()
+
+
+def test_a_reference_frequency_outside_the_reference_range_is_refused_before_the_run():
+    """Issue 32 point 5: no line of such a run could be stated; refused naming the range."""
+    from dsp.calibration import ReferenceChain
+
+    chain = ReferenceChain((10.0, 160.0, 5000.0), (1.0, 1.0, 1.0), (0.0, 0.0, 0.0))
+    freqs = [10.0, 160.0, 1000.0, 8000.0]
+    phases = [0.0] * 4
+    inside = make_plan(freqs, 51200, 51200, 1.0, 160.0, phases_rad=phases)
+    assert check_preflight(inside, CONFIG, chain).problems == ()
+    outside = make_plan(freqs, 51200, 51200, 1.0, 8000.0, phases_rad=phases)
+    (problem,) = check_preflight(outside, CONFIG, chain).problems
+    assert problem.startswith("reference frequency 8000 Hz (played at 8000 Hz): outside the ")
+    assert "calibrated range (10-5000 Hz)" in problem

@@ -20,12 +20,14 @@ from app.procedure.verdict import (
     Tolerances,
     assess,
     decide,
+    mounting_warnings,
     with_verdict,
 )
 from dsp.calibration import (
     LineResult,
     ReferenceResult,
     Results,
+    not_stated_line,
 )
 from dsp.conformity import decide as conformity_decide
 from dsp.multisine import preset_plan
@@ -175,3 +177,18 @@ def test_verdict_survives_the_round_trip():
     results = with_verdict(_results(), SPEC)
     again = Results.from_dict(json.loads(json.dumps(results.to_dict())))
     assert again.verdict == PASS and again.verdict_reasons == results.verdict_reasons
+
+
+def test_a_peak_beside_a_line_not_stated_blames_no_mount():
+    """Issue 32 point 5: the plan's 20 kHz line rose +176 % with 25 kHz beyond the reference's
+    certificate; a peak not bracketed by stated lines is no mounted resonance."""
+    spec = dataclasses.replace(SPEC, characteristic=())
+    results = _results((0, 0, 0, 30, 10))
+    assert mounting_warnings(results)  # bracketed by stated lines: the mount is suspect
+    lines = list(results.lines)
+    lines[4] = not_stated_line(lines[4], "outside the reference's calibrated range")
+    unbracketed = dataclasses.replace(results, lines=tuple(lines))
+    assert mounting_warnings(unbracketed) == []
+    verdict, reasons, _ = assess(unbracketed, spec)
+    assert not any("mounting" in r for r in reasons)
+    assert verdict == INDETERMINATE and any("not stated at 2500 Hz" in r for r in reasons)

@@ -189,8 +189,12 @@ def test_a_line_outside_the_reference_certificate_is_refused_unless_a_term_carri
     assert len(texts) == 3 and all("stated extrapolation term" in w for w in texts)
     assert with_verdict(carried, _tolerance_5()).verdict == "PASS"
     assert all(w in printed_warnings(carried) for w in texts)
+    # refused: not stated (issue 32 point 5); carried: stated, the term in its type B
+    assert not plain.lines[0].stated and math.isnan(plain.lines[0].relative_type_b)
+    assert carried.lines[0].stated
     wider = carried.lines[0].relative_type_b
-    assert wider == pytest.approx(math.hypot(plain.lines[0].relative_type_b, 0.01 / math.sqrt(3)))
+    base = budget.type_b(carried.lines[0].frequency_hz, Quantity.MAGNITUDE)[0]
+    assert wider == pytest.approx(math.hypot(base, 0.01 / math.sqrt(3)))
 
 
 def test_a_run_refused_mid_way_exits_2_and_a_stopped_one_3() -> None:

@@ -8,7 +8,9 @@ import pytest
 
 from app.stand import config as stand_config
 from app.stand.config import ConfigError, parse
+from app.stand.exciters import with_exciter_budget
 from app.stand.open import open_stand
+from dsp.uncertainty import Quantity
 
 EXAMPLE = Path(__file__).resolve().parents[3] / "examples" / "stand-pxi6251.toml"
 
@@ -151,3 +153,48 @@ def test_one_physical_channel_for_two_inputs_is_refused(channel, clash):
     assert f"daq.{channel}.physical: '{physical[clash]}' is also daq.{clash}.physical" in str(
         info.value
     )
+
+
+SIM_TEXT = (Path(stand_config.__file__).parents[2] / "sim" / "stand.toml").read_text()
+
+
+def test_the_long_stroke_exciter_has_its_own_budget_terms():
+    """Issue 32 point 5: on the long-stroke exciter its rocking mode, guidance errors and the
+    reference's low-frequency term replace the stand's terms of those kinds; the small
+    exciter's budget is the stand's own."""
+    sim = stand_config.load()
+    small = {c.name for c in with_exciter_budget(sim, "small").budget.components}
+    assert small == {c.name for c in sim.budget.components}
+    long = with_exciter_budget(sim, "long-stroke").budget
+    names = {c.name for c in long.components}
+    assert "transverse motion" not in names  # the small exciter's, growing above 2 kHz
+    assert "reference frequency response (interpolation, drift) above 2 kHz" not in names
+    assert "transverse motion: long-stroke rocking mode (60 Hz)" in names
+
+    def u_b(f: float) -> float:
+        return long.type_b(f, Quantity.MAGNITUDE)[0]
+
+    assert u_b(0.4) > u_b(8.0) > 0  # the reference's term grows below 2 Hz
+    assert u_b(60.0) > u_b(8.0)  # the rocking mode
+    assert with_exciter_budget(sim, "long-stroke").missing_components() == []
+
+
+@pytest.mark.parametrize(
+    ("added", "message"),
+    [
+        ("[exciters.small]\nstroke = 1\n", "exciters.small: holds only"),
+        ("[exciters.small]\n", "exciters.small: states no component"),
+        (
+            '[[exciters.small.component]]\nname = "x"\nvalue = 0.001\n'
+            'kind = "transverse"\ndistribution = "rectangular"\n',
+            "exciters.small.component:",
+        ),
+    ],
+)
+def test_an_exciter_section_is_checked_naming_the_field(added, message):
+    text = SIM_TEXT.replace("[simulation]\n", added + "\n[simulation]\n")
+    with pytest.raises(ConfigError, match=message):
+        parse(text, "stand.toml")
+    real = EXAMPLE.read_text() + '\n[[exciters."long-stroke".component]]\nname = "x"\n'
+    with pytest.raises(ConfigError, match="exciters: only for the simulated stand"):
+        parse(real, "stand.toml")

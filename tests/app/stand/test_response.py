@@ -17,10 +17,20 @@ from app.stand.response import (
     mass_class,
     stand_sha256,
 )
+from dsp.crestfactor import schroeder_phases
 from dsp.multisine import make_plan
 
 NOW = datetime(2026, 11, 24, 12, 0, tzinfo=UTC)
-PLAN = make_plan([10.0, 80.0, 160.0, 1000.0], 6000.0, 12000, 5.0, 160.0)
+
+
+def _plan(frequencies: list[float], period: int = 12000, level: float = 5.0):
+    """A 6 kS/s plan with Schroeder's phases (the store keys by lines, not by how the phases
+    were found: no optimisation while the tests are collected)."""
+    phases = schroeder_phases(np.ones(len(frequencies)))
+    return make_plan(frequencies, 6000.0, period, level, 160.0, phases_rad=list(phases))
+
+
+PLAN = _plan([10.0, 80.0, 160.0, 1000.0])
 STAND = stand_sha256("[daq]\nbackend = 'sim'\n")
 
 
@@ -76,8 +86,8 @@ def test_a_saved_response_is_found_again_exactly(tmp_path):
     [
         ({"mass": "100-300 g"}, "no stored response"),
         ({"mode": "stepped-sine"}, "no stored response"),
-        ({"plan": make_plan([10.0, 80.0, 160.0, 1250.0], 6000.0, 12000, 5.0, 160.0)}, "no stored"),
-        ({"plan": make_plan([10.0, 80.0, 160.0, 1000.0], 6000.0, 6000, 5.0, 160.0)}, "no stored"),
+        ({"plan": _plan([10.0, 80.0, 160.0, 1250.0])}, "no stored"),
+        ({"plan": _plan([10.0, 80.0, 160.0, 1000.0], period=6000)}, "no stored"),
         ({"age": 0.5}, "older than 0.5 days"),
     ],
 )
@@ -108,7 +118,7 @@ def test_the_nearest_level_is_used_and_a_same_level_entry_is_replaced(tmp_path):
     assert found.entry is not None and found.entry.run_id == "newer"
     data = json.loads(next(tmp_path.rglob("*.json")).read_text())
     assert sorted(e["levels_ms2"][0] for e in data["entries"]) == [3.0, 5.0, 7.0]
-    at_6 = make_plan([10.0, 80.0, 160.0, 1000.0], 6000.0, 12000, 6.5, 160.0)
+    at_6 = _plan([10.0, 80.0, 160.0, 1000.0], level=6.5)
     nearest = lookup(store, plan=at_6).entry
     assert nearest is not None and nearest.levels_ms2[0] == 7.0  # |ln 7/6.5| < |ln 5/6.5|
 
