@@ -32,9 +32,18 @@ def mains_shifted_bins(
     so they do not all lean one way: the presets' predicted table displacement stays below
     the exact bins' (capacitive at 7 m/s^2: 3.77 mm peak, against 4.31 mm all up). Hz."""
     out = [int(m) for m in bins]
+    taken = set(out)
     moved = 0
     for k in sorted(range(len(out)), key=lambda i: out[i]):
-        if mains_harmonic_of_bin(out[k], resolution_hz, mains_frequency_hz, mains_harmonics):
-            out[k] += 1 if moved % 2 == 0 else -1
-            moved += 1
+        m = out[k]
+        if not mains_harmonic_of_bin(m, resolution_hz, mains_frequency_hz, mains_harmonics):
+            continue
+        step = 1 if moved % 2 == 0 else -1
+        for target in (m + step, m - step):  # never onto another line or DC: else kept
+            if target > 0 and target not in taken:
+                taken.discard(m)
+                taken.add(target)
+                out[k] = target
+                moved += 1
+                break
     return out

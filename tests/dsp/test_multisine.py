@@ -226,3 +226,10 @@ def test_a_fade_out_envelope_falls_to_exactly_zero_then_stays_there_to_a_period_
     assert longer.size == 3000 and longer[2499] == 0.0 and longer[999] > 0
     with pytest.raises(ValueError):
         fade_out_envelope(1000, 1)
+
+
+def test_a_line_is_never_moved_onto_another_line():
+    """On coarse bins the bin beside a mains-harmonic line can be another line's: the move
+    goes the other way, or the line keeps its exact bin (and the plan warns of it)."""
+    plan = make_plan([40.0, 80.0, 160.0], 1000.0, 25, 5.0, 160.0, phases_rad=[0.0] * 3)
+    assert len(set(plan.bins.tolist())) == 3
