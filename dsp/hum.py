@@ -38,6 +38,15 @@ Hum amplitude at the line bin, per channel (issue 25 point 3):
   combined half-width). The line is flagged as not separable (`separable` False): a
   drive-off background or a line shifted off the mains harmonic (plan option
   shift_mains_lines) settles it.
+
+Hum while driven (issue 32 point 3; `DrivenHum`, `driven_hum`): hum that comes with the drive
+(a power-amplifier ground loop) is invisible to the drive-off background. The default plans
+move their lines one bin off the mains harmonics (dsp.multisine.mains_shifted_bins), so hum
+at a mains harmonic falls on a free bin and leaks onto no line; hum a little off a bin leaks
+onto the lines beside it, and dsp.tones locates it in the driven periods' averaged spectra
+(in the motion-free residual Y - H U, so the exciter's own non-periodic motion, on both
+channels in the ratio, is not taken for hum) and states what reaches each line. A line kept
+on a mains harmonic (exact bins) is bounded by its departure from its neighbours' response.
 """
 
 from __future__ import annotations
@@ -48,9 +57,11 @@ from typing import Any
 
 import numpy as np
 
+from dsp.mains import mains_harmonic_of_bin
 from dsp.multisine import Plan
 from dsp.spectral import period_spectrum
-from dsp.uncertainty import Component, Distribution, Quantity
+from dsp.tones import ON_LINE_BINS, line_leak
+from dsp.uncertainty import Budget, Component, Distribution, Quantity
 
 SOURCE_BACKGROUND = "background"
 SOURCE_NEIGHBOURS = "neighbouring mains harmonics"
@@ -163,13 +174,13 @@ def mains_harmonic_of_lines(plan: Plan) -> np.ndarray:
     """The mains harmonic h (1..plan.mains_harmonics) each line's bin sits on, 0 for none
     (within half a bin, as the plan check of SPEC s.3)."""
     resolution = plan.sample_rate_hz / plan.period_samples
-    out = np.zeros(len(plan.lines), dtype=int)
-    for k, m in enumerate(plan.bins):
-        for h in range(1, plan.mains_harmonics + 1):
-            if abs(h * plan.mains_frequency_hz / resolution - m) < 0.5:
-                out[k] = h
-                break
-    return out
+    return np.array(
+        [
+            mains_harmonic_of_bin(int(m), resolution, plan.mains_frequency_hz, plan.mains_harmonics)
+            for m in plan.bins
+        ],
+        dtype=int,
+    )
 
 
 def mains_hum(
@@ -348,3 +359,188 @@ def _free_mains_bins(plan: Plan) -> np.ndarray:
         if free:
             return np.array(free, dtype=np.int64)
     return np.array([], dtype=np.int64)
+
+
+NEGLIGIBLE_HUM = 1e-4  # relative: hum while driven below 0.01 % at a line is not stated
+DRIVEN = "hum while driven"
+
+
+@dataclass(frozen=True)
+class DrivenHum:
+    """Hum (any tone at non-excited bins) measured in the driven periods themselves, per line
+    in plan order (issue 32 point 3). A drive-off background cannot see hum that comes with
+    the drive (a power-amplifier ground loop); the averaged driven spectra can, at the bins
+    beside the lines and at the free mains-harmonic bins. Table motion (the exciter's own
+    non-periodic motion, a transient) is on both channels in the ratio H and cancels in it,
+    so the tones are sought in the motion-free residual E = Y - H U (H interpolated from the
+    lines): what is left is the hum's effect on the ratio, h_y - H h_u. `relative` is what
+    the tones beside a line leak onto it (dsp.tones) over |Y| at the line, carried as a
+    U-shaped half-width (phase unknown, as MainsHum); `tone_hz` the nearest tone (NaN:
+    none); `separable` False where a tone is within dsp.tones.ON_LINE_BINS of the line."""
+
+    nominal_frequencies_hz: np.ndarray
+    frequencies_hz: np.ndarray
+    tone_hz: np.ndarray
+    relative: np.ndarray
+    separable: np.ndarray
+    bin_width_hz: float
+    on_mains: np.ndarray | None = None  # lines kept on a mains harmonic (exact bins), bool
+
+    @property
+    def affected(self) -> np.ndarray:
+        """Lines the hum while driven reaches (bool): not separable, or over NEGLIGIBLE_HUM."""
+        return ~self.separable | (self.relative >= NEGLIGIBLE_HUM)
+
+    def component_name(self, k: int | np.integer, phase: bool = False) -> str:
+        f = float(self.nominal_frequencies_hz[k])
+        return f"{DRIVEN}{' (phase)' if phase else ''} at {f:g} Hz"
+
+    def components(self) -> list[Component]:
+        """Per affected line: "hum while driven at X Hz" (relative) and its phase twin
+        (degrees), U-shaped, limited to the line's bin."""
+        out = []
+        for k in np.flatnonzero(self.affected):
+            a = float(self.relative[k])
+            if not math.isfinite(a):
+                continue
+            line, half = float(self.frequencies_hz[k]), 0.5 * self.bin_width_hz
+            common: dict[str, Any] = dict(
+                distribution=Distribution.U_SHAPED,
+                min_frequency_hz=max(line - half, 0.0),
+                max_frequency_hz=line + half,
+                note=f"tone at {self.tone_hz[k]:.4g} Hz beside the line, in the driven periods",
+            )
+            out.append(Component(self.component_name(k), a, **common))
+            out.append(
+                Component(
+                    self.component_name(k, phase=True),
+                    math.degrees(a),
+                    quantity=Quantity.PHASE,
+                    **common,
+                )
+            )
+        return out
+
+    def warnings(self) -> list[str]:
+        """One warning per affected line, naming the line, the tone and its size."""
+        out = []
+        for k in np.flatnonzero(self.affected):
+            f, tone = float(self.nominal_frequencies_hz[k]), float(self.tone_hz[k])
+            size = f"{100 * self.relative[k]:.3g} % of the line"
+            if self.on_mains is not None and self.on_mains[k] and not math.isfinite(tone):
+                out.append(
+                    f"line {f:g} Hz: kept on a mains harmonic (exact bins): {DRIVEN} at the "
+                    "line cannot be told from it; bounded by the line's departure from its "
+                    f"neighbours' response, {size}, in the budget as "
+                    f"'{self.component_name(k)}'"
+                )
+                continue
+            if not self.separable[k]:
+                out.append(
+                    f"line {f:g} Hz: {DRIVEN} at {tone:.4g} Hz, within {ON_LINE_BINS:g} bin of "
+                    f"the line at {self.frequencies_hz[k]:g} Hz: not separable from it "
+                    f"(estimated {size}); remove the hum, or change the period or the line"
+                )
+                continue
+            out.append(
+                f"line {f:g} Hz: {DRIVEN} at {tone:.4g} Hz beside the line: {size}, measured at "
+                f"the non-excited bins of the driven periods; in the budget as "
+                f"'{self.component_name(k)}'"
+            )
+        return out
+
+    def merged_into(self, budget: Budget) -> Budget:
+        """`budget` with these components; one of the same name already there is kept only
+        when larger (a stored run's re-analysis carries the hum it measures)."""
+        return merged(budget, self.components())
+
+
+def merged(budget: Budget, components: list[Component]) -> Budget:
+    """`budget` with `components`: a component of the same name is replaced when the new one
+    is larger (the hum measured now), else kept; new names appended."""
+    new = {c.name: c for c in components}
+    kept = []
+    for c in budget.components:
+        fresh = new.get(c.name)
+        if fresh is not None and fresh.value > c.value:
+            continue
+        new.pop(c.name, None)
+        kept.append(c)
+    return Budget((*kept, *new.values()))
+
+
+def driven_hum(plan: Plan, reference: np.ndarray, dut: np.ndarray) -> DrivenHum:
+    """Hum while driven from the driven periods' averaged spectra (complex, one-sided, V,
+    peak-scaled: dsp.spectral.period_spectrum of the mean period) of both channels."""
+    bins = np.asarray(plan.bins)
+    u, y = np.asarray(reference), np.asarray(dut)
+    every = np.arange(u.size)
+    residual = y - _interpolated_ratio(plan, u, y, every) * u
+    residual[bins] = y[bins]  # the lines: not free bins (dsp.tones leaves them out)
+    leak = line_leak(residual, bins)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        relative = leak.leak_v / np.abs(y[bins])
+    resolution = plan.sample_rate_hz / plan.period_samples
+    on_mains = mains_harmonic_of_lines(plan) > 0
+    tone_bin = leak.tone_bin.copy()
+    if on_mains.any():
+        departure = _departure_from_neighbours(plan, u[bins], y[bins], on_mains)
+        larger = on_mains & (departure > relative)
+        relative = np.where(larger, departure, relative)
+        tone_bin = np.where(larger, np.nan, tone_bin)
+    return DrivenHum(
+        nominal_frequencies_hz=np.asarray(plan.nominal_frequencies_hz, dtype=float),
+        frequencies_hz=np.asarray(plan.frequencies_hz, dtype=float),
+        tone_hz=tone_bin * resolution,
+        relative=relative,
+        separable=leak.separable,
+        bin_width_hz=resolution,
+        on_mains=on_mains,
+    )
+
+
+NEIGHBOUR_LINES = 2  # lines each side whose response bounds a line kept on a mains harmonic
+
+
+def _departure_from_neighbours(
+    plan: Plan, u: np.ndarray, y: np.ndarray, on_mains: np.ndarray
+) -> np.ndarray:
+    """Per line on a mains harmonic (`on_mains`), |H / H_fit - 1|: H = Y/U at the line
+    against a quadratic in log f through up to NEIGHBOUR_LINES lines each side that are not
+    on a mains harmonic (log |H| and unwrapped phase); hum while driven on the line's own bin
+    shows as such a departure (a smooth response has none). 0 where too few neighbours."""
+    out = np.zeros(on_mains.size)
+    ratio = y / u
+    log_f = np.log(np.asarray(plan.frequencies_hz, dtype=float))
+    clean = np.flatnonzero(~on_mains)
+    for k in np.flatnonzero(on_mains):
+        below = [j for j in clean if log_f[j] < log_f[k]][-NEIGHBOUR_LINES:]
+        above = [j for j in clean if log_f[j] > log_f[k]][:NEIGHBOUR_LINES]
+        near = below + above
+        if not below or not above or len(near) < 3:
+            continue
+        x = log_f[near]
+        magnitude = np.polyval(np.polyfit(x, np.log(np.abs(ratio[near])), 2), log_f[k])
+        angles = np.unwrap(np.angle(ratio[near]))
+        phase = np.polyval(np.polyfit(x, angles, 2), log_f[k])
+        fit = np.exp(magnitude + 1j * phase)
+        out[k] = float(abs(ratio[k] / fit - 1.0))
+    return out
+
+
+def _interpolated_ratio(plan: Plan, u: np.ndarray, y: np.ndarray, bins: np.ndarray) -> np.ndarray:
+    """H = Y/U of the lines interpolated at `bins` (magnitude and unwrapped phase against
+    frequency; held beyond the first and last line)."""
+    lines = np.asarray(plan.bins)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = y[lines] / u[lines]
+    order = np.argsort(lines)
+    magnitude = np.interp(bins, lines[order], np.abs(ratio[order]))
+    phase = np.interp(bins, lines[order], np.unwrap(np.angle(ratio[order])))
+    return magnitude * np.exp(1j * phase)
+
+
+def driven_hum_of_periods(plan: Plan, acquisition: tuple[np.ndarray, np.ndarray]) -> DrivenHum:
+    """As `driven_hum` from the analysed periods (reference_v, dut_v), shape (periods, N)."""
+    n = plan.period_samples
+    return driven_hum(plan, *(_mean_spectrum(x, n) for x in acquisition))

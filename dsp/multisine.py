@@ -21,6 +21,7 @@ import numpy as np
 
 from dsp import crestfactor, iso266
 from dsp.errors import InputRefused
+from dsp.mains import mains_harmonic_of_bin, mains_shifted_bins
 
 MAX_FREQUENCY_FRACTION = 0.45  # of fs: multiplexed boards have no anti-alias filter (SPEC s.3)
 HARMONICS_CHECKED = (2, 3, 4, 5)  # SPEC s.3: 2nd..5th harmonic of a line
@@ -316,9 +317,17 @@ def check_lines(
 
     resolution = sample_rate_hz / period_samples
     labels = [f"{f:g} Hz" for f in nominal]
-    if bins is None:
-        bins = [snap_to_bin(f, sample_rate_hz, period_samples) if f > 0 else 0 for f in nominal]
-    bins = [int(b) for b in bins]
+    snapped = [
+        snap_to_bin(f, sample_rate_hz, period_samples) if math.isfinite(f) and f > 0 else 0
+        for f in nominal
+    ]
+    bins = snapped if bins is None else [int(b) for b in bins]
+    shifted = {  # bin -> the mains harmonic its line was moved off (mains_shifted_bins)
+        m: h
+        for s, m in zip(snapped, bins, strict=True)
+        if abs(m - s) == 1
+        and (h := mains_harmonic_of_bin(s, resolution, mains_frequency_hz, mains_harmonics))
+    }
 
     for label, f, m in zip(labels, nominal, bins, strict=True):
         if not (math.isfinite(f) and f > 0):
@@ -332,6 +341,14 @@ def check_lines(
             errors.append(
                 f"line {label}: at or above 0.45 fs = {MAX_FREQUENCY_FRACTION * sample_rate_hz:g}"
                 " Hz (no anti-alias filter on multiplexed boards); raise the sample rate"
+            )
+        elif m in shifted:
+            h = shifted[m]
+            warnings.append(
+                f"line {label}: moved one bin off the {_ordinal(h)} mains harmonic "
+                f"({h * mains_frequency_hz:g} Hz) to {m * resolution:g} Hz (bin {m}), the "
+                "frequency its result is stated at (hum at the mains harmonic then falls on a "
+                "free bin, where it is measured; --exact-mains-bins keeps the exact bin)"
             )
         elif not math.isclose(m * resolution, f, rel_tol=1e-9, abs_tol=1e-9):
             warnings.append(
@@ -370,7 +387,8 @@ def check_lines(
                 warnings.append(
                     f"line {label}: on the {_ordinal(harmonic)} mains harmonic "
                     f"({harmonic * mains_frequency_hz:g} Hz); a periodic average does not "
-                    f"remove hum; shift it one bin to {(m + 1) * resolution:g} Hz"
+                    "remove hum; the default plan moves it one bin (kept here by "
+                    "--exact-mains-bins)"
                 )
     return PlanCheck(tuple(errors), tuple(warnings))
 
@@ -384,7 +402,7 @@ def make_plan(
     *,
     mains_frequency_hz: float = 50.0,
     mains_harmonics: int = 5,
-    shift_mains_lines: bool = False,
+    shift_mains_lines: bool = True,
     phases_rad: Sequence[float] | None = None,
     seed: int = 0,
     optimiser: PhaseOptimiser | None = None,
@@ -394,8 +412,9 @@ def make_plan(
     Amplitudes are target peak table accelerations (m/s^2), one value for all lines or one per
     line. Without `phases_rad`, phases minimise the crest factor: `optimiser` (default
     dsp.crestfactor.optimise_phases; they depend only on the lines, the amplitudes' ratios,
-    the period and `seed`). `shift_mains_lines` moves a line sitting on a mains harmonic up by
-    one bin.
+    the period and `seed`). `shift_mains_lines` (the default, issue 32) moves a line sitting on
+    a mains harmonic by one bin (`mains_shifted_bins`; a plan warning states where); False
+    keeps the exact bins (the line then carries the hum it cannot separate).
     """
     nominal = [float(f) for f in nominal_frequencies_hz]
     amplitudes = np.asarray(amplitude_ms2, dtype=float)
@@ -428,8 +447,7 @@ def make_plan(
     resolution = sample_rate_hz / period_samples
     bins = [snap_to_bin(f, sample_rate_hz, period_samples) for f in nominal]
     if shift_mains_lines:
-        mains_bins = {h * mains_frequency_hz / resolution for h in range(1, mains_harmonics + 1)}
-        bins = [m + 1 if any(abs(mb - m) < 0.5 for mb in mains_bins) else m for m in bins]
+        bins = mains_shifted_bins(bins, resolution, mains_frequency_hz, mains_harmonics)
         check = check_lines(
             nominal,
             sample_rate_hz,
@@ -506,10 +524,12 @@ def preset_plan(
     level_ms2: float | None = None,
     reference_frequency_hz: float | None = None,
     mains_frequency_hz: float = 50.0,
+    shift_mains_lines: bool = True,
     optimiser: PhaseOptimiser | None = None,
 ) -> Plan:
     """The plan of a named preset (`piezo`, `capacitive`) at a per-line level in m/s^2 peak;
-    phases from `optimiser` as for `make_plan`."""
+    lines off the mains harmonics unless `shift_mains_lines` is False, phases from
+    `optimiser` as for `make_plan`."""
     try:
         preset = PRESETS[name]
     except KeyError:
@@ -523,6 +543,7 @@ def preset_plan(
         preset.level_ms2 if level_ms2 is None else level_ms2,
         preset.reference_frequency_hz if reference_frequency_hz is None else reference_frequency_hz,
         mains_frequency_hz=mains_frequency_hz,
+        shift_mains_lines=shift_mains_lines,
         optimiser=optimiser,
     )
 

@@ -105,18 +105,39 @@ def dft_at(
 
 
 SETTLE_NOISE_SIGMAS = 6.0  # a noise-only difference exceeds 6 sigma with probability e^-18
+SETTLE_INTERFERENCE_MARGIN = 1.5  # x a tone's measured change at the line (dsp.tones)
 
 
 def periods_agree(
-    previous: np.ndarray, current: np.ndarray, noise: np.ndarray, tolerance: float
+    previous: np.ndarray,
+    current: np.ndarray,
+    noise: np.ndarray,
+    tolerance: float,
+    interference: np.ndarray | None = None,
 ) -> bool:
     """Settle test (SPEC s.5 step 2): do two consecutive periods' complex line spectra agree
     at every line of every channel? Agreement: |current - previous| within `tolerance`
     (relative) of the line or within 6 standard deviations `noise` of one period's noise
-    (same shape, volts); the difference of two noise-only periods has variance 2 noise^2."""
+    (same shape, volts); the difference of two noise-only periods has variance 2 noise^2.
+    `interference` (V, same shape): what a tone beside the line changes there from one period
+    to the next (hum a little off a bin, dsp.tones), allowed on top: it never settles."""
+    return bool(np.all(settle_excess(previous, current, noise, tolerance, interference) <= 0))
+
+
+def settle_excess(
+    previous: np.ndarray,
+    current: np.ndarray,
+    noise: np.ndarray,
+    tolerance: float,
+    interference: np.ndarray | None = None,
+) -> np.ndarray:
+    """Per line and channel, how far (V) the change from `previous` exceeds what
+    `periods_agree` allows (<= 0: agrees)."""
     current = np.asarray(current)
     allowed = np.maximum(tolerance * np.abs(current), SETTLE_NOISE_SIGMAS * np.asarray(noise))
-    return bool(np.all(np.abs(current - np.asarray(previous)) <= allowed))
+    if interference is not None:
+        allowed = allowed + SETTLE_INTERFERENCE_MARGIN * np.asarray(interference)
+    return np.abs(current - np.asarray(previous)) - allowed
 
 
 @dataclass(frozen=True)
@@ -272,6 +293,13 @@ class SpectralAccumulator:
     def periods(self) -> int:
         """Number of periods accumulated so far (L)."""
         return self._lines.count
+
+    def mean_spectra(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """The averaged spectra of every bin (reference, DUT; complex, V, peak-scaled), or
+        None without `track_floor` or before a period."""
+        if self._bins is None or self._bins.count == 0:
+            return None
+        return self._bins.mean_u.copy(), self._bins.mean_y.copy()
 
     def add_period(self, reference_v: np.ndarray, dut_v: np.ndarray) -> None:
         """Add one period (N samples in volts) of the reference and DUT channels."""

@@ -10,7 +10,8 @@ Signal chain, all at the DAQ sample rate and exact at the sample instants (sim.l
       -> table acceleration a(t) -> reference accelerometer (+ conditioning amplifier)
                                  -> DUT (its own dynamics, transverse sensitivity, noise,
                                     nonlinearity)
-      -> ADC per channel: gain error, white noise, mains hum, 16-bit quantisation, clipping;
+      -> ADC per channel: gain error, white noise, mains hum (and, when asked for, hum only
+         while driven: DrivenHum), 16-bit quantisation, clipping;
          the DUT channel sampled `skew_s` after the reference channel (multiplexed board).
 """
 
@@ -385,6 +386,53 @@ def plan_preset_for(dut: str) -> str:
     return PLAN_PRESET_BY_DUT.get(dut, DEFAULT_PLAN_PRESET)
 
 
+_VOLT_UNITS = {"v": 1.0, "mv": 1e-3, "uv": 1e-6}
+
+
+@dataclass(frozen=True)
+class DrivenHum:
+    """A hum tone present only while the exciter is driven (a power-amplifier ground loop:
+    its return current through the DUT's cable shield): `dut_v` and `reference_v` (V peak) at
+    `frequency_hz` on those ADC channels, whenever the drive is not at 0 V. The drive-off
+    background cannot see it (issue 32 point 3)."""
+
+    frequency_hz: float
+    dut_v: float
+    reference_v: float = 0.0
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.frequency_hz) and self.frequency_hz > 0):
+            raise ValueError(f"hum: frequency must be > 0 Hz, got {self.frequency_hz!r}")
+        for name, value in (("DUT", self.dut_v), ("reference", self.reference_v)):
+            if not (math.isfinite(value) and value >= 0):
+                raise ValueError(f"hum: {name} amplitude must be >= 0 V, got {value!r}")
+
+    @classmethod
+    def parse(cls, text: str) -> DrivenHum:
+        """'1mV@50.3Hz' (DUT channel) or '1mV/0.2mV@50.3Hz' (DUT/reference): V, mV or uV
+        peak at Hz; ValueError naming --sim-hum."""
+
+        def volts(part: str) -> float:
+            word = part.strip().lower().replace("µ", "u")
+            for unit in sorted(_VOLT_UNITS, key=len, reverse=True):
+                if word.endswith(unit):
+                    return float(word[: -len(unit)]) * _VOLT_UNITS[unit]
+            return float(word)
+
+        amplitudes, at, frequency = text.partition("@")
+        try:
+            if not at:
+                raise ValueError("no @")
+            dut, _, reference = amplitudes.partition("/")
+            hz = frequency.strip().lower().removesuffix("hz")
+            return cls(float(hz), volts(dut), volts(reference) if reference else 0.0)
+        except ValueError as exc:
+            raise ValueError(
+                f"--sim-hum {text!r}: expected AMPLITUDE@FREQUENCY, e.g. 1mV@50.3Hz or "
+                f"1mV/0.2mV@100Hz (DUT/reference, V peak) ({exc})"
+            ) from None
+
+
 @dataclass(frozen=True)
 class StandModel:
     """Everything physical about a simulated stand (nominal values; systematic deviations are
@@ -400,3 +448,4 @@ class StandModel:
     # a period written to the output plays this many periods later than the next one read
     # (a real board's buffer and FIFO latency; 0: in lockstep)
     output_latency_periods: int = 0
+    driven_hum: tuple[DrivenHum, ...] = ()  # hum only while driven (none on the shipped stand)

@@ -431,7 +431,8 @@ class SimulatedStand:
         v *= amp.noise_v
         v += drive * amp.gain
         np.clip(v, -amp.output_limit_v, amp.output_limit_v, out=v)
-        if self._amp_tripped or self.power_output_on is False:
+        v_off = self._amp_tripped or self.power_output_on is False
+        if v_off:
             v = np.zeros(n)
         u = m.exciter.nonlinearity(v)
         chain = self._chain.process(u)
@@ -468,6 +469,10 @@ class SimulatedStand:
         noise *= self.dut.noise_g_per_rthz * sensor_noise * self.dut.sensitivity_mv_per_ms2 * 1e-3
         dut += noise
         hum_reference, hum_dut = self._hum(n, fs)
+        if m.driven_hum and not v_off and np.any(drive != 0.0):
+            driven_reference, driven_dut = self._driven_hum(n, fs)
+            hum_reference = hum_reference + driven_reference
+            hum_dut = hum_dut + driven_dut
         adc = m.adc
         reference *= d.daq_gain_reference
         reference += hum_reference
@@ -505,6 +510,21 @@ class SimulatedStand:
         table = self._hum_table[0]
         offset = start % span
         return table[0, offset : offset + n], table[1, offset : offset + n]
+
+    def _driven_hum(self, n: int, fs: float) -> tuple[np.ndarray, np.ndarray]:
+        """The model's hum while driven (V) on the reference and DUT channels for the next n
+        samples, continuous in phase with the sample index (the DUT channel `skew_s` later)."""
+        m = self.model
+        time_s = (self._sample_index + np.arange(n)) / fs
+        reference, dut = np.zeros(n), np.zeros(n)
+        for k, tone in enumerate(m.driven_hum):
+            phase = self._hum_phases[0, k % self._hum_phases.shape[1]]
+            w = 2 * np.pi * tone.frequency_hz
+            if tone.reference_v:
+                reference += tone.reference_v * np.sin(w * time_s + phase)
+            if tone.dut_v:
+                dut += tone.dut_v * np.sin(w * (time_s - m.skew_s) + phase)
+        return reference, dut
 
     def _hum_block(self, start: int, n: int, fs: float) -> tuple[np.ndarray, np.ndarray]:
         """The hum for samples start .. start + n - 1: one complex exponential, harmonics by

@@ -17,11 +17,11 @@ from app.files import FileExistsRefusal, check_target
 from app.io import quantities
 from app.io.quantities import Quantity, QuantityError
 from app.procedure.phase_store import stored_phases
-from app.stand.simulated import CATALOGUE, parse_faults
+from app.stand.simulated import CATALOGUE, parse_faults, parse_sim_hum
 from dsp.multisine import PRESETS, Plan, make_plan
 
 if TYPE_CHECKING:
-    from app.stand.simulated import Fault
+    from app.stand.simulated import DrivenHum, Fault
 
 
 class Bounded:
@@ -175,7 +175,7 @@ def plan_from_options(args: argparse.Namespace, *, optimise: bool) -> Plan:
         args.level or preset.level_ms2,
         args.reference_frequency or preset.reference_frequency_hz,
         mains_frequency_hz=args.mains if args.mains is not None else 50.0,
-        shift_mains_lines=getattr(args, "shift_mains", False),
+        shift_mains_lines=not getattr(args, "exact_mains_bins", False),
         phases_rad=None if optimise else [0.0] * len(freqs),
         optimiser=stored_phases,
     )
@@ -190,6 +190,14 @@ def dut_name(text: str) -> str:
     raise argparse.ArgumentTypeError(
         f"{text!r} is not in the DUT catalogue ({', '.join(CATALOGUE)}){hint}"
     )
+
+
+def sim_hum_option(texts: list[str]) -> tuple[DrivenHum, ...]:
+    """--sim-hum AMPLITUDE@FREQUENCY options as hum of the simulated stand while driven."""
+    try:
+        return parse_sim_hum(texts)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
 
 
 def faults_option(texts: list[str]) -> tuple[Fault, ...]:

@@ -87,6 +87,13 @@ class _Version(argparse.Action):
         parser.exit()
 
 
+EXACT_MAINS_HELP = (
+    "keep lines on mains harmonics on their exact bins (default: each moved one bin, "
+    "alternately up and down, and stated at its actual frequency; a line kept there cannot be "
+    "told from hum while driven)"
+)
+
+
 def _add_plan_options(p: argparse.ArgumentParser | argparse._ArgumentGroup) -> None:
     p.add_argument("--preset", choices=sorted(PRESETS), help="named plan (default piezo)")
     p.add_argument("--frequencies", help="line list in Hz, e.g. 10,12.5,...,2500 (ISO 266 fill)")
@@ -95,6 +102,7 @@ def _add_plan_options(p: argparse.ArgumentParser | argparse._ArgumentGroup) -> N
     numeric_option(p, "--level", LEVEL, "target peak acceleration per line, e.g. 5 or 0.5g")
     numeric_option(p, "--reference-frequency", FREQUENCY, "reference frequency in Hz")
     numeric_option(p, "--mains", MAINS, "mains frequency in Hz (50)", default=None)
+    p.add_argument("--exact-mains-bins", action="store_true", help=EXACT_MAINS_HELP)
 
 
 def _add_range_options(p: argparse.ArgumentParser) -> None:
@@ -214,6 +222,15 @@ def _add_run_options(r: argparse.ArgumentParser) -> None:
         default=[],
         help=f"simulated: KIND@SECONDS, KIND one of {', '.join(FAULT_KINDS)}",
     )
+    r.add_argument(
+        "--sim-hum",
+        action="append",
+        default=[],
+        metavar="AMPLITUDE@FREQUENCY",
+        help="simulated: hum only while driven (a power-amplifier ground loop), e.g. "
+        "1mV@50.3Hz on the DUT channel or 1mV/0.2mV@100Hz (DUT/reference, V peak); repeatable",
+    )
+    r.add_argument("--exact-mains-bins", action="store_true", help=EXACT_MAINS_HELP)
     r.add_argument("--out", type=Path, default=Path("runs"), help="folder for run folders")
     r.add_argument("--json", action="store_true", help="the run record as JSON")
     r.add_argument(
@@ -255,7 +272,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("plan", help="show a frequency plan, its checks and predicted peaks")
     _add_plan_options(p)
-    p.add_argument("--shift-mains", action="store_true", help="move lines off mains harmonics")
+    p.add_argument(
+        "--shift-mains",
+        action="store_true",
+        help="move lines off mains harmonics (the default; kept for old scripts)",
+    )
     _add_range_options(p)
     p.add_argument("--json", action="store_true", help="machine-readable output")
 

@@ -67,7 +67,7 @@ def _plan(args: argparse.Namespace) -> Plan:
             mains_frequency_hz=args.mains if args.mains is not None else 50.0,
             profile=args.profile,
             corner_hz=args.corner,
-            shift_mains_lines=args.shift_mains,
+            shift_mains_lines=not args.exact_mains_bins,
         ),
         stroke_peak_to_peak_m=_stroke(args.exciter),
     )

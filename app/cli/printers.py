@@ -207,7 +207,12 @@ _WARNING_KINDS = (  # (one warning after "line X Hz: ", the grouped wording)
     (
         re.compile(r"on the \w+ mains harmonic"),
         "{lines} lines on a mains harmonic: {labels} Hz; a periodic average does not remove "
-        "hum; shift each one bin up",
+        "hum; the default plan moves each one bin (kept by --exact-mains-bins)",
+    ),
+    (
+        re.compile(r"moved one bin off the \w+ mains harmonic"),
+        "{lines} lines moved one bin off a mains harmonic: {labels} Hz; each stated at its "
+        "actual frequency (--exact-mains-bins keeps the exact bins)",
     ),
     (re.compile(r"snapped to "), "{lines} lines snapped to the bin grid: {labels} Hz"),
 )

@@ -10,7 +10,7 @@ import sys
 from typing import TYPE_CHECKING
 
 from app.cli.exits import UsageError
-from app.cli.options import faults_option, levels_option, writable_folder
+from app.cli.options import faults_option, levels_option, sim_hum_option, writable_folder
 from app.cli.printers import TerminalProgress, print_run_end, print_sweep
 from app.formatting import resonance_text
 
@@ -37,6 +37,8 @@ def run_options(args: argparse.Namespace) -> RunOptions:
             stored_response=not args.fresh_response,
             paced=args.paced,
             faults=faults_option(args.fault),
+            sim_hum=sim_hum_option(args.sim_hum),
+            exact_mains_bins=args.exact_mains_bins,
             out=args.out,
             fail_exit=args.fail_exit,
             resonance=args.resonance,

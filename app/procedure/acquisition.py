@@ -10,8 +10,10 @@ import numpy as np
 from app.procedure.context import RunContext
 from app.procedure.events import Progress, State
 from app.procedure.stopping import Stop, StoppingRule
+from dsp.calibration import Results
+from dsp.hum import driven_hum
 from dsp.lpm_record import hum_bins
-from dsp.spectral import MIN_PERIODS, SpectralAccumulator
+from dsp.spectral import MIN_PERIODS, Estimate, SpectralAccumulator
 from dsp.uncertainty import Budget
 
 
@@ -59,6 +61,7 @@ class Acquisition:
             stop = rule.decide(count, worst_a, acquired_s, period_s)
             if stop is None:
                 continue
+            results = self._with_driven_hum(accumulator, estimate, results)
             if stop is Stop.TARGET and s.target_type_a is not None:
                 ctx.log(f"type A target {100 * s.target_type_a:g} % reached after {count} periods")
             elif stop is Stop.TIME_BOUND and s.target_type_a is not None:
@@ -69,3 +72,36 @@ class Acquisition:
                 ctx.warn(text)
                 ctx.notes.results = dataclasses.replace(results, warnings=(*results.warnings, text))
             return
+
+    def _with_driven_hum(
+        self, accumulator: SpectralAccumulator, estimate: Estimate, results: Results
+    ) -> Results:
+        """The results with the hum measured in the driven periods (`with_driven_hum`)."""
+        spectra = accumulator.mean_spectra()
+        if spectra is None:
+            return results
+        budget, again = with_driven_hum(self.ctx, self.budget, spectra, estimate)
+        self.budget = budget
+        return again or results
+
+
+def with_driven_hum(
+    ctx: RunContext,
+    budget: Budget,
+    spectra: tuple[np.ndarray, np.ndarray],
+    estimate: Estimate,
+) -> tuple[Budget, Results | None]:
+    """The budget with the hum measured in the driven periods' averaged `spectra` (reference,
+    DUT; complex, V; dsp.hum.driven_hum: the tones at the non-excited bins beside the lines),
+    its warnings given to the run, and the results published again with it (issue 32 point
+    3); the budget as it was and None when the hum reaches no line."""
+    hum = driven_hum(ctx.plan, *spectra)
+    if not hum.affected.any():
+        return budget, None
+    budget = hum.merged_into(budget)
+    ctx.notes.budget = budget
+    if ctx.io.writer is not None:
+        ctx.io.writer.set_budget(budget)
+    for text in hum.warnings():
+        ctx.warn(text)
+    return budget, ctx.publish(estimate, budget)

@@ -20,7 +20,7 @@ from app.procedure.verdict import Tolerances, tolerances_for, with_verdict
 from app.records.run_folder import FolderState, inspect_run, is_run_folder
 from app.records.warnings import SEED_RULE_WARNING
 from dsp.calibration import Results, compute_results
-from dsp.hum import mains_hum
+from dsp.hum import driven_hum_of_periods, mains_hum, merged
 from dsp.lpm_record import hum_bins, record_estimate
 from dsp.mcm import validate_lines
 from dsp.multisine import Plan, PlanError
@@ -161,18 +161,25 @@ def with_mcm(
 
 
 def _budget_with_hum(recording: Recording) -> tuple[Budget, list[str]]:
-    """The recording's budget with a "mains hum at X Hz" component (magnitude and phase) at
-    every line on a mains harmonic (one already stored with the recording, measured by the
-    procedure at run time, is kept as it is), and a warning per such line (issue 13 point 3;
-    dsp.hum). The hum comes from the leading drive-off periods (drive exactly 0 V, among the
-    settle periods) when the recording has a drive channel, else from the neighbouring mains
-    harmonics (flagged as not separable from the line)."""
-    hum = mains_hum(recording.plan, recording.analysis_periods(), _drive_off_periods(recording))
-    if not hum.affected.any():
-        return recording.budget, []
-    stored = {c.name for c in recording.budget.components}
-    new = tuple(c for c in hum.components() if c.name not in stored)
-    return Budget((*recording.budget.components, *new)), hum.warnings()
+    """The recording's budget with the hum this analysis measures, and a warning per line it
+    reaches (issue 13 point 3, issue 32 point 3; dsp.hum): "mains hum at X Hz" (magnitude
+    and phase) at every line on a mains harmonic, from the leading drive-off periods (drive
+    exactly 0 V, among the settle periods) when the recording has a drive channel, else from
+    the neighbouring mains harmonics (flagged as not separable from the line); and "hum while
+    driven at X Hz" at every line a tone beside it reaches in the analysed periods. A
+    component stored with the recording (measured at run time) is kept only when it is the
+    larger: the budget carries the hum the warnings state."""
+    periods = recording.analysis_periods()
+    hum = mains_hum(recording.plan, periods, _drive_off_periods(recording))
+    driven = driven_hum_of_periods(recording.plan, periods)
+    components, warnings = [], []
+    if hum.affected.any():
+        components += hum.components()
+        warnings += hum.warnings()
+    if driven.affected.any():
+        components += driven.components()
+        warnings += driven.warnings()
+    return merged(recording.budget, components), warnings
 
 
 def _drive_off_periods(recording: Recording):

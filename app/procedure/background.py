@@ -4,6 +4,7 @@ on mains harmonics; random noise is in type A already (issue 25 point 3)."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -85,13 +86,15 @@ def budget_with_background(
     background: BackgroundLevels,
     settled_lines: tuple[np.ndarray, np.ndarray],
     background_periods: int,
+    warn: Callable[[str], None] | None = None,
 ) -> Budget:
     """The stand's budget plus, at every line on a mains harmonic, the "mains hum at X Hz"
     components of dsp.hum (U-shaped, magnitude and phase) relative to the settled line (SPEC
     s.5 step 2; issue 13 point 3). The hum is the coherent part only: its per-period size less
     the noise, so a hum that does not average down is carried at its full size and random
     noise, already in type A, is not counted twice (issue 25 point 3). Lines off the mains
-    harmonics get no background term."""
+    harmonics get no background term. `warn` is given each line's hum warning (dsp.hum: the
+    "hum measured" row of app.records.warnings, printed on the certificate; issue 32)."""
     ref_lines, dut_lines = settled_lines
     hum = mains_hum_from_lines(
         plan,
@@ -103,4 +106,7 @@ def budget_with_background(
         reference_noise_v=background.reference_noise,
         dut_noise_v=background.dut_noise,
     )
+    if warn is not None:
+        for text in hum.warnings():
+            warn(text)
     return Budget((*budget.components, *hum.components()))

@@ -30,7 +30,7 @@ from dsp.profiles import Profile
 
 if TYPE_CHECKING:
     from app.stand.dut import DutSpec
-    from app.stand.simulated import Fault
+    from app.stand.simulated import DrivenHum, Fault
 
 
 @dataclass(frozen=True)
@@ -268,6 +268,8 @@ class RunOptions:
     seed: int = 0
     paced: bool = False
     faults: tuple[Fault, ...] = ()
+    sim_hum: tuple[DrivenHum, ...] = ()  # simulated stand: hum only while driven (--sim-hum)
+    exact_mains_bins: bool = False  # keep lines on mains harmonics (--exact-mains-bins)
     out: Path = Path("runs")
     db: str | None = None  # records URL (None: $ACCELCAL_DB, else the default file)
     records: bool | None = None  # records in use; None: when a sensor or a records file is

@@ -38,6 +38,7 @@ import numpy as np
 
 from app.files import data_dir, write_new
 from dsp import crestfactor
+from dsp.mains import mains_shifted_bins
 from dsp.multisine import PRESETS, snap_to_bin
 
 log = logging.getLogger(__name__)
@@ -216,13 +217,20 @@ def trusted(document: Any, key: PhaseKey) -> np.ndarray:
     return phases
 
 
+EXACT_SUFFIX = "-exact-mains-bins"  # the shipped phases of a preset kept on its exact bins
+
+
 def preset_keys() -> dict[str, PhaseKey]:
-    """The key of every preset plan's phases (its lines at equal amplitudes), by preset."""
+    """The key of every preset plan's phases (its lines at equal amplitudes), by preset: its
+    lines moved off the 50 Hz mains harmonics as preset_plan makes them, and (name +
+    EXACT_SUFFIX) on their exact bins (--exact-mains-bins, issue 32)."""
     keys = {}
     for name, preset in PRESETS.items():
         fs, n = preset.sample_rate_hz, preset.period_samples
-        bins = [snap_to_bin(f, fs, n) for f in preset.nominal_frequencies_hz]
+        exact = [snap_to_bin(f, fs, n) for f in preset.nominal_frequencies_hz]
+        bins = mains_shifted_bins(exact, fs / n)
         keys[name] = PhaseKey.of(bins, np.ones(len(bins)), n, SEED)
+        keys[name + EXACT_SUFFIX] = PhaseKey.of(exact, np.ones(len(exact)), n, SEED)
     return keys
 
 

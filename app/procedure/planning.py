@@ -42,7 +42,7 @@ class PlanRequest:
     mains_frequency_hz: float = 50.0
     profile: str = Profile.ACCELERATION
     corner_hz: float | None = None
-    shift_mains_lines: bool = False
+    shift_mains_lines: bool = True  # issue 32: off the mains harmonics unless asked
 
 
 def _exact(frequencies: Sequence[float], fs: float, period: int) -> bool:

@@ -198,6 +198,7 @@ class Procedure:
             background,
             equalised.settled.lines,
             self.settings.background_periods,
+            warn=self.ctx.warn,
         )
         budget = self._with_resolution(budget, equalised.settled.lines, background.noise())
         self.notes.budget = budget

@@ -18,6 +18,7 @@ import math
 
 import numpy as np
 
+from app.procedure.acquisition import with_driven_hum
 from app.procedure.background import BackgroundLevels, budget_with_background
 from app.procedure.context import RunContext
 from app.procedure.errors import PreflightError, ProcedureError
@@ -28,7 +29,7 @@ from app.procedure.stopping import Stop, StoppingRule
 from dsp.crestfactor import synthesize
 from dsp.lpm_record import RecordEstimate, record_estimate
 from dsp.multisine import fade_envelope
-from dsp.spectral import MIN_PERIODS
+from dsp.spectral import MIN_PERIODS, period_spectrum
 
 FADE_IN_CYCLES = 2.0  # default fade-in: cycles of the lowest line (at most one period)
 
@@ -189,6 +190,7 @@ class RecordRun:
             self.background,
             (record.estimate.reference_amplitude_v, record.estimate.dut_amplitude_v),
             s.background_periods,
+            warn=ctx.warn,
         )
         resolution = run_resolution(
             plan,
@@ -228,6 +230,11 @@ class RecordRun:
             )
             stop = rule.decide(count, worst_a, acquired_s, period_s)
             if stop is not None:
+                spectra = tuple(  # the record's periods averaged, each channel
+                    period_spectrum(np.mean([b[c] for b in blocks], axis=0)) for c in (0, 1)
+                )
+                budget, again = with_driven_hum(ctx, budget, (spectra[0], spectra[1]), estimate)
+                results = again or results
                 if stop is Stop.TARGET and s.target_type_a is not None:
                     ctx.log(f"type A target {100 * s.target_type_a:g} % reached, {count} period(s)")
                 elif stop is Stop.TIME_BOUND and s.target_type_a is not None:

@@ -41,7 +41,7 @@ if TYPE_CHECKING:
     from app.records.db.references import ReferenceTable
     from app.records.db.runs import SensorDefaults
     from app.stand.config import StandConfig
-    from app.stand.simulated import Fault
+    from app.stand.simulated import DrivenHum, Fault
 
 DEFAULT_LEVEL_MS2 = 5.0
 
@@ -133,6 +133,8 @@ class RunRequest:
     seed: int = 0
     paced: bool = False
     faults: tuple[Fault, ...] = ()
+    sim_hum: tuple[DrivenHum, ...] = ()  # simulated stand: hum only while driven
+    exact_mains_bins: bool = False  # keep lines on mains harmonics (default: moved one bin)
     out: Path = Path("runs")
     dut_mass_g: float | None = None  # None: the DUT spec's, on the simulated stand its catalogue's
     stored_response: bool = True  # start equalisation from the stand's stored response

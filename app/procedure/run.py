@@ -83,6 +83,7 @@ def prepare(
         exciter=request.exciter,
         chain=chain,
         budget=budget,
+        driven_hum=request.sim_hum,
     )
     try:
         procedure = Procedure(
@@ -139,6 +140,7 @@ def plan_request(request: RunRequest, level_ms2: float | None = None) -> PlanReq
         reference_frequency_hz=request.reference_frequency_hz,
         profile=request.profile,
         corner_hz=request.corner_hz,
+        shift_mains_lines=not request.exact_mains_bins,
     )
 
 
@@ -160,7 +162,12 @@ def request_plan(request: RunRequest, stroke_peak_to_peak_m: float | None = None
         and request.profile == Profile.ACCELERATION
         and stroke_peak_to_peak_m is None
     ):
-        return preset_plan(wanted.preset, level_ms2=request.level_ms2, optimiser=stored_phases)
+        return preset_plan(
+            wanted.preset,
+            level_ms2=request.level_ms2,
+            shift_mains_lines=wanted.shift_mains_lines,
+            optimiser=stored_phases,
+        )
     return build_plan(wanted, stroke_peak_to_peak_m=stroke_peak_to_peak_m, phases_rad=phases)
 
 

@@ -202,6 +202,8 @@ class RunService:
             mode=options.mode,
             paced=options.paced,
             faults=options.faults,
+            sim_hum=options.sim_hum,
+            exact_mains_bins=options.exact_mains_bins,
             out=options.out,
             stored_response=options.stored_response,
             sample_rate_hz=options.sample_rate_hz,

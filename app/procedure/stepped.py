@@ -158,7 +158,7 @@ class SteppedSine:
             ctx.notes.stand_response = self.describe(self.stored, outcome)
         settled = (np.array(settled_ref), np.array(settled_dut))
         budget = budget_with_background(
-            ctx.stand.budget, plan, self.background, settled, s.background_periods
+            ctx.stand.budget, plan, self.background, settled, s.background_periods, warn=ctx.warn
         )
         estimate = combine(estimates)
         resolution = measured_resolution(

@@ -123,13 +123,15 @@ POLICY: dict[WarningKind, Rule] = {
     ),
     WarningKind.HUM_NOT_SEPARABLE: Rule(
         Policy.BLOCKS,
-        "hum at the line was not measured, only guessed from other bins",
-        r"mains hum .*not separable",
+        "hum at the line was not measured, only guessed from other bins, or sits within a "
+        "fifth of a bin of the line while driven",
+        r"mains hum .*not separable|hum while driven .*not separable",
     ),
     WarningKind.HUM_MEASURED: Rule(
         Policy.PRINTED,
-        "measured with the drive off and carried in the budget at its size",
-        r"mains hum at .*drive-off",
+        "measured with the drive off, or while driven beside the line, and carried in the "
+        "budget at its size",
+        r"mains hum at .*drive-off|hum while driven .*in the budget",
     ),
     WarningKind.ISO_OVER: Rule(
         Policy.BLOCKS,

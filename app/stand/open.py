@@ -14,7 +14,7 @@ from app.stand.config import ConfigError, StandConfig
 from dsp.calibration import ReferenceChain
 from dsp.uncertainty import Budget
 from hardware.interfaces import Daq, MeasuringAmplifier, OffersInputRanges, PowerAmplifier
-from sim.models import DUT_CATALOGUE, EXCITER_CATALOGUE, StandModel
+from sim.models import DUT_CATALOGUE, EXCITER_CATALOGUE, DrivenHum, StandModel
 from sim.stand import POWER_AMPLIFIER_FAULT_KINDS, Fault, SimBudget, SimulatedStand
 
 log = logging.getLogger(__name__)
@@ -67,13 +67,15 @@ def open_stand(
     exciter: str | None = None,
     chain: ReferenceChain | None = None,
     budget: Budget | None = None,
+    driven_hum: tuple[DrivenHum, ...] = (),
 ) -> Stand:
     """The stand of `config`; the simulated one needs a catalogue DUT (`dut`), carrying
     `dut_mass_g` (g) instead of its catalogue mass when given, and `exciter` (a name of
     the simulated exciter catalogue) instead of the default one. `chain` and `budget`: the
     reference chain and type B budget the analysis uses when the run takes them from
     elsewhere than the stand (the records' certificate table); the stand is not changed
-    after it is opened."""
+    after it is opened. `driven_hum`: hum the simulated stand adds only while it is driven
+    (issue 32 point 3)."""
     if config.backend == "sim":
         # without a power amplifier only the legacy `amplifier-fault` (raised by the DAQ) works
         kinds = {f.kind for f in faults} & (set(POWER_AMPLIFIER_FAULT_KINDS) - {"amplifier-fault"})
@@ -87,6 +89,8 @@ def open_stand(
             model = StandModel(reference_gain=config.reference.gain, skew_s=config.skew_s)
         if exciter is not None:  # one of the catalogue's exciters (issue 26: long-stroke)
             model = dataclasses.replace(model, exciter=EXCITER_CATALOGUE[exciter])
+        if driven_hum:
+            model = dataclasses.replace(model, driven_hum=tuple(driven_hum))
         sensor = DUT_CATALOGUE.get(dut)
         if sensor is not None and dut_mass_g is not None:
             sensor = dataclasses.replace(sensor, mass_g=dut_mass_g)
@@ -113,6 +117,8 @@ def open_stand(
         )
     if faults:
         raise ConfigError("--fault: faults can only be injected into the simulated stand")
+    if driven_hum:
+        raise ConfigError("--sim-hum: hum can only be added to the simulated stand")
     from hardware.discovery import list_ni_devices
     from hardware.errors import DaqNotFoundError
     from hardware.nidaq import NiDaq  # real hardware: errors say what is missing, no fallback

@@ -15,7 +15,7 @@ import numpy as np
 
 from app.stand.dut import Band, DutSpec
 from sim.faults import FAULT_KINDS
-from sim.models import DUT_CATALOGUE, EXCITER_CATALOGUE, StandModel, plan_preset_for
+from sim.models import DUT_CATALOGUE, EXCITER_CATALOGUE, DrivenHum, StandModel, plan_preset_for
 
 if TYPE_CHECKING:
     from sim.stand import Fault, SimulatedStand
@@ -51,11 +51,13 @@ __all__ = [
     "CATALOGUE_TOLERANCES",
     "EXCITERS",
     "FAULT_KINDS",
+    "DrivenHum",
     "catalogue_entries",
     "catalogue_spec",
     "exciter_stroke_m",
     "open_simulated",
     "parse_faults",
+    "parse_sim_hum",
     "plan_preset_for",
 ]
 
@@ -87,6 +89,12 @@ def catalogue_spec(name: str | None) -> DutSpec:
         source=f"data sheet of the simulated {sensor.name!r} model" if sheet is not None else "",
         response=response if sheet is not None else None,
     )
+
+
+def parse_sim_hum(texts: list[str] | tuple[str, ...]) -> tuple[DrivenHum, ...]:
+    """--sim-hum AMPLITUDE@FREQUENCY texts as hum the simulated stand adds only while driven
+    (ValueError naming the option)."""
+    return tuple(DrivenHum.parse(text) for text in texts)
 
 
 def parse_faults(texts: list[str] | tuple[str, ...]) -> tuple[Fault, ...]:

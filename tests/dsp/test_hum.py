@@ -27,7 +27,7 @@ BACKGROUND = 2
 
 @pytest.fixture(scope="module")
 def plan():
-    return make_plan(FREQS, 6000, 12000, 5.0, 160.0)
+    return make_plan(FREQS, 6000, 12000, 5.0, 160.0, shift_mains_lines=False)  # exact bins
 
 
 def hum_recording(plan, seed: int, with_drive: bool = True):

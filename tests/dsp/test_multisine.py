@@ -7,6 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from app.procedure.phase_store import stored_phases
 from dsp import iso266
 from dsp.multisine import (
     Plan,
@@ -25,7 +26,7 @@ def errors_of(freqs, fs=6000.0, n=12000, ref=160.0, **kw):
 
 
 def test_seed_piezo_plan_lines_sit_on_the_half_hertz_grid():
-    plan = preset_plan("piezo")
+    plan = preset_plan("piezo", shift_mains_lines=False, optimiser=stored_phases)  # exact
     assert len(plan.lines) == 25
     assert plan.resolution_hz == 0.5
     np.testing.assert_array_equal(plan.frequencies_hz, plan.nominal_frequencies_hz)
@@ -34,12 +35,44 @@ def test_seed_piezo_plan_lines_sit_on_the_half_hertz_grid():
     assert plan.crest_factor() <= 2.5
 
 
+def test_piezo_preset_keeps_its_lines_off_the_mains_harmonics_and_says_where():
+    """Issue 32 point 3: 50, 100, 200 and 250 Hz move one bin, alternately up and down (the
+    moved lines do not all lean one way), stated at their actual
+    frequency; every other line stays on its exact bin."""
+    plan = preset_plan("piezo", optimiser=stored_phases)  # the shipped phases
+    moved = {
+        ln.nominal_frequency_hz: ln.frequency_hz
+        for ln in plan.lines
+        if ln.frequency_hz != ln.nominal_frequency_hz
+    }
+    assert moved == {50.0: 50.5, 100.0: 99.5, 200.0: 200.5, 250.0: 249.5}
+    for f, actual in moved.items():
+        assert any(
+            w.startswith(f"line {f:g} Hz: moved one bin off the ")
+            and f"to {actual:g} Hz (bin {round(2 * actual)})" in w
+            for w in plan.warnings
+        ), f
+    assert not any("on the 1st mains harmonic" in w for w in plan.warnings)
+    # the optimiser's phases for the moved bins: 2.61 (exact bins: <= 2.5, above)
+    assert plan.crest_factor() <= 2.62
+    at60 = preset_plan(
+        "piezo", mains_frequency_hz=60.0, optimiser=stored_phases
+    )  # 60 Hz mains: 120, 180, ... Hz
+    assert all(ln.frequency_hz == ln.nominal_frequency_hz for ln in at60.lines)
+
+
 def test_capacitive_preset():
-    plan = preset_plan("capacitive")
+    plan = preset_plan("capacitive", shift_mains_lines=False, optimiser=stored_phases)
     assert len(plan.lines) == 27 and plan.sample_rate_hz == 12000 and plan.period_s == 2.0
     # 27 log-spaced lines: the best optimum found by an exhaustive search is 2.603
     # (bench/crest_factor.py); random phases give ~3.9, Schroeder 4.0
     assert plan.crest_factor() <= 2.62
+    moved = preset_plan(
+        "capacitive", optimiser=stored_phases
+    )  # lines off the mains harmonics (issue 32): 2.72
+    assert len(moved.lines) == 27 and moved.crest_factor() <= 2.73
+    # ... and its predicted displacement at 7 m/s^2 within the small exciter's +-4 mm
+    assert moved.with_amplitudes(7.0).predicted_peaks().displacement_m <= 3.8e-3
 
 
 def test_line_at_or_above_045_fs_is_refused_by_name():
@@ -93,7 +126,14 @@ def test_mains_harmonic_warning_and_shift():
     assert any("line 120 Hz: on the 2nd mains harmonic" in w for w in check60.warnings)
     plan = make_plan([50.0, 160.0], 6000, 12000, 5.0, 160.0, shift_mains_lines=True)
     assert plan.lines[0].frequency_hz == 50.5 and plan.lines[0].nominal_frequency_hz == 50.0
-    assert not any("mains" in w for w in plan.warnings)
+    assert not any("on the 1st mains harmonic" in w for w in plan.warnings)
+    assert not any("snapped" in w for w in plan.warnings)  # said as a move, not a snap
+    assert make_plan([50.0, 160.0], 6000, 12000, 5.0, 160.0) == plan  # the default
+    exact = make_plan([50.0, 160.0], 6000, 12000, 5.0, 160.0, shift_mains_lines=False)
+    assert exact.lines[0].frequency_hz == 50.0
+    assert any("line 50 Hz: on the 1st mains harmonic (50 Hz)" in w for w in exact.warnings)
+    again = Plan.from_dict(plan.to_dict())  # a stored plan states the move again
+    assert again.warnings == plan.warnings
 
 
 def test_bad_amplitudes_are_refused():
@@ -186,3 +226,10 @@ def test_a_fade_out_envelope_falls_to_exactly_zero_then_stays_there_to_a_period_
     assert longer.size == 3000 and longer[2499] == 0.0 and longer[999] > 0
     with pytest.raises(ValueError):
         fade_out_envelope(1000, 1)
+
+
+def test_a_line_is_never_moved_onto_another_line():
+    """On coarse bins the bin beside a mains-harmonic line can be another line's: the move
+    goes the other way, or the line keeps its exact bin (and the plan warns of it)."""
+    plan = make_plan([40.0, 80.0, 160.0], 1000.0, 25, 5.0, 160.0, phases_rad=[0.0] * 3)
+    assert len(set(plan.bins.tolist())) == 3

@@ -13,6 +13,7 @@ from hardware.errors import (
     VisaTimeoutError,
 )
 from hardware.interfaces import Daq, DaqConfig, InputChannel, OutputChannel
+from sim.models import DrivenHum, StandModel
 from sim.stand import Fault, SimBudget, SimulatedStand
 
 FS, N = 6000.0, 12000
@@ -55,6 +56,30 @@ def test_hum_at_mains_frequency_and_harmonics_with_drive_at_zero():
     others = np.delete(spectrum[1:2000], np.array(mains_bins) - 1)
     assert np.max(others) < expected[-1] / 2
     assert np.all(blocks[:, 2] == 0.0)  # the drive loopback reads 0 V
+
+
+def test_hum_while_driven_is_there_only_while_the_drive_is_not_at_0_v():
+    """Issue 32: a power-amplifier ground loop (`DrivenHum`) adds its tone to the DUT channel
+    only while driven: the drive-off background never sees it."""
+    model = StandModel(driven_hum=(DrivenHum(50.3, 2e-3),))
+    quiet, hummed = stand(model=model), stand()
+
+    def dut_at_50_3(s: SimulatedStand, drive: np.ndarray) -> complex:
+        s.start(drive)
+        s.read_period()
+        block = s.read_period()[1]
+        x = np.arange(N) / FS
+        return complex(2 * np.mean(block * np.exp(-2j * np.pi * 50.3 * x)))
+
+    assert abs(dut_at_50_3(quiet, np.zeros(N))) < 1e-4  # drive off: the ADC's hum only
+    drive = 0.1 * drive_period()  # the DUT channel well inside its +-1 V range
+    driven = dut_at_50_3(stand(model=model), drive)
+    plain = dut_at_50_3(hummed, drive)  # the same seed without the ground loop
+    assert 1.9e-3 < abs(driven - plain) < 2.1e-3  # the tone's 2 mV, on top of the rest
+    with pytest.raises(ValueError, match="--sim-hum '2mV'"):
+        DrivenHum.parse("2mV")
+    assert DrivenHum.parse("1mV/0.2mV@100Hz") == DrivenHum(100.0, 1e-3, 2e-4)
+    assert DrivenHum.parse("500uV@50.3Hz") == DrivenHum(50.3, 5e-4)
 
 
 def test_same_seed_gives_bit_identical_output_and_other_seeds_differ():

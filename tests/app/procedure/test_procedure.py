@@ -41,10 +41,11 @@ from tests.within_u import assert_consistent_with_u
 CONFIG = stand_config.load()
 
 
-def run(tmp_path, dut="piezo", *, level=5.0, settings=None, events=None, **stand_kw):
+def run(tmp_path, dut="piezo", *, level=5.0, settings=None, events=None, exact=False, **stand_kw):
     stand = open_stand(CONFIG, dut=dut, **stand_kw)
+    preset = "capacitive" if dut == "capacitive" else "piezo"
     plan = preset_plan(
-        "capacitive" if dut == "capacitive" else "piezo", level_ms2=level, optimiser=stored_phases
+        preset, level_ms2=level, shift_mains_lines=not exact, optimiser=stored_phases
     )
     folder = RunFolder.create(tmp_path, dut)
     listener = events.append if events is not None else None
@@ -240,7 +241,8 @@ def test_preflight_refuses_before_anything_moves(tmp_path):
 
 def test_preflight_checks_the_dut_channel_range_from_its_nominal_sensitivity():
     stand = open_stand(CONFIG, dut="piezo")
-    plan = preset_plan("piezo", optimiser=stored_phases)
+    # the seed's bins: crest factor 2.5
+    plan = preset_plan("piezo", shift_mains_lines=False, optimiser=stored_phases)
     Procedure(stand, plan, RunSettings(dut_nominal_mv_per_ms2=10.0)).preflight()  # fits
     too_sensitive = RunSettings(dut_nominal_mv_per_ms2=100.0)  # ~4.9 V peaks on +-5 V
     expected = r"DUT channel: predicted peak 4.9. V \(nominal 100 mV"
@@ -492,9 +494,10 @@ def test_the_budget_carries_the_mains_hum_measured_with_the_drive_off(tmp_path):
     """Issue 13 point 3: every line of the piezo plan on a mains harmonic (50, 100, 200, 250 Hz)
     gets "mains hum at X Hz" (U-shaped, half-width sqrt(r_u^2 + r_y^2), r = coherent
     background at the line bin / settled line; dsp.hum), computed here by hand from the raw
-    recording: the drive-off periods at its start and the settled period that opens the
-    acquisition."""
-    finished, _stand, plan, folder = run(tmp_path, "piezo", seed=1, systematic=False)
+    acquisition. The plan keeps its exact bins (--exact-mains-bins; the default moves those
+    lines off the mains harmonics, issue 32), and the run prints each line's "hum measured"
+    warning (the warnings table's printed row)."""
+    finished, _stand, plan, folder = run(tmp_path, "piezo", seed=1, systematic=False, exact=True)
     assert finished.status == "complete", finished.abort_reason
     record = load_run(folder.path)
     budget = {c["name"]: c for c in record.budget}
@@ -527,6 +530,10 @@ def test_the_budget_carries_the_mains_hum_measured_with_the_drive_off(tmp_path):
         assert component["value"] == pytest.approx(np.hypot(r_u, r_y), rel=1e-6), f
         assert f"background (hum, noise) at {f:g} Hz" not in budget
         assert budget[f"mains hum (phase) at {f:g} Hz"]["quantity"] == "phase"
+        assert any(
+            w.startswith(f"line {f:g} Hz: mains hum at {f:g} Hz: ") and "drive-off" in w
+            for w in finished.results.warnings
+        ), f
     hum_50 = budget["mains hum at 50 Hz"]["value"]
     assert hum_50 > 1e-3  # the simulated ADC's 40 uV of 50 Hz hum is not negligible here
     line_50 = finished.results.lines[list(plan.nominal_frequencies_hz).index(50.0)]
