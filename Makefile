@@ -77,11 +77,15 @@ browser:
 	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing; \
 	fi
 
-# pytest-xdist: TEST_WORKERS processes share the tests (one per core of the 2-core machines;
-# `make test TEST_WORKERS=0` runs them in this one process). --dist loadgroup: tests are dealt
-# out one by one, except those marked with one @pytest.mark.xdist_group(name), which share a
-# worker (none need to today: each worker has its own temporary folders, PostgreSQL, Xvfb display)
-TEST_WORKERS ?= 2
+# pytest-xdist: TEST_WORKERS processes share the tests (`make test TEST_WORKERS=0` runs them in
+# this one process). Three on the 2-core machines for `make test`: its paced runs, fade-outs and
+# subprocesses leave a core idle while they wait (the idle-machine figures: docs/benchmarks.md);
+# two for `make test-fast`, whose tests only compute. --dist loadgroup: tests are dealt out one
+# by one (those marked `long` first: tests/conftest.py), except those marked with one
+# @pytest.mark.xdist_group(name), which share a worker (none need to today: each worker has its
+# own temporary folders, PostgreSQL, Xvfb display)
+TEST_WORKERS ?= 3
+FAST_WORKERS ?= 2
 PYTEST_PARALLEL := -n $(TEST_WORKERS) --dist loadgroup
 
 test: $(STAMP) xvfb browser
@@ -90,7 +94,7 @@ test: $(STAMP) xvfb browser
 # dsp, units, CLI parsing: under a minute on 2 cores (no runs, subprocesses, GUI, databases or
 # Monte Carlo: markers `integration` and `slow`, see tests/conftest.py)
 test-fast: $(STAMP)
-	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest -q $(PYTEST_PARALLEL) \
+	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest -q -n $(FAST_WORKERS) --dist loadgroup \
 	    -m "not slow and not integration"
 
 # self-contained: its records file and stored stand responses live in $(DEMO_DIR)/data, so it
