@@ -91,8 +91,8 @@ PYTEST_PARALLEL := -n $(TEST_WORKERS) --dist loadgroup
 test: $(STAMP) xvfb browser
 	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest -q $(PYTEST_PARALLEL)
 
-# dsp, units, CLI parsing: under a minute on 2 cores (no runs, subprocesses, GUI, databases or
-# Monte Carlo: markers `integration` and `slow`, see tests/conftest.py)
+# dsp, units, CLI parsing: about a minute on 2 cores, 45-65 s idle (no runs, subprocesses, GUI,
+# databases or Monte Carlo: markers `integration` and `slow`, see tests/conftest.py)
 test-fast: $(STAMP)
 	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest -q -n $(FAST_WORKERS) --dist loadgroup \
 	    -m "not slow and not integration"
