@@ -65,17 +65,22 @@ def record_estimate(
     lines = plan.bins * periods
     excluded = hum_bins(plan, periods)
     drive = None if drive_blocks is None else np.asarray(drive_blocks, float).reshape(1, -1)
-    try:
-        result = lpm.estimate(
-            ref.reshape(1, -1),
-            dut.reshape(1, -1),
-            lines,
-            settings=settings,
-            excluded_bins=excluded,
-            drive_v=drive,
-        )
-    except lpm.LpmError as exc:
-        raise AnalysisError(f"lpm: {exc}") from None
+
+    def local_polynomial(dut_record: np.ndarray) -> lpm.LpmEstimate:
+        """The LPM of the reference record and `dut_record` (V), this plan's lines and bins."""
+        try:
+            return lpm.estimate(
+                ref.reshape(1, -1),
+                dut_record.reshape(1, -1),
+                lines,
+                settings=settings,
+                excluded_bins=excluded,
+                drive_v=drive,
+            )
+        except lpm.LpmError as exc:
+            raise AnalysisError(f"lpm: {exc}") from None
+
+    result = local_polynomial(dut)
     y_spec = np.fft.rfft(dut.reshape(-1)) * (2.0 / (periods * n))
     u_spec = np.fft.rfft(ref.reshape(-1)) * (2.0 / (periods * n))
     assert result.reference_lines_v is not None
@@ -101,17 +106,7 @@ def record_estimate(
             excluded,
         )
         record = np.fft.irfft(cleaned, periods * n) * (periods * n / 2.0)
-        try:
-            result = lpm.estimate(
-                ref.reshape(1, -1),
-                record.reshape(1, -1),
-                lines,
-                settings=settings,
-                excluded_bins=excluded,
-                drive_v=drive,
-            )
-        except lpm.LpmError as exc:
-            raise AnalysisError(f"lpm: {exc}") from None
+        result = local_polynomial(record)
         carried = nonlinear.carry(
             result.response, result.relative_type_a, result.phase_type_a_rad, result.dof, found
         )
