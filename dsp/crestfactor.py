@@ -34,7 +34,7 @@ is reachable for the piezo plan (only in its best basin) but not for the capacit
 from __future__ import annotations
 
 import inspect
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -43,9 +43,11 @@ __all__ = [
     "DEFAULT_MAX_EVALUATIONS",
     "MAX_WORK_SAMPLES",
     "OPTIMISER_BYTES_PER_SAMPLE",
+    "PEAK_GRID_MAX",
     "crest_factor",
     "evaluation_cap",
     "optimise_phases",
+    "peak_grid_samples",
     "random_phases",
     "schroeder_phases",
     "synthesize",
@@ -91,6 +93,26 @@ def evaluation_cap(period_samples: int, max_evaluations: int = DEFAULT_MAX_EVALU
     `period_samples`: `max_evaluations`, fewer for a period over MAX_WORK_SAMPLES /
     max_evaluations (at least 2: Schroeder's phases are then kept unless one step helps)."""
     return max(2, min(int(max_evaluations), MAX_WORK_SAMPLES // max(int(period_samples), 1)))
+
+
+# Predicted peaks are taken on at most this many points a period, or 16 per period of the
+# highest line when more (issue 33: a 2^24-sample period oversampled 8x took 4.3 GB and
+# minutes per waveform)
+PEAK_GRID_MAX = 2**23
+
+
+def peak_grid_samples(
+    period_samples: int, bins: Sequence[int] | np.ndarray, oversampling: int = 8
+) -> int:
+    """Points per period of the grid predicted peaks are taken on: `oversampling` times
+    the period (dsp.multisine.PEAK_OVERSAMPLING), or for a long period `PEAK_GRID_MAX` (at
+    least 16 per period of the highest line): the same continuous waveform, sampled finely
+    enough to see its peaks."""
+    n = int(period_samples) * oversampling
+    if n <= PEAK_GRID_MAX:
+        return n
+    top = int(np.max(np.asarray(bins))) if len(bins) else 1
+    return min(n, max(PEAK_GRID_MAX, 16 * top))
 
 
 def crest_factor(x: np.ndarray) -> float:

@@ -20,26 +20,13 @@ from typing import Any, Protocol
 import numpy as np
 
 from dsp import crestfactor, iso266
+from dsp.crestfactor import peak_grid_samples
 from dsp.errors import InputRefused
 from dsp.mains import mains_harmonic_of_bin, mains_shifted_bins
 
 MAX_FREQUENCY_FRACTION = 0.45  # of fs: multiplexed boards have no anti-alias filter (SPEC s.3)
 HARMONICS_CHECKED = (2, 3, 4, 5)  # SPEC s.3: 2nd..5th harmonic of a line
 PEAK_OVERSAMPLING = 8  # predicted peaks are taken on an 8x oversampled waveform
-# ... on at most this many points a period, or 16 per period of the highest line when more
-# (issue 33: a 2^24-sample period oversampled 8x took 4.3 GB and minutes per waveform)
-PEAK_GRID_MAX = 2**23
-
-
-def peak_grid_samples(period_samples: int, bins: Sequence[int] | np.ndarray) -> int:
-    """Points per period of the grid predicted peaks are taken on: `PEAK_OVERSAMPLING` times
-    the period, or for a long period `PEAK_GRID_MAX` (at least 16 per period of the highest
-    line): the same continuous waveform, sampled finely enough to see its peaks."""
-    n = int(period_samples) * PEAK_OVERSAMPLING
-    if n <= PEAK_GRID_MAX:
-        return n
-    top = int(np.max(np.asarray(bins))) if len(bins) else 1
-    return min(n, max(PEAK_GRID_MAX, 16 * top))
 
 
 PLAN_FORMAT_VERSION = 1
