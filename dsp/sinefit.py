@@ -94,7 +94,9 @@ def block_compatible_grid(
     best: tuple[tuple[int, float, int], SteppedGrid] | None = None
     for j in range(1, math.floor(max_period_s / step_s + 1e-9) + 1):
         n = round(j * step_s * sample_rate_hz)
-        chosen = _cheapest_bins(nominal, low, high, n, fs, harmonics, mains_samples, minimum_block_s)
+        chosen = _cheapest_bins(
+            nominal, low, high, n, fs, harmonics, mains_samples, minimum_block_s
+        )
         if chosen is None:
             continue
         bins, blocks = chosen
