@@ -245,7 +245,9 @@ class Results:
             reference = ReferenceResult(**_nan(data["reference"]))
             warnings = tuple(data.get("warnings", ()))
             lines = _refused_not_stated(
-                tuple(LineResult(**_nan(item)) for item in data["lines"]), warnings
+                tuple(LineResult(**_nan(item)) for item in data["lines"]),
+                warnings,
+                reference.frequency_hz,
             )
             return cls(
                 estimator=data["estimator"],
@@ -281,27 +283,54 @@ class Results:
 
 
 _REFUSED = re.compile(r"^line (\S+) Hz: outside the reference certificate \(([^)]*) Hz\): refused")
+# dsp.resolution.LineResolution.warning: a line too few LSB above the converter's step
+_UNRESOLVED = re.compile(
+    r"^line (\S+) Hz: (\S+) channel (\S+) LSB on its \+-(\S+) V range \(< (\S+) LSB\): "
+    r"resolution not stated"
+)
+
+
+def unresolved_lines(warnings: Sequence[str]) -> dict[str, str]:
+    """The lines the warnings name as too few LSB above the converter's step (issue 32 point
+    2), by frequency label (Hz, as `:g`), with the reason their values are not stated."""
+    out: dict[str, str] = {}
+    for text in warnings:
+        match = _UNRESOLVED.match(text)
+        if match:
+            label, channel, lsb, range_v, least = match.groups()
+            reason = (
+                f"{channel} channel {lsb} LSB on its +-{range_v} V range, under the {least} LSB "
+                "a stated line needs"
+            )
+            out[label] = f"{out[label]}; {reason}" if label in out else reason
+    return out
 
 
 def _refused_not_stated(
-    lines: tuple[LineResult, ...], warnings: Sequence[str]
+    lines: tuple[LineResult, ...], warnings: Sequence[str], reference_hz: float
 ) -> tuple[LineResult, ...]:
     """Results stored before issue 32 kept numbers for a line they warned "refused" (outside
-    the reference's certificate): such a line is read back as not stated."""
+    the reference's certificate) or too few LSB above the converter's step: such a line is read
+    back as not stated (the reference line keeps its values: its warning blocks the run)."""
     refused: dict[str, str] = {}
     for text in warnings:
         match = _REFUSED.match(text)
         if match:
             span = match.group(2)
             refused[match.group(1)] = f"outside the reference's calibrated range ({span} Hz)"
-    if not refused:
+    unresolved = unresolved_lines(warnings)
+    if not refused and not unresolved:
         return lines
-    return tuple(
-        not_stated_line(ln, refused[label])
-        if ln.stated and (label := f"{ln.nominal_frequency_hz:g}") in refused
-        else ln
-        for ln in lines
-    )
+    out = []
+    for ln in lines:
+        nominal, actual = f"{ln.nominal_frequency_hz:g}", f"{ln.frequency_hz:g}"
+        reason = refused.get(nominal) or (
+            None
+            if ln.nominal_frequency_hz == reference_hz
+            else unresolved.get(actual) or unresolved.get(nominal)
+        )
+        out.append(not_stated_line(ln, reason) if ln.stated and reason else ln)
+    return tuple(out)
 
 
 def compute_results(
@@ -387,6 +416,7 @@ def compute_results(
                 f"({lo:g}-{hi:g} Hz), so no line can be stated; choose a reference frequency "
                 "inside it"
             )
+    unresolved = unresolved_lines(warnings)  # too few LSB: not stated (issue 32 point 2)
     lines = []
     dofs = np.broadcast_to(np.asarray(estimate.dof, dtype=float), (len(labels),))
     f0 = float(frequencies[ref_index])
@@ -479,6 +509,10 @@ def compute_results(
         )
         if refused[k]:
             lines[-1] = not_stated_line(lines[-1], _outside_text(chain))
+        elif k != ref_index and (
+            reason := unresolved.get(f"{f:g}") or unresolved.get(label.removesuffix(" Hz"))
+        ):
+            lines[-1] = not_stated_line(lines[-1], reason)  # too few LSB (issue 32 point 2)
         warnings.extend(_line_warnings(label, estimate, k, chain, f))
     r = lines[ref_index]
     reference = ReferenceResult(

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 from app.cli.exits import EXIT_FAILURE, EXIT_OK, UsageError
-from app.cli.options import writable_folder
+from app.cli.options import sim_hum_option, writable_folder
 from hardware.errors import HardwareError
 
 
@@ -36,4 +36,5 @@ def cmd_gui(args: argparse.Namespace) -> int:
         dut=args.dut,
         sim=args.sim,
         db=args.db,
+        sim_hum=sim_hum_option(args.sim_hum),
     )

@@ -38,7 +38,7 @@ from app.cli.records import Handler
 from app.cli.records import add_commands as add_records_commands
 from app.io.quantities import PERCENT_RULE
 from app.procedure.modes import MODE_MULTISINE
-from app.procedure.options import OptionSpec, option
+from app.procedure.options import EXACT_MAINS_HELP, RESONANCE_HELP, OptionSpec, option
 from app.stand.simulated import EXCITERS, FAULT_KINDS
 from dsp.estimators import DEFAULT_ESTIMATOR, ESTIMATORS
 from dsp.multisine import PRESETS
@@ -87,10 +87,9 @@ class _Version(argparse.Action):
         parser.exit()
 
 
-EXACT_MAINS_HELP = (
-    "keep lines on mains harmonics on their exact bins (default: each moved one bin, "
-    "alternately up and down, and stated at its actual frequency; a line kept there cannot be "
-    "told from hum while driven)"
+SIM_HUM_HELP = (
+    "simulated: hum only while driven (a power-amplifier ground loop), e.g. 1mV@50.3Hz on the "
+    "DUT channel or 1mV/0.2mV@100Hz (DUT/reference, V peak); repeatable"
 )
 
 
@@ -200,8 +199,7 @@ def _add_run_options(r: argparse.ArgumentParser) -> None:
     r.add_argument(
         "--resonance",
         action="store_true",
-        help="after the run, search the DUT's mounted resonance in its response (a plan to "
-        "20 kHz+ at a low level, e.g. --frequencies 1000,...,25000 --sample-rate 102400)",
+        help=RESONANCE_HELP,
     )
     _run_option(r, "target_type_a")
     _run_option(r, "max_acquisition_s")
@@ -227,8 +225,7 @@ def _add_run_options(r: argparse.ArgumentParser) -> None:
         action="append",
         default=[],
         metavar="AMPLITUDE@FREQUENCY",
-        help="simulated: hum only while driven (a power-amplifier ground loop), e.g. "
-        "1mV@50.3Hz on the DUT channel or 1mV/0.2mV@100Hz (DUT/reference, V peak); repeatable",
+        help=SIM_HUM_HELP,
     )
     r.add_argument("--exact-mains-bins", action="store_true", help=EXACT_MAINS_HELP)
     r.add_argument("--out", type=Path, default=Path("runs"), help="folder for run folders")
@@ -364,6 +361,13 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--unpaced", action="store_true", help="simulated stand faster than real time")
     numeric_option(g, "--seed", SEED, "simulated stand: random seed", default=0)
     g.add_argument("--out", type=Path, default=Path("runs"), help="folder for run folders")
+    g.add_argument(
+        "--sim-hum",
+        action="append",
+        default=[],
+        metavar="AMPLITUDE@FREQUENCY",
+        help=SIM_HUM_HELP,
+    )
     g.add_argument("--autorun", action="store_true", help="start a run at once")
     g.add_argument("--screenshot", type=Path, help="save a PNG of the window (after the run)")
     g.add_argument("--quit-after-run", action="store_true", help="close when the run ends")

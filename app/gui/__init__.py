@@ -24,6 +24,7 @@ def run_gui(
     dut: str | None = None,
     sim: bool = False,
     db: str | None = None,
+    sim_hum: tuple = (),
 ) -> int:
     """Open the window; optionally run at once, save a screenshot and quit (headless smoke)."""
     if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
@@ -43,7 +44,9 @@ def run_gui(
     if stand_file is None and not sim:  # the stand of the last session, if it is still there
         last = str(QSettings(ORGANISATION, APPLICATION).value("stand_file", ""))
         stand_file = Path(last) if last and Path(last).exists() else None
-    window = MainWindow(stand_file=stand_file, out=out, paced=paced, seed=seed, db=db)
+    window = MainWindow(
+        stand_file=stand_file, out=out, paced=paced, seed=seed, db=db, sim_hum=sim_hum
+    )
     if dut:
         window.setup_tab.dut.setCurrentText(dut)
     if screenshot is not None:

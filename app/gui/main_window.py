@@ -60,6 +60,7 @@ class MainWindow(QMainWindow):
         paced: bool = True,
         seed: int = 0,
         faults: tuple = (),
+        sim_hum: tuple = (),
         db: str | None = None,
     ):
         super().__init__()
@@ -68,7 +69,9 @@ class MainWindow(QMainWindow):
         self.setWindowTitle("accelcal: accelerometer calibration")
         self.settings = QSettings(ORGANISATION, APPLICATION)
         # simulated stand only: seed and faults for demonstrations and tests
-        self.options = WindowOptions(out=Path(out), paced=paced, seed=seed, faults=faults)
+        self.options = WindowOptions(
+            out=Path(out), paced=paced, seed=seed, faults=faults, sim_hum=sim_hum
+        )
         self.last_finished: Finished | None = None
         self.prepared: PreparedRun | None = None  # the run started last, as the service made it
         self.last_index_note: str | None = None  # the records' report of the last run indexed

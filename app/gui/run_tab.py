@@ -41,6 +41,7 @@ from app.io.vocabulary import RunStatus
 from app.procedure import (
     EqualisationStep,
     Finished,
+    InputRanges,
     PeriodBlock,
     PeriodEstimate,
     Progress,
@@ -100,6 +101,7 @@ class LiveFrame:
     equalisation: str | None = None
     progress: tuple[float, str] | None = None  # (fraction of the phase done, what it says)
     warnings: list[str] = field(default_factory=list)
+    ranges: str | None = None  # the input ranges the run picked, or a line re-ranged
     phase: State | None = None
     phase_blocks: int = 0  # periods read in this phase
 
@@ -136,6 +138,8 @@ class LiveFrame:
                 self.progress = (event.fraction, f"acquiring {100 * event.fraction:.0f} %{left}")
             elif isinstance(event, WarningRaised):
                 self.warnings.append(event.text)
+            elif isinstance(event, InputRanges):
+                self.ranges = event.text
 
     def phase_start(self, state: State) -> tuple[float, str]:
         """The bar as a phase begins."""
@@ -215,6 +219,8 @@ class RunTab(QWidget):
         details.addWidget(self.coherence, 3)
         details.addWidget(self.progress, 3)
         layout.addLayout(details)
+        self.ranges_label = ElidedLabel("")  # the input ranges the run uses (issue 32)
+        layout.addWidget(self.ranges_label)
         meters = QHBoxLayout()
         self.meters: dict[str, QProgressBar] = {}
         for name in METERED:
@@ -333,6 +339,9 @@ class RunTab(QWidget):
             self.progress.setValue(round(100 * fraction))
             self.progress.setFormat(text)
             self.progress.setToolTip(text)
+        if frame.ranges is not None:
+            self.ranges_label.setText(frame.ranges)
+            frame.ranges = None
         if frame.warnings:
             self.messages.setText(
                 "<br/>".join(f"⚠ {html.escape(shown_unit(w))}" for w in frame.warnings[-4:])
@@ -344,9 +353,14 @@ class RunTab(QWidget):
             dut = block.samples[names.index("dut")]
             if frame.plan is not None:
                 self.live.draw_period(ref, dut, frame.plan)
+            # the range the block was read on (the run picks it), else the one it started on
+            self.ranges_v.update(block.ranges_v)
             for name, x in (("reference", ref), ("dut", dut)):
                 fill = int(100 * np.max(np.abs(x)) / self.ranges_v[name])
                 bar = self.meters[name]
+                shown = f"{name} %p % of ±{self.ranges_v[name]:g} V"
+                if bar.format() != shown:
+                    bar.setFormat(shown)
                 bar.setValue(min(fill, 100))
                 style = METER_STYLE % ("#c0392b" if fill >= 95 else "#27ae60")
                 if bar.styleSheet() != style:  # a new style sheet re-polishes: only on change
@@ -394,7 +408,7 @@ class RunTab(QWidget):
     def clear(self) -> None:
         """A new run starts from an empty Run tab: no curve, meter or word of the last run."""
         self.live.clear()
-        for label in (self.equalisation, self.coherence):
+        for label in (self.equalisation, self.coherence, self.ranges_label):
             label.setText("")
         self.messages.setText("")
         self.progress.setValue(0)

@@ -14,6 +14,7 @@ from typing import Any
 
 from PySide6.QtCore import QSettings, Qt, QTimer, Signal
 from PySide6.QtWidgets import (
+    QCheckBox,
     QComboBox,
     QFileDialog,
     QFormLayout,
@@ -41,7 +42,7 @@ from app.io import quantities
 from app.io.quantities import QuantityError
 from app.io.vocabulary import Mode
 from app.lines import parse_frequencies
-from app.procedure.options import RunOptions, option
+from app.procedure.options import EXACT_MAINS_HELP, RESONANCE_HELP, RunOptions, option
 from app.procedure.request import RunRequest
 from app.procedure.service import PlanPreview, PreparedRun, RunService
 from app.stand import config as stand_config
@@ -63,6 +64,7 @@ class WindowOptions:
     paced: bool = True
     seed: int = 0
     faults: tuple = ()
+    sim_hum: tuple = ()  # simulated stand: hum only while driven (accelcal gui --sim-hum)
 
 
 @dataclass(frozen=True)
@@ -117,6 +119,7 @@ class SetupTab(QWidget):
             edit.edited.connect(self.validate)
         self.periods.valueChanged.connect(self.validate)
         self.frequencies.textChanged.connect(self.validate)
+        self.exact_mains_bins.toggled.connect(self.validate)  # the plan's lines move
 
     def _stand_box(self) -> QGroupBox:
         stand = QGroupBox("Stand and DUT")
@@ -203,6 +206,13 @@ class SetupTab(QWidget):
         pform.addRow("Time bound", self.max_time)
         pform.addRow("Estimator", self.estimator)
         pform.addRow("Mode", self.mode)
+        # issue 32: lines on mains harmonics move one bin unless kept; the resonance search
+        self.exact_mains_bins = QCheckBox("keep lines on exact mains harmonics")
+        self.exact_mains_bins.setToolTip(EXACT_MAINS_HELP)
+        self.resonance = QCheckBox("search the mounted resonance in the response")
+        self.resonance.setToolTip(RESONANCE_HELP)
+        pform.addRow("Mains", self.exact_mains_bins)
+        pform.addRow("Resonance", self.resonance)
         self.peaks = QLabel()
         self.peaks.setWordWrap(True)
         self.peaks.setMinimumHeight(48)
@@ -326,6 +336,9 @@ class SetupTab(QWidget):
             seed=options.seed,
             paced=options.paced,
             faults=options.faults,
+            sim_hum=options.sim_hum,
+            exact_mains_bins=self.exact_mains_bins.isChecked(),
+            resonance=self.resonance.isChecked(),
             out=options.out,
             db=self.records.url,
             records=False,  # the window's records, when open, come as `lab` (prepare)

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
 from enum import StrEnum
 from typing import TYPE_CHECKING
 
@@ -46,13 +46,15 @@ class Progress:
 
 @dataclass(frozen=True)
 class PeriodBlock:
-    """One period as read (volts, channels in DaqConfig order) and what was played."""
+    """One period as read (volts, channels in DaqConfig order), what was played, and the
+    input range (+-V) each channel was read on (the run picks them: issue 32 point 2)."""
 
     index: int
     state: State
     channels: tuple[str, ...]
     samples: np.ndarray
     drive: np.ndarray
+    ranges_v: Mapping[str, float] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)

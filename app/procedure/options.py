@@ -92,6 +92,18 @@ class OptionSpec:
         return f"{self.help}; {self.bounds.describe(self.unit)}"
 
 
+# The help of the run's switches (the command line's flags, the GUI's check boxes): one text each
+EXACT_MAINS_HELP = (
+    "keep lines on mains harmonics on their exact bins (default: each moved one bin, "
+    "alternately up and down, and stated at its actual frequency; a line kept there cannot be "
+    "told from hum while driven)"
+)
+RESONANCE_HELP = (
+    "after the run, search the DUT's mounted resonance in its response (a plan to "
+    "20 kHz+ at a low level, e.g. --frequencies 1000,...,25000 --sample-rate 102400)"
+)
+
+
 # The run options that are numbers, words or lists (flags stay as `accelcal run` always had them).
 RUN_OPTIONS: tuple[OptionSpec, ...] = (
     OptionSpec("dut", "--dut", "simulated DUT from the catalogue", choices=tuple(CATALOGUE)),
@@ -333,7 +345,9 @@ def parse_option(name: str, text: str) -> Any:
 
 
 __all__ = [
+    "EXACT_MAINS_HELP",
     "OPTION_BY_NAME",
+    "RESONANCE_HELP",
     "RUN_OPTIONS",
     "Bounds",
     "OptionSpec",

@@ -352,7 +352,16 @@ class StandIO:
                 "measuring amplifier reports an overload on the reference channel",
                 channel="reference",
             )
-        self.emit(PeriodBlock(self.periods_read, state, tuple(self.channel_index), block, played))
+        self.emit(
+            PeriodBlock(
+                self.periods_read,
+                state,
+                tuple(self.channel_index),
+                block,
+                played,
+                ranges_v=dict(self.ranges),
+            )
+        )
         return block
 
     def period(self, state: State) -> tuple[np.ndarray, np.ndarray]:

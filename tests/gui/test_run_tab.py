@@ -3,6 +3,7 @@ worker's events and what the tab shows of it."""
 
 from __future__ import annotations
 
+import dataclasses
 import os
 
 import numpy as np
@@ -16,6 +17,7 @@ from app.gui.run_tab import ElidedLabel, LiveFrame, PhaseSteps, RunTab
 from app.procedure import (
     EqualisationStep,
     Finished,
+    InputRanges,
     PeriodBlock,
     Progress,
     State,
@@ -75,6 +77,26 @@ def test_the_tab_draws_a_frame_once_and_meters_in_percent_of_range(qtbot):
     tab.state.setText("kept")
     tab.draw()  # nothing new: nothing redrawn
     assert tab.state.text() == "kept"
+
+
+def test_the_meters_follow_the_ranges_the_run_picked_and_the_tab_says_them(qtbot):
+    """Issue 32 point 2: the run picks each channel's input range; a block read on +-0.1 V
+    is metered against 0.1 V, not the +-1 V the run was attached with, and the ranges the
+    run states (InputRanges) are shown."""
+    tab = RunTab()
+    qtbot.addWidget(tab)
+    tab.ranges_v = {"reference": 1.0, "dut": 5.0}
+    picked = dataclasses.replace(
+        block(1, State.ACQUIRING, 0.05), ranges_v={"reference": 0.1, "dut": 0.2}
+    )
+    tab.frame.take([InputRanges("input ranges: reference +-0.1 V, DUT +-0.2 V"), picked])
+    tab.draw()
+    assert tab.meters["reference"].value() == 50 and tab.meters["dut"].value() == 25
+    assert "±0.1 V" in tab.meters["reference"].format()
+    assert "±0.2 V" in tab.meters["dut"].format()
+    assert tab.ranges_label.text() == "input ranges: reference +-0.1 V, DUT +-0.2 V"
+    tab.clear()
+    assert tab.ranges_label.text() == ""
 
 
 def test_an_aborted_run_says_why_and_where_its_data_is(qtbot, tmp_path):

@@ -280,3 +280,42 @@ def test_the_certificate_prints_every_warning_that_does_not_block(complete_run, 
     assert text.count("mains hum at 50 Hz: 0.2 %") == 1
     assert "Monte Carlo validation (JCGM 101)" in text
     assert "[-1.13, +1.14] %" in text and "±1.07 %" in text
+
+
+def test_a_line_too_few_lsb_above_the_step_is_not_stated_in_a_run_and_read_back(
+    recording,
+) -> None:
+    """Issue 32 point 2: the resolution warning a run gives a line under 20 LSB makes the line
+    not stated (no number, no U, no verdict), never the reference line (its warning blocks the
+    run); results stored with numbers for such a line read back as not stated."""
+    from dsp.calibration import Results
+
+    results = analyze(recording, tolerance_percent=5.0).results
+    low, ref = results.lines[0], results.reference
+    warning = (
+        f"line {low.frequency_hz:g} Hz: DUT channel 9.24 LSB on its +-0.1 V range (< 20 LSB): "
+        "resolution not stated; raise the level or use a smaller input range"
+    )
+    reference_warning = warning.replace(
+        f"line {low.frequency_hz:g} Hz", f"line {ref.frequency_hz:g} Hz"
+    )
+    stored = results.to_dict()
+    stored["warnings"] = [*stored["warnings"], warning, reference_warning]
+    back = Results.from_dict(json.loads(json.dumps(stored)))
+    first = back.lines[0]
+    assert not first.stated and "DUT channel 9.24 LSB on its +-0.1 V range" in first.not_stated
+    assert math.isnan(first.sensitivity_mv_per_ms2) and math.isnan(first.phase_deg)
+    assert math.isnan(first.relative_expanded_uncertainty) and first.iso_verdict == "not stated"
+    assert first.tolerance_verdict == "not stated"
+    assert all(ln.stated for ln in back.lines[1:])  # the reference line among them
+    assert back.reference.sensitivity_mv_per_ms2 == ref.sensitivity_mv_per_ms2
+    # a warning for another frequency, or the preflight's "predicted:" form, states nothing away
+    other = dict(
+        stored,
+        warnings=[
+            *results.warnings,
+            f"predicted: {warning}",
+            warning.replace(f"{low.frequency_hz:g} Hz", "12345 Hz"),
+        ],
+    )
+    assert all(ln.stated for ln in Results.from_dict(other).lines)

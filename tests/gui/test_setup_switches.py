@@ -1,0 +1,43 @@
+"""The Setup tab's switches reach the run as the command line's flags do (issue 32 points 3
+and 5): lines kept on exact mains harmonics (the preview's plan changes with it), the resonance
+search, and the simulated stand's hum while driven given to `accelcal gui --sim-hum`."""
+
+from __future__ import annotations
+
+import pytest
+
+from app.cli.options import sim_hum_option
+from app.gui.main_window import MainWindow
+
+
+@pytest.fixture()
+def setup(qtbot, tmp_path):
+    hum = sim_hum_option(["1mV@50.3Hz"])
+    w = MainWindow(out=tmp_path / "runs", paced=False, seed=4, sim_hum=hum)
+    qtbot.addWidget(w)
+    w.wait_for_plans()
+    return w.setup_tab
+
+
+def _lines_near_50_hz(setup) -> list[float]:
+    setup.wait_for_plans()
+    assert setup.preview is not None
+    return [f for f in setup.preview.plan.frequencies_hz if 45.0 < f < 55.0]
+
+
+def test_exact_mains_bins_moves_the_previewed_line_back_onto_50_hz(setup, qtbot):
+    setup.preset.setCurrentText("piezo")
+    assert _lines_near_50_hz(setup) != [50.0]  # by default one bin off the mains harmonic
+    assert not setup.run_options().exact_mains_bins
+    setup.exact_mains_bins.click()
+    assert _lines_near_50_hz(setup) == [50.0]
+    assert setup.run_options().exact_mains_bins
+    assert "exact bins" in setup.exact_mains_bins.toolTip()
+
+
+def test_the_resonance_search_and_the_hum_while_driven_reach_the_run_options(setup):
+    options = setup.run_options()
+    assert not options.resonance
+    assert [(h.frequency_hz, h.dut_v) for h in options.sim_hum] == [(50.3, 0.001)]
+    setup.resonance.click()
+    assert setup.run_options().resonance
