@@ -41,3 +41,18 @@ def test_the_resonance_search_and_the_hum_while_driven_reach_the_run_options(set
     assert [(h.frequency_hz, h.dut_v) for h in options.sim_hum] == [(50.3, 0.001)]
     setup.resonance.click()
     assert setup.run_options().resonance
+
+
+def test_the_checks_say_what_the_plan_does_with_the_mains_lines(setup, qtbot):
+    """The checks beside the fields speak of the lines as they will be played: moved one bin
+    off the mains harmonics by default, kept on them (with the hum warning) when asked."""
+    setup.preset.setCurrentText("piezo")
+    setup.wait_for_plans()
+    text = setup.checks.text()
+    assert "line 50 Hz: moved one bin off the 1st mains harmonic (50 Hz) to 50.5 Hz" in text
+    assert "a periodic average does not remove hum" not in text
+    setup.exact_mains_bins.click()
+    setup.wait_for_plans()
+    text = setup.checks.text()
+    assert "line 50 Hz: on the 1st mains harmonic (50 Hz)" in text
+    assert "moved one bin" not in text
