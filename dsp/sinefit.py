@@ -76,7 +76,8 @@ def block_compatible_grid(
     first `mains_harmonics` mains harmonics, whose block (integer_cycle_block: whole cycles of
     the line and of the mains, at least `minimum_block_s`) is shortest, nearest the nominal
     frequency among equals; on the period (a multiple of `step_s` up to `max_period_s`) whose
-    blocks sum shortest, the shortest such period. ValueError when a line has no bin."""
+    blocks sum shortest, the shortest such period. ValueError when no period gives every
+    line a bin."""
     nominal = np.asarray([float(f) for f in nominal_frequencies_hz])
     if nominal.size == 0 or not np.all(np.isfinite(nominal) & (nominal > 0)):
         raise ValueError("frequencies: need at least one, each > 0 Hz")
