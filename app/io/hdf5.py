@@ -32,7 +32,7 @@ import logging
 import math
 import os
 import resource
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -133,6 +133,9 @@ class Recording:
     acquired_periods: int | None = None
     status: RunStatus | None = None  # None: not recorded by this program (CSV, in memory)
     cmc: Cmc | None = None  # the laboratory's CMC (the stand's, or --budget's [[cmc]])
+    # the run's blocking warnings of lines too few LSB above the converter's step: the lines a
+    # re-analysis does not state either (dsp.not_stated)
+    resolution_warnings: tuple[str, ...] = ()
 
     @property
     def periods(self) -> int:
@@ -264,6 +267,12 @@ class RecordingWriter:
         self._file["config"].attrs["budget"] = json.dumps(budget.to_list())
         self._file.flush()
 
+    def set_resolution_warnings(self, warnings: Sequence[str]) -> None:
+        """Store the run's "too few LSB" warnings (the lines it does not state: issue 32 point
+        2), so a re-analysis of the recording states the same lines as the run."""
+        self._file["config"].attrs["resolution_warnings"] = json.dumps(list(warnings))
+        self._file.flush()
+
     def set_status(self, status: RunStatus, reason: str | None = None) -> bool:
         """Mark how the recording ended (a RunStatus; aborted with its reason). Never raises
         for the file: False (logged) when it cannot take the mark, which leaves the recording
@@ -352,6 +361,9 @@ def read_recording(path: str | Path) -> Recording:
             if value is None:
                 raise RecordingError(f"{name}: missing /config attribute '{key}'")
         assert plan is not None and chain is not None and budget is not None
+        resolution_warnings = fields.json_attr(
+            config.attrs, "resolution_warnings", where, _text_list
+        )
         fields.group(f, "signals", name)
         signals: dict[str, np.ndarray] = {}
         ranges: dict[str, float] = {}
@@ -389,6 +401,7 @@ def read_recording(path: str | Path) -> Recording:
         ranges_v=ranges,
         source=str(path),
         truth=truth,
+        resolution_warnings=resolution_warnings or (),
         acquired_periods=head.acquired_periods,
         status=status,
         cmc=cmc,
@@ -405,6 +418,13 @@ def recording_status(mark: object) -> RunStatus:
     if isinstance(mark, str) and mark in (RunStatus.COMPLETE, RunStatus.ABORTED):
         return RunStatus(str(mark))
     return RunStatus.INCOMPLETE
+
+
+def _text_list(value: object) -> tuple[str, ...]:
+    """A JSON list of texts (ValueError naming what it is instead)."""
+    if not isinstance(value, list) or not all(isinstance(t, str) for t in value):
+        raise ValueError(f"must be a list of texts, got {value!r:.80}")
+    return tuple(value)
 
 
 TRUTH_DATASETS = ("frequency_hz", "sensitivity_mv_per_ms2", "phase_deg")
