@@ -18,7 +18,8 @@ from pathlib import Path
 
 from app.io.checks import MAX_RECORDING_SAMPLES
 from dsp import crestfactor
-from dsp.multisine import PlanError, peak_grid_samples
+from dsp.crestfactor import peak_grid_samples
+from dsp.multisine import PlanError
 
 log = logging.getLogger(__name__)
 

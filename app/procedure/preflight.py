@@ -18,8 +18,8 @@ import numpy as np
 
 from app.procedure.errors import PreflightError
 from app.procedure.ranging import RangePlan, plan_ranges
-from dsp.crestfactor import synthesize
-from dsp.multisine import Plan, PredictedPeaks, peak_grid_samples
+from dsp.crestfactor import peak_grid_samples, synthesize
+from dsp.multisine import Plan, PredictedPeaks
 from dsp.resolution import Converter
 
 if TYPE_CHECKING:

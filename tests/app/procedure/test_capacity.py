@@ -14,7 +14,7 @@ import pytest
 from app.cli import main
 from app.procedure import capacity
 from dsp import crestfactor
-from dsp.multisine import PEAK_GRID_MAX, peak_grid_samples
+from dsp.crestfactor import PEAK_GRID_MAX, peak_grid_samples
 
 
 @pytest.fixture()
