@@ -423,7 +423,7 @@ def recording_status(mark: object) -> RunStatus:
 def _text_list(value: object) -> tuple[str, ...]:
     """A JSON list of texts (ValueError naming what it is instead)."""
     if not isinstance(value, list) or not all(isinstance(t, str) for t in value):
-        raise ValueError(f"must be a list of texts, got {value!r:.80}")
+        raise ValueError(f"'resolution_warnings' must be a list of texts, got {value!r:.80}")
     return tuple(value)
 
 
