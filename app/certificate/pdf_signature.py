@@ -85,6 +85,17 @@ class SignedLayout:
                 "/Contents of the document's signature field"
             )
 
+    def check_contents(self, data: bytes) -> None:
+        """SignatureStructureError unless the last signature's gap in `data` is exactly the
+        hex string the signer writes: its CMS structure, then zero padding (issue 33)."""
+        last = self.last
+        problem = contents_problem(data[last.length1 : last.start2])
+        if problem is not None:
+            raise SignatureStructureError(
+                f"the signature's /Contents (bytes {last.length1}-{last.start2}) is not exactly "
+                f"its CMS structure followed by zero padding: {problem}"
+            )
+
 
 def byte_ranges(data: bytes) -> list[ByteRange]:
     """Every /ByteRange array in `data` with the /Contents hex string in its gap, by position.
@@ -130,12 +141,6 @@ def check_layout(data: bytes) -> SignedLayout:
         raise SignatureStructureError(
             f"the signature's gap (bytes {last.length1}-{last.start2}) is not exactly the hex "
             "string of its /Contents (a literal string or other bytes in the unsigned gap)"
-        )
-    problem = contents_problem(data[last.length1 : last.start2])
-    if problem is not None:
-        raise SignatureStructureError(
-            f"the signature's /Contents (bytes {last.length1}-{last.start2}) is not exactly its "
-            f"CMS structure followed by zero padding: {problem}"
         )
     if last.end != len(data):
         raise SignatureStructureError(
