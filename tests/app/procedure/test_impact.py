@@ -8,7 +8,9 @@ from __future__ import annotations
 
 import csv
 import json
+import os
 import shutil
+import signal
 import subprocess
 import sys
 import time
@@ -316,6 +318,8 @@ def test_impact_workers_end_when_their_parent_is_killed(lab_runs, tmp_path: Path
     while left and time.monotonic() < deadline:
         left = {pid for pid in left if _alive(pid)}
         time.sleep(0.05)
+    for pid in left:  # a failing run leaves none behind
+        os.kill(pid, signal.SIGKILL)
     assert not left, f"workers {sorted(left)} outlived their parent"
 
 
