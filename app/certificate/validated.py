@@ -1,30 +1,44 @@
 """Which software validation report (ISO/IEC 17025 7.11.2) a certificate names: the software's
 identity (version and the SHA-256 over its installed files), the folder where the lab keeps its
-validation reports, and the newest report there that passed for this very software.
+validation reports, and the newest report there that proves itself for this very software.
 
-A report's JSON twin carries the SHA-256 of its PDF; a report counts only while its PDF still
-has that hash, and the certificate states the hash, so whoever holds the report can check the
-claim (`verify_report`) rather than trust the folder.
+A report proves itself only as one signed PDF made by `accelcal validate --sign`: its record
+(date, software, every case with its result) embedded as REPORT_ATTACHMENT, and the lab's
+PAdES signature over the whole file (checked as `accelcal verify` checks a certificate's:
+app.certificate.verify). It is accepted (`read_report`) only when that signature is intact and
+its signer is trusted by the given trust anchors (the lab's CA or its own signing key), the
+record names the expected software's SHA-256, every case passed, and its date is not in the
+future. A JSON file beside it is a readable copy and is never read here. The certificate states
+the report PDF's SHA-256, so whoever holds the report can check the claim (`verify_report`).
 """
 
 from __future__ import annotations
 
 import hashlib
 import importlib
+import io
 import json
 import os
+import re
 from dataclasses import dataclass
+from datetime import UTC, datetime, timedelta
 from pathlib import Path
+from typing import Any
 
 from app.errors import Refusal
 
 PACKAGES = ("dsp", "hardware", "sim", "app")  # what the software hash covers
 FOLDER_ENV = "ACCELCAL_VALIDATION_DIR"
-MAX_TWIN_BYTES = 4 << 20
+REPORT_ATTACHMENT = "validation.json"  # the signed record inside the report PDF
+MAX_REPORT_BYTES = 20 << 20
+MAX_REPORTS = 200  # the newest report files of a folder that are examined
+CLOCK_SKEW = timedelta(minutes=5)  # a report dated later than now + this is refused
+_HEX64 = re.compile(r"^[0-9a-f]{64}$")
 
 
 class ValidationClaimError(Refusal):
-    """A validation report that is not the one a certificate names; the message says why."""
+    """A validation report that is not the one a certificate names, or that does not prove
+    itself; the message names the report and what was found."""
 
 
 @dataclass(frozen=True)
@@ -67,22 +81,50 @@ def validation_folder() -> Path:
 @dataclass(frozen=True)
 class ValidationClaim:
     """The validation report a certificate names: its file name, date (UTC, ISO), the SHA-256
-    of its PDF, and the software it validated."""
+    of its PDF, the software it validated, its number of cases and who signed it."""
 
     report: str
     date_utc: str
     report_sha256: str
     software_version: str
     software_sha256: str
+    cases: int = 0
+    signer: str = ""
 
     def line(self) -> str:
         """The certificate's sentence."""
         return (
             f"The software (accelcal {self.software_version}, files SHA-256 "
             f"{self.software_sha256}) was validated per ISO/IEC 17025:2017 7.11.2: report "
-            f"{self.report} of {self.date_utc[:10]}, all cases passed; the report PDF's "
-            f"SHA-256 is {self.report_sha256}."
+            f"{self.report} of {self.date_utc[:10]}, all {self.cases} cases passed, signed by "
+            f"{self.signer}; the report PDF's SHA-256 is {self.report_sha256}."
         )
+
+
+# --- trust anchors ------------------------------------------------------------------------------
+
+
+def trust_from_ca(path: Path) -> list[Any]:
+    """The CA certificate (PEM or DER) in `path` as a trust anchor; ValidationClaimError
+    naming --trust when it is no certificate."""
+    from app.certificate.verify import VerifyRefusal, _load_certificate
+
+    try:
+        return [_load_certificate(path)]
+    except VerifyRefusal as exc:
+        raise ValidationClaimError(str(exc)) from None
+
+
+def trust_from_signer(signer: Any) -> list[Any]:
+    """The lab's own signing key as trust anchors: its certificate and the CA certificates its
+    PKCS#12 file carries (a report signed with the lab's key, or another key of its CA)."""
+    inner = signer.signer
+    anchors = [inner.signing_cert]
+    anchors += [c for c in (inner.cert_registry or []) if c != inner.signing_cert]
+    return anchors
+
+
+# --- reading a report ---------------------------------------------------------------------------
 
 
 def _sha256(path: Path) -> str:
@@ -93,58 +135,187 @@ def _sha256(path: Path) -> str:
     return digest.hexdigest()
 
 
-def _claim(twin: Path, software_sha256: str) -> ValidationClaim | None:
-    """The claim of one JSON twin when it passed for `software_sha256` and its PDF still has
-    the hash the twin records; else None."""
+def _record(data: bytes, name: str) -> dict[str, Any]:
+    """The signed record embedded in a report PDF (after its signature held)."""
+    from pypdf import PdfReader
+    from pypdf.errors import PyPdfError
+
     try:
-        if twin.is_symlink() or not twin.is_file() or twin.stat().st_size > MAX_TWIN_BYTES:
-            return None
-        record = json.loads(twin.read_text(encoding="utf-8"))
-        ok = (
-            record.get("passed") is True
-            and record["software"]["sha256"] == software_sha256
-            and bool(record["cases"])
-            and all(case["passed"] is True for case in record["cases"])
+        found = list(PdfReader(io.BytesIO(data)).attachments.get(REPORT_ATTACHMENT) or [])
+    except (OSError, PyPdfError, ValueError, KeyError, TypeError) as exc:
+        raise ValidationClaimError(f"{name}: the PDF cannot be read ({exc})") from None
+    if len(found) != 1:
+        raise ValidationClaimError(
+            f"{name}: no single {REPORT_ATTACHMENT} inside: not a report made by "
+            "`accelcal validate`"
         )
-        pdf = twin.with_suffix(".pdf")
-        if not ok or pdf.is_symlink() or not pdf.is_file():
-            return None
-        pdf_sha = str(record["report_pdf_sha256"])
-        if _sha256(pdf) != pdf_sha:
-            return None  # the PDF is not the one the twin was written with
-        return ValidationClaim(
-            pdf.name,
-            str(record["date_utc"]),
-            pdf_sha,
-            str(record["software"].get("version") or ""),
-            software_sha256,
-        )
-    except (OSError, ValueError, KeyError, TypeError, AttributeError):
-        return None  # not a validation report
+    try:
+        record = json.loads(found[0].decode("utf-8"))
+    except (UnicodeDecodeError, ValueError) as exc:
+        raise ValidationClaimError(f"{name}: {REPORT_ATTACHMENT}: not JSON ({exc})") from None
+    if not isinstance(record, dict):
+        raise ValidationClaimError(f"{name}: {REPORT_ATTACHMENT}: not a JSON object")
+    return record
 
 
-def passed_claim(folder: Path, software_sha256: str) -> ValidationClaim | None:
-    """The newest report in `folder` that passed for the software `software_sha256` and whose
-    PDF still has the SHA-256 its twin records, or None."""
-    found = [
-        (claim.date_utc, claim)
-        for twin in sorted(Path(folder).glob("*.json"))
-        if (claim := _claim(twin, software_sha256)) is not None
+def _parse_date(text: Any, name: str) -> datetime:
+    try:
+        when = datetime.fromisoformat(str(text))
+    except ValueError:
+        raise ValidationClaimError(f"{name}: date {text!r} is not an ISO 8601 time") from None
+    if when.tzinfo is None:
+        raise ValidationClaimError(f"{name}: date {text!r} has no time zone")
+    return when.astimezone(UTC)
+
+
+def read_report(
+    path: Path, trust: list[Any] | None, software_sha256: str, now: datetime | None = None
+) -> ValidationClaim:
+    """The claim of the report PDF `path` when it proves itself (see the module's docstring)
+    for the software `software_sha256`; ValidationClaimError naming the report and the first
+    thing found wrong otherwise: not signed, signature not intact, signer not trusted (or
+    nothing to trust: `trust` None), no record inside, another software's hash, a failed or
+    missing case, a date in the future."""
+    from app.certificate.verify import Verification, _check_signature, _quiet
+    from app.io.checks import InputFileError, read_regular_bytes
+
+    name = Path(path).name
+    try:
+        data = read_regular_bytes(path, MAX_REPORT_BYTES, "validation report")
+    except InputFileError as exc:
+        raise ValidationClaimError(str(exc)) from None
+    checks = Verification()
+    with _quiet():
+        _check_signature(data, trust, checks)
+    failed = next(((n, d) for n, ok, d in checks.checks if not ok), None)
+    if failed is not None or not checks.checks:
+        what, detail = failed or ("signature", "not checked")
+        if trust is None and what == "signer trust":
+            detail = "signer NOT checked: no lab key or CA to check it against"
+        elif what == "signer trusted by the given CA":
+            what, detail = "signer", f"{detail} trusted by the lab's key or CA: not trusted"
+        raise ValidationClaimError(f"{name}: {what}: {detail}")
+    signer = _signer_subject(data)
+    record = _record(data, name)
+    software = record.get("software")
+    if not isinstance(software, dict) or not _HEX64.match(str(software.get("sha256", ""))):
+        raise ValidationClaimError(f"{name}: the record names no software SHA-256")
+    if software["sha256"] != software_sha256:
+        raise ValidationClaimError(
+            f"{name}: validates software {software['sha256']}, not this software "
+            f"({software_sha256})"
+        )
+    cases = record.get("cases")
+    if not isinstance(cases, list) or not cases:
+        raise ValidationClaimError(f"{name}: the record lists no cases")
+    failed_cases = [
+        str(c.get("name", "?")) if isinstance(c, dict) else "?"
+        for c in cases
+        if not isinstance(c, dict) or c.get("passed") is not True
     ]
-    return max(found, key=lambda item: item[0])[1] if found else None
+    if failed_cases or record.get("passed") is not True:
+        raise ValidationClaimError(
+            f"{name}: not every case passed ({len(failed_cases)} of {len(cases)} failed: "
+            f"{', '.join(failed_cases[:3])})"
+        )
+    when = _parse_date(record.get("date_utc"), name)
+    now = now or datetime.now(UTC)
+    if when > now + CLOCK_SKEW:
+        raise ValidationClaimError(
+            f"{name}: dated {when:%Y-%m-%d %H:%M} UTC, in the future (now {now:%Y-%m-%d %H:%M} UTC)"
+        )
+    return ValidationClaim(
+        name,
+        when.isoformat(timespec="seconds"),
+        hashlib.sha256(data).hexdigest(),
+        str(software.get("version") or ""),
+        software_sha256,
+        len(cases),
+        signer,
+    )
 
 
-def current_claim() -> ValidationClaim | None:
-    """The claim for the installed software from the lab's validation folder, or None (no
-    folder, or no passed report of this software)."""
-    folder = validation_folder()
+def _signer_subject(data: bytes) -> str:
+    """The report signer's subject (its signature already checked)."""
+    from pyhanko.pdf_utils.reader import PdfFileReader
+
+    from app.certificate.verify import SignerInfo
+
+    signatures = PdfFileReader(io.BytesIO(data), strict=False).embedded_signatures
+    return SignerInfo.of(signatures[-1].signer_cert).subject
+
+
+@dataclass(frozen=True)
+class FolderClaim:
+    """What a validation folder offers: the claim of its newest report that proves itself
+    (None: none does) and, for each report refused, why (one line each)."""
+
+    claim: ValidationClaim | None
+    refused: tuple[str, ...] = ()
+
+    def summary(self) -> str:
+        """One line for the faces: the report named, or why none is."""
+        if self.claim is not None:
+            return (
+                f"software validation: report {self.claim.report} of "
+                f"{self.claim.date_utc[:10]} (signed by {self.claim.signer}) named"
+            )
+        why = "; ".join(self.refused) or "no report in the lab's validation folder"
+        return f"software validation: no report named ({why})"
+
+
+def folder_claim(
+    folder: Path, trust: list[Any] | None, software_sha256: str, now: datetime | None = None
+) -> FolderClaim:
+    """The newest report PDF in `folder` that proves itself for `software_sha256` (by its
+    signed date), and why each other one examined was refused. Without `trust` nothing is
+    accepted: the refusal says so."""
+    folder = Path(folder)
     if not folder.is_dir():
-        return None
-    return passed_claim(folder, software_identity().sha256)
+        return FolderClaim(None, (f"no validation folder {folder}",))
+    pdfs = sorted(
+        (p for p in folder.glob("*.pdf") if not p.is_symlink() and p.is_file()),
+        key=lambda p: p.name,
+    )[-MAX_REPORTS:]
+    if trust is None:
+        if not pdfs:
+            return FolderClaim(None, (f"no report in {folder}",))
+        return FolderClaim(
+            None,
+            (
+                "no lab key to check a report's signature against: issue with --sign (the "
+                "lab's key) or --trust (its CA certificate)",
+            ),
+        )
+    accepted: list[ValidationClaim] = []
+    refused: list[str] = []
+    for pdf in pdfs:
+        try:
+            accepted.append(read_report(pdf, trust, software_sha256, now))
+        except ValidationClaimError as exc:
+            refused.append(str(exc))
+    if not pdfs:
+        refused.append(f"no report in {folder}")
+    best = max(accepted, key=lambda c: c.date_utc) if accepted else None
+    return FolderClaim(best, tuple(refused))
 
 
-def verify_report(stated_sha256: str, report: Path) -> None:
-    """ValidationClaimError unless `report`'s SHA-256 is the one a certificate states."""
+def current_claim(trust: list[Any] | None) -> FolderClaim:
+    """What the lab's validation folder offers the installed software, checked against
+    `trust` (app.certificate.service passes the lab's key or CA; None accepts nothing)."""
+    return folder_claim(validation_folder(), trust, software_identity().sha256)
+
+
+def verify_report(
+    stated_sha256: str,
+    report: Path,
+    trust: list[Any] | None = None,
+    stated_software: str | None = None,
+) -> ValidationClaim | None:
+    """ValidationClaimError unless `report`'s SHA-256 is the one a certificate states and, with
+    `stated_software` (the software SHA-256 the certificate states), unless the report proves
+    itself for that software against `trust` (read_report). The report's claim, or None when
+    only its hash was compared."""
     if not report.is_file():
         raise ValidationClaimError(f"--validation-report: no such file {report}")
     actual = _sha256(report)
@@ -153,6 +324,12 @@ def verify_report(stated_sha256: str, report: Path) -> None:
             f"--validation-report: {report} has SHA-256 {actual}, the certificate names "
             f"{stated_sha256}"
         )
+    if stated_software is None:
+        return None
+    try:
+        return read_report(report, trust, stated_software)
+    except ValidationClaimError as exc:
+        raise ValidationClaimError(f"--validation-report: {exc}") from None
 
 
 STATEMENT_NAME = "Software validation"  # the DCC statement and the PDF heading
