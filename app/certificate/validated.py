@@ -176,7 +176,14 @@ def read_report(
     thing found wrong otherwise: not signed, signature not intact, signer not trusted (or
     nothing to trust: `trust` None), no record inside, another software's hash, a failed or
     missing case, a date in the future."""
-    from app.certificate.verify import Verification, _check_signature, _quiet
+    from app.certificate.verify import (
+        TIME_LIMIT_S,
+        Verification,
+        VerifyRefusal,
+        _check_signature,
+        _quiet,
+        _time_limit,
+    )
     from app.io.checks import InputFileError, read_regular_bytes
 
     name = Path(path).name
@@ -185,8 +192,11 @@ def read_report(
     except InputFileError as exc:
         raise ValidationClaimError(str(exc)) from None
     checks = Verification()
-    with _quiet():
-        _check_signature(data, trust, checks)
+    try:
+        with _quiet(), _time_limit(TIME_LIMIT_S):
+            _check_signature(data, trust, checks)
+    except VerifyRefusal as exc:  # a file made to keep the check busy
+        raise ValidationClaimError(f"{name}: signature: {exc}") from None
     failed = next(((n, d) for n, ok, d in checks.checks if not ok), None)
     if failed is not None or not checks.checks:
         what, detail = failed or ("signature", "not checked")
