@@ -151,11 +151,11 @@ class Signatories:
 
 
 def validation_claim(request: IssueRequest, signer: Any) -> Any:
-    """The software validation report the certificate names (app.certificate.validated
+    """The software validation report the certificate names (app.certificate.validated_check
     .FolderClaim): the newest report in the lab's validation folder signed by the lab for this
     software, checked against `request.trust` (the lab's CA) or else the signing key's own
     certificates; with neither, none (the summary says why)."""
-    from app.certificate.validated import current_claim, trust_from_ca, trust_from_signer
+    from app.certificate.validated_check import current_claim, trust_from_ca, trust_from_signer
 
     if request.trust is not None:
         trust = trust_from_ca(Path(request.trust))

@@ -27,13 +27,8 @@ def _validation_report(args: argparse.Namespace) -> int:
     signature checked against --trust, the software it validated equal to the one the
     certificate states, every case passed, not dated in the future. A report that does not
     prove itself: a FAIL line naming what was found, exit 2."""
-    from app.certificate.validated import (
-        ValidationClaimError,
-        software_identity,
-        trust_from_ca,
-        verify_report,
-    )
-    from app.certificate.validated_check import stated_validation
+    from app.certificate.validated import ValidationClaimError, software_identity
+    from app.certificate.validated_check import stated_validation, trust_from_ca, verify_report
 
     stated = stated_validation(args.pdf)
     if stated is None:

@@ -76,8 +76,8 @@ def validate(out: Path, sign: Path | None = None) -> int:
 def passed_report(folder: Path, software_sha256: str, trust: list[Any] | None) -> Path | None:
     """The newest validation report PDF in `folder` that proves itself for the software with
     SHA-256 `software_sha256` against the trust anchors `trust` (signed by the lab, every case
-    passed, not dated in the future: app.certificate.validated.read_report), or None."""
-    from app.certificate.validated import folder_claim
+    passed, not dated in the future: app.certificate.validated_check.read_report), or None."""
+    from app.certificate.validated_check import folder_claim
 
     claim = folder_claim(Path(folder), trust, software_sha256).claim
     return None if claim is None else Path(folder) / claim.report

@@ -63,9 +63,10 @@ def write_report(
 ) -> None:
     """Write the PDF report to `out` with its record (date, software, environment, every case)
     embedded as REPORT_ATTACHMENT and, with `signer` (the lab's key), signed over the whole
-    file as its last revision: the one form a certificate accepts (app.certificate.validated
-    .read_report). Then a readable JSON copy beside it (same name, .json, with the PDF's
-    SHA-256), which nothing trusts. FileExistsError (app.files) when either file exists."""
+    file as its last revision: the one form a certificate accepts (app.certificate
+    .validated_check.read_report). Then a readable JSON copy beside it (same name, .json,
+    with the PDF's SHA-256), which nothing trusts. FileExistsError (app.files) when either
+    file exists."""
     if out.with_suffix(".json").exists():
         raise FileExistsRefusal(f"{out.with_suffix('.json')}: exists")
     record = {

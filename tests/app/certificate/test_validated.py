@@ -22,9 +22,11 @@ from app.certificate.validated import (
     REPORT_ATTACHMENT,
     Software,
     ValidationClaimError,
+    software_identity,
+)
+from app.certificate.validated_check import (
     folder_claim,
     read_report,
-    software_identity,
     trust_from_ca,
     trust_from_signer,
     verify_report,

@@ -53,12 +53,8 @@ def test_validate_writes_to_the_labs_validation_folder_by_default(monkeypatch, t
 def test_validate_sign_writes_a_report_a_certificate_accepts(tmp_path: Path, capsys) -> None:
     """`accelcal validate --sign` (issue 33): the one way a report the certificate names is
     made; without --sign the report says it is not signed and proves nothing."""
-    from app.certificate.validated import (
-        ValidationClaimError,
-        read_report,
-        software_identity,
-        trust_from_ca,
-    )
+    from app.certificate.validated import ValidationClaimError, software_identity
+    from app.certificate.validated_check import read_report, trust_from_ca
     from tests.app.certificate.throwaway_ca import PASSWORD, make_ca, make_signer
 
     ca = make_ca(tmp_path, "Lab CA")

@@ -175,7 +175,7 @@ def test_a_report_whose_pdf_was_replaced_is_not_named(tmp_path: Path, lab_key) -
 def lab_key(tmp_path_factory, monkeypatch):
     """A lab signing key (throwaway CA) and the trust anchors of its CA."""
     from app.certificate.sign import Signer
-    from app.certificate.validated import trust_from_ca
+    from app.certificate.validated_check import trust_from_ca
     from tests.app.certificate.throwaway_ca import PASSWORD, make_ca, make_signer
 
     folder = tmp_path_factory.mktemp("pki")
