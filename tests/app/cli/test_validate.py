@@ -50,6 +50,7 @@ def test_validate_writes_to_the_labs_validation_folder_by_default(monkeypatch, t
     assert out.parent == tmp_path / "v" and out.parent.is_dir() and out.suffix == ".pdf"
 
 
+@pytest.mark.slow  # runs every validation case once (~2 s idle, 3.4 s at load 7)
 def test_validate_sign_writes_a_report_a_certificate_accepts(tmp_path: Path, capsys) -> None:
     """`accelcal validate --sign` (issue 33): the one way a report the certificate names is
     made; without --sign the report says it is not signed and proves nothing."""
