@@ -237,6 +237,10 @@ def client_address(peer: str | None, forwarded_for: Iterable[str], proxies: Iter
     trusted = set(proxies)
     if peer is None:
         return "?"
+    try:
+        peer = str(ipaddress.ip_address(peer))  # one spelling per address (IPv6)
+    except ValueError:
+        return peer
     if peer not in trusted:
         return peer
     hops = [hop.strip() for line in forwarded_for for hop in line.split(",") if hop.strip()]

@@ -160,6 +160,8 @@ def test_sessions_are_bounded_end_after_8_h_and_are_revoked() -> None:
         ("127.0.0.1", ["10.0.0.7, 127.0.0.1"], ("127.0.0.1",), "10.0.0.7"),  # proxy chain
         ("127.0.0.1", ["not-an-address"], ("127.0.0.1",), "127.0.0.1"),
         ("127.0.0.1", [], ("127.0.0.1",), "127.0.0.1"),
+        ("0:0:0:0:0:0:0:1", ["10.0.0.7"], parse_proxies("::1"), "10.0.0.7"),  # IPv6 spellings
+        ("::1", ["10.0.0.7"], (), "::1"),
     ],
 )
 def test_x_forwarded_for_is_read_only_from_a_trusted_proxy(peer, forwarded, proxies, expected):

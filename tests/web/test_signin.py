@@ -254,6 +254,39 @@ def test_40_concurrent_sign_ins_keep_the_server_under_600_mb(behind_proxy: Serve
     assert peak - before < (PASSWORD_CHECKS_AT_ONCE + 1) * 64 + 50  # not 40 x 64 MiB
 
 
+def test_sign_ins_posted_and_hung_up_on_free_no_extra_check(behind_proxy: Server) -> None:
+    """40 clients post a sign-in and close the connection at once (the check must not be
+    dropped while its argon2 still runs, freeing a slot for another): still at most
+    PASSWORD_CHECKS_AT_ONCE checks together, the peak under 600 MB."""
+    browsers = [Browser(behind_proxy, f"10.38.0.{i + 1}") for i in range(40)]
+    tokens = [b.csrf() for b in browsers]
+
+    def hang_up(i: int) -> None:
+        body = urlencode({"username": f"hangup{i}", "password": "x" * 12, "csrf": tokens[i]})
+        head = (
+            f"POST /login HTTP/1.1\r\nHost: x\r\nCookie: {COOKIE}={browsers[i].cookie}\r\n"
+            f"X-Forwarded-For: 10.38.0.{i + 1}\r\n"
+            "Content-Type: application/x-www-form-urlencoded\r\n"
+            f"Content-Length: {len(body)}\r\n\r\n"
+        )
+        with socket.create_connection(("127.0.0.1", behind_proxy.port)) as raw:
+            raw.sendall((head + body).encode())
+
+    threads = [threading.Thread(target=hang_up, args=(i,)) for i in range(40)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    probe = Browser(behind_proxy, "10.38.1.1")
+    deadline = time.monotonic() + 30
+    while probe.sign_in("hangup-probe", "x" * 12).status_code != 401:  # checks done
+        assert time.monotonic() < deadline
+        time.sleep(0.2)
+    assert behind_proxy.memory_mb("VmHWM") < MEMORY_LIMIT_MB
+    log = behind_proxy.log.read_text()
+    assert "refused: checks busy" in log  # not all 40 were checked
+
+
 def test_a_cookie_copied_before_sign_out_is_refused_after_it(
     behind_proxy: Server, records: Records
 ) -> None:
@@ -338,6 +371,7 @@ def test_cookies_are_secure_behind_the_proxy_and_a_warning_says_when_not(
     assert "the session cookie is not Secure" not in behind_proxy.log.read_text()
 
 
+@pytest.mark.slow  # a Python process to start (~3 s on the loaded machine)
 def test_a_weak_secret_is_refused_at_start_with_exit_2(records: Records) -> None:
     """The issue's case, 40 x 'a' (was accepted), in a real server process."""
     env = {**os.environ, "ACCELCAL_WEB_SECRET": "a" * 40}
