@@ -14,13 +14,14 @@ import os
 import re
 import secrets
 import socket
+import ssl
 import subprocess
 import sys
 import threading
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass, field
-from http.client import HTTPConnection
+from http.client import HTTPConnection, HTTPSConnection
 from pathlib import Path
 from urllib.parse import urlencode
 
@@ -72,7 +73,7 @@ def _start(records: Records, folder: Path, *options: str) -> Iterator[Server]:
     deadline = time.monotonic() + 60
     while True:
         try:
-            Browser(server).get("/login")
+            socket.create_connection(("127.0.0.1", port), timeout=2).close()  # listening
             break
         except OSError:
             if process.poll() is not None or time.monotonic() > deadline:
@@ -369,6 +370,64 @@ def test_cookies_are_secure_behind_the_proxy_and_a_warning_says_when_not(
     assert "; secure" in secure and "; secure" not in plain
     assert "the session cookie is not Secure" in direct.log.read_text()
     assert "the session cookie is not Secure" not in behind_proxy.log.read_text()
+
+
+def _self_signed(folder: Path) -> tuple[Path, Path]:
+    """A throwaway certificate and key for 127.0.0.1 (PEM files)."""
+    import ipaddress
+    from datetime import UTC, datetime, timedelta
+
+    from cryptography import x509
+    from cryptography.hazmat.primitives import hashes, serialization
+    from cryptography.hazmat.primitives.asymmetric import ec
+    from cryptography.x509.oid import NameOID
+
+    key = ec.generate_private_key(ec.SECP256R1())
+    name = x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, "127.0.0.1")])
+    now = datetime.now(UTC)
+    cert = (
+        x509.CertificateBuilder()
+        .subject_name(name)
+        .issuer_name(name)
+        .public_key(key.public_key())
+        .serial_number(x509.random_serial_number())
+        .not_valid_before(now - timedelta(days=1))
+        .not_valid_after(now + timedelta(days=2))
+        .add_extension(
+            x509.SubjectAlternativeName([x509.IPAddress(ipaddress.ip_address("127.0.0.1"))]),
+            critical=False,
+        )
+        .sign(key, hashes.SHA256())
+    )
+    cert_file, key_file = folder / "tls.pem", folder / "tls.key"
+    cert_file.write_bytes(cert.public_bytes(serialization.Encoding.PEM))
+    key_file.write_bytes(
+        key.private_bytes(
+            serialization.Encoding.PEM,
+            serialization.PrivateFormat.PKCS8,
+            serialization.NoEncryption(),
+        )
+    )
+    return cert_file, key_file
+
+
+@pytest.mark.slow  # its own server process to start (~5 s on the loaded machine)
+def test_served_over_https_the_cookie_is_secure_without_being_asked(
+    records: Records, tmp_path: Path
+) -> None:
+    cert, key = _self_signed(tmp_path)
+    for server in _start(records, tmp_path, "--tls-cert", str(cert), "--tls-key", str(key)):
+        context = ssl.create_default_context(cafile=str(cert))
+        connection = HTTPSConnection("127.0.0.1", server.port, timeout=60, context=context)
+        try:
+            connection.request("GET", "/login")
+            response = connection.getresponse()
+            assert response.status == 200
+            cookie = (response.getheader("set-cookie") or "").lower()
+        finally:
+            connection.close()
+        assert cookie.startswith(f"{COOKIE}=") and "; secure" in cookie
+        assert "the session cookie is not Secure" not in server.log.read_text()
 
 
 @pytest.mark.slow  # a Python process to start (~3 s on the loaded machine)
