@@ -121,6 +121,17 @@ class Throttle:
                     table.popitem(last=False)  # the least recently tried goes
             return Verdict(True)
 
+    def failed(self, user: str, client: str) -> None:
+        """The check of an attempt counted by `attempt` failed: the keys' delays run from now
+        (the answer), not from when the check began (an argon2 check of a second or more on a
+        loaded server would otherwise eat the first delay)."""
+        now = self.clock()
+        with self._lock:
+            for kind, key in ((KeyKind.USER, user.casefold()), (KeyKind.CLIENT, client)):
+                attempts = self._keys[kind].get(key)
+                if attempts is not None:
+                    attempts.last = max(attempts.last, now)
+
     def succeeded(self, user: str, client: str) -> None:
         """`user` signed in from `client`: their name starts afresh, and the client's count
         gives back this attempt (its failures stay)."""

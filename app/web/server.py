@@ -201,6 +201,7 @@ def create_app(store: Store, config: WebConfig) -> Starlette:
         finally:
             slots.give()
         if account is None:
+            throttle.failed(username, client)
             log.info("web: failed sign-in of %r from %s", username, client)
             error = "Unknown user name or wrong password."
             return page(request, "login.html", 401, target=target, error=error)

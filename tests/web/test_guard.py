@@ -87,6 +87,18 @@ def test_a_refused_attempt_is_not_counted_and_a_sign_in_clears_the_user() -> Non
     assert throttle.attempt("Qm", "10.0.3.2").allowed  # the name starts afresh
 
 
+def test_the_delay_runs_from_the_failed_checks_answer() -> None:
+    """A check that took 3 s (argon2 on a loaded server) does not use up the 2 s delay."""
+    clock = Clock()
+    throttle = Throttle(clock=clock)
+    for _ in range(FREE_ATTEMPTS):
+        assert throttle.attempt("qm", "10.0.6.1").allowed
+        clock.now += 3.0  # the check
+        throttle.failed("qm", "10.0.6.1")
+    clock.now += 0.5
+    assert throttle.attempt("qm", "10.0.6.2").wait_s == pytest.approx(1.5)
+
+
 def test_a_sign_in_gives_back_only_its_own_attempt_of_the_client() -> None:
     """An attacker with an account of their own cannot wipe their client's failures."""
     throttle = Throttle(clock=Clock())
