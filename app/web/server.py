@@ -11,6 +11,7 @@ Content-Security-Policy (no script at all) and no Referer.
 from __future__ import annotations
 
 import base64
+import html
 import logging
 import math
 import secrets
@@ -27,7 +28,7 @@ from starlette.concurrency import run_in_threadpool
 from starlette.middleware import Middleware
 from starlette.middleware.sessions import SessionMiddleware
 from starlette.requests import Request
-from starlette.responses import RedirectResponse, Response
+from starlette.responses import HTMLResponse, RedirectResponse, Response
 from starlette.routing import Route
 from starlette.templating import Jinja2Templates
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
@@ -217,10 +218,15 @@ def create_app(store: Store, config: WebConfig) -> Starlette:
         return RedirectResponse(target, 303)
 
     def refused(request: Request, target: str, message: str, wait_s: float) -> Response:
-        """429 with `message` and Retry-After (whole seconds)."""
-        response = page(request, "login.html", 429, target=target, error=message, user=None)
-        response.headers["retry-after"] = str(max(1, math.ceil(wait_s)))
-        return response
+        """429 with `message`, a link back to the sign-in and Retry-After (whole seconds): a
+        fixed small page, no template (a hammering client costs the server next to nothing)."""
+        back = html.escape(f"/login?next={quote(target, safe='')}")
+        body = (
+            '<!doctype html><html lang="en"><meta charset="utf-8"><title>Sign in: wait</title>'
+            f'<p id="error">{html.escape(message)}</p><p><a href="{back}">Sign in</a></p></html>'
+        )
+        headers = {"retry-after": str(max(1, math.ceil(wait_s)))}
+        return HTMLResponse(body, 429, headers=headers)
 
     async def logout(request: Request) -> Response:
         form = await request.form()
