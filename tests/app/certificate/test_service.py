@@ -202,7 +202,9 @@ def test_the_suffix_signatory_is_refused_by_certificate_naming_the_person(
     "A. Tech, head of laboratory" (and variants); refused, nothing written. Two persons on
     record pass, and the certificate prints the names recorded for them and the function."""
     url = own_records(lab, tmp_path)
-    add_staff(url, ("atech", "A. Tech"), ("qm", "Quality Manager"))
+    # user names of their own: other tests of the session add users (a "qm") to the records
+    # this copy is made from
+    add_staff(url, ("atech", "A. Tech"), ("quality-manager", "Quality Manager"))
     assert main(["register", "set", "two_person_rule", "on", "--db", url]) == 0
     run, out = records_runs[1], tmp_path / "c.pdf"
     attacks = {
@@ -222,8 +224,8 @@ def test_the_suffix_signatory_is_refused_by_certificate_naming_the_person(
         err = capsys.readouterr().err
         assert code == 2 and found in err, (approved, err)
         assert not out.exists()
-    people = ("--prepared-by", "atech", "--authorised-by", "qm", "--authorised-function",
-              "head of laboratory")  # fmt: skip
+    people = ("--prepared-by", "atech", "--authorised-by", "quality-manager",
+              "--authorised-function", "head of laboratory")  # fmt: skip
     assert _issue(url, run, out, *people) == 0
     assert (
         "two-person rule: prepared by A. Tech and authorised by Quality Manager: two users of "
