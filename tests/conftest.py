@@ -63,6 +63,12 @@ def _isolated_data_dir(tmp_path_factory: pytest.TempPathFactory, monkeypatch) ->
     written to the user's own ~/.local/share."""
     home = tmp_path_factory.mktemp("data-home")
     monkeypatch.setenv("XDG_DATA_HOME", str(home))
+    # ... except the records key (app.records.db.records_key), one per test process: the
+    # records databases the tests copy from one migrated template carry heads signed with it
+    key = tmp_path_factory.getbasetemp() / "records-key" / "records-key.pem"
+    monkeypatch.setenv("ACCELCAL_RECORDS_KEY", str(key))
+    monkeypatch.delenv("ACCELCAL_RECORDS_PUBLIC_KEY", raising=False)
+    monkeypatch.delenv("ACCELCAL_RECORDS_KEY_PASSWORD", raising=False)
     # ... except the custom plans' optimised phases (app.procedure.phase_store), which depend
     # only on the plan: one cache per test process, so a plan is optimised once per session,
     # not once per test (the store checks every entry it reads; tests of the store itself give

@@ -6,7 +6,8 @@ runs in WAL mode with a busy timeout, and every transaction starts with BEGIN IM
 writers queue instead of failing half-way. PostgreSQL is reached through psycopg 3
 (`postgresql://...` URLs are mapped to `postgresql+psycopg://`). A database whose schema is
 older than this program's is refused until `accelcal db upgrade`. Nothing here creates a
-database as a side effect of opening it: `accelcal db upgrade` (`upgrade`) creates the schema,
+database as a side effect of opening it: `accelcal db upgrade` (`upgrade`) creates the schema (and the records
+key when there is none, app.records.db.records_key),
 and until then the records are not in use (`records_url` answers None for a missing default
 file), so opening the GUI or running a command never changes what a later command accepts.
 """
@@ -135,9 +136,12 @@ def upgrade(engine: Engine, revision: str = "head") -> tuple[str | None, str | N
 
     from app.records.db import chain_check
 
+    from app.records.db import chain, records_key
+
     before = current_revision(engine)
     config = _alembic_config(engine)
     sqlite = engine.dialect.name == "sqlite"
+    records_key.ensure_key()  # every head the upgrade appends is signed with it
     with engine.connect() as connection:
         raw = connection.connection.driver_connection
         if sqlite and raw is not None:  # batch migrations rebuild tables: keys checked after
@@ -154,6 +158,7 @@ def upgrade(engine: Engine, revision: str = "head") -> tuple[str | None, str | N
                 broken = connection.exec_driver_sql("PRAGMA foreign_key_check").all()
                 if broken:
                     raise DatabaseError(f"migration to {revision} broke foreign keys: {broken}")
+        chain.remember_head(connection)
         if sqlite and raw is not None:
             raw.execute("PRAGMA foreign_keys = ON")
     after = current_revision(engine)
