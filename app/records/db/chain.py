@@ -166,7 +166,9 @@ def schema_fingerprint(connection: Connection) -> str:
                 "WHERE sql IS NOT NULL AND name NOT LIKE 'sqlite_%' ORDER BY type, name"
             )
         ).all()
-        return "sqlite-def:" + hashlib.sha256(canonical([list(r) for r in rows]).encode()).hexdigest()
+        return (
+            "sqlite-def:" + hashlib.sha256(canonical([list(r) for r in rows]).encode()).hexdigest()
+        )
     rows = connection.execute(
         text(
             "SELECT c.relname, t.tgname, t.oid::bigint, t.tgenabled::text, "

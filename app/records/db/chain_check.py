@@ -300,9 +300,7 @@ def verify(
         if not chain.has_chain(connection):
             return [Problem(chain.CHAIN_TABLE, "", "missing (run accelcal db upgrade)")]
         folder_problems, seal_anchors = run_folder_anchors(connection)
-        problems = verify_connection(
-            connection, anchors=[*seal_anchors, *anchors], trusted=trusted
-        )
+        problems = verify_connection(connection, anchors=[*seal_anchors, *anchors], trusted=trusted)
     return problems + folder_problems
 
 
@@ -349,9 +347,7 @@ def _latest_rows(connection: Connection) -> list[Problem]:
         newest, entries.c.seq == newest.c.seq
     )
     expected = {
-        (r.table_name, r.row_key): r.row
-        for r in connection.execute(query)
-        if r.row is not None
+        (r.table_name, r.row_key): r.row for r in connection.execute(query) if r.row is not None
     }
     return _compare(expected, _live_state(connection, tables), tables)
 

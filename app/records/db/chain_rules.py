@@ -29,7 +29,9 @@ def sqlite_rules(certificate_columns: list[str]) -> list[str]:
     """The SQLite triggers of the certificate rules over the table's columns as migrated."""
     frozen = [c for c in certificate_columns if c not in CERTIFICATE_STATE + CERTIFICATE_FILES]
     changed = " OR ".join(f"NEW.{c} IS NOT OLD.{c}" for c in frozen)
-    files = " OR ".join(f"(OLD.{c} IS NOT NULL AND NEW.{c} IS NOT OLD.{c})" for c in CERTIFICATE_FILES)
+    files = " OR ".join(
+        f"(OLD.{c} IS NOT NULL AND NEW.{c} IS NOT OLD.{c})" for c in CERTIFICATE_FILES
+    )
     return [
         "CREATE TRIGGER records_rule_certificate_final BEFORE UPDATE ON certificates "
         f"WHEN OLD.state <> 'issued' BEGIN SELECT RAISE(ABORT, '{FINAL_MESSAGE}'); END",

@@ -6,10 +6,10 @@ runs in WAL mode with a busy timeout, and every transaction starts with BEGIN IM
 writers queue instead of failing half-way. PostgreSQL is reached through psycopg 3
 (`postgresql://...` URLs are mapped to `postgresql+psycopg://`). A database whose schema is
 older than this program's is refused until `accelcal db upgrade`. Nothing here creates a
-database as a side effect of opening it: `accelcal db upgrade` (`upgrade`) creates the schema (and the records
-key when there is none, app.records.db.records_key),
-and until then the records are not in use (`records_url` answers None for a missing default
-file), so opening the GUI or running a command never changes what a later command accepts.
+database as a side effect of opening it: `accelcal db upgrade` (`upgrade`) creates the schema
+(and the records key when there is none, app.records.db.records_key), and until then the
+records are not in use (`records_url` answers None for a missing default file), so opening the
+GUI or running a command never changes what a later command accepts.
 """
 
 from __future__ import annotations
@@ -134,9 +134,7 @@ def upgrade(engine: Engine, revision: str = "head") -> tuple[str | None, str | N
     """Migrate the schema to `revision`; returns (revision before, revision after)."""
     from alembic import command
 
-    from app.records.db import chain_check
-
-    from app.records.db import chain, records_key
+    from app.records.db import chain, chain_check, records_key
 
     before = current_revision(engine)
     config = _alembic_config(engine)

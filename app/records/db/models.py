@@ -282,7 +282,7 @@ class ChainEntry(Base):
     """One link of the records' hash chain (app.records.db.chain): the full new content of one
     audited row (canonical JSON; None when deleted), who and when (UTC, ISO 8601), the journal
     row it accounts for, the schema fingerprint, and sha256(prev_hash || entry) in hex; the last
-entry of each append also the records key's signature of it.
+    entry of each append also the records key's signature of it.
 
     Append-only: migration 0007 installs triggers that refuse UPDATE and DELETE on it."""
 

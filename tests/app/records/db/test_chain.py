@@ -23,7 +23,7 @@ from app.records.db import chain
 from app.records.db.chain_check import ChainBroken, after_migration, quick_check, verify
 from app.records.db.engine import make_engine, resolve_url, upgrade
 from app.records.db.lab import Lab
-from app.records.db.models import Certificate, Run, Sensor, Stand
+from app.records.db.models import Run, Sensor, Stand
 from app.records.seal import write_seal
 from tests.app.records.db.test_run_records import add_sim_reference
 from tests.records_db import postgres_database, seed_lab
