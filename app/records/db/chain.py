@@ -311,9 +311,9 @@ def remember_head(connection: Connection) -> None:
 
 
 def _after_commit(session: Session) -> None:
-    connection = session.info.pop(PENDING_HEAD, None)
-    if connection is not None:
-        records_key.remember_signed(*connection)
+    pending = session.info.pop(PENDING_HEAD, None)
+    if pending is not None:
+        records_key.remember_signed(*pending)
 
 
 def _unclaimed_journal_id(connection: Connection, table: str, key: str, action: str) -> int | None:

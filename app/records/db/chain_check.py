@@ -228,17 +228,21 @@ def _high_water_problem(connection: Connection) -> list[Problem]:
 
 
 _CONFIGURED = object()  # the default of `trusted`: the configured key (records_key.trusted_key)
+Trusted = records_key.TrustedKey | None | object  # a key, None (none configured), _CONFIGURED
 
 
-def _trusted(trusted: Any) -> records_key.TrustedKey | None:
-    return records_key.trusted_key() if trusted is _CONFIGURED else trusted  # type: ignore[no-any-return]
+def _trusted(trusted: Trusted) -> records_key.TrustedKey | None:
+    if trusted is _CONFIGURED:
+        return records_key.trusted_key()
+    assert trusted is None or isinstance(trusted, records_key.TrustedKey)
+    return trusted
 
 
 def verify_connection(
     connection: Connection,
     tables: Mapping[str, Table] | None = None,
     anchors: Iterable[tuple[str, str]] = (),
-    trusted: Any = _CONFIGURED,
+    trusted: Trusted = _CONFIGURED,
 ) -> list[Problem]:
     """Every problem of the records on `connection`: chain links and hashes, the heads'
     signatures against `trusted` (default: the configured records key), live rows against the
@@ -292,7 +296,7 @@ def run_folder_anchors(connection: Connection) -> tuple[list[Problem], list[tupl
 
 
 def verify(
-    engine: Engine, anchors: Iterable[tuple[str, str]] = (), trusted: Any = _CONFIGURED
+    engine: Engine, anchors: Iterable[tuple[str, str]] = (), trusted: Trusted = _CONFIGURED
 ) -> list[Problem]:
     """The full walk of `accelcal db verify` over the records and their run folders (the
     heads' signatures against `trusted`, default the configured records key)."""
@@ -304,7 +308,7 @@ def verify(
     return problems + folder_problems
 
 
-def quick_check(engine: Engine, trusted: Any = _CONFIGURED) -> str:
+def quick_check(engine: Engine, trusted: Trusted = _CONFIGURED) -> str:
     """The check before a run, a certificate or an import: the last entries link and hash,
     the head is signed by the configured records key and is not older than the one this
     workstation signed last, every live row is the one its newest chain entry wrote (whatever

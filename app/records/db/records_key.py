@@ -111,12 +111,13 @@ def _as_key(path: Path, private: Any) -> RecordsKey:
 
 
 @functools.lru_cache(maxsize=8)
-def _load_cached(path: str, mtime_ns: int, size: int) -> RecordsKey:
+def _load_cached(path: str, mtime_ns: int, size: int, password: bytes | None) -> RecordsKey:
+    """The key file as it is now (the cache key: its path, time, size and the password)."""
     from cryptography.hazmat.primitives import serialization
 
     data = _read(Path(path), "records key")
     try:
-        private = serialization.load_pem_private_key(data, password=_password())
+        private = serialization.load_pem_private_key(data, password=password)
     except (ValueError, TypeError) as exc:
         raise RecordsKeyError(
             f"records key {path}: cannot load it ({exc}; wrong ${PASSWORD_ENV}?)"
@@ -134,7 +135,7 @@ def load_key(path: Path | None = None) -> RecordsKey | None:
         return None
     except OSError as exc:
         raise RecordsKeyError(f"records key {target}: {exc}") from None
-    return _load_cached(str(target), stat.st_mtime_ns, stat.st_size)
+    return _load_cached(str(target), stat.st_mtime_ns, stat.st_size, _password())
 
 
 def require_key(path: Path | None = None) -> RecordsKey:
