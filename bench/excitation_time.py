@@ -5,10 +5,13 @@ every line, each with the settings that give it its best:
 - multisine: equalisation from the stand's stored response (checked by its first settled
   step), the two settled periods reused as the first acquired ones, acquisition until the
   target (at least 3 periods), a fade-out of 4 cycles of the lowest line;
-- stepped sine: blocks of whole cycles of the line and of the mains (at least 0.05, 0.1 or
-  0.25 s: the best of the three is shown for each row), each line's
-  level loop started from its own stored response, three-parameter sine fits, settled blocks
-  reused, the same fade-out rule per line.
+- stepped sine: on its own block-compatible frequencies (issue 32 point 8: each line within
+  2 % of nominal as the multisine's low-frequency grid, inside the nominal span and off the
+  mains harmonics, on the bin whose block of whole cycles of the line and of the mains is
+  shortest: dsp.sinefit.block_compatible_grid), blocks of at least 0.05, 0.1 or 0.25 s (the
+  best of the three is shown for each row), each line's level loop started from its own
+  stored response, three-parameter sine fits, settled blocks reused, the same fade-out rule
+  per line.
 "Cold" is the first run of a stand, mass class and plan: no stored response, a gentle
 identification first (the multisine's own figure; the stepped sine then extrapolates its
 level loop from the last lines). The figure is the time the shaker ran: from the first to
@@ -24,9 +27,12 @@ Tables:
 3. issue 26: the lpm estimator (one record after a short fade-in, the transient estimated;
    dsp.lpm_record, app.procedure.record_run) on the seed's lines at 5 m/s^2 and 0.2 % type A,
    cold and warm, against the periodic multisine and the fair stepped sine (warm, best block);
-4. issue 26: 0.4-8 Hz on the long-stroke exciter (ISO 266 lines within 2 % on the grid of
-   app.procedure.planning, constant displacement below 5 Hz, 2 m/s^2 above): the lpm
-   multisine against the fair stepped sine, both warm, every line checked against the truth.
+4. issue 26: 0.4-8 Hz on the long-stroke exciter with the README's options (the plan
+   app.procedure.planning builds: ISO 266 lines within 2 % of nominal and inside 0.4-8 Hz,
+   constant displacement below 3 Hz, 1.5 m/s^2 above; the DUT's nominal 10.2 mV/(m/s^2) sizes
+   its input range): the lpm multisine against the fair stepped sine, both warm, every line
+   checked against the truth (lines outside U, the worst error in U, and the lines not stated
+   or whose resolution keeps them from a conformity statement).
 
 Run: python bench/excitation_time.py [--lpm] [--smoke]   (about three minutes of CPU;
 --lpm: tables 3 and 4 only; --smoke: one run a table, table 4 left out: checks it runs)
@@ -37,6 +43,7 @@ from __future__ import annotations
 import sys
 import tempfile
 from collections import defaultdict
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -46,13 +53,16 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from app.io.vocabulary import Mode, RunStatus
 from app.procedure import PeriodBlock, PeriodEstimate, Procedure, RunSettings
 from app.procedure.phase_store import stored_phases
+from app.procedure.planning import GRID_TOLERANCE, PlanRequest, build_plan
 from app.procedure.run import with_exciter
+from app.records.warnings import WarningKind, classify
 from app.stand.config import load
 from app.stand.open import open_stand
 from app.stand.response import ResponseStore
 from app.stand.simulated import exciter_stroke_m
 from dsp import iso266
-from dsp.multisine import PRESETS, Plan, make_plan, preset_plan
+from dsp.multisine import PRESETS, Line, Plan, make_plan, preset_plan
+from dsp.sinefit import block_compatible_grid
 from dsp.spectral import MIN_PERIODS
 
 CONFIG = load()
@@ -76,6 +86,46 @@ def plan_of(level: float, period_samples: int | None = None) -> Plan:
         level,
         preset.reference_frequency_hz,
     )
+
+
+def stepped_plan(plan: Plan, block_s: float) -> Plan:
+    """The fair stepped sine's plan for `plan`'s lines (SPEC s.12, issue 32 point 8): each
+    line on the bin within GRID_TOLERANCE (2 %, as the multisine's low-frequency grid) of its
+    nominal frequency, inside the nominal span and off the mains harmonics, whose block of
+    whole cycles of the line and of the mains (at least `block_s`) is shortest
+    (dsp.sinefit.block_compatible_grid); the same level per line as `plan`."""
+    nominal = plan.nominal_frequencies_hz
+    grid = block_compatible_grid(
+        nominal,
+        plan.sample_rate_hz,
+        block_s,
+        mains_hz=plan.mains_frequency_hz,
+        mains_harmonics=plan.mains_harmonics,
+        tolerance=GRID_TOLERANCE,
+        within_hz=(float(nominal.min()), float(nominal.max())),
+    )
+    lines = tuple(
+        Line(line.nominal_frequency_hz, f, b, line.amplitude_ms2, 0.0)
+        for line, f, b in zip(plan.lines, grid.frequencies_hz, grid.bins, strict=True)
+    )
+    return Plan(
+        plan.sample_rate_hz,
+        grid.period_samples,
+        lines,
+        plan.reference_frequency_hz,
+        plan.mains_frequency_hz,
+        plan.mains_harmonics,
+    )
+
+
+def grid_text(plan: Plan) -> str:
+    """The lines a stepped-sine plan plays, where they are off nominal (Hz)."""
+    moved = [
+        f"{line.nominal_frequency_hz:g} at {line.frequency_hz:.4g}"
+        for line in plan.lines
+        if abs(line.frequency_hz - line.nominal_frequency_hz) > 1e-9 * line.frequency_hz
+    ]
+    return ", ".join(moved) if moved else "every line at its nominal frequency"
 
 
 class Phases:
@@ -107,6 +157,7 @@ def one(
     estimator: str = "periodic",
     exciter: str | None = None,
     periods: int = 8,
+    dut_nominal: float | None = None,
 ) -> tuple[object, Phases]:
     """One run; its Finished event and its phases."""
     config = with_exciter(CONFIG, exciter)
@@ -120,6 +171,7 @@ def one(
         stepped_block_s=block_s,
         estimator=estimator,
         periods=periods,
+        dut_nominal_mv_per_ms2=dut_nominal,
     )
     try:
         finished = Procedure(stand, plan, settings, listener=phases, response_store=store).run()
@@ -131,9 +183,33 @@ def one(
     return finished, phases
 
 
-def misses(finished: object, stand: object, plan: Plan, mode: str) -> list[str]:
-    """Lines whose magnitude or phase lies farther than U from the stand's truth (at the
-    excitation's rms acceleration: the multisine's total, one line's in stepped sine)."""
+@dataclass(frozen=True)
+class TruthCheck:
+    """Each line of a run against the stand's truth: the stated lines farther than U, how
+    many lines are stated, the largest error in U (magnitude, phase) over them, and the lines
+    not stated (no value) or whose resolution warning blocks PASS (too few LSB)."""
+
+    outside: tuple[str, ...]
+    stated: int
+    worst_u: tuple[float, float]
+    held: tuple[str, ...]
+
+    def text(self, count: int) -> str:
+        """The table cell: stated lines outside U, the worst error, what is held back."""
+        out = f"{len(self.outside)}/{self.stated}"
+        if self.stated < count:
+            out += f" stated of {count}"
+        if self.outside:
+            out += ": " + ", ".join(self.outside)
+        out += f" (worst {self.worst_u[0]:.2f} U, phase {self.worst_u[1]:.2f} U)"
+        if self.held:
+            out += "; " + ", ".join(self.held)
+        return out
+
+
+def check_truth(finished: object, stand: object, plan: Plan, mode: str) -> TruthCheck:
+    """The run's lines against the stand's truth (at the excitation's rms acceleration: the
+    multisine's total, one line's in stepped sine)."""
     results = finished.results  # type: ignore[attr-defined]
     truth = stand.truth  # type: ignore[attr-defined]
     if mode == Mode.STEPPED_SINE:
@@ -145,14 +221,28 @@ def misses(finished: object, stand: object, plan: Plan, mode: str) -> list[str]:
         )
     else:
         values = truth(plan.frequencies_hz, float(np.sqrt(np.sum(plan.amplitudes_ms2**2) / 2)))
-    out = []
+    outside, held = [], []
+    unstated: list[float] = []  # the frequencies (nominal and actual) of lines not stated
+    worst = [0.0, 0.0]
     for line, value in zip(results.lines, values, strict=True):
+        if not line.stated:
+            held.append(f"{line.nominal_frequency_hz:g} Hz not stated ({line.not_stated})")
+            unstated += [line.nominal_frequency_hz, line.frequency_hz]
+            continue
         e_mag = abs(line.sensitivity_mv_per_ms2 - abs(value)) / line.expanded_uncertainty_mv_per_ms2
         d_ph = (line.phase_deg - np.degrees(np.angle(value)) + 180) % 360 - 180
         e_ph = abs(d_ph) / line.phase_expanded_uncertainty_deg
+        worst = [max(worst[0], e_mag), max(worst[1], e_ph)]
         if e_mag > 1 or e_ph > 1:
-            out.append(f"{line.nominal_frequency_hz:g} Hz ({e_mag:.1f} U, {e_ph:.1f} U phase)")
-    return out
+            outside.append(f"{line.nominal_frequency_hz:g} Hz ({e_mag:.1f} U, {e_ph:.1f} U phase)")
+    for warning in results.warnings:
+        if classify(warning).kind != WarningKind.ADC_RESOLUTION:
+            continue
+        label = warning.split(":", 1)[0].replace("line ", "")  # "0.406321 Hz"
+        if not any(np.isclose(float(label.split()[0]), f) for f in unstated):
+            held.append(f"{label} stated, its resolution blocks PASS")
+    stated = sum(1 for line in results.lines if line.stated)
+    return TruthCheck(tuple(outside), stated, (worst[0], worst[1]), tuple(held))
 
 
 def table_phases(root: Path) -> None:
@@ -188,6 +278,7 @@ def table_modes(root: Path) -> None:
     variants += [(Mode.STEPPED_SINE.value, b) for b in STEPPED_BLOCKS_S]
     for level in LEVELS:
         plan = plan_of(level)
+        stepped_plans = {block: stepped_plan(plan, block) for block in STEPPED_BLOCKS_S}
         stores = {v: ResponseStore(root / f"{v[0]}-{v[1]:g}-{level:g}") for v in variants}
         for target in TARGETS:
             cold: dict[tuple[str, float], float] = {}
@@ -195,10 +286,11 @@ def table_modes(root: Path) -> None:
             binds = 0
             for variant, store in stores.items():
                 mode, block = variant
+                played = plan if mode == Mode.MULTISINE else stepped_plans[block]
                 if target == TARGETS[0]:  # the first run of this level fills the store
-                    finished, _ = one(store, plan, target, mode, block)
+                    finished, _ = one(store, played, target, mode, block)
                     cold[variant] = finished.record.excitation_time_s  # type: ignore[attr-defined]
-                finished, p = one(store, plan, target, mode, block)
+                finished, p = one(store, played, target, mode, block)
                 warm[variant] = finished.record.excitation_time_s  # type: ignore[attr-defined]
                 if mode == Mode.MULTISINE and p.first_type_a is not None:
                     binds = int(np.sum(p.first_type_a > target))
@@ -226,48 +318,64 @@ def table_lpm(root: Path) -> None:
     )
     print("| --- | --- | --- | --- | --- | --- | --- |")
     plan = plan_of(5.0)
-    stepped = []
+    stepped: dict[float, tuple[float, TruthCheck, Plan]] = {}
     for block in STEPPED_BLOCKS_S:
         store = ResponseStore(root / f"lpm-stepped-{block:g}")
-        one(store, plan, 0.002, Mode.STEPPED_SINE, block)
-        finished, _ = one(store, plan, 0.002, Mode.STEPPED_SINE, block)
-        stepped.append(finished.record.excitation_time_s)  # type: ignore[attr-defined]
-    best = min(stepped)
+        played = stepped_plan(plan, block)
+        one(store, played, 0.002, Mode.STEPPED_SINE, block)
+        finished, q = one(store, played, 0.002, Mode.STEPPED_SINE, block)
+        seconds = finished.record.excitation_time_s  # type: ignore[attr-defined]
+        stepped[block] = (
+            seconds,
+            check_truth(finished, q.stand, played, Mode.STEPPED_SINE),
+            played,
+        )
+    best_block = min(stepped, key=lambda b: stepped[b][0])
+    best = stepped[best_block][0]
     for estimator in ("lpm", "periodic"):
         store = ResponseStore(root / f"lpm-{estimator}")
         cold, _ = one(store, plan, 0.002, Mode.MULTISINE, estimator=estimator)
         warm, p = one(store, plan, 0.002, Mode.MULTISINE, estimator=estimator)
         results = warm.results  # type: ignore[attr-defined]
         worst = max(line.relative_type_a for line in results.lines)
-        outside = misses(warm, p.stand, plan, Mode.MULTISINE)
+        checked = check_truth(warm, p.stand, plan, Mode.MULTISINE)
         w = warm.record.excitation_time_s  # type: ignore[attr-defined]
         print(
             f"| {estimator} | {cold.record.excitation_time_s:.1f} s | "  # type: ignore[attr-defined]
             f"**{w:.1f} s** | {results.periods} | {100 * worst:.4f} % | "
-            f"{len(outside)}/{len(plan.lines)} | {best:.1f} s / {w:.1f} s = **{best / w:.1f}** |"
+            f"{checked.text(len(plan.lines))} | {best:.1f} s / {w:.1f} s = **{best / w:.1f}** |"
+        )
+    print()
+    print("The stepped sine, warm, 0.2 % type A at every line (block-compatible frequencies):")
+    print()
+    print("| blocks | excitation | lines it plays off nominal | lines outside U |")
+    print("| --- | --- | --- | --- |")
+    for block, (seconds, checked, played) in stepped.items():
+        print(
+            f"| >= {block:g} s | {seconds:.1f} s | {grid_text(played)} | "
+            f"{checked.text(len(played.lines))} |"
         )
     print()
 
 
-LOW_TARGET = 0.02  # type A at every line, both modes (the lpm's one period gives 1.7 %)
+LOW_TARGET = 0.02  # type A at every line, both modes (the lpm's one period gives 0.2 %)
+LOW_NOMINAL = 10.2  # mV/(m/s^2): the DUT's nominal sizes its input range (as in the README)
+LOW_LEVEL_MS2 = 1.5  # the README's --level: the DUT on +-0.2 V, 0.4 Hz over 20 LSB (at 2: +-0.5 V)
 
 
-def low_plan(period_samples: int | None = None) -> Plan:
-    """0.4-8 Hz, long-stroke exciter: the plan `accelcal run` builds for these options (the
-    lpm's grid); with `period_samples` 20000 (100 s) every line exactly on its nominal
-    frequency, as the stepped sine plays them (its blocks then hold whole cycles of the
-    nominal line and of the mains: 2.5 s at 0.4 Hz instead of 35.3 s on the lpm's grid)."""
-    from app.procedure.planning import PlanRequest, build_plan
-
+def low_plan() -> Plan:
+    """0.4-8 Hz on the long-stroke exciter: the plan `accelcal run` builds for the README's
+    options (--frequencies 0.4,...,8 --reference-frequency 8 --sample-rate 200 --exciter
+    long-stroke --profile displacement --corner 3 --level 1.5): the lpm's grid, lines within
+    2 % of nominal and inside the nominal span (0.4 Hz at 0.406 Hz)."""
     return build_plan(
         PlanRequest(
             frequencies_hz=iso266.nominal_frequencies(0.4, 8.0),
             sample_rate_hz=200.0,
-            period_samples=period_samples,
-            level_ms2=2.0,
+            level_ms2=LOW_LEVEL_MS2,
             reference_frequency_hz=8.0,
             profile="displacement",
-            corner_hz=5.0,
+            corner_hz=3.0,
         ),
         stroke_peak_to_peak_m=exciter_stroke_m("long-stroke"),
     )
@@ -284,35 +392,40 @@ def table_low(root: Path) -> None:
           "lines outside U |")  # fmt: skip
     print("| --- | --- | --- | --- |")
     store = ResponseStore(root / "low-lpm")
-    lpm = {"estimator": "lpm", "exciter": "long-stroke", "periods": 1}
+    lpm = {"estimator": "lpm", "exciter": "long-stroke", "periods": 1, "dut_nominal": LOW_NOMINAL}
     one(store, plan, LOW_TARGET, Mode.MULTISINE, **lpm)  # type: ignore[arg-type]
     lpm_run, p = one(store, plan, LOW_TARGET, Mode.MULTISINE, **lpm)  # type: ignore[arg-type]
     lpm_s = lpm_run.record.excitation_time_s  # type: ignore[attr-defined]
-    outside = misses(lpm_run, p.stand, plan, Mode.MULTISINE)
+    checked = check_truth(lpm_run, p.stand, plan, Mode.MULTISINE)
     print(
-        f"| multisine | lpm, {lpm_run.results.periods} period(s) | **{lpm_s:.1f} s** |"  # type: ignore[attr-defined]
-        f" {len(outside)}/{len(plan.lines)} "
-        f"{', '.join(outside)} |"
+        f"| multisine | lpm, {lpm_run.results.periods} period(s), lines within 2 % of nominal "  # type: ignore[attr-defined]
+        f"| **{lpm_s:.1f} s** | {checked.text(len(plan.lines))} |"
     )
-    best = None
-    exact = low_plan(20000)
+    best: tuple[float, float, Phases] | None = None  # (seconds, block, phases)
     for block in STEPPED_BLOCKS_S:
+        played = stepped_plan(plan, block)
         store = ResponseStore(root / f"low-stepped-{block:g}")
-        one(store, exact, LOW_TARGET, Mode.STEPPED_SINE, block, exciter="long-stroke")
-        run, q = one(store, exact, LOW_TARGET, Mode.STEPPED_SINE, block, exciter="long-stroke")
+        settings = {"exciter": "long-stroke", "dut_nominal": LOW_NOMINAL}
+        one(store, played, LOW_TARGET, Mode.STEPPED_SINE, block, **settings)  # type: ignore[arg-type]
+        run, q = one(store, played, LOW_TARGET, Mode.STEPPED_SINE, block, **settings)  # type: ignore[arg-type]
         seconds = run.record.excitation_time_s  # type: ignore[attr-defined]
-        outside = misses(run, q.stand, exact, Mode.STEPPED_SINE)
+        checked = check_truth(run, q.stand, played, Mode.STEPPED_SINE)
         print(
-            f"| stepped sine | blocks >= {block:g} s, nominal frequencies | {seconds:.1f} s | "
-            f"{len(outside)}/{len(plan.lines)} {', '.join(outside)} |"
+            f"| stepped sine | blocks >= {block:g} s, block-compatible frequencies "
+            f"({grid_text(played)}) | {seconds:.1f} s | {checked.text(len(played.lines))} |"
         )
-        best = seconds if best is None else min(best, seconds)
+        if best is None or seconds < best[0]:
+            best = (seconds, block, q)
     assert best is not None
     print()
     print(
         "low-frequency ratio, fair stepped sine (best block) / lpm multisine: "
-        f"**{best / lpm_s:.1f}**"
+        f"**{best[0] / lpm_s:.1f}**"
     )
+    print()
+    for label, phases in (("lpm multisine", p), (f"stepped sine (>= {best[1]:g} s)", best[2])):
+        parts = ", ".join(f"{state} {t:.1f} s" for state, t in phases.seconds.items() if t > 0)
+        print(f"where the excitation goes, {label}: {parts}")
     print()
 
 

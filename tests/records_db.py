@@ -122,3 +122,32 @@ def seed_lab(
     for serial, owner in sensors.items():
         lab.add_sensor(serial, model=SEED_MODEL[1], owner=owner)
     return lab
+
+
+STAFF_PASSWORD = "a long staff password"
+
+
+def add_staff(engine_or_url: object, *people: tuple[str, str]) -> None:
+    """Users of the records (user name, recorded name), as `accelcal records user add` adds
+    them (app.web.users.add_user): the persons the two-person rule resolves signatories to
+    (issue 33). Their password is hashed once per process (argon2 takes 64 MiB and a good part
+    of a second per hash on a loaded machine; the hash is not what these users are for)."""
+    from unittest import mock
+
+    from sqlalchemy import Engine
+
+    from app.records.db.engine import open_engine
+    from app.web import users
+
+    engine = engine_or_url if isinstance(engine_or_url, Engine) else open_engine(str(engine_or_url))
+    known = _staff_hash()
+    with mock.patch.object(users, "hash_password", lambda password: known):
+        for username, name in people:
+            users.add_user(engine, username, STAFF_PASSWORD, display_name=name, actor="test")
+
+
+@functools.cache
+def _staff_hash() -> str:
+    from app.web.users import hash_password
+
+    return hash_password(STAFF_PASSWORD)

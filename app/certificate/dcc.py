@@ -213,6 +213,8 @@ def build(run: StoredRun, info: CertificateInfo) -> bytes:
     _text(location, "further", str(lab.get("address") or lab.get("name") or "laboratory"))
     person = _d(_d(admin, "respPersons"), "respPerson")
     _text(_d(person, "person"), "name", str(info.authorised_by))
+    if info.authorised_function:  # the function apart from the name (issue 33)
+        _d(person, "role", info.authorised_function)
     _d(person, "mainSigner", "true")
     customer = _d(admin, "customer")
     _text(customer, "name", str(info.customer))
@@ -393,10 +395,10 @@ def validation_error(xml: bytes) -> str | None:
 
 def duty_statements(admin: ET.Element, run: StoredRun, info: CertificateInfo) -> None:
     """After the statement of conformity: the public verification address (when the stand
-    file has a verify_url) and the software validation report (when one passed for this
-    software), each a statement named as the PDF names it."""
+    file has a verify_url) and the software validation report (`info.validation`: a report the
+    issuing service accepted), each a statement named as the PDF names it."""
     from app.certificate.qr import verification_address
-    from app.certificate.validated import STATEMENT_NAME, current_claim
+    from app.certificate.validated import STATEMENT_NAME
 
     statements = admin.find(f"{{{DCC_NS}}}statements")
     if statements is None:
@@ -406,7 +408,7 @@ def duty_statements(admin: ET.Element, run: StoredRun, info: CertificateInfo) ->
         statement = _d(statements, "statement")
         _text(statement, "name", VERIFY_NAME)
         _text(statement, "declaration", address)
-    claim = current_claim()
+    claim = info.validation
     if claim is not None:
         statement = _d(statements, "statement")
         _text(statement, "name", STATEMENT_NAME)

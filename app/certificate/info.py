@@ -13,6 +13,7 @@ from dataclasses import dataclass, fields
 from datetime import date
 from typing import Any
 
+from app.certificate.validated import ValidationClaim
 from app.errors import Refusal
 from app.records.run_record import DutIdentity, RunRecord
 from app.records.run_start import RunStart
@@ -49,6 +50,11 @@ class CertificateInfo:
     notes: str = ""
     prepared_by: str = ""  # who made the calibration ("Prepared by"); the register's too
     sensitivity_unit: str = ""  # the sensor model's unit (records); mV/g adds a column
+    # the authorising person's function ("head of laboratory"), apart from the name (issue 33)
+    authorised_function: str = ""
+    # the software validation report the certificate names (app.certificate.validated; chosen
+    # by the issuing service against the lab's key): None names none
+    validation: ValidationClaim | None = None
 
     def merged(self, defaults: dict[str, Any]) -> CertificateInfo:
         """Options win; empty ones take the default."""

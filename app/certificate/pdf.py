@@ -239,7 +239,7 @@ def write_pdf(
     story += _budget_section(run, results)
     story += warnings_section(results, HEAD, SMALL)
     statements = _statements(results, info, p_percent) + _overrides_section(record)
-    story += _sign_off(info, record, statements + validation_statement())
+    story += _sign_off(info, record, statements + validation_statement(info))
     document = SimpleDocTemplate(
         str(out),
         pagesize=A4,
@@ -505,7 +505,9 @@ def _sign_off(info: CertificateInfo, record: RunRecord, before: list[Any]) -> li
                 ("Prepared by", _esc(info.prepared_by or "not stated")),
                 (
                     "Authorised by",
-                    f"{_esc(info.authorised_by)}<br/><br/>signature: ______________________",
+                    f"{_esc(info.authorised_by)}"
+                    + (f"<br/>{_esc(info.authorised_function)}" if info.authorised_function else "")
+                    + "<br/><br/>signature: ______________________",
                 ),
                 ("Date of issue", _esc(info.issue_date)),
                 ("Software", f"accelcal {_esc(record.software_version)}"),
@@ -579,13 +581,13 @@ def verification_qr(run: StoredRun, number: str) -> list[Any]:
     return [Spacer(1, 2 * mm), block]
 
 
-def validation_statement() -> list[Any]:
-    """The software validation report of the installed software, when the lab's validation
-    folder holds a passed one whose PDF still has its recorded SHA-256 (app.certificate
-    .validated); nothing otherwise."""
-    from app.certificate.validated import STATEMENT_NAME, current_claim
+def validation_statement(info: CertificateInfo) -> list[Any]:
+    """The software validation report the certificate names (`info.validation`: chosen by the
+    issuing service, a report signed by the lab for this software, app.certificate.validated);
+    nothing otherwise."""
+    from app.certificate.validated import STATEMENT_NAME
 
-    claim = current_claim()
+    claim = info.validation
     if claim is None:
         return []
     return [Paragraph(STATEMENT_NAME, HEAD), Paragraph(_esc(claim.line()), SMALL)]

@@ -52,6 +52,7 @@ class IssueRequest:
     reason: str | None = None  # why (records only; required with replaces)
     as_found: str | None = None  # the as-found run id of an adjusted sensor (records only)
     sign: Path | None = None  # PKCS#12 signing key (password from $ACCELCAL_SIGN_PASSWORD)
+    trust: Path | None = None  # the lab's CA certificate: checks the validation report's signer
     db: str | None = None  # --db URL; None: $ACCELCAL_DB, else the default file if it exists
     records_available: bool = True  # False: the face could not open the records (GUI)
 
@@ -65,6 +66,7 @@ class IssueOutcome:
     dcc: Path | None  # None: the stand file names no laboratory country (no DCC)
     register: RegisterKind
     prepared_by: str
+    notes: tuple[str, ...] = ()  # what the faces show beside it: the two-person rule, validation
 
     @property
     def number(self) -> str:
@@ -104,20 +106,67 @@ def prepared_by(run: Path, given: str) -> str:
     return name
 
 
-def check_signatories(url: str | None, prepared: str, approved: str) -> None:
-    """The records' rule for the two signatories (app.records.db.certificates
-    .check_signatories: neither blank, and under the lab's two-person rule not the same
-    person); RecordsError naming the field. Nothing to check without records (None)."""
+def check_signatories(url: str | None, prepared: str, approved: str) -> Signatories:
+    """The two signatories as the certificate prints them. With records (`url`): the records'
+    rule (app.records.db.certificates.check_signatories: neither blank nor in confusable
+    scripts; under the lab's two-person rule each a person on record, resolved to a user, and
+    not the same user); RecordsError naming the field. Without records nobody is identified:
+    the names are printed as typed and the note says what could not be checked."""
     if url is None:
-        return
+        return Signatories(
+            " ".join(prepared.split()),
+            " ".join(approved.split()),
+            "two-person rule: NOT checked: without records the signatories are names as typed, "
+            "no person is identified, so nothing proves that prepared by and authorised by are "
+            "two people (use the records: accelcal db upgrade, records user add, register set "
+            "two_person_rule on)",
+        )
     from app.records.db.engine import open_engine
     from app.records.db.lab import Lab
 
     engine = open_engine(url)
     try:
-        Lab(engine).check_signatories(prepared, approved)
+        lab = Lab(engine)
+        checked = lab.check_signatories(prepared, approved)
+        rule = lab.two_person_rule()
     finally:
         engine.dispose()
+    note = (
+        f"two-person rule: prepared by {checked.prepared_by} and authorised by "
+        f"{checked.approved_by}: two users of the records"
+        if rule
+        else "two-person rule: off in the records (names as typed; accelcal register set "
+        "two_person_rule on makes each signatory a user and compares the users)"
+    )
+    return Signatories(checked.prepared_by, checked.approved_by, note)
+
+
+@dataclass(frozen=True)
+class Signatories:
+    """Prepared by and authorised by as printed and registered, and what the rule checked."""
+
+    prepared_by: str
+    approved_by: str
+    note: str
+
+
+def validation_claim(request: IssueRequest, signer: Any) -> Any:
+    """The software validation report the certificate names (app.certificate.validated_check
+    .FolderClaim): the newest report in the lab's validation folder signed by the lab for this
+    software, checked against `request.trust` (the lab's CA) or else the signing key's own
+    certificates; with neither, none (the summary says why)."""
+    from app.certificate.validated_check import current_claim, trust_from_ca, trust_from_signer
+
+    if request.trust is not None:
+        trust = trust_from_ca(Path(request.trust))
+    elif signer is not None:
+        trust = trust_from_signer(signer)
+    else:
+        trust = None
+    found = current_claim(trust)
+    for refused in found.refused:
+        log.warning("software validation report not named: %s", refused)
+    return found
 
 
 def certificate_in_force(url: str | None, run_id: str) -> str | None:
@@ -176,6 +225,19 @@ def issue_certificate(request: IssueRequest) -> IssueOutcome:
     info = dataclasses.replace(request.info, prepared_by=prepared_by(run, request.info.prepared_by))
     signer = _signer(request.sign)
     out = Path(request.out) if request.out is not None else default_out(run, request.replaces)
+    if url is not None:
+        from app.records.db.gate import records_quick_check
+
+        records_quick_check(url)
+    people = check_signatories(url, info.prepared_by, str(info.authorised_by or ""))
+    validation = validation_claim(request, signer)
+    info = dataclasses.replace(
+        info,
+        prepared_by=people.prepared_by,
+        authorised_by=people.approved_by or info.authorised_by,
+        authorised_function=" ".join(info.authorised_function.split()),
+        validation=validation.claim,
+    )
     if url is None:
         if request.replaces or request.reason or request.as_found:
             raise CertificateError(
@@ -185,10 +247,6 @@ def issue_certificate(request: IssueRequest) -> IssueOutcome:
         issued = issue(run, info, out, request.sweep, signer)
         register = RegisterKind.RUN_FOLDER
     else:
-        from app.records.db.gate import records_quick_check
-
-        records_quick_check(url)
-        check_signatories(url, info.prepared_by, str(info.authorised_by or ""))
         issued = issue_registered(
             run,
             info,
@@ -205,4 +263,7 @@ def issue_certificate(request: IssueRequest) -> IssueOutcome:
     dcc = dcc_path(out)
     log.info("certificate %s of %s issued (%s register): %s", issued.number, run.name,
              register, out)  # fmt: skip
-    return IssueOutcome(issued, out, dcc if dcc.exists() else None, register, info.prepared_by)
+    notes = (people.note, validation.summary())
+    return IssueOutcome(
+        issued, out, dcc if dcc.exists() else None, register, info.prepared_by, notes
+    )

@@ -1,30 +1,35 @@
 """Which software validation report (ISO/IEC 17025 7.11.2) a certificate names: the software's
 identity (version and the SHA-256 over its installed files), the folder where the lab keeps its
-validation reports, and the newest report there that passed for this very software.
+validation reports, and the claim a certificate states (`ValidationClaim`).
 
-A report's JSON twin carries the SHA-256 of its PDF; a report counts only while its PDF still
-has that hash, and the certificate states the hash, so whoever holds the report can check the
-claim (`verify_report`) rather than trust the folder.
+A report proves itself only as one signed PDF made by `accelcal validate --sign` (its record
+embedded as REPORT_ATTACHMENT under the lab's signature); reading and proving it is
+app.certificate.validated_check (`read_report`, `folder_claim`, `verify_report`), which uses
+the signature checks of app.certificate.verify.
 """
 
 from __future__ import annotations
 
 import hashlib
 import importlib
-import json
 import os
 from dataclasses import dataclass
+from datetime import timedelta
 from pathlib import Path
 
 from app.errors import Refusal
 
 PACKAGES = ("dsp", "hardware", "sim", "app")  # what the software hash covers
 FOLDER_ENV = "ACCELCAL_VALIDATION_DIR"
-MAX_TWIN_BYTES = 4 << 20
+REPORT_ATTACHMENT = "validation.json"  # the signed record inside the report PDF
+MAX_REPORT_BYTES = 20 << 20
+MAX_REPORTS = 200  # the newest report files of a folder that are examined
+CLOCK_SKEW = timedelta(minutes=5)  # a report dated later than now + this is refused
 
 
 class ValidationClaimError(Refusal):
-    """A validation report that is not the one a certificate names; the message says why."""
+    """A validation report that is not the one a certificate names, or that does not prove
+    itself; the message names the report and what was found."""
 
 
 @dataclass(frozen=True)
@@ -67,91 +72,23 @@ def validation_folder() -> Path:
 @dataclass(frozen=True)
 class ValidationClaim:
     """The validation report a certificate names: its file name, date (UTC, ISO), the SHA-256
-    of its PDF, and the software it validated."""
+    of its PDF, the software it validated, its number of cases and who signed it."""
 
     report: str
     date_utc: str
     report_sha256: str
     software_version: str
     software_sha256: str
+    cases: int = 0
+    signer: str = ""
 
     def line(self) -> str:
         """The certificate's sentence."""
         return (
             f"The software (accelcal {self.software_version}, files SHA-256 "
             f"{self.software_sha256}) was validated per ISO/IEC 17025:2017 7.11.2: report "
-            f"{self.report} of {self.date_utc[:10]}, all cases passed; the report PDF's "
-            f"SHA-256 is {self.report_sha256}."
-        )
-
-
-def _sha256(path: Path) -> str:
-    digest = hashlib.sha256()
-    with path.open("rb") as handle:
-        for block in iter(lambda: handle.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
-
-
-def _claim(twin: Path, software_sha256: str) -> ValidationClaim | None:
-    """The claim of one JSON twin when it passed for `software_sha256` and its PDF still has
-    the hash the twin records; else None."""
-    try:
-        if twin.is_symlink() or not twin.is_file() or twin.stat().st_size > MAX_TWIN_BYTES:
-            return None
-        record = json.loads(twin.read_text(encoding="utf-8"))
-        ok = (
-            record.get("passed") is True
-            and record["software"]["sha256"] == software_sha256
-            and bool(record["cases"])
-            and all(case["passed"] is True for case in record["cases"])
-        )
-        pdf = twin.with_suffix(".pdf")
-        if not ok or pdf.is_symlink() or not pdf.is_file():
-            return None
-        pdf_sha = str(record["report_pdf_sha256"])
-        if _sha256(pdf) != pdf_sha:
-            return None  # the PDF is not the one the twin was written with
-        return ValidationClaim(
-            pdf.name,
-            str(record["date_utc"]),
-            pdf_sha,
-            str(record["software"].get("version") or ""),
-            software_sha256,
-        )
-    except (OSError, ValueError, KeyError, TypeError, AttributeError):
-        return None  # not a validation report
-
-
-def passed_claim(folder: Path, software_sha256: str) -> ValidationClaim | None:
-    """The newest report in `folder` that passed for the software `software_sha256` and whose
-    PDF still has the SHA-256 its twin records, or None."""
-    found = [
-        (claim.date_utc, claim)
-        for twin in sorted(Path(folder).glob("*.json"))
-        if (claim := _claim(twin, software_sha256)) is not None
-    ]
-    return max(found, key=lambda item: item[0])[1] if found else None
-
-
-def current_claim() -> ValidationClaim | None:
-    """The claim for the installed software from the lab's validation folder, or None (no
-    folder, or no passed report of this software)."""
-    folder = validation_folder()
-    if not folder.is_dir():
-        return None
-    return passed_claim(folder, software_identity().sha256)
-
-
-def verify_report(stated_sha256: str, report: Path) -> None:
-    """ValidationClaimError unless `report`'s SHA-256 is the one a certificate states."""
-    if not report.is_file():
-        raise ValidationClaimError(f"--validation-report: no such file {report}")
-    actual = _sha256(report)
-    if actual != stated_sha256.strip().lower():
-        raise ValidationClaimError(
-            f"--validation-report: {report} has SHA-256 {actual}, the certificate names "
-            f"{stated_sha256}"
+            f"{self.report} of {self.date_utc[:10]}, all {self.cases} cases passed, signed by "
+            f"{self.signer}; the report PDF's SHA-256 is {self.report_sha256}."
         )
 
 

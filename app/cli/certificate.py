@@ -33,6 +33,7 @@ def cmd_certificate(args: argparse.Namespace) -> int:
             issue_date=args.issue_date,
             notes=args.notes,
             prepared_by=args.prepared_by or "",
+            authorised_function=args.authorised_function or "",
         ),
         out=args.out,
         sweep=args.sweep,
@@ -40,10 +41,13 @@ def cmd_certificate(args: argparse.Namespace) -> int:
         reason=args.reason,
         as_found=args.as_found,
         sign=args.sign,
+        trust=args.trust,
         db=args.db,
     )
     outcome = issue_certificate(request)
     print(f"certificate {outcome.number}: {outcome.pdf}")
+    for note in outcome.notes:
+        print(note)
     if outcome.dcc is not None:
         print(f"digital calibration certificate (DCC 3.3.0, in the PDF too): {outcome.dcc}")
     else:

@@ -383,7 +383,16 @@ def build_parser() -> argparse.ArgumentParser:
     )
     c.add_argument("--customer", help="customer name (mandatory)")
     c.add_argument("--customer-address", default="", help="customer address")
-    c.add_argument("--authorised-by", help="name and function of the signatory (mandatory)")
+    c.add_argument(
+        "--authorised-by",
+        help="who authorises it (mandatory): the name alone; under the records' two-person "
+        "rule a user of the records (user name or recorded name)",
+    )
+    c.add_argument(
+        "--authorised-function",
+        default="",
+        help="the signatory's function, printed under the name (e.g. 'head of laboratory')",
+    )
     c.add_argument("--dut-model", help="DUT manufacturer and model")
     c.add_argument("--dut-serial", help="DUT serial number (default: the run's --dut-id)")
     c.add_argument("--dut-type", help="DUT type, e.g. 'piezoelectric accelerometer'")
@@ -400,6 +409,13 @@ def build_parser() -> argparse.ArgumentParser:
         type=Path,
         metavar="P12",
         help="sign the PDF (PAdES) with the lab's key; password from $ACCELCAL_SIGN_PASSWORD",
+    )
+    c.add_argument(
+        "--trust",
+        type=Path,
+        metavar="CA",
+        help="the lab's CA certificate (PEM or DER): a validation report signed under it is "
+        "named (default: the --sign key's own certificates)",
     )
     cr = c.add_argument_group("records (accelcal db): customer, sensor and number from there")
     cr.add_argument(
@@ -468,6 +484,13 @@ def build_parser() -> argparse.ArgumentParser:
     im.add_argument("--db", metavar="URL", help="records database (default $ACCELCAL_DB)")
     va = sub.add_parser("validate", help="the 17025 7.11.2 software validation report")
     va.add_argument("--out", type=Path, help="the report PDF (default: the lab validation folder)")
+    va.add_argument(
+        "--sign",
+        type=Path,
+        metavar="P12",
+        help="sign the report with the lab's key (password from $ACCELCAL_SIGN_PASSWORD); "
+        "a certificate names only a signed report",
+    )
     from app.cli.web import add_web_commands
 
     add_web_commands(sub)

@@ -1,8 +1,9 @@
-"""`accelcal validate [--out report.pdf]`: the ISO/IEC 17025 7.11.2 software validation report
-of the installed version (app.validation). Without --out it goes to the lab's validation folder
-(app.certificate.validated: $ACCELCAL_VALIDATION_DIR, else the user's data directory), where a
-certificate looks for the report of its software. Exit 0 when every case passed, 1 when any
-failed, 2 for a report path that cannot be written."""
+"""`accelcal validate [--out report.pdf] [--sign LAB.p12]`: the ISO/IEC 17025 7.11.2 software
+validation report of the installed version (app.validation), signed with the lab's key. Without
+--out it goes to the lab's validation folder (app.certificate.validated: $ACCELCAL_VALIDATION_DIR,
+else the user's data directory), where a certificate looks for the report of its software; a
+certificate names only a signed report. Exit 0 when every case passed, 1 when any failed, 2 for
+a report path that cannot be written or a key that cannot be used."""
 
 from __future__ import annotations
 
@@ -24,6 +25,9 @@ def cmd_validate(args: argparse.Namespace) -> int:
     from app.validation import validate
 
     out = args.out or default_out()
-    code = validate(out)
-    print(f"validation {'passed' if code == 0 else 'FAILED'}: report {out}")
+    code = validate(out, args.sign)
+    signed = (
+        "signed" if args.sign is not None else "NOT signed (no --sign: no certificate names it)"
+    )
+    print(f"validation {'passed' if code == 0 else 'FAILED'}: report {out}, {signed}")
     return code

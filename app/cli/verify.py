@@ -22,15 +22,41 @@ def cmd_verify(args: argparse.Namespace) -> int:
 
 
 def _validation_report(args: argparse.Namespace) -> int:
-    """--validation-report: the report's SHA-256 recomputed against the one the (verified)
-    certificate names."""
-    from app.certificate.validated import verify_report
-    from app.certificate.validated_check import stated_report_sha256
+    """--validation-report: the report's SHA-256 recomputed against the one the certificate
+    names, then the report itself proved (app.certificate.validated.read_report): the lab's
+    signature checked against --trust, the software it validated equal to the one the
+    certificate states, every case passed, not dated in the future. A report that does not
+    prove itself: a FAIL line naming what was found, exit 2."""
+    from app.certificate.validated import ValidationClaimError, software_identity
+    from app.certificate.validated_check import stated_validation, trust_from_ca, verify_report
 
-    stated = stated_report_sha256(args.pdf)
+    stated = stated_validation(args.pdf)
     if stated is None:
         print("validation report: FAIL: the certificate names no validation report")
         return EXIT_BAD_INPUT
-    verify_report(stated, args.validation_report)
-    print(f"validation report: ok: {args.validation_report} is the one named (SHA-256 {stated})")
+    if stated.software_sha256 is None:
+        print(
+            "validation report: FAIL: the certificate names the report by its hash only (made "
+            "before reports were signed): nothing proves it"
+        )
+        return EXIT_BAD_INPUT
+    trust = trust_from_ca(args.trust) if args.trust is not None else None
+    try:
+        claim = verify_report(
+            stated.report_sha256, args.validation_report, trust, stated.software_sha256
+        )
+    except ValidationClaimError as exc:
+        print(f"validation report: FAIL: {exc}")
+        return EXIT_BAD_INPUT
+    assert claim is not None
+    print(
+        f"validation report: ok: {args.validation_report} is the one named (SHA-256 "
+        f"{stated.report_sha256}), signed by {claim.signer}, {claim.cases} cases passed for "
+        f"software {claim.software_sha256} on {claim.date_utc[:10]}"
+    )
+    if software_identity().sha256 != claim.software_sha256:
+        print(
+            "validation report: note: the software running this check is not the validated "
+            "one (another installation or version); the certificate's claim is checked as stated"
+        )
     return EXIT_OK

@@ -1,7 +1,8 @@
 """`accelcal web` (the lab's read-only web view, the options of `python -m app.web`),
-`accelcal records user list` and `accelcal records user add NAME` (a staff user of the web
-view; the password is read from a prompt or, with --password-stdin, from standard input:
-never from the command line)."""
+`accelcal records user list`, `accelcal records user add NAME` (a staff user of the web
+view) and `accelcal records user passwd NAME` (a new password: the user's web sessions end);
+the password is read from a prompt or, with --password-stdin, from standard input: never from
+the command line."""
 
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ from app.cli.exits import EXIT_OK, UsageError
 
 
 def add_web_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    """Add `web` and `records user add` to the top-level subparsers."""
+    """Add `web` and `records user add|passwd|list` to the top-level subparsers."""
     from app.web.options import add_options
 
     w = sub.add_parser("web", help="the lab's read-only web view (register, verification)")
@@ -29,6 +30,12 @@ def add_web_commands(sub: argparse._SubParsersAction) -> None:  # type: ignore[t
         "--password-stdin", action="store_true", help="read the password from standard input"
     )
     ua.add_argument("--db", metavar="URL", help="records database (default $ACCELCAL_DB)")
+    up = usub.add_parser("passwd", help="a new password for a staff user (ends their sessions)")
+    up.add_argument("name", help="user name")
+    up.add_argument(
+        "--password-stdin", action="store_true", help="read the password from standard input"
+    )
+    up.add_argument("--db", metavar="URL", help="records database (default $ACCELCAL_DB)")
     ul = usub.add_parser("list", help="the staff users: name, display name, active, created")
     ul.add_argument(
         "--json",
@@ -45,7 +52,7 @@ def cmd_web(args: argparse.Namespace) -> int:
 
 
 def _password(args: argparse.Namespace) -> str:
-    """The new user's password: one line of stdin with --password-stdin, else typed twice."""
+    """The (new) password: one line of stdin with --password-stdin, else typed twice."""
     if args.password_stdin:
         line = sys.stdin.readline()
         return line[:-1] if line.endswith("\n") else line
@@ -62,6 +69,12 @@ def cmd_records(args: argparse.Namespace) -> int:
 
     if args.user_action == "list":
         return _list_users(args)
+    if args.user_action == "passwd":
+        from app.web.users import set_password
+
+        set_password(open_engine(args.db), args.name, _password(args))
+        print(f"password of {args.name.strip()} changed: their web sessions end")
+        return EXIT_OK
     from app.web.users import add_user
 
     password = _password(args)

@@ -166,12 +166,14 @@ def issue(
 
 
 def show(window: Any, folder: Path, outcome: IssueOutcome) -> None:
-    """Say where the certificate went (messages, the Results tab, the Register tab) and open
+    """Say where the certificate went and what the service noted (the two-person rule, the
+    validation report named or why none: messages), the Results tab, the Register tab; open
     it."""
     path = outcome.pdf
     log.info("certificate %s of %s written: %s", outcome.number, folder.name, path)
     window.last_certificate = outcome.number
-    window.run_tab.messages.setText(html.escape(f"certificate {outcome.number} written: {path}"))
+    lines = [f"certificate {outcome.number} written: {path}", *outcome.notes]
+    window.run_tab.messages.setText("<br/>".join(html.escape(line) for line in lines))
     if window.results_tab.folder == folder:
         window.results_tab.summary.setText(
             window.results_tab.summary.text()

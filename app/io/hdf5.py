@@ -32,7 +32,7 @@ import logging
 import math
 import os
 import resource
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -141,6 +141,9 @@ class Recording:
     acquired_periods: int | None = None
     status: RunStatus | None = None  # None: not recorded by this program (CSV, in memory)
     cmc: Cmc | None = None  # the laboratory's CMC (the stand's, or --budget's [[cmc]])
+    # the run's blocking warnings of lines too few LSB above the converter's step: the lines a
+    # re-analysis does not state either (dsp.not_stated)
+    resolution_warnings: tuple[str, ...] = ()
 
     @property
     def periods(self) -> int:
@@ -272,6 +275,12 @@ class RecordingWriter:
         self._file["config"].attrs["budget"] = json.dumps(budget.to_list())
         self._file.flush()
 
+    def set_resolution_warnings(self, warnings: Sequence[str]) -> None:
+        """Store the run's "too few LSB" warnings (the lines it does not state: issue 32 point
+        2), so a re-analysis of the recording states the same lines as the run."""
+        self._file["config"].attrs["resolution_warnings"] = json.dumps(list(warnings))
+        self._file.flush()
+
     def set_status(self, status: RunStatus, reason: str | None = None) -> bool:
         """Mark how the recording ended (a RunStatus; aborted with its reason). Never raises
         for the file: False (logged) when it cannot take the mark, which leaves the recording
@@ -375,11 +384,14 @@ def read_recording(path: str | Path) -> Recording:
                 parsed[key] = json.loads(config.attrs[key])
             except json.JSONDecodeError as exc:
                 raise RecordingError(f"{name}: /config '{key}' is not valid JSON ({exc})") from None
-        if "cmc" in config.attrs:
-            try:
-                parsed["cmc"] = json.loads(config.attrs["cmc"])
-            except json.JSONDecodeError as exc:
-                raise RecordingError(f"{name}: /config 'cmc' is not valid JSON ({exc})") from None
+        for key in ("cmc", "resolution_warnings"):  # optional
+            if key in config.attrs:
+                try:
+                    parsed[key] = json.loads(config.attrs[key])
+                except json.JSONDecodeError as exc:
+                    raise RecordingError(
+                        f"{name}: /config '{key}' is not valid JSON ({exc})"
+                    ) from None
         signals: dict[str, np.ndarray] = {}
         ranges: dict[str, float] = {}
         for channel in (*CHANNELS, "drive"):
@@ -405,6 +417,7 @@ def read_recording(path: str | Path) -> Recording:
         chain = ReferenceChain.from_dict(parsed["reference_chain"])
         budget = Budget.from_list(parsed["budget"])
         cmc = Cmc.from_list(parsed["cmc"]) if "cmc" in parsed else None
+        resolution_warnings = _text_list(parsed.get("resolution_warnings", []))
     except ValueError as exc:
         raise RecordingError(f"{name}: {exc}") from None
     if plan.sample_rate_hz != float(attrs["sample_rate_hz"]) or plan.period_samples != int(
@@ -426,6 +439,7 @@ def read_recording(path: str | Path) -> Recording:
         ranges_v=ranges,
         source=str(path),
         truth=truth,
+        resolution_warnings=resolution_warnings,
         acquired_periods=acquired,
         status=status,
         cmc=cmc,
@@ -442,6 +456,15 @@ def recording_status(mark: object) -> RunStatus:
     if mark in (RunStatus.COMPLETE, RunStatus.ABORTED):
         return RunStatus(str(mark))
     return RunStatus.INCOMPLETE
+
+
+def _text_list(value: object) -> tuple[str, ...]:
+    """A JSON list of texts (ValueError naming what it is instead)."""
+    if not isinstance(value, list) or not all(isinstance(t, str) for t in value):
+        raise ValueError(
+            f"/config 'resolution_warnings' must be a list of texts, got {value!r:.80}"
+        )
+    return tuple(value)
 
 
 def _read_truth(f: h5py.File, name: str) -> Truth | None:

@@ -92,6 +92,7 @@ def analyze(
         estimate = accumulator.estimate(estimator)
     budget, hum_warnings = _budget_with_hum(recording)
     warnings.extend(hum_warnings)
+    warnings.extend(recording.resolution_warnings)  # the lines the run did not state
     if rule == "seed":
         warnings.append(SEED_RULE_WARNING)
     results = compute_results(

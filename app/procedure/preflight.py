@@ -87,10 +87,10 @@ def check_preflight(
     chain (a window before its stand is opened) the reference channel is not checked here;
     the run's own preflight checks it before anything moves. The ranges are picked among
     `offered_v` (V; None: the stand file's `daq.input_ranges_v`), per line when `per_line`
-    (stepped sine)."""
+    (stepped sine, whose motion is then one line's at a time: `largest_line_peaks`)."""
     limits = config.limits
     ranges = {c.name: c.range_v for c in config.inputs}
-    raw = plan.predicted_peaks()
+    raw = largest_line_peaks(plan) if per_line else plan.predicted_peaks()
     peaks = PredictedPeaks(
         acceleration_ms2=raw.acceleration_ms2 * level_scale,
         velocity_m_per_s=raw.velocity_m_per_s * level_scale,
@@ -128,6 +128,15 @@ def check_preflight(
     return PreflightReport(
         peaks, plan.crest_factor(), tuple(problems), range_plan, config.converter
     )
+
+
+def largest_line_peaks(plan: Plan) -> PredictedPeaks:
+    """The largest peaks of the plan's lines played one at a time (stepped sine): a sine of
+    peak a (m/s^2) at f has velocity a / (2 pi f) and displacement a / (2 pi f)^2 (peak)."""
+    a = plan.amplitudes_ms2
+    w = 2 * np.pi * plan.frequencies_hz
+    displacement = float(np.max(a / w**2))
+    return PredictedPeaks(float(np.max(a)), float(np.max(a / w)), displacement, 2 * displacement)
 
 
 def reference_line_problems(plan: Plan, chain: ReferenceChain | None) -> list[str]:

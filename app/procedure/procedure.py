@@ -265,6 +265,8 @@ class Procedure:
         budget, too_few = with_resolution(budget, resolution)
         for text in too_few:
             self.ctx.warn(text)
+        if self.io.writer is not None:
+            self.io.writer.set_resolution_warnings(too_few)
         return budget
 
     def _measured(self, equalised: Equalised) -> Equalised:

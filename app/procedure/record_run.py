@@ -206,6 +206,7 @@ class RecordRun:
         if io.writer is not None:
             io.writer.set_settle_periods(io.periods_read - 1)
             io.writer.set_budget(budget)
+            io.writer.set_resolution_warnings(too_few)
         rule = StoppingRule(
             s.periods, s.target_type_a, s.max_acquisition_s, min_periods=MIN_PERIODS[s.estimator]
         )

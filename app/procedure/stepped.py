@@ -173,6 +173,8 @@ class SteppedSine:
         for text in too_few:
             ctx.warn(text)
         ctx.notes.budget = budget
+        if ctx.io.writer is not None:
+            ctx.io.writer.set_resolution_warnings(too_few)
         ctx.publish(estimate, budget)
 
     def _line(

@@ -1,6 +1,7 @@
-"""The validation report (ISO/IEC 17025:2017 7.11.2) as a PDF, with a JSON twin beside it:
-the software (version, SHA-256 over its installed files), the environment, and each case with
-expected, obtained, tolerance and pass/fail. A report is written once, never over a file."""
+"""The validation report (ISO/IEC 17025:2017 7.11.2) as one PDF signed with the lab's key: the
+software (version, SHA-256 over its installed files), the environment, and each case with
+expected, obtained, tolerance and pass/fail, printed and embedded as a JSON record under the
+signature; a readable JSON copy beside it. A report is written once, never over a file."""
 
 from __future__ import annotations
 
@@ -12,10 +13,14 @@ from dataclasses import asdict
 from datetime import UTC, datetime
 from importlib import metadata, resources
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from app.certificate.validated import PACKAGES, Software
+from app.certificate.validated import PACKAGES, REPORT_ATTACHMENT, Software
 from app.files import FileExistsRefusal, write_with
 from app.validation.cases import CaseResult
+
+if TYPE_CHECKING:
+    from app.certificate.sign import Signer
 
 ENVIRONMENT_PACKAGES = ("numpy", "scipy", "h5py", "reportlab", "sqlalchemy", "pypdf")
 FONT, FONT_BOLD = "DejaVuSans", "DejaVuSans-Bold"
@@ -49,13 +54,21 @@ def _fonts() -> None:
 
 
 def write_report(
-    out: Path, cases: list[CaseResult], software: Software, env: dict[str, str], when: datetime
+    out: Path,
+    cases: list[CaseResult],
+    software: Software,
+    env: dict[str, str],
+    when: datetime,
+    signer: Signer | None = None,
 ) -> None:
-    """Write the PDF report to `out`, then its JSON twin (same name, .json) carrying the PDF's
-    SHA-256 (a certificate names that hash); FileExistsError (app.files) when either exists."""
+    """Write the PDF report to `out` with its record (date, software, environment, every case)
+    embedded as REPORT_ATTACHMENT and, with `signer` (the lab's key), signed over the whole
+    file as its last revision: the one form a certificate accepts (app.certificate
+    .validated_check.read_report). Then a readable JSON copy beside it (same name, .json,
+    with the PDF's SHA-256), which nothing trusts. FileExistsError (app.files) when either
+    file exists."""
     if out.with_suffix(".json").exists():
         raise FileExistsRefusal(f"{out.with_suffix('.json')}: exists")
-    write_with(out, lambda p: _pdf(p, cases, software, env, when))
     record = {
         "report": "software validation, ISO/IEC 17025:2017 7.11.2",
         "date_utc": when.isoformat(timespec="seconds"),
@@ -63,11 +76,25 @@ def write_report(
         "environment": env,
         "passed": all(case.passed for case in cases),
         "cases": [asdict(case) for case in cases],
+    }
+
+    def write_pdf(path: Path) -> None:
+        from app.certificate.pdf import embed
+
+        _pdf(path, cases, software, env, when)
+        embed(path, REPORT_ATTACHMENT, json.dumps(record, indent=2).encode("utf-8"))
+        if signer is not None:
+            signer.sign_in_place(path, "software validation, ISO/IEC 17025:2017 7.11.2")
+
+    write_with(out, write_pdf)
+    copy = {
+        **record,
+        "signed": signer is not None,
         "report_pdf_sha256": hashlib.sha256(out.read_bytes()).hexdigest(),
     }
 
     def write_json(path: Path) -> None:
-        path.write_text(json.dumps(record, indent=2), encoding="utf-8")
+        path.write_text(json.dumps(copy, indent=2), encoding="utf-8")
 
     try:
         write_with(out.with_suffix(".json"), write_json)

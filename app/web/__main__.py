@@ -1,7 +1,10 @@
 """`python -m app.web --db URL --host 127.0.0.1 --port N`: serve the lab's web view (uvicorn).
 
-The session key comes from $ACCELCAL_WEB_SECRET (at least 32 characters; then sessions outlive
-a restart and several workers agree), else a random one for this process.
+The key that signs the session cookie (its form token and session id) comes from
+$ACCELCAL_WEB_SECRET (checked for strength at start: 32 characters or more, no repeats, about
+100 bits by its own characters; else exit 2 naming it), or a random one for this process.
+Sessions are kept by this server process (app.web.guard): they end when it stops. Without
+--https-only, --tls-cert or --proxy the cookie is not Secure and a warning is logged.
 """
 
 from __future__ import annotations
@@ -11,14 +14,16 @@ import logging
 import os
 import secrets
 import sys
+from pathlib import Path
 from typing import NoReturn
 
 from app.certificate.qr import QrError, check_verify_url
 from app.records.db.errors import RecordsInputError
+from app.web.guard import parse_proxies, secret_problem
 from app.web.options import add_options
 
 SECRET_ENV = "ACCELCAL_WEB_SECRET"
-MIN_SECRET_LENGTH = 32
+SECRET_HINT = 'make one with: python -c "import secrets; print(secrets.token_urlsafe(32))"'
 
 log = logging.getLogger("app.web")
 
@@ -56,9 +61,12 @@ def serve(args: argparse.Namespace) -> int:
         verify_url = check_verify_url(args.verify_url) if args.verify_url else None
         if args.trust is not None and not args.trust.is_file():
             raise ValueError(f"--trust: no such file {args.trust}")
+        proxies = parse_proxies(args.proxy) if args.proxy else ()
+        tls = _tls(args.tls_cert, args.tls_key)
         secret = os.environ.get(SECRET_ENV) or ""
-        if secret and len(secret) < MIN_SECRET_LENGTH:
-            raise ValueError(f"{SECRET_ENV}: shorter than {MIN_SECRET_LENGTH} characters")
+        problem = secret_problem(secret) if secret else None
+        if problem:
+            raise ValueError(f"{SECRET_ENV}: {problem}: too weak to sign sessions; {SECRET_HINT}")
         from app.web.server import WebConfig, create_app
         from app.web.store import Store, open_read_only
 
@@ -71,13 +79,41 @@ def serve(args: argparse.Namespace) -> int:
         secret = secrets.token_urlsafe(32)
         log.info("web: %s not set: sessions end when this server stops", SECRET_ENV)
     config = WebConfig(
-        secret_key=secret, verify_url=verify_url, https_only=args.https_only, trust=args.trust
+        secret_key=secret,
+        verify_url=verify_url,
+        https_only=args.https_only or tls is not None,
+        trust=args.trust,
+        proxies=proxies,
     )
     import uvicorn
 
     app = create_app(Store(engine), config)
-    uvicorn.run(app, host=args.host, port=args.port, server_header=False)
+    cert, key = tls if tls else (None, None)
+    # the app reads X-Forwarded-For itself, from --proxy only (uvicorn's own default trusts
+    # 127.0.0.1: any local process could then claim any client address)
+    uvicorn.run(
+        app,
+        host=args.host,
+        port=args.port,
+        server_header=False,
+        proxy_headers=False,
+        ssl_certfile=cert,
+        ssl_keyfile=key,
+    )
     return 0
+
+
+def _tls(cert: Path | None, key: Path | None) -> tuple[str, str] | None:
+    """(certificate, key) paths to serve HTTPS with, or None; ValueError naming the option
+    when only one is given or a file is missing."""
+    if cert is None and key is None:
+        return None
+    if cert is None or key is None:
+        raise ValueError("--tls-cert and --tls-key: give both or neither")
+    for option, path in (("--tls-cert", cert), ("--tls-key", key)):
+        if not path.is_file():
+            raise ValueError(f"{option}: no such file {path}")
+    return str(cert), str(key)
 
 
 if __name__ == "__main__":

@@ -35,5 +35,20 @@ def add_options(parser: argparse.ArgumentParser) -> None:
         help="the lab's CA certificate (PEM or DER): signatures must chain to it",
     )
     parser.add_argument(
-        "--https-only", action="store_true", help="session cookie only over HTTPS (behind TLS)"
+        "--https-only",
+        action="store_true",
+        help="session cookie only over HTTPS (implied by --tls-cert and --proxy)",
+    )
+    parser.add_argument(
+        "--proxy",
+        default=None,
+        metavar="ADDR[,ADDR...]",
+        help="the TLS-terminating reverse proxy's address(es): only their X-Forwarded-For is "
+        "read, and the session cookie is Secure (default: none; the header is ignored)",
+    )
+    parser.add_argument(
+        "--tls-cert", type=Path, default=None, help="serve HTTPS with this certificate (PEM)"
+    )
+    parser.add_argument(
+        "--tls-key", type=Path, default=None, help="the private key (PEM) of --tls-cert"
     )

@@ -1,19 +1,22 @@
 """The web view's pages and routes (Starlette, Jinja2 templates rendered on the server).
 
-Staff pages need a signed-in user (a session in a signed cookie, app.web.users for the
-passwords); the one public page, /verify/NUMBER?code=CODE, shows only a certificate's status.
-Every response carries a strict Content-Security-Policy (no script at all) and no Referer.
+Staff pages need a signed-in user: a session kept on the server (app.web.guard), whose random
+id rides in a signed cookie with the form token; app.web.users for the passwords. Sign-in is
+throttled per user name and per client (counted before the password is checked, a growing
+back-off), at most PASSWORD_CHECKS_AT_ONCE argon2 checks run at once. The one public page,
+/verify/NUMBER?code=CODE, shows only a certificate's status. Every response carries a strict
+Content-Security-Policy (no script at all) and no Referer.
 """
 
 from __future__ import annotations
 
 import base64
+import html
 import logging
+import math
 import secrets
-import time
-from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from datetime import UTC, datetime
 from importlib import resources
 from pathlib import Path
@@ -25,7 +28,7 @@ from starlette.concurrency import run_in_threadpool
 from starlette.middleware import Middleware
 from starlette.middleware.sessions import SessionMiddleware
 from starlette.requests import Request
-from starlette.responses import RedirectResponse, Response
+from starlette.responses import HTMLResponse, RedirectResponse, Response
 from starlette.routing import Route
 from starlette.templating import Jinja2Templates
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
@@ -40,14 +43,21 @@ from app.web.documents import (
     certificate_pdf_bytes,
     verify_certificate,
 )
+from app.web.guard import (
+    PASSWORD_CHECKS_AT_ONCE,
+    SESSION_MAX_AGE_S,
+    CheckSlots,
+    SessionStore,
+    StaffSession,
+    Throttle,
+    client_address,
+    password_stamp,
+)
 from app.web.store import StaffUser, Store
 from app.web.users import dummy_check, password_matches
 
 log = logging.getLogger(__name__)
 
-SESSION_MAX_AGE_S = 8 * 3600  # a working day; then sign in again
-MAX_FAILURES = 5  # failed sign-ins of one user name or one client within FAILURE_WINDOW_S
-FAILURE_WINDOW_S = 15 * 60
 DUE_DAYS_DEFAULT, DUE_DAYS_MAX = 30, 3650
 SECURITY_HEADERS = (
     (
@@ -79,43 +89,24 @@ class SecurityHeaders:
         await self.app(scope, receive, send_with_headers)
 
 
-@dataclass
-class Throttle:
-    """Failed sign-ins per key (user name, client address) in a sliding window."""
-
-    window_s: float = FAILURE_WINDOW_S
-    limit: int = MAX_FAILURES
-    clock: Callable[[], float] = time.monotonic
-    failures: dict[str, deque[float]] = field(default_factory=dict)
-
-    def _recent(self, key: str) -> deque[float]:
-        times = self.failures.setdefault(key, deque())
-        while times and self.clock() - times[0] > self.window_s:
-            times.popleft()
-        return times
-
-    def blocked(self, *keys: str) -> bool:
-        """Whether any key had `limit` failures within the window."""
-        return any(len(self._recent(key)) >= self.limit for key in keys)
-
-    def fail(self, *keys: str) -> None:
-        for key in keys:
-            self._recent(key).append(self.clock())
-
-    def clear(self, key: str) -> None:
-        self.failures.pop(key, None)
-
-
 @dataclass(frozen=True)
 class WebConfig:
     """How the web view runs: the session key, the base of verification addresses
-    ([laboratory] verify_url; None: this server's own /verify), cookies only over HTTPS, and
-    the lab's CA certificate that signatures must chain to (None: never "verified")."""
+    ([laboratory] verify_url; None: this server's own /verify), cookies only over HTTPS
+    (asked for, or served over TLS), the lab's CA certificate that signatures must chain to
+    (None: never "verified"), and the TLS-terminating proxies whose X-Forwarded-For is read
+    (none: the header is ignored; any: cookies only over HTTPS)."""
 
     secret_key: str
     verify_url: str | None = None
     https_only: bool = False
     trust: Path | None = None
+    proxies: tuple[str, ...] = ()
+
+    @property
+    def secure_cookie(self) -> bool:
+        """Whether the session cookie is sent over HTTPS only (Secure)."""
+        return self.https_only or bool(self.proxies)
 
 
 def _templates() -> Jinja2Templates:
@@ -131,10 +122,21 @@ def _templates() -> Jinja2Templates:
 def create_app(store: Store, config: WebConfig) -> Starlette:
     """The web view over `store` (read-only records) with `config`."""
     templates = _templates()
-    throttle = Throttle()
+    throttle, slots, sessions = Throttle(), CheckSlots(PASSWORD_CHECKS_AT_ONCE), SessionStore()
+    if not config.secure_cookie:
+        log.warning(
+            "web: the session cookie is not Secure (no --https-only, TLS or --proxy): "
+            "it crosses the network in clear unless this server is reached on localhost only"
+        )
+
+    def signed_in(request: Request) -> StaffSession | None:
+        sid = request.session.get("sid")
+        return sessions.get(sid) if isinstance(sid, str) else None
 
     def page(request: Request, name: str, http_status: int = 200, **context: Any) -> Response:
-        context.setdefault("user", request.session.get("user"))
+        if "user" not in context:
+            current = signed_in(request)
+            context["user"] = current.username if current else None
         if "csrf" not in context:
             context["csrf"] = _csrf(request)
         return templates.TemplateResponse(request, name, context, status_code=http_status)
@@ -146,10 +148,18 @@ def create_app(store: Store, config: WebConfig) -> Starlette:
         """Only for a signed-in, still active staff user; else to the login page."""
 
         def guarded(request: Request) -> Response:
-            name = request.session.get("user")
-            account = store.user(name) if isinstance(name, str) else None
-            if account is None or not account.active:
-                request.session.pop("user", None)
+            current = signed_in(request)
+            account = store.user(current.username) if current else None
+            if current is not None and (
+                account is None
+                or not account.active
+                or password_stamp(account.password_hash) != current.stamp
+            ):
+                ended = sessions.revoke_user(current.username)  # gone, locked or new password
+                log.info("web: %d session(s) of %s ended", ended, current.username)
+                account = None
+            if account is None:
+                request.session.pop("sid", None)
                 target = request.url.path + (f"?{request.url.query}" if request.url.query else "")
                 return RedirectResponse(f"/login?next={quote(target, safe='')}", 303)
             return endpoint(request)
@@ -170,30 +180,60 @@ def create_app(store: Store, config: WebConfig) -> Starlette:
         target = _local(str(form.get("next", "/register")))
         if not secrets.compare_digest(str(form.get("csrf", "")), _csrf(request)):
             return page(request, "login.html", 400, target=target, error="Form expired: retry.")
-        client = f"client:{request.client.host if request.client else '?'}"
-        key = f"user:{username.casefold()}"
-        if throttle.blocked(key, client):
-            log.warning("web: sign-in of %r refused: too many failures", username)
-            message = "Too many failed sign-ins: wait 15 minutes."
-            return page(request, "login.html", 429, target=target, error=message)
-        account = await run_in_threadpool(_check_password, store, username, password)
-        ok = account is not None
-        if not ok:
-            throttle.fail(key, client)
-            log.info("web: failed sign-in of %r", username)
+        peer = request.client.host if request.client else None
+        client = client_address(peer, request.headers.getlist("x-forwarded-for"), config.proxies)
+        if not slots.take():  # no argon2 check free: answered without hashing
+            log.warning("web: sign-in of %r from %s refused: checks busy", username, client)
+            message = "The server is busy checking other sign-ins: retry in a few seconds."
+            return refused(request, target, message, 1.0)
+        try:
+            verdict = throttle.attempt(username, client)  # counted before the check
+            if not verdict.allowed:
+                log.warning(
+                    "web: sign-in of %r from %s refused: wait %.0f s",
+                    username,
+                    client,
+                    verdict.wait_s,
+                )
+                wait = math.ceil(verdict.wait_s)
+                message = f"Too many sign-in attempts: wait {wait} s and retry."
+                return refused(request, target, message, verdict.wait_s)
+            account = await run_in_threadpool(_check_password, store, username, password)
+        finally:
+            slots.give()
+        if account is None:
+            throttle.failed(username, client)
+            log.info("web: failed sign-in of %r from %s", username, client)
             error = "Unknown user name or wrong password."
             return page(request, "login.html", 401, target=target, error=error)
-        throttle.clear(key)
+        throttle.succeeded(username, client)
+        old = request.session.get("sid")
+        if isinstance(old, str):
+            sessions.revoke(old)
         request.session.clear()  # a new session: nothing carried over from before sign-in
-        assert account is not None
-        request.session["user"] = account.username
-        request.session["name"] = account.display_name
-        log.info("web: %s signed in", username)
+        request.session["sid"] = sessions.open(
+            account.username, account.display_name, account.password_hash
+        )
+        log.info("web: %s signed in from %s", account.username, client)
         return RedirectResponse(target, 303)
+
+    def refused(request: Request, target: str, message: str, wait_s: float) -> Response:
+        """429 with `message`, a link back to the sign-in and Retry-After (whole seconds): a
+        fixed small page, no template (a hammering client costs the server next to nothing)."""
+        back = html.escape(f"/login?next={quote(target, safe='')}")
+        body = (
+            '<!doctype html><html lang="en"><meta charset="utf-8"><title>Sign in: wait</title>'
+            f'<p id="error">{html.escape(message)}</p><p><a href="{back}">Sign in</a></p></html>'
+        )
+        headers = {"retry-after": str(max(1, math.ceil(wait_s)))}
+        return HTMLResponse(body, 429, headers=headers)
 
     async def logout(request: Request) -> Response:
         form = await request.form()
         if secrets.compare_digest(str(form.get("csrf", "")), _csrf(request)):
+            sid = request.session.get("sid")
+            if isinstance(sid, str):
+                sessions.revoke(sid)  # a copy of the cookie opens nothing any more
             request.session.clear()
         return RedirectResponse("/login", 303)
 
@@ -305,7 +345,7 @@ def create_app(store: Store, config: WebConfig) -> Starlette:
             session_cookie="accelcal_session",
             max_age=SESSION_MAX_AGE_S,
             same_site="lax",
-            https_only=config.https_only,
+            https_only=config.secure_cookie,
         ),
     ]
     app = Starlette(routes=routes, middleware=middleware)

@@ -108,3 +108,28 @@ def add_user(
                 changes=json.dumps(changes, sort_keys=True),
             )
         )
+
+
+def set_password(engine: Engine, username: str, password: str, *, actor: str | None = None) -> None:
+    """Give staff user `username` a new `password` (at least MIN_PASSWORD_LENGTH characters);
+    RecordsError naming the field when refused. Every web session the user had ends at its
+    next request (a session is bound to the hash it was opened with: app.web.guard). Audited
+    by `actor` (default: the operating-system user), without the hash."""
+    if len(password) < MIN_PASSWORD_LENGTH:
+        raise RecordsError(f"password: shorter than {MIN_PASSWORD_LENGTH} characters")
+    now = datetime.now(UTC)
+    with Session(engine) as s, s.begin():
+        user = s.scalar(select(User).where(User.username == username.strip()))
+        if user is None:
+            raise RecordsError(f"username: no staff user {username.strip()!r}")
+        user.password_hash = hash_password(password)
+        s.add(
+            AuditEntry(
+                at_utc=now,
+                actor=actor or current_actor(),
+                action="update",
+                table_name="users",
+                row_key=user.username,
+                changes=json.dumps({"password_hash": "(not recorded)"}, sort_keys=True),
+            )
+        )

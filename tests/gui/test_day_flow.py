@@ -30,7 +30,7 @@ from app.records.db.engine import open_engine
 from app.records.db.lab import Lab
 from hardware.teds import TedsError
 from tests.app.records.db.test_run_records import add_sim_reference
-from tests.records_db import new_records
+from tests.records_db import add_staff, new_records
 
 MG = 9.80665  # m/s^2 per g
 LINES_A = "40,80,160,315,630"
@@ -89,6 +89,7 @@ def lab_url(tmp_path: Path) -> str:
         estimator="h1",
         tolerance_percent=4.5,
     )
+    add_staff(url, ("atech", "A. Tech"), ("jsmith", "J. Smith"))  # the rule's persons
     lab.set_setting("two_person_rule", "on")
     return url
 

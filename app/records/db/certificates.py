@@ -11,6 +11,7 @@ import re
 from collections.abc import Callable
 from dataclasses import dataclass
 from datetime import UTC, datetime
+from typing import NamedTuple
 
 from sqlalchemy import select
 from sqlalchemy.orm import Session, joinedload
@@ -18,7 +19,7 @@ from sqlalchemy.orm import Session, joinedload
 from app.records.db.audit import current_actor
 from app.records.db.models import AuditEntry, Certificate, RegisterCounter, Run, Sensor, Setting
 from app.records.db.sensors import SensorRecords
-from app.records.db.signatories import same_person, signatory_name
+from app.records.db.signatories import check_two_persons, find_person, signatory_name
 from app.records.db.store import RecordsError, text_field, utc
 from app.records.run_folder import STATUS_COMPLETE
 
@@ -27,6 +28,14 @@ SETTING_PATTERN = "certificate_pattern"
 SETTING_TWO_PERSON = "two_person_rule"
 
 log = logging.getLogger(__name__)
+
+
+class Signatories(NamedTuple):
+    """Prepared by and approved by as the register keeps them (under the two-person rule: the
+    names recorded for the two users they were resolved to)."""
+
+    prepared_by: str
+    approved_by: str
 
 
 @dataclass(frozen=True)
@@ -65,20 +74,26 @@ class CertificateRegister(SensorRecords):
             return default if row is None else row.value
 
     # ---- certificate register ------------------------------------------------------------
-    def check_signatories(self, prepared_by: str, approved_by: str) -> tuple[str, str]:
+    def check_signatories(self, prepared_by: str, approved_by: str) -> Signatories:
         """Prepared by and approved by as the register takes them (NFKC, format characters
         removed, spaces collapsed: app.records.db.signatories); RecordsError naming the field
-        when one is blank or in confusable scripts or, under the lab's two-person rule, when
-        both are the same person (compared without regard to case or spacing)."""
+        when one is blank or in confusable scripts. Under the lab's two-person rule each must
+        be a person on record (an active user, by user name or recorded name) and the two must
+        be two users not recorded under one name; the names returned are then the ones
+        recorded for them (what the certificate prints and the register keeps)."""
         prepared_by = signatory_name(prepared_by, "prepared by")
         approved_by = signatory_name(approved_by, "approved by")
-        if self.setting(SETTING_TWO_PERSON, "off") == "on" and same_person(
-            prepared_by, approved_by
-        ):
-            raise RecordsError(
-                "approved by: the lab's two-person rule needs someone other than the preparer"
-            )
-        return prepared_by, approved_by
+        if not self.two_person_rule():
+            return Signatories(prepared_by, approved_by)
+        with self.session() as s:
+            prepared = find_person(s, prepared_by, "prepared by")
+            approved = find_person(s, approved_by, "approved by")
+        check_two_persons(prepared, approved)
+        return Signatories(prepared.name, approved.name)
+
+    def two_person_rule(self) -> bool:
+        """Whether the lab's two-person rule is on (`register set two_person_rule on`)."""
+        return self.setting(SETTING_TWO_PERSON, "off") == "on"
 
     def complete_runs(self, serial: str) -> list[Run]:
         """The indexed complete runs of sensor `serial`, newest first (what a certificate or

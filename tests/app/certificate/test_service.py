@@ -18,6 +18,7 @@ from app.cli import main
 from app.records.db.errors import RecordsInputError
 from tests.app.certificate.conftest import Lab, copy_run
 from tests.app.certificate.test_issue_matrix import GUI_FIELDS, Person, _window
+from tests.records_db import add_staff
 
 pytestmark = pytest.mark.integration
 
@@ -131,6 +132,8 @@ def test_the_two_person_rule_is_the_services_for_both_faces(
     check), leaving the dialog open."""
     from app.gui.certificate_dialog import CertificateDialog
 
+    lab = Lab(own_records(lab, tmp_path), lab.runs)  # persons added: a copy of the records
+    add_staff(lab.url, ("atech", "A. Tech"))
     assert main(["register", "set", "two_person_rule", "on", "--db", lab.url]) == 0
     try:
         run = records_runs[1]
@@ -140,7 +143,10 @@ def test_the_two_person_rule_is_the_services_for_both_faces(
                 "--out", str(tmp_path / "c.pdf")]  # fmt: skip
         capsys.readouterr()
         assert main(argv) == 2
-        assert "approved by: the lab's two-person rule" in capsys.readouterr().err
+        assert (
+            "approved by: the lab's two-person rule needs another person: 'A. Tech' is user "
+            "atech, who prepared it" in capsys.readouterr().err
+        )
         assert sorted(run.glob("certificate*")) == before and not (tmp_path / "c.pdf").exists()
         with pytest.raises(RecordsInputError, match="two-person rule"):
             service.check_signatories(lab.url, "A. Tech", "A.  TECH")
@@ -158,3 +164,91 @@ def test_the_two_person_rule_is_the_services_for_both_faces(
         assert "two-person rule" in dialog.marks.reason(dialog.edits["authorised_by"])
     finally:
         assert main(["register", "set", "two_person_rule", "off", "--db", lab.url]) == 0
+
+
+# --- signatories as persons (issue 33 point 3) -------------------------------------------------
+
+
+def own_records(lab: Lab, tmp_path: Path) -> str:
+    """A copy of the session's records (its runs indexed, its chain) this test may change."""
+    import sqlite3
+
+    copy = tmp_path / "records.sqlite"
+    source = sqlite3.connect(lab.url.removeprefix("sqlite:///"))
+    target = sqlite3.connect(copy)
+    with target:
+        source.backup(target)  # the live database, its write-ahead log included
+    source.close()
+    target.close()
+    return f"sqlite:///{copy}"
+
+
+def _issue(url: str, run: Path, out: Path, *people: str) -> int:
+    from app.records.db.engine import open_engine
+    from app.records.db.lab import Lab as Records
+    from app.records.run_folder import load_run
+
+    current = Records(open_engine(url)).issued_for_run(str(load_run(run).run_id))
+    amend = [] if current is None else ["--replaces", current.number, "--reason", "test"]
+    return main(["certificate", str(run), "--db", url, "--temperature", "23", "--mounting",
+                 "stud", "--out", str(out), *amend, *people])  # fmt: skip
+
+
+@pytest.mark.slow  # five refused issues through the CLI with records, then one issued (~6 s idle)
+def test_the_suffix_signatory_is_refused_by_certificate_naming_the_person(
+    lab: Lab, records_runs: tuple[Path, Path], tmp_path: Path, capsys
+) -> None:
+    """The issue's attack through `accelcal certificate`: prepared by "A. Tech", authorised by
+    "A. Tech, head of laboratory" (and variants); refused, nothing written. Two persons on
+    record pass, and the certificate prints the names recorded for them and the function."""
+    url = own_records(lab, tmp_path)
+    add_staff(url, ("atech", "A. Tech"), ("qm", "Quality Manager"))
+    assert main(["register", "set", "two_person_rule", "on", "--db", url]) == 0
+    run, out = records_runs[1], tmp_path / "c.pdf"
+    attacks = {
+        "A. Tech, head of laboratory": "approved by: 'A. Tech, head of laboratory' is no person "
+        "on record: the lab's two-person rule takes signatories who are users of the records; "
+        "'A. Tech' is user atech: give the name alone and the function with its own option "
+        "(--authorised-function)",
+        "a.  TECH": "approved by: the lab's two-person rule needs another person: 'A. Tech' is "
+        "user atech, who prepared it",
+        "atech": "'A. Tech' is user atech, who prepared it",
+        "A.\u200bTech": "is user atech, who prepared it",
+        "\u0410. Tech": "approved by: 'А. Tech' mixes scripts (Cyrillic, Latin)",
+    }
+    capsys.readouterr()
+    for approved, found in attacks.items():
+        code = _issue(url, run, out, "--prepared-by", "A. Tech", "--authorised-by", approved)
+        err = capsys.readouterr().err
+        assert code == 2 and found in err, (approved, err)
+        assert not out.exists()
+    people = ("--prepared-by", "atech", "--authorised-by", "qm", "--authorised-function",
+              "head of laboratory")  # fmt: skip
+    assert _issue(url, run, out, *people) == 0
+    assert (
+        "two-person rule: prepared by A. Tech and authorised by Quality Manager: two users of "
+        "the records" in capsys.readouterr().out
+    )
+    text = " ".join(" ".join(page.extract_text() for page in PdfReader(out).pages).split())
+    assert "Prepared by A. Tech" in text
+    assert "Authorised by Quality Manager head of laboratory" in text
+    dcc = PdfReader(out).attachments["certificate.xml"][0].decode("utf-8")
+    assert '<dcc:content lang="en">Quality Manager</dcc:content>' in dcc
+    assert "<dcc:role>head of laboratory</dcc:role>" in dcc
+    from app.records.db.engine import open_engine
+    from app.records.db.lab import Lab as Records
+
+    (row,) = [c for c in Records(open_engine(url)).register() if c.file == str(out.resolve())]
+    assert (row.prepared_by, row.approved_by) == ("A. Tech", "Quality Manager")
+
+
+def test_without_records_the_certificate_says_the_rule_is_not_checked(
+    complete_run: Path, tmp_path: Path, capsys
+) -> None:
+    run = copy_run(complete_run, tmp_path / "runs")
+    argv = ["certificate", str(run), "--customer", CUSTOMER, "--authorised-by", "T. Ester",
+            "--authorised-function", "head of laboratory", "--temperature", "23",
+            "--mounting", "stud", "--out", str(tmp_path / "c.pdf")]  # fmt: skip
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    assert "two-person rule: NOT checked: without records the signatories are names as typed" in out

@@ -52,6 +52,31 @@ def test_writer_flushes_each_period_so_a_cut_run_is_readable(tmp_path, recording
     writer.close()
 
 
+def test_the_runs_resolution_warnings_travel_and_a_reanalysis_states_no_such_line(
+    tmp_path, recording
+):
+    """Issue 32 point 2: a line the run did not state (too few LSB) is not stated by a
+    re-analysis of its recording either; a malformed list is refused by name."""
+    path = tmp_path / "rec.h5"
+    writer = RecordingWriter(path, recording.plan, recording.chain, recording.budget)
+    writer.append(recording.reference_v, recording.dut_v)
+    text = (
+        "line 40 Hz: DUT channel 9.24 LSB on its +-0.1 V range (< 20 LSB): resolution not "
+        "stated; raise the level or use a smaller input range"
+    )
+    writer.set_resolution_warnings([text])
+    writer.close()
+    again = read_recording(path)
+    assert again.resolution_warnings == (text,)
+    lines = analyze(again).results.lines
+    assert [ln.stated for ln in lines] == [True, False, True, True]
+    assert "DUT channel 9.24 LSB" in lines[1].not_stated
+    with h5py.File(path, "r+") as f:
+        f["config"].attrs["resolution_warnings"] = '{"a": 1}'
+    with pytest.raises(RecordingError, match="'resolution_warnings' must be a list of texts"):
+        read_recording(path)
+
+
 @pytest.mark.parametrize(
     ("mutate", "message"),
     [

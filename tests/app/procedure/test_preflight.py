@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -82,3 +84,17 @@ def test_a_reference_frequency_outside_the_reference_range_is_refused_before_the
     (problem,) = check_preflight(outside, CONFIG, chain).problems
     assert problem.startswith("reference frequency 8000 Hz (played at 8000 Hz): outside the ")
     assert "calibrated range (10-5000 Hz)" in problem
+
+
+def test_a_stepped_sine_is_checked_one_line_at_a_time():
+    """Issue 32 point 8: a stepped sine plays one line at a time, so its motion is one line's,
+    not the sum the multisine plays: 0.5 and 1 Hz at 1.2 m/s^2 in phase sum to 0.57 m/s, over
+    the 0.5 m/s velocity limit; each alone (0.382 m/s at 0.5 Hz) is within it."""
+    plan = make_plan([0.5, 1.0], 200.0, 400, 1.2, 1.0, phases_rad=[0.0, 0.0])
+    config = dataclasses.replace(CONFIG, limits=Limits(1.0, 0.5, 300.0, 5.0))
+    summed = check_preflight(plan, config, None)
+    assert any(p.startswith("velocity") for p in summed.problems)
+    alone = check_preflight(plan, config, None, per_line=True)
+    assert alone.problems == ()
+    assert alone.peaks.velocity_m_per_s == pytest.approx(1.2 / (2 * np.pi * 0.5))
+    assert alone.peaks.displacement_peak_to_peak_m == pytest.approx(2.4 / (2 * np.pi * 0.5) ** 2)

@@ -123,42 +123,65 @@ def test_the_software_hash_covers_every_file_but_bytecode(tmp_path: Path, monkey
     sys.modules.pop("validated_pkg", None)
 
 
-def _report(folder: Path, name: str, sha: str, when: str, passed: bool = True) -> Path:
+def _signed(folder: Path, name: str, software: str, when: str, signer, passed: bool = True):
+    """A report as `validate --sign` writes it (record embedded, signed with `signer`)."""
+    from datetime import datetime
+
+    from app.certificate.validated import Software
+    from app.validation.report import write_report
+
+    case = cases.CaseResult("g", "c", "1", "1", "0", passed, "s")
     pdf = folder / f"{name}.pdf"
-    pdf.write_bytes(b"%PDF-1.4 " + name.encode())
-    record = {
-        "date_utc": when,
-        "software": {"sha256": sha},
-        "passed": passed,
-        "cases": [{"passed": passed}],
-        "report_pdf_sha256": hashlib.sha256(pdf.read_bytes()).hexdigest(),
-    }
-    (folder / f"{name}.json").write_text(json.dumps(record))
+    env = {"python": "3.11"}
+    write_report(pdf, [case], Software("1", software, 1), env, datetime.fromisoformat(when), signer)
     return pdf
 
 
-def test_the_newest_passed_report_of_the_same_software_is_found(tmp_path: Path) -> None:
+def test_the_newest_signed_passed_report_of_the_same_software_is_found(tmp_path, lab_key) -> None:
+    """Only signed reports count (issue 33): the newest passed one of this software, by the
+    date under its signature; a JSON file beside a PDF is never read."""
     from app.validation import passed_report
 
-    old = _report(tmp_path, "a", "s1", "2026-01-01T00:00:00+00:00")
-    new = _report(tmp_path, "b", "s1", "2026-02-01T00:00:00+00:00")
-    _report(tmp_path, "c", "s1", "2026-03-01T00:00:00+00:00", passed=False)
-    _report(tmp_path, "d", "s2", "2026-04-01T00:00:00+00:00")
-    (tmp_path / "e.json").write_text("not json")
-    assert passed_report(tmp_path, "s1") == new
-    new.unlink()  # a twin without its PDF names nothing
-    assert passed_report(tmp_path, "s1") == old
-    assert passed_report(tmp_path, "s3") is None
+    signer, trust = lab_key
+    s1, s2 = "1" * 64, "2" * 64
+    old = _signed(tmp_path, "a", s1, "2026-01-01T00:00:00+00:00", signer)
+    new = _signed(tmp_path, "b", s1, "2026-02-01T00:00:00+00:00", signer)
+    _signed(tmp_path, "c", s1, "2026-03-01T00:00:00+00:00", signer, passed=False)
+    _signed(tmp_path, "d", s2, "2026-04-01T00:00:00+00:00", signer)
+    _signed(tmp_path, "e", s1, "2026-05-01T00:00:00+00:00", None)  # not signed
+    (tmp_path / "f.json").write_text("not json")
+    assert passed_report(tmp_path, s1, trust) == new
+    new.unlink()
+    assert passed_report(tmp_path, s1, trust) == old
+    assert passed_report(tmp_path, "3" * 64, trust) is None
+    assert passed_report(tmp_path, s1, None) is None  # nothing to check the signature against
 
 
-def test_a_report_whose_pdf_was_replaced_is_not_named(tmp_path: Path) -> None:
-    """The twin records the PDF's SHA-256: a PDF swapped after the fact names nothing."""
+def test_a_report_whose_pdf_was_replaced_is_not_named(tmp_path: Path, lab_key) -> None:
+    """A PDF swapped after the fact (its twin rewritten to match) names nothing."""
     from app.validation import passed_report
 
-    pdf = _report(tmp_path, "a", "s1", "2026-01-01T00:00:00+00:00")
-    assert passed_report(tmp_path, "s1") == pdf
-    pdf.write_bytes(b"%PDF-1.4 another report")
-    assert passed_report(tmp_path, "s1") is None
+    signer, trust = lab_key
+    pdf = _signed(tmp_path, "a", "1" * 64, "2026-01-01T00:00:00+00:00", signer)
+    assert passed_report(tmp_path, "1" * 64, trust) == pdf
+    pdf.write_bytes(b"%PDF-1.4 another report\n%%EOF\n")
+    twin = json.loads(pdf.with_suffix(".json").read_text())
+    twin["report_pdf_sha256"] = hashlib.sha256(pdf.read_bytes()).hexdigest()
+    pdf.with_suffix(".json").write_text(json.dumps(twin))
+    assert passed_report(tmp_path, "1" * 64, trust) is None
+
+
+@pytest.fixture()
+def lab_key(tmp_path_factory, monkeypatch):
+    """A lab signing key (throwaway CA) and the trust anchors of its CA."""
+    from app.certificate.sign import Signer
+    from app.certificate.validated_check import trust_from_ca
+    from tests.app.certificate.throwaway_ca import PASSWORD, make_ca, make_signer
+
+    folder = tmp_path_factory.mktemp("pki")
+    ca = make_ca(folder, "Lab CA")
+    monkeypatch.setenv("ACCELCAL_SIGN_PASSWORD", PASSWORD)
+    return Signer.load(make_signer(folder, "lab.p12", ca)), trust_from_ca(ca.pem)
 
 
 def test_the_module_entry_point_refuses_a_bad_path_with_exit_2(tmp_path, capsys) -> None:

@@ -21,7 +21,7 @@ from app.certificate.register_issue import leftovers_in_records
 from app.cli import main
 from app.records.db.engine import DatabaseError, open_engine, records_url
 from app.records.db.lab import Lab, RecordsError
-from tests.records_db import seed_lab
+from tests.records_db import add_staff, seed_lab
 
 BASE = [
     "--prepared-by",
@@ -151,6 +151,7 @@ def test_signatories_are_one_person_whatever_the_spelling(
     engine: Engine, prepared: str, approved: str, message: str
 ) -> None:
     lab = Lab(engine, actor="t")
+    add_staff(engine, ("alice", "Alice"), ("bob", "Bob"), ("alisa", "Алиса"))
     lab.set_setting("two_person_rule", "on")
     with pytest.raises(RecordsError, match=re.escape(message)):
         lab.check_signatories(prepared, approved)

@@ -14,6 +14,7 @@ from app.records.db.models import AuditEntry, Run, Sensor, Stand
 from app.records.db.run_index import DAYS_PER_YEAR, HistoryPoint, drift_percent_per_year
 from app.records.db.store import RecordsError, add_months
 from app.records.db.units import STANDARD_GRAVITY_MS2, from_mv_per_ms2, to_mv_per_ms2
+from tests.records_db import add_staff
 
 TODAY = date(2026, 11, 23)
 
@@ -267,6 +268,7 @@ def test_two_person_rule_and_run_checks(lab: Lab) -> None:
     _run(lab, "r1", "SN-1", when, 10.0)
     _run(lab, "r-ab", "SN-1", when, 10.0, status="aborted")
     _run(lab, "r-x", "SN-404", when, 10.0)
+    add_staff(lab.engine, ("ann", "Ann"), ("bob", "Bob"))  # the rule takes persons on record
     lab.set_setting("two_person_rule", "on")
     with pytest.raises(RecordsError, match=r"^approved by: the lab's two-person rule"):
         lab.issue_certificate(run_id="r1", prepared_by="Ann", approved_by="ann")
@@ -407,6 +409,7 @@ def test_a_bad_template_field_is_refused_by_name(lab: Lab, change: dict, field: 
 
 def test_the_same_person_is_refused_as_approver_under_the_two_person_rule(lab: Lab) -> None:
     assert lab.check_signatories(" Ann ", "ann") == ("Ann", "ann")  # rule off: allowed
+    add_staff(lab.engine, ("ann", "Ann"), ("bob", "Bob"))  # the rule takes persons on record
     lab.set_setting("two_person_rule", "on")
     with pytest.raises(RecordsError, match=r"^approved by: the lab's two-person rule"):
         lab.check_signatories("Ann", " ANN")

@@ -15,7 +15,7 @@ from app.records.db.engine import open_engine
 from app.records.db.lab import Lab
 from app.records.db.models import AuditEntry
 from app.records.run_folder import inspect_run
-from tests.records_db import new_records
+from tests.records_db import add_staff, new_records
 
 RUN = ["run", "--sim", "--dut", "piezo", "--periods", "3", "--seed", "1"]
 
@@ -164,6 +164,7 @@ def test_a_certificate_through_the_records_takes_customer_sensor_and_number_from
     ]
     assert main([*base, "--certificate-number", "X-1"]) == 2
     assert "--certificate-number: the records' register numbers" in capsys.readouterr().err
+    add_staff(lab_url, ("atech", "A. Tech"), ("jsmith", "J. Smith"))  # persons on record
     Lab(open_engine(lab_url)).set_setting("two_person_rule", "on")
     assert main([*base, "--prepared-by", "j. smith"]) == 2
     assert "two-person rule" in capsys.readouterr().err
