@@ -271,7 +271,10 @@ def append(connection: Connection, *, actor: str, changes: list[Change]) -> list
         return []
     key = records_key.require_key()
     _lock(connection)
-    latest = head(connection)
+    table = ChainEntry.__table__
+    latest = connection.execute(
+        select(table.c.seq, table.c.hash).order_by(table.c.seq.desc()).limit(1)
+    ).first()
     seq, prev = (latest.seq, latest.hash) if latest else (0, GENESIS)
     at_utc = datetime.now(UTC).isoformat(timespec="microseconds")
     fingerprint = schema_fingerprint(connection)
@@ -293,9 +296,12 @@ def append(connection: Connection, *, actor: str, changes: list[Change]) -> list
         entries.append(entry)
         prev = entry.hash
     last = entries[-1]
-    entries[-1] = Entry(
-        **{**last.__dict__, "signature": key.sign_head(last.seq, last.hash), "key_id": key.key_id}
-    )
+    signed_before = connection.execute(
+        select(sql_func.max(table.c.seq)).where(table.c.signature.is_not(None))
+    ).scalar()
+    first = entries[0].seq if signed_before is not None else 1  # the first covers all before
+    signature = key.sign_head(first, last.seq, last.hash)
+    entries[-1] = Entry(**{**last.__dict__, "signature": signature, "key_id": key.key_id})
     _register_key(connection, key)
     connection.execute(insert(ChainEntry), [e.__dict__ for e in entries])
     database = records_key.database_id(database_identity(connection))

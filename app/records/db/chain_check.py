@@ -183,18 +183,24 @@ def _signature_problems(
     if trusted is None:
         return [Problem("records_key", "", _NOT_CONFIGURED)]
     problems: list[Problem] = []
+    signed_before = _signed_before(connection, entries[0].seq)
     for entry in entries:
         if entry.signature is None and entry.key_id is None:
             continue
         name = str(entry.seq)
+        first = 1 if signed_before is None else signed_before + 1
+        signed_before = entry.seq
         if entry.key_id != trusted.key_id:
             why = (
                 f"signed by key {str(entry.key_id)[:16]}..., not the configured records key "
                 f"{trusted.key_id[:16]}... ({trusted.source})"
             )
             problems.append(Problem(chain.CHAIN_TABLE, name, why))
-        elif not trusted.verifies(entry.seq, entry.hash, entry.signature):
-            why = "its head signature does not verify (entry forged or edited)"
+        elif not trusted.verifies(first, entry.seq, entry.hash, entry.signature):
+            why = (
+                f"its head signature (entries {first}..{entry.seq}) does not verify (an entry "
+                "forged, edited or slipped in unsigned before it)"
+            )
             problems.append(Problem(chain.CHAIN_TABLE, name, why))
     last_signed = max((e.seq for e in entries if e.signature), default=None)
     tail = [e for e in entries if last_signed is None or e.seq > last_signed]
@@ -206,6 +212,16 @@ def _signature_problems(
         )
         problems.append(Problem(chain.CHAIN_TABLE, str(last.seq), why))
     return problems
+
+
+def _signed_before(connection: Connection, seq: int) -> int | None:
+    """The newest signed entry before `seq` (None: none)."""
+    entries = ChainEntry.__table__
+    query = select(sql_func.max(entries.c.seq)).where(
+        entries.c.seq < seq, entries.c.signature.is_not(None)
+    )
+    found = connection.execute(query).scalar()
+    return None if found is None else int(found)
 
 
 def _high_water_problem(connection: Connection) -> list[Problem]:

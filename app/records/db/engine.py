@@ -156,6 +156,9 @@ def upgrade(engine: Engine, revision: str = "head") -> tuple[str | None, str | N
                 broken = connection.exec_driver_sql("PRAGMA foreign_key_check").all()
                 if broken:
                     raise DatabaseError(f"migration to {revision} broke foreign keys: {broken}")
+        if before is None:  # new records where others may have been: their last head is moot
+            identity = chain.database_identity(connection)
+            records_key.forget_signed(records_key.database_id(identity))
         chain.remember_head(connection)
         if sqlite and raw is not None:
             raw.execute("PRAGMA foreign_keys = ON")

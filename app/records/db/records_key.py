@@ -66,9 +66,12 @@ def key_id_of(public: Any) -> str:
     return hashlib.sha256(raw).hexdigest()
 
 
-def head_message(seq: int, head_hash: str) -> bytes:
-    """The bytes a head's signature covers: a fixed domain, the sequence number, the hash."""
-    return _DOMAIN + f"{seq}:{head_hash}".encode("ascii")
+def head_message(first: int, seq: int, head_hash: str) -> bytes:
+    """The bytes a head's signature covers: a fixed domain, the first sequence number of the
+    append it closes, its own, and its hash. `first` is one after the previous signed head
+    (1 for the first signature of a chain), so entries slipped in unsigned between two appends
+    make the later head's signature fail."""
+    return _DOMAIN + f"{first}..{seq}:{head_hash}".encode("ascii")
 
 
 @dataclass(frozen=True)
@@ -80,9 +83,9 @@ class RecordsKey:
     key_id: str
     public_hex: str
 
-    def sign_head(self, seq: int, head_hash: str) -> str:
-        """The hex Ed25519 signature of the head (seq, hash)."""
-        return str(self.private.sign(head_message(seq, head_hash)).hex())
+    def sign_head(self, first: int, seq: int, head_hash: str) -> str:
+        """The hex Ed25519 signature of the head (seq, hash) closing entries first..seq."""
+        return str(self.private.sign(head_message(first, seq, head_hash)).hex())
 
 
 def _password() -> bytes | None:
@@ -205,14 +208,16 @@ class TrustedKey:
     public: Any  # Ed25519PublicKey
     source: str
 
-    def verifies(self, seq: int, head_hash: str, signature_hex: str | None) -> bool:
-        """Whether `signature_hex` is this key's signature of the head (seq, hash)."""
+    def verifies(self, first: int, seq: int, head_hash: str, signature_hex: str | None) -> bool:
+        """Whether `signature_hex` is this key's signature of the head (seq, hash) closing
+        entries first..seq."""
         from cryptography.exceptions import InvalidSignature
 
         if not signature_hex:
             return False
         try:
-            self.public.verify(bytes.fromhex(signature_hex), head_message(seq, head_hash))
+            message = head_message(first, seq, head_hash)
+            self.public.verify(bytes.fromhex(signature_hex), message)
         except (InvalidSignature, ValueError):
             return False
         return True
@@ -275,3 +280,8 @@ def remember_signed(database: str, seq: int, head_hash: str) -> None:
         json.dumps({"seq": seq, "hash": head_hash}),
         overwrite=True,
     )
+
+
+def forget_signed(database: str) -> None:
+    """Drop what is kept for `database` (a new database made where an old one was)."""
+    (_heads_folder() / f"{database}.json").unlink(missing_ok=True)

@@ -29,6 +29,7 @@ from app.cli import main
 from app.records.db import chain, chain_check, chain_rules, records_key
 from app.records.db.chain_check import ChainBroken, quick_check, verify
 from app.records.db.engine import make_engine
+from app.records.db.lab import Lab
 from app.records.db.models import ChainEntry
 from tests.app.records.db.test_chain import _lab_day, _without_triggers
 
@@ -98,7 +99,7 @@ def forge(c: Connection, key: records_key.RecordsKey | None) -> None:
             {**fields, "prev_hash": before, "hash": prev, "signature": None, "key_id": None}
         )
     if key is not None:
-        rows[-1]["signature"] = key.sign_head(seq, prev)
+        rows[-1]["signature"] = key.sign_head(head.seq + 1, seq, prev)
         rows[-1]["key_id"] = key.key_id
         chain._register_key(c, key)
     c.execute(insert(ChainEntry), rows)
@@ -145,6 +146,12 @@ def revive_by_hand(scene: Scene, tmp_path: Path) -> None:
 def revive_signed_own_key(scene: Scene, tmp_path: Path) -> None:
     edit = REVIVE.format(number=scene.number)
     _drop_edit_forge(scene, "certificates", edit, _own_key(tmp_path))
+
+
+def revive_then_the_lab_writes(scene: Scene, tmp_path: Path) -> None:
+    """The entries computed by hand, then the lab's next write signs a head on top of them."""
+    revive_by_hand(scene, tmp_path)
+    Lab(scene.owner, actor="alice").add_customer("Next Customer Ltd")
 
 
 def revive_plainly(scene: Scene, tmp_path: Path) -> None:
@@ -305,6 +312,7 @@ class Attack:
 
 NOT_SIGNED = "are not covered by a signed head (appended without the records key"
 OTHER_KEY = "not the configured records key"
+SLIPPED_IN = "does not verify (an entry forged, edited or slipped in unsigned before it)"
 LAST_HEAD = "the head this workstation signed last"
 CUSTOMER_EDITED = "customers 1: changed outside the application (name)"
 FINAL, FROZEN, USERS = (
@@ -318,6 +326,7 @@ PG = ("postgresql",)
 ATTACKS = [
     Attack("revived withdrawal", FILE, revive_by_hand, REPORTED, NOT_SIGNED),
     Attack("revived withdrawal", FILE, revive_signed_own_key, REPORTED, OTHER_KEY),
+    Attack("revived withdrawal", FILE, revive_then_the_lab_writes, REPORTED, SLIPPED_IN),
     Attack("revived withdrawal", APP, revive_plainly, REFUSED, FINAL),
     Attack("revived withdrawal", ADMIN, revive_plainly, REFUSED, FINAL),
     Attack("edited issued certificate", FILE, edit_issued_by_hand, REPORTED, OTHER_KEY),

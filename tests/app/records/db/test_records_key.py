@@ -13,7 +13,7 @@ import pytest
 from sqlalchemy import text
 
 from app.cli import main
-from app.records.db import records_key
+from app.records.db import chain_check, records_key
 from app.records.db.engine import make_engine, resolve_url
 
 
@@ -56,7 +56,13 @@ def test_upgrade_makes_the_key_outside_the_database_and_every_head_is_signed(
         keys = c.execute(text("SELECT key_id, public_key FROM records_keys")).all()
     engine.dispose()
     assert head is not None and head.key_id == key.key_id
-    assert records_key.trusted_key().verifies(head.seq, head.hash, head.signature)  # type: ignore[union-attr]
+    trusted = records_key.trusted_key()
+    assert trusted is not None
+    with engine.connect() as c:
+        first = (chain_check._signed_before(c, head.seq) or 0) + 1
+    assert first == head.seq  # one entry in that append
+    assert trusted.verifies(first, head.seq, head.hash, head.signature)
+    assert not trusted.verifies(first - 1, head.seq, head.hash, head.signature)
     assert keys == [(key.key_id, key.public_hex)]
     assert _run(capsys, "db", "verify", "--db", url)[0] == 0
 
