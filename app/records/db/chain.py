@@ -269,7 +269,8 @@ def append(connection: Connection, *, actor: str, changes: list[Change]) -> list
     once the transaction commits."""
     if not changes:
         return []
-    key = records_key.require_key()
+    signed = _signatures_present(connection)  # False only while migrating to before 0011
+    key = records_key.require_key() if signed else None
     _lock(connection)
     table = ChainEntry.__table__
     latest = connection.execute(
@@ -295,6 +296,12 @@ def append(connection: Connection, *, actor: str, changes: list[Change]) -> list
         entry = Entry(**fields, prev_hash=prev, hash=entry_hash(prev, **fields))
         entries.append(entry)
         prev = entry.hash
+    if key is None:
+        connection.execute(
+            insert(ChainEntry),
+            [{k: v for k, v in e.__dict__.items() if k not in SIGNED_COLUMNS} for e in entries],
+        )
+        return entries
     last = entries[-1]
     signed_before = connection.execute(
         select(sql_func.max(table.c.seq)).where(table.c.signature.is_not(None))
@@ -378,6 +385,15 @@ def current_actor() -> str:
 
 
 _PRESENT: dict[str, bool] = {}
+_SIGNED: dict[str, bool] = {}
+
+
+def _signatures_present(connection: Connection) -> bool:
+    """Whether this engine's chain has the signature columns (cached per URL once true)."""
+    url = connection.engine.url.render_as_string(hide_password=True)
+    if not _SIGNED.get(url):
+        _SIGNED[url] = has_signatures(connection)
+    return _SIGNED[url]
 
 
 def _chain_present(connection: Connection) -> bool:

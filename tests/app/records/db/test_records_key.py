@@ -120,3 +120,28 @@ def test_db_verify_trusts_the_configured_public_key_not_the_records(
     monkeypatch.setenv(records_key.PUBLIC_ENV, str(tmp_path / "none.pub"))
     code, _, err = _run(capsys, "db", "verify", "--db", url)
     assert code == 2 and f"{tmp_path / 'none.pub'}: no such file" in err
+
+
+def test_records_chained_before_0011_are_signed_by_the_upgrade(
+    tmp_path: Path, own_key: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A lab at revision 0010 (its chain unsigned, its fingerprint the schema cookie) upgrades:
+    the first signed head covers the whole chain before it, and db verify holds."""
+    from app.records.db.engine import upgrade
+    from app.records.db.lab import Lab
+
+    url = resolve_url(f"sqlite:///{tmp_path / 'lab.sqlite'}")
+    engine = make_engine(url)
+    upgrade(engine, "0010")
+    Lab(engine, actor="alice").add_customer("ACME Ltd")  # chained unsigned, as 0010 did
+    with engine.connect() as c:
+        assert c.execute(text("SELECT count(*) FROM records_chain")).scalar() > 1
+    assert upgrade(engine) == ("0010", "0011")
+    with engine.connect() as c:
+        signed = c.execute(text("SELECT seq FROM records_chain WHERE signature IS NOT NULL"))
+        last = c.execute(text("SELECT max(seq) FROM records_chain")).scalar()
+    assert list(signed.scalars()) == [last]
+    engine.dispose()
+    assert _run(capsys, "db", "verify", "--db", url)[0] == 0
+    assert _run(capsys, "customers", "add", "Other GmbH", "--db", url)[0] == 0
+    assert _run(capsys, "db", "verify", "--db", url)[0] == 0
