@@ -205,12 +205,13 @@ def _signature_problems(
     last_signed = max((e.seq for e in entries if e.signature), default=None)
     tail = [e for e in entries if last_signed is None or e.seq > last_signed]
     if tail:
-        first, last = tail[0], tail[-1]
+        oldest, newest = tail[0], tail[-1]
         why = (
-            f"entries {first.seq}..{last.seq} are not covered by a signed head (appended "
-            f"without the records key; first: {first.action} {first.table_name} {first.row_key})"
+            f"entries {oldest.seq}..{newest.seq} are not covered by a signed head (appended "
+            f"without the records key; first: {oldest.action} {oldest.table_name} "
+            f"{oldest.row_key})"
         )
-        problems.append(Problem(chain.CHAIN_TABLE, str(last.seq), why))
+        problems.append(Problem(chain.CHAIN_TABLE, str(newest.seq), why))
     return problems
 
 
