@@ -9,6 +9,7 @@ for explicitly.
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import tempfile
 from collections.abc import Callable, Iterator
@@ -29,6 +30,40 @@ def data_dir() -> Path:
     from platformdirs import user_data_dir
 
     return Path(user_data_dir("accelcal", appauthor=False))
+
+
+# a write the disk refused: no space, the file-size limit, the user's quota
+DISK_FULL_ERRNOS = frozenset({errno.ENOSPC, errno.EFBIG, errno.EDQUOT})
+
+
+def is_disk_full(exc: BaseException) -> bool:
+    """Whether `exc` (or what caused it) is a write the disk refused: ENOSPC, EFBIG, EDQUOT
+    from the OS, quoted by HDF5 ("errno = 28"), or SQLite's "database or disk is full"."""
+    seen: set[int] = set()
+    current: BaseException | None = exc
+    while current is not None and id(current) not in seen:
+        seen.add(id(current))
+        if isinstance(current, OSError) and current.errno in DISK_FULL_ERRNOS:
+            return True
+        text = str(current)
+        if "database or disk is full" in text or any(
+            f"errno = {code}," in text for code in DISK_FULL_ERRNOS
+        ):
+            return True
+        current = current.__cause__ or current.__context__
+    return False
+
+
+def disk_full_reason(exc: BaseException) -> str:
+    """The path and reason of a refused write, e.g. '/runs/x/.certificate.pdf.tmp: File too
+    large' (the path when the error names one)."""
+    current: BaseException | None = exc
+    while current is not None:
+        if isinstance(current, OSError) and current.errno in DISK_FULL_ERRNOS:
+            where = f"{current.filename}: " if current.filename else ""
+            return f"{where}{current.strerror or os.strerror(current.errno or 0)}"
+        current = current.__cause__ or current.__context__
+    return str(exc)
 
 
 class FileExistsRefusal(FileExistsError, Refusal):

@@ -34,15 +34,20 @@ is reachable for the piezo plan (only in its best basin) but not for the capacit
 from __future__ import annotations
 
 import inspect
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
 __all__ = [
     "ALGORITHM_VERSION",
     "DEFAULT_MAX_EVALUATIONS",
+    "MAX_WORK_SAMPLES",
+    "OPTIMISER_BYTES_PER_SAMPLE",
+    "PEAK_GRID_MAX",
     "crest_factor",
+    "evaluation_cap",
     "optimise_phases",
+    "peak_grid_samples",
     "random_phases",
     "schroeder_phases",
     "synthesize",
@@ -52,8 +57,9 @@ TWO_PI = 2.0 * np.pi
 
 #: Changes whenever optimise_phases may return other phases for the same arguments (a stored
 #: result, e.g. app.procedure.phases, is keyed by it). 1: CPU-time safety cap; 2: counts only,
-#: amplitudes normalised to their maximum first.
-ALGORITHM_VERSION = 2
+#: amplitudes normalised to their maximum first; 3: the evaluations bounded by the period too
+#: (MAX_WORK_SAMPLES; the same phases as 2 for periods up to 24000 samples).
+ALGORITHM_VERSION = 3
 
 # Work schedule of optimise_phases. Every stage is bounded by counts (starts, norms, L-BFGS
 # iterations, objective evaluations), so the result depends only on the inputs and the seed,
@@ -72,6 +78,41 @@ _SCREEN_SHARE = 0.7  # share of max_evaluations after which no further start is 
 #: phases so far are returned. The seed plans need 2100-4500 (bench/crest_factor.py); the cap
 #: only bounds the work for plans far off that (about 1 ms each for N = 12000).
 DEFAULT_MAX_EVALUATIONS = 20_000
+#: Objective evaluations x period samples the optimisation may spend (issue 33): the cap of
+#: the capacitive seed plan (N = 24000). A longer period gets proportionally fewer evaluations
+#: (`evaluation_cap`), so the work is about 4.8e8 sample-evaluations, 20-25 s of CPU at the
+#: 40-47 ns per sample-evaluation measured for N = 12000 to 2 000 000, whatever the period.
+MAX_WORK_SAMPLES = DEFAULT_MAX_EVALUATIONS * 24_000
+#: Bytes of memory the optimisation needs per period sample (its work buffers and the FFT's;
+#: an upper estimate): app.procedure.capacity refuses a plan the machine cannot hold.
+OPTIMISER_BYTES_PER_SAMPLE = 96
+
+
+def evaluation_cap(period_samples: int, max_evaluations: int = DEFAULT_MAX_EVALUATIONS) -> int:
+    """The objective evaluations `optimise_phases` makes at most for a period of
+    `period_samples`: `max_evaluations`, fewer for a period over MAX_WORK_SAMPLES /
+    max_evaluations (at least 2: Schroeder's phases are then kept unless one step helps)."""
+    return max(2, min(int(max_evaluations), MAX_WORK_SAMPLES // max(int(period_samples), 1)))
+
+
+# Predicted peaks are taken on at most this many points a period, or 16 per period of the
+# highest line when more (issue 33: a 2^24-sample period oversampled 8x took 4.3 GB and
+# minutes per waveform)
+PEAK_GRID_MAX = 2**23
+
+
+def peak_grid_samples(
+    period_samples: int, bins: Sequence[int] | np.ndarray, oversampling: int = 8
+) -> int:
+    """Points per period of the grid predicted peaks are taken on: `oversampling` times
+    the period (dsp.multisine.PEAK_OVERSAMPLING), or for a long period `PEAK_GRID_MAX` (at
+    least 16 per period of the highest line): the same continuous waveform, sampled finely
+    enough to see its peaks."""
+    n = int(period_samples) * oversampling
+    if n <= PEAK_GRID_MAX:
+        return n
+    top = int(np.max(np.asarray(bins))) if len(bins) else 1
+    return min(n, max(PEAK_GRID_MAX, 16 * top))
 
 
 def crest_factor(x: np.ndarray) -> float:
@@ -167,11 +208,12 @@ def optimise_phases(
     The clipping algorithm (Van der Ouderaa et al. 1988) is not used: see the module notes.
 
     The work is bounded by counts only (starts, norms, L-BFGS iterations and
-    `max_evaluations` objective evaluations; past 70 % of these no further start is screened,
-    past all of them the best phases so far are returned); no clock is read. The result is
-    therefore a function of the arguments alone: the same on every call, at any machine load
-    and speed (given the same numpy floating-point kernels). The seed plans stop on their own
-    well before the default evaluation cap.
+    `max_evaluations` objective evaluations, fewer for a long period: `evaluation_cap`, so
+    that evaluations x N stay within MAX_WORK_SAMPLES; past 70 % of these no further start
+    is screened, past all of them the best phases so far are returned); no clock is read.
+    The result is therefore a function of the arguments alone: the same on every call, at any
+    machine load and speed (given the same numpy floating-point kernels). The seed plans stop
+    on their own well before the default evaluation cap.
 
     Measured on the development machine (2-core AMD EPYC VM, docs/benchmarks.md): 0.5-0.9 s
     of CPU for the piezo plan (crest factor 2.486), 0.55-0.85 s for the capacitive plan
@@ -193,10 +235,12 @@ def optimise_phases(
         return np.zeros(1)
 
     a = a / np.max(a)  # only the ratios matter: the same phases at any level
+    max_evaluations = evaluation_cap(n, int(max_evaluations))
     rng = np.random.default_rng(seed)
     n_starts = min(max(_SCREEN_SAMPLES // n, _MIN_STARTS), _MAX_STARTS)
     starts = [schroeder_phases(a)] + [random_phases(m.size, rng) for _ in range(n_starts - 1)]
-    problem = _LpProblem(m, a, n, max_evaluations=int(_SCREEN_SHARE * max_evaluations))
+    screening = max(1, int(_SCREEN_SHARE * max_evaluations))
+    problem = _LpProblem(m, a, n, max_evaluations=screening)
     problem.evaluate(starts[0])  # never worse than Schroeder's phases
 
     screened: list[tuple[float, np.ndarray]] = []

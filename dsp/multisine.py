@@ -20,12 +20,15 @@ from typing import Any, Protocol
 import numpy as np
 
 from dsp import crestfactor, iso266
+from dsp.crestfactor import peak_grid_samples
 from dsp.errors import InputRefused
 from dsp.mains import mains_harmonic_of_bin, mains_shifted_bins
 
 MAX_FREQUENCY_FRACTION = 0.45  # of fs: multiplexed boards have no anti-alias filter (SPEC s.3)
 HARMONICS_CHECKED = (2, 3, 4, 5)  # SPEC s.3: 2nd..5th harmonic of a line
 PEAK_OVERSAMPLING = 8  # predicted peaks are taken on an 8x oversampled waveform
+
+
 PLAN_FORMAT_VERSION = 1
 
 
@@ -166,7 +169,7 @@ class Plan:
         amplitudes = self.amplitudes_ms2 / omega**integrations
         phases = self.phases_rad - integrations * np.pi / 2
         return crestfactor.synthesize(
-            self.bins, amplitudes, phases, self.period_samples * PEAK_OVERSAMPLING
+            self.bins, amplitudes, phases, peak_grid_samples(self.period_samples, self.bins)
         )
 
     def with_amplitudes(self, amplitudes_ms2: Sequence[float] | float) -> Plan:

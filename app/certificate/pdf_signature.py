@@ -21,6 +21,7 @@ _BYTE_RANGE = re.compile(
 )
 _HEX_STRING = re.compile(rb"<([0-9A-Fa-f\s]*)>")
 _CONTENTS_KEY = re.compile(rb"/Contents\s*\Z")
+_CANONICAL_HEX = re.compile(rb"<([0-9A-F]*)>")  # as the signer writes it: upper case, no space
 _OBJECT_HEADER = re.compile(rb"(?<![0-9])(\d{1,10})\s+(\d{1,5})\s+obj\b")
 
 
@@ -84,6 +85,17 @@ class SignedLayout:
                 "/Contents of the document's signature field"
             )
 
+    def check_contents(self, data: bytes) -> None:
+        """SignatureStructureError unless the last signature's gap in `data` is exactly the
+        hex string the signer writes: its CMS structure, then zero padding (issue 33)."""
+        last = self.last
+        problem = contents_problem(data[last.length1 : last.start2])
+        if problem is not None:
+            raise SignatureStructureError(
+                f"the signature's /Contents (bytes {last.length1}-{last.start2}) is not exactly "
+                f"its CMS structure followed by zero padding: {problem}"
+            )
+
 
 def byte_ranges(data: bytes) -> list[ByteRange]:
     """Every /ByteRange array in `data` with the /Contents hex string in its gap, by position.
@@ -139,6 +151,45 @@ def check_layout(data: bytes) -> SignedLayout:
         raise SignatureStructureError("the /ByteRange lies in the unsigned gap")
     earlier = tuple(_earlier(data, r) for r in ranges if r is not last)
     return SignedLayout(last, earlier)
+
+
+def contents_problem(gap: bytes) -> str | None:
+    """Why the unsigned gap `<...>` is not exactly the hex string the signer writes (upper-case
+    digits, no white space) of one DER structure (a definite-length SEQUENCE: the CMS
+    ContentInfo) followed by zero bytes only; None when it is. Nothing in the gap is signed, so
+    any other byte there could be changed and the PDF would still verify."""
+    match = _CANONICAL_HEX.fullmatch(gap)
+    if match is None:
+        return "its hex string holds white space, lower-case digits or other bytes"
+    digits = match.group(1)
+    if len(digits) % 2:
+        return "an odd number of hex digits"
+    contents = bytes.fromhex(digits.decode("ascii"))
+    end = der_end(contents)
+    if end is None:
+        return "it does not start with one definite-length DER structure"
+    tail = contents[end:]
+    if tail.strip(b"\0"):
+        first = end + next(i for i, b in enumerate(tail) if b)
+        return f"{sum(1 for b in tail if b)} padding byte(s) are not zero (first at byte {first})"
+    return None
+
+
+def der_end(data: bytes) -> int | None:
+    """Where the DER SEQUENCE at the start of `data` ends (its header and content), or None
+    when `data` does not start with one of definite length that fits."""
+    if len(data) < 2 or data[0] != 0x30:
+        return None
+    first = data[1]
+    if first < 0x80:
+        header, length = 2, first
+    else:
+        count = first & 0x7F
+        if count == 0 or count > 4 or len(data) < 2 + count:
+            return None  # 0x80: indefinite length (BER, not DER)
+        header, length = 2 + count, int.from_bytes(data[2 : 2 + count], "big")
+    end = header + length
+    return end if end <= len(data) else None
 
 
 def _earlier(data: bytes, signed: ByteRange) -> EarlierSignature:

@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from app.certificate.info import CertificateError, CertificateInfo
+from app.files import disk_full_reason, is_disk_full
 from app.records.register import Issued
 from app.records.run_folder import is_product_name
 
@@ -217,8 +218,7 @@ def _signer(key: Path | None) -> Any:
 def issue_certificate(request: IssueRequest) -> IssueOutcome:
     """Issue the certificate `request` asks for (see the module's docstring); nothing is
     written when it is refused."""
-    from app.certificate.issuing import dcc_path, issue
-    from app.certificate.register_issue import issue_registered
+    from app.certificate.issuing import dcc_path
 
     url = records_in_use(request)
     run = Path(request.run)
@@ -238,6 +238,61 @@ def issue_certificate(request: IssueRequest) -> IssueOutcome:
         authorised_function=" ".join(info.authorised_function.split()),
         validation=validation.claim,
     )
+    try:
+        issued, register = _issue(request, run, info, out, url, signer)
+    except Exception as exc:
+        if not is_disk_full(exc):
+            raise
+        raise CertificateError(_disk_full(out, url, exc)) from None
+    dcc = dcc_path(out)
+    log.info("certificate %s of %s issued (%s register): %s", issued.number, run.name,
+             register, out)  # fmt: skip
+    notes = (people.note, validation.summary())
+    return IssueOutcome(
+        issued, out, dcc if dcc.exists() else None, register, info.prepared_by, notes
+    )
+
+
+def _disk_full(out: Path, url: str | None, exc: BaseException) -> str:
+    """What a full disk left of an issue (issue 33 point 6): the path that could not be
+    written and what was kept, from the files themselves (the transaction's steps:
+    app.certificate.issuing)."""
+    from app.certificate.issuing import dcc_path
+    from app.certificate.leftovers import staging_path
+
+    register = "records database" if url is not None else "run folder's register"
+    staged = [p for p in (staging_path(out), staging_path(dcc_path(out))) if p.exists()]
+    outcome = "not issued"
+    if staged:
+        outcome = "numbered and entered, not yet in place"
+        kept = (
+            f"the certificate is entered in the {register} and its files are staged "
+            f"({', '.join(p.name for p in staged)}); the next issue or `accelcal db verify` "
+            "puts them in place"
+        )
+    else:
+        kept = (
+            f"nothing of it was written ({out.name} and its staged files absent), the "
+            f"{register} and the run folder are as they were"
+        )
+    return (
+        f"disk full: {disk_full_reason(exc)}: certificate {out} {outcome}; kept: {kept}; "
+        "free some space, then issue it again"
+    )
+
+
+def _issue(
+    request: IssueRequest,
+    run: Path,
+    info: CertificateInfo,
+    out: Path,
+    url: str | None,
+    signer: Any,
+) -> tuple[Issued, RegisterKind]:
+    """The issue through the run folder's register or the records (`issue_certificate`)."""
+    from app.certificate.issuing import issue
+    from app.certificate.register_issue import issue_registered
+
     if url is None:
         if request.replaces or request.reason or request.as_found:
             raise CertificateError(
@@ -260,10 +315,4 @@ def issue_certificate(request: IssueRequest) -> IssueOutcome:
             signer=signer,
         )
         register = RegisterKind.RECORDS
-    dcc = dcc_path(out)
-    log.info("certificate %s of %s issued (%s register): %s", issued.number, run.name,
-             register, out)  # fmt: skip
-    notes = (people.note, validation.summary())
-    return IssueOutcome(
-        issued, out, dcc if dcc.exists() else None, register, info.prepared_by, notes
-    )
+    return issued, register

@@ -170,6 +170,7 @@ def _check_signature(data: bytes, roots: list[Any] | None, report: Verification)
     sig = max(signatures, key=lambda s: _end(s.byte_range))
     try:
         layout.check_is([int(v) for v in sig.byte_range], sig.pkcs7_content)
+        layout.check_contents(data)
     except (SignatureStructureError, TypeError, ValueError) as exc:
         report.add(name, False, str(exc))
         return False

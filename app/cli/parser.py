@@ -38,7 +38,13 @@ from app.cli.records import Handler
 from app.cli.records import add_commands as add_records_commands
 from app.io.quantities import PERCENT_RULE
 from app.procedure.modes import MODE_MULTISINE
-from app.procedure.options import EXACT_MAINS_HELP, RESONANCE_HELP, OptionSpec, option
+from app.procedure.options import (
+    CAPACITY_NOTE,
+    EXACT_MAINS_HELP,
+    RESONANCE_HELP,
+    OptionSpec,
+    option,
+)
 from app.stand.simulated import EXCITERS, FAULT_KINDS
 from dsp.estimators import DEFAULT_ESTIMATOR, ESTIMATORS
 from dsp.multisine import PRESETS
@@ -96,8 +102,8 @@ SIM_HUM_HELP = (
 def _add_plan_options(p: argparse.ArgumentParser | argparse._ArgumentGroup) -> None:
     p.add_argument("--preset", choices=sorted(PRESETS), help="named plan (default piezo)")
     p.add_argument("--frequencies", help="line list in Hz, e.g. 10,12.5,...,2500 (ISO 266 fill)")
-    numeric_option(p, "--sample-rate", SAMPLE_RATE, "sample rate in Hz")
-    numeric_option(p, "--period", PERIOD, "period length in samples")
+    numeric_option(p, "--sample-rate", SAMPLE_RATE, f"sample rate in Hz ({CAPACITY_NOTE})")
+    numeric_option(p, "--period", PERIOD, f"period length in samples ({CAPACITY_NOTE})")
     numeric_option(p, "--level", LEVEL, "target peak acceleration per line, e.g. 5 or 0.5g")
     numeric_option(p, "--reference-frequency", FREQUENCY, "reference frequency in Hz")
     numeric_option(p, "--mains", MAINS, "mains frequency in Hz (50)", default=None)
@@ -109,8 +115,8 @@ def _add_range_options(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("range (issue 26): lines, rate, period, profile, exciter")
     if p.prog.endswith(" run"):  # plan has these among its plan options
         g.add_argument("--frequencies", help="line list in Hz, e.g. 0.4,...,8 (ISO 266 fill)")
-        numeric_option(g, "--sample-rate", SAMPLE_RATE, "sample rate in Hz")
-        numeric_option(g, "--period", PERIOD, "period in samples (default: the shortest that fits)")
+        numeric_option(g, "--sample-rate", SAMPLE_RATE, f"sample rate in Hz ({CAPACITY_NOTE})")
+        numeric_option(g, "--period", PERIOD, f"period in samples ({CAPACITY_NOTE})")
         numeric_option(g, "--reference-frequency", FREQUENCY, "reference frequency in Hz")
     g.add_argument(
         "--profile",

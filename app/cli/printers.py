@@ -12,6 +12,7 @@ import sys
 from typing import TYPE_CHECKING, Any
 
 from app import formatting as fmt
+from app.io.csv_cells import csv_text
 from app.io.vocabulary import RunStatus
 
 if TYPE_CHECKING:
@@ -25,11 +26,7 @@ if TYPE_CHECKING:
 def csv_with_status(text: str, status: str) -> str:
     """Per-line results CSV with a last column: the status of the recording analysed."""
     rows = list(csv.reader(io.StringIO(text)))
-    out = io.StringIO()
-    writer = csv.writer(out, lineterminator="\n")
-    writer.writerow([*rows[0], "recording_status"])
-    writer.writerows([*row, status] for row in rows[1:])
-    return out.getvalue()
+    return csv_text([[*rows[0], "recording_status"], *([*row, status] for row in rows[1:])])
 
 
 def print_results(results: Results, source: str = "", status: str | None = None) -> None:

@@ -31,6 +31,7 @@ from app.gui.run_tab import RunTab
 from app.gui.runs_tab import RunsTab
 from app.gui.sensors_tab import SensorsTab
 from app.gui.setup_tab import SetupTab, WindowOptions
+from app.io.csv_cells import neutralised
 from app.io.vocabulary import RunStatus
 from app.procedure import Finished
 from app.procedure.reference import ReferenceRefusal
@@ -260,7 +261,7 @@ class MainWindow(QMainWindow):
         if results is None or record is None:
             return None
         target = self.options.out / f"{record.run_id}-results"
-        target.with_suffix(".csv").write_text(results.to_csv(), encoding="utf-8")
+        target.with_suffix(".csv").write_text(neutralised(results.to_csv()), encoding="utf-8")
         target.with_suffix(".json").write_text(
             json.dumps(results.to_dict(), indent=2), encoding="utf-8"
         )

@@ -41,18 +41,14 @@ from typing import Any
 import h5py
 import numpy as np
 
-from app.errors import Refusal
-from app.io.checks import (
-    MAX_HDF5_BYTES,
-    InputFileError,
-    check_dataset_size,
-    check_input_file,
-)
+from app.io import hdf5_fields as fields
+from app.io.checks import MAX_HDF5_BYTES, InputFileError, check_input_file
+from app.io.hdf5_fields import RecordingError
 from app.io.vocabulary import Mode, RunStatus
 from app.version import software_version
 from dsp.calibration import ReferenceChain
 from dsp.cmc import Cmc
-from dsp.multisine import Plan, PlanError
+from dsp.multisine import Plan
 from dsp.uncertainty import Budget
 
 FORMAT_NAME = "accelcal-recording"
@@ -106,10 +102,6 @@ def free_bytes(path: Path) -> float:
             size = 0
         room = min(room, float(soft - size))
     return room
-
-
-class RecordingError(Refusal):
-    """A recording that cannot be analysed; the message names the file and the problem."""
 
 
 @dataclass(frozen=True)
@@ -342,7 +334,8 @@ def write_recording(path: str | Path, recording: Recording) -> None:
 
 
 def read_recording(path: str | Path) -> Recording:
-    """Read and validate an HDF5 recording of this program."""
+    """Read and validate an HDF5 recording of this program; RecordingError names the file and
+    the dataset or attribute that is not what this program writes (app.io.hdf5_fields)."""
     path = Path(path)
     name = path.name
     try:
@@ -356,95 +349,64 @@ def read_recording(path: str | Path) -> Recording:
     except OSError as exc:
         raise RecordingError(f"{name}: not a readable HDF5 file ({exc})") from None
     with handle as f:
-        if f.attrs.get("format") != FORMAT_NAME:
-            raise RecordingError(f"{name}: not an {FORMAT_NAME} file (attribute 'format')")
-        if f.attrs.get("mode", Mode.MULTISINE) == Mode.STEPPED_SINE:
-            raise RecordingError(
-                f"{name}: a stepped-sine recording (blocks of different lengths per line); its "
-                "results are in the run's results.json, re-analysis is for multisine recordings"
-            )
-        version = int(f.attrs.get("format_version", -1))
-        if version > FORMAT_VERSION:
-            raise RecordingError(
-                f"{name}: format_version {version} is newer than this program's {FORMAT_VERSION}"
-            )
-        attrs = {}
-        for key in ("sample_rate_hz", "period_samples"):
-            if key not in f.attrs:
-                raise RecordingError(f"{name}: missing attribute '{key}'")
-            attrs[key] = f.attrs[key]
-        config = f.get("config")
-        if config is None:
-            raise RecordingError(f"{name}: missing group /config")
-        parsed = {}
-        for key in ("plan", "reference_chain", "budget"):
-            if key not in config.attrs:
+        head = fields.read_head(f, name, FORMAT_NAME, FORMAT_VERSION)
+        config = fields.group(f, "config", name)
+        assert config is not None
+        where = f"{name}: /config attribute"
+        plan = fields.json_attr(config.attrs, "plan", where, fields.plan_from)
+        chain = fields.json_attr(config.attrs, "reference_chain", where, fields.chain_from)
+        budget = fields.json_attr(config.attrs, "budget", where, Budget.from_list)
+        cmc = fields.json_attr(config.attrs, "cmc", where, Cmc.from_list)
+        for key, value in (("plan", plan), ("reference_chain", chain), ("budget", budget)):
+            if value is None:
                 raise RecordingError(f"{name}: missing /config attribute '{key}'")
-            try:
-                parsed[key] = json.loads(config.attrs[key])
-            except json.JSONDecodeError as exc:
-                raise RecordingError(f"{name}: /config '{key}' is not valid JSON ({exc})") from None
-        for key in ("cmc", "resolution_warnings"):  # optional
-            if key in config.attrs:
-                try:
-                    parsed[key] = json.loads(config.attrs[key])
-                except json.JSONDecodeError as exc:
-                    raise RecordingError(
-                        f"{name}: /config '{key}' is not valid JSON ({exc})"
-                    ) from None
+        assert plan is not None and chain is not None and budget is not None
+        resolution_warnings = fields.json_attr(
+            config.attrs, "resolution_warnings", where, _text_list
+        )
+        fields.group(f, "signals", name)
         signals: dict[str, np.ndarray] = {}
         ranges: dict[str, float] = {}
         for channel in (*CHANNELS, "drive"):
-            ds = f.get(f"signals/{channel}")
+            label = f"{name}: /signals/{channel}"
+            ds = fields.float_dataset(f, f"signals/{channel}", name, optional=channel == "drive")
             if ds is None:
-                if channel == "drive":
-                    continue
-                raise RecordingError(f"{name}: missing dataset /signals/{channel}")
-            if not isinstance(ds, h5py.Dataset) or ds.ndim != 1:
-                raise RecordingError(f"{name}: /signals/{channel} must be a 1-D dataset")
-            _check_float_dataset(ds, f"{name}: /signals/{channel}")
+                continue
+            unit = fields.text_attr(ds.attrs, "unit", f"{label} attribute")
+            if unit not in (None, "V"):
+                raise RecordingError(f"{label} attribute 'unit': {unit!r}, expected 'V' (volts)")
             signals[channel] = np.asarray(ds[()], dtype=float)
-            ranges[channel] = float(ds.attrs.get("range_v", 0.0))
-        settle = int(f.attrs.get("settle_periods", 0))
-        acquired = int(f.attrs["acquired_periods"]) if "acquired_periods" in f.attrs else None
+            stored_range = fields.number_attr(
+                ds.attrs, "range_v", f"{label} attribute", low=0.0, high=1e6
+            )
+            ranges[channel] = stored_range or 0.0
         status = recording_status(f.attrs.get("status"))
         truth = _read_truth(f, name)
-    try:
-        plan = Plan.from_dict(parsed["plan"])
-    except PlanError as exc:
-        raise RecordingError(f"{name}: {exc}") from None
-    try:
-        chain = ReferenceChain.from_dict(parsed["reference_chain"])
-        budget = Budget.from_list(parsed["budget"])
-        cmc = Cmc.from_list(parsed["cmc"]) if "cmc" in parsed else None
-        resolution_warnings = _text_list(parsed.get("resolution_warnings", []))
-    except ValueError as exc:
-        raise RecordingError(f"{name}: {exc}") from None
-    if plan.sample_rate_hz != float(attrs["sample_rate_hz"]) or plan.period_samples != int(
-        attrs["period_samples"]
-    ):
+    if plan.sample_rate_hz != head.sample_rate_hz or plan.period_samples != head.period_samples:
         raise RecordingError(
-            f"{name}: the stored plan disagrees with the file's sample rate/period"
+            f"{name}: attribute 'sample_rate_hz' {head.sample_rate_hz:g} Hz and "
+            f"'period_samples' {head.period_samples} disagree with /config attribute 'plan' "
+            f"({plan.sample_rate_hz:g} Hz, {plan.period_samples} samples)"
         )
     recording = Recording(
-        sample_rate_hz=float(attrs["sample_rate_hz"]),
-        period_samples=int(attrs["period_samples"]),
+        sample_rate_hz=head.sample_rate_hz,
+        period_samples=head.period_samples,
         reference_v=signals["reference"],
         dut_v=signals["dut"],
         drive_v=signals.get("drive"),
         plan=plan,
         chain=chain,
         budget=budget,
-        settle_periods=settle,
+        settle_periods=head.settle_periods,
         ranges_v=ranges,
         source=str(path),
         truth=truth,
-        resolution_warnings=resolution_warnings,
-        acquired_periods=acquired,
+        resolution_warnings=resolution_warnings or (),
+        acquired_periods=head.acquired_periods,
         status=status,
         cmc=cmc,
     )
-    validate(recording, name)
+    validate(recording, name, labels={c: f"/signals/{c}" for c in signals})
     return recording
 
 
@@ -453,7 +415,7 @@ def recording_status(mark: object) -> RunStatus:
     anything else (no mark: the run never finished) "incomplete"."""
     if isinstance(mark, bytes):
         mark = mark.decode("utf-8", "replace")
-    if mark in (RunStatus.COMPLETE, RunStatus.ABORTED):
+    if isinstance(mark, str) and mark in (RunStatus.COMPLETE, RunStatus.ABORTED):
         return RunStatus(str(mark))
     return RunStatus.INCOMPLETE
 
@@ -461,43 +423,42 @@ def recording_status(mark: object) -> RunStatus:
 def _text_list(value: object) -> tuple[str, ...]:
     """A JSON list of texts (ValueError naming what it is instead)."""
     if not isinstance(value, list) or not all(isinstance(t, str) for t in value):
-        raise ValueError(
-            f"/config 'resolution_warnings' must be a list of texts, got {value!r:.80}"
-        )
+        raise ValueError(f"'resolution_warnings' must be a list of texts, got {value!r:.80}")
     return tuple(value)
 
 
+TRUTH_DATASETS = ("frequency_hz", "sensitivity_mv_per_ms2", "phase_deg")
+
+
 def _read_truth(f: h5py.File, name: str) -> Truth | None:
-    group = f.get("truth")
+    """The simulated truth (/truth: three 1-D float datasets of one length, finite,
+    frequencies > 0), or None when the recording has none."""
+    group = fields.group(f, "truth", name, optional=True)
     if group is None:
         return None
-    values = {}
-    for key in ("frequency_hz", "sensitivity_mv_per_ms2", "phase_deg"):
-        ds = group.get(key)
-        if not isinstance(ds, h5py.Dataset):
-            raise RecordingError(f"{name}: /truth lacks dataset {key!r}")
-        _check_float_dataset(ds, f"{name}: /truth/{key}")
-        values[key] = np.asarray(ds[()], dtype=float)
-    attrs = {k: (v.item() if hasattr(v, "item") else v) for k, v in group.attrs.items()}
+    values: dict[str, np.ndarray] = {}
+    for key in TRUTH_DATASETS:
+        label = f"{name}: /truth/{key}"
+        ds = fields.float_dataset(f, f"truth/{key}", name)
+        assert ds is not None
+        data = np.asarray(ds[()], dtype=float)
+        if data.size == 0 or not np.all(np.isfinite(data)):
+            raise RecordingError(f"{label}: {data.size} values, expected one finite per line")
+        if key == "frequency_hz" and not np.all(data > 0):
+            raise RecordingError(f"{label}: frequencies must be > 0 Hz")
+        if values and data.size != next(iter(values.values())).size:
+            raise RecordingError(f"{label}: {data.size} values where /truth/frequency_hz has "
+                                 f"{values['frequency_hz'].size}")  # fmt: skip
+        values[key] = data
+    attrs = {k: _attr_value(v) for k, v in group.attrs.items()}
     return Truth(**values, attrs=attrs)
 
 
-def _check_float_dataset(ds: h5py.Dataset, where: str) -> None:
-    """Refuse a dataset that is not floating point (integers, strings, compound types: not
-    volts as this program writes them), larger than a recording may hold, or stored outside
-    the file (external raw files or a virtual dataset: they could name /etc/passwd or a FIFO),
-    before reading."""
-    if ds.external or ds.is_virtual:
-        raise RecordingError(
-            f"{where}: dataset stored outside the file (external or virtual storage); a "
-            "recording holds its samples itself"
-        )
-    if ds.dtype.kind != "f":
-        raise RecordingError(f"{where}: dataset of type {ds.dtype}, expected floating point")
-    try:
-        check_dataset_size(int(ds.size), where)
-    except InputFileError as exc:
-        raise RecordingError(str(exc)) from None
+def _attr_value(value: Any) -> Any:
+    """An attribute as a plain Python value (a scalar, text or a list)."""
+    if isinstance(value, np.ndarray):
+        return value.reshape(()).item() if value.size == 1 else value.tolist()
+    return value.item() if isinstance(value, np.generic) else value
 
 
 def merge_skew(
@@ -518,45 +479,54 @@ def merge_skew(
     return chain
 
 
-def validate(recording: Recording, name: str) -> None:
-    """Refuse a malformed recording with a message naming the channel and the problem."""
+def validate(recording: Recording, name: str, *, labels: dict[str, str] | None = None) -> None:
+    """Refuse a malformed recording with a message naming the channel and the problem;
+    `labels` name each channel's source (an HDF5 file's datasets: /signals/dut)."""
     n = recording.period_samples
     channels = {"reference": recording.reference_v, "dut": recording.dut_v}
     if recording.drive_v is not None:
         channels["drive"] = recording.drive_v
+    labels = labels or {}
+
+    def where(channel: str) -> str:
+        label = labels.get(channel)
+        return f"{label}: channel {channel}" if label else f"channel {channel}"
+
     lengths = {channel: x.size for channel, x in channels.items()}
     if len(set(lengths.values())) != 1:
-        detail = ", ".join(f"{c} {v}" for c, v in lengths.items())
+        detail = ", ".join(f"{labels.get(c, c)} {v}" for c, v in lengths.items())
         raise RecordingError(f"{name}: channels have different lengths ({detail} samples)")
     length = lengths["reference"]
     if length % n:
+        named = ", ".join(labels.get(c, c) for c in channels)
         raise RecordingError(
-            f"{name}: {length} samples is not a whole number of periods of {n} samples "
-            f"({length / n:.3f} periods)"
+            f"{name}: {named}: {length} samples is not a whole number of periods of {n} "
+            f"samples ({length / n:.3f} periods)"
         )
     for channel, x in channels.items():
         bad = np.flatnonzero(~np.isfinite(x))
         if bad.size:
             kind = "NaN" if np.isnan(x[bad[0]]) else "inf"
             raise RecordingError(
-                f"{name}: channel {channel}: {bad.size} non-finite sample(s), first {kind} at "
+                f"{name}: {where(channel)}: {bad.size} non-finite sample(s), first {kind} at "
                 f"sample {bad[0]}"
             )
         if channel == "drive":
             continue
         if np.ptp(x) == 0.0:
             raise RecordingError(
-                f"{name}: channel {channel}: flat at {x[0]:g} V: dead channel or not connected"
+                f"{name}: {where(channel)}: flat at {x[0]:g} V: dead channel or not connected"
             )
-        _check_range(x, recording.ranges_v.get(channel, 0.0), channel, name)
+        _check_range(x, recording.ranges_v.get(channel, 0.0), where(channel), name)
 
 
 def _check_range(x: np.ndarray, range_v: float, channel: str, name: str) -> None:
+    """`channel`: how the messages name it ("channel dut", "/signals/dut: channel dut")."""
     if range_v and math.isfinite(range_v) and range_v > 0:
         at_limit = np.flatnonzero(np.abs(x) >= OVERLOAD_FRACTION * range_v)
         if at_limit.size:
             raise RecordingError(
-                f"{name}: channel {channel}: {at_limit.size} sample(s) at the +-{range_v:g} V "
+                f"{name}: {channel}: {at_limit.size} sample(s) at the +-{range_v:g} V "
                 f"range limit, first at sample {at_limit[0]}: overload; lower the level or "
                 "raise the channel range"
             )
@@ -565,7 +535,7 @@ def _check_range(x: np.ndarray, range_v: float, channel: str, name: str) -> None
         run = _longest_run(x == extreme)
         if run >= FLAT_TOP_RUN:
             raise RecordingError(
-                f"{name}: channel {channel}: {run} consecutive samples at {extreme:g} V: "
+                f"{name}: {channel}: {run} consecutive samples at {extreme:g} V: "
                 "clipped at its range limit (overload); lower the level or raise the range"
             )
 

@@ -5,12 +5,12 @@ units of U and the verdicts that change, and a draft notice per customer (plain 
 
 from __future__ import annotations
 
-import csv
 import io
 from collections.abc import Sequence
 from dataclasses import dataclass
 from datetime import datetime
 
+from app.io.csv_cells import csv_text
 from app.procedure.impact import CorrectedTable, RunImpact
 
 CSV_HEADER = (
@@ -66,17 +66,16 @@ def _num(value: float | None, fmt: str = ".12g") -> str:
 
 
 def to_csv(report: ImpactReport) -> str:
-    """One row per affected run (CSV_HEADER); a run that could not be checked names why."""
-    out = io.StringIO()
-    writer = csv.writer(out, lineterminator="\n")
-    writer.writerow(CSV_HEADER)
+    """One row per affected run (CSV_HEADER); a run that could not be checked names why.
+    Names a spreadsheet would run as formulas are written as text (app.io.csv_cells)."""
+    rows: list[Sequence[object]] = [CSV_HEADER]
     for r in report.runs:
         ratio = (
             r.new_sensitivity / r.old_sensitivity
             if r.new_sensitivity is not None and r.old_sensitivity
             else None
         )
-        writer.writerow(
+        rows.append(
             [
                 r.task.run_id,
                 r.task.started_utc.isoformat(),
@@ -97,7 +96,7 @@ def to_csv(report: ImpactReport) -> str:
                 r.problem or "",
             ]
         )
-    return out.getvalue()
+    return csv_text(rows)
 
 
 def summary_lines(report: ImpactReport) -> list[str]:

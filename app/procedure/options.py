@@ -104,6 +104,10 @@ RESONANCE_HELP = (
 )
 
 
+# the sample rate and period are bounded by this machine as well (app.procedure.capacity)
+CAPACITY_NOTE = "refused before anything moves when this machine has not the memory for it"
+
+
 # The run options that are numbers, words or lists (flags stay as `accelcal run` always had them).
 RUN_OPTIONS: tuple[OptionSpec, ...] = (
     OptionSpec("dut", "--dut", "simulated DUT from the catalogue", choices=tuple(CATALOGUE)),
@@ -145,14 +149,14 @@ RUN_OPTIONS: tuple[OptionSpec, ...] = (
     OptionSpec(
         "sample_rate_hz",
         "--sample-rate",
-        "sample rate in Hz",
+        f"sample rate in Hz ({CAPACITY_NOTE})",
         unit="Hz",
         quantity=quantities.SAMPLE_RATE,
     ),
     OptionSpec(
         "period_samples",
         "--period",
-        "period in samples (default: the shortest that fits)",
+        f"period in samples (default: the shortest that fits; {CAPACITY_NOTE})",
         unit="samples",
         bounds=Bounds(4, 2**24, whole=True),
     ),
@@ -345,6 +349,7 @@ def parse_option(name: str, text: str) -> Any:
 
 
 __all__ = [
+    "CAPACITY_NOTE",
     "EXACT_MAINS_HELP",
     "OPTION_BY_NAME",
     "RESONANCE_HELP",

@@ -19,6 +19,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from app.procedure.capacity import check_capacity
 from app.procedure.phase_store import stored_phases
 from dsp import lpm
 from dsp.multisine import PRESETS, Plan, PlanError, make_plan
@@ -79,10 +80,13 @@ def build_plan(
     stroke_peak_to_peak_m: float | None = None,
     phases_rad: Sequence[float] | None = None,
     optimise: bool = True,
+    periods: int | None = None,
 ) -> Plan:
     """The checked plan (PlanError lists what is refused): lines and rate from the request or
     its preset, amplitudes from the profile clipped per line by `stroke_peak_to_peak_m`, and
-    the whole plan's predicted travel checked against that stroke before anything moves."""
+    the whole plan's predicted travel checked against that stroke before anything moves. A
+    plan (or a run of `periods` periods) this machine has not the memory for is refused
+    before anything is allocated (app.procedure.capacity)."""
     preset = PRESETS[request.preset]
     freqs = list(request.frequencies_hz or preset.nominal_frequencies_hz)
     fs = request.sample_rate_hz or preset.sample_rate_hz
@@ -92,6 +96,9 @@ def build_plan(
         period = preset.period_samples
     else:
         period = choose_period(freqs, fs, preset.period_samples)
+    if fs > 0 and period > 0 and freqs:
+        top_bin = round(max(freqs) * period / fs)
+        check_capacity(period, fs, periods=periods, top_bin=top_bin)
     level = request.level_ms2 if request.level_ms2 is not None else preset.level_ms2
     try:
         kind = Profile(request.profile)

@@ -18,8 +18,8 @@ import numpy as np
 
 from app.procedure.errors import PreflightError
 from app.procedure.ranging import RangePlan, plan_ranges
-from dsp.crestfactor import synthesize
-from dsp.multisine import PEAK_OVERSAMPLING, Plan, PredictedPeaks
+from dsp.crestfactor import peak_grid_samples, synthesize
+from dsp.multisine import Plan, PredictedPeaks
 from dsp.resolution import Converter
 
 if TYPE_CHECKING:
@@ -188,7 +188,7 @@ def predict_drive_peaks(
     if acceleration.shape != (len(plan.bins),) or not np.all(np.isfinite(acceleration)):
         raise PreflightError("predicted motion: the drive or the response is not finite")
     omega = 2 * np.pi * np.asarray(plan.frequencies_hz, float)
-    n = plan.period_samples * PEAK_OVERSAMPLING
+    n = peak_grid_samples(plan.period_samples, plan.bins)
 
     def wave(phasors: np.ndarray) -> np.ndarray:
         return synthesize(plan.bins, np.abs(phasors), np.angle(phasors) + np.pi / 2, n)

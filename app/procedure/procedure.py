@@ -32,6 +32,7 @@ from app.procedure.errors import (
     ProcedureError,
     RunNotRecordedError,
     advice,
+    refused_after,
 )
 from app.procedure.events import Event, Finished, InputRanges, Listener, State
 from app.procedure.identification import Identification
@@ -152,6 +153,9 @@ class Procedure:
             io.try_fade_out()
         except PreflightError as exc:
             status, reason = RunStatus.ABORTED, f"{REFUSED_BEFORE}{exc}"
+            if io.peak_played_v > 0.0:  # a check burst played: the reason says what
+                io.try_fade_out()
+                reason = f"{refused_after(io.peak_played_v, io.excited_s)}{exc}"
         except (ProcedureError, AnalysisError) as exc:
             status, reason = RunStatus.ABORTED, str(exc)
             io.try_fade_out()

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Any
 
 from app.io.vocabulary import Backend
 from app.procedure import Finished, Listener, Procedure
+from app.procedure.capacity import check_capacity
 from app.procedure.phase_store import stored_phases
 from app.procedure.planning import PlanRequest, build_plan
 from app.procedure.reference import reference_budget, table_phases
@@ -28,7 +29,7 @@ from app.stand.exciters import with_exciter_budget
 from app.stand.open import open_stand
 from app.stand.response import ResponseStore
 from app.stand.simulated import EXCITERS, exciter_stroke_m, plan_preset_for
-from dsp.multisine import Plan, preset_plan
+from dsp.multisine import PRESETS, Plan, preset_plan
 from dsp.profiles import Profile
 
 if TYPE_CHECKING:
@@ -162,13 +163,25 @@ def request_plan(request: RunRequest, stroke_peak_to_peak_m: float | None = None
         and request.profile == Profile.ACCELERATION
         and stroke_peak_to_peak_m is None
     ):
+        preset = PRESETS[wanted.preset]
+        check_capacity(  # the plan is small; a run of many periods may not be
+            preset.period_samples,
+            preset.sample_rate_hz,
+            periods=request.periods,
+            top_bin=round(preset.max_frequency_hz * preset.period_samples / preset.sample_rate_hz),
+        )
         return preset_plan(
             wanted.preset,
             level_ms2=request.level_ms2,
             shift_mains_lines=wanted.shift_mains_lines,
             optimiser=stored_phases,
         )
-    return build_plan(wanted, stroke_peak_to_peak_m=stroke_peak_to_peak_m, phases_rad=phases)
+    return build_plan(
+        wanted,
+        stroke_peak_to_peak_m=stroke_peak_to_peak_m,
+        phases_rad=phases,
+        periods=request.periods,
+    )
 
 
 def with_stand_plan(request: RunRequest, plan: StandPlan) -> RunRequest:

@@ -105,6 +105,7 @@ class StandIO:
         self.played = self.drive  # the period the output plays now
         self.queue: deque[np.ndarray] = deque()  # written, not played yet: each plays in turn
         self.periods_read = 0
+        self.peak_played_v = 0.0  # the largest drive sample played so far (V)
         self._excited_before_s = 0.0  # the shaker's running time in bursts already ended
         self._burst: tuple[int, int] | None = None  # first, last non-zero sample of this burst
         self._segment_samples = 0  # samples played since the segment began
@@ -337,6 +338,8 @@ class StandIO:
             self.played = self.queue.popleft()
         played = self.played
         self.periods_read += 1
+        if played.size:
+            self.peak_played_v = max(self.peak_played_v, float(np.max(np.abs(played))))
         self._count_excitation(played)
         self.poll_power()  # first: a tripped amplifier explains what the channels show
         self._check_block(block)

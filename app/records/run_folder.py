@@ -41,6 +41,7 @@ from typing import Any
 from app.errors import Refusal
 from app.files import write_new
 from app.io.checks import InputFileError, read_regular_bytes, sha256_regular
+from app.io.csv_cells import neutralised
 from app.io.vocabulary import RunStatus
 from app.records.run_record import RunRecord, RunRecordError, UnsupportedSchemaError
 from app.records.seal import SEAL_NAME, write_seal
@@ -209,7 +210,7 @@ class RunFolder:
             record = record.with_results(results, sha)
             self.write_text("results.json", record.to_json())
             if results is not None:
-                self.write_text("results.csv", results.to_csv())
+                self.write_text("results.csv", neutralised(results.to_csv()))
             write_manifest(self.path)
             write_seal(
                 self.path,

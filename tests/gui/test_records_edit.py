@@ -176,7 +176,10 @@ def test_a_reference_standard_is_added_from_a_csv_table_and_recalibrated(window,
     fraction_over_one = _csv(tmp_path / "big.csv", "160,1.0,150\n")  # percent: 150 % is refused
     dialog.table_file.setText(str(fraction_over_one))
     assert not accepted(dialog)
-    assert "table row 1 uncertainty" in marked(dialog, "table")
+    # refused by the one table reader (app.io.reference_table), naming the line and the rule
+    assert "line 1: relative expanded uncertainty 150 % is not in [0, 100) %" in marked(
+        dialog, "table"
+    )
     good = _csv(
         tmp_path / "ref.csv",
         "# B&K 8305 certificate DKD-2026-117\nfrequency_hz,sensitivity_mv_per_ms2,"

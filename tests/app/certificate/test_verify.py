@@ -172,6 +172,35 @@ def test_the_signature_gap_forgery_is_refused(
     _refused(code, out, err, "not exactly the hex string of its /Contents")
 
 
+@pytest.mark.parametrize("rewrite", ["padding", "lower case", "white space"])
+def test_the_unsigned_contents_is_exactly_the_cms_structure_and_its_zero_padding(
+    honest: Path, pki: dict[str, Path], tmp_path: Path, capsys, rewrite: str
+) -> None:
+    """Issue 33 point 6: nothing in the signature's gap is signed, so its hex string must be
+    exactly what the signer writes: the CMS structure in upper-case hex, then zeros. Before,
+    the padding could carry any bytes (and the digits change case or gain white space) and the
+    PDF still verified."""
+    from app.certificate.pdf_signature import check_layout, der_end
+
+    data = honest.read_bytes()
+    last = check_layout(data).last
+    start, end = last.length1, last.start2
+    gap = data[start:end]
+    cms_end = 1 + 2 * int(der_end(bytes.fromhex(gap[1:-1].decode("ascii"))) or 0)
+    assert set(gap[cms_end:-1]) == {ord("0")}  # the honest padding: zeros only
+    if rewrite == "padding":
+        new = gap[:cms_end] + b"DEADBEEF" + gap[cms_end + 8 :]
+    elif rewrite == "lower case":
+        new = gap[:cms_end].lower() + gap[cms_end:]
+    else:
+        new = gap[:-3] + b"\n\n>"
+    assert len(new) == len(gap) and new != gap
+    forged = tmp_path / "forged.pdf"
+    forged.write_bytes(data[:start] + new + data[end:])
+    code, out, err = _verify(capsys, forged, "--trust", pki["ca"])
+    _refused(code, out, err, "not exactly its CMS structure followed by zero padding")
+
+
 def test_a_revision_after_the_signature_is_refused(
     honest: Path, pki: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

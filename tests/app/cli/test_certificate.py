@@ -57,3 +57,48 @@ def test_a_run_without_technician_needs_prepared_by(tmp_path: Path, capsys) -> N
     assert main(["certificate", str(run), *ITEMS, "--prepared-by", "B. Other"]) == 0
     name = _prepared_by(run / "certificate.pdf")
     assert name == "B. Other" and name != current_actor()
+
+
+def _file_size_limit(limit_bytes: int):  # type: ignore[no-untyped-def]
+    import resource
+
+    def apply() -> None:
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit_bytes, limit_bytes))
+
+    return apply
+
+
+def test_a_full_disk_while_issuing_exits_2_naming_the_path_and_what_was_kept(
+    complete_run: Path, tmp_path: Path
+) -> None:
+    """Issue 33 point 6: a full disk during `certificate` ended in exit 1 "OSError" (nothing
+    torn). Now: exit 2, one line naming the file that could not be written and what was kept;
+    no certificate, no staged file, no register entry. The disk is filled as the run's
+    disk-full tests do: a file-size limit (RLIMIT_FSIZE) below the PDF's size (EFBIG)."""
+    import os
+    import shutil
+    import subprocess
+    import sys
+
+    runs = tmp_path / "runs"
+    run = runs / complete_run.name
+    shutil.copytree(complete_run, run)
+    before = sorted(p.name for p in runs.rglob("*"))
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[3])}
+    env["ACCELCAL_DATA_DIR"] = str(tmp_path / "data")  # no records database: the JSON register
+    env.pop("ACCELCAL_DB", None)
+    process = subprocess.run(
+        [sys.executable, "-m", "app", "certificate", str(run), *ITEMS],
+        preexec_fn=_file_size_limit(20_000),  # the PDF (over 100 kB) does not fit
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
+    )
+    assert process.returncode == 2, process.stderr
+    line = process.stderr.strip().splitlines()[-1]  # after any warning (no validation report)
+    assert "Traceback" not in process.stderr and "OSError" not in process.stderr
+    assert "error: disk full: " in line and "File too large" in line
+    assert f"certificate {run / 'certificate.pdf'} not issued" in line
+    assert "kept: nothing of it was written" in line and "run folder's register" in line
+    assert sorted(p.name for p in runs.rglob("*")) == before  # nothing torn, nothing left

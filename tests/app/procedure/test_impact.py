@@ -8,7 +8,12 @@ from __future__ import annotations
 
 import csv
 import json
+import os
 import shutil
+import signal
+import subprocess
+import sys
+import time
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -92,12 +97,12 @@ def _corrected_table(run_folder: Path, path: Path) -> None:
     """The stored table of the run with every sensitivity times K_160 up to 160 Hz... and
     K_HIGH from 1 kHz (the hand-checked ratio at the reference frequency is K_160)."""
     chain = json.loads((run_folder / "results.json").read_text())["reference_chain"]
-    lines = ["frequency_hz,sensitivity_mv_per_ms2,relative_expanded_uncertainty,phase_deg"]
+    lines = ["frequency_hz,sensitivity_mv_per_ms2,relative_expanded_uncertainty_percent,phase_deg"]
     for f, s, p in zip(
         chain["frequencies_hz"], chain["sensitivity_mv_per_ms2"], chain["phase_deg"], strict=True
     ):
         k = K_HIGH if f >= 1000 else K_160
-        lines.append(f"{f!r},{s * k!r},0.005,{p!r}")
+        lines.append(f"{f!r},{s * k!r},0.5,{p!r}")
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
 
 
@@ -203,6 +208,119 @@ def test_a_bad_table_is_refused_by_line(tmp_path: Path, text: str, message: str,
     table.write_text(text)
     assert main(["impact", "X", "--table", str(table), "--db", "sqlite://"]) == 2
     assert message in capsys.readouterr().err
+
+
+def test_refs_add_and_impact_read_one_table_file_alike(lab_runs, tmp_path: Path, capsys) -> None:
+    """Issue 33 point 6: `impact --table` read the uncertainty column as a fraction where `refs
+    add` reads percent. The same file through both commands: both read 2.0 as 2 % (0.02), and
+    a table whose header calls the column a fraction is refused by both, naming the column."""
+    url, runs, made = lab_runs
+    table = tmp_path / "corrected.csv"
+    _corrected_table(runs / made["a"], table)
+    table.write_text(table.read_text().replace(",0.5,", ",2.0,"), encoding="utf-8")
+    add = ["refs", "add", "REF-NEW", "--model", "8305", "--serial", "SIM-NEW", "--certificate",
+           "C-1", "--calibrated", "2026-01-01", "--due", "2027-01-01", "--db", url]  # fmt: skip
+    assert main([*add, "--table", str(table)]) == 0, capsys.readouterr().err
+    (stored,) = [r for r in Lab(open_engine(url), actor="t").references() if r.serial == "SIM-NEW"]
+    assert {p.relative_expanded_uncertainty for p in stored.points} == {0.02}
+    out = tmp_path / "report"
+    argv = ["impact", "SIM-0001", "--table", str(table), "--db", url, "--out", str(out)]
+    assert main([*argv, "--no-flag", "--workers", "1"]) == 0, capsys.readouterr().err
+    assert set(impact.read_table(table).relative_expanded_uncertainty) == {0.02}
+    fraction = tmp_path / "fraction.csv"
+    text = table.read_text().replace("uncertainty_percent", "uncertainty")
+    fraction.write_text(text, encoding="utf-8")
+    capsys.readouterr()
+    assert main([*add[:2], "REF-F", *add[3:], "--table", str(fraction)]) == 2
+    assert "column 'relative_expanded_uncertainty' does not say its unit" in capsys.readouterr().err
+    assert main(["impact", "SIM-0001", "--table", str(fraction), "--db", url]) == 2
+    assert "column 'relative_expanded_uncertainty' does not say its unit" in capsys.readouterr().err
+
+
+def test_names_written_as_formulas_go_into_the_impact_csv_as_text(
+    lab_runs, tmp_path: Path, capsys
+) -> None:
+    """Issue 33 point 6: a customer or DUT named like a spreadsheet formula went raw into the
+    impact CSV (a spreadsheet would run it). Now such a cell starts with an apostrophe, and
+    the signed numbers beside it stay numbers."""
+    from app.records.db.models import Customer
+
+    url, runs, made = lab_runs
+    copy = tmp_path / "records.sqlite"
+    source = url.removeprefix("sqlite:///")
+    for suffix in ("", "-wal", "-shm"):  # the records in WAL mode: the log holds the rows
+        if Path(source + suffix).exists():
+            shutil.copyfile(source + suffix, str(copy) + suffix)
+    url = f"sqlite:///{copy}"
+    evil_owner, evil_dut = '=HYPERLINK("http://x.example/?q=1","Open")', "@SUM(1+1)"
+    with Session(open_engine(url)) as s, s.begin():
+        s.execute(update(Customer).where(Customer.name == "Alpha GmbH").values(name=evil_owner))
+        s.execute(update(Run).where(Run.run_id == made["a"]).values(dut_id=evil_dut))
+    table = tmp_path / "corrected.csv"
+    _corrected_table(runs / made["a"], table)
+    out = tmp_path / "report"
+    argv = ["impact", "SIM-0001", "--table", str(table), "--db", url, "--out", str(out)]
+    assert main([*argv, "--no-flag", "--since", "2026-01-01"]) == 0, capsys.readouterr().err
+    rows = list(csv.DictReader((out / "impact-SIM-0001.csv").open(encoding="utf-8")))
+    assert rows, capsys.readouterr().out[:600]
+    mine = next(r for r in rows if r["run_id"] == made["a"])
+    assert mine["owner"] == "'" + evil_owner and mine["dut_id"] == "'" + evil_dut
+    for row in rows:
+        for value in row.values():
+            assert not value.startswith(("=", "@", "\t", "\r")), value
+        assert float(row["change_in_u"]) == pytest.approx(float(row["change_in_u"]))  # a number
+
+
+def _children(pid: int) -> set[int]:
+    """The processes whose parent is `pid` running its command line (its forked workers)."""
+    found = set()
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                stat = (entry / "stat").read_text()
+                forked = b"impact" in (entry / "cmdline").read_bytes()  # a worker, not a helper
+            except OSError:
+                continue
+            if int(stat.rsplit(")", 1)[1].split()[1]) == pid and forked:
+                found.add(int(entry.name))
+    return found
+
+
+def _alive(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc (Linux)")
+def test_impact_workers_end_when_their_parent_is_killed(lab_runs, tmp_path: Path) -> None:
+    """Issue 33 point 6: `impact` workers outlived a SIGKILL of their parent (6 left, 130 MB
+    each). The parent is killed while its workers re-analyse; every worker is gone soon after
+    (the kernel's parent-death signal; a watch thread elsewhere)."""
+    url, runs, made = lab_runs
+    table = tmp_path / "corrected.csv"
+    _corrected_table(runs / made["a"], table)
+    argv = ["impact", "SIM-0001", "--table", str(table), "--db", url, "--no-flag"]
+    command = [sys.executable, "-m", "app", *argv, "--out", str(tmp_path / "r"), "--workers", "2"]
+    parent = subprocess.Popen(command, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    workers: set[int] = set()
+    deadline = time.monotonic() + 120
+    while not workers and parent.poll() is None and time.monotonic() < deadline:
+        workers = _children(parent.pid)
+        time.sleep(0.02)
+    assert workers, f"no worker seen (exit {parent.poll()}): {parent.stderr.read()!r}"
+    parent.kill()
+    parent.wait()
+    left = set(workers)
+    deadline = time.monotonic() + 10
+    while left and time.monotonic() < deadline:
+        left = {pid for pid in left if _alive(pid)}
+        time.sleep(0.05)
+    for pid in left:  # a failing run leaves none behind
+        os.kill(pid, signal.SIGKILL)
+    assert not left, f"workers {sorted(left)} outlived their parent"
 
 
 def test_progress_line_counts_and_time_left() -> None:

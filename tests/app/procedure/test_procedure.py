@@ -6,6 +6,7 @@ import dataclasses
 import itertools
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -696,6 +697,33 @@ def _tamper_store(store, scale_per_line):
             e["response_real"] = (np.asarray(e["response_real"]) * scale_per_line).tolist()
             e["response_imag"] = (np.asarray(e["response_imag"]) * scale_per_line).tolist()
         path.write_text(json.dumps(data))
+
+
+@pytest.mark.slow  # reason: two simulated runs through the CLI (5-10 s on two shared cores)
+def test_the_refusal_after_a_check_burst_says_what_was_played(tmp_path, capsys):
+    """Issue 33 point 6: the stored-response refusal said "refused before anything moved"
+    after its check burst had played (0.875 V for 4.4 s). Through the CLI: still exit 2 (the
+    level is refused), and the reason says the drive peak and the time it played."""
+    from app.cli import main
+    from app.stand.response import ResponseStore
+
+    out = tmp_path / "runs"
+    assert main(["run", "--sim", "--periods", "3", "--out", str(out)]) == 0
+    _tamper_store(ResponseStore.default(), 0.3)
+    capsys.readouterr()
+    code = main(["run", "--sim", "--periods", "3", "--out", str(out), "--json"])
+    captured = capsys.readouterr()
+    assert code == 2, captured.err
+    reason = json.loads(captured.out)["abort_reason"]
+    assert "before anything moved" not in reason
+    match = re.match(
+        r"refused before the level was played, after a check: (\d+\.\d+) V drive peak "
+        r"played for (\d+\.\d) s, then faded out to 0 V; stored stand response off by",
+        reason,
+    )
+    assert match, reason
+    peak_v, played_s = float(match.group(1)), float(match.group(2))
+    assert 0.0 < peak_v < 10.0 and played_s > 1.0
 
 
 @pytest.mark.parametrize("where", ["all lines x 0.3", "10 Hz line x 0.2"])
