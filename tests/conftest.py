@@ -56,6 +56,20 @@ def visa_resource(request: pytest.FixtureRequest) -> str:
     return resource
 
 
+@pytest.fixture(scope="session", autouse=True)
+def _records_key(tmp_path_factory: pytest.TempPathFactory) -> Iterator[None]:
+    """One records key (app.records.db.records_key) per test process, set before any session
+    fixture makes records: the databases the tests copy from one migrated template, and the
+    session's labs, carry heads signed with it. Never the user's own key."""
+    with pytest.MonkeyPatch.context() as patch:
+        key = tmp_path_factory.getbasetemp() / "records-key" / "records-key.pem"
+        patch.setenv("ACCELCAL_RECORDS_KEY", str(key))
+        patch.delenv("ACCELCAL_RECORDS_PUBLIC_KEY", raising=False)
+        patch.delenv("ACCELCAL_RECORDS_KEY_PASSWORD", raising=False)
+        patch.delenv("ACCELCAL_TRUST", raising=False)
+        yield
+
+
 @pytest.fixture(autouse=True)
 def _isolated_data_dir(tmp_path_factory: pytest.TempPathFactory, monkeypatch) -> None:
     """Each test gets its own user data directory (platformdirs honours XDG_DATA_HOME): the

@@ -213,6 +213,10 @@ def cmd_db(args: argparse.Namespace) -> int:
             print(f"{shown}: schema already at {after}")
         else:
             print(f"{shown}: schema {before or 'none'} -> {after}")
+        from app.records.db.records_key import require_key
+
+        key = require_key()
+        print(f"records key: {key.path} (id {key.key_id[:16]}...; keep it outside the database)")
         return 0
     if args.db_command == "verify":
         return cmd_db_verify(args)

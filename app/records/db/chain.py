@@ -6,7 +6,9 @@ schema fingerprint; its hash is sha256(previous hash || canonical JSON of the en
 application appends entries from SQLAlchemy mapper events, in the transaction of the change.
 Database triggers (migration 0007) note every INSERT/UPDATE/DELETE of an audited table in
 `records_journal`, whoever makes it; a journal row no chain entry claims is a change made
-outside the application. Checks live in app.records.db.chain_check.
+outside the application. The last entry of every append (the head it leaves) is signed with the
+records key (app.records.db.records_key, Ed25519, a file the database never holds; migration
+0011), so a head covers every entry before it. Checks live in app.records.db.chain_check.
 """
 
 from __future__ import annotations
@@ -19,8 +21,10 @@ from datetime import UTC, date, datetime
 from typing import Any
 
 from sqlalchemy import (
+    Column,
     Connection,
     MetaData,
+    String,
     Table,
     event,
     insert,
@@ -29,15 +33,29 @@ from sqlalchemy import (
     text,
 )
 from sqlalchemy import func as sql_func
-from sqlalchemy.orm import Mapper, object_session
+from sqlalchemy.orm import Mapper, Session, object_session
 
+from app.records.db import records_key
 from app.records.db.models import Base, ChainEntry, JournalEntry
 
 CHAIN_TABLE = "records_chain"
 JOURNAL_TABLE = "records_journal"
+KEYS_TABLE = "records_keys"
 GENESIS = "0" * 64
 # derived bookkeeping, the chain's own tables and Alembic's: not chained
-UNCHAINED = frozenset({"register_counters", CHAIN_TABLE, JOURNAL_TABLE, "alembic_version"})
+UNCHAINED = frozenset(
+    {"register_counters", CHAIN_TABLE, JOURNAL_TABLE, KEYS_TABLE, "alembic_version"}
+)
+# the public records keys that signed heads (migration 0011; append-only): not a model, so
+# no mapper event chains it
+KEYS = Table(
+    KEYS_TABLE,
+    MetaData(),
+    Column("key_id", String(64), primary_key=True),
+    Column("public_key", String(64), nullable=False),
+    Column("created_utc", String(40), nullable=False),
+)
+SIGNED_COLUMNS = ("signature", "key_id")  # records_chain's columns since 0011
 # stored as their SHA-256 only (the chain must not copy a password hash)
 REDACTED = frozenset({("users", "password_hash")})
 ROW_ACTIONS = ("insert", "update", "delete")
@@ -59,6 +77,8 @@ class Entry:
     schema_fingerprint: str
     prev_hash: str
     hash: str
+    signature: str | None = None  # hex Ed25519 signature of (seq, hash); not hashed
+    key_id: str | None = None  # the records key that made it (hex SHA-256 of the public key)
 
     def computed_hash(self) -> str:
         """sha256(prev_hash || canonical entry), hex: what `hash` must be."""
@@ -128,9 +148,42 @@ def has_chain(connection: Connection) -> bool:
     return bool(inspect(connection).has_table(CHAIN_TABLE))
 
 
+def has_signatures(connection: Connection) -> bool:
+    """Whether the chain has the signature columns (revision 0011 or later)."""
+    columns = {c["name"] for c in inspect(connection).get_columns(CHAIN_TABLE)}
+    return set(SIGNED_COLUMNS) <= columns
+
+
 def schema_fingerprint(connection: Connection) -> str:
-    """What changes when the schema or its triggers change: SQLite's schema cookie, or on
-    PostgreSQL the identity (oid) and enabled state of every user trigger, hashed."""
+    """What changes when the schema or its triggers change, read from their definitions (not
+    a counter the writer can put back): on SQLite every table, index and trigger's SQL in
+    sqlite_master; on PostgreSQL every user trigger's identity, enabled state and definition
+    and the body, owner and security of the function it runs; hashed."""
+    if connection.dialect.name == "sqlite":
+        rows = connection.execute(
+            text(
+                "SELECT type, name, tbl_name, sql FROM sqlite_master "
+                "WHERE sql IS NOT NULL AND name NOT LIKE 'sqlite_%' ORDER BY type, name"
+            )
+        ).all()
+        return (
+            "sqlite-def:" + hashlib.sha256(canonical([list(r) for r in rows]).encode()).hexdigest()
+        )
+    rows = connection.execute(
+        text(
+            "SELECT c.relname, t.tgname, t.oid::bigint, t.tgenabled::text, "
+            "pg_get_triggerdef(t.oid), p.prosrc, p.prosecdef, p.proowner::regrole::text "
+            "FROM pg_trigger t JOIN pg_class c ON c.oid = t.tgrelid "
+            "JOIN pg_namespace n ON n.oid = c.relnamespace JOIN pg_proc p ON p.oid = t.tgfoid "
+            "WHERE NOT t.tgisinternal AND n.nspname = current_schema() ORDER BY 1, 2"
+        )
+    ).all()
+    return "pg-def:" + hashlib.sha256(canonical([list(r) for r in rows]).encode()).hexdigest()
+
+
+def legacy_fingerprint(connection: Connection) -> str:
+    """The fingerprint before revision 0011 (SQLite's schema cookie; PostgreSQL's trigger
+    oids and states): what chains written before then recorded."""
     if connection.dialect.name == "sqlite":
         return f"sqlite:{connection.exec_driver_sql('PRAGMA schema_version').scalar()}"
     rows = connection.execute(
@@ -144,13 +197,16 @@ def schema_fingerprint(connection: Connection) -> str:
 
 
 def _entry(row: Any) -> Entry:
-    return Entry(**{name: row[name] for name in Entry.__dataclass_fields__})
+    return Entry(**{name: row[name] for name in Entry.__dataclass_fields__ if name in row})
 
 
 def read_entries(connection: Connection, *, last: int | None = None) -> list[Entry]:
     """The chain's entries in order (only the `last` ones when given)."""
     chain = ChainEntry.__table__
-    query = select(chain).order_by(chain.c.seq.desc() if last else chain.c.seq)
+    columns = [c for c in chain.columns if c.name not in SIGNED_COLUMNS]
+    if has_signatures(connection):
+        columns = list(chain.columns)
+    query = select(*columns).order_by(chain.c.seq.desc() if last else chain.c.seq)
     if last:
         query = query.limit(last)
     entries = [_entry(r._mapping) for r in connection.execute(query)]
@@ -186,13 +242,40 @@ class Change:
     journal_id: int | None = None
 
 
+def database_identity(connection: Connection) -> str:
+    """The database as a workstation names it (backend, host, port, database; no user or
+    password: the owner and the application role see one database)."""
+    url = connection.engine.url
+    return f"{url.get_backend_name()}://{url.host or ''}:{url.port or ''}/{url.database or ''}"
+
+
+def _register_key(connection: Connection, key: records_key.RecordsKey) -> None:
+    """Enter the key's public half in records_keys unless it is there."""
+    present = connection.execute(select(KEYS.c.key_id).where(KEYS.c.key_id == key.key_id))
+    if present.first() is None:
+        created = datetime.now(UTC).isoformat(timespec="seconds")
+        connection.execute(
+            insert(KEYS).values(key_id=key.key_id, public_key=key.public_hex, created_utc=created)
+        )
+
+
+PENDING_HEAD = "records_signed_head"  # connection.info: (database id, seq, hash) to remember
+
+
 def append(connection: Connection, *, actor: str, changes: list[Change]) -> list[Entry]:
     """Append the changes after the current head, in the caller's transaction, in one
-    statement. The entries."""
+    statement, the last one signed with the records key (RecordsKeyError without it). The
+    entries. The head signed is noted in connection.info[PENDING_HEAD] for `remember_head`
+    once the transaction commits."""
     if not changes:
         return []
+    signed = _signatures_present(connection)  # False only while migrating to before 0011
+    key = records_key.require_key() if signed else None
     _lock(connection)
-    latest = head(connection)
+    table = ChainEntry.__table__
+    latest = connection.execute(
+        select(table.c.seq, table.c.hash).order_by(table.c.seq.desc()).limit(1)
+    ).first()
     seq, prev = (latest.seq, latest.hash) if latest else (0, GENESIS)
     at_utc = datetime.now(UTC).isoformat(timespec="microseconds")
     fingerprint = schema_fingerprint(connection)
@@ -213,8 +296,37 @@ def append(connection: Connection, *, actor: str, changes: list[Change]) -> list
         entry = Entry(**fields, prev_hash=prev, hash=entry_hash(prev, **fields))
         entries.append(entry)
         prev = entry.hash
+    if key is None:
+        connection.execute(
+            insert(ChainEntry),
+            [{k: v for k, v in e.__dict__.items() if k not in SIGNED_COLUMNS} for e in entries],
+        )
+        return entries
+    last = entries[-1]
+    signed_before = connection.execute(
+        select(sql_func.max(table.c.seq)).where(table.c.signature.is_not(None))
+    ).scalar()
+    first = entries[0].seq if signed_before is not None else 1  # the first covers all before
+    signature = key.sign_head(first, last.seq, last.hash)
+    entries[-1] = Entry(**{**last.__dict__, "signature": signature, "key_id": key.key_id})
+    _register_key(connection, key)
     connection.execute(insert(ChainEntry), [e.__dict__ for e in entries])
+    database = records_key.database_id(database_identity(connection))
+    connection.info[PENDING_HEAD] = (database, last.seq, last.hash)
     return entries
+
+
+def remember_head(connection: Connection) -> None:
+    """After a commit: keep the head this workstation signed last (records_key heads)."""
+    pending = connection.info.pop(PENDING_HEAD, None)
+    if pending is not None:
+        records_key.remember_signed(*pending)
+
+
+def _after_commit(session: Session) -> None:
+    pending = session.info.pop(PENDING_HEAD, None)
+    if pending is not None:
+        records_key.remember_signed(*pending)
 
 
 def _unclaimed_journal_id(connection: Connection, table: str, key: str, action: str) -> int | None:
@@ -259,6 +371,9 @@ def _record(action: str, mapper: Mapper[Any], connection: Connection, target: An
     session = object_session(target)
     actor = str((session.info.get("actor") if session else None) or current_actor())
     append(connection, actor=actor, changes=[Change(action, table.name, key, row, journal_id)])
+    pending = connection.info.pop(PENDING_HEAD, None)
+    if session is not None and pending is not None:  # kept once the session commits
+        session.info[PENDING_HEAD] = pending
 
 
 def current_actor() -> str:
@@ -270,6 +385,15 @@ def current_actor() -> str:
 
 
 _PRESENT: dict[str, bool] = {}
+_SIGNED: dict[str, bool] = {}
+
+
+def _signatures_present(connection: Connection) -> bool:
+    """Whether this engine's chain has the signature columns (cached per URL once true)."""
+    url = connection.engine.url.render_as_string(hide_password=True)
+    if not _SIGNED.get(url):
+        _SIGNED[url] = has_signatures(connection)
+    return _SIGNED[url]
 
 
 def _chain_present(connection: Connection) -> bool:
@@ -288,6 +412,9 @@ for _action in ROW_ACTIONS:
         _record(a, mapper, connection, target)
 
     event.listen(Base, f"after_{_action}", _listener, propagate=True)
+
+event.listen(Session, "after_commit", _after_commit)
+event.listen(Session, "after_rollback", lambda session: session.info.pop(PENDING_HEAD, None))
 
 
 # -- DDL used by migration 0007 (and by any later migration adding an audited table) --------

@@ -2,10 +2,13 @@
 `accelcal db verify`, the quick check `run`, `certificate` and `db import` make first, and the
 re-entry of rows a schema migration changed.
 
-The full walk recomputes every hash, re-derives each audited table from the chain and compares
-it with the live rows, looks for journal rows no entry claims, compares the schema fingerprint
-and checks the run folders the records index (seal, manifest) and the chain heads their seals
-name. Each problem names the table and the primary key.
+The full walk recomputes every hash, checks every head's signature against the configured
+records key (app.records.db.records_key: never the key the records hold alone), re-derives each
+audited table from the chain and compares it with the live rows, looks for journal rows no
+entry claims, compares the schema fingerprint (the triggers' definitions), checks that the head
+this workstation signed last is still in the chain, and checks the run folders the records
+index (seal, manifest) and the chain heads their seals name. Each problem names the table and
+the primary key.
 """
 
 from __future__ import annotations
@@ -18,8 +21,9 @@ from pathlib import Path
 from typing import Any
 
 from sqlalchemy import Connection, Engine, Table, select
+from sqlalchemy import func as sql_func
 
-from app.records.db import chain
+from app.records.db import chain, records_key
 from app.records.db.chain import Change
 from app.records.db.errors import RecordsInputError
 from app.records.db.models import ChainEntry, JournalEntry, Run
@@ -147,22 +151,126 @@ def _unclaimed_journal(connection: Connection, *, limit: int | None = None) -> l
 
 
 def _schema_problem(connection: Connection, head: chain.Entry | None) -> list[Problem]:
-    if head is None or head.schema_fingerprint == chain.schema_fingerprint(connection):
+    if head is None:
         return []
-    why = "the schema or its triggers changed since the last recorded write (triggers dropped?)"
+    recorded = head.schema_fingerprint
+    legacy = recorded.startswith(("sqlite:", "pg:"))  # written before revision 0011
+    now = chain.legacy_fingerprint(connection) if legacy else chain.schema_fingerprint(connection)
+    if recorded == now:
+        return []
+    why = (
+        "the schema or its triggers changed since the last recorded write (a trigger dropped, "
+        "altered or recreated?)"
+    )
     return [Problem(_SCHEMA, "", why)]
+
+
+_NOT_CONFIGURED = (
+    f"no records public key configured (${records_key.PUBLIC_ENV}, or records-key.pub beside "
+    "the records key): the heads' signatures cannot be checked"
+)
+
+
+def _signature_problems(
+    connection: Connection,
+    entries: list[chain.Entry],
+    trusted: records_key.TrustedKey | None,
+) -> list[Problem]:
+    """Each signed entry's signature against the configured key, and the newest entry signed
+    (an unsigned tail was appended without the key). Chains before revision 0011: none."""
+    if not entries or not chain.has_signatures(connection):
+        return []
+    if trusted is None:
+        return [Problem("records_key", "", _NOT_CONFIGURED)]
+    problems: list[Problem] = []
+    signed_before = _signed_before(connection, entries[0].seq)
+    for entry in entries:
+        if entry.signature is None and entry.key_id is None:
+            continue
+        name = str(entry.seq)
+        first = 1 if signed_before is None else signed_before + 1
+        signed_before = entry.seq
+        if entry.key_id != trusted.key_id:
+            why = (
+                f"signed by key {str(entry.key_id)[:16]}..., not the configured records key "
+                f"{trusted.key_id[:16]}... ({trusted.source})"
+            )
+            problems.append(Problem(chain.CHAIN_TABLE, name, why))
+        elif not trusted.verifies(first, entry.seq, entry.hash, entry.signature):
+            why = (
+                f"its head signature (entries {first}..{entry.seq}) does not verify (an entry "
+                "forged, edited or slipped in unsigned before it)"
+            )
+            problems.append(Problem(chain.CHAIN_TABLE, name, why))
+    last_signed = max((e.seq for e in entries if e.signature), default=None)
+    tail = [e for e in entries if last_signed is None or e.seq > last_signed]
+    if tail:
+        oldest, newest = tail[0], tail[-1]
+        why = (
+            f"entries {oldest.seq}..{newest.seq} are not covered by a signed head (appended "
+            f"without the records key; first: {oldest.action} {oldest.table_name} "
+            f"{oldest.row_key})"
+        )
+        problems.append(Problem(chain.CHAIN_TABLE, str(newest.seq), why))
+    return problems
+
+
+def _signed_before(connection: Connection, seq: int) -> int | None:
+    """The newest signed entry before `seq` (None: none)."""
+    entries = ChainEntry.__table__
+    query = select(sql_func.max(entries.c.seq)).where(
+        entries.c.seq < seq, entries.c.signature.is_not(None)
+    )
+    found = connection.execute(query).scalar()
+    return None if found is None else int(found)
+
+
+def _high_water_problem(connection: Connection) -> list[Problem]:
+    """The head this workstation signed last must still be in the chain: a chain cut back to
+    an older signed head, or rebuilt after one, no longer has it."""
+    entries = ChainEntry.__table__
+    database = records_key.database_id(chain.database_identity(connection))
+    kept = records_key.last_signed(database)
+    if kept is None:
+        return []
+    seq, head = kept
+    found = connection.execute(select(entries.c.hash).where(entries.c.seq == seq)).scalar()
+    if found == head:
+        return []
+    why = (
+        f"the head this workstation signed last (hash {head[:16]}...) is not in the chain "
+        "(records cut back or rebuilt)"
+    )
+    return [Problem(chain.CHAIN_TABLE, str(seq), why)]
+
+
+_CONFIGURED = object()  # the default of `trusted`: the configured key (records_key.trusted_key)
+Trusted = records_key.TrustedKey | None | object  # a key, None (none configured), _CONFIGURED
+
+
+def _trusted(trusted: Trusted) -> records_key.TrustedKey | None:
+    if trusted is _CONFIGURED:
+        return records_key.trusted_key()
+    assert trusted is None or isinstance(trusted, records_key.TrustedKey)
+    return trusted
 
 
 def verify_connection(
     connection: Connection,
     tables: Mapping[str, Table] | None = None,
     anchors: Iterable[tuple[str, str]] = (),
+    trusted: Trusted = _CONFIGURED,
 ) -> list[Problem]:
-    """Every problem of the records on `connection`: chain links and hashes, live rows
-    against the chain, unclaimed journal rows, the schema fingerprint, and each anchored head
-    ((where, hash) pairs from seals and certificates) present in the chain."""
-    walk = _walk(chain.read_entries(connection))
+    """Every problem of the records on `connection`: chain links and hashes, the heads'
+    signatures against `trusted` (default: the configured records key), live rows against the
+    chain, unclaimed journal rows, the schema fingerprint, the head this workstation signed
+    last, and each anchored head ((where, hash) pairs from seals and certificates) present in
+    the chain."""
+    entries = chain.read_entries(connection)
+    walk = _walk(entries)
     problems = list(walk.problems)
+    problems += _signature_problems(connection, entries, _trusted(trusted))
+    problems += _high_water_problem(connection)
     tables = tables or chain.chained_tables()
     problems += _compare(walk.state, _live_state(connection, tables), tables)
     problems += [p for p in _unclaimed_journal(connection) if p not in problems]
@@ -204,20 +312,25 @@ def run_folder_anchors(connection: Connection) -> tuple[list[Problem], list[tupl
     return problems, anchors
 
 
-def verify(engine: Engine, anchors: Iterable[tuple[str, str]] = ()) -> list[Problem]:
-    """The full walk of `accelcal db verify` over the records and their run folders."""
+def verify(
+    engine: Engine, anchors: Iterable[tuple[str, str]] = (), trusted: Trusted = _CONFIGURED
+) -> list[Problem]:
+    """The full walk of `accelcal db verify` over the records and their run folders (the
+    heads' signatures against `trusted`, default the configured records key)."""
     with engine.connect() as connection:
         if not chain.has_chain(connection):
             return [Problem(chain.CHAIN_TABLE, "", "missing (run accelcal db upgrade)")]
         folder_problems, seal_anchors = run_folder_anchors(connection)
-        problems = verify_connection(connection, anchors=[*seal_anchors, *anchors])
+        problems = verify_connection(connection, anchors=[*seal_anchors, *anchors], trusted=trusted)
     return problems + folder_problems
 
 
-def quick_check(engine: Engine) -> str:
-    """The fast check before a run, a certificate or an import: the last entries link and
-    hash, their rows are as the chain says, no journal row is unclaimed and the schema is the
-    one last recorded. The chain head's hash; ChainBroken naming the first problem."""
+def quick_check(engine: Engine, trusted: Trusted = _CONFIGURED) -> str:
+    """The check before a run, a certificate or an import: the last entries link and hash,
+    the head is signed by the configured records key and is not older than the one this
+    workstation signed last, every live row is the one its newest chain entry wrote (whatever
+    happened to the triggers), no journal row is unclaimed and the triggers' definitions are
+    those last recorded. The chain head's hash; ChainBroken naming the first problem."""
     with engine.connect() as connection:
         if not chain.has_chain(connection):
             raise ChainBroken("records: no hash chain; run `accelcal db upgrade`")
@@ -227,9 +340,11 @@ def quick_check(engine: Engine) -> str:
             first = entries[0]
             walk = _walk(entries, first_seq=first.seq, prev=first.prev_hash)
             problems += walk.problems
-            problems += _window_rows(connection, entries)
-            problems += _unclaimed_journal(connection, limit=1)
+            problems += _signature_problems(connection, entries, _trusted(trusted))
+            problems += _high_water_problem(connection)
             problems += _schema_problem(connection, walk.head)
+            problems += _unclaimed_journal(connection, limit=1)
+            problems += _latest_rows(connection)
         else:
             problems += _unclaimed_journal(connection, limit=1)
     if problems:
@@ -237,28 +352,25 @@ def quick_check(engine: Engine) -> str:
     return entries[-1].hash if entries else chain.GENESIS
 
 
-def _window_rows(connection: Connection, entries: list[chain.Entry]) -> list[Problem]:
-    """The rows the last entries wrote, against the live rows (one query per table)."""
+def _latest_rows(connection: Connection) -> list[Problem]:
+    """Every live row of the audited tables against the newest chain entry of its key (one
+    query for the chain, one per table): an edit made with the triggers dropped and put back
+    is seen here, however old the row."""
     tables = chain.chained_tables()
-    latest: dict[tuple[str, str], str | None] = {}
-    for entry in entries:
-        if entry.table_name in tables:
-            latest[(entry.table_name, entry.row_key)] = entry.row
-    live: dict[tuple[str, str], str] = {}
-    for name in sorted({name for name, _ in latest}):
-        table = tables[name]
-        (column,) = table.primary_key.columns  # every audited table has a one-column key
-        keys = [column.type.python_type(key) for table_name, key in latest if table_name == name]
-        for found in connection.execute(select(table).where(column.in_(keys))):
-            row = found._mapping
-            live[(name, chain.row_key(table, row))] = chain.row_json(table, row)
-    problems: list[Problem] = []
-    for where, expected in latest.items():
-        have = live.get(where)
-        if have != expected:
-            why = "deleted outside the application" if have is None else "changed outside the app"
-            problems.append(Problem(*where, why))
-    return problems
+    entries = ChainEntry.__table__
+    newest = (
+        select(sql_func.max(entries.c.seq).label("seq"))
+        .where(entries.c.table_name != "")
+        .group_by(entries.c.table_name, entries.c.row_key)
+        .subquery()
+    )
+    query = select(entries.c.table_name, entries.c.row_key, entries.c.row).join(
+        newest, entries.c.seq == newest.c.seq
+    )
+    expected = {
+        (r.table_name, r.row_key): r.row for r in connection.execute(query) if r.row is not None
+    }
+    return _compare(expected, _live_state(connection, tables), tables)
 
 
 def before_migration(connection: Connection) -> None:

@@ -6,9 +6,10 @@ runs in WAL mode with a busy timeout, and every transaction starts with BEGIN IM
 writers queue instead of failing half-way. PostgreSQL is reached through psycopg 3
 (`postgresql://...` URLs are mapped to `postgresql+psycopg://`). A database whose schema is
 older than this program's is refused until `accelcal db upgrade`. Nothing here creates a
-database as a side effect of opening it: `accelcal db upgrade` (`upgrade`) creates the schema,
-and until then the records are not in use (`records_url` answers None for a missing default
-file), so opening the GUI or running a command never changes what a later command accepts.
+database as a side effect of opening it: `accelcal db upgrade` (`upgrade`) creates the schema
+(and the records key when there is none, app.records.db.records_key), and until then the
+records are not in use (`records_url` answers None for a missing default file), so opening the
+GUI or running a command never changes what a later command accepts.
 """
 
 from __future__ import annotations
@@ -133,11 +134,12 @@ def upgrade(engine: Engine, revision: str = "head") -> tuple[str | None, str | N
     """Migrate the schema to `revision`; returns (revision before, revision after)."""
     from alembic import command
 
-    from app.records.db import chain_check
+    from app.records.db import chain, chain_check, records_key
 
     before = current_revision(engine)
     config = _alembic_config(engine)
     sqlite = engine.dialect.name == "sqlite"
+    records_key.ensure_key()  # every head the upgrade appends is signed with it
     with engine.connect() as connection:
         raw = connection.connection.driver_connection
         if sqlite and raw is not None:  # batch migrations rebuild tables: keys checked after
@@ -154,6 +156,10 @@ def upgrade(engine: Engine, revision: str = "head") -> tuple[str | None, str | N
                 broken = connection.exec_driver_sql("PRAGMA foreign_key_check").all()
                 if broken:
                     raise DatabaseError(f"migration to {revision} broke foreign keys: {broken}")
+        if before is None:  # new records where others may have been: their last head is moot
+            identity = chain.database_identity(connection)
+            records_key.forget_signed(records_key.database_id(identity))
+        chain.remember_head(connection)
         if sqlite and raw is not None:
             raw.execute("PRAGMA foreign_keys = ON")
     after = current_revision(engine)

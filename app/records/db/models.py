@@ -281,7 +281,8 @@ class CertificateReview(Base):
 class ChainEntry(Base):
     """One link of the records' hash chain (app.records.db.chain): the full new content of one
     audited row (canonical JSON; None when deleted), who and when (UTC, ISO 8601), the journal
-    row it accounts for, the schema fingerprint, and sha256(prev_hash || entry) in hex.
+    row it accounts for, the schema fingerprint, and sha256(prev_hash || entry) in hex; the last
+    entry of each append also the records key's signature of it.
 
     Append-only: migration 0007 installs triggers that refuse UPDATE and DELETE on it."""
 
@@ -297,6 +298,10 @@ class ChainEntry(Base):
     schema_fingerprint: Mapped[str] = mapped_column(String(100))
     prev_hash: Mapped[str] = mapped_column(String(64), unique=True)
     hash: Mapped[str] = mapped_column(String(64), unique=True)
+    # the head's Ed25519 signature (hex) and the records key's id, on the last entry of each
+    # append (migration 0011; None on the entries before it, which a later head covers)
+    signature: Mapped[str | None] = mapped_column(String(128), nullable=True)
+    key_id: Mapped[str | None] = mapped_column(String(64), nullable=True)
 
 
 class JournalEntry(Base):

@@ -37,7 +37,7 @@ def test_a_lab_day_through_the_command_line(
     db: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     capsys.readouterr()
-    assert "schema already at 0010" in _ok(["db", "upgrade"], capsys)
+    assert "schema already at 0011" in _ok(["db", "upgrade"], capsys)
     _ok(["customers", "add", "ACME Ltd"], capsys)
     err = _refused(
         [
