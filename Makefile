@@ -106,7 +106,7 @@ demo: $(RUNTIME_STAMP)
 	$(BIN)/accelcal run --sim --dut piezo --dut-id SN-DEMO-0001 --level 5 --periods 8 --seed 1 \
 	    --tolerance 5 --technician "A. Tech" --out $(DEMO_DIR)/runs
 	$(BIN)/accelcal certificate $$(ls -d $(DEMO_DIR)/runs/*/ | tail -n 1) --customer "ACME Ltd" \
-	    --authorised-by "J. Smith, head of laboratory" --temperature 23 \
+	    --authorised-by "J. Smith" --authorised-function "head of laboratory" --temperature 23 \
 	    --mounting "stud-mounted back-to-back on the reference, 2 N m"
 
 # the ISO/IEC 17025 7.11.2 software validation report of this version (exit 1: a case failed)
