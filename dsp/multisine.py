@@ -12,6 +12,7 @@ crest factor of the acceleration waveform (dsp.crestfactor).
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -22,6 +23,11 @@ import numpy as np
 from dsp import crestfactor, iso266
 from dsp.crestfactor import peak_grid_samples
 from dsp.errors import InputRefused
+from dsp.fades import FADE_OUT_CYCLES as FADE_OUT_CYCLES  # re-exported for its callers
+from dsp.fades import FADE_OUT_MIN_S as FADE_OUT_MIN_S
+from dsp.fades import fade_envelope as fade_envelope
+from dsp.fades import fade_out_envelope as fade_out_envelope
+from dsp.fades import fade_out_samples as fade_out_samples
 from dsp.mains import mains_harmonic_of_bin, mains_shifted_bins
 
 MAX_FREQUENCY_FRACTION = 0.45  # of fs: multiplexed boards have no anti-alias filter (SPEC s.3)
@@ -396,6 +402,39 @@ def check_lines(
     return PlanCheck(tuple(errors), tuple(warnings))
 
 
+def check_played_lines(
+    nominal_frequencies_hz: Sequence[float] | np.ndarray,
+    sample_rate_hz: float,
+    period_samples: int,
+    reference_frequency_hz: float,
+    *,
+    mains_frequency_hz: float = 50.0,
+    mains_harmonics: int = 5,
+    shift_mains_lines: bool = True,
+) -> tuple[PlanCheck, list[int]]:
+    """`check_lines` on the lines as they will be played, and their bins: snapped to the
+    nearest bin, then (`shift_mains_lines`, the default) moved one bin off the mains
+    harmonics (`mains_shifted_bins`). No bins when the nominal lines already fail."""
+    check = functools.partial(
+        check_lines,
+        nominal_frequencies_hz,
+        sample_rate_hz,
+        period_samples,
+        reference_frequency_hz,
+        mains_frequency_hz=mains_frequency_hz,
+        mains_harmonics=mains_harmonics,
+    )
+    first = check()
+    if first.errors:
+        return first, []
+    bins = [snap_to_bin(float(f), sample_rate_hz, period_samples) for f in nominal_frequencies_hz]
+    if not shift_mains_lines:
+        return first, bins
+    resolution = sample_rate_hz / period_samples
+    bins = mains_shifted_bins(bins, resolution, mains_frequency_hz, mains_harmonics)
+    return check(bins=bins), bins
+
+
 def make_plan(
     nominal_frequencies_hz: Sequence[float] | np.ndarray,
     sample_rate_hz: float,
@@ -437,31 +476,18 @@ def make_plan(
     if problems:
         raise PlanError(problems)
 
-    check = check_lines(
+    check, bins = check_played_lines(
         nominal,
         sample_rate_hz,
         period_samples,
         reference_frequency_hz,
         mains_frequency_hz=mains_frequency_hz,
         mains_harmonics=mains_harmonics,
+        shift_mains_lines=shift_mains_lines,
     )
     if check.errors:
         raise PlanError(check.errors)
     resolution = sample_rate_hz / period_samples
-    bins = [snap_to_bin(f, sample_rate_hz, period_samples) for f in nominal]
-    if shift_mains_lines:
-        bins = mains_shifted_bins(bins, resolution, mains_frequency_hz, mains_harmonics)
-        check = check_lines(
-            nominal,
-            sample_rate_hz,
-            period_samples,
-            reference_frequency_hz,
-            mains_frequency_hz=mains_frequency_hz,
-            mains_harmonics=mains_harmonics,
-            bins=bins,
-        )
-        if check.errors:
-            raise PlanError(check.errors)
 
     if phases_rad is None:
         optimise = crestfactor.optimise_phases if optimiser is None else optimiser
@@ -549,46 +575,3 @@ def preset_plan(
         shift_mains_lines=shift_mains_lines,
         optimiser=optimiser,
     )
-
-
-def fade_envelope(period_samples: int, periods: int, direction: str) -> np.ndarray:
-    """Raised-cosine gain over whole periods (SPEC s.4): 'in' rises 0 -> 1, 'out' falls 1 -> 0.
-
-    The fade-out's last sample is exactly 0.0, so the output ends at exactly 0 V.
-    """
-    if periods < 1 or period_samples < 2:
-        raise ValueError("fade: needs at least one period of at least 2 samples")
-    n = period_samples * periods
-    ramp = 0.5 * (1.0 - np.cos(np.pi * np.arange(n) / (n - 1)))
-    if direction == "in":
-        return ramp
-    if direction == "out":
-        return ramp[::-1].copy()
-    raise ValueError(f"fade: direction must be 'in' or 'out', got {direction!r}")
-
-
-FADE_OUT_CYCLES = 4  # cycles of the lowest line a fade-out lasts at least
-FADE_OUT_MIN_S = 0.05  # and at least this (s): the exciter's suspension is far faster
-
-
-def fade_out_samples(lowest_frequency_hz: float, sample_rate_hz: float) -> int:
-    """Length in samples of a fade-out (SPEC s.4, issue 14): FADE_OUT_CYCLES cycles of the
-    lowest line, at least FADE_OUT_MIN_S. A raised cosine over four cycles puts its spectral
-    splatter within about a quarter of the lowest line's frequency around each line, and the
-    table's velocity and displacement return to rest with it (its integrals are smooth)."""
-    if not (lowest_frequency_hz > 0 and sample_rate_hz > 0):
-        raise ValueError("fade-out: frequency and sample rate must be > 0")
-    seconds = max(FADE_OUT_CYCLES / lowest_frequency_hz, FADE_OUT_MIN_S)
-    return max(2, math.ceil(seconds * sample_rate_hz))
-
-
-def fade_out_envelope(period_samples: int, ramp_samples: int) -> np.ndarray:
-    """A raised-cosine fall from 1 to exactly 0 over `ramp_samples`, then zeros, padded to whole
-    periods of `period_samples`: the output ends at exactly 0 V at a period boundary, and the
-    shaker stops after `ramp_samples`, not after whole periods."""
-    if period_samples < 2 or ramp_samples < 2:
-        raise ValueError("fade-out: needs periods and a ramp of at least 2 samples")
-    periods = math.ceil(ramp_samples / period_samples)
-    envelope = np.zeros(periods * period_samples)
-    envelope[:ramp_samples] = fade_envelope(ramp_samples, 1, "out")
-    return envelope

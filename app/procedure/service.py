@@ -43,8 +43,7 @@ from app.procedure.run import (
 )
 from app.stand import config as stand_config
 from dsp.estimators import Estimator
-from dsp.mains import mains_shifted_bins
-from dsp.multisine import PRESETS, Plan, PlanCheck, PlanError, check_lines, snap_to_bin
+from dsp.multisine import PRESETS, Plan, PlanCheck, PlanError, check_played_lines
 from dsp.profiles import Profile
 from dsp.spectral import check_periods
 
@@ -267,19 +266,15 @@ class RunService:
                 period = choose_period(lines, rate, preset.period_samples)
             except PlanError as exc:
                 return PlanCheck(exc.problems, ())
-        bins = None
-        if key.shift_mains_lines:  # the lines as they will be played: off the mains harmonics
-            resolution = rate / period
-            snapped = [snap_to_bin(f, rate, period) for f in lines]
-            bins = mains_shifted_bins(snapped, resolution, key.mains_frequency_hz)
-        return check_lines(
+        check, _ = check_played_lines(  # the lines as they will be played (make_plan's)
             lines,
             rate,
             period,
             reference,
             mains_frequency_hz=key.mains_frequency_hz,
-            bins=bins,
+            shift_mains_lines=key.shift_mains_lines,
         )
+        return check
 
     def preset_keys(self) -> list[PlanRequest]:
         """The phase keys of every preset on this stand (a face optimises them at once)."""
