@@ -63,16 +63,18 @@ def analyze(
             f"{recording.source}: {recording.periods} period(s) recorded, none left after "
             f"{recording.settle_periods} settle period(s)"
         )
+    mean = PeriodMean()
     if estimator in RECORD_ESTIMATORS:  # lpm: the analysed periods as one record
         if segments is not None:
             raise RecordingError("--segments: the lpm estimator analyses whole periods")
-        estimate = _record_estimate(recording)
+        estimate = _record_estimate(recording, mean)
     elif segments is None:
         accumulator = SpectralAccumulator(
             plan.period_samples, plan.bins, nonlinear_excluded_bins=hum_bins(plan)
         )
-        for reference, dut in iter_batches(recording):
+        for reference, dut in iter_batches(recording):  # a stored recording: a batch in memory
             accumulator.add_periods(reference, dut)
+            mean.add(reference, dut)
     else:
         start = recording.settle_periods * recording.period_samples
         reference = recording.reference_v[start:]
@@ -90,7 +92,7 @@ def analyze(
         accumulator.add_line_spectra(*spectra)
     if estimator not in RECORD_ESTIMATORS:
         estimate = accumulator.estimate(estimator)
-    budget, hum_warnings = _budget_with_hum(recording)
+    budget, hum_warnings = _budget_with_hum(recording, mean)
     warnings.extend(hum_warnings)
     warnings.extend(recording.resolution_warnings)  # the lines the run did not state
     if rule == "seed":
@@ -117,16 +119,43 @@ def analyze(
     return Analysis(estimate, results, recording.status)
 
 
-def _record_estimate(recording: Recording) -> Estimate:
+def _record_estimate(recording: Recording, mean: PeriodMean) -> Estimate:
     """The lpm estimate of the analysed periods as one record; with the recorded drive, that
     drive is checked to be periodic over it (a fade inside is refused)."""
     reference, dut = recording.analysis_periods()
+    mean.add(reference, dut)
     drive = None
     if recording.drive_v is not None:
         n = recording.period_samples
         start = recording.settle_periods * n
         drive = recording.drive_v[start : start + reference.size].reshape(reference.shape)
     return record_estimate(reference, dut, recording.plan, drive_blocks=drive).estimate
+
+
+class PeriodMean:
+    """The mean analysed period of both channels, fed batch by batch (V): the periods are added
+    one by one in order, as numpy's mean over the periods axis adds them, so a recording read in
+    batches gives the mean of the whole array exactly (dsp.hum takes it as one period)."""
+
+    def __init__(self) -> None:
+        self.count = 0
+        self._sums: list[np.ndarray] = []
+
+    def add(self, reference: np.ndarray, dut: np.ndarray) -> None:
+        """Add periods, arrays of shape (periods, N)."""
+        for i in range(reference.shape[0]):
+            if not self._sums:
+                self._sums = [np.array(reference[i], dtype=float), np.array(dut[i], dtype=float)]
+            else:
+                self._sums[0] += reference[i]
+                self._sums[1] += dut[i]
+            self.count += 1
+
+    def periods(self) -> tuple[np.ndarray, np.ndarray]:
+        """The mean period of reference and DUT, each shape (1, N)."""
+        if not self.count:
+            raise ValueError("mean period: no period added")
+        return (self._sums[0] / self.count)[None, :], (self._sums[1] / self.count)[None, :]
 
 
 def with_mcm(
@@ -161,7 +190,7 @@ def with_mcm(
     )
 
 
-def _budget_with_hum(recording: Recording) -> tuple[Budget, list[str]]:
+def _budget_with_hum(recording: Recording, mean: PeriodMean) -> tuple[Budget, list[str]]:
     """The recording's budget with the hum this analysis measures, and a warning per line it
     reaches (issue 13 point 3, issue 32 point 3; dsp.hum): "mains hum at X Hz" (magnitude
     and phase) at every line on a mains harmonic, from the leading drive-off periods (drive
@@ -170,7 +199,10 @@ def _budget_with_hum(recording: Recording) -> tuple[Budget, list[str]]:
     driven at X Hz" at every line a tone beside it reaches in the analysed periods. A
     component stored with the recording (measured at run time) is kept only when it is the
     larger: the budget carries the hum the warnings state."""
-    periods = recording.analysis_periods()
+    if mean.count == 0:  # the estimator read the periods otherwise (segments): once more
+        for reference, dut in iter_batches(recording):
+            mean.add(reference, dut)
+    periods = mean.periods()
     hum = mains_hum(recording.plan, periods, _drive_off_periods(recording))
     driven = driven_hum_of_periods(recording.plan, periods)
     components, warnings = [], []
@@ -238,7 +270,7 @@ def reanalysis(
     if settle_periods is not None:
         if settle_periods < 0:
             raise RecordingError(f"--settle-periods: must be >= 0, got {settle_periods}")
-        available = recording.analysis_periods()[0].shape[0]
+        available = recording.analysed_periods
         if available - settle_periods < 2:
             raise RecordingError(
                 f"--settle-periods: dropping {settle_periods} of the {available} analysed "
@@ -275,11 +307,11 @@ def read_for_analysis(path: str | Path) -> Recording:
     if not is_run_folder(folder):
         if path.is_dir():
             raise RecordingError(f"{path}: a folder but not a run folder (no manifest.json)")
-        return read_recording(file)
+        return read_recording(file, stored=True)
     run_status = _run_status(folder)
     if not file.exists():
         raise RecordingError(f"{file}: the run folder has no recording")
-    recording = read_recording(file)
+    recording = read_recording(file, stored=True)
     return dataclasses.replace(recording, status=_joined(run_status, recording.status))
 
 
