@@ -70,8 +70,10 @@ class StoredSignal:
         data = self[:]
         return data if dtype is None else data.astype(dtype)
 
-    def blocks(self, samples: int = BLOCK_SAMPLES) -> Iterator[np.ndarray]:
-        """The channel in consecutive blocks of at most `samples` samples, one file opening."""
+    def blocks(self, samples: int | None = None) -> Iterator[np.ndarray]:
+        """The channel in consecutive blocks of at most `samples` (default BLOCK_SAMPLES)
+        samples, the file opened once."""
+        samples = samples or BLOCK_SAMPLES
         try:
             with h5py.File(self.path, "r") as f:
                 ds = f[self.dataset]
