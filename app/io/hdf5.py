@@ -44,7 +44,7 @@ import numpy as np
 from app.io import hdf5_fields as fields
 from app.io.checks import MAX_HDF5_BYTES, InputFileError, check_input_file
 from app.io.hdf5_fields import RecordingError
-from app.io.hdf5_stream import SampleScan, StoredSignal, channel_blocks
+from app.io.hdf5_stream import SampleScan, StoredFile, StoredSignal, channel_blocks
 from app.io.vocabulary import Mode, RunStatus
 from app.version import software_version
 from dsp.calibration import ReferenceChain
@@ -381,6 +381,7 @@ def read_recording(path: str | Path, *, stored: bool = False) -> Recording:
             config.attrs, "resolution_warnings", where, _text_list
         )
         fields.group(f, "signals", name)
+        stored_file = StoredFile(path) if stored else None
         signals: dict[str, Samples] = {}
         ranges: dict[str, float] = {}
         for channel in (*CHANNELS, "drive"):
@@ -391,8 +392,8 @@ def read_recording(path: str | Path, *, stored: bool = False) -> Recording:
             unit = fields.text_attr(ds.attrs, "unit", f"{label} attribute")
             if unit not in (None, "V"):
                 raise RecordingError(f"{label} attribute 'unit': {unit!r}, expected 'V' (volts)")
-            if stored:
-                signals[channel] = StoredSignal(path, f"signals/{channel}", ds.size, label)
+            if stored_file is not None:
+                signals[channel] = StoredSignal(stored_file, f"signals/{channel}", ds.size, label)
             else:
                 signals[channel] = np.asarray(ds[()], dtype=float)
             stored_range = fields.number_attr(

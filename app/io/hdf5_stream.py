@@ -11,6 +11,7 @@ states: that check is this scan over a single block. Volts throughout.
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -26,16 +27,47 @@ FLAT_TOP_RUN = 5  # without a known range: this many equal samples at the extrem
 READ_ERRORS = (OSError, KeyError, RuntimeError, ValueError, TypeError)
 
 
+class StoredFile:
+    """An HDF5 recording opened read-only on first use and kept open while its channels are
+    in use (one opening per analysis, not one per slice); closed with `close` or when the
+    last channel referring to it is gone. A file changed on disk after it was opened (HDF5
+    would read zeros past a cut) is refused at the next read: its size, modification time
+    and inode are compared before each."""
+
+    def __init__(self, path: Path):
+        self.path = Path(path)
+        self._file: h5py.File | None = None
+        self._stamp: tuple[int, int, int] | None = None
+
+    def _stat(self) -> tuple[int, int, int]:
+        st = os.stat(self.path)
+        return st.st_size, st.st_mtime_ns, st.st_ino
+
+    def dataset(self, name: str) -> h5py.Dataset:
+        if self._file is None or not self._file.id.valid:
+            self._stamp = self._stat()
+            self._file = h5py.File(self.path, "r")
+        elif self._stat() != self._stamp:
+            self.close()
+            raise OSError("the file changed on disk while it was read; analyse it again")
+        return self._file[name]
+
+    def close(self) -> None:
+        if self._file is not None and self._file.id.valid:
+            self._file.close()
+        self._file = None
+
+
 class StoredSignal:
-    """One channel of an HDF5 recording (V, float64), `size` samples of dataset `dataset` in
-    the file at `path`, read on demand: slicing (step 1) returns a numpy array of that slice.
-    A read the file refuses (cut, corrupt) is a RecordingError naming the file and dataset."""
+    """One channel of an HDF5 recording (V, float64), `size` samples of dataset `dataset` of
+    `file`, read on demand: slicing (step 1) returns a numpy array of that slice. A read the
+    file refuses (cut, corrupt, replaced) is a RecordingError naming the file and dataset."""
 
     ndim = 1
     dtype = np.dtype(np.float64)
 
-    def __init__(self, path: Path, dataset: str, size: int, label: str):
-        self.path = Path(path)
+    def __init__(self, file: StoredFile, dataset: str, size: int, label: str):
+        self.file = file
         self.dataset = dataset
         self.size = int(size)
         self.label = label  # "recording.h5: /signals/dut"
@@ -59,10 +91,15 @@ class StoredSignal:
         if stop <= start:
             return np.empty(0)
         try:
-            with h5py.File(self.path, "r") as f:
-                data = f[self.dataset][start:stop]
+            data = self.file.dataset(self.dataset)[start:stop]
         except READ_ERRORS as exc:
+            self.file.close()
             raise RecordingError(f"{self.label}: cannot be read ({exc})") from None
+        if data.shape != (stop - start,):
+            raise RecordingError(
+                f"{self.label}: {data.size} samples read where {stop - start} were stored "
+                "(the file changed since it was checked)"
+            )
         return np.asarray(data, dtype=float)
 
     def __array__(self, dtype: Any = None, copy: Any = None) -> np.ndarray:
@@ -71,16 +108,10 @@ class StoredSignal:
         return data if dtype is None else data.astype(dtype)
 
     def blocks(self, samples: int | None = None) -> Iterator[np.ndarray]:
-        """The channel in consecutive blocks of at most `samples` (default BLOCK_SAMPLES)
-        samples, the file opened once."""
+        """The channel in consecutive blocks of at most `samples` (default BLOCK_SAMPLES)."""
         samples = samples or BLOCK_SAMPLES
-        try:
-            with h5py.File(self.path, "r") as f:
-                ds = f[self.dataset]
-                for start in range(0, self.size, samples):
-                    yield np.asarray(ds[start : start + samples], dtype=float)
-        except READ_ERRORS as exc:
-            raise RecordingError(f"{self.label}: cannot be read ({exc})") from None
+        for start in range(0, self.size, samples):
+            yield self[start : start + samples]
 
 
 def channel_blocks(x: np.ndarray | StoredSignal) -> Iterator[np.ndarray]:

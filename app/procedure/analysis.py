@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -17,9 +18,9 @@ import numpy as np
 from app.io.hdf5 import Recording, RecordingError, iter_batches, read_recording
 from app.io.vocabulary import RunStatus
 from app.procedure.verdict import Tolerances, tolerances_for, with_verdict
-from app.records.run_folder import FolderState, inspect_run, is_run_folder
+from app.records.run_folder import FolderState, RunCheck, inspect_run, is_run_folder
 from app.records.warnings import SEED_RULE_WARNING
-from dsp.calibration import Results, compute_results
+from dsp.calibration import ReferenceChain, Results, compute_results
 from dsp.hum import driven_hum_of_periods, mains_hum, merged
 from dsp.lpm_record import hum_bins, record_estimate
 from dsp.mcm import validate_lines
@@ -55,6 +56,35 @@ def analyze(
     default those of the simulated DUT the recording's truth names, else `tolerance_percent`
     alone. `rule="seed"` adds the blocking SEED_RULE_WARNING (k from t(L-1) is not GUM);
     `mcm_trials` validates every line's GUM interval by JCGM 101 Monte Carlo (`with_mcm`)."""
+    return analyze_chains(
+        recording,
+        [recording.chain],
+        estimator=estimator,
+        segments=segments,
+        probability=probability,
+        rule=rule,
+        tolerance_percent=tolerance_percent,
+        tolerances=tolerances,
+        mcm_trials=mcm_trials,
+    )[0]
+
+
+def analyze_chains(
+    recording: Recording,
+    chains: Sequence[ReferenceChain],
+    *,
+    estimator: str = "periodic",
+    segments: int | None = None,
+    probability: float = 0.9545,
+    rule: str = "gum",
+    tolerance_percent: float | None = None,
+    tolerances: Tolerances | None = None,
+    mcm_trials: int | None = None,
+) -> list[Analysis]:
+    """As `analyze`, once per reference chain of `chains` (e.g. the stored and a corrected
+    calibration table: app.procedure.impact): the recording is read and estimated once (the
+    estimate and the hum do not depend on the chain), the results computed per chain; each
+    equals `analyze` of the recording with that chain."""
     plan = recording.plan
     status_note = status_warning(recording.status)
     warnings: list[str] = [status_note] if status_note else []
@@ -97,26 +127,29 @@ def analyze(
     warnings.extend(recording.resolution_warnings)  # the lines the run did not state
     if rule == "seed":
         warnings.append(SEED_RULE_WARNING)
-    results = compute_results(
-        estimate,
-        plan,
-        recording.chain,
-        budget,
-        probability=probability,
-        rule=rule,
-        tolerance_percent=tolerance_percent,
-        extra_warnings=warnings,
-        cmc=recording.cmc,
-    )
     if tolerances is None:
         catalogue = recording.truth.attrs.get("dut") if recording.truth is not None else None
         tolerances = tolerances_for(
             str(catalogue) if catalogue else None, plan.reference_frequency_hz, tolerance_percent
         )
-    if mcm_trials is not None:
-        results = with_mcm(results, estimate, budget, probability, mcm_trials)
-    results = with_verdict(results, tolerances, recording.status)
-    return Analysis(estimate, results, recording.status)
+    out = []
+    for chain in chains:
+        results = compute_results(
+            estimate,
+            plan,
+            chain,
+            budget,
+            probability=probability,
+            rule=rule,
+            tolerance_percent=tolerance_percent,
+            extra_warnings=warnings,
+            cmc=recording.cmc,
+        )
+        if mcm_trials is not None:
+            results = with_mcm(results, estimate, budget, probability, mcm_trials)
+        results = with_verdict(results, tolerances, recording.status)
+        out.append(Analysis(estimate, results, recording.status))
+    return out
 
 
 def _record_estimate(recording: Recording, mean: PeriodMean) -> Estimate:
@@ -298,29 +331,33 @@ def status_warning(status: RunStatus | None) -> str | None:
 RECORDING_NAME = "recording.h5"
 
 
-def read_for_analysis(path: str | Path) -> Recording:
+def read_for_analysis(path: str | Path, *, check: RunCheck | None = None) -> Recording:
     """The HDF5 recording at `path`, a recording file or a run folder (its recording.h5). When
     it belongs to a run folder the folder is verified first (RecordingError naming the file
-    with "hash mismatch" when it was changed) and the run's status joins the recording's."""
+    with "hash mismatch" when it was changed) and the run's status joins the recording's;
+    `check`: that folder's verification already made (app.records.run_folder.inspect_run),
+    not repeated. The channels stay in the file, read a batch of periods at a time."""
     path = Path(path)
     folder, file = (path, path / RECORDING_NAME) if path.is_dir() else (path.parent, path)
     if not is_run_folder(folder):
         if path.is_dir():
             raise RecordingError(f"{path}: a folder but not a run folder (no manifest.json)")
         return read_recording(file, stored=True)
-    run_status = _run_status(folder)
+    run_status = _run_status(folder, check)
     if not file.exists():
         raise RecordingError(f"{file}: the run folder has no recording")
     recording = read_recording(file, stored=True)
     return dataclasses.replace(recording, status=_joined(run_status, recording.status))
 
 
-def _run_status(folder: Path) -> RunStatus:
-    """complete, aborted or incomplete (interrupted); RecordingError when it does not verify."""
-    try:
-        check = inspect_run(folder)
-    except ValueError as exc:  # unreadable manifest, not a run folder
-        raise RecordingError(str(exc)) from None
+def _run_status(folder: Path, check: RunCheck | None = None) -> RunStatus:
+    """complete, aborted or incomplete (interrupted); RecordingError when it does not verify
+    (`check`: its verification already made, else made here)."""
+    if check is None or check.path.resolve() != folder.resolve():
+        try:
+            check = inspect_run(folder)
+        except ValueError as exc:  # unreadable manifest, not a run folder
+            raise RecordingError(str(exc)) from None
     if check.state in (FolderState.MODIFIED, FolderState.UNSUPPORTED):
         raise RecordingError("; ".join(check.problems))
     if check.state == FolderState.RUNNING:
