@@ -1,10 +1,14 @@
-"""Impact assessment speed (issue 27 point 1): runs re-analysed per second with a corrected
-reference table, through the real path (app.procedure.impact.assess: index hash and manifest
-verified, the recording read, analysed with the stored and the corrected table), in a pool of
-worker processes.
+"""Impact assessment speed (issue 27 point 1, issue 34 point 5): runs re-analysed per second with
+a corrected reference table, through the real path (app.procedure.impact.assess: index hash and
+manifest verified, the recording read, analysed once and its results computed with the stored
+and the corrected table), in a pool of worker processes.
 
 One short simulated run (piezo, 4 periods) is recorded once; every task points at its folder,
-so N tasks are N full re-analyses of a real recording. Prints the time per run and the total.
+so N tasks are N full re-analyses of a real recording. The baseline, measured in the same run
+on the same pool of workers: per task, every file of the run folder hashed (what verifying its
+manifest reads) and the recording's channels read (h5py), the floor of any re-analysis. Prints
+the time per run, the baseline's and their ratio, with the load average (wall times depend on
+the machine's load; the ratio much less).
 
 Run: python bench/impact.py [RUNS] [WORKERS]   (default 10000 runs, one worker per core)
 Smoke (CI): python bench/impact.py 8 2   (or --smoke, the same)
@@ -17,10 +21,13 @@ import os
 import sys
 import tempfile
 import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from datetime import UTC, datetime
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+import h5py
 
 from app.procedure import impact
 from app.procedure.run import RunRequest, execute
@@ -28,6 +35,36 @@ from app.records.run_folder import MANIFEST_NAME, sha256_of
 from app.records.run_record import RunRecord
 
 SMOKE_ARGS = ("8", "2")  # --smoke: 8 runs on 2 workers, to see that it still works
+
+
+def read_and_hash(folder: str) -> int:
+    """The baseline task: every file of the run folder hashed (SHA-256, as its manifest is
+    verified) and the recording's channels read; the samples read."""
+    samples = 0
+    for path in sorted(Path(folder).iterdir()):
+        if path.is_file():
+            sha256_of(path)
+    with h5py.File(Path(folder) / "recording.h5", "r") as f:
+        for name in f["signals"]:
+            samples += f["signals"][name][()].size
+    return samples
+
+
+def baseline(folder: str, runs: int, workers: int) -> float:
+    """Seconds for `runs` baseline tasks on `workers` processes (one process: in this one)."""
+    start = time.perf_counter()
+    if workers <= 1:
+        for _ in range(runs):
+            read_and_hash(folder)
+    else:
+        with ProcessPoolExecutor(max_workers=workers) as pool:
+            for future in as_completed([pool.submit(read_and_hash, folder) for _ in range(runs)]):
+                future.result()
+    return time.perf_counter() - start
+
+
+def load_average() -> str:
+    return "load average " + " ".join(f"{v:.2f}" for v in os.getloadavg())
 
 
 def main(argv: list[str]) -> int:
@@ -71,9 +108,12 @@ def main(argv: list[str]) -> int:
                 last[0] = elapsed
                 print(impact.progress_line(done, total, elapsed), flush=True)
 
+        load_before = load_average()
+        floor = baseline(str(folder), runs, workers)
         start = time.perf_counter()
         results = impact.assess(tasks, serial, corrected, workers=workers, progress=progress)
         total = time.perf_counter() - start
+        load_after = load_average()
     problems = [r.problem for r in results if r.problem]
     if problems or not all(r.uses_reference for r in results):
         print(f"FAIL: {len(problems)} run(s) not checked: {problems[:1]}")
@@ -85,6 +125,11 @@ def main(argv: list[str]) -> int:
         f"({1000 * total * workers / runs:.1f} ms of a worker per run); new/old at the "
         f"reference frequency {ratio:.9f} (table ratio 1.01)"
     )
+    print(
+        f"baseline (folder hashed, channels read), same runs and workers: total {floor:.1f} s, "
+        f"{1000 * floor / runs:.2f} ms per run; impact / baseline = {total / floor:.1f}"
+    )
+    print(f"{load_before} before, {load_after} after")
     return 0 if abs(ratio - 1.01) < 1e-9 else 1
 
 
