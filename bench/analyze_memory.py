@@ -13,6 +13,7 @@ Acceptance (issue 34): peak RSS of the 300-period analysis at most 1.3x the 10-p
 the default estimator and for periodic. Exit status 1 when one of those two exceeds it.
 
 Run: python bench/analyze_memory.py [SHORT LONG]   (default 10 300 periods)
+Smoke (CI): python bench/analyze_memory.py --smoke   (8 and 16 periods, not judged)
 """
 
 from __future__ import annotations
@@ -84,11 +85,14 @@ def simulate(periods: int, path: Path, env: dict[str, str]) -> None:
 
 
 def main(argv: list[str]) -> int:
+    smoke = argv[1:] == ["--smoke"]
     try:
         short, long = (int(a) for a in argv[1:3]) if len(argv) >= 3 else (10, 300)
     except ValueError:
-        print(f"usage: {Path(argv[0]).name} [SHORT LONG]", file=sys.stderr)
+        print(f"usage: {Path(argv[0]).name} [SHORT LONG] | --smoke", file=sys.stderr)
         return 2
+    if smoke:
+        short, long = 8, 16
     estimators = list(dict.fromkeys([DEFAULT_ESTIMATOR, "periodic", "lpm"]))
     with tempfile.TemporaryDirectory() as tmp:
         env = {**os.environ, "ACCELCAL_DATA_DIR": str(Path(tmp) / "data")}
@@ -132,7 +136,7 @@ def main(argv: list[str]) -> int:
             f"{estimator}: peak RSS {long} / {short} periods = {rss_ratio:.2f} (limit {LIMIT}: "
             f"{verdict}); traced peak ratio {traced_ratio:.2f}"
         )
-    return 1 if failed else 0
+    return 1 if failed and not smoke else 0
 
 
 if __name__ == "__main__":
