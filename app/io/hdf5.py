@@ -341,7 +341,8 @@ def write_recording(path: str | Path, recording: Recording) -> None:
         ranges_v=recording.ranges_v,
         cmc=recording.cmc,
     ) as writer:
-        writer.append(recording.reference_v, recording.dut_v, recording.drive_v)
+        drive = None if recording.drive_v is None else np.asarray(recording.drive_v)
+        writer.append(np.asarray(recording.reference_v), np.asarray(recording.dut_v), drive)
         if recording.truth is not None:
             writer.write_truth(recording.truth)
         writer.set_status(recording.status or RunStatus.COMPLETE)  # written whole
