@@ -177,3 +177,26 @@ def test_traced_memory_does_not_grow_with_the_periods(tmp_path: Path, estimator:
         peaks.append(_traced_peak(path, estimator))
     # 8x the periods: whole in memory this was 2 x 160 x 96 kB of samples and their spectra
     assert peaks[1] < 1.3 * peaks[0], peaks
+
+
+def test_a_read_failing_during_the_analysis_exits_2_naming_the_dataset(
+    recording_file: Path, monkeypatch: pytest.MonkeyPatch, capsys
+) -> None:
+    """The sample checks read every channel; a read after them (the analysis's batches) that
+    the file refuses ends `accelcal analyze` with exit 2 and one line naming the dataset."""
+    reads = {"count": 0}
+    real = hdf5_stream.StoredFile.dataset
+
+    def failing(self: hdf5_stream.StoredFile, name: str):
+        reads["count"] += 1
+        if reads["count"] > 2:  # the two channels checked (a block each), then the first batch
+            raise OSError("Can't synchronously read data (corrupt chunk)")
+        return real(self, name)
+
+    monkeypatch.setattr(hdf5_stream.StoredFile, "dataset", failing)
+    monkeypatch.setattr(hdf5_stream, "BLOCK_SAMPLES", 1 << 30)
+    assert main(["analyze", str(recording_file)]) == 2
+    assert reads["count"] == 3
+    err = capsys.readouterr().err
+    assert "rec.h5: /signals/reference: cannot be read (Can't synchronously read data" in err
+    assert "Traceback" not in err and len(err.strip().splitlines()) == 1
