@@ -17,7 +17,7 @@ from app.cli import main
 from app.io import hdf5_stream
 from app.io.hdf5 import RecordingError, read_recording, write_recording
 from app.io.hdf5_stream import StoredSignal
-from app.procedure.analysis import analyze, read_for_analysis
+from app.procedure.analysis import analyze, analyze_chains, read_for_analysis
 from dsp.multisine import make_plan
 from tests.synthetic import lowpass_response, make_recording
 
@@ -201,3 +201,21 @@ def test_a_read_failing_during_the_analysis_exits_2_naming_the_dataset(
     assert "rec.h5: /signals/reference: cannot be read (Can't synchronously read data" in err
     errors = [line for line in err.splitlines() if line.startswith("accelcal analyze: error")]
     assert "Traceback" not in err and len(errors) == 1
+
+
+@pytest.mark.parametrize("estimator", ["periodic", "lpm"])
+def test_one_estimate_for_two_chains_equals_two_analyses(recording_file: Path, estimator) -> None:
+    """impact's old and new analyses (analyze_chains: read and estimated once) are each what
+    `analyze` gives the recording with that chain."""
+    recording = read_for_analysis(recording_file)
+    corrected = dataclasses.replace(
+        recording.chain,
+        sensitivity_mv_per_ms2=tuple(1.01 * s for s in recording.chain.sensitivity_mv_per_ms2),
+    )
+    both = analyze_chains(recording, [recording.chain, corrected], estimator=estimator)
+    for chain, analysis in zip((recording.chain, corrected), both, strict=True):
+        alone = analyze(dataclasses.replace(recording, chain=chain), estimator=estimator)
+        _numbers_equal(alone.results.to_dict(), analysis.results.to_dict())
+    ratio = both[1].results.reference.sensitivity_mv_per_ms2
+    ratio /= both[0].results.reference.sensitivity_mv_per_ms2
+    assert ratio == pytest.approx(1.01, rel=1e-12)  # the chains did differ
