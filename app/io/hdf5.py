@@ -44,7 +44,14 @@ import numpy as np
 from app.io import hdf5_fields as fields
 from app.io.checks import MAX_HDF5_BYTES, InputFileError, check_input_file
 from app.io.hdf5_fields import RecordingError
-from app.io.hdf5_stream import SampleScan, StoredFile, StoredSignal, channel_blocks
+from app.io.hdf5_stream import (
+    SampleScan,
+    StoredFile,
+    StoredSignal,
+    channel_blocks,
+    file_stamp,
+    kept_open,
+)
 from app.io.vocabulary import Mode, RunStatus
 from app.version import software_version
 from dsp.calibration import ReferenceChain
@@ -360,12 +367,13 @@ def read_recording(path: str | Path, *, stored: bool = False) -> Recording:
     except InputFileError as exc:
         raise RecordingError(str(exc)) from None
     try:
+        stamp = file_stamp(path) if stored else None  # before opening: a change after shows
         handle = h5py.File(path, "r")
     except FileNotFoundError:
         raise RecordingError(f"{path}: no such file") from None
     except OSError as exc:
         raise RecordingError(f"{name}: not a readable HDF5 file ({exc})") from None
-    with handle as f:
+    with kept_open(handle, keep=stored) as f:  # stored: its channels are read through it
         head = fields.read_head(f, name, FORMAT_NAME, FORMAT_VERSION)
         config = fields.group(f, "config", name)
         assert config is not None
@@ -382,7 +390,7 @@ def read_recording(path: str | Path, *, stored: bool = False) -> Recording:
             config.attrs, "resolution_warnings", where, _text_list
         )
         fields.group(f, "signals", name)
-        stored_file = StoredFile(path) if stored else None
+        stored_file = StoredFile(path, f, stamp) if stored else None
         signals: dict[str, Samples] = {}
         ranges: dict[str, float] = {}
         for channel in (*CHANNELS, "drive"):

@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -27,6 +28,25 @@ FLAT_TOP_RUN = 5  # without a known range: this many equal samples at the extrem
 READ_ERRORS = (OSError, KeyError, RuntimeError, ValueError, TypeError)
 
 
+def file_stamp(path: Path) -> tuple[int, int, int]:
+    """What tells a changed file: size (bytes), modification time (ns) and inode."""
+    st = os.stat(path)
+    return st.st_size, st.st_mtime_ns, st.st_ino
+
+
+@contextmanager
+def kept_open(handle: h5py.File, *, keep: bool) -> Iterator[h5py.File]:
+    """`handle` for a `with` block: closed when the block raises, and at its end unless
+    `keep` (a stored recording's channels go on reading through it)."""
+    try:
+        yield handle
+    except BaseException:
+        handle.close()
+        raise
+    if not keep:
+        handle.close()
+
+
 class StoredFile:
     """An HDF5 recording opened read-only on first use and kept open while its channels are
     in use (one opening per analysis, not one per slice); closed with `close` or when the
@@ -34,20 +54,21 @@ class StoredFile:
     would read zeros past a cut) is refused at the next read: its size, modification time
     and inode are compared before each."""
 
-    def __init__(self, path: Path):
+    def __init__(
+        self,
+        path: Path,
+        opened: h5py.File | None = None,
+        stamp: tuple[int, int, int] | None = None,
+    ):
         self.path = Path(path)
-        self._file: h5py.File | None = None
-        self._stamp: tuple[int, int, int] | None = None
-
-    def _stat(self) -> tuple[int, int, int]:
-        st = os.stat(self.path)
-        return st.st_size, st.st_mtime_ns, st.st_ino
+        self._file = opened  # the reader's own opening, when it handed it over
+        self._stamp = stamp if opened is not None else None  # taken before `opened` was
 
     def dataset(self, name: str) -> h5py.Dataset:
-        if self._file is None or not self._file.id.valid:
-            self._stamp = self._stat()
+        if self._file is None or not self._file.id.valid or self._stamp is None:
+            self._stamp = file_stamp(self.path)
             self._file = h5py.File(self.path, "r")
-        elif self._stat() != self._stamp:
+        elif file_stamp(self.path) != self._stamp:
             self.close()
             raise OSError("the file changed on disk while it was read; analyse it again")
         return self._file[name]
