@@ -168,6 +168,7 @@ def write_pdf(
         _kv(
             [
                 ("Certificate number", _esc(number), Item.NUMBER),
+                *_amendment_rows(info),
                 (
                     "Customer",
                     f"{_esc(info.customer)}, "
@@ -258,6 +259,19 @@ def write_pdf(
     if signer is not None:
         signer.sign_in_place(out, reason=f"Calibration certificate {number}")
     out.chmod(0o444)
+
+
+def _amendment_rows(info: CertificateInfo) -> list[tuple[str, str, Item | None]]:
+    """An amendment's rows under its number (ISO/IEC 17025 7.8.8.3): the certificate it
+    replaces, which is withdrawn from use by it, and the reason; none for a first issue."""
+    a = info.amendment
+    if a is None:
+        return []
+    return [
+        ("Replaces certificate", _esc(a.replaces), Item.REPLACES),
+        ("", f"which it supersedes in full; {_esc(a.replaces)} is no longer valid", None),
+        ("Reason for the amendment", _esc(a.reason), Item.AMENDMENT_REASON),
+    ]
 
 
 def _reference_sensitivity(results: Results, info: CertificateInfo) -> str:
