@@ -332,7 +332,7 @@ def _line_table(results: Results, in_g: bool = False) -> list[Any]:
         "U phase\n°",
         "U rel.\n%",
         "k",
-        "ISO\n16063-21",
+        "U vs.\nISO 16063-21\nlimit",
         *(["Sensitivity\nmV/g"] if in_g else []),
     ]
     rows: list[list[str]] = [header]
