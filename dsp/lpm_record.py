@@ -18,7 +18,9 @@ over the bins tested, 1 % false alarm per run) and bias-corrected for it. Volts 
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -29,6 +31,8 @@ from dsp.spectral import DISTORTION_FALSE_ALARM, HARMONICS, Estimate
 
 ESTIMATOR = "lpm"
 NOISE_HALF_WIDTH_BINS = 12  # local noise power around a harmonic bin, from non-excited bins
+WHOLE_RECORD_PERIODS = 16  # the longest record analysed whole (the product's default: 1-16)
+NEIGHBOURHOOD_BINS = 12  # a longer record is held within this many bins of each grid bin
 
 
 @dataclass(frozen=True)
@@ -132,6 +136,118 @@ def record_estimate(
     return RecordEstimate(estimate, result, periods, found)
 
 
+def record_estimate_batches(
+    batches: Iterable[tuple[np.ndarray, np.ndarray, np.ndarray | None]],
+    periods: int,
+    plan: Plan,
+    *,
+    settings: lpm.LpmSettings | None = None,
+) -> RecordEstimate:
+    """`record_estimate` of a long record read a batch of periods at a time: `batches` yields
+    (reference, DUT, drive or None) of consecutive periods, shape (periods, N), V, `periods`
+    in all. The record's spectra are accumulated exactly, but held only within
+    NEIGHBOURHOOD_BINS (at least the LPM's reach) of every period-grid bin (dsp.lpm
+    NeighbourAccumulator): the LPM's windows, the lines, the harmonics' noise neighbourhoods and
+    the drive check read the very bins `record_estimate` reads; the nonlinear fit (dsp.nonlinear
+    estimate_neighbourhood) uses the free bins held, not every free bin of the record (for
+    records of at most 2 NEIGHBOURHOOD_BINS + 1 periods that is every bin). Memory independent
+    of `periods`. AnalysisError names the cause."""
+    settings = settings or lpm.LpmSettings()
+    n = plan.period_samples
+    half_width = max(NEIGHBOURHOOD_BINS, settings.reach, NOISE_HALF_WIDTH_BINS)
+    accumulator: lpm.NeighbourAccumulator | None = None
+    moments = dict.fromkeys((4, 5, 6), 0.0)
+    with_drive = False
+    try:
+        for reference, dut, drive in batches:
+            ref = np.atleast_2d(np.asarray(reference, dtype=float))
+            if ref.shape[1:] != (n,) or np.shape(dut) != ref.shape:
+                raise AnalysisError(
+                    f"lpm: expected whole periods of {n} samples for both channels, got "
+                    f"{ref.shape} and {np.shape(dut)}"
+                )
+            if accumulator is None:
+                with_drive = drive is not None
+                accumulator = lpm.NeighbourAccumulator(periods, n, half_width, 6 + with_drive)
+            if (drive is not None) != with_drive:
+                raise AnalysisError("lpm: the drive is given for some periods and not others")
+            powers = [ref**order for order in nonlinear.ALL_ORDERS]
+            extra = [] if drive is None else [np.asarray(drive, dtype=float)]
+            accumulator.add(np.asarray(dut, dtype=float), ref, *powers, *extra)
+            for order in moments:
+                moments[order] += float(np.sum(ref**order))
+        if accumulator is None or accumulator.added != periods:
+            got = 0 if accumulator is None else accumulator.added
+            raise AnalysisError(f"lpm: {got} of {periods} periods read")
+    except lpm.LpmError as exc:
+        raise AnalysisError(f"lpm: {exc}") from None
+    y_spec, u_spec = accumulator.spectrum(0), accumulator.spectrum(1)
+    powers_spec = {o: accumulator.spectrum(2 + i) for i, o in enumerate(nonlinear.ALL_ORDERS)}
+    r_spec = accumulator.spectrum(6) if with_drive else None
+    del accumulator
+    lines = plan.bins * periods
+    excluded = hum_bins(plan, periods)
+    record_bins = periods * n // 2 + 1
+
+    def local_polynomial(dut_spec: Any) -> lpm.LpmEstimate:
+        try:
+            return lpm.estimate_spectra(
+                dut_spec,
+                u_spec,
+                lines,
+                record_bins,
+                settings=settings,
+                excluded_bins=excluded,
+                r_spec=r_spec,
+            )
+        except lpm.LpmError as exc:
+            raise AnalysisError(f"lpm: {exc}") from None
+
+    result = local_polynomial(y_spec)
+    assert result.reference_lines_v is not None
+    samples = periods * n
+    found = nonlinear.estimate_neighbourhood(
+        y_spec,
+        u_spec,
+        lines,
+        result.reference_lines_v,
+        result.response,
+        powers_spec,
+        {o: total / samples for o, total in moments.items()},
+        excluded_bins=excluded,
+    )
+    response = result.response
+    magnitude_u, phase_u, dof = result.relative_type_a, result.phase_type_a_rad, result.dof
+    if found.found:
+        cleaned = nonlinear.cleaned_neighbourhood(
+            y_spec, found, result.reference_lines_v, lines, powers_spec, excluded
+        )
+        result = local_polynomial(cleaned)
+        carried = nonlinear.carry(
+            result.response, result.relative_type_a, result.phase_type_a_rad, result.dof, found
+        )
+        response, magnitude_u, phase_u = carried.response, carried.magnitude_u, carried.phase_u_rad
+        dof = carried.dof
+    per_period = math.sqrt(periods)
+    estimate = Estimate(
+        estimator=ESTIMATOR,
+        periods=periods,
+        response=response,
+        relative_type_a=magnitude_u,
+        phase_type_a_rad=phase_u,
+        dof=np.asarray(dof, dtype=float),
+        coherence=np.full(lines.size, np.nan),
+        reference_amplitude_v=result.reference_amplitude_v,
+        dut_amplitude_v=result.dut_amplitude_v,
+        reference_noise_v=result.reference_noise_v * per_period,
+        dut_noise_v=result.dut_noise_v * per_period,
+        reference_distortion=harmonic_distortion(u_spec, lines),
+        dut_distortion=harmonic_distortion(y_spec, lines),
+        nonlinear=found,
+    )
+    return RecordEstimate(estimate, result, periods, found)
+
+
 def hum_bins(plan: Plan, periods: int = 1) -> set[int]:
     """The bins of a record of `periods` periods of `plan` that hold mains hum (left out of the
     LPM's windows and of the detection bins of dsp.nonlinear)."""
@@ -141,7 +257,7 @@ def hum_bins(plan: Plan, periods: int = 1) -> set[int]:
     )
 
 
-def harmonic_distortion(spectrum: np.ndarray, line_bins: np.ndarray) -> np.ndarray:
+def harmonic_distortion(spectrum: Any, line_bins: np.ndarray) -> np.ndarray:
     """Per line, the rss of its periodic 2nd..5th harmonics relative to the line (a ratio),
     from one record's peak-scaled spectrum: a harmonic bin counts where |X|^2 exceeds
     t = ln(tests / alpha) times the local noise power (for noise alone |X|^2/s2 ~ Exp(1)),
@@ -155,7 +271,7 @@ def harmonic_distortion(spectrum: np.ndarray, line_bins: np.ndarray) -> np.ndarr
     blocked = line_set | {b for group in harmonics for b in group} | {0, size - 1}
     tests = max(sum(len(group) for group in harmonics), 1)
     threshold = math.log(tests / DISTORTION_FALSE_ALARM)
-    power = np.abs(spectrum) ** 2
+    power = np.abs(spectrum) ** 2 if isinstance(spectrum, np.ndarray) else _Power(spectrum)
     out = np.zeros(len(harmonics))
     for i, (k, group) in enumerate(zip(line_bins, harmonics, strict=True)):
         periodic = 0.0
@@ -173,3 +289,13 @@ def harmonic_distortion(spectrum: np.ndarray, line_bins: np.ndarray) -> np.ndarr
         line_power = float(power[int(k)])
         out[i] = math.sqrt(periodic / line_power) if line_power > 0 else math.nan
     return out
+
+
+class _Power:
+    """|X|^2 of a spectrum held near the period grid (dsp.lpm.NeighbourSpectrum), per bin."""
+
+    def __init__(self, spectrum: Any) -> None:
+        self._spectrum = spectrum
+
+    def __getitem__(self, bins: Any) -> Any:
+        return np.abs(self._spectrum[bins]) ** 2

@@ -46,6 +46,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from scipy import special  # not scipy.stats: ~1 s to import (dsp.spectral imports this)
@@ -104,12 +105,18 @@ def free_bins(record_bins: int, line_bins: np.ndarray, excluded: Iterable[int] =
     return np.array([b for b in range(1, record_bins - 1) if b not in blocked], dtype=np.int64)
 
 
-def _excitation(reference_v: np.ndarray, u_lines: np.ndarray) -> tuple[np.ndarray, float]:
-    """Relation (1): the record's table motion as the reference sees it, in units of the
-    rms of its lines (peak values `u_lines`), and that rms (V)."""
+def _scale(u_lines: np.ndarray) -> float:
+    """The rms of the reference's lines (peak values `u_lines`, V); ValueError when none."""
     scale = float(np.sqrt(np.sum(np.abs(np.asarray(u_lines)) ** 2) / 2.0))
     if not scale > 0:
         raise ValueError("reference: no signal at the lines")
+    return scale
+
+
+def _excitation(reference_v: np.ndarray, u_lines: np.ndarray) -> tuple[np.ndarray, float]:
+    """Relation (1): the record's table motion as the reference sees it, in units of the
+    rms of its lines (peak values `u_lines`), and that rms (V)."""
+    scale = _scale(u_lines)
     return np.asarray(reference_v, dtype=float) / scale, scale
 
 
@@ -184,6 +191,121 @@ def estimate(
     )
 
 
+CHUNK_BINS = 16384  # detection bins per step of the neighbourhood fit's sums (bounded memory)
+
+
+def _held_free(y_spec: Any, lines: np.ndarray, excluded_bins: Iterable[int]) -> np.ndarray:
+    """The free bins a NeighbourSpectrum holds (as `free_bins`, restricted to those held)."""
+    held = y_spec.held_bins()
+    blocked = np.array(
+        sorted({int(b) for b in lines} | {int(b) for b in excluded_bins} | {0, y_spec.size - 1}),
+        dtype=np.int64,
+    )
+    return held[~np.isin(held, blocked)]
+
+
+def estimate_neighbourhood(
+    y_spec: Any,
+    u_spec: Any,
+    line_bins: np.ndarray,
+    u_lines: np.ndarray,
+    response: np.ndarray,
+    powers: dict[int, Any],
+    moments: dict[int, float],
+    *,
+    excluded_bins: Iterable[int] = (),
+) -> NonlinearEstimate:
+    """Relations (1)-(4) for a long record held only near its period grid (dsp.lpm's
+    NeighbourSpectrum): the detection bins are the free bins held (within the neighbourhood of
+    every grid bin, where the periodic products of a steady multisine land), not all of the
+    record's. `powers[o]` is the peak-scaled spectrum of reference_v**o (o = 2..5, V^o) held at
+    the same bins, `moments[o]` the mean of reference_v**o over the record (o = 4..6, for the
+    fraction). The least squares and the HC0 sums are taken CHUNK_BINS bins at a time (normal
+    equations, 2 and 4 unknowns), so memory does not grow with the bins held. Otherwise as
+    `estimate`."""
+    lines = np.asarray(line_bins, dtype=np.int64)
+    free = _held_free(y_spec, lines, excluded_bins)
+    scale = _scale(u_lines)
+    m = {o: moments[o] / scale**o for o in (4, 5, 6)}
+    a = np.asarray(u_lines, complex) / scale  # the normalised line amplitudes (peak)
+    power = np.abs(a) ** 2
+    bussgang = 0.75 * power + 1.5 * (power.sum() - power)  # relation (3), per line
+    raw_at_lines = np.stack([powers[o][lines] / scale**o for o in ORDERS], axis=1)
+    third = ORDERS.index(3)
+
+    def rows(chunk: np.ndarray, h: np.ndarray, orders: tuple[int, ...]):
+        """Real design rows and residuals of relation (2) at the bins `chunk`."""
+        y, u = y_spec[chunk], u_spec[chunk]
+        h_chunk = _interpolated(lines, h, chunk.astype(float))
+        residual = y - h_chunk * u
+        design = np.stack([scale * h_chunk * (powers[o][chunk] / scale**o) for o in orders], axis=1)
+        return np.vstack([design.real, design.imag]), np.concatenate([residual.real, residual.imag])
+
+    def chunks() -> Iterable[np.ndarray]:
+        for i in range(0, free.size, CHUNK_BINS):
+            yield free[i : i + CHUNK_BINS]
+
+    def solve(h: np.ndarray, orders: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
+        """theta by least squares over every chunk, and the inverse Gram matrix."""
+        gram = np.zeros((len(orders), len(orders)))
+        moment = np.zeros(len(orders))
+        for chunk in chunks():
+            d, r = rows(chunk, h, orders)
+            gram += d.T @ d
+            moment += d.T @ r
+        gram_inv = np.linalg.pinv(gram)
+        return gram_inv @ moment, gram_inv
+
+    def hc0(h: np.ndarray, orders: tuple[int, ...], theta: np.ndarray, gram_inv: np.ndarray):
+        meat = np.zeros((len(orders), len(orders)))
+        for chunk in chunks():
+            d, r = rows(chunk, h, orders)
+            error = r - d @ theta
+            meat += d.T @ (d * (error**2)[:, None])
+        return gram_inv @ meat @ gram_inv
+
+    linear = np.asarray(response, complex)
+    for _ in range(FIT_PASSES):
+        h_pass = linear
+        theta, gram_inv = solve(h_pass, ORDERS)
+        at_lines = raw_at_lines.copy()
+        at_lines[:, third] -= bussgang * a  # the phase-independent part belongs to the BLA
+        compression = 1.0 + theta[third] * bussgang
+        sensitivity = at_lines / (a * compression)[:, None]  # d e_k / d theta
+        relative_error = sensitivity @ theta
+        linear = np.asarray(response, complex) / (compression * (1.0 + relative_error))
+    covariance = hc0(h_pass, ORDERS, theta, gram_inv)
+    wald = float(theta @ np.linalg.pinv(covariance) @ theta)
+    p_value = float(special.chdtrc(len(ORDERS), wald))
+    t2, t3 = (theta[ORDERS.index(o)] for o in (2, 3))
+    fraction = float(np.sqrt(max(t2 * t2 * m[4] + 2 * t2 * t3 * m[5] + t3 * t3 * m[6], 0.0)))
+    found = p_value < NONLINEAR_FALSE_ALARM and fraction > MIN_FRACTION
+    magnitude_u = np.sqrt(np.einsum("li,ij,lj->l", sensitivity.real, covariance, sensitivity.real))
+    phase_u = np.sqrt(np.einsum("li,ij,lj->l", sensitivity.imag, covariance, sensitivity.imag))
+
+    # relation (4): the residuals of the last pass (H of that pass) fitted with every order
+    full, full_inv = solve(h_pass, ALL_ORDERS)
+    full_cov = hc0(h_pass, ALL_ORDERS, full, full_inv)
+    extra = slice(len(ORDERS), len(ALL_ORDERS))
+    added = full[extra]
+    wald_model = float(added @ np.linalg.pinv(full_cov[extra, extra]) @ added)
+    model_p = float(special.chdtrc(len(CHECK_ORDERS), wald_model))
+    return NonlinearEstimate(
+        coefficients=theta,
+        covariance=covariance,
+        p_value=p_value,
+        found=found,
+        fraction=fraction,
+        relative_error=relative_error,
+        magnitude_u=magnitude_u,
+        phase_u_rad=phase_u,
+        linear_response=linear,
+        model_p_value=model_p,
+        adequate=model_p >= MODEL_FALSE_ALARM or not found,
+        tested_bins=int(free.size),
+    )
+
+
 def _model_test(
     residual: np.ndarray, h_free: np.ndarray, scale: float, x: np.ndarray, free: np.ndarray
 ) -> float:
@@ -224,6 +346,31 @@ def cleaned(
     out = y_spec.copy()
     for theta, order in zip(nonlinear.coefficients, ORDERS, strict=True):
         out[free] -= theta * scale * h_free * (np.fft.rfft(x**order) * (2.0 / n))[free]
+    return out
+
+
+def cleaned_neighbourhood(
+    y_spec: Any,
+    nonlinear: NonlinearEstimate,
+    u_lines: np.ndarray,
+    line_bins: np.ndarray,
+    powers: dict[int, Any],
+    excluded_bins: Iterable[int] = (),
+) -> Any:
+    """`cleaned` for a spectrum held near the period grid (dsp.lpm.NeighbourSpectrum, with
+    `powers` as for `estimate_neighbourhood`): a copy with the fitted products removed at the
+    free bins it holds (CHUNK_BINS at a time)."""
+    lines = np.asarray(line_bins, dtype=np.int64)
+    free = _held_free(y_spec, lines, excluded_bins)
+    scale = _scale(u_lines)
+    out = y_spec.copy()
+    for i in range(0, free.size, CHUNK_BINS):
+        chunk = free[i : i + CHUNK_BINS]
+        h_chunk = _interpolated(lines, nonlinear.linear_response, chunk.astype(float))
+        values = out[chunk]
+        for theta, order in zip(nonlinear.coefficients, ORDERS, strict=True):
+            values -= theta * scale * h_chunk * (powers[order][chunk] / scale**order)
+        out[chunk] = values
     return out
 
 

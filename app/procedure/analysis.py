@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -22,7 +22,12 @@ from app.records.run_folder import FolderState, RunCheck, inspect_run, is_run_fo
 from app.records.warnings import SEED_RULE_WARNING
 from dsp.calibration import ReferenceChain, Results, compute_results
 from dsp.hum import driven_hum_of_periods, mains_hum, merged
-from dsp.lpm_record import hum_bins, record_estimate
+from dsp.lpm_record import (
+    WHOLE_RECORD_PERIODS,
+    hum_bins,
+    record_estimate,
+    record_estimate_batches,
+)
 from dsp.mcm import validate_lines
 from dsp.multisine import Plan, PlanError
 from dsp.segments import segment_line_spectra, segment_plan
@@ -154,7 +159,12 @@ def analyze_chains(
 
 def _record_estimate(recording: Recording, mean: PeriodMean) -> Estimate:
     """The lpm estimate of the analysed periods as one record; with the recorded drive, that
-    drive is checked to be periodic over it (a fade inside is refused)."""
+    drive is checked to be periodic over it (a fade inside is refused). A record longer than
+    WHOLE_RECORD_PERIODS is read a batch of periods at a time and held near its period grid
+    (dsp.lpm_record.record_estimate_batches): memory independent of its length."""
+    periods = recording.analysed_periods
+    if periods > WHOLE_RECORD_PERIODS:
+        return record_estimate_batches(_batches(recording, mean), periods, recording.plan).estimate
     reference, dut = recording.analysis_periods()
     mean.add(reference, dut)
     drive = None
@@ -163,6 +173,23 @@ def _record_estimate(recording: Recording, mean: PeriodMean) -> Estimate:
         start = recording.settle_periods * n
         drive = recording.drive_v[start : start + reference.size].reshape(reference.shape)
     return record_estimate(reference, dut, recording.plan, drive_blocks=drive).estimate
+
+
+def _batches(
+    recording: Recording, mean: PeriodMean
+) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray | None]]:
+    """(reference, DUT, drive or None) of the analysed periods a batch at a time, each batch
+    added to `mean` on the way (V)."""
+    n = recording.period_samples
+    start = recording.settle_periods * n
+    for reference, dut in iter_batches(recording):
+        mean.add(reference, dut)
+        drive = None
+        if recording.drive_v is not None:
+            drive = np.asarray(recording.drive_v[start : start + reference.size], dtype=float)
+            drive = drive.reshape(reference.shape)
+        start += reference.size
+        yield reference, dut, drive
 
 
 class PeriodMean:

@@ -17,7 +17,9 @@ from app.cli import main
 from app.io import hdf5_stream
 from app.io.hdf5 import RecordingError, read_recording, write_recording
 from app.io.hdf5_stream import StoredSignal
+from app.procedure import analysis as analysis_module
 from app.procedure.analysis import analyze, analyze_chains, read_for_analysis
+from dsp.lpm_record import WHOLE_RECORD_PERIODS
 from dsp.multisine import make_plan
 from tests.synthetic import lowpass_response, make_recording
 
@@ -166,11 +168,11 @@ def _traced_peak(path: Path, estimator: str) -> int:
         tracemalloc.stop()
 
 
-@pytest.mark.parametrize("estimator", ["periodic", "h1"])
+@pytest.mark.parametrize("estimator", ["periodic", "h1", "lpm"])
 def test_traced_memory_does_not_grow_with_the_periods(tmp_path: Path, estimator: str) -> None:
     plan = make_plan([10.0, 40.0, 160.0, 630.0], 6000, 12000, 5.0, 160.0)
     peaks = []
-    for periods in (20, 160):  # both over the 16 periods of a batch
+    for periods in (20, 160):  # both over the 16 periods of a batch (lpm: of a whole record)
         rec = make_recording(plan, lowpass_response(), periods=periods, dut_noise_v=1e-4)
         path = tmp_path / f"r{periods}.h5"
         write_recording(path, rec)
@@ -219,3 +221,40 @@ def test_one_estimate_for_two_chains_equals_two_analyses(recording_file: Path, e
     ratio = both[1].results.reference.sensitivity_mv_per_ms2
     ratio /= both[0].results.reference.sensitivity_mv_per_ms2
     assert ratio == pytest.approx(1.01, rel=1e-12)  # the chains did differ
+
+
+def test_a_long_lpm_record_is_read_in_batches_and_states_the_whole_records_result(
+    recording_file: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """40 analysed periods (over WHOLE_RECORD_PERIODS): the batches, held near the grid, give the
+    whole record's LPM (a linear DUT: the very bins, to rounding); 16 periods: the whole record,
+    read as before."""
+    calls: list[str] = []
+    real_whole = analysis_module.record_estimate
+    real_batches = analysis_module.record_estimate_batches
+
+    def whole(*args, **kwargs):
+        calls.append("whole")
+        return real_whole(*args, **kwargs)
+
+    def batches(*args, **kwargs):
+        calls.append("batches")
+        return real_batches(*args, **kwargs)
+
+    monkeypatch.setattr(analysis_module, "record_estimate", whole)
+    monkeypatch.setattr(analysis_module, "record_estimate_batches", batches)
+    recording = read_for_analysis(recording_file)
+    assert recording.analysed_periods == 40 > WHOLE_RECORD_PERIODS
+    streamed = analyze(recording, estimator="lpm").estimate
+    assert calls == ["batches"]
+    in_memory = read_recording(recording_file)
+    reference, dut = in_memory.analysis_periods()
+    assert in_memory.drive_v is None  # (the drive's check: tests/dsp/test_lpm_stream.py)
+    expected = real_whole(reference, dut, in_memory.plan).estimate
+    assert np.max(np.abs(streamed.response / expected.response - 1)) < 1e-12
+    np.testing.assert_allclose(streamed.relative_type_a, expected.relative_type_a, rtol=1e-9)
+    np.testing.assert_allclose(streamed.dut_noise_v, expected.dut_noise_v, rtol=1e-9)
+    short = dataclasses.replace(recording, acquired_periods=WHOLE_RECORD_PERIODS)
+    assert short.analysed_periods == WHOLE_RECORD_PERIODS
+    analyze(short, estimator="lpm")
+    assert calls == ["batches", "whole"]
