@@ -15,14 +15,19 @@ signal into blocks of any size gives the same output.
 from __future__ import annotations
 
 import functools
+import importlib.machinery
+import importlib.util
+import sys
 from collections.abc import Callable
 from dataclasses import dataclass
-from types import ModuleType
+from pathlib import Path
 
 import numpy as np
 
-# scipy.signal and scipy.linalg are imported where used: building a model needs neither, and
-# `import sim.models` stays light for the command line's start-up.
+# scipy.linalg is imported where used; scipy.signal not at all on the run's path: importing
+# the package costs about 1.5 s (it imports scipy.stats, interpolate, optimize), more than a
+# warm run's whole budget (issue 34). `tf2ss` below is its transcription, and the sections are
+# filtered by the compiled kernel behind scipy.signal.sosfilt, loaded on its own.
 
 Stage = tuple[np.ndarray, np.ndarray]  # (num, den) polynomials in s, highest power first
 _MIX_CHUNK = 2048  # samples per matrix product when mixing the sections into the outputs
@@ -78,7 +83,7 @@ class Model:
         c = np.zeros((1, 0))
         d = np.array([[self.gain]])
         for num, den in self.stages:
-            a2, b2, c2, d2 = _signal().tf2ss(num, den)
+            a2, b2, c2, d2 = tf2ss(num, den)
             n1, n2 = a.shape[0], a2.shape[0]
             a_new = np.zeros((n1 + n2, n1 + n2))
             a_new[:n1, :n1] = a
@@ -91,22 +96,79 @@ class Model:
         return a, b, c, d
 
 
-def _signal() -> ModuleType:
-    """scipy.signal, imported on first use."""
-    import scipy.signal
+def tf2ss(
+    num: np.ndarray, den: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(A, B, C, D) of one stage in controller canonical form: scipy.signal.tf2ss for a 1-D
+    numerator, operation for operation (the same floats: tests/sim/test_lti_exact.py), without
+    importing scipy.signal."""
+    den = np.atleast_1d(np.asarray(den))
+    num = np.atleast_1d(np.asarray(num))
+    if den.ndim != 1 or num.ndim != 1:
+        raise ValueError("tf2ss: numerator and denominator must be 1-D polynomials")
+    if np.all(den == 0):
+        raise ValueError("tf2ss: the denominator is zero")
+    den = den[np.argmax(den != 0) :]  # leading zeros trimmed, as scipy's normalize does
+    num2, den = num[None, :] / den[0], den / den[0]
+    leading = 0
+    while leading < num2.shape[1] - 1 and np.all(np.abs(num2[:, leading]) <= 1e-14):
+        leading += 1  # scipy warns (BadCoefficients) and trims these too
+    num2 = num2[:, leading:]
+    m, k = num2.shape[1], len(den)
+    if m > k:
+        raise ValueError("tf2ss: improper transfer function (numerator longer than denominator)")
+    num2 = np.hstack((np.zeros((1, k - m), dtype=num2.dtype), num2))
+    d = np.atleast_2d(num2[:, 0])
+    if k == 1:
+        return np.zeros((1, 1)), np.zeros((1, 1)), np.zeros((1, 1)), d.reshape((1, 1))
+    a = np.r_[-np.array([den[1:]]), np.eye(k - 2, k - 1)]
+    b = np.eye(k - 1, 1)
+    c = num2[:, 1:] - np.outer(num2[:, 0], den[1:])
+    return a, b, c, d.reshape((1, 1))
 
-    return scipy.signal
+
+_KERNEL_MODULE = "scipy.signal._sosfilt"
 
 
 @functools.cache
 def _sosfilt_kernel() -> Callable[[np.ndarray, np.ndarray, np.ndarray], None] | None:
-    """The cython kernel behind scipy.signal.sosfilt (in place, without its copies), or None
-    on a scipy that lays it out otherwise."""
-    try:
-        from scipy.signal._sosfilt import _sosfilt
-    except ImportError:  # pragma: no cover - another scipy layout
+    """The compiled kernel behind scipy.signal.sosfilt (in place, without its copies), or None
+    on a scipy that lays it out otherwise.
+
+    Its extension module is loaded from scipy's folder under its own name, without running
+    scipy/signal/__init__.py (which imports scipy.stats and more: about 1.5 s); it is entered
+    in sys.modules, so a later `import scipy.signal` finds and reuses it."""
+    loaded = sys.modules.get(_KERNEL_MODULE)
+    if loaded is None:
+        loaded = _load_kernel_module()
+    kernel = getattr(loaded, "_sosfilt", None) if loaded is not None else None
+    return kernel if callable(kernel) else None
+
+
+def _load_kernel_module() -> object | None:
+    """scipy's _sosfilt extension, loaded by file (None: not where this scipy version puts it)."""
+    scipy_spec = importlib.util.find_spec("scipy")
+    folders = scipy_spec.submodule_search_locations if scipy_spec is not None else None
+    if not folders:  # pragma: no cover - no scipy
         return None
-    return _sosfilt
+    for suffix in importlib.machinery.EXTENSION_SUFFIXES:
+        path = Path(folders[0]) / "signal" / f"_sosfilt{suffix}"
+        if path.is_file():
+            break
+    else:  # pragma: no cover - another scipy layout
+        return None
+    loader = importlib.machinery.ExtensionFileLoader(_KERNEL_MODULE, str(path))
+    spec = importlib.util.spec_from_file_location(_KERNEL_MODULE, path, loader=loader)
+    if spec is None:  # pragma: no cover
+        return None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[_KERNEL_MODULE] = module  # one instance: the extension cannot be loaded twice
+    try:
+        loader.exec_module(module)
+    except ImportError:  # pragma: no cover - another scipy layout
+        del sys.modules[_KERNEL_MODULE]
+        return None
+    return module
 
 
 def _sosfilt_inplace(sos: np.ndarray, x: np.ndarray, zi: np.ndarray) -> None:
@@ -116,8 +178,10 @@ def _sosfilt_inplace(sos: np.ndarray, x: np.ndarray, zi: np.ndarray) -> None:
     if kernel is not None:
         kernel(sos, x, zi)
         return
-    for r in range(x.shape[0]):
-        x[r], zi[r] = _signal().sosfilt(sos, x[r], zi=zi[r])
+    import scipy.signal  # pragma: no cover - another scipy layout: the public function
+
+    for r in range(x.shape[0]):  # pragma: no cover
+        x[r], zi[r] = scipy.signal.sosfilt(sos, x[r], zi=zi[r])
 
 
 def _zoh(a: np.ndarray, b: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
