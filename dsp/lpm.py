@@ -62,7 +62,8 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy import special  # the quantile functions themselves: scipy.stats costs ~1 s to import
+
+from dsp.quantiles import f2_quantile  # scipy.special only where needed (issue 34)
 
 NONLINEAR_FALSE_ALARM = 0.01  # probability per line that noise alone is taken for nonlinearity
 TOTAL = "total"  # P = 1: noise and whatever nonlinear distortion reaches the non-excited bins
@@ -72,6 +73,16 @@ NOISE_AND_NONLINEAR = "noise+nonlinear"  # P >= 2, nonlinear distortion found an
 
 class LpmError(ValueError):
     """Input the LPM cannot analyse honestly; the message names the field or line."""
+
+
+def _f_quantile(d1: int, d2: float, p: float) -> float:
+    """The F(d1, d2) quantile at `p`: in closed form for d1 = 2 (two periods), else from
+    scipy.special (imported here: it costs twice `import numpy`, issue 34)."""
+    if d1 == 2:
+        return f2_quantile(d2, p)
+    from scipy import special
+
+    return float(special.fdtri(d1, d2, p))
 
 
 @dataclass(frozen=True)
@@ -356,7 +367,7 @@ def _combine(
         relative = responses / response - 1.0
         between = np.sum(np.abs(relative - relative.mean(axis=0)) ** 2, axis=0) / (p_count - 1)
         nonlinear = np.maximum(between - noise, 0.0)
-        threshold = special.fdtri(2 * (p_count - 1), noise_dof, 1.0 - NONLINEAR_FALSE_ALARM)
+        threshold = _f_quantile(2 * (p_count - 1), noise_dof, 1.0 - NONLINEAR_FALSE_ALARM)
         found = between / noise > threshold
         kinds = tuple(NOISE_AND_NONLINEAR if f else NOISE for f in found)
         variance_of_mean = np.where(found, between, noise) / p_count
