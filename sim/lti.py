@@ -24,10 +24,11 @@ from pathlib import Path
 
 import numpy as np
 
-# scipy.linalg is imported where used; scipy.signal not at all on the run's path: importing
-# the package costs about 1.5 s (it imports scipy.stats, interpolate, optimize), more than a
-# warm run's whole budget (issue 34). `tf2ss` below is its transcription, and the sections are
-# filtered by the compiled kernel behind scipy.signal.sosfilt, loaded on its own.
+# Neither scipy.signal nor scipy.linalg is imported on a run's path: scipy.signal costs about
+# 1.5 s (it imports scipy.stats, interpolate, optimize), scipy.linalg twice `import numpy`,
+# against a warm run's whole budget of 1.5 s (issue 34). `tf2ss` below is scipy's,
+# transcribed; `expm` Higham's scaling and squaring; the sections are filtered by the compiled
+# kernel behind scipy.signal.sosfilt, loaded on its own.
 
 Stage = tuple[np.ndarray, np.ndarray]  # (num, den) polynomials in s, highest power first
 _MIX_CHUNK = 2048  # samples per matrix product when mixing the sections into the outputs
@@ -184,16 +185,98 @@ def _sosfilt_inplace(sos: np.ndarray, x: np.ndarray, zi: np.ndarray) -> None:
         x[r], zi[r] = scipy.signal.sosfilt(sos, x[r], zi=zi[r])
 
 
+# Higham (2005), "The scaling and squaring method for the matrix exponential revisited":
+# the largest 1-norm for which each diagonal Pade approximant is exact to double precision,
+# and the coefficients of the degree-13 one
+_PADE_THETA = (
+    (3, 1.495585217958292e-2),
+    (5, 2.539398330063230e-1),
+    (7, 9.504178996162932e-1),
+    (9, 2.097847961257068e0),
+)
+_THETA_13 = 5.371920351148152
+_PADE_13 = (
+    64764752532480000.0,
+    32382376266240000.0,
+    7771770303897600.0,
+    1187353796428800.0,
+    129060195264000.0,
+    10559470521600.0,
+    670442572800.0,
+    33522128640.0,
+    1323241920.0,
+    40840800.0,
+    960960.0,
+    16380.0,
+    182.0,
+    1.0,
+)
+
+
+def _pade_coefficients(degree: int) -> list[float]:
+    """b_j = (2m - j)! m! / ((2m)! j! (m - j)!) scaled so b_m = 1 (exact integers here)."""
+    c = [1.0]
+    for j in range(1, degree + 1):
+        c.append(c[-1] * (degree - j + 1) / (j * (2 * degree - j + 1)))
+    top = c[-1]
+    return [v / top for v in c]
+
+
+def expm(matrix: np.ndarray) -> np.ndarray:
+    """The matrix exponential by scaling and squaring with a diagonal Pade approximant
+    (Higham 2005, the algorithm of scipy.linalg.expm before its 2009 refinement): exact to
+    double precision (tests/sim/test_lti_exact.py against scipy.linalg.expm). Here so that a
+    simulated run does not import scipy.linalg (twice `import numpy`, issue 34)."""
+    a = np.asarray(matrix, dtype=float)
+    n = a.shape[0]
+    identity = np.eye(n)
+    if n == 0:
+        return identity
+    norm = float(np.max(np.sum(np.abs(a), axis=0)))
+    for degree, theta in _PADE_THETA:
+        if norm <= theta:
+            c = _pade_coefficients(degree)
+            a2 = a @ a
+            powers = [identity, a2]
+            for _ in range(2, degree // 2 + 1):
+                powers.append(powers[-1] @ a2)
+            u = a @ sum(c[2 * k + 1] * powers[k] for k in range(degree // 2 + 1))
+            v = sum(c[2 * k] * powers[k] for k in range(degree // 2 + 1))
+            return np.linalg.solve(v - u, v + u)
+    squarings = max(0, int(np.ceil(np.log2(norm / _THETA_13))))
+    a = a / 2.0**squarings
+    c = _PADE_13
+    a2 = a @ a
+    a4 = a2 @ a2
+    a6 = a4 @ a2
+    u = a @ (
+        a6 @ (c[13] * a6 + c[11] * a4 + c[9] * a2)
+        + c[7] * a6
+        + c[5] * a4
+        + c[3] * a2
+        + c[1] * identity
+    )
+    v = (
+        a6 @ (c[12] * a6 + c[10] * a4 + c[8] * a2)
+        + c[6] * a6
+        + c[4] * a4
+        + c[2] * a2
+        + c[0] * identity
+    )
+    result = np.linalg.solve(v - u, v + u)
+    for _ in range(squarings):
+        result = result @ result
+    return result
+
+
 def _zoh(a: np.ndarray, b: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
     """(e^{A t}, Gamma(t) B) via one block-matrix exponential (Van Loan)."""
-    import scipy.linalg
-
     n, m = a.shape[0], b.shape[1]
     block = np.zeros((n + m, n + m))
     block[:n, :n] = a * t
     block[:n, n:] = b * t
-    expm = scipy.linalg.expm(block)
-    return expm[:n, :n], expm[:n, n:]
+    exponential = expm(block)
+    return exponential[:n, :n], exponential[:n, n:]
 
 
 class Network:
