@@ -32,6 +32,10 @@ log = logging.getLogger(__name__)
 
 ENV_VAR = "ACCELCAL_DB"
 SQLITE_BUSY_TIMEOUT_S = 30.0
+# the newest migration (migrations/versions): what `open_engine` checks a database against
+# without importing Alembic (about twice `import numpy`, issue 34); a test holds it to
+# Alembic's own head (tests/app/records/db/test_engine_head.py)
+SCHEMA_HEAD = "0011"
 
 
 class DatabaseError(RecordsInputError):
@@ -140,6 +144,19 @@ def current_revision(engine: Engine) -> str | None:
         return MigrationContext.configure(connection).get_current_revision()
 
 
+def _at_head(engine: Engine) -> bool:
+    """Whether the database's one stored revision (Alembic's alembic_version table, read with
+    SQLAlchemy Core) is SCHEMA_HEAD. False for anything else, which `open_engine` then asks
+    Alembic about (no schema, older, several heads, unknown)."""
+    from sqlalchemy import inspect, text
+
+    with engine.connect() as connection:
+        if not inspect(connection).has_table("alembic_version"):
+            return False
+        rows = connection.execute(text("SELECT version_num FROM alembic_version")).all()
+    return [tuple(row) for row in rows] == [(SCHEMA_HEAD,)]
+
+
 def upgrade(engine: Engine, revision: str = "head") -> tuple[str | None, str | None]:
     """Migrate the schema to `revision`; returns (revision before, revision after)."""
     from alembic import command
@@ -212,6 +229,8 @@ def open_engine(url: str | None = None, *, create: bool = False) -> Engine:
         )
     engine = make_engine(resolved)
     try:
+        if _at_head(engine):  # the usual case, without importing Alembic
+            return engine
         current = current_revision(engine)
     except Exception as exc:  # unreachable server, bad file
         engine.dispose()
