@@ -63,8 +63,6 @@ from typing import Any
 
 import numpy as np
 
-from dsp.quantiles import f2_quantile  # scipy.special only where needed (issue 34)
-
 NONLINEAR_FALSE_ALARM = 0.01  # probability per line that noise alone is taken for nonlinearity
 TOTAL = "total"  # P = 1: noise and whatever nonlinear distortion reaches the non-excited bins
 NOISE = "noise"  # P >= 2, nothing nonlinear found: noise only
@@ -75,14 +73,16 @@ class LpmError(ValueError):
     """Input the LPM cannot analyse honestly; the message names the field or line."""
 
 
-def _f_quantile(d1: int, d2: float, p: float) -> float:
-    """The F(d1, d2) quantile at `p`: in closed form for d1 = 2 (two periods), else from
-    scipy.special (imported here: it costs twice `import numpy`, issue 34)."""
+def _f_quantile(d1: int, d2: np.ndarray, p: float) -> np.ndarray:
+    """The F(d1, d2) quantiles at `p` (d2 per line): in closed form for d1 = 2 (two periods:
+    the CDF is 1 - (1 + 2x/d2)^(-d2/2)), else from scipy.special (imported here: it costs
+    twice `import numpy`, issue 34)."""
     if d1 == 2:
-        return f2_quantile(d2, p)
+        d2 = np.asarray(d2, dtype=float)
+        return 0.5 * d2 * np.expm1(-2.0 / d2 * np.log1p(-p))
     from scipy import special
 
-    return float(special.fdtri(d1, d2, p))
+    return np.asarray(special.fdtri(d1, d2, p), dtype=float)
 
 
 @dataclass(frozen=True)
