@@ -139,7 +139,8 @@ def main() -> None:
         for _ in range(args.paced_runs):
             paced.once(env)
         load = os.getloadavg()
-        base = cases[0].median
+        on = [amplifier_on_s(runs / r["run_id"]) for r in paced.reports]
+    base = cases[0].median
     print(
         f"load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} (1, 5, 15 min); "
         f"{os.cpu_count()} cores; python {sys.version.split()[0]}"
@@ -158,7 +159,6 @@ def main() -> None:
     )
     paced_excitation = [r["excitation_time_s"] for r in paced.reports]
     over_excitation = [w - e for w, e in zip(paced.walls, paced_excitation, strict=True)]
-    on = [amplifier_on_s(runs / r["run_id"]) for r in paced.reports]
     over_on = [w - o for w, o in zip(paced.walls, on, strict=True)]
     print(
         f"paced LPM run (median of {len(paced.walls)}): wall {statistics.median(paced.walls):.3f} s"
