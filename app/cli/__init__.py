@@ -113,11 +113,11 @@ def main(argv: Sequence[str] | None = None) -> int:
 def _parse(argv: list[str]) -> tuple[argparse.Namespace, Handler | None]:
     """The parsed arguments and, for a records command, its handler (parsed by the records
     commands alone: no plan, stand or numpy imported). SystemExit from argparse passes."""
-    from app.cli.records import add_commands
+    from app.cli.records import COMMAND_NAMES, add_commands
 
-    parser, sub = top_parser()
-    records = add_commands(sub)
-    if command_word(argv) in records:
+    if command_word(argv) in COMMAND_NAMES:
+        parser, sub = top_parser()
+        records = add_commands(sub)
         args = parser.parse_args(argv)
         return args, records[args.command]
     from app.cli.parser import RECORDS_COMMANDS, build_parser

@@ -118,9 +118,16 @@ def test_records_commands_import_no_numpy_scipy_or_alembic(tmp_path: Path) -> No
 
 
 def test_a_records_command_is_parsed_as_the_full_parser_does() -> None:
-    """The records-only parse (app.cli._parse) gives the namespace the full parser gives."""
+    """The records-only parse (app.cli._parse) gives the namespace the full parser gives, for
+    every records command named in app.cli.records.COMMAND_NAMES."""
+    import argparse
+
     from app.cli import _parse
     from app.cli.parser import build_parser
+    from app.cli.records import COMMAND_NAMES, add_commands
+
+    sub = argparse.ArgumentParser().add_subparsers()
+    assert set(add_commands(sub)) == COMMAND_NAMES
 
     for words in (
         ["customers", "list", "--json"],
