@@ -16,8 +16,9 @@ baseline `python -c "import numpy"` measured in the same run, with the load aver
 
 Targets (SPEC.md section 12): --help, plan and customers list at most 2x the baseline; the
 warm run at most 1.5 s in all on an idle machine; a paced run ends within 1.5 s of its
-excitation. `--also PATH` times --help from another checkout (an export of an older commit)
-in the same run. The data (stored stand response, records) live in a temporary folder.
+excitation. `--also PATH` times the same commands from another checkout (an export of an
+older commit, e.g. `git archive a4a82f7 | tar -x -C /tmp/main-a4a82f7`) in the same run, for a
+before/after figure. The data (stored stand response, records) live in a temporary folder.
 
 Run: python bench/startup.py [--runs 15] [--paced-runs 3] [--also /path/to/checkout] [--smoke]
 """
@@ -111,19 +112,23 @@ def main() -> None:
                 check=True,
                 capture_output=True,
             )
-        cases = [
-            Case("import numpy (baseline)", [python, "-c", "import numpy"]),
-            Case("`accelcal --help`", [*accelcal, "--help"]),
-            *(
-                Case(f"`accelcal --help` ({other})", [*accelcal, "--help"], other.resolve())
-                for other in args.also
-            ),
-            Case("`accelcal plan --preset piezo`", [*accelcal, "plan", "--preset", "piezo"]),
-            Case("`accelcal customers list`", [*accelcal, "customers", "list"]),
-            Case(
-                "warm LPM run, unpaced (all of it)", [*accelcal, *RUN, "--json", "--out", str(runs)]
-            ),
-        ]
+        cases = [Case("import numpy (baseline)", [python, "-c", "import numpy"])]
+        for root in (ROOT, *(other.resolve() for other in args.also)):
+            label = "" if root == ROOT else f" ({root})"
+            cases += [
+                Case(f"`accelcal --help`{label}", [*accelcal, "--help"], root),
+                Case(
+                    f"`accelcal plan --preset piezo`{label}",
+                    [*accelcal, "plan", "--preset", "piezo"],
+                    root,
+                ),
+                Case(f"`accelcal customers list`{label}", [*accelcal, "customers", "list"], root),
+                Case(
+                    f"warm LPM run, unpaced (all of it){label}",
+                    [*accelcal, *RUN, "--json", "--out", str(runs)],
+                    root,
+                ),
+            ]
         paced = Case(
             "warm LPM run, paced", [*accelcal, *RUN, "--paced", "--json", "--out", str(runs)]
         )
@@ -150,13 +155,13 @@ def main() -> None:
     print("| --- | --- | --- |")
     for case in cases:
         print(f"| {case.name} | {case.median:.3f} s | {case.median / base:.2f} |")
-    run_case = cases[-1]
-    excitation = statistics.median(r["excitation_time_s"] for r in run_case.reports)
     print()
-    print(
-        f"warm unpaced LPM run: {run_case.median:.3f} s wall in all (target <= 1.5 s idle), "
-        f"simulated excitation {excitation:.3f} s"
-    )
+    for run_case in (case for case in cases if case.reports):
+        excitation = statistics.median(r["excitation_time_s"] for r in run_case.reports)
+        print(
+            f"{run_case.name}: {run_case.median:.3f} s wall (target <= 1.5 s idle), "
+            f"simulated excitation {excitation:.3f} s"
+        )
     paced_excitation = [r["excitation_time_s"] for r in paced.reports]
     over_excitation = [w - e for w, e in zip(paced.walls, paced_excitation, strict=True)]
     over_on = [w - o for w, o in zip(paced.walls, on, strict=True)]

@@ -139,7 +139,7 @@ def _sosfilt_kernel() -> Callable[[np.ndarray, np.ndarray, np.ndarray], None] | 
     Its extension module is loaded from scipy's folder under its own name, without running
     scipy/signal/__init__.py (which imports scipy.stats and more: about 1.5 s); it is entered
     in sys.modules, so a later `import scipy.signal` finds and reuses it."""
-    loaded = sys.modules.get(_KERNEL_MODULE)
+    loaded: object | None = sys.modules.get(_KERNEL_MODULE)
     if loaded is None:
         loaded = _load_kernel_module()
     kernel = getattr(loaded, "_sosfilt", None) if loaded is not None else None
@@ -245,23 +245,23 @@ def expm(matrix: np.ndarray) -> np.ndarray:
             return np.linalg.solve(v - u, v + u)
     squarings = max(0, int(np.ceil(np.log2(norm / _THETA_13))))
     a = a / 2.0**squarings
-    c = _PADE_13
+    c13 = _PADE_13
     a2 = a @ a
     a4 = a2 @ a2
     a6 = a4 @ a2
     u = a @ (
-        a6 @ (c[13] * a6 + c[11] * a4 + c[9] * a2)
-        + c[7] * a6
-        + c[5] * a4
-        + c[3] * a2
-        + c[1] * identity
+        a6 @ (c13[13] * a6 + c13[11] * a4 + c13[9] * a2)
+        + c13[7] * a6
+        + c13[5] * a4
+        + c13[3] * a2
+        + c13[1] * identity
     )
     v = (
-        a6 @ (c[12] * a6 + c[10] * a4 + c[8] * a2)
-        + c[6] * a6
-        + c[4] * a4
-        + c[2] * a2
-        + c[0] * identity
+        a6 @ (c13[12] * a6 + c13[10] * a4 + c13[8] * a2)
+        + c13[6] * a6
+        + c13[4] * a4
+        + c13[2] * a2
+        + c13[0] * identity
     )
     result = np.linalg.solve(v - u, v + u)
     for _ in range(squarings):

@@ -23,7 +23,7 @@ import threading
 from typing import Any
 
 import pyvisa
-import yaml
+import yaml  # type: ignore[import-untyped]
 from pyvisa.rname import to_canonical_name
 from pyvisa_sim import parser
 from pyvisa_sim.devices import Devices
