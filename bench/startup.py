@@ -1,11 +1,12 @@
 """Start-up and wall time of the command line against `import numpy` (issue 14 point 4,
 issue 34 point 3).
 
-Each figure is the median wall time of RUNS fresh interpreters, the cases run in turn so that
-a load on the machine hits them all alike; every figure is also given as a ratio to the
-baseline `python -c "import numpy"` measured in the same run, with the load average:
+Each figure is the median wall time (and CPU time, user + system, which a load stretches
+less) of RUNS fresh interpreters, the cases run in turn so that a load on the machine hits
+them all alike; every figure is also given as a ratio to the baseline `python -c "import
+numpy"` measured in the same run, with the load average:
 
-    import numpy (baseline)
+    import numpy (baseline); import sqlalchemy, import sqlalchemy.orm (the records' floor)
     accelcal --help
     accelcal plan --preset piezo            (shipped phases: nothing optimised)
     accelcal customers list                 (on a records file made once by `db upgrade`)
@@ -29,6 +30,7 @@ import argparse
 import json
 import logging
 import os
+import resource
 import statistics
 import subprocess
 import sys
@@ -51,22 +53,30 @@ class Case:
     command: list[str]
     root: Path = ROOT
     walls: list[float] = field(default_factory=list)
+    cpus: list[float] = field(default_factory=list)  # user + system seconds of the process
     reports: list[dict] = field(default_factory=list)  # type: ignore[type-arg]
 
     def once(self, env: dict[str, str]) -> None:
         """Run once; its wall time, and its JSON report when it prints one (a run)."""
         env = dict(env, PYTHONPATH=str(self.root))
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
         t0 = time.perf_counter()
         done = subprocess.run(
             self.command, cwd=self.root, env=env, check=True, capture_output=True, text=True
         )
         self.walls.append(time.perf_counter() - t0)
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        self.cpus.append(after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime)
         if "--json" in self.command and done.stdout.strip().startswith("{"):
             self.reports.append(json.loads(done.stdout))
 
     @property
     def median(self) -> float:
         return statistics.median(self.walls)
+
+    @property
+    def cpu(self) -> float:
+        return statistics.median(self.cpus)
 
 
 def amplifier_on_s(run_folder: Path) -> float:
@@ -112,7 +122,11 @@ def main() -> None:
                 check=True,
                 capture_output=True,
             )
-        cases = [Case("import numpy (baseline)", [python, "-c", "import numpy"])]
+        cases = [
+            Case("import numpy (baseline)", [python, "-c", "import numpy"]),
+            Case("import sqlalchemy (the records' floor)", [python, "-c", "import sqlalchemy"]),
+            Case("import sqlalchemy.orm", [python, "-c", "import sqlalchemy.orm"]),
+        ]
         for root in (ROOT, *(other.resolve() for other in args.also)):
             label = "" if root == ROOT else f" ({root})"
             cases += [
@@ -136,6 +150,7 @@ def main() -> None:
             case.once(env)
         for case in cases:
             case.walls.clear()
+            case.cpus.clear()
             case.reports.clear()
         for i in range(args.runs):
             log.info("round %d of %d", i + 1, args.runs)
@@ -145,16 +160,22 @@ def main() -> None:
             paced.once(env)
         load = os.getloadavg()
         on = [amplifier_on_s(runs / r["run_id"]) for r in paced.reports]
-    base = cases[0].median
+    base, base_cpu = cases[0].median, cases[0].cpu
     print(
         f"load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} (1, 5, 15 min); "
         f"{os.cpu_count()} cores; python {sys.version.split()[0]}"
     )
     print()
-    print(f"| command | median of {args.runs} | ratio to import numpy |")
-    print("| --- | --- | --- |")
+    print(
+        f"| command | wall, median of {args.runs} | ratio to import numpy | CPU (user + system) "
+        "| CPU ratio |"
+    )
+    print("| --- | --- | --- | --- | --- |")
     for case in cases:
-        print(f"| {case.name} | {case.median:.3f} s | {case.median / base:.2f} |")
+        print(
+            f"| {case.name} | {case.median:.3f} s | {case.median / base:.2f} | {case.cpu:.3f} s "
+            f"| {case.cpu / base_cpu:.2f} |"
+        )
     print()
     for run_case in (case for case in cases if case.reports):
         excitation = statistics.median(r["excitation_time_s"] for r in run_case.reports)
