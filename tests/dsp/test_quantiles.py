@@ -89,3 +89,16 @@ def test_the_lpm_nonlinearity_threshold_is_scipys_per_line() -> None:
         np.testing.assert_allclose(
             _f_quantile(d1, d2, 0.99), special.fdtri(d1, d2, 0.99), rtol=1e-13
         )
+
+
+def test_median_is_numpys_to_the_bit() -> None:
+    import numpy as np
+
+    rng = np.random.default_rng(34)
+    for size in (1, 2, 3, 10, 11, 1000, 1001):
+        values = rng.standard_normal(size) * 10.0 ** rng.integers(-5, 5)
+        assert quantiles.median(values) == float(np.median(values))
+    assert math.isnan(quantiles.median(np.array([1.0, np.nan, 3.0])))
+    assert math.isnan(float(np.median(np.array([1.0, np.nan, 3.0]))))
+    with pytest.raises(ValueError, match="no values"):
+        quantiles.median(np.array([]))
