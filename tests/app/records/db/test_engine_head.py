@@ -64,3 +64,20 @@ def test_a_database_not_at_head_is_still_refused_by_alembic(
     engine.dispose()
     with pytest.raises(DatabaseError, match=said):
         open_engine(url)
+
+
+def test_the_alembic_free_check_holds_on_each_engine(migrated_url: str) -> None:
+    """On SQLite and PostgreSQL: a database at head is at head for the Core check, and one
+    moved back a revision is not (open_engine then refuses it through Alembic)."""
+    from app.records.db.engine import _at_head
+
+    engine = make_engine(migrated_url)
+    try:
+        assert _at_head(engine)
+        with engine.begin() as connection:
+            connection.execute(text("UPDATE alembic_version SET version_num = '0010'"))
+        assert not _at_head(engine)
+        with pytest.raises(DatabaseError, match="schema revision 0010"):
+            open_engine(migrated_url)
+    finally:
+        engine.dispose()
