@@ -11,7 +11,8 @@ numpy"` measured in the same run, with the load average:
     accelcal plan --preset piezo            (shipped phases: nothing optimised)
     accelcal customers list                 (on a records file made once by `db upgrade`)
     accelcal run --sim --dut piezo --target-ua 0.2% --estimator lpm, warm, unpaced: its whole
-        wall time, and the simulated excitation seconds it reports (excitation_time_s)
+        wall time, and the simulated excitation seconds it reports (excitation_time_s); without
+        records in use, and again with them (--db: the records' gate, index and audit)
     the same run --paced (simulated stand in real time): wall time minus the excitation, and
         minus the time the amplifier was on (run.log: output on .. output off)
 
@@ -108,11 +109,16 @@ def main() -> None:
         data = Path(tmp) / "data"
         runs = Path(tmp) / "runs"
         env = {k: v for k, v in os.environ.items() if k != "ACCELCAL_DB"}
-        env["ACCELCAL_DATA_DIR"] = str(data)
+        env["ACCELCAL_DATA_DIR"] = str(data)  # no records there: the runs use none
+        records = f"sqlite:///{Path(tmp) / 'records.sqlite'}"
         accelcal = [python, "-m", "app"]
         # once: the records file, and the stand's response stored by a cold run (warm after)
         subprocess.run(
-            [*accelcal, "db", "upgrade"], cwd=ROOT, env=env, check=True, capture_output=True
+            [*accelcal, "db", "upgrade", "--db", records],
+            cwd=ROOT,
+            env=env,
+            check=True,
+            capture_output=True,
         )
         for paced in ([], ["--paced"]):
             subprocess.run(
@@ -136,13 +142,23 @@ def main() -> None:
                     [*accelcal, "plan", "--preset", "piezo"],
                     root,
                 ),
-                Case(f"`accelcal customers list`{label}", [*accelcal, "customers", "list"], root),
+                Case(
+                    f"`accelcal customers list`{label}",
+                    [*accelcal, "customers", "list", "--db", records],
+                    root,
+                ),
                 Case(
                     f"warm LPM run, unpaced (all of it){label}",
                     [*accelcal, *RUN, "--json", "--out", str(runs)],
                     root,
                 ),
             ]
+        cases.append(  # the same run with the records in use: gate, reference check, index
+            Case(
+                "warm LPM run, unpaced, records in use (--db)",
+                [*accelcal, *RUN, "--json", "--db", records, "--out", str(runs)],
+            )
+        )
         paced = Case(
             "warm LPM run, paced", [*accelcal, *RUN, "--paced", "--json", "--out", str(runs)]
         )
