@@ -211,6 +211,7 @@ def _add_run_options(r: argparse.ArgumentParser) -> None:
     _run_option(r, "max_acquisition_s")
     _run_option(r, "estimator", default=DEFAULT_ESTIMATOR)
     _run_option(r, "mode", default=MODE_MULTISINE)
+    _run_option(r, "stepped_block_s")
     _run_option(r, "tolerance_percent")
     _run_option(r, "dut_mass_g")
     r.add_argument(

@@ -13,19 +13,18 @@ stopping rule holds (periods, type A target, time bound). Units: V, m/s^2, s.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import numpy as np
 
-from app.procedure.acquisition import with_driven_hum
+from app.procedure.acquisition import report_target_not_met, with_driven_hum
 from app.procedure.background import BackgroundLevels, budget_with_background
 from app.procedure.context import RunContext
 from app.procedure.errors import PreflightError, ProcedureError
 from app.procedure.events import EqualisationStep, Progress, State
 from app.procedure.ranging import run_resolution, with_resolution
 from app.procedure.stand_memory import StandMemory
-from app.procedure.stopping import Stop, StoppingRule
+from app.procedure.stopping import Stop, StoppingRule, worst_type_a
 from dsp.crestfactor import synthesize
 from dsp.lpm_record import RecordEstimate, record_estimate
 from dsp.multisine import fade_envelope
@@ -220,7 +219,7 @@ class RecordRun:
             estimate = record.estimate
             results = ctx.publish(estimate, budget)
             acquired_s = io.excited_s - started
-            worst_a = float(np.nanmax(estimate.relative_type_a))
+            worst_a = worst_type_a(estimate.relative_type_a, [ln.stated for ln in results.lines])
             ctx.emit(
                 Progress(
                     rule.fraction(count, worst_a),
@@ -238,15 +237,8 @@ class RecordRun:
                 results = again or results
                 if stop is Stop.TARGET and s.target_type_a is not None:
                     ctx.log(f"type A target {100 * s.target_type_a:g} % reached, {count} period(s)")
-                elif stop is Stop.TIME_BOUND and s.target_type_a is not None:
-                    text = (
-                        f"time bound {s.max_acquisition_s:g} s reached before the type A "
-                        f"target: worst line {100 * worst_a:.3f} % > {100 * s.target_type_a:g} %"
-                    )
-                    ctx.warn(text)
-                    ctx.notes.results = dataclasses.replace(
-                        results, warnings=(*results.warnings, text)
-                    )
+                elif stop is Stop.TIME_BOUND:
+                    report_target_not_met(ctx, rule, results, estimate, acquired_s)
                 return
             blocks.append(self._read(State.ACQUIRING))
             record = self._record(blocks)
