@@ -12,7 +12,7 @@ stated with that type A.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from enum import StrEnum
 
@@ -37,7 +37,7 @@ DEFAULT_TIME_BOUND_TEXT = (
 MAX_LINES_LISTED = 12  # a report names at most this many lines (the rest are counted)
 
 
-def worst_type_a(type_a: Sequence[float], stated: Sequence[bool] | None = None) -> float:
+def worst_type_a(type_a: Iterable[float], stated: Sequence[bool] | None = None) -> float:
     """The worst relative type A a target is held to: over the `stated` lines (None: all;
     over all when none is stated), NaN (no type A) left out; NaN when there is none."""
     values = [float(a) for a in type_a]
