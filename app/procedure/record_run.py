@@ -224,8 +224,9 @@ class RecordRun:
                 Progress(
                     rule.fraction(count, worst_a),
                     acquired_s,
-                    rule.remaining_s(count, period_s),
+                    rule.remaining_s(count, period_s, acquired_s, worst_a),
                     f"record of {count} period(s), worst type A {100 * worst_a:.3f} %",
+                    until_target=s.target_type_a is not None,
                 )
             )
             stop = rule.decide(count, worst_a, acquired_s, period_s)

@@ -94,11 +94,25 @@ class StoppingRule:
             return min(1.0, count / self.period_limit)
         return min(1.0, (self.target_type_a / worst_type_a) ** 2)
 
-    def remaining_s(self, count: int, period_s: float) -> float | None:
-        """Acquisition time still to go (s); None when a target decides."""
-        if self.target_type_a is not None:
+    def remaining_s(
+        self,
+        count: int,
+        period_s: float,
+        elapsed_s: float = 0.0,
+        worst_type_a: float | None = None,
+    ) -> float | None:
+        """Acquisition time still to go (s): the periods left; with a target, at the pace so
+        far (type A falls as 1/sqrt(time)) after `elapsed_s` at `worst_type_a`, never past
+        the time bound; None with a target and nothing measured yet."""
+        target = self.target_type_a
+        if target is None:
+            return (self.period_limit - count) * period_s
+        if worst_type_a is None or not (worst_type_a > 0 and elapsed_s > 0):
             return None
-        return (self.period_limit - count) * period_s
+        pace = elapsed_s * max(0.0, (worst_type_a / target) ** 2 - 1.0)
+        if self.max_time_s is not None:
+            pace = min(pace, max(0.0, self.max_time_s - elapsed_s))
+        return pace
 
 
 @dataclass(frozen=True)

@@ -161,3 +161,22 @@ def test_the_help_states_the_default_bound(capsys):
     assert "(default with --target-ua: 120 s, or 10 periods of the plan when they are longer;" in (
         text
     )
+
+
+def test_the_time_left_with_a_target_is_the_pace_capped_by_the_bound(capsys):
+    """A run bounded before its target said "about 5000 s left" to the end (the pace to the
+    target); the time left is now never past the bound, and the progress line still reads
+    as a run to a target."""
+    from app.cli.printers import TerminalProgress
+    from app.procedure import Progress
+
+    rule = StoppingRule(8, 0.002, 120.0)
+    assert rule.remaining_s(10, 2.0, 20.0, 0.004) == pytest.approx(60.0)  # (2^2 - 1) * 20 s
+    assert rule.remaining_s(50, 2.0, 100.0, 0.01) == pytest.approx(20.0)  # the bound's rest
+    assert StoppingRule(8, 0.002).remaining_s(50, 2.0, 100.0, 0.01) == pytest.approx(2400.0)
+    assert rule.remaining_s(3, 2.0) is None  # nothing measured yet
+    assert StoppingRule(4).remaining_s(3, 2.0, 6.0, 0.5) == 2.0  # periods: the periods left
+    progress = TerminalProgress()
+    progress(Progress(0.04, 100.0, 20.0, "period 50", until_target=True))
+    err = capsys.readouterr().err
+    assert "to the type A target" in err and "about 20 s left" in err and " of " not in err
