@@ -9,7 +9,7 @@ import numpy as np
 
 from app.procedure.context import RunContext
 from app.procedure.events import Progress, State
-from app.procedure.stopping import Stop, StoppingRule, target_not_met, worst_type_a
+from app.procedure.stopping import Stop, StoppingRule, target_not_met
 from dsp.calibration import Results
 from dsp.hum import driven_hum
 from dsp.lpm_record import hum_bins
@@ -49,7 +49,7 @@ class Acquisition:
             estimate = accumulator.estimate(s.estimator)
             results = ctx.publish(estimate, self.budget)
             acquired_s = io.excited_s - started
-            worst_a = worst_type_a(estimate.relative_type_a, [ln.stated for ln in results.lines])
+            worst_a = float(np.nanmax(estimate.relative_type_a))
             ctx.emit(
                 Progress(
                     rule.fraction(count, worst_a),

@@ -24,7 +24,7 @@ from app.procedure.errors import PreflightError, ProcedureError
 from app.procedure.events import EqualisationStep, Progress, State
 from app.procedure.ranging import run_resolution, with_resolution
 from app.procedure.stand_memory import StandMemory
-from app.procedure.stopping import Stop, StoppingRule, worst_type_a
+from app.procedure.stopping import Stop, StoppingRule
 from dsp.crestfactor import synthesize
 from dsp.lpm_record import RecordEstimate, record_estimate
 from dsp.multisine import fade_envelope
@@ -219,7 +219,7 @@ class RecordRun:
             estimate = record.estimate
             results = ctx.publish(estimate, budget)
             acquired_s = io.excited_s - started
-            worst_a = worst_type_a(estimate.relative_type_a, [ln.stated for ln in results.lines])
+            worst_a = float(np.nanmax(estimate.relative_type_a))
             ctx.emit(
                 Progress(
                     rule.fraction(count, worst_a),

@@ -1,18 +1,17 @@
 """When acquisition stops: one rule for the multisine and every stepped-sine line.
 
-A type A target is held to the lines the run states (`worst_type_a`: a line not stated, too
-few LSB above the converter's step, has no type A to meet it). A run with a target is always
-bounded in time: by --max-time, else by `default_time_bound_s` (DEFAULT_MAX_TIME_S of
-acquisition, or DEFAULT_MAX_PERIODS periods of the plan when they are longer). When the bound
-ends it before the target, `TargetNotMet` says so: the bound, which lines are above the target
-with their measured type A, and what the worst would need at the noise measured; the lines are
-stated with that type A.
+A run with a type A target is always bounded in time: by --max-time, else by
+`default_time_bound_s` (DEFAULT_MAX_TIME_S of acquisition, or DEFAULT_MAX_PERIODS periods of
+the plan when they are longer). When the bound ends it before the target, `TargetNotMet` says
+so: the bound, which lines are above the target with their measured type A (and which of them
+the run does not state: too few LSB above the converter's step), and what the worst would need
+at the noise measured; the lines are stated with that type A.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import StrEnum
 
@@ -35,16 +34,6 @@ DEFAULT_TIME_BOUND_TEXT = (
     "their measured type A"
 )
 MAX_LINES_LISTED = 12  # a report names at most this many lines (the rest are counted)
-
-
-def worst_type_a(type_a: Iterable[float], stated: Sequence[bool] | None = None) -> float:
-    """The worst relative type A a target is held to: over the `stated` lines (None: all;
-    over all when none is stated), NaN (no type A) left out; NaN when there is none."""
-    values = [float(a) for a in type_a]
-    if stated is not None and any(stated):
-        values = [a for a, s in zip(values, stated, strict=True) if s]
-    finite = [a for a in values if not math.isnan(a)]
-    return max(finite) if finite else math.nan
 
 
 def default_time_bound_s(period_s: float) -> float:
@@ -117,23 +106,23 @@ class StoppingRule:
 
 @dataclass(frozen=True)
 class TargetNotMet:
-    """A time bound ended acquisition before the type A target (fractions, s): the stated
-    lines above the target as (label, measured relative type A) of `line_count` held to it,
-    the bound and whether it was the default, and the acquisition it allowed (`acquired_s`,
-    `periods`; the stepped sine: per line, its share of the bound)."""
+    """A time bound ended acquisition before the type A target (fractions, s): the lines
+    above the target as (label, measured relative type A, stated) of `line_count`, the bound
+    and whether it was the default, and the acquisition it allowed (`acquired_s`, `periods`;
+    the stepped sine: per line, its share of the bound)."""
 
     target_type_a: float
     bound_s: float
     default_bound: bool
     acquired_s: float
     periods: int
-    above: tuple[tuple[str, float], ...]
+    above: tuple[tuple[str, float, bool], ...]
     line_count: int
     per_line: bool = False  # the stepped sine: the bound shared out among its lines
 
     @property
     def worst_type_a(self) -> float:
-        return max((a for _, a in self.above), default=math.nan)
+        return max((a for _, a, _ in self.above), default=math.nan)
 
     @property
     def needed_s(self) -> float:
@@ -158,7 +147,10 @@ class TargetNotMet:
             bound += "the default with a type A target; --max-time sets another)"
         else:
             bound = bound.removesuffix(" (") + (")" if self.per_line else "")
-        listed = [f"{label} {100 * a:.3g} %" for label, a in self.above[:MAX_LINES_LISTED]]
+        listed = [
+            f"{label} {100 * a:.3g} %" + ("" if stated else " (not stated: too few LSB)")
+            for label, a, stated in self.above[:MAX_LINES_LISTED]
+        ]
         more = len(self.above) - len(listed)
         if more > 0:
             listed.append(f"and {more} more (their type A in the results)")
@@ -187,15 +179,17 @@ def target_not_met(
     stated: Sequence[bool] | None = None,
 ) -> TargetNotMet | None:
     """The report of a run `rule` bounded before its target (None: no target, no bound, or
-    every line held to it within the target): `labels` and measured relative `type_a` per
-    line, and whether each line is `stated` (None: all; the lines held to the target are
-    those of `worst_type_a`)."""
+    every line within the target): `labels` and measured relative `type_a` per line, and
+    whether each line is `stated` (None: all)."""
     target, bound = rule.target_type_a, rule.max_time_s
     if target is None or bound is None:
         return None
-    held = [True] * len(labels) if stated is None or not any(stated) else list(stated)
-    pairs = [(lb, float(a)) for lb, a, h in zip(labels, type_a, held, strict=True) if h]
-    above = tuple((label, a) for label, a in pairs if a > target)  # NaN: no type A, left out
+    flags = [True] * len(labels) if stated is None else [bool(x) for x in stated]
+    above = tuple(
+        (label, float(a), flag)
+        for label, a, flag in zip(labels, type_a, flags, strict=True)
+        if float(a) > target  # NaN: no type A, left out (as the stopping rule's nanmax)
+    )
     if not above:
         return None
-    return TargetNotMet(target, bound, default_bound, acquired_s, periods, above, len(pairs))
+    return TargetNotMet(target, bound, default_bound, acquired_s, periods, above, len(labels))
