@@ -168,6 +168,7 @@ def write_pdf(
         _kv(
             [
                 ("Certificate number", _esc(number), Item.NUMBER),
+                *_amendment_rows(info),
                 (
                     "Customer",
                     f"{_esc(info.customer)}, "
@@ -260,6 +261,19 @@ def write_pdf(
     out.chmod(0o444)
 
 
+def _amendment_rows(info: CertificateInfo) -> list[tuple[str, str, Item | None]]:
+    """An amendment's rows under its number (ISO/IEC 17025 7.8.8.3): the certificate it
+    replaces, which is withdrawn from use by it, and the reason; none for a first issue."""
+    a = info.amendment
+    if a is None:
+        return []
+    return [
+        ("Replaces certificate", _esc(a.replaces), Item.REPLACES),
+        ("", f"which it supersedes in full; {_esc(a.replaces)} is no longer valid", None),
+        ("Reason for the amendment", _esc(a.reason), Item.AMENDMENT_REASON),
+    ]
+
+
 def _reference_sensitivity(results: Results, info: CertificateInfo) -> str:
     """The sensitivity at the reference frequency with its U: in mV/(m/s²) and dB, and first
     in mV/g when the sensor model states its sensitivity in mV/g (1 g = 9.80665 m/s²)."""
@@ -318,7 +332,7 @@ def _line_table(results: Results, in_g: bool = False) -> list[Any]:
         "U phase\n°",
         "U rel.\n%",
         "k",
-        "ISO\n16063-21",
+        "U vs.\nISO 16063-21\nlimit",
         *(["Sensitivity\nmV/g"] if in_g else []),
     ]
     rows: list[list[str]] = [header]
