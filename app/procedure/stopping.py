@@ -157,9 +157,9 @@ class TargetNotMet:
         return (
             f"type A target {100 * self.target_type_a:g} % not met: {bound} {ended} "
             f"({self.periods} period(s)); {len(self.above)} of {self.line_count} lines above "
-            f"the target, stated with their measured type A: {', '.join(listed)}; at the "
-            f"noise measured the worst would need about {_seconds(self.needed_s)} s of "
-            "acquisition"
+            f"the target, their type A as measured: {', '.join(listed)}; every stated line is "
+            "stated with the type A measured; at the noise measured the worst would need "
+            f"about {_seconds(self.needed_s)} s of acquisition"
         )
 
 

@@ -58,8 +58,8 @@ def test_the_report_names_the_bound_the_lines_and_their_type_a():
     assert text.startswith(
         "type A target 0.2 % not met: the time bound 120 s (the default with a type A target; "
         "--max-time sets another) ended the acquisition after 120 s (62 period(s)); 2 of 3 "
-        "lines above the target, stated with their measured type A: 20 Hz 0.25 %, 4000 Hz "
-        "3 % (not stated: too few LSB);"
+        "lines above the target, their type A as measured: 20 Hz 0.25 %, 4000 Hz 3 % (not "
+        "stated: too few LSB); every stated line is stated with the type A measured;"
     )
     assert text.endswith("the worst would need about 27000 s of acquisition")
     warning = classify(text)
@@ -118,7 +118,7 @@ def test_an_unreachable_target_ends_at_the_default_bound_with_its_report(tmp_pat
     assert head is not None, text
     # it stops before a period that would take it past the bound: within one 2 s period
     assert DEFAULT_MAX_TIME_S - 2.0 - 0.01 <= float(head.group(1)) <= DEFAULT_MAX_TIME_S
-    listed = dict(re.findall(r"(\d+(?:\.\d+)? Hz) ([\d.]+) %", text.split("type A: ")[1]))
+    listed = dict(re.findall(r"(\d+(?:\.\d+)? Hz) ([\d.]+) %", text.split("as measured: ")[1]))
     lines = results["results"]["lines"]
     stated = [ln for ln in lines if not ln["not_stated"]]  # "" when stated
     above = [ln for ln in stated if ln["relative_type_a"] > 0.0005]
