@@ -12,7 +12,6 @@ from __future__ import annotations
 import gc
 import html
 import logging
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -32,11 +31,11 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from app import formatting as fmt
+from app.gui.live_view import EstimateView, PeriodView, block_view, estimate_view
 from app.gui.plots import FRAME_HZ, LivePlots
 from app.gui.results_tab import wrapping_label
 from app.gui.table_items import shown_unit
-from app.gui.worker import RunWorker
+from app.gui.worker import RunWorker, ShownEstimate, ShownPeriod
 from app.io.vocabulary import RunStatus
 from app.procedure import (
     EqualisationStep,
@@ -96,7 +95,9 @@ class LiveFrame:
     plan: Plan | None = None
     steps: PhaseSteps = field(default_factory=PhaseSteps)
     block: PeriodBlock | None = None
+    view: PeriodView | None = None  # the block's, made by the worker (None: made at drawing)
     estimate: PeriodEstimate | None = None
+    estimate_view: EstimateView | None = None  # the estimate's, as `view`
     state: str | None = None
     equalisation: str | None = None
     progress: tuple[float, str] | None = None  # (fraction of the phase done, what it says)
@@ -108,16 +109,21 @@ class LiveFrame:
     def take(self, events: list[Any]) -> None:
         """Keep only what the next frame draws."""
         for event in events:
+            view = None
+            if isinstance(event, ShownPeriod):
+                event, view = event.block, event.view
+            elif isinstance(event, ShownEstimate):
+                event, view = event.estimate, event.view
             if isinstance(event, PeriodBlock):
                 if event.state != State.FADING_OUT:  # keep showing the last steady period
-                    self.block = event
+                    self.block, self.view = event, view
                 if event.state == State.BACKGROUND and self.phase == State.BACKGROUND:
                     self.phase_blocks += 1
                     n = self.steps.background_periods
                     done = min(self.phase_blocks, n)
                     self.progress = (done / n, f"background: period {done} of {n}")
             elif isinstance(event, PeriodEstimate):
-                self.estimate = event
+                self.estimate, self.estimate_view = event, view
             elif isinstance(event, StateChanged):
                 self.state = f"{event.state}: {event.message}" if event.message else event.state
                 self.phase, self.phase_blocks = event.state, 0
@@ -315,6 +321,7 @@ class RunTab(QWidget):
         worker = self.worker
         if worker is None:
             return
+        worker.columns = self.live.columns()  # the worker decimates to the plots' width
         events = worker.drain()
         if events:
             self.frame.take(events)
@@ -347,38 +354,47 @@ class RunTab(QWidget):
                 "<br/>".join(f"⚠ {html.escape(shown_unit(w))}" for w in frame.warnings[-4:])
             )
         block, frame.block = frame.block, None
+        view, frame.view = frame.view, None
         if block is not None:
-            names = list(block.channels)
-            ref = block.samples[names.index("reference")]
-            dut = block.samples[names.index("dut")]
-            if frame.plan is not None:
-                self.live.draw_period(ref, dut, frame.plan)
+            if view is None and frame.plan is not None:  # queued without its view
+                view = block_view(block.samples, block.channels, frame.plan, self.live.columns())
+            if view is not None:
+                self.live.show_period(view)
             # the range the block was read on (the run picks it), else the one it started on
             self.ranges_v.update(block.ranges_v)
-            for name, x in (("reference", ref), ("dut", dut)):
-                fill = int(100 * np.max(np.abs(x)) / self.ranges_v[name])
-                bar = self.meters[name]
-                shown = f"{name} %p % of ±{self.ranges_v[name]:g} V"
-                if bar.format() != shown:
-                    bar.setFormat(shown)
-                bar.setValue(min(fill, 100))
-                style = METER_STYLE % ("#c0392b" if fill >= 95 else "#27ae60")
-                if bar.styleSheet() != style:  # a new style sheet re-polishes: only on change
-                    bar.setStyleSheet(style)
+            names = list(block.channels)
+            for name in METERED:
+                peak = (
+                    view.peaks_v[name]
+                    if view is not None
+                    else float(np.max(np.abs(block.samples[names.index(name)])))
+                )
+                self.show_meter(name, int(100 * peak / self.ranges_v[name]))
         estimate, frame.estimate = frame.estimate, None
+        shown, frame.estimate_view = frame.estimate_view, None
         if estimate is not None:
-            self.draw_characteristic(estimate.results)
+            self.show_characteristic(shown or estimate_view(estimate.results))
+
+    def show_meter(self, name: str, fill: int) -> None:
+        """The meter of channel `name` at `fill` % of its range (red from 95 %)."""
+        bar = self.meters[name]
+        shown = f"{name} %p % of ±{self.ranges_v[name]:g} V"
+        if bar.format() != shown:
+            bar.setFormat(shown)
+        bar.setValue(min(fill, 100))
+        style = METER_STYLE % ("#c0392b" if fill >= 95 else "#27ae60")
+        if bar.styleSheet() != style:  # a new style sheet re-polishes: only on change
+            bar.setStyleSheet(style)
 
     def draw_characteristic(self, results: Results) -> None:
-        defined = [ln for ln in results.lines if math.isfinite(ln.coherence)]
-        if defined:
-            worst = min(defined, key=lambda ln: ln.coherence)
-            self.coherence.setText(
-                f"coherence >= {worst.coherence:.4f} (lowest at {worst.nominal_frequency_hz:g} Hz)"
-            )
-        else:
-            self.coherence.setText(fmt.COHERENCE_NOT_AVAILABLE)
-        self.live.draw_characteristic(results)
+        """The characteristic so far and its lowest coherence (the view made here)."""
+        self.show_characteristic(estimate_view(results))
+
+    def show_characteristic(self, view: EstimateView) -> None:
+        """The characteristic so far and its lowest coherence, from a view made off this
+        thread."""
+        self.coherence.setText(view.coherence)
+        self.live.show_characteristic(view)
 
     def finish(self, finished: Finished | None) -> None:
         """The run has ended (GUI thread): say how, then emit `ended`."""

@@ -1,27 +1,36 @@
 """The run worker: a plain thread that runs one procedure and queues copies of its events.
 
 It never touches a widget, a plot item or any Qt object: the window's timer drains the queue
-on the GUI thread. The procedure writes the run's record itself (recording flushed per period,
-results.json and manifest at the end), so the record does not depend on the window: if the
-GUI died mid-run, the folder stays readable and is listed as "interrupted".
+on the GUI thread. What the live plots show of a period or an estimate is computed here, on the
+worker's thread, as the event arrives (`app.gui.live_view`): the GUI thread only sets points.
+The procedure writes the run's record itself (recording flushed per period, results.json and
+manifest at the end), so the record does not depend on the window: if the GUI died mid-run,
+the folder stays readable and is listed as "interrupted".
 """
 
 from __future__ import annotations
 
 import collections
 import dataclasses
+import importlib
 import logging
 import threading
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from app.gui.live_view import MIN_COLUMNS, EstimateView, PeriodView, block_view, estimate_view
 from app.io.vocabulary import RunStatus
-from app.procedure import Event, Finished, PeriodBlock, Procedure
+from app.procedure import Event, Finished, PeriodBlock, PeriodEstimate, Procedure
 from app.records.run_record import RunRecord
 
 log = logging.getLogger(__name__)
 
+# modules a run imports on its first use (the simulated stand's models: sim.lti, sim.models);
+# an import holds the GIL for its length (about 1 s of scipy at load), so imported on the run
+# worker's thread they stalled the window's thread that long just after Start
+RUN_IMPORTS = ("scipy.signal", "scipy.linalg")
 MAX_QUEUED = 2000  # events kept when the GUI falls behind (oldest dropped; Finished never)
 
 
@@ -34,6 +43,39 @@ def copied(event: Event) -> Event:
     return event
 
 
+@dataclass(frozen=True)
+class ShownPeriod:
+    """A period as queued for the GUI: the block (copied) and its view (None: it could not
+    be made; the tab then draws the block as it is)."""
+
+    block: PeriodBlock
+    view: PeriodView | None
+
+
+@dataclass(frozen=True)
+class ShownEstimate:
+    """A live estimate as queued for the GUI: the event and its view (None: see ShownPeriod)."""
+
+    estimate: PeriodEstimate
+    view: EstimateView | None
+
+
+def warm_imports() -> threading.Thread:
+    """Import RUN_IMPORTS on a thread of their own as the window opens, before any Start;
+    the thread (to join when the figures must not include it: bench, tests)."""
+
+    def load() -> None:
+        for name in RUN_IMPORTS:
+            try:
+                importlib.import_module(name)
+            except ImportError:  # the run says so itself if it needs the module
+                log.warning("could not import %s ahead of a run", name)
+
+    thread = threading.Thread(target=load, name="warm-imports", daemon=True)
+    thread.start()
+    return thread
+
+
 class RunWorker:
     """Runs `procedure` on its own thread, then closes `stand`; events go to `drain()`."""
 
@@ -41,8 +83,11 @@ class RunWorker:
         self.procedure = procedure
         self.stand = stand
         self.finished: Finished | None = None
-        self._events: collections.deque[Event] = collections.deque(maxlen=MAX_QUEUED)
+        self._events: collections.deque[Any] = collections.deque(maxlen=MAX_QUEUED)
         self._lock = threading.Lock()
+        # pixel columns of the live plots (the GUI thread sets it as the window resizes)
+        self.columns = MIN_COLUMNS
+        self._view_failed = False
         procedure.listener = self._on_event
         self.thread = threading.Thread(target=self._run, name="calibration-run", daemon=True)
 
@@ -57,8 +102,9 @@ class RunWorker:
         self.thread.join(timeout_s)
         return not self.thread.is_alive()
 
-    def drain(self) -> list[Event]:
-        """The events queued since the last call (GUI thread)."""
+    def drain(self) -> list[Any]:
+        """The events queued since the last call (GUI thread): periods and estimates as
+        `ShownPeriod` and `ShownEstimate`, the others as the procedure sent them."""
         with self._lock:
             events = list(self._events)
             self._events.clear()
@@ -72,8 +118,31 @@ class RunWorker:
     def _on_event(self, event: Event) -> None:
         if isinstance(event, Finished):
             return  # kept apart in `finished`, never dropped from a full queue
+        shown = self._shown(copied(event))
         with self._lock:
-            self._events.append(copied(event))
+            self._events.append(shown)
+
+    def _shown(self, event: Event) -> Any:
+        """`event` with what the live plots show of it (a period or an estimate), made on this
+        thread. A view that cannot be made never ends the run: it is logged once and the
+        event queued without it."""
+        try:
+            if isinstance(event, PeriodBlock):
+                plan = self.procedure.plan
+                return ShownPeriod(
+                    event, block_view(event.samples, event.channels, plan, self.columns)
+                )
+            if isinstance(event, PeriodEstimate):
+                return ShownEstimate(event, estimate_view(event.results))
+        except Exception:
+            if not self._view_failed:
+                log.exception("the live view of a %s could not be made", type(event).__name__)
+                self._view_failed = True
+            if isinstance(event, PeriodBlock):
+                return ShownPeriod(event, None)
+            if isinstance(event, PeriodEstimate):
+                return ShownEstimate(event, None)
+        return event
 
     def _run(self) -> None:
         try:
