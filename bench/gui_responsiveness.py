@@ -29,6 +29,7 @@ Exit 0 when the targets are met (always in smoke mode), 1 when not, 2 on a bad o
 from __future__ import annotations
 
 import argparse
+import faulthandler
 import logging
 import os
 import sys
@@ -55,6 +56,7 @@ log = logging.getLogger("bench.gui_responsiveness")
 FS = 51_200.0  # Hz, each of the two measured channels (the drive is read too)
 TARGET_RATE, TARGET_STALL_MS = 30.0, 50.0  # SPEC s.12
 HEARTBEAT_MS = 2
+TRACE_AFTER_S = 0.05  # --trace: a main-thread gap this long dumps every thread's stack
 WIDTH, HEIGHT = 1366, 768  # px, the smallest screen the window is made for
 
 
@@ -89,8 +91,9 @@ class Probe:
     """Counts the Run tab's frame-timer slots (their GUI-thread CPU) and the periods they
     draw, and a heartbeat's intervals, from `start()` to `take()`."""
 
-    def __init__(self, window: MainWindow) -> None:
+    def __init__(self, window: MainWindow, trace: Any = None) -> None:
         tab = window.run_tab
+        self.trace = trace  # a file: every thread's stack when the main thread stalls
         self.tab = tab
         # the frame timer calls the tab's slot through this wrapper (the same slot, timed)
         tab.timer.timeout.disconnect(tab.tick)
@@ -114,6 +117,8 @@ class Probe:
         self.t0 = self.last = time.perf_counter()
 
     def _beat(self) -> None:
+        if self.trace is not None:  # re-armed every beat: it fires only in a stall
+            faulthandler.dump_traceback_later(TRACE_AFTER_S, file=self.trace)
         now = time.perf_counter()
         self.gaps.append(now - self.last)
         self.last = now
@@ -175,6 +180,12 @@ def main(argv: list[str] | None = None) -> int:
         help="samples per period at 51.2 kS/s (default 102400: 2 s)",
     )
     parser.add_argument("--smoke", action="store_true", help="a short run (CI)")
+    parser.add_argument(
+        "--trace",
+        type=Path,
+        help="write every thread's stack to this file whenever the main thread stalls "
+        f"{1e3 * TRACE_AFTER_S:g} ms (what stalls it; the figures then include the dumps)",
+    )
     args = parser.parse_args(argv)
     if args.smoke:
         args.seconds, args.idle_seconds, args.period_samples = 2.5, 0.5, 51_200
@@ -205,7 +216,8 @@ def main(argv: list[str] | None = None) -> int:
     tab = window.run_tab
     window.tabs.setCurrentWidget(tab)
     wait(0.5)  # laid out and painted once
-    probe = Probe(window)
+    trace = args.trace.open("w", encoding="utf-8") if args.trace else None
+    probe = Probe(window, trace)
     wait(args.idle_seconds)
     idle = probe.take()
     ended: list[Any] = []
@@ -225,6 +237,9 @@ def main(argv: list[str] | None = None) -> int:
     while not ended and time.perf_counter() < deadline:
         wait(0.05)
     load_end = load()
+    if trace is not None:
+        faulthandler.cancel_dump_traceback_later()
+        trace.close()
     period_s = args.period_samples / FS
     print(
         f"live run: paced simulated stand, 2 x {FS:g} S/s (and the drive), periods of "

@@ -15,6 +15,7 @@ import dataclasses
 import importlib
 import logging
 import threading
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -24,6 +25,7 @@ from app.gui.live_view import MIN_COLUMNS, EstimateView, PeriodView, block_view,
 from app.io.vocabulary import RunStatus
 from app.procedure import Event, Finished, PeriodBlock, PeriodEstimate, Procedure
 from app.records.run_record import RunRecord
+from hardware.errors import HardwareError
 
 log = logging.getLogger(__name__)
 
@@ -76,20 +78,45 @@ def warm_imports() -> threading.Thread:
     return thread
 
 
-class RunWorker:
-    """Runs `procedure` on its own thread, then closes `stand`; events go to `drain()`."""
+@dataclass(frozen=True)
+class Opened:
+    """The stand is open and the run has its procedure (queued first, on the worker's thread):
+    the tab lays its plots out for the procedure's plan."""
 
-    def __init__(self, procedure: Procedure, stand: Any) -> None:
+    procedure: Any
+
+
+class RunWorker:
+    """Runs `procedure` on its own thread, then closes `stand`; events go to `drain()`.
+
+    `RunWorker.opening(opener)` opens the run on the worker's thread too: `opener()` returns
+    (procedure, stand) and may take a second (the plan, the input ranges, the stand's drivers),
+    which the window's thread must not wait for. An `Opened` event is queued once it has; a
+    refusal (ValueError, HardwareError) is kept in `refusal` and the worker ends without a run.
+    """
+
+    def __init__(self, procedure: Procedure | None, stand: Any) -> None:
         self.procedure = procedure
         self.stand = stand
         self.finished: Finished | None = None
+        self.refusal: Exception | None = None  # why the run could not be opened
+        self._opener: Callable[[], tuple[Procedure, Any]] | None = None
+        self._stop: tuple[str, bool] | None = None  # (reason, emergency) asked before opening
         self._events: collections.deque[Any] = collections.deque(maxlen=MAX_QUEUED)
         self._lock = threading.Lock()
         # pixel columns of the live plots (the GUI thread sets it as the window resizes)
         self.columns = MIN_COLUMNS
         self._view_failed = False
-        procedure.listener = self._on_event
+        if procedure is not None:
+            procedure.listener = self._on_event
         self.thread = threading.Thread(target=self._run, name="calibration-run", daemon=True)
+
+    @classmethod
+    def opening(cls, opener: Callable[[], tuple[Procedure, Any]]) -> RunWorker:
+        """A worker that opens its run itself (see the class)."""
+        worker = cls(None, None)
+        worker._opener = opener
+        return worker
 
     def start(self) -> None:
         self.thread.start()
@@ -102,6 +129,25 @@ class RunWorker:
         self.thread.join(timeout_s)
         return not self.thread.is_alive()
 
+    def abort(self, reason: str) -> None:
+        """Fade the drive out and end the run (before it is open: it ends as soon as it is)."""
+        self._ask_stop(reason, emergency=False)
+
+    def emergency_stop(self) -> None:
+        """The drive to 0 V at once (before the run is open: as `abort`, nothing plays yet)."""
+        self._ask_stop("emergency stop", emergency=True)
+
+    def _ask_stop(self, reason: str, *, emergency: bool) -> None:
+        with self._lock:
+            procedure = self.procedure
+            if procedure is None:
+                self._stop = (reason, emergency)
+                return
+        if emergency:
+            procedure.emergency_stop()
+        else:
+            procedure.abort(reason)
+
     def drain(self) -> list[Any]:
         """The events queued since the last call (GUI thread): periods and estimates as
         `ShownPeriod` and `ShownEstimate`, the others as the procedure sent them."""
@@ -112,8 +158,9 @@ class RunWorker:
 
     @property
     def done(self) -> bool:
-        """The run has ended and its last event has been queued."""
-        return self.finished is not None and not self.thread.is_alive()
+        """The run has ended (or could not be opened) and its last event has been queued."""
+        ended = self.finished is not None or self.refusal is not None
+        return ended and not self.thread.is_alive()
 
     def _on_event(self, event: Event) -> None:
         if isinstance(event, Finished):
@@ -144,9 +191,36 @@ class RunWorker:
                 return ShownEstimate(event, None)
         return event
 
-    def _run(self) -> None:
+    def _open(self) -> bool:
+        """Open the run (`opening`) on this thread; whether there is a run to play."""
+        if self._opener is None:
+            return True
         try:
-            finished = self.procedure.run()
+            procedure, stand = self._opener()
+        except (ValueError, HardwareError) as exc:  # config, plan, missing driver or device
+            self.refusal = exc
+            return False
+        except BaseException as exc:  # a last resort, as in `_run`
+            log.exception("the run could not be opened")
+            self.refusal = exc if isinstance(exc, Exception) else RuntimeError(str(exc))
+            return False
+        procedure.listener = self._on_event
+        with self._lock:
+            self.procedure, self.stand = procedure, stand
+            self._events.appendleft(Opened(procedure))
+            stop = self._stop
+        if stop is not None:  # stopped while opening: the run ends at once, with its record
+            reason, emergency = stop
+            procedure.emergency_stop() if emergency else procedure.abort(reason)
+        return True
+
+    def _run(self) -> None:
+        if not self._open():
+            return
+        procedure = self.procedure
+        assert procedure is not None
+        try:
+            finished = procedure.run()
         except BaseException as exc:  # the procedure catches its own; this is a last resort
             log.exception("the run ended with an unexpected error")
             reason = f"internal error: {type(exc).__name__}: {exc}"
