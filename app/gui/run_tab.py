@@ -108,12 +108,13 @@ class LiveFrame:
 
     def take(self, events: list[Any]) -> None:
         """Keep only what the next frame draws."""
-        for event in events:
-            view = None
-            if isinstance(event, ShownPeriod):
-                event, view = event.block, event.view
-            elif isinstance(event, ShownEstimate):
-                event, view = event.estimate, event.view
+        for item in events:
+            event: Any = item
+            view: Any = None  # the worker's view of a period or an estimate
+            if isinstance(item, ShownPeriod):
+                event, view = item.block, item.view
+            elif isinstance(item, ShownEstimate):
+                event, view = item.estimate, item.view
             if isinstance(event, PeriodBlock):
                 if event.state != State.FADING_OUT:  # keep showing the last steady period
                     self.block, self.view = event, view

@@ -174,11 +174,10 @@ class RunWorker:
         thread. A view that cannot be made never ends the run: it is logged once and the
         event queued without it."""
         try:
-            if isinstance(event, PeriodBlock):
-                plan = self.procedure.plan
-                return ShownPeriod(
-                    event, block_view(event.samples, event.channels, plan, self.columns)
-                )
+            procedure = self.procedure  # set before the listener is
+            if isinstance(event, PeriodBlock) and procedure is not None:
+                view = block_view(event.samples, event.channels, procedure.plan, self.columns)
+                return ShownPeriod(event, view)
             if isinstance(event, PeriodEstimate):
                 return ShownEstimate(event, estimate_view(event.results))
         except Exception:
