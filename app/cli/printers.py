@@ -89,7 +89,7 @@ def print_results(results: Results, source: str = "", status: str | None = None)
                 "k",
                 "coherence",
                 "SNR dB",
-                "ISO 16063-21",
+                "U vs ISO limit",
             ],
             rows,
         )
