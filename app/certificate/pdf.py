@@ -35,6 +35,7 @@ from reportlab.platypus import (
 
 import app.certificate.text as text
 from app import formatting as fmt
+from app.certificate.attach import embed
 from app.certificate.info import CertificateInfo
 from app.certificate.load import StoredRun
 from app.certificate.pdf_charts import FONT, FONT_BOLD, GRID, chart
@@ -540,22 +541,6 @@ def _sign_off(info: CertificateInfo, record: RunRecord, before: list[Any]) -> li
     ]
     last = starts[-1] if starts else 0
     return [KeepTogether([*before[:last], KeepTogether([*before[last:], *block])])]
-
-
-def embed(pdf: Path, name: str, data: bytes) -> None:
-    """Attach `data` to the PDF as an associated file (PDF/A-3 style: /AF in the catalogue,
-    /AFRelationship /Data on the file specification), in place."""
-    from pypdf import PdfWriter
-    from pypdf.generic import ArrayObject, NameObject
-
-    writer = PdfWriter(clone_from=str(pdf))
-    writer.add_attachment(name, data)
-    names = writer.root_object["/Names"]["/EmbeddedFiles"]["/Names"]  # type: ignore[index]
-    spec = names[-1].get_object()
-    spec[NameObject("/AFRelationship")] = NameObject("/Data")
-    writer.root_object[NameObject("/AF")] = ArrayObject([names[-1]])
-    with pdf.open("wb") as handle:
-        writer.write(handle)
 
 
 # ---- issue 27: the verification QR code and the software validation statement ------------
