@@ -277,7 +277,7 @@ def estimate_neighbourhood(
         linear = np.asarray(response, complex) / (compression * (1.0 + relative_error))
     covariance = hc0(h_pass, ORDERS, theta, gram_inv)
     wald = float(theta @ np.linalg.pinv(covariance) @ theta)
-    p_value = float(special.chdtrc(len(ORDERS), wald))
+    p_value = chi2_sf_even(len(ORDERS), wald)
     t2, t3 = (theta[ORDERS.index(o)] for o in (2, 3))
     fraction = float(np.sqrt(max(t2 * t2 * m[4] + 2 * t2 * t3 * m[5] + t3 * t3 * m[6], 0.0)))
     found = p_value < NONLINEAR_FALSE_ALARM and fraction > MIN_FRACTION
@@ -290,7 +290,7 @@ def estimate_neighbourhood(
     extra = slice(len(ORDERS), len(ALL_ORDERS))
     added = full[extra]
     wald_model = float(added @ np.linalg.pinv(full_cov[extra, extra]) @ added)
-    model_p = float(special.chdtrc(len(CHECK_ORDERS), wald_model))
+    model_p = chi2_sf_even(len(CHECK_ORDERS), wald_model)
     return NonlinearEstimate(
         coefficients=theta,
         covariance=covariance,
