@@ -131,7 +131,7 @@ def main(argv: list[str]) -> int:
             )
     failed = False
     for estimator, (rss_ratio, traced_ratio) in ratios.items():
-        verdict = "ok" if rss_ratio <= LIMIT else "OVER"
+        verdict = "not judged: smoke" if smoke else ("ok" if rss_ratio <= LIMIT else "OVER")
         failed |= rss_ratio > LIMIT
         print(
             f"{estimator}: peak RSS {long} / {short} periods = {rss_ratio:.2f} (limit {LIMIT}: "
