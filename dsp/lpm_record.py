@@ -26,6 +26,7 @@ import numpy as np
 
 from dsp import lpm, nonlinear
 from dsp.calibration import AnalysisError
+from dsp.lpm_neighbours import NeighbourAccumulator
 from dsp.multisine import Plan
 from dsp.spectral import DISTORTION_FALSE_ALARM, HARMONICS, Estimate
 
@@ -155,7 +156,7 @@ def record_estimate_batches(
     settings = settings or lpm.LpmSettings()
     n = plan.period_samples
     half_width = max(NEIGHBOURHOOD_BINS, settings.reach, NOISE_HALF_WIDTH_BINS)
-    accumulator: lpm.NeighbourAccumulator | None = None
+    accumulator: NeighbourAccumulator | None = None
     moments = dict.fromkeys((4, 5, 6), 0.0)
     with_drive = False
     try:
@@ -168,7 +169,7 @@ def record_estimate_batches(
                 )
             if accumulator is None:
                 with_drive = drive is not None
-                accumulator = lpm.NeighbourAccumulator(periods, n, half_width, 6 + with_drive)
+                accumulator = NeighbourAccumulator(periods, n, half_width, 6 + with_drive)
             if (drive is not None) != with_drive:
                 raise AnalysisError("lpm: the drive is given for some periods and not others")
             powers = [ref**order for order in nonlinear.ALL_ORDERS]
@@ -292,7 +293,7 @@ def harmonic_distortion(spectrum: Any, line_bins: np.ndarray) -> np.ndarray:
 
 
 class _Power:
-    """|X|^2 of a spectrum held near the period grid (dsp.lpm.NeighbourSpectrum), per bin."""
+    """|X|^2 per bin of a spectrum held near the period grid (lpm_neighbours.NeighbourSpectrum)."""
 
     def __init__(self, spectrum: Any) -> None:
         self._spectrum = spectrum

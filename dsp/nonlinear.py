@@ -358,7 +358,7 @@ def cleaned_neighbourhood(
     powers: dict[int, Any],
     excluded_bins: Iterable[int] = (),
 ) -> Any:
-    """`cleaned` for a spectrum held near the period grid (dsp.lpm.NeighbourSpectrum, with
+    """`cleaned` for a spectrum held near the period grid (lpm_neighbours.NeighbourSpectrum, with
     `powers` as for `estimate_neighbourhood`): a copy with the fitted products removed at the
     free bins it holds (CHUNK_BINS at a time)."""
     lines = np.asarray(line_bins, dtype=np.int64)

@@ -12,6 +12,7 @@ import pytest
 from dsp import iso266, lpm
 from dsp.calibration import AnalysisError
 from dsp.crestfactor import synthesize
+from dsp.lpm_neighbours import NeighbourAccumulator
 from dsp.lpm_record import (
     NEIGHBOURHOOD_BINS,
     WHOLE_RECORD_PERIODS,
@@ -51,7 +52,7 @@ def _batches(ref, dut, drive, size=7):
 def test_the_accumulated_bins_are_the_whole_record_dft(periods, half_width, n):
     rng = np.random.default_rng(periods)
     x = rng.standard_normal((2, periods * n))
-    acc = lpm.NeighbourAccumulator(periods, n, half_width, 2)
+    acc = NeighbourAccumulator(periods, n, half_width, 2)
     for a in range(0, periods, 3):  # batches of 3 periods, the last shorter
         acc.add(*(v.reshape(periods, n)[a : a + 3] for v in x))
     for channel in (0, 1):
@@ -70,7 +71,7 @@ def test_the_accumulated_bins_are_the_whole_record_dft(periods, half_width, n):
 
 
 def test_a_bin_not_held_and_a_period_too_many_are_refused():
-    acc = lpm.NeighbourAccumulator(40, 60, 2, 1)
+    acc = NeighbourAccumulator(40, 60, 2, 1)
     acc.add(np.ones((40, 60)))
     with pytest.raises(lpm.LpmError, match="periods"):
         acc.add(np.ones((1, 60)))
@@ -80,7 +81,7 @@ def test_a_bin_not_held_and_a_period_too_many_are_refused():
     with pytest.raises(lpm.LpmError, match="bin 1201: not held"):  # beyond Nyquist (1200)
         held[1201]
     with pytest.raises(lpm.LpmError, match="3 of 4 periods"):
-        short = lpm.NeighbourAccumulator(4, 60, 2, 1)
+        short = NeighbourAccumulator(4, 60, 2, 1)
         short.add(np.ones((3, 60)))
         short.spectrum()
 
