@@ -287,7 +287,13 @@ def build_parser() -> argparse.ArgumentParser:
     a.add_argument(
         "file", type=Path, help="recording.h5, recording.csv, recording.tdms or a run folder"
     )
-    a.add_argument("--estimator", choices=ESTIMATORS, default=DEFAULT_ESTIMATOR)
+    a.add_argument(
+        "--estimator",
+        choices=ESTIMATORS,
+        default=None,
+        help="line estimator (default: the one the run folder's settings name; periodic for a "
+        "recording that names none, or with --segments)",
+    )
     numeric_option(a, "--segments", SEGMENTS, "the seed's protocol: L equal segments")
     numeric_option(a, "--coverage", COVERAGE, "coverage probability", default=0.9545)
     a.add_argument(

@@ -47,7 +47,7 @@ from app.procedure.request import RunRequest
 from app.procedure.service import PlanPreview, PreparedRun, RunService
 from app.stand import config as stand_config
 from app.stand.simulated import CATALOGUE
-from dsp.estimators import Estimator
+from dsp.estimators import DEFAULT_ESTIMATOR, Estimator, default_periods
 from dsp.multisine import PRESETS
 
 log = logging.getLogger(__name__)
@@ -180,7 +180,11 @@ class SetupTab(QWidget):
         self.frequencies = QLineEdit()
         self.frequencies.setPlaceholderText("preset lines; or e.g. 10,12.5,...,1000 (Hz)")
         self.level = QuantityEdit(quantities.LEVEL, "level", value=5.0, suffix="m/s² peak per line")
-        self.periods = QSpinBox(minimum=3, maximum=10000, value=8, suffix=" periods")
+        # one record of one period with the default estimator (lpm); the estimator's own
+        # default follows it when it changes (_estimator_changed)
+        self.periods = QSpinBox(
+            minimum=1, maximum=10000, value=default_periods(DEFAULT_ESTIMATOR), suffix=" periods"
+        )
         self.target = QuantityEdit(
             quantities.TARGET_UA,
             "type A target",
@@ -191,6 +195,9 @@ class SetupTab(QWidget):
         self.max_time.setSpecialValueText("no time bound (s)")
         self.estimator = QComboBox()
         self.estimator.addItems(list(option("estimator").choices))
+        self.estimator.setCurrentText(DEFAULT_ESTIMATOR)
+        self._estimator_shown = self.estimator.currentText()
+        self.estimator.currentTextChanged.connect(self._estimator_changed)
         self.mode = QComboBox()
         self.mode.addItems(list(option("mode").choices))
         self.templates = TemplatePicker(self, self.records)
@@ -265,6 +272,13 @@ class SetupTab(QWidget):
             mode=self.mode.currentText(),
         )
 
+    def _estimator_changed(self, estimator: str) -> None:
+        """The periods follow the estimator's default (1 with lpm, 8 with the averaging
+        estimators) while they hold the previous estimator's default; a count typed stays."""
+        previous, self._estimator_shown = self._estimator_shown, estimator
+        if estimator and self.periods.value() == default_periods(previous):
+            self.periods.setValue(default_periods(estimator))
+
     def apply_plan(self, plan: PlanSettings) -> None:
         """Put `plan` into the fields (and check them)."""
         self.nominal.setValue(plan.nominal_mv_per_ms2)
@@ -272,10 +286,10 @@ class SetupTab(QWidget):
         self.preset.setCurrentText(plan.preset)
         self.frequencies.setText(plan.frequencies)
         self.level.setValue(plan.level_ms2)
+        self.estimator.setCurrentText(plan.estimator)  # before the periods it would move
         self.periods.setValue(plan.periods)
         self.target.setValue(plan.target_percent)
         self.max_time.setValue(plan.max_time_s)
-        self.estimator.setCurrentText(plan.estimator)
         self.mode.setCurrentText(plan.mode)
         self.validate()
 

@@ -3,13 +3,15 @@
 Safety from the computed drive (issue 25 point 7): every drive is checked before it is played
 against the stand's limits through the latest response (app.procedure.preflight.check_drive);
 a stored response is first played at `CHECK_LEVEL` of the level only, and trusted for the level
-only when that reduced period agrees with it within the tolerance.
+only when that reduced period agrees with it within the tolerance. The LPM's bursts
+(app.procedure.record_run) check a stored response the same way (`stored_refusal`).
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -19,6 +21,10 @@ from app.procedure.events import EqualisationStep, State
 from app.procedure.preflight import check_drive, limit_problems, predict_drive_peaks
 from app.procedure.stand_io import Settled
 from dsp.crestfactor import synthesize
+
+if TYPE_CHECKING:
+    from app.stand.config import Limits
+    from dsp.multisine import Plan
 
 CHECK_LEVEL = 0.2  # a stored response is first played at this fraction of the level
 
@@ -134,16 +140,29 @@ class Equalisation:
         if error <= tolerance:
             return stored
         ctx.notes.equalisation.append(error)
-        peaks = predict_drive_peaks(plan, at_level, measured)
-        problems = limit_problems(peaks, limits)
-        if problems:
+        refusal = stored_refusal(plan, at_level, measured, limits, error)
+        if refusal is not None:
             ctx.io.fade_out()  # from the reduced check level, before the refusal
-            raise PreflightError(
-                f"stored stand response off by {100 * error:.0f} % at its check: its drive at "
-                f"level would give a predicted displacement of "
-                f"{1e3 * peaks.displacement_peak_to_peak_m:.2f} mm p-p ("
-                + "; ".join(problems)
-                + "): refused before it is played; the stand changed (power amplifier gain?): "
-                "check it, then run without the stored response"
-            )
+            raise refusal
         return None
+
+
+def stored_refusal(
+    plan: Plan, at_level: np.ndarray, measured: np.ndarray, limits: Limits, error: float
+) -> PreflightError | None:
+    """The refusal of a stored response found off by `error` (a fraction) at its check at
+    CHECK_LEVEL: when the drive it asks for at level (`at_level`, complex V per line) would
+    take the table past a limit through the `measured` response ((m/s^2)/V per line), fades
+    included; None when it would not (the caller re-identifies)."""
+    peaks = predict_drive_peaks(plan, at_level, measured)
+    problems = limit_problems(peaks, limits)
+    if not problems:
+        return None
+    return PreflightError(
+        f"stored stand response off by {100 * error:.0f} % at its check: its drive at "
+        f"level would give a predicted displacement of "
+        f"{1e3 * peaks.displacement_peak_to_peak_m:.2f} mm p-p ("
+        + "; ".join(problems)
+        + "): refused before it is played; the stand changed (power amplifier gain?): "
+        "check it, then run without the stored response"
+    )

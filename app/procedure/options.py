@@ -24,7 +24,7 @@ from app.io.quantities import Quantity
 from app.io.vocabulary import Mode
 from app.lines import parse_frequencies
 from app.stand.simulated import CATALOGUE, EXCITERS
-from dsp.estimators import DEFAULT_ESTIMATOR, Estimator
+from dsp.estimators import DEFAULT_ESTIMATOR, Estimator, default_periods
 from dsp.multisine import PRESETS
 from dsp.profiles import Profile
 
@@ -136,7 +136,7 @@ RUN_OPTIONS: tuple[OptionSpec, ...] = (
     OptionSpec(
         "periods",
         "--periods",
-        "periods to acquire (default 8; lpm: 1, one record)",
+        "periods to acquire (default 1 with lpm, one record; 8 with periodic, h1, seed)",
         bounds=Bounds(1, 10_000, whole=True),
     ),
     OptionSpec(
@@ -267,7 +267,7 @@ class RunOptions:
     dut_mass_g: float | None = None
     preset: str | None = None
     level_ms2: float | None = None  # None: the DUT's, else 5 m/s^2
-    periods: int | None = None  # None: 8; lpm: 1
+    periods: int | None = None  # None: 1 with lpm, else 8 (dsp.estimators.default_periods)
     frequencies_hz: tuple[float, ...] | None = None
     sample_rate_hz: float | None = None
     period_samples: int | None = None
@@ -307,7 +307,7 @@ class RunOptions:
         """The periods acquired: as given, else one record of one period (lpm) or 8."""
         if self.periods is not None:
             return self.periods
-        return 1 if self.estimator == Estimator.LPM else 8
+        return default_periods(self.estimator)
 
     def replace(self, **changes: Any) -> RunOptions:
         return dataclasses.replace(self, **changes)

@@ -19,6 +19,7 @@ import numpy as np
 from app.procedure.errors import PreflightError
 from app.procedure.ranging import RangePlan, plan_ranges
 from dsp.crestfactor import peak_grid_samples, synthesize
+from dsp.fades import fade_in_seconds, fade_motion, fade_out_seconds
 from dsp.multisine import Plan, PredictedPeaks
 from dsp.resolution import Converter
 
@@ -81,22 +82,30 @@ def check_preflight(
     level_scale: float = 1.0,
     offered_v: tuple[float, ...] | None = None,
     per_line: bool = False,
+    fade_in_s: float | None = None,
+    fade_out_s: float | None = None,
 ) -> PreflightReport:
     """Check `plan` (its amplitudes times `level_scale`) on the stand of `config` with the
     reference `chain` and, when known, the DUT's nominal sensitivity (mV/(m/s^2)). Without a
     chain (a window before its stand is opened) the reference channel is not checked here;
     the run's own preflight checks it before anything moves. The ranges are picked among
     `offered_v` (V; None: the stand file's `daq.input_ranges_v`), per line when `per_line`
-    (stepped sine, whose motion is then one line's at a time: `largest_line_peaks`)."""
+    (stepped sine, whose motion is then one line's at a time: `largest_line_peaks`). A
+    multisine's peaks cover its fades (`motion_peaks`: `fade_in_s`, `fade_out_s`, None: the
+    defaults of dsp.fades)."""
     limits = config.limits
     ranges = {c.name: c.range_v for c in config.inputs}
-    raw = largest_line_peaks(plan) if per_line else plan.predicted_peaks()
-    peaks = PredictedPeaks(
-        acceleration_ms2=raw.acceleration_ms2 * level_scale,
-        velocity_m_per_s=raw.velocity_m_per_s * level_scale,
-        displacement_m=raw.displacement_m * level_scale,
-        displacement_peak_to_peak_m=raw.displacement_peak_to_peak_m * level_scale,
-    )
+    if per_line:
+        raw = largest_line_peaks(plan)
+        peaks = PredictedPeaks(
+            acceleration_ms2=raw.acceleration_ms2 * level_scale,
+            velocity_m_per_s=raw.velocity_m_per_s * level_scale,
+            displacement_m=raw.displacement_m * level_scale,
+            displacement_peak_to_peak_m=raw.displacement_peak_to_peak_m * level_scale,
+        )
+    else:  # the multisine's own orbit and its fades (issue 34)
+        target = level_scale * plan.amplitudes_ms2 * np.exp(1j * (plan.phases_rad - np.pi / 2))
+        peaks = motion_peaks(plan, target, fade_in_s=fade_in_s, fade_out_s=fade_out_s)
     problems = limit_problems(peaks, limits)
     if chain is not None:
         ref_s, _ = chain.sensitivity_at(plan.frequencies_hz)
@@ -177,14 +186,22 @@ def limit_problems(peaks: PredictedPeaks, limits: Limits) -> list[str]:
     return problems
 
 
-def predict_drive_peaks(
-    plan: Plan, drive_lines_v: np.ndarray, response: np.ndarray
+def motion_peaks(
+    plan: Plan,
+    acceleration: np.ndarray,
+    *,
+    fade_in_s: float | None = None,
+    fade_out_s: float | None = None,
 ) -> PredictedPeaks:
-    """Peaks of the table motion the drive (complex volts per line, phasor convention of the
-    procedure: x(t) = Re sum X_k e^{j w_k t}) will give through `response` ((m/s^2)/V per
-    line): acceleration A_k = R_k D_k, velocity A_k/(j w_k), displacement -A_k/w_k^2,
-    synthesised on an oversampled grid (as Plan.predicted_peaks)."""
-    acceleration = np.asarray(response, complex) * np.asarray(drive_lines_v, complex)
+    """Peaks of the table motion for the acceleration per line (complex m/s^2, phasor
+    convention of the procedure: x(t) = Re sum X_k e^{j w_k t}): the steady orbit (velocity
+    A_k/(j w_k), displacement -A_k/w_k^2, synthesised on an oversampled grid as
+    Plan.predicted_peaks) and its fades (issue 34): a fade-in from rest and a fade-out to rest
+    (dsp.fades.fade_motion, free mass during a fade; `fade_in_s`/`fade_out_s`, None: the
+    defaults), the offsets the fade-in leaves added to the steady orbit's peaks, the residual
+    velocity after the fade-out counted. The drive's peak is not raised by a fade (its
+    envelope is at most 1)."""
+    acceleration = np.asarray(acceleration, complex)
     if acceleration.shape != (len(plan.bins),) or not np.all(np.isfinite(acceleration)):
         raise PreflightError("predicted motion: the drive or the response is not finite")
     omega = 2 * np.pi * np.asarray(plan.frequencies_hz, float)
@@ -194,12 +211,40 @@ def predict_drive_peaks(
         return synthesize(plan.bins, np.abs(phasors), np.angle(phasors) + np.pi / 2, n)
 
     displacement = wave(-acceleration / omega**2)
-    return PredictedPeaks(
-        acceleration_ms2=float(np.max(np.abs(wave(acceleration)))),
-        velocity_m_per_s=float(np.max(np.abs(wave(acceleration / (1j * omega))))),
-        displacement_m=float(np.max(np.abs(displacement))),
-        displacement_peak_to_peak_m=float(np.ptp(displacement)),
+    steady_v = float(np.max(np.abs(wave(acceleration / (1j * omega)))))
+    lowest = float(np.min(plan.frequencies_hz))
+    fades = fade_motion(
+        plan.frequencies_hz,
+        acceleration,
+        fade_in_seconds(lowest, fade_in_s),
+        fade_out_s if fade_out_s is not None else fade_out_seconds(lowest),
     )
+    offset = fades.offset_displacement_m
+    high = max(float(np.max(displacement)) + max(offset, 0.0), fades.displacement_high_m)
+    low = min(float(np.min(displacement)) + min(offset, 0.0), fades.displacement_low_m)
+    steady_a = float(np.max(np.abs(wave(acceleration))))
+    return PredictedPeaks(
+        acceleration_ms2=max(steady_a, fades.acceleration_peak_ms2),
+        velocity_m_per_s=max(
+            steady_v + abs(fades.offset_velocity_m_per_s),
+            fades.velocity_peak_m_per_s,
+            abs(fades.residual_velocity_m_per_s),
+        ),
+        displacement_m=max(high, -low),
+        displacement_peak_to_peak_m=high - low,
+    )
+
+
+def predict_drive_peaks(
+    plan: Plan, drive_lines_v: np.ndarray, response: np.ndarray
+) -> PredictedPeaks:
+    """Peaks of the table motion the drive (complex volts per line) will give through
+    `response` ((m/s^2)/V per line): acceleration A_k = R_k D_k, its steady orbit and its
+    fades (`motion_peaks`)."""
+    acceleration = np.asarray(response, complex) * np.asarray(drive_lines_v, complex)
+    if acceleration.shape != (len(plan.bins),) or not np.all(np.isfinite(acceleration)):
+        raise PreflightError("predicted motion: the drive or the response is not finite")
+    return motion_peaks(plan, acceleration)
 
 
 def check_drive(
