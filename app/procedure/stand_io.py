@@ -188,9 +188,15 @@ class StandIO:
         return self._excited_before_s + (last - first + 1) / self.segment.plan.sample_rate_hz
 
     def _count_excitation(self, played: np.ndarray) -> None:
+        """A burst ends at a whole period played at 0 V, or at a pause of at least a period
+        within periods (a check burst at the start of one, the next burst's fade-in at the
+        end of the next: issue 34)."""
         moving = np.flatnonzero(played)
         if moving.size:
-            first = self._burst[0] if self._burst else self._segment_samples + int(moving[0])
+            start = self._segment_samples + int(moving[0])
+            if self._burst and start - self._burst[1] > played.size:  # a period's pause
+                self._end_burst()
+            first = self._burst[0] if self._burst else start
             self._burst = (first, self._segment_samples + int(moving[-1]))
         else:
             self._end_burst()
