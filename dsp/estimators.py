@@ -38,4 +38,6 @@ def default_periods(estimator: str) -> int:
     """The periods a run acquires when none are given: one record of one period (lpm; a type
     A target adds periods), else DEFAULT_PERIODS."""
     return 1 if estimator == Estimator.LPM else DEFAULT_PERIODS
+
+
 RULES = tuple(r.value for r in UncertaintyRule)

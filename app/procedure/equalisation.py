@@ -21,10 +21,11 @@ from app.procedure.events import EqualisationStep, State
 from app.procedure.preflight import check_drive, limit_problems, predict_drive_peaks
 from app.procedure.stand_io import Settled
 from dsp.crestfactor import synthesize
+from dsp.fades import fade_envelope, fade_in_samples
+from dsp.multisine import Plan
 
 if TYPE_CHECKING:
     from app.stand.config import Limits
-    from dsp.multisine import Plan
 
 CHECK_LEVEL = 0.2  # a stored response is first played at this fraction of the level
 
@@ -116,8 +117,10 @@ class Equalisation:
     def _check_stored(
         self, stored: np.ndarray, target: np.ndarray, tolerance: float
     ) -> np.ndarray | None:
-        """Play the stored response's drive at CHECK_LEVEL of the level for one period after
-        its crossfade, and compare. Agreeing within `tolerance` at every line: the stored
+        """Play the stored response's drive at CHECK_LEVEL of the level as a short check burst
+        (`play_check_burst`; issue 34: it was a crossfade and a period, 4 s on the seed plan),
+        or, when the lines need more than a period, for one period after its crossfade, and
+        compare. Agreeing within `tolerance` at every line: the stored
         response (it holds the exciter's compression at the level, which the reduced period
         does not). Disagreeing: None (the caller re-identifies; the error is noted), unless the
         drive the stored response asks for at level would take the table past a limit through
@@ -129,9 +132,18 @@ class Equalisation:
         at_level = target / stored
         reduced = CHECK_LEVEL * at_level
         check_drive(plan, reduced, stored, limits, "stored-response check period")
-        ctx.io.crossfade(self._drive(reduced))
-        reference, _ = ctx.io.period(State.EQUALISING)  # one period after the crossfade
-        measured = ctx.io.to_acceleration(reference) / reduced
+        self._drive(reduced)  # its peak within the drive limit
+        fade = fade_in_samples(
+            float(np.min(plan.frequencies_hz)),
+            plan.sample_rate_hz,
+            plan.period_samples,
+            ctx.settings.fade_in_s,
+        )
+        measured = play_check_burst(ctx, reduced, fade)  # issue 34: a short burst from 0 V
+        if measured is None:  # the lines need more than a period: the crossfade and a period
+            ctx.io.crossfade(self._drive(reduced))
+            reference, _ = ctx.io.period(State.EQUALISING)  # one period after the crossfade
+            measured = ctx.io.to_acceleration(reference) / reduced
         error = float(np.max(np.abs(np.abs(measured / stored) - 1.0)))
         ctx.log(
             f"stand response: stored one checked at {100 * CHECK_LEVEL:g} % of the level: "
@@ -142,7 +154,7 @@ class Equalisation:
         ctx.notes.equalisation.append(error)
         refusal = stored_refusal(plan, at_level, measured, limits, error)
         if refusal is not None:
-            ctx.io.fade_out()  # from the reduced check level, before the refusal
+            ctx.io.try_fade_out()  # from the reduced check level (a burst ended at 0 V)
             raise refusal
         return None
 
@@ -166,3 +178,77 @@ def stored_refusal(
         + "): refused before it is played; the stand changed (power amplifier gain?): "
         "check it, then run without the stored response"
     )
+
+
+def check_burst_samples(plan: Plan, fade: int) -> tuple[int, int, int] | None:
+    """A check burst's fade-in, hold and fade-out (samples) for `plan`: fades of `fade`
+    samples (the LPM's fade-in), a hold of the time that tells the two closest lines apart
+    (1 / their spacing: the regressors are then near-orthogonal) and at least two cycles of
+    the lowest line; None when that is longer than a period (then a whole period is read)."""
+    f = np.sort(np.asarray(plan.frequencies_hz, float))
+    spacing = float(np.min(np.diff(f))) if f.size > 1 else float(f[0])
+    hold_s = max(1.0 / spacing, 2.0 / float(f[0]))
+    hold = int(np.ceil(hold_s * plan.sample_rate_hz))
+    if 2 * fade + hold + fade > plan.period_samples:  # with a fade's length of ring-down
+        return None
+    return fade, hold, fade
+
+
+def burst_envelope(period_samples: int, rise: int, hold: int, fall: int) -> np.ndarray:
+    """One period's gain: a raised-cosine rise over `rise` samples from exactly 0, `hold`
+    samples of 1, a raised-cosine fall to exactly 0 over `fall`, zeros to the period's end."""
+    envelope = np.zeros(period_samples)
+    envelope[:rise] = fade_envelope(rise, 1, "in")
+    envelope[rise : rise + hold] = 1.0
+    envelope[rise + hold : rise + hold + fall] = fade_envelope(fall, 1, "out")
+    return envelope
+
+
+def burst_response(
+    plan: Plan, drive_lines: np.ndarray, envelope: np.ndarray, reference: np.ndarray
+) -> np.ndarray:
+    """The reference channel's volts per drive volt at every line (complex) from a burst:
+    reference(i) ~ sum_k Re(G_k) s_k(i) + Im(G_k) q_k(i), s_k = e(i) Re(D_k z_k(i)) and
+    q_k = e(i) Re(j D_k z_k(i)), z_k = exp(j 2 pi m_k i / N), e the burst's envelope, by
+    least squares (quasi-static: the envelope changes slowly against the stand's response,
+    whose short transients are left in the residual)."""
+    n = plan.period_samples
+    i = np.arange(envelope.size)
+    rotor = np.exp(2j * np.pi * np.outer(i, np.asarray(plan.bins, float)) / n) * drive_lines
+    columns = np.hstack([(rotor * envelope[:, None]).real, (1j * rotor * envelope[:, None]).real])
+    solution, *_ = np.linalg.lstsq(columns, reference, rcond=None)
+    k = len(plan.bins)
+    return solution[:k] + 1j * solution[k:]
+
+
+def play_check_burst(ctx: RunContext, drive_lines: np.ndarray, fade: int) -> np.ndarray | None:
+    """The stand's response ((m/s^2)/V per line, complex) from a short check burst of
+    `drive_lines` (complex V per line), played from 0 V: a raised-cosine fade-in of `fade`
+    samples, the hold of `check_burst_samples`, a fade-out to exactly 0 V, within one written
+    period that is read before anything else is written; the reference channel fitted by
+    least squares (`burst_response`). None when the burst does not fit in a period."""
+    io, plan = ctx.io, ctx.io.segment.plan
+    lengths = check_burst_samples(plan, fade)
+    if lengths is None:
+        return None
+    n = plan.period_samples
+    drive = synthesize(plan.bins, np.abs(drive_lines), np.angle(drive_lines) + np.pi / 2, n)
+    envelope = burst_envelope(n, *lengths)
+    io.write(drive * envelope)
+    io.in_transition = True
+    try:
+        while io.queue:  # a zero period queued before plays first, then the burst
+            block = io.read(State.EQUALISING)
+    finally:
+        io.in_transition = False
+    io.drive = np.zeros(n)  # the burst ended at exactly 0 V
+    reference, _ = io.split_channels(block)
+    used = min(n, sum(lengths) + lengths[0])  # the burst and a fade's length of ring-down
+    per_drive = burst_response(plan, drive_lines, envelope[:used], reference[:used])
+    response = io.to_acceleration(per_drive)
+    if np.any(np.abs(response) == 0) or not np.all(np.isfinite(response)):
+        raise ProcedureError(
+            "no motion on the reference channel at some lines: check the power amplifier "
+            "(enabled, gain) and the reference accelerometer"
+        )
+    return response

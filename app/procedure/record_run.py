@@ -22,7 +22,7 @@ import numpy as np
 from app.procedure.acquisition import with_driven_hum
 from app.procedure.background import BackgroundLevels, budget_with_background
 from app.procedure.context import RunContext
-from app.procedure.equalisation import CHECK_LEVEL, stored_refusal
+from app.procedure.equalisation import CHECK_LEVEL, play_check_burst, stored_refusal
 from app.procedure.errors import PreflightError, ProcedureError
 from app.procedure.events import EqualisationStep, Progress, State
 from app.procedure.preflight import check_drive
@@ -34,49 +34,7 @@ from dsp.crestfactor import synthesize
 from dsp.fades import FADE_IN_CYCLES as FADE_IN_CYCLES  # re-exported for its callers
 from dsp.fades import fade_envelope, fade_in_samples
 from dsp.lpm_record import RecordEstimate, record_estimate
-from dsp.multisine import Plan
 from dsp.spectral import MIN_PERIODS, period_spectrum
-
-
-def check_burst_samples(plan: Plan, fade: int) -> tuple[int, int, int] | None:
-    """A check burst's fade-in, hold and fade-out (samples) for `plan`: fades of `fade`
-    samples (the LPM's fade-in), a hold of the time that tells the two closest lines apart
-    (1 / their spacing: the regressors are then near-orthogonal) and at least two cycles of
-    the lowest line; None when that is longer than a period (then a whole period is read)."""
-    f = np.sort(np.asarray(plan.frequencies_hz, float))
-    spacing = float(np.min(np.diff(f))) if f.size > 1 else float(f[0])
-    hold_s = max(1.0 / spacing, 2.0 / float(f[0]))
-    hold = int(np.ceil(hold_s * plan.sample_rate_hz))
-    if 2 * fade + hold + fade > plan.period_samples:  # with a fade's length of ring-down
-        return None
-    return fade, hold, fade
-
-
-def burst_envelope(period_samples: int, rise: int, hold: int, fall: int) -> np.ndarray:
-    """One period's gain: a raised-cosine rise over `rise` samples from exactly 0, `hold`
-    samples of 1, a raised-cosine fall to exactly 0 over `fall`, zeros to the period's end."""
-    envelope = np.zeros(period_samples)
-    envelope[:rise] = fade_envelope(rise, 1, "in")
-    envelope[rise : rise + hold] = 1.0
-    envelope[rise + hold : rise + hold + fall] = fade_envelope(fall, 1, "out")
-    return envelope
-
-
-def burst_response(
-    plan: Plan, drive_lines: np.ndarray, envelope: np.ndarray, reference: np.ndarray
-) -> np.ndarray:
-    """The reference channel's volts per drive volt at every line (complex) from a burst:
-    reference(i) ~ sum_k Re(G_k) s_k(i) + Im(G_k) q_k(i), s_k = e(i) Re(D_k z_k(i)) and
-    q_k = e(i) Re(j D_k z_k(i)), z_k = exp(j 2 pi m_k i / N), e the burst's envelope, by
-    least squares (quasi-static: the envelope changes slowly against the stand's response,
-    whose short transients are left in the residual)."""
-    n = plan.period_samples
-    i = np.arange(envelope.size)
-    rotor = np.exp(2j * np.pi * np.outer(i, np.asarray(plan.bins, float)) / n) * drive_lines
-    columns = np.hstack([(rotor * envelope[:, None]).real, (1j * rotor * envelope[:, None]).real])
-    solution, *_ = np.linalg.lstsq(columns, reference, rcond=None)
-    k = len(plan.bins)
-    return solution[:k] + 1j * solution[k:]
 
 
 class RecordRun:
@@ -153,40 +111,19 @@ class RecordRun:
 
     def _check_burst(self, drive_lines: np.ndarray) -> np.ndarray:
         """The stand's response ((m/s^2)/V per line) from a check burst of `drive_lines`
-        (complex V per line). Short when it fits in a period (`check_burst_samples`): a
-        raised-cosine fade-in, a hold of the lines' resolution time, a fade-out, within one
-        written period that is read before anything else is written; the reference channel
-        fitted by least squares with every line's enveloped drive (in phase and quadrature)
-        as regressors (`burst_response`). Else one period read as an LPM record."""
+        (complex V per line): short when it fits in a period (equalisation.play_check_burst),
+        else one period read as an LPM record."""
         ctx, plan = self.ctx, self.ctx.plan
-        io, n = ctx.io, plan.period_samples
-        drive = synthesize(plan.bins, np.abs(drive_lines), np.angle(drive_lines) + np.pi / 2, n)
-        lengths = check_burst_samples(plan, self.fade)
-        if lengths is None:  # the lines need more than a period: a whole-period record
-            self._lead(drive, State.EQUALISING)
-            record = self._record([self._read(State.EQUALISING)])
-            io.fade_out()
-            return self._response(record)
-        envelope = burst_envelope(n, *lengths)
-        io.write(drive * envelope)
-        io.in_transition = True
-        try:
-            while io.queue:  # a zero period queued before plays first, then the burst
-                ref, _, played = self._read(State.EQUALISING)
-        finally:
-            io.in_transition = False
-        io.drive = np.zeros(n)  # the burst ended at exactly 0 V
-        used = min(n, sum(lengths) + lengths[0])  # the burst and a fade's length of ring-down
-        per_drive = burst_response(plan, drive_lines, envelope[:used], ref[:used])
-        if not np.allclose(played, drive * envelope, atol=1e-12):
-            raise ProcedureError("check burst: the drive played is not the one written")
-        response = io.to_acceleration(per_drive)
-        if np.any(np.abs(response) == 0) or not np.all(np.isfinite(response)):
-            raise ProcedureError(
-                "no motion on the reference channel at some lines: check the power amplifier "
-                "(enabled, gain) and the reference accelerometer"
-            )
-        return response
+        measured = play_check_burst(ctx, drive_lines, self.fade)
+        if measured is not None:
+            return measured
+        drive = synthesize(
+            plan.bins, np.abs(drive_lines), np.angle(drive_lines) + np.pi / 2, plan.period_samples
+        )
+        self._lead(drive, State.EQUALISING)
+        record = self._record([self._read(State.EQUALISING)])
+        ctx.io.fade_out()
+        return self._response(record)
 
     def check_stored(self, stored: StoredResponse) -> np.ndarray:
         """Issue 25 point 7 in the LPM's bursts (issue 34: the default estimator): a stored
