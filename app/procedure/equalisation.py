@@ -119,13 +119,15 @@ class Equalisation:
     ) -> np.ndarray | None:
         """Play the stored response's drive at CHECK_LEVEL of the level as a short check burst
         (`play_check_burst`; issue 34: it was a crossfade and a period, 4 s on the seed plan),
-        or, when the lines need more than a period, for one period after its crossfade, and
-        compare. Agreeing within `tolerance` at every line: the stored
-        response (it holds the exciter's compression at the level, which the reduced period
-        does not). Disagreeing: None (the caller re-identifies; the error is noted), unless the
-        drive the stored response asks for at level would take the table past a limit through
-        the measured response (the stand changed: a gain knob turned up): then a fade-out and
-        PreflightError naming the predicted displacement. The level is never played with it."""
+        or, when the lines need more than a period and for a stepped-sine line (a short burst
+        near the exciter's suspension resonance would be read before its transient decayed),
+        for one period after its crossfade, and compare. Agreeing within `tolerance` at every
+        line: the stored response (it holds the exciter's compression at the level, which the
+        reduced level does not). Disagreeing: None (the caller re-identifies; the error is
+        noted), unless the drive the stored response asks for at level would take the table
+        past a limit through the measured response (the stand changed: a gain knob turned
+        up): then a fade-out and PreflightError naming the predicted displacement. The level
+        is never played with it."""
         ctx = self.ctx
         plan = ctx.io.segment.plan
         limits = ctx.stand.config.limits
@@ -139,7 +141,9 @@ class Equalisation:
             plan.period_samples,
             ctx.settings.fade_in_s,
         )
-        measured = play_check_burst(ctx, reduced, fade)  # issue 34: a short burst from 0 V
+        measured = None  # the stepped sine's line: its crossfade and a settled block
+        if not ctx.io.segment.one_line:  # issue 34: a short burst from 0 V
+            measured = play_check_burst(ctx, reduced, fade)
         if measured is None:  # the lines need more than a period: the crossfade and a period
             ctx.io.crossfade(self._drive(reduced))
             reference, _ = ctx.io.period(State.EQUALISING)  # one period after the crossfade
@@ -205,7 +209,11 @@ def burst_envelope(period_samples: int, rise: int, hold: int, fall: int) -> np.n
 
 
 def burst_response(
-    plan: Plan, drive_lines: np.ndarray, envelope: np.ndarray, reference: np.ndarray
+    plan: Plan,
+    drive_lines: np.ndarray,
+    envelope: np.ndarray,
+    reference: np.ndarray,
+    window: slice = slice(None),
 ) -> np.ndarray:
     """The reference channel's volts per drive volt at every line (complex) from a burst:
     reference(i) ~ sum_k Re(G_k) s_k(i) + Im(G_k) q_k(i), s_k = e(i) Re(D_k z_k(i)) and
@@ -213,10 +221,11 @@ def burst_response(
     least squares (quasi-static: the envelope changes slowly against the stand's response,
     whose short transients are left in the residual)."""
     n = plan.period_samples
-    i = np.arange(envelope.size)
+    i = np.arange(envelope.size)[window]
+    e = envelope[window][:, None]
     rotor = np.exp(2j * np.pi * np.outer(i, np.asarray(plan.bins, float)) / n) * drive_lines
-    columns = np.hstack([(rotor * envelope[:, None]).real, (1j * rotor * envelope[:, None]).real])
-    solution, *_ = np.linalg.lstsq(columns, reference, rcond=None)
+    columns = np.hstack([(rotor * e).real, (1j * rotor * e).real])
+    solution, *_ = np.linalg.lstsq(columns, reference[window], rcond=None)
     k = len(plan.bins)
     return solution[:k] + 1j * solution[k:]
 
@@ -243,8 +252,9 @@ def play_check_burst(ctx: RunContext, drive_lines: np.ndarray, fade: int) -> np.
         io.in_transition = False
     io.drive = np.zeros(n)  # the burst ended at exactly 0 V
     reference, _ = io.split_channels(block)
-    used = min(n, sum(lengths) + lengths[0])  # the burst and a fade's length of ring-down
-    per_drive = burst_response(plan, drive_lines, envelope[:used], reference[:used])
+    rise, hold, _ = lengths
+    window = slice(rise, rise + hold)  # the hold: the ramps' transients are not modelled
+    per_drive = burst_response(plan, drive_lines, envelope, reference, window)
     response = io.to_acceleration(per_drive)
     if np.any(np.abs(response) == 0) or not np.all(np.isfinite(response)):
         raise ProcedureError(

@@ -25,7 +25,7 @@ from app.procedure.context import RunContext
 from app.procedure.equalisation import CHECK_LEVEL, play_check_burst, stored_refusal
 from app.procedure.errors import PreflightError, ProcedureError
 from app.procedure.events import EqualisationStep, Progress, State
-from app.procedure.preflight import check_drive
+from app.procedure.preflight import check_drive, fade_in_for
 from app.procedure.ranging import run_resolution, with_resolution
 from app.procedure.stand_memory import StandMemory
 from app.procedure.stopping import Stop, StoppingRule
@@ -45,11 +45,10 @@ class RecordRun:
         self.background = background
         self.memory = memory
         plan = ctx.plan
+        target = plan.amplitudes_ms2 * np.exp(1j * (plan.phases_rad - np.pi / 2))
+        fade_s = fade_in_for(plan, target, ctx.stand.config.limits, ctx.settings.fade_in_s)
         self.fade = fade_in_samples(
-            float(np.min(plan.frequencies_hz)),
-            plan.sample_rate_hz,
-            plan.period_samples,
-            ctx.settings.fade_in_s,
+            float(np.min(plan.frequencies_hz)), plan.sample_rate_hz, plan.period_samples, fade_s
         )
 
     # --- one burst ------------------------------------------------------------------------
