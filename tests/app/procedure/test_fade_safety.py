@@ -9,7 +9,7 @@ import pytest
 from app.io.vocabulary import RunStatus
 from app.procedure import Procedure, RunSettings
 from app.procedure.phase_store import stored_phases
-from app.procedure.preflight import check_preflight, motion_peaks
+from app.procedure.preflight import check_preflight, fade_in_for, motion_peaks
 from app.stand.config import load
 from app.stand.open import open_stand
 from app.stand.response import ResponseStore
@@ -22,19 +22,22 @@ def _target(plan, scale=1.0):
     return scale * plan.amplitudes_ms2 * np.exp(1j * (plan.phases_rad - np.pi / 2))
 
 
-def test_a_level_whose_fades_pass_the_stroke_is_refused_though_its_orbit_fits():
-    """The seed plan scaled to 7.8 mm p-p of steady orbit on the 8 mm exciter: the fade-in's
-    offset (1.6 mm at 5 m/s^2, free mass) takes it past the stroke: refused before anything
-    moves, naming the displacement. Without the fades it would have passed."""
+def test_a_level_whose_short_fade_in_would_pass_the_stroke_gets_a_longer_one():
+    """The seed plan scaled to 7.8 mm p-p of steady orbit on the 8 mm exciter: a one-cycle
+    fade-in's offset (1.6 mm at 5 m/s^2, free mass) would take it past the stroke, so the
+    preflight refuses that fade-in, naming the displacement, and the LPM's fade-in chosen for
+    the level (`fade_in_for`) is longer, with which the level passes; with no fade counted it
+    would have passed whatever the fade."""
     plan = preset_plan("piezo", optimiser=stored_phases)
     steady = plan.predicted_peaks().displacement_peak_to_peak_m
     scale = 7.8e-3 / steady
-    report = check_preflight(plan, CONFIG, None, level_scale=scale)
     assert steady * scale < CONFIG.limits.displacement_peak_to_peak_m
-    assert not report.ok
-    assert any("displacement" in p and "8 mm" in p for p in report.problems), report.problems
-    at_level = check_preflight(plan, CONFIG, None)
-    assert at_level.ok, at_level.problems
+    one_cycle = check_preflight(plan, CONFIG, None, level_scale=scale, fade_in_s=0.1)
+    assert any("displacement" in p and "8 mm" in p for p in one_cycle.problems), one_cycle
+    chosen = fade_in_for(plan, _target(plan, scale), CONFIG.limits)
+    assert chosen > 0.1
+    assert check_preflight(plan, CONFIG, None, level_scale=scale).ok
+    assert fade_in_for(plan, _target(plan), CONFIG.limits) == pytest.approx(0.1)  # at 5 m/s^2
     faded = motion_peaks(plan, _target(plan))
     assert faded.displacement_peak_to_peak_m > steady + 1e-3  # the fades count
     assert faded.velocity_m_per_s > plan.predicted_peaks().velocity_m_per_s
