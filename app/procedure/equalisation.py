@@ -144,6 +144,17 @@ class Equalisation:
         measured = None  # the stepped sine's line: its crossfade and a settled block
         if not ctx.io.segment.one_line:  # issue 34: a short burst from 0 V
             measured = play_check_burst(ctx, reduced, fade)
+        if measured is not None:
+            error = float(np.max(np.abs(np.abs(measured / stored) - 1.0)))
+            if error > tolerance:  # a real change, or a burst too short for a low level
+                refusal = stored_refusal(plan, at_level, measured, limits, error)
+                if refusal is not None:
+                    raise refusal  # the burst ended at 0 V: nothing plays
+                ctx.log(
+                    f"stand response: the check burst read the stored one {100 * error:.1f} % "
+                    "off: checked again over a period"
+                )
+                measured = None
         if measured is None:  # the lines need more than a period: the crossfade and a period
             ctx.io.crossfade(self._drive(reduced))
             reference, _ = ctx.io.period(State.EQUALISING)  # one period after the crossfade

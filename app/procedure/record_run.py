@@ -108,14 +108,27 @@ class RecordRun:
         ctx.io.fade_out()
         return self._response(record)
 
-    def _check_burst(self, drive_lines: np.ndarray) -> np.ndarray:
+    def _check_burst(self, drive_lines: np.ndarray, stored: StoredResponse) -> np.ndarray:
         """The stand's response ((m/s^2)/V per line) from a check burst of `drive_lines`
-        (complex V per line): short when it fits in a period (equalisation.play_check_burst),
-        else one period read as an LPM record."""
+        (complex V per line): short when it fits in a period (equalisation.play_check_burst);
+        one period read as an LPM record when it does not, or when the short burst disagrees
+        with `stored` by more than the tolerance without a refusal (a burst too short for a
+        low level reads noise as a change: the period confirms or refutes it)."""
         ctx, plan = self.ctx, self.ctx.plan
         measured = play_check_burst(ctx, drive_lines, self.fade)
         if measured is not None:
-            return measured
+            error = float(np.max(np.abs(np.abs(measured / stored.response) - 1.0)))
+            if error <= ctx.settings.stored_response_tolerance:
+                return measured
+            at_level = drive_lines / CHECK_LEVEL
+            refusal = stored_refusal(plan, at_level, measured, ctx.stand.config.limits, error)
+            if refusal is not None:
+                ctx.notes.equalisation.append(error)
+                raise refusal  # the burst ended at 0 V: nothing plays
+            ctx.log(
+                f"stand response: the check burst read the stored one {100 * error:.1f} % "
+                "off: checked again over a period (lpm)"
+            )
         drive = synthesize(
             plan.bins, np.abs(drive_lines), np.angle(drive_lines) + np.pi / 2, plan.period_samples
         )
@@ -142,7 +155,7 @@ class RecordRun:
             State.EQUALISING,
             f"check burst at {100 * CHECK_LEVEL:g} % of the level: the stored response (lpm)",
         )
-        measured = self._check_burst(reduced)
+        measured = self._check_burst(reduced, stored)
         error = float(np.max(np.abs(np.abs(measured / stored.response) - 1.0)))
         ctx.log(
             f"stand response: stored one checked at {100 * CHECK_LEVEL:g} % of the level: "
