@@ -34,6 +34,12 @@ RECORDING_ESTIMATOR = Estimator.PERIODIC
 DEFAULT_PERIODS = 8  # periods acquired by default by the estimators that average periods
 
 
+def default_estimator(mode: str) -> Estimator:
+    """A run's estimator when none is given: the LPM for a multisine; the stepped sine's
+    sine fits are averaged over blocks (periodic), the LPM analysing a multisine record."""
+    return DEFAULT_ESTIMATOR if mode != "stepped-sine" else Estimator.PERIODIC
+
+
 def default_periods(estimator: str) -> int:
     """The periods a run acquires when none are given: one record of one period (lpm; a type
     A target adds periods), else DEFAULT_PERIODS."""

@@ -46,7 +46,7 @@ from app.procedure.options import (
     option,
 )
 from app.stand.simulated import EXCITERS, FAULT_KINDS
-from dsp.estimators import DEFAULT_ESTIMATOR, ESTIMATORS
+from dsp.estimators import ESTIMATORS
 from dsp.multisine import PRESETS
 from dsp.profiles import Profile
 
@@ -209,7 +209,7 @@ def _add_run_options(r: argparse.ArgumentParser) -> None:
     )
     _run_option(r, "target_type_a")
     _run_option(r, "max_acquisition_s")
-    _run_option(r, "estimator", default=DEFAULT_ESTIMATOR)
+    _run_option(r, "estimator")  # None: the mode's default (RunOptions.from_values)
     _run_option(r, "mode", default=MODE_MULTISINE)
     _run_option(r, "tolerance_percent")
     _run_option(r, "dut_mass_g")

@@ -47,7 +47,7 @@ from app.procedure.request import RunRequest
 from app.procedure.service import PlanPreview, PreparedRun, RunService
 from app.stand import config as stand_config
 from app.stand.simulated import CATALOGUE
-from dsp.estimators import DEFAULT_ESTIMATOR, Estimator, default_periods
+from dsp.estimators import DEFAULT_ESTIMATOR, Estimator, default_estimator, default_periods
 from dsp.multisine import PRESETS
 
 log = logging.getLogger(__name__)
@@ -200,6 +200,7 @@ class SetupTab(QWidget):
         self.estimator.currentTextChanged.connect(self._estimator_changed)
         self.mode = QComboBox()
         self.mode.addItems(list(option("mode").choices))
+        self.mode.currentTextChanged.connect(self._mode_changed)
         self.templates = TemplatePicker(self, self.records)
         template_row = QHBoxLayout()
         template_row.addWidget(self.templates.combo, 1)
@@ -271,6 +272,11 @@ class SetupTab(QWidget):
             estimator=self.estimator.currentText(),
             mode=self.mode.currentText(),
         )
+
+    def _mode_changed(self, mode: str) -> None:
+        """A stepped sine has no lpm (it analyses a multisine record): its default, periodic."""
+        if self.estimator.currentText() == Estimator.LPM and default_estimator(mode) != "lpm":
+            self.estimator.setCurrentText(default_estimator(mode))
 
     def _estimator_changed(self, estimator: str) -> None:
         """The periods follow the estimator's default (1 with lpm, 8 with the averaging

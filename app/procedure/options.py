@@ -24,7 +24,7 @@ from app.io.quantities import Quantity
 from app.io.vocabulary import Mode
 from app.lines import parse_frequencies
 from app.stand.simulated import CATALOGUE, EXCITERS
-from dsp.estimators import DEFAULT_ESTIMATOR, Estimator, default_periods
+from dsp.estimators import DEFAULT_ESTIMATOR, Estimator, default_estimator, default_periods
 from dsp.multisine import PRESETS
 from dsp.profiles import Profile
 
@@ -211,7 +211,10 @@ RUN_OPTIONS: tuple[OptionSpec, ...] = (
         quantity=quantities.MAX_TIME,
     ),
     OptionSpec(
-        "estimator", "--estimator", "line estimator", choices=tuple(e.value for e in Estimator)
+        "estimator",
+        "--estimator",
+        "line estimator (default: lpm, one period, for a multisine; periodic for a stepped sine)",
+        choices=tuple(e.value for e in Estimator),
     ),
     OptionSpec("mode", "--mode", "excitation", choices=tuple(m.value for m in Mode)),
     OptionSpec(
@@ -322,6 +325,8 @@ class RunOptions:
             if value is not None:
                 given[spec.name] = value
         given.update(more)
+        if given.get("estimator") is None:  # not given: the mode's (lpm for a multisine)
+            given["estimator"] = default_estimator(str(given.get("mode") or Mode.MULTISINE))
         return cls(**given)
 
 

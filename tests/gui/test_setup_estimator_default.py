@@ -35,5 +35,9 @@ def test_the_setup_tab_opens_on_the_lpm_and_the_periods_follow_the_estimator(win
     tab.periods.setValue(5)  # a count the operator typed stays
     tab.estimator.setCurrentText("h1")
     assert tab.periods.value() == 5
+    tab.estimator.setCurrentText("lpm")
+    tab.mode.setCurrentText("stepped-sine")  # no lpm there: its default, periodic
+    assert tab.estimator.currentText() == "periodic"
+    tab.mode.setCurrentText("multisine")
     tab.reset()  # Next sensor: the tab as it opened
     assert tab.estimator.currentText() == "lpm" and tab.periods.value() == 1

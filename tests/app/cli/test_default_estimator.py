@@ -29,6 +29,21 @@ def test_the_default_estimator_is_the_lpm_with_one_period():
     assert [default_periods(e) for e in Estimator] == [8, 8, 8, 1]
 
 
+def test_the_command_lines_estimator_follows_the_mode_when_not_given():
+    """A stepped sine has no lpm (a multisine record's estimator): not given, it is periodic;
+    given, the refusal stands (tests/app/procedure/test_service.py)."""
+    from app.cli.parser import build_parser
+
+    def options(*argv: str) -> RunOptions:
+        return RunOptions.from_values(vars(build_parser().parse_args(["run", "--sim", *argv])))
+
+    assert options().estimator == Estimator.LPM and options().periods_to_run == 1
+    stepped = options("--mode", "stepped-sine")
+    assert stepped.estimator == Estimator.PERIODIC and stepped.periods_to_run == 8
+    assert options("--estimator", "h1").estimator == Estimator.H1
+    assert options("--mode", "stepped-sine", "--estimator", "lpm").estimator == Estimator.LPM
+
+
 def _json_run(capsys, out: Path, *more: str) -> dict:
     code = main(["run", "--sim", "--dut", "piezo", "--target-ua", "0.2%", "--out", str(out),
                  "--json", *more])  # fmt: skip
