@@ -195,18 +195,26 @@ def stored_refusal(
     )
 
 
+CHECK_HOLD_SPACINGS = 0.5  # the hold: this many periods of the closest lines' beat
+CHECK_HOLD_CYCLES = 2.0  # and at least this many cycles of the lowest line
+
+
 def check_burst_samples(plan: Plan, fade: int) -> tuple[int, int, int] | None:
-    """A check burst's fade-in, hold and fade-out (samples) for `plan`: fades of `fade`
-    samples (the LPM's fade-in), a hold of the time that tells the two closest lines apart
-    (1 / their spacing: the regressors are then near-orthogonal) and at least two cycles of
-    the lowest line; None when that is longer than a period (then a whole period is read)."""
+    """A check burst's fade-in, hold and fade-out (samples) for `plan`: fades of half the
+    LPM's fade-in `fade` (at CHECK_LEVEL the offset a short fade leaves is a fifth of the
+    level's), a hold of CHECK_HOLD_SPACINGS / the closest lines' spacing (their regressors
+    then correlate by at most sinc(pi / 2) = 0.64: a variance 1.7 times an orthogonal fit's,
+    far inside the tolerance at a check's signal-to-noise ratio; a disagreement is confirmed
+    over a period) and at least CHECK_HOLD_CYCLES cycles of the lowest line; None when that,
+    with a fade's length of ring-down, is longer than a period (a whole period is read)."""
     f = np.sort(np.asarray(plan.frequencies_hz, float))
     spacing = float(np.min(np.diff(f))) if f.size > 1 else float(f[0])
-    hold_s = max(1.0 / spacing, 2.0 / float(f[0]))
+    hold_s = max(CHECK_HOLD_SPACINGS / spacing, CHECK_HOLD_CYCLES / float(f[0]))
     hold = int(np.ceil(hold_s * plan.sample_rate_hz))
-    if 2 * fade + hold + fade > plan.period_samples:  # with a fade's length of ring-down
+    ramp = max(2, fade // 2)
+    if 3 * ramp + hold > plan.period_samples:
         return None
-    return fade, hold, fade
+    return ramp, hold, ramp
 
 
 def burst_envelope(period_samples: int, rise: int, hold: int, fall: int) -> np.ndarray:

@@ -54,8 +54,8 @@ def _json_run(capsys, out: Path, *more: str) -> dict:
 
 @pytest.mark.slow  # reason: two simulated runs through the CLI (10-20 s on two shared cores)
 def test_a_run_without_an_estimator_option_is_the_one_period_lpm_and_fast_warm(tmp_path, capsys):
-    """The acceptance's command, cold then warm: the lpm from one period; warm 2.85 s of
-    excitation (the 0.6 s check burst of the stored response, 0.1 s fade-in, the 2 s period,
+    """The acceptance's command, cold then warm: the lpm from one period; warm 2.55 s of
+    excitation (the 0.3 s check burst of the stored response, 0.1 s fade-in, the 2 s period,
     0.15 s fade-out), cold 6.75 s; every line within the bound of tests/within_u.py."""
     from app.io.hdf5 import read_recording
     from tests.within_u import assert_consistent_with_u
@@ -73,7 +73,7 @@ def test_a_run_without_an_estimator_option_is_the_one_period_lpm_and_fast_warm(t
         k = np.array([line["coverage_factor"] for line in lines])
         assert_consistent_with_u(("magnitude", s - truth.sensitivity_mv_per_ms2, u, k))
     assert warm["stand_response"]["source"] == "stored"
-    assert warm["excitation_time_s"] <= 2.86 and cold["excitation_time_s"] <= 7.0
+    assert warm["excitation_time_s"] <= 2.56 and cold["excitation_time_s"] <= 7.0
 
 
 def test_a_stored_periodic_run_reads_and_analyses_as_periodic(tmp_path, capsys):

@@ -122,7 +122,7 @@ def test_a_wrong_stored_response_is_caught_by_a_short_burst_before_the_level(
 ):
     """Issue 25 point 7 with issue 34's short check burst (and in the lpm's path, which had
     none: a stored response 0.3 times the stand's tripped the over-travel interlock). The
-    burst plays 0.6 s at 20 % of the level inside one period; the level is refused naming the
+    burst plays 0.3 s at 20 % of the level inside one period; the level is refused naming the
     predicted displacement, the table never passes the stroke, the drive ends at 0 V."""
     store = ResponseStore(tmp_path / "store")
     first, _, _, _ = _recorded_run(store, monkeypatch, estimator)
@@ -134,17 +134,17 @@ def test_a_wrong_stored_response_is_caught_by_a_short_burst_before_the_level(
     assert "refused before it is played" in refused.abort_reason
     assert not stand.daq._amp_tripped
     assert np.ptp(d) < 0.5 * CONFIG.limits.displacement_peak_to_peak_m
-    assert refused.record.excitation_time_s == pytest.approx(0.6, abs=0.01)
+    assert refused.record.excitation_time_s == pytest.approx(0.3, abs=0.01)
     assert stand.daq.output.periods[-1].last_v == 0.0
 
 
-def test_the_check_burst_costs_0_6_s_warm_and_finds_the_stored_response_right(tmp_path):
-    """Warm excitation of the seed plan at 0.2 % type A: lpm 0.6 s check + 0.1 s fade-in +
-    2 s record + 0.15 s fade-out = 2.85 s; periodic 0.6 s check + 2 s crossfade + 3 periods +
-    0.15 s = 8.75 s (12.4 s with issue 25's crossfade and check period at 20 %)."""
+def test_the_check_burst_costs_0_3_s_warm_and_finds_the_stored_response_right(tmp_path):
+    """Warm excitation of the seed plan at 0.2 % type A: lpm 0.3 s check + 0.1 s fade-in +
+    2 s record + 0.15 s fade-out = 2.55 s; periodic 0.3 s check + 2 s crossfade + 3 periods +
+    0.15 s = 8.45 s (12.4 s with issue 25's crossfade and check period at 20 %)."""
     store = ResponseStore(tmp_path / "store")
     plan = preset_plan("piezo", optimiser=stored_phases)
-    for estimator, warm_s in (("lpm", 2.85), ("periodic", 8.75)):
+    for estimator, warm_s in (("lpm", 2.55), ("periodic", 8.45)):
         times = []
         for _ in ("cold", "warm"):
             stand = open_stand(CONFIG, dut="piezo", seed=5, systematic=False)

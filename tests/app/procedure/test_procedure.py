@@ -565,13 +565,13 @@ def _run_with_store(
     return finished, stand, plan
 
 
-def test_the_stored_response_with_its_check_burst_brings_the_seed_characteristic_to_8_75_s(
+def test_the_stored_response_with_its_check_burst_brings_the_seed_characteristic_to_8_45_s(
     tmp_path,
 ):
     """Issue 14 point 1: the seed's 25-line piezo characteristic at 0.2 % type A (periodic
     estimator). The first run identifies (gentle drive, two equalisation steps); it stores the
     response it converged with, and the next run of the same stand, mass class and plan
-    starts from it: a check burst at 20 % of the level (issue 34: 0.6 s inside one period;
+    starts from it: a check burst at 20 % of the level (issue 34: 0.3 s inside one period;
     issue 25 played a crossfade and a period, 4 s), fade-in crossfade, two settled periods
     (the check, reused), one more period, the fade-out (1.5 cycles since issue 34).
     (This test was named ..._to_12_4_s before issue 34.)"""
@@ -587,12 +587,12 @@ def test_the_stored_response_with_its_check_burst_brings_the_seed_characteristic
     warm, stand, plan = _run_with_store(store)
     assert warm.status == "complete", warm.abort_reason
     # issue 25 point 7: the stored response is first played at 20 % of the level, since
-    # issue 34 as a burst within one period (fades of 600 samples from and to 0 V around a
-    # 2400-sample hold: 3598 non-zero samples), then a pause, then crossfaded to the level.
+    # issue 34 as a burst within one period (fades of 300 samples from and to 0 V around a
+    # 1200-sample hold: 1798 non-zero samples), then a pause, then crossfaded to the level.
     # By hand: the burst, then 4 periods of 12000 samples from sample 1, then the fade-out's
-    # 900-sample ramp's 899 non-zero samples: (3598 + 48000 - 1 + 899) / 6000 Hz = 8.7493 s
+    # 900-sample ramp's 899 non-zero samples: (1798 + 48000 - 1 + 899) / 6000 Hz = 8.4493 s
     # (12.39967 s with issue 25's crossfade and check period and the 4-cycle fade-out)
-    expected = (3598 + 48000 - 1 + 899) / 6000.0
+    expected = (1798 + 48000 - 1 + 899) / 6000.0
     assert warm.record.excitation_time_s == pytest.approx(expected, abs=1e-9)
     assert warm.record.periods_read == 2 + 1 + 4 + 1  # background, burst, 4 moving, fade-out
     assert len(warm.record.equalisation_worst) == 1 and warm.record.equalisation_worst[0] < 0.01
@@ -687,7 +687,7 @@ def test_the_cli_keeps_the_stand_response_and_fresh_response_identifies_anew(tmp
     assert code == 0 and second["stand_response"]["source"] == "stored"
     assert second["stand_response"]["stored"]["run_id"] == first["run_id"]
     # the lpm (the default since issue 34): the identification burst and a level-correcting
-    # burst (2 x 2.25 s) replaced by the 0.6 s check burst: 3.9 s less
+    # burst (2 x 2.25 s) replaced by the 0.3 s check burst: 4.2 s less
     assert second["excitation_time_s"] < first["excitation_time_s"] - 3.5
     code, fresh = run_json("--fresh-response")
     assert code == 0 and fresh["stand_response"]["source"] == "identified"
@@ -733,9 +733,9 @@ def test_the_refusal_after_a_check_burst_says_what_was_played(tmp_path, capsys):
     )
     assert match, reason
     peak_v, played_s = float(match.group(1)), float(match.group(2))
-    # issue 34: the check is a 0.6 s burst at 20 % of the level (4.4 s of crossfade and
+    # issue 34: the check is a 0.3 s burst at 20 % of the level (4.4 s of crossfade and
     # period before), and the lpm (the default) checks too
-    assert 0.0 < peak_v < 10.0 and played_s == 0.6
+    assert 0.0 < peak_v < 10.0 and played_s == 0.3
 
 
 @pytest.mark.parametrize("where", ["all lines x 0.3", "10 Hz line x 0.2"])
