@@ -134,7 +134,11 @@ def _add_range_options(p: argparse.ArgumentParser) -> None:
     )
     if p.prog.endswith(" run"):
         numeric_option(
-            g, "--fade-in", FADE_IN, "lpm: fade-in before the record, s (default 2 cycles)"
+            g,
+            "--fade-in",
+            FADE_IN,
+            "lpm: fade-in before the record, s (default one cycle of the lowest line, longer "
+            "near the stroke)",
         )
 
 

@@ -191,7 +191,8 @@ RUN_OPTIONS: tuple[OptionSpec, ...] = (
     OptionSpec(
         "fade_in_s",
         "--fade-in",
-        "lpm: fade-in before the record, s (default 2 cycles)",
+        "lpm: fade-in before the record, s (default one cycle of the lowest line, longer "
+        "near the stroke)",
         unit="s",
         quantity=quantities.FADE_IN,
     ),
