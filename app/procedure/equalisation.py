@@ -143,7 +143,7 @@ class Equalisation:
         )
         measured = None  # the stepped sine's line: its crossfade and a settled block
         if not ctx.io.segment.one_line:  # issue 34: a short burst from 0 V
-            measured = play_check_burst(ctx, reduced, fade)
+            measured = play_check_burst(ctx, reduced, fade, stored, self.noise[0])
         if measured is not None:
             error = float(np.max(np.abs(np.abs(measured / stored) - 1.0)))
             if error > tolerance:  # a real change, or a burst too short for a low level
@@ -199,18 +199,34 @@ CHECK_HOLD_SPACINGS = 0.5  # the hold: this many periods of the closest lines' b
 CHECK_HOLD_CYCLES = 2.0  # and at least this many cycles of the lowest line
 
 
-def check_burst_samples(plan: Plan, fade: int) -> tuple[int, int, int] | None:
+CHECK_SIGMAS = 5.0  # the burst's noise at a line: at most the tolerance / this many sigmas
+
+
+def noise_hold_samples(
+    plan: Plan, reference_v: np.ndarray, noise_v: np.ndarray, tolerance: float
+) -> int:
+    """The hold (samples) that puts the burst's relative noise at every line under
+    tolerance / CHECK_SIGMAS: a least-squares amplitude over n samples has the noise of a
+    period's line (`noise_v`, V per period) times sqrt(N / n), and a fit of correlated lines
+    (`check_burst_samples`) 1.3 times that; `reference_v` the reference channel's expected
+    amplitude per line at the check level (V)."""
+    relative = 1.3 * np.asarray(noise_v, float) / np.maximum(np.abs(reference_v), 1e-300)
+    need = float(np.max(relative)) * CHECK_SIGMAS / tolerance
+    return int(np.ceil(plan.period_samples * need**2))
+
+
+def check_burst_samples(plan: Plan, fade: int, min_hold: int = 0) -> tuple[int, int, int] | None:
     """A check burst's fade-in, hold and fade-out (samples) for `plan`: fades of half the
     LPM's fade-in `fade` (at CHECK_LEVEL the offset a short fade leaves is a fifth of the
     level's), a hold of CHECK_HOLD_SPACINGS / the closest lines' spacing (their regressors
     then correlate by at most sinc(pi / 2) = 0.64: a variance 1.7 times an orthogonal fit's,
     far inside the tolerance at a check's signal-to-noise ratio; a disagreement is confirmed
-    over a period) and at least CHECK_HOLD_CYCLES cycles of the lowest line; None when that,
-    with a fade's length of ring-down, is longer than a period (a whole period is read)."""
+    over a period), at least CHECK_HOLD_CYCLES cycles of the lowest line and `min_hold`
+    (`noise_hold_samples`); None when that is longer than a period (a whole period is read)."""
     f = np.sort(np.asarray(plan.frequencies_hz, float))
     spacing = float(np.min(np.diff(f))) if f.size > 1 else float(f[0])
     hold_s = max(CHECK_HOLD_SPACINGS / spacing, CHECK_HOLD_CYCLES / float(f[0]))
-    hold = int(np.ceil(hold_s * plan.sample_rate_hz))
+    hold = max(int(np.ceil(hold_s * plan.sample_rate_hz)), min_hold)
     ramp = max(2, fade // 2)
     if 3 * ramp + hold > plan.period_samples:
         return None
@@ -249,14 +265,26 @@ def burst_response(
     return solution[:k] + 1j * solution[k:]
 
 
-def play_check_burst(ctx: RunContext, drive_lines: np.ndarray, fade: int) -> np.ndarray | None:
+def play_check_burst(
+    ctx: RunContext,
+    drive_lines: np.ndarray,
+    fade: int,
+    stored: np.ndarray,
+    reference_noise_v: np.ndarray,
+) -> np.ndarray | None:
     """The stand's response ((m/s^2)/V per line, complex) from a short check burst of
     `drive_lines` (complex V per line), played from 0 V: a raised-cosine fade-in of `fade`
-    samples, the hold of `check_burst_samples`, a fade-out to exactly 0 V, within one written
-    period that is read before anything else is written; the reference channel fitted by
-    least squares (`burst_response`). None when the burst does not fit in a period."""
+    samples, the hold of `check_burst_samples` (long enough for the reference channel's noise,
+    `reference_noise_v` per line per period, against the amplitude the `stored` response
+    predicts), a fade-out to exactly 0 V, within one written period that is read before
+    anything else is written; the reference channel fitted by least squares
+    (`burst_response`). None when the burst does not fit in a period."""
     io, plan = ctx.io, ctx.io.segment.plan
-    lengths = check_burst_samples(plan, fade)
+    expected_ms2 = np.asarray(stored, complex) * np.asarray(drive_lines, complex)
+    volts = np.abs(expected_ms2 / io.to_acceleration(np.ones(len(plan.bins), complex)))
+    tolerance = ctx.settings.stored_response_tolerance
+    min_hold = noise_hold_samples(plan, volts, reference_noise_v, tolerance)
+    lengths = check_burst_samples(plan, fade, min_hold)
     if lengths is None:
         return None
     n = plan.period_samples

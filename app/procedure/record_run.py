@@ -115,7 +115,9 @@ class RecordRun:
         with `stored` by more than the tolerance without a refusal (a burst too short for a
         low level reads noise as a change: the period confirms or refutes it)."""
         ctx, plan = self.ctx, self.ctx.plan
-        measured = play_check_burst(ctx, drive_lines, self.fade)
+        measured = play_check_burst(
+            ctx, drive_lines, self.fade, stored.response, self.background.noise()[0]
+        )
         if measured is not None:
             error = float(np.max(np.abs(np.abs(measured / stored.response) - 1.0)))
             if error <= ctx.settings.stored_response_tolerance:
