@@ -1,29 +1,42 @@
-"""GUI responsiveness during a live run at 2 x 51.2 kS/s (SPEC s.11-12, issues 6 and 27).
+"""GUI responsiveness during a live simulated run at 2 x 51.2 kS/s (SPEC s.11-12, issue 34.6).
 
-A stand-in procedure on the real run worker (`app.gui.worker.RunWorker`, a plain thread that
-queues copies of events for the Run tab's FRAME_HZ timer) streams 2 x 51.2 kS/s in periods of
-1280 samples (25 ms: 40 periods a second, faster than the frame timer, so every frame has a new
-period to draw) with a live estimate of its lines after each period, the fastest stream the GUI
-can meet. Measured on the GUI thread: the longest stall (a 2 ms heartbeat timer's largest gap
-beyond its interval), the live plot updates per second (frames that drew a new period) and
-the GUI thread's own CPU time per update, which the machine's load does not inflate.
-Targets: stall < 50 ms, >= 30 updates per second. The heartbeat's own gap with an idle window,
-measured first in the same run, is the baseline. The run then ends as an aborted run ends
-(a `Finished` with its `RunRecord`) and the window closes: the script runs to its end.
+The real window (`app.gui.main_window.MainWindow`) on the paced simulated stand, its stand
+file's [plan] at 51.2 kS/s with a period of --period-samples (default 102 400: 2 s, the
+presets' period, the longest arrays the live view gets), the preset's lines. First an idle
+window (the Run tab shown, its frame timer running, no run), then Start as the operator clicks
+it, the live run for --seconds, then Stop (the run fades out and ends aborted through the
+tab's own path). Both windows are measured the same way, in the same process:
 
-Run:   QT_QPA_PLATFORM=offscreen python bench/gui_responsiveness.py [--smoke]
---smoke: 1 s of stream instead of 6 (CI: checks the script runs, not the figures).
-Exit 0 when the targets are met (always in smoke mode, where the figures are too short to judge).
+- updates/s: the Run tab's frame-timer slots run per second (each drains the worker's queue
+  and sets what is new on the plots; FRAME_HZ asks for 40); new periods drawn are counted too;
+- longest gap / p99 gap: a 2 ms heartbeat timer's largest and 99th-percentile interval, the
+  main thread's event-loop gap (a stall holds every timer);
+- slot CPU: the GUI thread's own CPU time (`time.thread_time`) in one frame-timer slot, which
+  the machine's load does not inflate;
+- Start: the main thread's wall and CPU time in the Start click (opening the stand, the plan).
+
+The idle window is the baseline: the machine's own scheduling noise with the same GUI and the
+same timers. The ratios live/idle are the figures that survive a loaded machine; the targets
+(>= 30 updates/s, longest stall < 50 ms) are judged on the absolute live figures, which need
+an idle machine. The load average is printed at the start and at the end.
+
+Run:   QT_QPA_PLATFORM=offscreen python bench/gui_responsiveness.py [--seconds 10] [--smoke]
+       xvfb-run -a env QT_QPA_PLATFORM=xcb python bench/gui_responsiveness.py   (an X server)
+--smoke: a short run of 1 s periods (CI: checks the script runs, not the figures).
+Exit 0 when the targets are met (always in smoke mode), 1 when not, 2 on a bad option.
 """
 
 from __future__ import annotations
 
 import argparse
+import faulthandler
+import logging
 import os
 import sys
 import tempfile
-import threading
 import time
+from dataclasses import dataclass
+from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -32,159 +45,269 @@ import numpy as np
 os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from PySide6.QtCore import QTimer
+from PySide6.QtCore import QEventLoop, Qt, QTimer
 from PySide6.QtWidgets import QApplication
 
 from app.gui.main_window import MainWindow
-from app.io.vocabulary import RunStatus
-from app.procedure import Finished, PeriodBlock, PeriodEstimate, State, StateChanged
-from app.records.run_record import RunRecord
-from dsp import iso266
-from dsp.calibration import ReferenceChain, compute_results
-from dsp.multisine import Plan, make_plan
-from dsp.spectral import SpectralAccumulator
-from dsp.uncertainty import Budget
+from app.gui.plots import FRAME_HZ
 
-FS, N = 51_200.0, 1280
-TARGET_STALL_MS, TARGET_RATE = 50.0, 30.0
+log = logging.getLogger("bench.gui_responsiveness")
+
+FS = 51_200.0  # Hz, each of the two measured channels (the drive is read too)
+TARGET_RATE, TARGET_STALL_MS = 30.0, 50.0  # SPEC s.12
+HEARTBEAT_MS = 2
+TRACE_AFTER_S = 0.05  # --trace: a main-thread gap this long dumps every thread's stack
+WIDTH, HEIGHT = 1366, 768  # px, the smallest screen the window is made for
 
 
-class FeedingProcedure:
-    """Plays a procedure's part for the worker: streams period and estimate events in real
-    time until aborted, then ends as an aborted run ends (its record at 0 V)."""
+@dataclass(frozen=True)
+class Window:
+    """What one measured window gave: frame-timer slots and the heartbeat's gaps."""
 
-    def __init__(self, plan: Plan) -> None:
-        self.plan = plan
-        self.listener: Any = None
-        self.stop = threading.Event()
-        self.reason = ""
+    seconds: float
+    slots: int
+    periods_drawn: int
+    gaps_ms: np.ndarray  # heartbeat intervals
+    slot_cpu_ms: np.ndarray  # GUI-thread CPU per frame-timer slot
+    longest_at_s: float  # when the longest gap ended, from the window's start
+    longest_state: str  # the Run tab's state line then
 
-    def abort(self, reason: str = "") -> None:
-        self.reason = reason or "stopped"
-        self.stop.set()
+    @property
+    def updates_per_s(self) -> float:
+        return self.slots / self.seconds
 
-    emergency_stop = abort
+    @property
+    def longest_gap_ms(self) -> float:
+        return float(self.gaps_ms.max()) if self.gaps_ms.size else float("nan")
 
-    def run(self) -> Finished:
-        plan, emit = self.plan, self.listener
-        rng = np.random.default_rng(0)
-        i = np.arange(N)
-        u0 = sum(np.sin(2 * np.pi * m * i / N + 0.3 * k) for k, m in enumerate(plan.bins)) * 0.02
-        acc = SpectralAccumulator(N, plan.bins)
-        chain = ReferenceChain.flat(1.0)
-        emit(StateChanged(State.ACQUIRING, "bench stream"))
-        k = 0
-        started = time.perf_counter()
-        while not self.stop.is_set():
-            noise = 1e-4 * rng.standard_normal((2, N))
-            block = np.vstack([u0, 0.5 * u0]) + noise
-            acc.add_period(block[0], block[1])
-            k += 1
-            emit(PeriodBlock(k, State.ACQUIRING, ("reference", "dut"), block, u0))
-            if k >= 2:
-                estimate = acc.estimate()
-                emit(
-                    PeriodEstimate(k, estimate, compute_results(estimate, plan, chain, Budget(())))
-                )
-            # real time: period k ends at k * N / FS after the start
-            time.sleep(max(0.0, started + k * N / FS - time.perf_counter()))
-        record = RunRecord(
-            run_id=None, status=RunStatus.ABORTED, abort_reason=self.reason, final_output_v=0.0
+    @property
+    def p99_gap_ms(self) -> float:
+        return float(np.percentile(self.gaps_ms, 99)) if self.gaps_ms.size else float("nan")
+
+    @property
+    def slot_cpu_max_ms(self) -> float:
+        return float(self.slot_cpu_ms.max()) if self.slot_cpu_ms.size else 0.0
+
+
+class Probe:
+    """Counts the Run tab's frame-timer slots (their GUI-thread CPU) and the periods they
+    draw, and a heartbeat's intervals, from `start()` to `take()`."""
+
+    def __init__(self, window: MainWindow, trace: Any = None) -> None:
+        tab = window.run_tab
+        self.trace = trace  # a file: every thread's stack when the main thread stalls
+        self.tab = tab
+        # the frame timer calls the tab's slot through this wrapper (the same slot, timed)
+        tab.timer.timeout.disconnect(tab.tick)
+        tab.timer.timeout.connect(self._slot)
+        # the method a period is drawn through (show_period; draw_period before issue 34:
+        # the same script measures the code before the change)
+        name = "show_period" if hasattr(tab.live, "show_period") else "draw_period"
+        shown = getattr(tab.live, name)
+
+        def counted(*args: Any) -> None:
+            shown(*args)
+            self.periods += 1
+
+        setattr(tab.live, name, counted)
+        self.heartbeat = QTimer(interval=HEARTBEAT_MS, timeout=self._beat)
+        self.heartbeat.setTimerType(Qt.TimerType.PreciseTimer)
+        self.heartbeat.start()
+        self.start()
+
+    def start(self) -> None:
+        self.slots, self.periods = 0, 0
+        self.gaps: list[float] = []
+        self.cpu: list[float] = []
+        self.t0 = self.last = time.perf_counter()
+        self.longest: tuple[float, float, str] = (0.0, 0.0, "")
+
+    def _beat(self) -> None:
+        if self.trace is not None:  # re-armed every beat: it fires only in a stall
+            faulthandler.dump_traceback_later(TRACE_AFTER_S, file=self.trace)
+        now = time.perf_counter()
+        gap = now - self.last
+        self.gaps.append(gap)
+        if gap > self.longest[0]:  # when, and what the Run tab said as it ended
+            self.longest = (gap, now - self.t0, str(self.tab.state.text()))
+        self.last = now
+
+    def _slot(self) -> None:
+        cpu = time.thread_time()
+        self.tab.tick()
+        self.cpu.append(time.thread_time() - cpu)
+        self.slots += 1
+
+    def take(self) -> Window:
+        seconds = time.perf_counter() - self.t0
+        self._beat()  # a stall up to now counts
+        return Window(
+            seconds,
+            self.slots,
+            self.periods,
+            1e3 * np.array(self.gaps),
+            1e3 * np.array(self.cpu),
+            self.longest[1],
+            self.longest[2],
         )
-        return Finished(RunStatus.ABORTED, self.reason, None, record)
 
 
-class NoStand:
-    def close(self) -> None:
-        pass
+def wait(seconds: float) -> None:
+    """Run the Qt event loop for `seconds` (the window's own loop, as the application's)."""
+    loop = QEventLoop()
+    QTimer.singleShot(round(seconds * 1000), loop.quit)
+    loop.exec()
 
 
-def bench_plan() -> Plan:
-    """ISO 266 lines of 20 Hz to 20 kHz that fall on a bin of the 1280-sample period."""
-    freqs = [f for f in iso266.nominal_frequencies(20, 20_000) if round(f * N / FS) * FS / N == f]
-    return make_plan(freqs, FS, N, 5.0, freqs[len(freqs) // 2], phases_rad=np.zeros(len(freqs)))
+def stand_file(folder: Path, period_samples: int) -> Path:
+    """The simulated stand's file with a [plan] at FS and `period_samples` (the preset's
+    lines)."""
+    text = resources.files("sim").joinpath("stand.toml").read_text(encoding="utf-8")
+    path = folder / "stand-51k2.toml"
+    path.write_text(
+        f"{text}\n[plan]\nsample_rate_hz = {FS:.1f}\nperiod_samples = {period_samples}\n",
+        encoding="utf-8",
+    )
+    return path
+
+
+def load() -> str:
+    one, five, fifteen = os.getloadavg()
+    return f"{one:.2f}, {five:.2f}, {fifteen:.2f}"
+
+
+def ratio(live: float, idle: float) -> str:
+    return f"{live / idle:.2f}x" if idle > 0 and np.isfinite(idle) else "n/a"
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--smoke", action="store_true", help="1 s of stream (CI)")
+    parser.add_argument("--seconds", type=float, default=10.0, help="live window (s)")
+    parser.add_argument("--idle-seconds", type=float, default=3.0, help="idle window (s)")
+    parser.add_argument(
+        "--period-samples",
+        type=int,
+        default=102_400,
+        help="samples per period at 51.2 kS/s (default 102400: 2 s)",
+    )
+    parser.add_argument("--smoke", action="store_true", help="a short run (CI)")
+    parser.add_argument(
+        "--trace",
+        type=Path,
+        help="write every thread's stack to this file whenever the main thread stalls "
+        f"{1e3 * TRACE_AFTER_S:g} ms (what stalls it; the figures then include the dumps)",
+    )
     args = parser.parse_args(argv)
-    seconds, idle_s = (1.0, 0.3) if args.smoke else (6.0, 1.0)
+    if args.smoke:
+        args.seconds, args.idle_seconds, args.period_samples = 1.5, 0.3, 51_200
+    for name in ("seconds", "idle_seconds"):
+        if not getattr(args, name) > 0:
+            parser.error(f"--{name.replace('_', '-')}: must be > 0 s")
+    if args.period_samples < 2:
+        parser.error("--period-samples: must be at least 2")
+    load_start = load()
     app = QApplication.instance() or QApplication(sys.argv[:1])
     work = Path(tempfile.mkdtemp(prefix="bench-gui-"))
-    # no records (never the user's own): the window says so and works without them
-    window = MainWindow(out=work / "runs", paced=False, db=f"sqlite:///{work / 'none.sqlite'}")
+    # never the user's data or records: stored responses and runs in a folder of its own
+    os.environ["ACCELCAL_DATA_DIR"] = str(work / "data")
+    window = MainWindow(
+        stand_file=stand_file(work, args.period_samples),
+        out=work / "runs",
+        paced=True,
+        db=f"sqlite:///{work / 'none.sqlite'}",
+    )
     window.records.wait()
-    window.resize(1366, 768)
+    window.wait_for_plans()
+    problems = window.setup_tab.validate()
+    if problems:
+        print(f"the plan cannot run: {'; '.join(problems)}", file=sys.stderr)
+        return 2
+    window.resize(WIDTH, HEIGHT)
     window.show()
     tab = window.run_tab
     window.tabs.setCurrentWidget(tab)
-    plan = bench_plan()
-    renders = {"count": 0}
-    original = tab.live.draw_period
-
-    def counted(*a: Any) -> None:
-        original(*a)
-        renders["count"] += 1
-
-    tab.live.draw_period = counted  # type: ignore[method-assign]
-    gaps: list[float] = []
-    last = {"t": time.perf_counter()}
-
-    def beat() -> None:
-        now = time.perf_counter()
-        gaps.append(now - last["t"])
-        last["t"] = now
-
-    heartbeat = QTimer(interval=2, timeout=beat)
-    heartbeat.start()
-
-    def spin(until: Any) -> None:
-        while not until():
-            app.processEvents()
-            time.sleep(0.001)
-
-    def run_for(s: float) -> None:
-        end = time.perf_counter() + s
-        spin(lambda: time.perf_counter() >= end)
-
-    run_for(idle_s)
-    idle = max(gaps) * 1e3 - 2
-    gaps.clear()
-    procedure = FeedingProcedure(plan)
+    wait(0.5)  # laid out and painted once
+    trace = args.trace.open("w", encoding="utf-8") if args.trace else None
+    probe = Probe(window, trace)
+    wait(args.idle_seconds)
+    idle = probe.take()
     ended: list[Any] = []
     tab.ended.connect(ended.append)
-    renders["count"] = 0
-    cpu0 = time.thread_time()  # the GUI thread's own CPU time: the machine's load aside
-    tab.attach(procedure, NoStand(), {"reference": 10.0, "dut": 10.0})  # as Start does
-    run_for(seconds)
-    cpu_ms = (time.thread_time() - cpu0) * 1e3
-    stall = max(gaps) * 1e3 - 2
-    rate = renders["count"] / seconds
-    per_frame = cpu_ms / max(1, renders["count"])
-    heartbeat.stop()
-    tab.stop()  # as the operator: the run ends aborted, through the tab's own path
-    spin(lambda: bool(ended))
-    finished = ended[0]
+    wall, cpu = time.perf_counter(), time.thread_time()
+    window.start_run()  # as the operator's click
+    start_wall_ms = 1e3 * (time.perf_counter() - wall)
+    start_cpu_ms = 1e3 * (time.thread_time() - cpu)
+    if tab.worker is None:
+        print(f"the run did not start: {tab.messages.text()}", file=sys.stderr)
+        return 2
+    probe.start()
+    wait(args.seconds)
+    live = probe.take()
+    tab.stop()  # as the operator: the run fades out and ends aborted through the tab's path
+    deadline = time.perf_counter() + 60.0
+    while not ended and time.perf_counter() < deadline:
+        wait(0.05)
+    load_end = load()
+    probe.heartbeat.stop()
+    if trace is not None:
+        faulthandler.cancel_dump_traceback_later()
+        trace.close()
+    period_s = args.period_samples / FS
     print(
-        f"live stream: 2 x {FS:g} S/s in periods of {N} samples ({len(plan.lines)} lines), "
-        f"{seconds:g} s{' (smoke)' if args.smoke else ''}"
+        f"live run: paced simulated stand, 2 x {FS:g} S/s (and the drive), periods of "
+        f"{args.period_samples} samples ({period_s:g} s), the piezo preset's lines; "
+        f"{args.seconds:g} s live after {args.idle_seconds:g} s idle"
+        f"{' (smoke)' if args.smoke else ''}"
     )
-    print("| figure | idle window (baseline) | during the live run | target |")
-    print("| --- | --- | --- | --- |")
     print(
-        f"| longest GUI-thread stall | {idle:.1f} ms | {stall:.1f} ms | < {TARGET_STALL_MS:g} ms |"
+        f"Qt platform: {QApplication.platformName()}; window {WIDTH} x {HEIGHT} px; "
+        f"frame timer {FRAME_HZ} Hz, heartbeat {HEARTBEAT_MS} ms"
     )
-    print(f"| plot updates per second | | {rate:.1f} | >= {TARGET_RATE:g} |")
+    print("| figure | idle window (baseline) | live run | live / idle | target |")
+    print("| --- | --- | --- | --- | --- |")
     print(
-        f"| GUI-thread CPU per update (heartbeat included) | | {per_frame:.1f} ms "
-        f"(room for {1e3 / per_frame:.0f} updates/s) | <= {1e3 / TARGET_RATE:.0f} ms |"
+        f"| updates per second (frame-timer slots) | {idle.updates_per_s:.1f} | "
+        f"{live.updates_per_s:.1f} | {ratio(live.updates_per_s, idle.updates_per_s)} | "
+        f">= {TARGET_RATE:g} |"
     )
-    print(f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores during the run")
-    print(f"run ended: {finished.status} ({finished.abort_reason}); Run tab: {tab.state.text()}")
+    print(
+        f"| longest main-thread gap (stall) | {idle.longest_gap_ms:.1f} ms | "
+        f"{live.longest_gap_ms:.1f} ms | {ratio(live.longest_gap_ms, idle.longest_gap_ms)} | "
+        f"< {TARGET_STALL_MS:g} ms |"
+    )
+    print(
+        f"| p99 main-thread gap | {idle.p99_gap_ms:.1f} ms | {live.p99_gap_ms:.1f} ms | "
+        f"{ratio(live.p99_gap_ms, idle.p99_gap_ms)} | |"
+    )
+    print(
+        f"| frame-slot GUI CPU, longest | {idle.slot_cpu_max_ms:.2f} ms | "
+        f"{live.slot_cpu_max_ms:.2f} ms | | |"
+    )
+    print(
+        f"longest live gap ended {live.longest_at_s:.2f} s after Start returned, the Run tab "
+        f"saying {live.longest_state!r}"
+    )
+    print(
+        f"new periods drawn: {live.periods_drawn} in {live.seconds:.1f} s; Start click on the "
+        f"main thread: {start_wall_ms:.0f} ms wall, {start_cpu_ms:.0f} ms CPU"
+    )
+    print(
+        f"load average (1, 5, 15 min) at start {load_start}; at end {load_end}; "
+        f"{os.cpu_count()} cores"
+    )
+    finished = ended[0] if ended else None
+    print(
+        f"run ended: {finished.status if finished else 'not within 60 s'}"
+        f"{f' ({finished.abort_reason})' if finished else ''}; Run tab: {tab.state.text()}"
+    )
+    met = live.updates_per_s >= TARGET_RATE and live.longest_gap_ms < TARGET_STALL_MS
+    print(
+        f"targets (>= {TARGET_RATE:g} updates/s, longest stall < {TARGET_STALL_MS:g} ms): "
+        f"{'PASS' if met else 'FAIL'}"
+        + ("" if met else " (judge on an idle machine: the ratios above are the load-free part)")
+    )
     window.close()
     app.processEvents()
-    met = stall < TARGET_STALL_MS and rate >= TARGET_RATE
     return 0 if met or args.smoke else 1
 
 

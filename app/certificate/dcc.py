@@ -198,6 +198,7 @@ def build(run: StoredRun, info: CertificateInfo) -> bytes:
     _d(core, "endPerformanceDate", finished)
     _d(core, "performanceLocation", "laboratory")
     _d(core, "issueDate", str(info.issue_date))
+    _amendment(core, info)
     item = _d(_d(admin, "items"), "item")
     _text(item, "name", str(info.dut_type or "accelerometer"))
     model = str(info.dut_model or "")
@@ -294,6 +295,27 @@ def build(run: StoredRun, info: CertificateInfo) -> bytes:
     if problem is not None:
         raise DccError(f"the DCC does not validate against DCC {SCHEMA_VERSION}: {problem}")
     return xml
+
+
+AMENDMENT_REFERRAL = "Calibration certificate replaced by this one"
+
+
+def _amendment(core: ET.Element, info: CertificateInfo) -> None:
+    """An amendment's coreData (ISO/IEC 17025 7.8.8.3): reportAmendedSubstituted (this DCC
+    substitutes the one named in full) and previousReport (its number, the SHA-256 of its
+    DCC, else of its PDF, as the register holds it, and the reason as its description)."""
+    a = info.amendment
+    if a is None:
+        return
+    changed = _d(core, "reportAmendedSubstituted")
+    _d(changed, "typeOfChange", "substituted")
+    _d(changed, "replacedUniqueIdentifier", a.replaces)
+    previous = _d(core, "previousReport")
+    _text(previous, "referral", AMENDMENT_REFERRAL)
+    _d(previous, "referralID", a.replaces)
+    _d(previous, "procedure", "SHA-256 of its DCC" if a.of_dcc else "SHA-256 of its PDF")
+    _d(previous, "value", a.sha256 or "unknown (issued before the register kept hashes)")
+    _text(previous, "description", a.reason)
 
 
 def _reference_result(parent: ET.Element, results: Results) -> None:

@@ -34,6 +34,18 @@ class CertificateError(Refusal):
 
 
 @dataclass(frozen=True)
+class Amendment:
+    """What an amendment states about the certificate it replaces (ISO/IEC 17025 7.8.8.3):
+    its number, the reason, and the SHA-256 of its issued DCC (else of its PDF) from the
+    register, so that a reader can tell which document is meant."""
+
+    replaces: str  # the replaced certificate's number
+    reason: str
+    sha256: str  # hex; the replaced DCC's when it had one, else its PDF's ("" when unknown)
+    of_dcc: bool  # True: `sha256` is the replaced DCC's; False: the replaced PDF's
+
+
+@dataclass(frozen=True)
 class CertificateInfo:
     """What the certificate needs beyond the run."""
 
@@ -55,6 +67,9 @@ class CertificateInfo:
     # the software validation report the certificate names (app.certificate.validated; chosen
     # by the issuing service against the lab's key): None names none
     validation: ValidationClaim | None = None
+    # an amendment: the certificate it replaces and why (set by the records' register when
+    # issuing with --replaces; printed on page 1 and in the DCC's coreData)
+    amendment: Amendment | None = None
 
     def merged(self, defaults: dict[str, Any]) -> CertificateInfo:
         """Options win; empty ones take the default."""

@@ -35,6 +35,7 @@ from reportlab.platypus import (
 
 import app.certificate.text as text
 from app import formatting as fmt
+from app.certificate.attach import embed
 from app.certificate.info import CertificateInfo
 from app.certificate.load import StoredRun
 from app.certificate.pdf_charts import FONT, FONT_BOLD, GRID, chart
@@ -168,6 +169,7 @@ def write_pdf(
         _kv(
             [
                 ("Certificate number", _esc(number), Item.NUMBER),
+                *_amendment_rows(info),
                 (
                     "Customer",
                     f"{_esc(info.customer)}, "
@@ -260,6 +262,19 @@ def write_pdf(
     out.chmod(0o444)
 
 
+def _amendment_rows(info: CertificateInfo) -> list[tuple[str, str, Item | None]]:
+    """An amendment's rows under its number (ISO/IEC 17025 7.8.8.3): the certificate it
+    replaces, which is withdrawn from use by it, and the reason; none for a first issue."""
+    a = info.amendment
+    if a is None:
+        return []
+    return [
+        ("Replaces certificate", _esc(a.replaces), Item.REPLACES),
+        ("", f"which it supersedes in full; {_esc(a.replaces)} is no longer valid", None),
+        ("Reason for the amendment", _esc(a.reason), Item.AMENDMENT_REASON),
+    ]
+
+
 def _reference_sensitivity(results: Results, info: CertificateInfo) -> str:
     """The sensitivity at the reference frequency with its U: in mV/(m/s²) and dB, and first
     in mV/g when the sensor model states its sensitivity in mV/g (1 g = 9.80665 m/s²)."""
@@ -318,7 +333,7 @@ def _line_table(results: Results, in_g: bool = False) -> list[Any]:
         "U phase\n°",
         "U rel.\n%",
         "k",
-        "ISO\n16063-21",
+        "U vs.\nISO 16063-21\nlimit",
         *(["Sensitivity\nmV/g"] if in_g else []),
     ]
     rows: list[list[str]] = [header]
@@ -526,22 +541,6 @@ def _sign_off(info: CertificateInfo, record: RunRecord, before: list[Any]) -> li
     ]
     last = starts[-1] if starts else 0
     return [KeepTogether([*before[:last], KeepTogether([*before[last:], *block])])]
-
-
-def embed(pdf: Path, name: str, data: bytes) -> None:
-    """Attach `data` to the PDF as an associated file (PDF/A-3 style: /AF in the catalogue,
-    /AFRelationship /Data on the file specification), in place."""
-    from pypdf import PdfWriter
-    from pypdf.generic import ArrayObject, NameObject
-
-    writer = PdfWriter(clone_from=str(pdf))
-    writer.add_attachment(name, data)
-    names = writer.root_object["/Names"]["/EmbeddedFiles"]["/Names"]  # type: ignore[index]
-    spec = names[-1].get_object()
-    spec[NameObject("/AFRelationship")] = NameObject("/Data")
-    writer.root_object[NameObject("/AF")] = ArrayObject([names[-1]])
-    with pdf.open("wb") as handle:
-        writer.write(handle)
 
 
 # ---- issue 27: the verification QR code and the software validation statement ------------

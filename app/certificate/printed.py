@@ -32,6 +32,8 @@ class Item(StrEnum):
     SEAL = "seal"
     CHAIN_HEAD = "chain_head"
     VERDICT = "verdict"
+    REPLACES = "replaces"  # an amendment: the number of the certificate it replaces
+    AMENDMENT_REASON = "amendment_reason"  # and why
 
 
 class Column(StrEnum):

@@ -65,6 +65,8 @@ class PrintedItems:
     seal: str = ""
     chain_head: str = ""
     verdict: str = ""
+    replaces: str = ""  # an amendment: the number it replaces ("" for a first issue)
+    amendment_reason: str = ""
     lines: tuple[PrintedRow, ...] = ()
 
 
@@ -207,8 +209,19 @@ def items_from_dcc(root: Any) -> PrintedItems:
         seal=_text(root, _identification(core, SEAL_NAME)),
         chain_head=_text(root, _identification(core, CHAIN_HEAD_NAME)),
         verdict=verdict.group(1) if verdict else "",
+        replaces=_replaced(root, core),
+        amendment_reason=_text(root, f"{core}/dcc:previousReport/dcc:description/dcc:content"),
         lines=lines if count >= 0 else (PrintedRow("", "", "", "", "", "", "", ""),),
     )
+
+
+def _replaced(root: Any, core: str) -> str:
+    """The number an amendment's DCC replaces: previousReport's referralID, which must equal
+    reportAmendedSubstituted's replacedUniqueIdentifier (both, or neither, present); when they
+    disagree both are returned, so that no comparison can hold."""
+    named = _text(root, f"{core}/dcc:previousReport/dcc:referralID")
+    substituted = _text(root, f"{core}/dcc:reportAmendedSubstituted/dcc:replacedUniqueIdentifier")
+    return named if named == substituted else f"{named} | {substituted}"
 
 
 # --- the PDF's marked text layer -------------------------------------------------------------

@@ -16,12 +16,13 @@ import dataclasses
 from pathlib import Path
 from typing import Any
 
-from app.certificate.info import CertificateError, CertificateInfo
+from app.certificate.info import Amendment, CertificateError, CertificateInfo
 from app.certificate.issuing import Issuance, Staged, _step, issuance
 from app.certificate.leftovers import Leftover, Registered, find_issuance_leftovers
 from app.records.db.certificates import IssuedFiles
 from app.records.db.engine import open_engine
 from app.records.db.lab import Lab, RecordsError
+from app.records.db.store import text_field
 from app.records.register import Issued, read_register
 from app.records.run_folder import load_run
 
@@ -111,6 +112,9 @@ def issue_registered(
     sensor = lab.sensor(dut_id)
     info = _identity(info, sensor, dut_id, prepared_by)
     run_id = str(record.run_id)
+    if replaces is not None:  # what the amendment states of the one it replaces (page 1, DCC)
+        reason = text_field(reason, "reason")
+        info = dataclasses.replace(info, amendment=_amendment(lab, replaces, reason))
     if replaces is None:  # before anything is written: one certificate per run
         current = lab.issued_for_run(run_id)
         if current is not None:
@@ -149,6 +153,22 @@ def issue_registered(
         _step("committed")
         job.publish(staged[0])
         return _issued(job, row)
+
+
+def _amendment(lab: Lab, replaces: str, reason: str) -> Amendment:
+    """The replaced certificate as the register holds it: refused by name when there is none
+    or it is no longer in force (the issuing transaction checks it again, locked)."""
+    old = lab.certificate(replaces)
+    if old is None:
+        raise RecordsError(f"replaces: no certificate {replaces!r}")
+    if old.state != "issued":
+        raise RecordsError(f"replaces: {replaces} is already {old.state}")
+    return Amendment(
+        replaces=old.number,
+        reason=reason,
+        sha256=old.dcc_sha256 or old.sha256 or "",
+        of_dcc=bool(old.dcc_sha256),
+    )
 
 
 def _issued(job: Issuance, row: Any) -> Issued:

@@ -11,7 +11,9 @@ valid against DCC 3.3.0; the PDF's printed items, read from its marked text laye
 to the DCC's, value by value; with `--run`, the run's manifest, its seal (recomputed) and the
 records chain head it names, its results equal to the DCC's, and the PDF's results table equal,
 cell by cell, to the run's lines as printed (app.certificate.printed.table_cells, from which
-the PDF was drawn). The whole check is bounded in time (TIME_LIMIT_S).
+the PDF was drawn); with the records in use, the register's word (app.certificate.
+register_status: the file issued, in force, not replaced or withdrawn, its amendment as
+entered). The whole check is bounded in time (TIME_LIMIT_S).
 """
 
 from __future__ import annotations
@@ -57,6 +59,7 @@ class Verification:
     """What `accelcal verify` found: each check with its outcome and detail, in order."""
 
     checks: list[tuple[str, bool, str]] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)  # shown beside the checks, not one of them
 
     def add(self, name: str, ok: bool, detail: str = "") -> None:
         self.checks.append((name, ok, _one_line(detail)))
@@ -120,9 +123,13 @@ class SignerInfo:
         return None
 
 
-def verify(pdf: Path, run: Path | None = None, trust: Path | None = None) -> Verification:
-    """Check the certificate `pdf` (with the run folder `run` and the CA certificate `trust`,
-    PEM or DER, when given). VerifyRefusal for an input that is not examined at all."""
+def verify(
+    pdf: Path, run: Path | None = None, trust: Path | None = None, records: str | None = None
+) -> Verification:
+    """Check the certificate `pdf` (with the run folder `run`, the CA certificate `trust`,
+    PEM or DER, and the records' register at the URL `records`, when given: whether it is the
+    file issued and still in force, app.certificate.register_status). VerifyRefusal for an
+    input that is not examined at all."""
     roots = [_load_certificate(trust)] if trust is not None else None
     try:
         data = read_regular_bytes(pdf, MAX_PDF_BYTES, "certificate PDF", follow_links=True)
@@ -135,7 +142,20 @@ def verify(pdf: Path, run: Path | None = None, trust: Path | None = None) -> Ver
         found = _check_dcc(data, report)
         if found is not None and run is not None:
             _check_run(run, *found, report)
+        if found is not None and records is not None:
+            _check_register(data, found[0], records, report)
     return report
+
+
+def _check_register(data: bytes, printed: PrintedItems, url: str, report: Verification) -> None:
+    """Add the register's check (app.certificate.register_status), or a note when the records
+    cannot be opened."""
+    from app.certificate.register_status import CHECK, RecordsUnavailable, register_findings
+
+    try:
+        report.add(CHECK, *register_findings(data, printed, url))
+    except RecordsUnavailable as exc:
+        report.notes.append(f"register: not consulted: {exc}")
 
 
 # --- signature --------------------------------------------------------------------------------

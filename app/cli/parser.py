@@ -215,6 +215,7 @@ def _add_run_options(r: argparse.ArgumentParser) -> None:
     _run_option(r, "max_acquisition_s")
     _run_option(r, "estimator")  # None: the mode's default (RunOptions.from_values)
     _run_option(r, "mode", default=MODE_MULTISINE)
+    _run_option(r, "stepped_block_s")
     _run_option(r, "tolerance_percent")
     _run_option(r, "dut_mass_g")
     r.add_argument(
@@ -487,6 +488,12 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument("--run", type=Path, help="the run folder it certifies (manifest and numbers)")
     v.add_argument("--trust", type=Path, help="the CA certificate (PEM or DER) to trust")
     v.add_argument("--validation-report", type=Path, help="the validation report PDF it names")
+    v.add_argument(
+        "--db",
+        metavar="URL",
+        help="records database whose register says whether it is in force (default "
+        "$ACCELCAL_DB, else the default records file when it exists)",
+    )
     im = sub.add_parser("impact", help="impact of a corrected reference standard (17025 7.10)")
     im.add_argument("serial", help="the reference standard's serial or id")
     im.add_argument("--table", type=Path, required=True, help="corrected table CSV (refs layout)")

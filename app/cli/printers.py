@@ -89,7 +89,7 @@ def print_results(results: Results, source: str = "", status: str | None = None)
                 "k",
                 "coherence",
                 "SNR dB",
-                "ISO 16063-21",
+                "U vs ISO limit",
             ],
             rows,
         )
@@ -172,7 +172,7 @@ class TerminalProgress:
         gauge = f"[{bar:<20}] {100 * share:3.0f} %{time_left}"
         if event.message.startswith("line "):  # the stepped sine: one line at a time
             return f"  {event.message} {gauge}"
-        if event.remaining_s is not None and share > 0:  # a fixed number of periods
+        if not event.until_target and event.remaining_s is not None and share > 0:  # periods
             what = f"period {self._periods} of {round(self._periods / share)}"
         else:  # until the type A target: the share is how close it is (of the target)
             what = f"period {self._periods}, to the type A target"

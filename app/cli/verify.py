@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 
 from app.cli.exits import EXIT_BAD_INPUT, EXIT_OK, UsageError
 
@@ -13,7 +14,12 @@ def cmd_verify(args: argparse.Namespace) -> int:
 
     if args.run is not None and not args.run.is_dir():
         raise UsageError(f"--run: no such run folder {args.run}")
-    report = verify(args.pdf, args.run, args.trust)
+    from app.records.db.engine import records_url
+
+    records = records_url(args.db)
+    report = verify(args.pdf, args.run, args.trust, records)
+    for note in report.notes:  # beside the report, not one of its checks
+        print(note, file=sys.stderr)
     print("\n".join(report.lines()))
     code = EXIT_OK if report.ok else EXIT_BAD_INPUT
     if args.validation_report is not None:

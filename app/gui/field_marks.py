@@ -26,6 +26,7 @@ FIELD_PREFIXES = {
     "nominal sensitivity:": "nominal",
     "tolerance:": "tolerance",
     "type a target:": "target",
+    "stepped block:": "stepped_block",
 }
 
 
@@ -170,5 +171,6 @@ def install(setup: Any) -> FieldMarks:
             "nominal": setup.nominal,
             "tolerance": setup.tolerance,
             "target": setup.target,
+            "stepped_block": setup.stepped_block,
         }
     )

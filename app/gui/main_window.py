@@ -31,6 +31,7 @@ from app.gui.run_tab import RunTab
 from app.gui.runs_tab import RunsTab
 from app.gui.sensors_tab import SensorsTab
 from app.gui.setup_tab import SetupTab, WindowOptions
+from app.gui.worker import warm_imports
 from app.io.csv_cells import neutralised
 from app.io.vocabulary import RunStatus
 from app.procedure import Finished
@@ -84,6 +85,7 @@ class MainWindow(QMainWindow):
             stand_config.load(stand_file), stand_file, self.records, self.settings, self.options
         )
         self.run_tab = RunTab()
+        self.warm = warm_imports()  # what a run imports, imported now (app.gui.worker)
         self.results_tab = ResultsTab()
         self.runs_tab = RunsTab(self.options.out)
         self.sensors_tab = SensorsTab(self.records)
@@ -320,5 +322,7 @@ class MainWindow(QMainWindow):
         return self.today or datetime.now(UTC).date()
 
     def wait_for_plans(self) -> None:
-        """Block until the plans asked for are optimised (tests, screenshots)."""
+        """Block until the plans asked for are optimised and what a run imports is imported
+        (tests, screenshots, bench)."""
+        self.warm.join()
         self.setup_tab.wait_for_plans()

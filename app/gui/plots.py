@@ -9,24 +9,29 @@ lost) and move their axes only when the data leaves them (a steady axis is not r
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 import pyqtgraph as pg
 from PySide6.QtCore import Qt
 from PySide6.QtWidgets import QLabel, QStackedWidget, QWidget
 
+from app.gui.live_view import (
+    MIN_COLUMNS,
+    EstimateView,
+    PeriodView,
+    characteristic,
+    estimate_view,
+    peak_decimated,
+    period_view,
+)
 from dsp.calibration import Results
-from dsp.characteristic import Characteristic
-from dsp.characteristic import characteristic as dsp_characteristic
 from dsp.multisine import Plan
-from dsp.spectral import period_spectrum
+
+__all__ = ["characteristic", "peak_decimated"]  # at home in live_view, used from here too
 
 FRAME_HZ = 40  # live frames per second (>= 30 updates per second at 2 x 51.2 kS/s)
 # labelled ticks of the logarithmic frequency axes (Hz): decades, then 2 and 5 between them
 DECADE_TICKS_HZ = (1, 10, 100, 1000, 10000)
 MINOR_TICKS_HZ = (2, 5, 20, 50, 200, 500, 2000, 5000, 20000)
-MIN_COLUMNS = 200  # pixel columns a period is decimated to at the least (plot not shown yet)
 REF_COLOUR, DUT_COLOUR = "#4a9ee0", "#d62728"
 LEGEND_BRUSH = (0, 0, 0, 200)  # the legend readable over the traces it names
 LEFT_AXIS_PX = 62  # width of each live plot's y axis: label and "-100.5" tick text
@@ -72,22 +77,6 @@ class ChartStack(QStackedWidget):
         return self.currentWidget() is self.chart
 
 
-def peak_decimated(x: np.ndarray, y: np.ndarray, columns: int) -> tuple[np.ndarray, np.ndarray]:
-    """`y` over uniformly spaced `x` as at most 2 points per column (each column's minimum and
-    maximum, in order), so a trace drawn `columns` pixels wide loses no peak."""
-    n = y.size
-    per = n // max(1, columns)
-    if per < 4:
-        return x, y
-    used = per * (n // per)
-    blocks = y[:used].reshape(-1, per)
-    low, high = blocks.argmin(axis=1), blocks.argmax(axis=1)
-    first = np.minimum(low, high) + np.arange(blocks.shape[0]) * per
-    second = np.maximum(low, high) + np.arange(blocks.shape[0]) * per
-    index = np.column_stack([first, second]).ravel()
-    return x[index], y[index]
-
-
 def follow_y(plot: pg.PlotItem, low: float, high: float) -> bool:
     """Move the y axis of `plot` only when [low, high] leaves it or fills under a quarter of
     it (with a 10 % margin): a steady axis is not regenerated every frame. Whether it moved."""
@@ -99,17 +88,6 @@ def follow_y(plot: pg.PlotItem, low: float, high: float) -> bool:
         return False
     plot.setYRange(low - 0.1 * span, high + 0.1 * span, padding=0)
     return True
-
-
-def characteristic(results: Results) -> Characteristic:
-    """dsp.characteristic's deviation, phase and their U (the numbers the certificate draws),
-    with a U that is not stated drawn as 0."""
-    c = dsp_characteristic(results)
-    return dataclasses.replace(
-        c,
-        deviation_expanded_percent=np.nan_to_num(c.deviation_expanded_percent),
-        phase_expanded_deg=np.nan_to_num(c.phase_expanded_deg),
-    )
 
 
 class LivePlots:
@@ -223,45 +201,43 @@ class LivePlots:
         return max(MIN_COLUMNS, int(self.wave_plot.getViewBox().width()))
 
     def draw_period(self, reference: np.ndarray, dut: np.ndarray, plan: Plan) -> None:
-        """The last period of both channels (decimated to the plot's width) and their spectra,
-        the plan's lines marked."""
+        """The last period of both channels and their spectra, the plan's lines marked (the
+        view made here; a live run's comes made by the worker: `show_period`)."""
+        self.show_period(period_view(reference, dut, plan, self.columns()))
+
+    def show_period(self, view: PeriodView) -> None:
+        """Set the points of a period's `view` (computed off this thread): nothing but
+        setData and, when the data leaves them, the axes."""
         self.widget.show_chart(True)
-        t = np.arange(reference.size) / plan.sample_rate_hz
-        columns = self.columns()
-        self.wave_ref.setData(*peak_decimated(t, reference, columns), skipFiniteCheck=True)
-        self.wave_dut.setData(*peak_decimated(t, dut, columns), skipFiniteCheck=True)
-        self._period_x(reference.size, plan.sample_rate_hz)
-        both = np.concatenate([reference, dut])
-        if both.size:
-            follow_y(self.wave_plot, float(both.min()), float(both.max()))
-        spectra = np.abs(period_spectrum(np.vstack([reference, dut]))) + 1e-12
-        f = np.arange(spectra.shape[1]) * plan.sample_rate_hz / reference.size
-        db = 20 * np.log10(spectra[:, 1:])
-        self.spec_ref.setData(f[1:], db[0], skipFiniteCheck=True)
-        self.spec_dut.setData(f[1:], db[1], skipFiniteCheck=True)
-        if reference.size == plan.period_samples:
-            self.spec_lines.setData(plan.frequencies_hz, 20 * np.log10(spectra[0, plan.bins]))
-        if f.size > 1:
-            follow_y(self.spec_plot, max(float(db.min()), float(db.max()) - 160.0), float(db.max()))
+        self.wave_ref.setData(*view.reference, skipFiniteCheck=True)
+        self.wave_dut.setData(*view.dut, skipFiniteCheck=True)
+        self._period_x(view.samples, view.sample_rate_hz)
+        if view.samples:
+            follow_y(self.wave_plot, *view.wave_range_v)
+        self.spec_ref.setData(view.spectrum_hz, view.spectra_db[0], skipFiniteCheck=True)
+        self.spec_dut.setData(view.spectrum_hz, view.spectra_db[1], skipFiniteCheck=True)
+        if view.lines is not None:
+            self.spec_lines.setData(*view.lines, skipFiniteCheck=True)
+        if view.spectrum_hz.size:
+            follow_y(self.spec_plot, *view.spectrum_range_db)
 
     def draw_characteristic(self, results: Results) -> None:
-        """Deviation and phase per line with their expanded uncertainties as error bars."""
-        c = characteristic(results)
+        """Deviation and phase per line with their expanded uncertainties as error bars (the
+        view made here; a live run's comes made by the worker: `show_characteristic`)."""
+        self.show_characteristic(estimate_view(results))
+
+    def show_characteristic(self, view: EstimateView) -> None:
+        """Set the points of an estimate's `view` (computed off this thread)."""
+        c, logf = view.characteristic, view.log_frequency
         f, dev, phase = c.frequency_hz, c.deviation_percent, c.phase_deg
-        logf = np.log10(f)
         self.sens_curve.setData(f, dev)
         self.sens_err.setData(x=logf, y=dev, height=2 * c.deviation_expanded_percent)
         self.phase_curve.setData(f, phase)
         self.phase_err.setData(x=logf, y=phase, height=2 * c.phase_expanded_deg)
         self._lines_x(f)
         if f.size:
-            u_dev, u_phase = c.deviation_expanded_percent, c.phase_expanded_deg
-            follow_y(self.sens_plot, float(np.nanmin(dev - u_dev)), float(np.nanmax(dev + u_dev)))
-            follow_y(
-                self.phase_plot,
-                float(np.nanmin(phase - u_phase)),
-                float(np.nanmax(phase + u_phase)),
-            )
+            follow_y(self.sens_plot, *view.deviation_range)
+            follow_y(self.phase_plot, *view.phase_range)
 
 
 def draw_bands(mag: pg.PlotItem, phase: pg.PlotItem, results: Results | None) -> None:

@@ -34,7 +34,7 @@ COLUMNS = (  # name over unit: the table fits its half of a 1366 px window unscr
     "U\n°",
     "U rel.\n%",
     "k",
-    "ISO",
+    "U vs ISO\nlimit",
     "tolerance",
 )
 

@@ -12,7 +12,6 @@ from __future__ import annotations
 import gc
 import html
 import logging
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -32,11 +31,11 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from app import formatting as fmt
+from app.gui.live_view import EstimateView, PeriodView, block_view, estimate_view
 from app.gui.plots import FRAME_HZ, LivePlots
 from app.gui.results_tab import wrapping_label
 from app.gui.table_items import shown_unit
-from app.gui.worker import RunWorker
+from app.gui.worker import Opened, RunWorker, ShownEstimate, ShownPeriod
 from app.io.vocabulary import RunStatus
 from app.procedure import (
     EqualisationStep,
@@ -52,7 +51,6 @@ from app.procedure import (
 from app.procedure.service import PreparedRun, RunService
 from dsp.calibration import Results
 from dsp.multisine import Plan
-from hardware.errors import HardwareError
 
 log = logging.getLogger(__name__)
 
@@ -63,6 +61,7 @@ STOP_STYLE = (  # flat colours (a border makes Qt draw the background as given)
     " border: 1px solid #ccd1d1; }"
 )
 METERED = ("reference", "dut")  # the input channels with a level meter
+OPENING_S = 5.0  # s a run still opening is given to open before it is stopped (closing)
 METER_STYLE = "QProgressBar::chunk {background: %s}"  # the meter's colour: red near full
 
 
@@ -96,7 +95,9 @@ class LiveFrame:
     plan: Plan | None = None
     steps: PhaseSteps = field(default_factory=PhaseSteps)
     block: PeriodBlock | None = None
+    view: PeriodView | None = None  # the block's, made by the worker (None: made at drawing)
     estimate: PeriodEstimate | None = None
+    estimate_view: EstimateView | None = None  # the estimate's, as `view`
     state: str | None = None
     equalisation: str | None = None
     progress: tuple[float, str] | None = None  # (fraction of the phase done, what it says)
@@ -107,17 +108,23 @@ class LiveFrame:
 
     def take(self, events: list[Any]) -> None:
         """Keep only what the next frame draws."""
-        for event in events:
+        for item in events:
+            event: Any = item
+            view: Any = None  # the worker's view of a period or an estimate
+            if isinstance(item, ShownPeriod):
+                event, view = item.block, item.view
+            elif isinstance(item, ShownEstimate):
+                event, view = item.estimate, item.view
             if isinstance(event, PeriodBlock):
                 if event.state != State.FADING_OUT:  # keep showing the last steady period
-                    self.block = event
+                    self.block, self.view = event, view
                 if event.state == State.BACKGROUND and self.phase == State.BACKGROUND:
                     self.phase_blocks += 1
                     n = self.steps.background_periods
                     done = min(self.phase_blocks, n)
                     self.progress = (done / n, f"background: period {done} of {n}")
             elif isinstance(event, PeriodEstimate):
-                self.estimate = event
+                self.estimate, self.estimate_view = event, view
             elif isinstance(event, StateChanged):
                 self.state = f"{event.state}: {event.message}" if event.message else event.state
                 self.phase, self.phase_blocks = event.state, 0
@@ -249,50 +256,61 @@ class RunTab(QWidget):
         ranges_v: Mapping[str, float],
         note: str | None,
     ) -> bool:
-        """Open the stand and start the `prepared` run (the run service's) on a worker;
-        `ranges_v` the input range (V) of each metered channel, `note` a word to show. Whether
-        it started (why not: shown)."""
+        """Open the stand and start the `prepared` run (the run service's) on a worker, both
+        off this thread; `ranges_v` the input range (V) of each metered channel, `note` a word
+        to show. False when a run is going already; a run that cannot be opened ends as
+        Start's refusal did (`end`: a message box, the reason shown, `ended` with None)."""
         if self.worker is not None:
             return False
-        request = prepared.request
-        try:
-            procedure, stand = service.start(prepared)
-        except (ValueError, HardwareError) as exc:  # config, plan, missing driver or device
-            QMessageBox.warning(self, "Cannot start", f"{type(exc).__name__}: {exc}")
-            self.messages.setText(html.escape(f"Cannot start: {exc}"))
-            return False
-        self.out = request.out
-        self.attach(procedure, stand, ranges_v)
+        self.out = prepared.request.out
+        # the stand opened and the plan made on the worker's thread: a second at 51.2 kS/s
+        # that the window's thread does not wait for (`RunWorker.opening`)
+        self._start(RunWorker.opening(lambda: service.start(prepared)), ranges_v, None)
+        self.state.setText("opening the stand ...")
         if note:
             self.messages.setText(html.escape(note))
         return True
 
     def attach(self, procedure: Any, stand: Any, ranges_v: Mapping[str, float]) -> None:
         """Show the live run of `procedure` on the opened `stand` from a worker thread, from an
-        empty tab. While it runs, the objects older than the run are frozen out of Python's
-        garbage collector (`gc.freeze`): a full collection then scans only what the run made,
-        so it cannot stall the window for tens of ms (measured: 50-90 ms unfrozen)."""
+        empty tab."""
+        self._start(RunWorker(procedure, stand), ranges_v, procedure)
+
+    def _start(
+        self, worker: RunWorker, ranges_v: Mapping[str, float], procedure: Any | None
+    ) -> None:
+        """Start `worker` from an empty tab (`procedure`: the run's, when it is open already).
+        While it runs, the objects older than the run are frozen out of Python's garbage
+        collector (`gc.freeze`): a full collection then scans only what the run made, so it
+        cannot stall the window for tens of ms (measured: 50-90 ms unfrozen)."""
         self.clear()
         self.state.setText("starting ...")
         self.ranges_v = dict(ranges_v)
-        self.frame = LiveFrame(plan=procedure.plan, steps=PhaseSteps.of(procedure))
-        self.live.prepare(procedure.plan)
-        self.worker = RunWorker(procedure, stand)
+        self.frame = LiveFrame()
+        if procedure is not None:
+            self.opened(procedure)
+        self.worker = worker
         self.stop_button.setEnabled(True)
         gc.freeze()
-        self.worker.start()
+        worker.start()
+
+    def opened(self, procedure: Any) -> None:
+        """The run is open: the plots laid out with its plan's x ranges before its first
+        period, the progress with its phases' steps."""
+        self.frame.plan, self.frame.steps = procedure.plan, PhaseSteps.of(procedure)
+        self.live.prepare(procedure.plan)
 
     def stop(self) -> None:
         """Fade the drive out and end the run (kept as aborted)."""
         if self.worker is not None:
-            self.worker.procedure.abort("stopped by the operator")
+            self.worker.abort("stopped by the operator")
             self.state.setText("stopping: fading out ...")
             self.progress.setFormat("stopping: fading out")
 
     def emergency_stop(self) -> None:
         """The drive to 0 V at once."""
         if self.worker is not None:
-            self.worker.procedure.emergency_stop()
+            self.worker.emergency_stop()
             self.state.setText("EMERGENCY STOP: drive at 0 V")
 
     def shut_down(self, reason: str) -> None:
@@ -300,13 +318,14 @@ class RunTab(QWidget):
         an emergency stop if the fade-out does not end (closing the window)."""
         worker = self.worker
         if worker is not None:
-            period = worker.procedure.plan.period_s
-            worker.procedure.abort(reason)
+            procedure = worker.procedure  # None: still opening (then it ends once open)
+            period = procedure.plan.period_s if procedure is not None else OPENING_S
+            worker.abort(reason)
             if not worker.join(3 * period + 5):
-                worker.procedure.emergency_stop()
+                worker.emergency_stop()
                 worker.join(period + 5)
             if worker.done:
-                self.finish(worker.finished)
+                self.end(worker)
         self.timer.stop()
 
     def tick(self) -> None:
@@ -315,14 +334,33 @@ class RunTab(QWidget):
         worker = self.worker
         if worker is None:
             return
+        worker.columns = self.live.columns()  # the worker decimates to the plots' width
         events = worker.drain()
         if events:
-            self.frame.take(events)
+            self.take(events)
             self.draw()
         if worker.done:
-            self.frame.take(worker.drain())
+            self.take(worker.drain())
             self.draw()
-            self.finish(worker.finished)
+            self.end(worker)
+
+    def take(self, events: list[Any]) -> None:
+        """Keep what the next frame draws; lay the plots out when the run has opened."""
+        for event in events:
+            if isinstance(event, Opened):
+                self.opened(event.procedure)
+        self.frame.take(events)
+
+    def end(self, worker: RunWorker) -> None:
+        """The worker is done: the run ended, or it could not be opened (said as Start said
+        it: a message box and the reason under the plots)."""
+        refusal = worker.refusal
+        self.finish(worker.finished)
+        if refusal is not None:
+            text = f"{type(refusal).__name__}: {refusal}"
+            self.state.setText("cannot start")
+            self.messages.setText(html.escape(f"Cannot start: {refusal}"))
+            QMessageBox.warning(self, "Cannot start", text)
 
     def draw(self) -> None:
         """Draw what the frame holds new (each piece once)."""
@@ -347,38 +385,47 @@ class RunTab(QWidget):
                 "<br/>".join(f"⚠ {html.escape(shown_unit(w))}" for w in frame.warnings[-4:])
             )
         block, frame.block = frame.block, None
+        view, frame.view = frame.view, None
         if block is not None:
-            names = list(block.channels)
-            ref = block.samples[names.index("reference")]
-            dut = block.samples[names.index("dut")]
-            if frame.plan is not None:
-                self.live.draw_period(ref, dut, frame.plan)
+            if view is None and frame.plan is not None:  # queued without its view
+                view = block_view(block.samples, block.channels, frame.plan, self.live.columns())
+            if view is not None:
+                self.live.show_period(view)
             # the range the block was read on (the run picks it), else the one it started on
             self.ranges_v.update(block.ranges_v)
-            for name, x in (("reference", ref), ("dut", dut)):
-                fill = int(100 * np.max(np.abs(x)) / self.ranges_v[name])
-                bar = self.meters[name]
-                shown = f"{name} %p % of ±{self.ranges_v[name]:g} V"
-                if bar.format() != shown:
-                    bar.setFormat(shown)
-                bar.setValue(min(fill, 100))
-                style = METER_STYLE % ("#c0392b" if fill >= 95 else "#27ae60")
-                if bar.styleSheet() != style:  # a new style sheet re-polishes: only on change
-                    bar.setStyleSheet(style)
+            names = list(block.channels)
+            for name in METERED:
+                peak = (
+                    view.peaks_v[name]
+                    if view is not None
+                    else float(np.max(np.abs(block.samples[names.index(name)])))
+                )
+                self.show_meter(name, int(100 * peak / self.ranges_v[name]))
         estimate, frame.estimate = frame.estimate, None
+        shown, frame.estimate_view = frame.estimate_view, None
         if estimate is not None:
-            self.draw_characteristic(estimate.results)
+            self.show_characteristic(shown or estimate_view(estimate.results))
+
+    def show_meter(self, name: str, fill: int) -> None:
+        """The meter of channel `name` at `fill` % of its range (red from 95 %)."""
+        bar = self.meters[name]
+        shown = f"{name} %p % of ±{self.ranges_v[name]:g} V"
+        if bar.format() != shown:
+            bar.setFormat(shown)
+        bar.setValue(min(fill, 100))
+        style = METER_STYLE % ("#c0392b" if fill >= 95 else "#27ae60")
+        if bar.styleSheet() != style:  # a new style sheet re-polishes: only on change
+            bar.setStyleSheet(style)
 
     def draw_characteristic(self, results: Results) -> None:
-        defined = [ln for ln in results.lines if math.isfinite(ln.coherence)]
-        if defined:
-            worst = min(defined, key=lambda ln: ln.coherence)
-            self.coherence.setText(
-                f"coherence >= {worst.coherence:.4f} (lowest at {worst.nominal_frequency_hz:g} Hz)"
-            )
-        else:
-            self.coherence.setText(fmt.COHERENCE_NOT_AVAILABLE)
-        self.live.draw_characteristic(results)
+        """The characteristic so far and its lowest coherence (the view made here)."""
+        self.show_characteristic(estimate_view(results))
+
+    def show_characteristic(self, view: EstimateView) -> None:
+        """The characteristic so far and its lowest coherence, from a view made off this
+        thread."""
+        self.coherence.setText(view.coherence)
+        self.live.show_characteristic(view)
 
     def finish(self, finished: Finished | None) -> None:
         """The run has ended (GUI thread): say how, then emit `ended`."""

@@ -1,8 +1,9 @@
 """The Setup & plan tab: the stand (file or simulated) and its reference standard, the
 technician, the DUT (serial looked up in the records, or its TEDS), and the plan (preset or
 typed lines in Hz, level in m/s^2 peak per line, periods, type A target in %, time bound in s,
-estimator, mode) with the same preflight checks as the CLI beside the fields. Start is enabled
-only when nothing fails; the tab builds the run request the fields describe.
+estimator, mode and, for the stepped sine, its block in s) with the same preflight checks as
+the CLI beside the fields. Start is enabled only when nothing fails; the tab builds the run
+request the fields describe.
 """
 
 from __future__ import annotations
@@ -42,13 +43,15 @@ from app.io import quantities
 from app.io.quantities import QuantityError
 from app.io.vocabulary import Mode
 from app.lines import parse_frequencies
+from app.procedure.modes import DEFAULT_STEPPED_BLOCK_S
 from app.procedure.options import EXACT_MAINS_HELP, RESONANCE_HELP, RunOptions, option
 from app.procedure.request import RunRequest
 from app.procedure.service import PlanPreview, PreparedRun, RunService
+from app.procedure.stopping import DEFAULT_MAX_PERIODS, DEFAULT_MAX_TIME_S
 from app.stand import config as stand_config
 from app.stand.simulated import CATALOGUE
 from dsp.estimators import DEFAULT_ESTIMATOR, Estimator, default_estimator, default_periods
-from dsp.multisine import PRESETS
+from dsp.multisine import PRESETS, Plan
 
 log = logging.getLogger(__name__)
 
@@ -79,9 +82,10 @@ class PlanSettings:
     level_ms2: float  # peak per line
     periods: int
     target_percent: float  # type A target in %; 0: off
-    max_time_s: int  # 0: no time bound
+    max_time_s: int  # 0: not given (with a target: the default bound, stopping.py)
     estimator: str
     mode: str
+    stepped_block_s: float = DEFAULT_STEPPED_BLOCK_S  # the stepped sine's block
 
 
 class SetupTab(QWidget):
@@ -105,6 +109,9 @@ class SetupTab(QWidget):
         self.last_request: RunRequest | None = None  # the settings of the run just made
         self.service = RunService(stand_file, config=config)  # the stand file, loaded once
         self.preview: PlanPreview | None = None  # the plan that will run, as last checked
+        # the last preview with what it was made of: Start and set_running validate again
+        # with the same fields, and a preview of a 51.2 kS/s plan costs the GUI thread 0.5 s
+        self._previewed: tuple[Any, RunOptions, Plan, PlanPreview] | None = None
         self.plans = PlanCache(RunService.unit_plan, self.service.preset_keys())
         layout = QHBoxLayout(self)
         layout.addWidget(self._stand_box(), 1)
@@ -113,6 +120,8 @@ class SetupTab(QWidget):
         self.field_marks = field_marks.install(self)  # bad input marked at its field
         self.serial_entry = SerialEntry(self, records, self.field_marks)
         self.serial_entry.sensor_changed.connect(self.templates.show_for)
+        self.mode.currentTextChanged.connect(self._mode_changed)
+        self._mode_changed(self.mode.currentText())
         for widget in (self.preset, self.estimator, self.mode, self.dut):
             widget.currentTextChanged.connect(self.validate)
         for edit in self.quantity_fields():
@@ -191,8 +200,11 @@ class SetupTab(QWidget):
             blank="off: acquire the periods above",
             suffix="% type A target",
         )
-        self.max_time = QSpinBox(maximum=100_000, suffix=" s at most")
-        self.max_time.setSpecialValueText("no time bound (s)")
+        # 0: not given; with a type A target the run's default bound applies (its tooltip)
+        self.max_time = QSpinBox(maximum=int(quantities.MAX_TIME.high), suffix=" s at most")
+        self.max_time.setSpecialValueText(
+            f"default ({DEFAULT_MAX_TIME_S:g} s with a target, or {DEFAULT_MAX_PERIODS} periods)"
+        )
         self.estimator = QComboBox()
         self.estimator.addItems(list(option("estimator").choices))
         self.estimator.setCurrentText(DEFAULT_ESTIMATOR)
@@ -201,6 +213,12 @@ class SetupTab(QWidget):
         self.mode = QComboBox()
         self.mode.addItems(list(option("mode").choices))
         self.mode.currentTextChanged.connect(self._mode_changed)
+        self.stepped_block = QuantityEdit(
+            quantities.STEPPED_BLOCK,
+            "stepped block",
+            value=DEFAULT_STEPPED_BLOCK_S,
+            suffix="s block (stepped sine)",
+        )
         self.templates = TemplatePicker(self, self.records)
         template_row = QHBoxLayout()
         template_row.addWidget(self.templates.combo, 1)
@@ -214,6 +232,7 @@ class SetupTab(QWidget):
         pform.addRow("Time bound", self.max_time)
         pform.addRow("Estimator", self.estimator)
         pform.addRow("Mode", self.mode)
+        pform.addRow("Stepped block", self.stepped_block)
         # issue 32: lines on mains harmonics move one bin unless kept; the resonance search
         self.exact_mains_bins = QCheckBox("keep lines on exact mains harmonics")
         self.exact_mains_bins.setToolTip(EXACT_MAINS_HELP)
@@ -255,6 +274,9 @@ class SetupTab(QWidget):
         for name, widget in bindings.items():
             if not widget.toolTip():
                 widget.setToolTip(option(name).full_help())
+        # the block field's own tooltip says how it reads; the option's help says what it does
+        spec = option("stepped_block_s")
+        self.stepped_block.setToolTip(f"{spec.help}. {self.stepped_block.toolTip()}")
 
     # --- the plan fields ----------------------------------------------------------------
 
@@ -271,6 +293,7 @@ class SetupTab(QWidget):
             max_time_s=self.max_time.value(),
             estimator=self.estimator.currentText(),
             mode=self.mode.currentText(),
+            stepped_block_s=self.stepped_block.value(),
         )
 
     def _mode_changed(self, mode: str) -> None:
@@ -297,6 +320,7 @@ class SetupTab(QWidget):
         self.target.setValue(plan.target_percent)
         self.max_time.setValue(plan.max_time_s)
         self.mode.setCurrentText(plan.mode)
+        self.stepped_block.setValue(plan.stepped_block_s)
         self.validate()
 
     def reset(self) -> None:
@@ -316,11 +340,17 @@ class SetupTab(QWidget):
 
     def quantity_fields(self) -> tuple[QuantityEdit, ...]:
         """The fields that take a quantity (with its unit, or a bare number in the row's)."""
-        return (self.nominal, self.tolerance, self.level, self.target)
+        return (self.nominal, self.tolerance, self.level, self.target, self.stepped_block)
 
     def field_errors(self) -> list[str]:
-        """Why each refused quantity field is refused ("level: ..."), in form order."""
-        return [e for e in (f.error() for f in self.quantity_fields()) if e is not None]
+        """Why each refused quantity field is refused ("level: ..."), in form order (a field
+        the mode does not use, disabled, refuses nothing)."""
+        fields = (f for f in self.quantity_fields() if f.isEnabled())
+        return [e for e in (f.error() for f in fields) if e is not None]
+
+    def _mode_changed(self, mode: str) -> None:
+        """The stepped sine's block is a field of that mode only."""
+        self.stepped_block.setEnabled(mode == Mode.STEPPED_SINE)
 
     def custom_lines(self) -> tuple[float, ...] | None:
         """The typed line list (Hz), None for the preset's; ValueError says what is wrong."""
@@ -353,6 +383,7 @@ class SetupTab(QWidget):
             max_acquisition_s=float(self.max_time.value()) or None,
             estimator=Estimator(self.estimator.currentText()),
             mode=Mode(self.mode.currentText()),
+            stepped_block_s=self.block_s(),
             seed=options.seed,
             paced=options.paced,
             faults=options.faults,
@@ -364,6 +395,12 @@ class SetupTab(QWidget):
             records=False,  # the window's records, when open, come as `lab` (prepare)
             reference_override=reference_override,
         )
+
+    def block_s(self) -> float | None:
+        """The stepped sine's block (s) the field sets; None in multisine (no block then)."""
+        if self.mode.currentText() != Mode.STEPPED_SINE:
+            return None
+        return self.stepped_block.value()
 
     def prepare(self, *, reference_override: str | None = None, today: Any = None) -> PreparedRun:
         """The run the fields describe, resolved and gated by the run service as the CLI's:
@@ -447,7 +484,7 @@ class SetupTab(QWidget):
                 problems += list(getattr(error, "problems", None) or [str(error)])
                 self.peaks.setText("")
             else:
-                self.preview = self.service.preview(options, future.result())
+                self.preview = self._preview(options, future.result())
                 problems += list(self.preview.problems)
                 self.peaks.setText(describe_preview(self.preview, self.config.limits))
         text = "".join(f"<div style='color:#c0392b'>✖ {shown_unit(p)}</div>" for p in problems)
@@ -464,6 +501,16 @@ class SetupTab(QWidget):
         )
         self.field_marks.show_problems(problems)
         return blocking
+
+    def _preview(self, options: RunOptions, plan: Plan) -> PlanPreview:
+        """The run service's preview of `options` on `plan`, made again only when the stand,
+        the fields or the plan changed."""
+        last = self._previewed
+        if last is not None and last[0] is self.service and last[1] == options and last[2] is plan:
+            return last[3]
+        preview = self.service.preview(options, plan)
+        self._previewed = (self.service, options, plan, preview)
+        return preview
 
     def wait_for_plans(self) -> None:
         """Block until the plans asked for are optimised (tests, screenshots)."""

@@ -44,6 +44,14 @@ import numpy as np
 from app.io import hdf5_fields as fields
 from app.io.checks import MAX_HDF5_BYTES, InputFileError, check_input_file
 from app.io.hdf5_fields import RecordingError
+from app.io.hdf5_stream import (
+    SampleScan,
+    StoredFile,
+    StoredSignal,
+    channel_blocks,
+    file_stamp,
+    kept_open,
+)
 from app.io.vocabulary import Mode, RunStatus
 from app.version import software_version
 from dsp.calibration import ReferenceChain
@@ -54,8 +62,6 @@ from dsp.uncertainty import Budget
 FORMAT_NAME = "accelcal-recording"
 FORMAT_VERSION = 1
 CHANNELS = ("reference", "dut")
-OVERLOAD_FRACTION = 0.995  # a sample within 0.5 % of the range is at its limit (SPEC s.11)
-FLAT_TOP_RUN = 5  # without a known range: this many equal samples at the extreme = clipped
 
 log = logging.getLogger(__name__)
 
@@ -114,19 +120,23 @@ class Truth:
     attrs: dict[str, Any] = field(default_factory=dict)
 
 
+Samples = np.ndarray | StoredSignal  # a channel in memory, or stored and read a slice at a time
+
+
 @dataclass(frozen=True)
 class Recording:
-    """A two-channel recording held in memory (volts), with its analysis context."""
+    """A two-channel recording (volts), with its analysis context. Its channels are held in
+    memory, or (`read_recording(..., stored=True)`) read from the file a slice at a time."""
 
     sample_rate_hz: float
     period_samples: int
-    reference_v: np.ndarray
-    dut_v: np.ndarray
+    reference_v: Samples
+    dut_v: Samples
     plan: Plan
     chain: ReferenceChain
     budget: Budget
     settle_periods: int = 0
-    drive_v: np.ndarray | None = None
+    drive_v: Samples | None = None
     ranges_v: dict[str, float] = field(default_factory=dict)
     source: str = ""
     truth: Truth | None = None
@@ -142,13 +152,24 @@ class Recording:
         """Whole periods in the recording, settle periods included."""
         return self.reference_v.size // self.period_samples
 
+    @property
+    def analysed_periods(self) -> int:
+        """Whole periods the analysis uses: after the settle periods, at most `acquired_periods`."""
+        left = max(self.periods - self.settle_periods, 0)
+        return left if self.acquired_periods is None else min(left, max(self.acquired_periods, 0))
+
     def analysis_periods(self) -> tuple[np.ndarray, np.ndarray]:
-        """Reference and DUT as (periods, N) arrays, settle periods skipped (views)."""
+        """Reference and DUT as (periods, N) arrays, settle periods skipped (views of channels
+        in memory; a stored recording's are read whole: `iter_batches` reads them in batches)."""
+        return self.period_range(0, self.analysed_periods)
+
+    def period_range(self, first: int, stop: int) -> tuple[np.ndarray, np.ndarray]:
+        """Analysed periods `first` .. `stop` - 1 of reference and DUT, shape (periods, N)."""
         n = self.period_samples
-        start = self.settle_periods * n
-        stop = None if self.acquired_periods is None else start + self.acquired_periods * n
-        ref = self.reference_v[start:stop].reshape(-1, n)
-        dut = self.dut_v[start:stop].reshape(-1, n)
+        start = (self.settle_periods + first) * n
+        end = (self.settle_periods + stop) * n
+        ref = self.reference_v[start:end].reshape(-1, n)
+        dut = self.dut_v[start:end].reshape(-1, n)
         return ref, dut
 
 
@@ -327,15 +348,18 @@ def write_recording(path: str | Path, recording: Recording) -> None:
         ranges_v=recording.ranges_v,
         cmc=recording.cmc,
     ) as writer:
-        writer.append(recording.reference_v, recording.dut_v, recording.drive_v)
+        drive = None if recording.drive_v is None else np.asarray(recording.drive_v)
+        writer.append(np.asarray(recording.reference_v), np.asarray(recording.dut_v), drive)
         if recording.truth is not None:
             writer.write_truth(recording.truth)
         writer.set_status(recording.status or RunStatus.COMPLETE)  # written whole
 
 
-def read_recording(path: str | Path) -> Recording:
+def read_recording(path: str | Path, *, stored: bool = False) -> Recording:
     """Read and validate an HDF5 recording of this program; RecordingError names the file and
-    the dataset or attribute that is not what this program writes (app.io.hdf5_fields)."""
+    the dataset or attribute that is not what this program writes (app.io.hdf5_fields). With
+    `stored` the channels stay in the file (StoredSignal: validated here a block at a time,
+    read a slice at a time by the analysis), so memory does not grow with the record."""
     path = Path(path)
     name = path.name
     try:
@@ -343,12 +367,13 @@ def read_recording(path: str | Path) -> Recording:
     except InputFileError as exc:
         raise RecordingError(str(exc)) from None
     try:
+        stamp = file_stamp(path) if stored else None  # before opening: a change after shows
         handle = h5py.File(path, "r")
     except FileNotFoundError:
         raise RecordingError(f"{path}: no such file") from None
     except OSError as exc:
         raise RecordingError(f"{name}: not a readable HDF5 file ({exc})") from None
-    with handle as f:
+    with kept_open(handle, keep=stored) as f:  # stored: its channels are read through it
         head = fields.read_head(f, name, FORMAT_NAME, FORMAT_VERSION)
         config = fields.group(f, "config", name)
         assert config is not None
@@ -365,7 +390,8 @@ def read_recording(path: str | Path) -> Recording:
             config.attrs, "resolution_warnings", where, _text_list
         )
         fields.group(f, "signals", name)
-        signals: dict[str, np.ndarray] = {}
+        stored_file = StoredFile(path, f, stamp) if stored else None
+        signals: dict[str, Samples] = {}
         ranges: dict[str, float] = {}
         for channel in (*CHANNELS, "drive"):
             label = f"{name}: /signals/{channel}"
@@ -375,7 +401,10 @@ def read_recording(path: str | Path) -> Recording:
             unit = fields.text_attr(ds.attrs, "unit", f"{label} attribute")
             if unit not in (None, "V"):
                 raise RecordingError(f"{label} attribute 'unit': {unit!r}, expected 'V' (volts)")
-            signals[channel] = np.asarray(ds[()], dtype=float)
+            if stored_file is not None:
+                signals[channel] = StoredSignal(stored_file, f"signals/{channel}", ds.size, label)
+            else:
+                signals[channel] = np.asarray(ds[()], dtype=float)
             stored_range = fields.number_attr(
                 ds.attrs, "range_v", f"{label} attribute", low=0.0, high=1e6
             )
@@ -481,9 +510,11 @@ def merge_skew(
 
 def validate(recording: Recording, name: str, *, labels: dict[str, str] | None = None) -> None:
     """Refuse a malformed recording with a message naming the channel and the problem;
-    `labels` name each channel's source (an HDF5 file's datasets: /signals/dut)."""
+    `labels` name each channel's source (an HDF5 file's datasets: /signals/dut). A stored
+    channel is checked a block at a time (app.io.hdf5_stream.SampleScan), with the same
+    statements as a channel in memory."""
     n = recording.period_samples
-    channels = {"reference": recording.reference_v, "dut": recording.dut_v}
+    channels: dict[str, Samples] = {"reference": recording.reference_v, "dut": recording.dut_v}
     if recording.drive_v is not None:
         channels["drive"] = recording.drive_v
     labels = labels or {}
@@ -504,55 +535,17 @@ def validate(recording: Recording, name: str, *, labels: dict[str, str] | None =
             f"samples ({length / n:.3f} periods)"
         )
     for channel, x in channels.items():
-        bad = np.flatnonzero(~np.isfinite(x))
-        if bad.size:
-            kind = "NaN" if np.isnan(x[bad[0]]) else "inf"
-            raise RecordingError(
-                f"{name}: {where(channel)}: {bad.size} non-finite sample(s), first {kind} at "
-                f"sample {bad[0]}"
-            )
-        if channel == "drive":
-            continue
-        if np.ptp(x) == 0.0:
-            raise RecordingError(
-                f"{name}: {where(channel)}: flat at {x[0]:g} V: dead channel or not connected"
-            )
-        _check_range(x, recording.ranges_v.get(channel, 0.0), where(channel), name)
-
-
-def _check_range(x: np.ndarray, range_v: float, channel: str, name: str) -> None:
-    """`channel`: how the messages name it ("channel dut", "/signals/dut: channel dut")."""
-    if range_v and math.isfinite(range_v) and range_v > 0:
-        at_limit = np.flatnonzero(np.abs(x) >= OVERLOAD_FRACTION * range_v)
-        if at_limit.size:
-            raise RecordingError(
-                f"{name}: {channel}: {at_limit.size} sample(s) at the +-{range_v:g} V "
-                f"range limit, first at sample {at_limit[0]}: overload; lower the level or "
-                "raise the channel range"
-            )
-        return
-    for extreme in (x.max(), x.min()):
-        run = _longest_run(x == extreme)
-        if run >= FLAT_TOP_RUN:
-            raise RecordingError(
-                f"{name}: {channel}: {run} consecutive samples at {extreme:g} V: "
-                "clipped at its range limit (overload); lower the level or raise the range"
-            )
-
-
-def _longest_run(mask: np.ndarray) -> int:
-    if not mask.any():
-        return 0
-    padded = np.zeros(mask.size + 2, dtype=np.int8)  # int8 throughout: 2 bytes a sample,
-    padded[1:-1] = mask  # not the 16 of int64 (a recording's memory goes to its samples)
-    edges = np.flatnonzero(np.diff(padded))
-    return int((edges[1::2] - edges[::2]).max())
+        scan = SampleScan(channel, where(channel), name, recording.ranges_v.get(channel, 0.0))
+        for block in channel_blocks(x):
+            scan.add(block)
+        scan.check()
 
 
 def iter_batches(
     recording: Recording, periods_per_batch: int = 16
 ) -> Iterator[tuple[np.ndarray, np.ndarray]]:
-    """(reference, DUT) batches of whole analysis periods, shape (periods, N)."""
-    ref, dut = recording.analysis_periods()
-    for start in range(0, ref.shape[0], periods_per_batch):
-        yield ref[start : start + periods_per_batch], dut[start : start + periods_per_batch]
+    """(reference, DUT) batches of whole analysis periods, shape (periods, N); a stored
+    recording's are read from the file one batch at a time."""
+    total = recording.analysed_periods
+    for start in range(0, total, periods_per_batch):
+        yield recording.period_range(start, min(start + periods_per_batch, total))

@@ -229,6 +229,7 @@ TARGET_UA = Quantity(PERCENT, 0.0, 100.0, open_low=True)  # relative type A targ
 # the bound on the acquisition time
 MAX_TIME = Quantity(TIME, 0.0, 24 * 3600.0, open_low=True, shown="(0, 24 h]")
 FADE_IN = Quantity(TIME, 0.001, 60.0)
+STEPPED_BLOCK = Quantity(TIME, 0.01, 10.0)  # the stepped sine's shortest block per sine fit
 DUT_MASS = Quantity(MASS, 0.0, 100_000.0)
 SAMPLE_RATE = Quantity(FREQUENCY, 1.0, 1e7)
 LINE_FREQUENCY = Quantity(FREQUENCY, 0.0, 1e6, open_low=True)  # a reference or corner

@@ -9,7 +9,7 @@ import numpy as np
 
 from app.procedure.context import RunContext
 from app.procedure.events import Progress, State
-from app.procedure.stopping import Stop, StoppingRule
+from app.procedure.stopping import Stop, StoppingRule, target_not_met
 from dsp.calibration import Results
 from dsp.hum import driven_hum
 from dsp.lpm_record import hum_bins
@@ -54,8 +54,9 @@ class Acquisition:
                 Progress(
                     rule.fraction(count, worst_a),
                     acquired_s,
-                    rule.remaining_s(count, period_s),
+                    rule.remaining_s(count, period_s, acquired_s, worst_a),
                     f"period {count}, worst type A {100 * worst_a:.3f} %",
+                    until_target=s.target_type_a is not None,
                 )
             )
             stop = rule.decide(count, worst_a, acquired_s, period_s)
@@ -64,13 +65,8 @@ class Acquisition:
             results = self._with_driven_hum(accumulator, estimate, results)
             if stop is Stop.TARGET and s.target_type_a is not None:
                 ctx.log(f"type A target {100 * s.target_type_a:g} % reached after {count} periods")
-            elif stop is Stop.TIME_BOUND and s.target_type_a is not None:
-                text = (
-                    f"time bound {s.max_acquisition_s:g} s reached before the type A target: "
-                    f"worst line {100 * worst_a:.3f} % > {100 * s.target_type_a:g} %"
-                )
-                ctx.warn(text)
-                ctx.notes.results = dataclasses.replace(results, warnings=(*results.warnings, text))
+            elif stop is Stop.TIME_BOUND:
+                report_target_not_met(ctx, rule, results, estimate, acquired_s)
             return
 
     def _with_driven_hum(
@@ -83,6 +79,28 @@ class Acquisition:
         budget, again = with_driven_hum(self.ctx, self.budget, spectra, estimate)
         self.budget = budget
         return again or results
+
+
+def report_target_not_met(
+    ctx: RunContext, rule: StoppingRule, results: Results, estimate: Estimate, acquired_s: float
+) -> None:
+    """A time bound ended the acquisition (`acquired_s` s) before the type A target: the
+    report (app.procedure.stopping.TargetNotMet: the bound, the lines above the target with
+    their measured type A) warned and added to the results, which state that type A."""
+    report = target_not_met(
+        rule,
+        default_bound=ctx.settings.max_acquisition_default,
+        acquired_s=acquired_s,
+        periods=estimate.periods,
+        labels=[f"{line.nominal_frequency_hz:g} Hz" for line in results.lines],
+        type_a=np.asarray(estimate.relative_type_a, dtype=float).tolist(),
+        stated=[line.stated for line in results.lines],
+    )
+    if report is None:
+        return
+    text = report.text()
+    ctx.warn(text)
+    ctx.notes.results = dataclasses.replace(results, warnings=(*results.warnings, text))
 
 
 def with_driven_hum(

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -17,9 +18,9 @@ import numpy as np
 from app.io.hdf5 import Recording, RecordingError, iter_batches, read_recording
 from app.io.vocabulary import RunStatus
 from app.procedure.verdict import Tolerances, tolerances_for, with_verdict
-from app.records.run_folder import FolderState, inspect_run, is_run_folder
+from app.records.run_folder import FolderState, RunCheck, inspect_run, is_run_folder
 from app.records.warnings import SEED_RULE_WARNING
-from dsp.calibration import Results, compute_results
+from dsp.calibration import ReferenceChain, Results, compute_results
 from dsp.hum import driven_hum_of_periods, mains_hum, merged
 from dsp.lpm_record import hum_bins, record_estimate
 from dsp.mcm import validate_lines
@@ -55,6 +56,35 @@ def analyze(
     default those of the simulated DUT the recording's truth names, else `tolerance_percent`
     alone. `rule="seed"` adds the blocking SEED_RULE_WARNING (k from t(L-1) is not GUM);
     `mcm_trials` validates every line's GUM interval by JCGM 101 Monte Carlo (`with_mcm`)."""
+    return analyze_chains(
+        recording,
+        [recording.chain],
+        estimator=estimator,
+        segments=segments,
+        probability=probability,
+        rule=rule,
+        tolerance_percent=tolerance_percent,
+        tolerances=tolerances,
+        mcm_trials=mcm_trials,
+    )[0]
+
+
+def analyze_chains(
+    recording: Recording,
+    chains: Sequence[ReferenceChain],
+    *,
+    estimator: str = "periodic",
+    segments: int | None = None,
+    probability: float = 0.9545,
+    rule: str = "gum",
+    tolerance_percent: float | None = None,
+    tolerances: Tolerances | None = None,
+    mcm_trials: int | None = None,
+) -> list[Analysis]:
+    """As `analyze`, once per reference chain of `chains` (e.g. the stored and a corrected
+    calibration table: app.procedure.impact): the recording is read and estimated once (the
+    estimate and the hum do not depend on the chain), the results computed per chain; each
+    equals `analyze` of the recording with that chain."""
     plan = recording.plan
     status_note = status_warning(recording.status)
     warnings: list[str] = [status_note] if status_note else []
@@ -63,16 +93,18 @@ def analyze(
             f"{recording.source}: {recording.periods} period(s) recorded, none left after "
             f"{recording.settle_periods} settle period(s)"
         )
+    mean = PeriodMean()
     if estimator in RECORD_ESTIMATORS:  # lpm: the analysed periods as one record
         if segments is not None:
             raise RecordingError("--segments: the lpm estimator analyses whole periods")
-        estimate = _record_estimate(recording)
+        estimate = _record_estimate(recording, mean)
     elif segments is None:
         accumulator = SpectralAccumulator(
             plan.period_samples, plan.bins, nonlinear_excluded_bins=hum_bins(plan)
         )
-        for reference, dut in iter_batches(recording):
+        for reference, dut in iter_batches(recording):  # a stored recording: a batch in memory
             accumulator.add_periods(reference, dut)
+            mean.add(reference, dut)
     else:
         start = recording.settle_periods * recording.period_samples
         reference = recording.reference_v[start:]
@@ -90,43 +122,73 @@ def analyze(
         accumulator.add_line_spectra(*spectra)
     if estimator not in RECORD_ESTIMATORS:
         estimate = accumulator.estimate(estimator)
-    budget, hum_warnings = _budget_with_hum(recording)
+    budget, hum_warnings = _budget_with_hum(recording, mean)
     warnings.extend(hum_warnings)
     warnings.extend(recording.resolution_warnings)  # the lines the run did not state
     if rule == "seed":
         warnings.append(SEED_RULE_WARNING)
-    results = compute_results(
-        estimate,
-        plan,
-        recording.chain,
-        budget,
-        probability=probability,
-        rule=rule,
-        tolerance_percent=tolerance_percent,
-        extra_warnings=warnings,
-        cmc=recording.cmc,
-    )
     if tolerances is None:
         catalogue = recording.truth.attrs.get("dut") if recording.truth is not None else None
         tolerances = tolerances_for(
             str(catalogue) if catalogue else None, plan.reference_frequency_hz, tolerance_percent
         )
-    if mcm_trials is not None:
-        results = with_mcm(results, estimate, budget, probability, mcm_trials)
-    results = with_verdict(results, tolerances, recording.status)
-    return Analysis(estimate, results, recording.status)
+    out = []
+    for chain in chains:
+        results = compute_results(
+            estimate,
+            plan,
+            chain,
+            budget,
+            probability=probability,
+            rule=rule,
+            tolerance_percent=tolerance_percent,
+            extra_warnings=warnings,
+            cmc=recording.cmc,
+        )
+        if mcm_trials is not None:
+            results = with_mcm(results, estimate, budget, probability, mcm_trials)
+        results = with_verdict(results, tolerances, recording.status)
+        out.append(Analysis(estimate, results, recording.status))
+    return out
 
 
-def _record_estimate(recording: Recording) -> Estimate:
+def _record_estimate(recording: Recording, mean: PeriodMean) -> Estimate:
     """The lpm estimate of the analysed periods as one record; with the recorded drive, that
     drive is checked to be periodic over it (a fade inside is refused)."""
     reference, dut = recording.analysis_periods()
+    mean.add(reference, dut)
     drive = None
     if recording.drive_v is not None:
         n = recording.period_samples
         start = recording.settle_periods * n
         drive = recording.drive_v[start : start + reference.size].reshape(reference.shape)
     return record_estimate(reference, dut, recording.plan, drive_blocks=drive).estimate
+
+
+class PeriodMean:
+    """The mean analysed period of both channels, fed batch by batch (V): the periods are added
+    one by one in order, as numpy's mean over the periods axis adds them, so a recording read in
+    batches gives the mean of the whole array exactly (dsp.hum takes it as one period)."""
+
+    def __init__(self) -> None:
+        self.count = 0
+        self._sums: list[np.ndarray] = []
+
+    def add(self, reference: np.ndarray, dut: np.ndarray) -> None:
+        """Add periods, arrays of shape (periods, N)."""
+        for i in range(reference.shape[0]):
+            if not self._sums:
+                self._sums = [np.array(reference[i], dtype=float), np.array(dut[i], dtype=float)]
+            else:
+                self._sums[0] += reference[i]
+                self._sums[1] += dut[i]
+            self.count += 1
+
+    def periods(self) -> tuple[np.ndarray, np.ndarray]:
+        """The mean period of reference and DUT, each shape (1, N)."""
+        if not self.count:
+            raise ValueError("mean period: no period added")
+        return (self._sums[0] / self.count)[None, :], (self._sums[1] / self.count)[None, :]
 
 
 def with_mcm(
@@ -161,7 +223,7 @@ def with_mcm(
     )
 
 
-def _budget_with_hum(recording: Recording) -> tuple[Budget, list[str]]:
+def _budget_with_hum(recording: Recording, mean: PeriodMean) -> tuple[Budget, list[str]]:
     """The recording's budget with the hum this analysis measures, and a warning per line it
     reaches (issue 13 point 3, issue 32 point 3; dsp.hum): "mains hum at X Hz" (magnitude
     and phase) at every line on a mains harmonic, from the leading drive-off periods (drive
@@ -170,7 +232,10 @@ def _budget_with_hum(recording: Recording) -> tuple[Budget, list[str]]:
     driven at X Hz" at every line a tone beside it reaches in the analysed periods. A
     component stored with the recording (measured at run time) is kept only when it is the
     larger: the budget carries the hum the warnings state."""
-    periods = recording.analysis_periods()
+    if mean.count == 0:  # the estimator read the periods otherwise (segments): once more
+        for reference, dut in iter_batches(recording):
+            mean.add(reference, dut)
+    periods = mean.periods()
     hum = mains_hum(recording.plan, periods, _drive_off_periods(recording))
     driven = driven_hum_of_periods(recording.plan, periods)
     components, warnings = [], []
@@ -238,7 +303,7 @@ def reanalysis(
     if settle_periods is not None:
         if settle_periods < 0:
             raise RecordingError(f"--settle-periods: must be >= 0, got {settle_periods}")
-        available = recording.analysis_periods()[0].shape[0]
+        available = recording.analysed_periods
         if available - settle_periods < 2:
             raise RecordingError(
                 f"--settle-periods: dropping {settle_periods} of the {available} analysed "
@@ -266,29 +331,33 @@ def status_warning(status: RunStatus | None) -> str | None:
 RECORDING_NAME = "recording.h5"
 
 
-def read_for_analysis(path: str | Path) -> Recording:
+def read_for_analysis(path: str | Path, *, check: RunCheck | None = None) -> Recording:
     """The HDF5 recording at `path`, a recording file or a run folder (its recording.h5). When
     it belongs to a run folder the folder is verified first (RecordingError naming the file
-    with "hash mismatch" when it was changed) and the run's status joins the recording's."""
+    with "hash mismatch" when it was changed) and the run's status joins the recording's;
+    `check`: that folder's verification already made (app.records.run_folder.inspect_run),
+    not repeated. The channels stay in the file, read a batch of periods at a time."""
     path = Path(path)
     folder, file = (path, path / RECORDING_NAME) if path.is_dir() else (path.parent, path)
     if not is_run_folder(folder):
         if path.is_dir():
             raise RecordingError(f"{path}: a folder but not a run folder (no manifest.json)")
-        return read_recording(file)
-    run_status = _run_status(folder)
+        return read_recording(file, stored=True)
+    run_status = _run_status(folder, check)
     if not file.exists():
         raise RecordingError(f"{file}: the run folder has no recording")
-    recording = read_recording(file)
+    recording = read_recording(file, stored=True)
     return dataclasses.replace(recording, status=_joined(run_status, recording.status))
 
 
-def _run_status(folder: Path) -> RunStatus:
-    """complete, aborted or incomplete (interrupted); RecordingError when it does not verify."""
-    try:
-        check = inspect_run(folder)
-    except ValueError as exc:  # unreadable manifest, not a run folder
-        raise RecordingError(str(exc)) from None
+def _run_status(folder: Path, check: RunCheck | None = None) -> RunStatus:
+    """complete, aborted or incomplete (interrupted); RecordingError when it does not verify
+    (`check`: its verification already made, else made here)."""
+    if check is None or check.path.resolve() != folder.resolve():
+        try:
+            check = inspect_run(folder)
+        except ValueError as exc:  # unreadable manifest, not a run folder
+            raise RecordingError(str(exc)) from None
     if check.state in (FolderState.MODIFIED, FolderState.UNSUPPORTED):
         raise RecordingError("; ".join(check.problems))
     if check.state == FolderState.RUNNING:

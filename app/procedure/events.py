@@ -42,6 +42,9 @@ class Progress:
     elapsed_s: float
     remaining_s: float | None
     message: str = ""
+    # the fraction is how close the type A is to its target (not a share of the periods);
+    # remaining_s then estimates the pace so far, capped by the time bound
+    until_target: bool = False
 
 
 @dataclass(frozen=True)

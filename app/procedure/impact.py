@@ -28,7 +28,7 @@ import numpy as np
 from app.errors import Refusal
 from app.io.hdf5 import Recording
 from app.io.reference_table import ReferenceTableError, read_reference_table
-from app.procedure.analysis import analyze, read_for_analysis
+from app.procedure.analysis import analyze_chains, read_for_analysis
 from app.procedure.verdict import tolerances_for
 from app.records.run_folder import MANIFEST_NAME, inspect_run, sha256_of
 from app.records.run_record import RunRecord
@@ -153,7 +153,7 @@ def reanalyse(task: Task, serial: str, table: CorrectedTable) -> RunImpact:
         record = check.record
         if not uses_reference(record, RunStart.read(folder), serial):
             return RunImpact(task, False)
-        recording = read_for_analysis(folder)
+        recording = read_for_analysis(folder, check=check)  # verified above: not again
         return _compare(task, record, recording, table)
     except (OSError, ValueError) as exc:  # refusals included: named, never a traceback
         return RunImpact(task, True, f"{folder}: {exc}")
@@ -174,9 +174,10 @@ def _compare(
         rule=settings.rule,
         tolerances=tolerances,
     )
-    old = analyze(recording, **options).results
-    new = analyze(dataclasses.replace(recording, chain=table.chain(recording.chain)), **options)
-    return _impact(task, record, old, new.results)
+    old, new = analyze_chains(  # read and estimated once: the chain enters the results only
+        recording, [recording.chain, table.chain(recording.chain)], **options
+    )
+    return _impact(task, record, old.results, new.results)
 
 
 def _impact(task: Task, record: RunRecord, old: Results, new: Results) -> RunImpact:

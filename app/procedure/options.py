@@ -23,6 +23,8 @@ from app.io import quantities
 from app.io.quantities import Quantity
 from app.io.vocabulary import Mode
 from app.lines import parse_frequencies
+from app.procedure.modes import DEFAULT_STEPPED_BLOCK_S
+from app.procedure.stopping import DEFAULT_TIME_BOUND_TEXT
 from app.stand.simulated import CATALOGUE, EXCITERS
 from dsp.estimators import DEFAULT_ESTIMATOR, Estimator, default_estimator, default_periods
 from dsp.multisine import PRESETS
@@ -207,7 +209,7 @@ RUN_OPTIONS: tuple[OptionSpec, ...] = (
     OptionSpec(
         "max_acquisition_s",
         "--max-time",
-        "bound on the acquisition time, e.g. 30s or 2min",
+        f"bound on the acquisition time, e.g. 30s or 2min ({DEFAULT_TIME_BOUND_TEXT})",
         unit="s",
         quantity=quantities.MAX_TIME,
     ),
@@ -218,6 +220,16 @@ RUN_OPTIONS: tuple[OptionSpec, ...] = (
         choices=tuple(e.value for e in Estimator),
     ),
     OptionSpec("mode", "--mode", "excitation", choices=tuple(m.value for m in Mode)),
+    OptionSpec(
+        "stepped_block_s",
+        "--stepped-block",
+        f"stepped sine: the shortest block of one sine fit, in s, e.g. 0.05 or 50ms (default "
+        f"{DEFAULT_STEPPED_BLOCK_S:g} s; rounded up to whole cycles of the line and of the "
+        "mains): shorter blocks cut each line's fixed cost (its fade-in, level loop and settle "
+        "are counted in blocks), longer ones average more noise per fit and per settle test",
+        unit="s",
+        quantity=quantities.STEPPED_BLOCK,
+    ),
     OptionSpec(
         "tolerance_percent",
         "--tolerance",
@@ -281,9 +293,10 @@ class RunOptions:
     exciter: str | None = None
     fade_in_s: float | None = None
     target_type_a: float | None = None  # fraction: 0.002 = 0.2 %
-    max_acquisition_s: float | None = None
+    max_acquisition_s: float | None = None  # None: with a target, the default bound
     estimator: Estimator = DEFAULT_ESTIMATOR
     mode: Mode = Mode.MULTISINE
+    stepped_block_s: float | None = None  # None: DEFAULT_STEPPED_BLOCK_S
     stored_response: bool = True  # start equalisation from the stand's stored response
     seed: int = 0
     paced: bool = False
@@ -305,6 +318,11 @@ class RunOptions:
             except ValueError:
                 words = ", ".join(m.value for m in enum)
                 raise ValueError(f"{name}: {value!r} is not one of {words}") from None
+        if self.stepped_block_s is not None and self.mode != Mode.STEPPED_SINE:
+            raise ValueError(
+                f"--stepped-block: the stepped sine's block; this run is --mode {self.mode} "
+                f"(add --mode {Mode.STEPPED_SINE} or leave it out)"
+            )
 
     @property
     def periods_to_run(self) -> int:

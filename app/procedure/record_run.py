@@ -15,11 +15,9 @@ stopping rule holds (periods, type A target, time bound). Units: V, m/s^2, s.
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 
-from app.procedure.acquisition import with_driven_hum
+from app.procedure.acquisition import report_target_not_met, with_driven_hum
 from app.procedure.background import BackgroundLevels, budget_with_background
 from app.procedure.context import RunContext
 from app.procedure.equalisation import CHECK_LEVEL, play_check_burst, stored_refusal
@@ -285,8 +283,9 @@ class RecordRun:
                 Progress(
                     rule.fraction(count, worst_a),
                     acquired_s,
-                    rule.remaining_s(count, period_s),
+                    rule.remaining_s(count, period_s, acquired_s, worst_a),
                     f"record of {count} period(s), worst type A {100 * worst_a:.3f} %",
+                    until_target=s.target_type_a is not None,
                 )
             )
             stop = rule.decide(count, worst_a, acquired_s, period_s)
@@ -298,15 +297,8 @@ class RecordRun:
                 results = again or results
                 if stop is Stop.TARGET and s.target_type_a is not None:
                     ctx.log(f"type A target {100 * s.target_type_a:g} % reached, {count} period(s)")
-                elif stop is Stop.TIME_BOUND and s.target_type_a is not None:
-                    text = (
-                        f"time bound {s.max_acquisition_s:g} s reached before the type A "
-                        f"target: worst line {100 * worst_a:.3f} % > {100 * s.target_type_a:g} %"
-                    )
-                    ctx.warn(text)
-                    ctx.notes.results = dataclasses.replace(
-                        results, warnings=(*results.warnings, text)
-                    )
+                elif stop is Stop.TIME_BOUND:
+                    report_target_not_met(ctx, rule, results, estimate, acquired_s)
                 return
             blocks.append(self._read(State.ACQUIRING))
             record = self._record(blocks)

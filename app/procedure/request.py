@@ -125,9 +125,10 @@ class RunRequest:
     level_ms2: float = DEFAULT_LEVEL_MS2
     periods: int = 8
     target_type_a: float | None = None
-    max_acquisition_s: float | None = None
+    max_acquisition_s: float | None = None  # None: with a target, the default bound
     estimator: Estimator = DEFAULT_ESTIMATOR
     mode: Mode = Mode.MULTISINE
+    stepped_block_s: float | None = None  # None: app.procedure.modes.DEFAULT_STEPPED_BLOCK_S
     tolerance_percent: float | None = None
     nominal_mv_per_ms2: float | None = None
     seed: int = 0
@@ -212,17 +213,34 @@ class RunRequest:
             )
         )
 
-    def settings(self, backend: Backend) -> RunSettings:
-        """How to run on a stand of `backend` (it decides the DUT mass)."""
+    def time_bound_s(self, period_s: float) -> float | None:
+        """The bound on the acquisition (s) of this run on a plan of `period_s` (s): as given,
+        else with a type A target the default (app.procedure.stopping.default_time_bound_s),
+        else none (the periods bound it)."""
+        if self.max_acquisition_s is not None or self.target_type_a is None:
+            return self.max_acquisition_s
+        from app.procedure.stopping import default_time_bound_s
+
+        return default_time_bound_s(period_s)
+
+    def settings(self, backend: Backend, period_s: float | None = None) -> RunSettings:
+        """How to run on a stand of `backend` (it decides the DUT mass) on a plan of
+        `period_s` (s; the default time bound of a run with a target needs it: None, none)."""
+        from app.procedure.modes import DEFAULT_STEPPED_BLOCK_S
         from app.procedure.settings import RunSettings
 
+        bound = self.max_acquisition_s if period_s is None else self.time_bound_s(period_s)
         return RunSettings(
             dut_mass_g=self.mass_g(backend),
             periods=self.periods,
             target_type_a=self.target_type_a,
-            max_acquisition_s=self.max_acquisition_s,
+            max_acquisition_s=bound,
+            max_acquisition_default=bound is not None and self.max_acquisition_s is None,
             estimator=self.estimator,
             mode=self.mode,
+            stepped_block_s=(
+                DEFAULT_STEPPED_BLOCK_S if self.stepped_block_s is None else self.stepped_block_s
+            ),
             tolerance_percent=self.tolerance_percent,
             dut_nominal_mv_per_ms2=self.nominal_mv_per_ms2,
             fade_in_s=self.fade_in_s,

@@ -90,7 +90,7 @@ def prepare(
         procedure = Procedure(
             stand,
             plan,
-            request.settings(config.backend),
+            request.settings(config.backend, plan.period_s),
             None,
             listener,
             identity=request.identity(config.backend),

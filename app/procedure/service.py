@@ -200,6 +200,7 @@ class RunService:
             max_acquisition_s=options.max_acquisition_s,
             estimator=options.estimator,
             mode=options.mode,
+            stepped_block_s=options.stepped_block_s,
             paced=options.paced,
             faults=options.faults,
             sim_hum=options.sim_hum,

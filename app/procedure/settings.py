@@ -4,11 +4,27 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from app.procedure.modes import MODE_MULTISINE, MODE_STEPPED_SINE, MODES, Mode
+from app.io.quantities import STEPPED_BLOCK
+from app.procedure.modes import (
+    DEFAULT_STEPPED_BLOCK_S,
+    MODE_MULTISINE,
+    MODE_STEPPED_SINE,
+    MODES,
+    Mode,
+)
 from dsp.estimators import ESTIMATORS, RULES, Estimator, UncertaintyRule
 from dsp.spectral import RECORD_ESTIMATORS, check_periods
 
-__all__ = ["MODES", "MODE_MULTISINE", "MODE_STEPPED_SINE", "RunSettings"]
+__all__ = [
+    "DEFAULT_STEPPED_BLOCK_S",
+    "MODES",
+    "MODE_MULTISINE",
+    "MODE_STEPPED_SINE",
+    "STEPPED_BLOCK_RANGE_S",
+    "RunSettings",
+]
+
+STEPPED_BLOCK_RANGE_S = (STEPPED_BLOCK.low, STEPPED_BLOCK.high)  # the blocks a run accepts (s)
 
 
 @dataclass(frozen=True)
@@ -18,6 +34,9 @@ class RunSettings:
     periods: int = 8
     target_type_a: float | None = None
     max_acquisition_s: float | None = None
+    # the bound above is the default of a run with a type A target (app.procedure.stopping),
+    # not one the operator gave: the run's report says so
+    max_acquisition_default: bool = False
     background_periods: int = 2
     fade_out_s: float | None = None  # None: dsp.fades.fade_out_samples (1.5 cycles)
     # lpm: the fade-in before the analysed record; None: app.procedure.preflight.fade_in_for
@@ -34,7 +53,7 @@ class RunSettings:
     dut_nominal_mv_per_ms2: float | None = None
     plausible_ratio: float = 2.0
     mode: Mode = Mode.MULTISINE
-    stepped_block_s: float = 0.25
+    stepped_block_s: float = DEFAULT_STEPPED_BLOCK_S
     dut_mass_g: float | None = None  # its mass class picks the stored stand response
     stored_response_max_age_days: float = 30.0  # an older stored response is not used
     # a stored response off by more than this at its first check is dropped: re-identify
@@ -58,6 +77,9 @@ class RunSettings:
             raise ValueError("target type A: must be a fraction between 0 and 1 (0.002 = 0.2 %)")
         if self.max_acquisition_s is not None and not self.max_acquisition_s > 0:
             raise ValueError("max time: must be > 0 s")
+        low, high = STEPPED_BLOCK_RANGE_S
+        if not low <= self.stepped_block_s <= high:  # NaN too
+            raise ValueError(f"stepped block: must be between {low:g} and {high:g} s")
         if not 0 < self.equalisation_tolerance < 0.5:
             raise ValueError("equalisation tolerance: must be between 0 and 0.5")
         if self.fade_out_s is not None and not 0.001 <= self.fade_out_s <= 60:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import cmath
+import dataclasses
 import math
 from collections.abc import Callable
 from typing import Any
@@ -17,7 +18,7 @@ from app.procedure.events import InputRanges, Progress, State
 from app.procedure.identification import Identification
 from app.procedure.ranging import measured_resolution, with_resolution
 from app.procedure.stand_io import InputRangeOverload, Segment
-from app.procedure.stopping import StoppingRule
+from app.procedure.stopping import StoppingRule, target_not_met
 from app.stand.response import StoredResponse
 from dsp.multisine import Line, Plan
 from dsp.sinefit import integer_cycle_block, sine_fit
@@ -33,7 +34,16 @@ class SteppedSine:
     mains cycles too): identification (first line) or the response extrapolated from the last
     lines, closed-loop level, settle, acquisition by the run's `StoppingRule` (its time bound
     shared out among the lines), fade-out; both channels by three-parameter sine fit. Same
-    estimators and results object as the multisine."""
+    estimators and results object as the multisine.
+
+    From a stored response (warm), the first line plays it at CHECK_LEVEL first and checks it
+    (app.procedure.equalisation); once a line has agreed with its stored response, the next
+    line starts from its own stored response times the ratio the last line measured to its
+    stored one, at the level (its drive checked against the limits through that response, as
+    every drive), and its first level step is its check: a warm line costs a crossfade and
+    two settled blocks, as a cold line extrapolated in one step does, and no identification.
+    A line off by more than the tolerance at that step counts as disagreed, and the next line
+    is checked at CHECK_LEVEL again."""
 
     def __init__(
         self,
@@ -47,6 +57,9 @@ class SteppedSine:
         self.stored = stored  # the stand's stored response per line (this mode), if any
         self.describe = describe  # StandMemory.describe: the run record's note
         self.disagreed = 0  # lines whose stored response failed its check
+        # measured / stored response at the last line that agreed with its stored response
+        # (None: no line has yet; the next line from the store is checked at CHECK_LEVEL)
+        self.agreed: complex | None = None
 
     def run(self) -> None:
         ctx, plan, s, io = self.ctx, self.ctx.plan, self.ctx.settings, self.ctx.io
@@ -65,6 +78,7 @@ class SteppedSine:
         ranges = ctx.notes.ranges
         line_ranges: list[tuple[float, float]] = []  # (reference, DUT) +-V per line
         block_samples: list[int] = []
+        acquired: list[tuple[float, int]] = []  # (s, blocks) each line's acquisition took
         dut_per_reference: float | None = None  # amplitude ratio (V/V) the last line measured
         for k, line in enumerate(plan.lines):
             n = integer_cycle_block(
@@ -96,7 +110,9 @@ class SteppedSine:
                     f"+-{io.ranges['reference']:g} V, DUT +-{io.ranges['dut']:g} V"
                 )
                 try:
-                    equalised, estimate = self._line(k, active, noise, responses, start, rule)
+                    equalised, estimate, took_s = self._line(
+                        k, active, noise, responses, start, rule
+                    )
                 except InputRangeOverload as exc:
                     if ranges is None or overloaded or io.ranges == {**io.ranges, **ranges.top_v}:
                         raise
@@ -134,6 +150,7 @@ class SteppedSine:
                 wanted, start = smaller, complex(equalised.response[0])
             line_ranges.append((io.ranges["reference"], io.ranges["dut"]))
             block_samples.append(n)
+            acquired.append((took_s, estimate.periods))
             if estimate.reference_amplitude_v[0] > 0:
                 dut_per_reference = float(
                     estimate.dut_amplitude_v[0] / estimate.reference_amplitude_v[0]
@@ -175,7 +192,28 @@ class SteppedSine:
         ctx.notes.budget = budget
         if ctx.io.writer is not None:
             ctx.io.writer.set_resolution_warnings(too_few)
+        self._report_target(rule, estimate, acquired)
         ctx.publish(estimate, budget)
+
+    def _report_target(
+        self, rule: StoppingRule, estimate: Estimate, acquired: list[tuple[float, int]]
+    ) -> None:
+        """Lines the per-line time bound stopped above the type A target: the run's report
+        (app.procedure.stopping.TargetNotMet, with the acquisition of the worst line)."""
+        type_a = np.asarray(estimate.relative_type_a, dtype=float)
+        if not np.any(np.isfinite(type_a)):
+            return
+        worst = int(np.nanargmax(type_a))
+        report = target_not_met(
+            rule,
+            default_bound=self.ctx.settings.max_acquisition_default,
+            acquired_s=acquired[worst][0],
+            periods=acquired[worst][1],
+            labels=[line.label for line in self.ctx.plan.lines],
+            type_a=type_a.tolist(),
+        )
+        if report is not None:
+            self.ctx.warn(dataclasses.replace(report, per_line=True).text())
 
     def _line(
         self,
@@ -185,10 +223,10 @@ class SteppedSine:
         responses: list[tuple[float, complex]],
         start: complex | None,
         rule: StoppingRule,
-    ) -> tuple[Equalised, Estimate]:
+    ) -> tuple[Equalised, Estimate, float]:
         """Line k (the one line of `active`) brought to its level and acquired: from `start`
         (a re-ranged line), the stored response, identification (the first line) or the
-        response extrapolated from the last lines."""
+        response extrapolated from the last lines; with the acquisition's excitation (s)."""
         ctx, s, io = self.ctx, self.ctx.settings, self.ctx.io
         line = active.lines[0]
         fs, n = active.sample_rate_hz, active.period_samples
@@ -216,24 +254,44 @@ class SteppedSine:
                 continue
             estimate = accumulator.estimate(s.estimator)
             type_a = float(estimate.relative_type_a[0])
-            if rule.decide(count, type_a, io.excited_s - started, active.period_s):
-                return equalised, estimate
+            took_s = io.excited_s - started
+            if rule.decide(count, type_a, took_s, active.period_s):
+                return equalised, estimate, took_s
 
     def _from_stored(self, k: int, noise: np.ndarray) -> Equalised | None:
         """Line k equalised from the stored response, or None (none, or off by more than
-        `stored_response_tolerance` at its check: the caller identifies or extrapolates)."""
+        `stored_response_tolerance` at its check: the caller identifies or extrapolates).
+        After a line that agreed with its stored response, at the level at once (the class's
+        docstring); else checked at CHECK_LEVEL first."""
         if self.stored is None:
             return None
         ctx = self.ctx
-        equalised = Equalisation(ctx, noise).run(
-            self.stored.response[[k]], give_up_above=ctx.settings.stored_response_tolerance
-        )
+        tolerance = ctx.settings.stored_response_tolerance
+        stored = complex(self.stored.response[k])
+        if self.agreed is not None:  # the stand as stored at the last line: no check burst
+            steps = len(ctx.notes.equalisation)
+            equalised = Equalisation(ctx, noise).run(np.array([stored * self.agreed]))
+            assert equalised is not None  # no give_up_above: always an Equalised
+            first_error = ctx.notes.equalisation[steps]  # the first level step: the check
+            if first_error > tolerance:
+                self.disagreed += 1
+                self.agreed = None
+                ctx.log(
+                    f"stand response: stored one off by {100 * first_error:.1f} % at the "
+                    "first level step: the next line is checked at the reduced level"
+                )
+            else:
+                self.agreed = complex(equalised.response[0]) / stored
+            return equalised
+        equalised = Equalisation(ctx, noise).run(self.stored.response[[k]], give_up_above=tolerance)
         if equalised is None:
             self.disagreed += 1
             ctx.log(
                 f"stand response: stored one off by {100 * ctx.notes.equalisation[-1]:.1f} % "
                 "at its check: this line from identification or the last lines"
             )
+            return None
+        self.agreed = complex(equalised.response[0]) / stored
         return equalised
 
 

@@ -28,7 +28,7 @@ from __future__ import annotations
 import dataclasses
 
 from app.io.vocabulary import RunStatus
-from app.records.warnings import RunWarning, blocking, iso_over_warning
+from app.records.warnings import RunWarning, WarningKind, blocking, iso_over_warning, printed
 from app.stand.dut import Band, Tolerances
 from dsp import conformity
 from dsp import uncertainty as unc
@@ -216,6 +216,12 @@ def assess(
         reasons += [f"blocks PASS ({w.kind.value}): {w.text}" for w in blocked]
         if verdict == PASS:
             verdict = INDETERMINATE
+    if any(w.kind is WarningKind.TYPE_A_TARGET for w in printed(run_warnings(results))):
+        # honest either way: the checks above used U with the type A measured, not the target
+        reasons.append(
+            "type A target not met (the warning names the lines): each line is stated with "
+            "the type A measured and the checks above use the U it gives"
+        )
     if status not in (None, RunStatus.COMPLETE):
         reasons.append(f"the recording is {status}: results for review only")
         if verdict == PASS:

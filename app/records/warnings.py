@@ -55,6 +55,7 @@ class WarningKind(StrEnum):
     ADC_RESOLUTION = "ADC resolution"
     GUM_NOT_VALIDATED = "GUM not validated"
     PLAN = "plan"
+    TYPE_A_TARGET = "type A target not met"
     OTHER = "other"
 
 
@@ -178,6 +179,12 @@ POLICY: dict[WarningKind, Rule] = {
         Policy.PRINTED,
         "a property of the frequency plan (snapped line, harmonic or mains bin)",
         r": snapped to |lands on its bin|mains harmonic \(",
+    ),
+    WarningKind.TYPE_A_TARGET: Rule(
+        Policy.PRINTED,
+        "the time bound ended the run before the operator's type A target: each line is stated "
+        "with the type A measured, which its U carries, and conformity is decided with that U",
+        r"^type A target .* not met: ",
     ),
     WarningKind.OTHER: Rule(Policy.PRINTED, "not classified: printed", ""),
 }

@@ -79,7 +79,7 @@ def write_report(
     }
 
     def write_pdf(path: Path) -> None:
-        from app.certificate.pdf import embed
+        from app.certificate.attach import embed
 
         _pdf(path, cases, software, env, when)
         embed(path, REPORT_ATTACHMENT, json.dumps(record, indent=2).encode("utf-8"))

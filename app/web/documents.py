@@ -27,6 +27,38 @@ class CheckLine:
     name: str
     ok: bool
     detail: str
+    shown: str = ""  # the outcome's word when not "pass"/"FAIL" ("not signed": the lab's policy)
+
+
+UNSIGNED_DETAIL = "the PDF is not signed: nothing proves who issued it"  # accelcal verify's
+NOT_SIGNED_BY_POLICY = (
+    "not signed, by the laboratory's policy (the web view names no laboratory CA: --trust); the "
+    "other checks prove the document is the one in the register"
+)
+
+
+def _policy(line: CheckLine, trust: Path | None) -> CheckLine:
+    """A lab that does not sign (no CA given to the web view) sees its unsigned certificates
+    as "not signed, by the laboratory's policy", not as a failure; with a CA an unsigned PDF
+    stays a failure."""
+    unsigned = not line.ok and line.name == "signature" and line.detail == UNSIGNED_DETAIL
+    if trust is None and unsigned:
+        return CheckLine(line.name, True, NOT_SIGNED_BY_POLICY, shown="not signed")
+    return line
+
+
+def printed_verification_address(number: str, run_folder: str) -> str | None:
+    """The verification address page 1 of certificate `number` printed under its QR code (the
+    run's [laboratory] verify_url, as the PDF was drawn: app.certificate.pdf.verification_qr);
+    None when it printed none. DocumentError when the run cannot be read."""
+    from app.certificate.load import load_stored_run
+    from app.certificate.qr import verification_address
+
+    try:
+        run = load_stored_run(Path(run_folder))
+    except (ValueError, OSError) as exc:
+        raise DocumentError(f"run folder {run_folder}: {exc}") from None
+    return verification_address(run, number)
 
 
 def certificate_pdf(number: str, file: str | None, sha256: str | None) -> Path:
@@ -89,7 +121,7 @@ def verify_certificate(
     from app.certificate.verify import verify
 
     report = verify(pdf, Path(run_folder), trust)
-    lines = [CheckLine(name, ok, detail) for name, ok, detail in report.checks]
+    lines = [_policy(CheckLine(name, ok, detail), trust) for name, ok, detail in report.checks]
     try:
         found = items_from_dcc(parse_inert(embedded_dcc(pdf))).number
     except (DocumentError, ValueError) as exc:

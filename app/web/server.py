@@ -41,6 +41,7 @@ from app.web.documents import (
     certificate_dcc,
     certificate_pdf,
     certificate_pdf_bytes,
+    printed_verification_address,
     verify_certificate,
 )
 from app.web.guard import (
@@ -254,16 +255,24 @@ def create_app(store: Store, config: WebConfig) -> Starlette:
         except DocumentError as exc:
             problem = str(exc)
         address, qr = _qr(request, config, row.number, row.manifest_sha256)
+        try:  # the QR code page 1 carries, if any: spoken of only where one was printed
+            printed = printed_verification_address(row.number, row.run_folder)
+            qr_known = True
+        except DocumentError:
+            printed, qr_known = None, False
         return page(
             request,
             "certificate.html",
             row=row,
             checks=checks,
             verified=bool(checks) and all(c.ok for c in checks),
+            unsigned=any(c.shown == "not signed" for c in checks),
             problem=problem,
             replaced_by=store.replaced_by(row.number),
             address=address,
-            qr=qr,
+            printed=printed,
+            qr_known=qr_known,
+            qr=qr_svg(printed) if printed else qr,
         )
 
     def certificate_file(request: Request) -> Response:

@@ -50,6 +50,15 @@ class Status:
 
     word: str
     text: str
+    item: str = ""  # the public page's identity of the item: its model and masked serial
+
+
+def masked_serial(serial: str) -> str:
+    """A serial as the public page shows it: its last third (1-4 characters) kept, the rest
+    masked, so that the holder of the certificate recognises the item and a stranger who
+    guessed an address learns no whole serial ("SN-WEB-1" -> "•••••B-1")."""
+    keep = min(4, max(1, -(-len(serial) // 3)))  # a third, rounded up
+    return "•" * (len(serial) - keep) + serial[-keep:]
 
 
 def _why(review: Review) -> str:
@@ -268,8 +277,17 @@ class Store:
         exist)."""
         with self._session() as s:
             row = s.execute(
-                select(Certificate.id, Certificate.state, Run.manifest_sha256)
+                select(
+                    Certificate.id,
+                    Certificate.state,
+                    Run.manifest_sha256,
+                    Sensor.serial,
+                    SensorModel.maker,
+                    SensorModel.model,
+                )
                 .join(Run, Certificate.run_id == Run.id)
+                .join(Sensor, Certificate.sensor_id == Sensor.id)
+                .join(SensorModel, Sensor.model_id == SensorModel.id)
                 .where(Certificate.number == number)
             ).first()
             reviews = self._reviews(s, [row[0]]) if row is not None else {}
@@ -278,7 +296,9 @@ class Store:
             return None
         if row is None:
             return None
-        return certificate_status(row[1], reviews.get(row[0], ()))
+        status = certificate_status(row[1], reviews.get(row[0], ()))
+        item = f"{row[4]} {row[5]}, serial {masked_serial(row[3])}"
+        return Status(status.word, status.text, item)
 
     def due(self, *, today: date, days: int) -> list[DueItem]:
         """Sensors and reference standards due by today + days (Lab.due)."""

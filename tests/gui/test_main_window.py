@@ -224,7 +224,9 @@ def test_stop_fades_out_to_0_v_and_keeps_an_aborted_run(qtbot, tmp_path):
     assert "coherence" in w.run_tab.coherence.text()
 
 
-def test_a_real_stand_file_loads_and_start_says_what_is_missing(window, monkeypatch, tmp_path):
+def test_a_real_stand_file_loads_and_start_says_what_is_missing(
+    window, qtbot, monkeypatch, tmp_path
+):
     from pathlib import Path
 
     from app.gui import main_window
@@ -234,9 +236,12 @@ def test_a_real_stand_file_loads_and_start_says_what_is_missing(window, monkeypa
     monkeypatch.setattr(main_window.QMessageBox, "warning", lambda *a: shown.append(a[2]))
     assert window.setup_tab.load_stand(example)
     assert "nidaqmx" in window.setup_tab.stand_label.text()
-    window.start_run()
+    window.start_run()  # the stand opens on the run worker's thread: refused there
     assert window.run_tab.procedure is None  # nothing started, nothing moved
+    qtbot.waitUntil(lambda: bool(shown) and window.run_tab.worker is None, timeout=20_000)
     assert "NI-DAQmx is not installed" in shown[-1]
+    assert "NI-DAQmx is not installed" in window.run_tab.messages.text()
+    assert window.setup_tab.start_button.isEnabled()  # Start again, once the driver is in
     bad = tmp_path / "bad.toml"
     bad.write_text(example.read_text().replace('backend = "nidaqmx"', 'backend = "x"'))
     assert not window.setup_tab.load_stand(bad)

@@ -225,13 +225,13 @@ def test_a_long_abort_message_never_widens_the_window(window, qtbot):
 
 def test_the_worker_never_draws_and_copies_what_it_queues(window, qtbot, monkeypatch):
     drawn_on: set[str] = set()
-    original = plots.LivePlots.draw_period
+    original = plots.LivePlots.show_period  # the tab sets the worker's views through it
 
     def spy(self, *args):
         drawn_on.add(threading.current_thread().name)
         return original(self, *args)
 
-    monkeypatch.setattr(plots.LivePlots, "draw_period", spy)
+    monkeypatch.setattr(plots.LivePlots, "show_period", spy)
     assert run(window, qtbot, "SN-T").status == "complete"
     assert drawn_on == {threading.main_thread().name}
     samples = np.ones((2, 8))

@@ -74,6 +74,7 @@ INPUTS: dict[str, Callable[[Path], Path]] = {
 }
 
 CSV_PLAN = ["--preset", "piezo", "--reference-sensitivity", "1"]
+STEPPED = ["run", "--mode", "stepped-sine"]  # the run whose block --stepped-block sets
 
 # (id, argv, text the refusal must contain)
 CASES: list[tuple[str, list[str], str]] = [
@@ -106,6 +107,10 @@ CASES: list[tuple[str, list[str], str]] = [
     ("run-target-ua-150-bare", ["run", "--target-ua", "150"], "--target-ua: must be in (0, 100]"),
     ("run-max-time-nan", ["run", "--max-time", "nan"], "--max-time: must be a finite number"),
     ("run-max-time-48h", ["run", "--max-time", "48h"], "--max-time: must be in (0, 24 h]"),
+    ("run-stepped-block-nan", [*STEPPED, "--stepped-block", "nan"], "--stepped-block: must be a"),
+    ("run-stepped-block-0", [*STEPPED, "--stepped-block", "0"], "--stepped-block: must be in"),
+    ("run-stepped-block-1min", [*STEPPED, "--stepped-block", "1min"], "must be in [0.01, 10] s"),
+    ("run-stepped-block-multisine", ["run", "--stepped-block", "0.1"], "--stepped-block: the"),
     ("run-levels-empty-item", ["run", "--levels", "3,,5"], "--levels: '3,,5' has an empty item"),
     ("run-levels-inf", ["run", "--levels", "3,inf"], "--levels: 'inf': must be a finite"),
     ("run-levels-negative", ["run", "--levels", "3,-4"], "--levels: '-4': must be in (0, 1000]"),

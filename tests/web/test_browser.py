@@ -127,6 +127,10 @@ def test_login_search_certificate_and_the_qr_code_to_the_public_status(
         .get_attribute("href")
         .endswith(f"/certificates/{new}/certificate.pdf")
     )
+    # the test runs' stand names no verify_url: no QR code was printed, and the page says so
+    assert browser.find_element(By.ID, "no-qr").text.startswith(
+        "No QR code was printed on this certificate"
+    )
     picture = browser.find_element(By.ID, "qr").screenshot_as_png  # as the browser drew it
     (code,) = zxingcpp.read_barcodes(Image.open(io.BytesIO(picture)))
     address = code.text
@@ -144,6 +148,7 @@ def test_login_search_certificate_and_the_qr_code_to_the_public_status(
     assert status.text == "valid", browser.page_source[:2000]
     assert browser.find_elements(By.ID, "logout") == []
     assert "SN-WEB-1" not in browser.page_source and "ACME" not in browser.page_source
+    assert browser.find_element(By.ID, "item").text == "Item: Sim P-100, serial •••••B-1"
 
     browser.get(address.replace(f"/verify/{new}?", f"/verify/{old}?"))  # code of another
     assert browser.find_element(By.ID, "status").text == "not found"

@@ -297,3 +297,82 @@ def test_the_session_cookie_is_http_only_and_same_site(client: TestClient) -> No
     assert cookie.startswith("accelcal_session=")
     assert "httponly" in cookie.lower() and "samesite=lax" in cookie.lower()
     assert "max-age=28800" in cookie.lower()  # 8 h
+
+
+# --- issue 35 point 5: what the pages say to a lab that does not sign, and to a customer ------
+
+
+def test_an_unsigned_labs_page_says_not_signed_by_its_policy(store, records: Records) -> None:
+    """Without a lab CA (a lab that does not sign) an unsigned certificate is "not signed, by
+    the laboratory's policy", every other check still shown; with a CA it stays a failure."""
+    from app.web.server import WebConfig, create_app
+
+    def signed_in(config: WebConfig) -> TestClient:
+        client = TestClient(create_app(store, config))
+        assert _login(client).status_code == 303
+        return client
+
+    unsigned_lab = signed_in(
+        WebConfig(secret_key="k" * 40, verify_url="https://lab.example/verify")
+    )
+    old = records.numbers[0]
+    page = unsigned_lab.get(f"/certificates/{old}").text
+    assert "Every check passed; not signed, by the laboratory's policy." in page
+    assert '<td class="note">not signed</td><td>signature</td>' in page
+    assert "FAIL" not in page and "Some checks failed" not in page
+    for name in ("embedded DCC valid", "run manifest verified", "DCC numbers equal the run"):
+        assert re.search(rf'<td class="ok">pass</td><td>{name}', page), name
+    signing_lab = signed_in(WebConfig(secret_key="k" * 40, verify_url="https://lab.example/verify",
+                                      trust=records.lab_certificate))  # fmt: skip
+    page = signing_lab.get(f"/certificates/{old}").text
+    assert '<td class="bad">FAIL</td><td>signature</td><td>the PDF is not signed' in page
+    assert "Some checks failed." in page
+
+
+def test_the_page_speaks_of_a_qr_code_only_where_one_was_printed(
+    staff: TestClient, records: Records
+) -> None:
+    """The test runs' stand names no verify_url, so their certificates carry no QR code: the
+    page says so and gives the public address (with its code for staff to pass on)."""
+    new = records.numbers[1]
+    page = staff.get(f"/certificates/{new}").text
+    assert "The QR code on the certificate leads to" not in page
+    assert '<p id="no-qr">No QR code was printed on this certificate' in page
+    assert f"https://lab.example/verify/{new}?code=" in page
+
+
+def test_the_page_names_the_address_page_1_printed(records: Records, tmp_path: Path) -> None:
+    """Where a QR code was printed, the page shows the address the PDF was drawn with (the
+    run's verify_url), not the server's own."""
+    import shutil
+
+    from app.web.documents import DocumentError, printed_verification_address
+
+    run = records.runs[1]
+    assert printed_verification_address(records.numbers[1], str(run)) is None
+    copy = tmp_path / run.name
+    shutil.copytree(run, copy)
+    (copy / "results.json").chmod(0o644)
+    (copy / "results.json").write_text("{}")  # the run can no longer be read
+    with pytest.raises(DocumentError):
+        printed_verification_address(records.numbers[1], str(copy))
+
+
+@pytest.mark.parametrize(
+    ("serial", "shown"),
+    [("SN-WEB-1", "•••••B-1"), ("A1", "•1"), ("X", "X"), ("1234567890123456", "••••••••••••3456")],
+)
+def test_a_serial_is_masked_to_its_last_third_at_most_four(serial: str, shown: str) -> None:
+    from app.web.store import masked_serial
+
+    assert masked_serial(serial) == shown
+
+
+def test_the_public_page_names_the_item_by_model_and_masked_serial(
+    web_app, records: Records
+) -> None:
+    number = records.numbers[1]
+    code = _code(number, _manifest(records, RUN_OF_CERTIFICATE[1]))
+    page = TestClient(web_app).get(f"/verify/{number}", params={"code": code}).text
+    assert '<p id="item">Item: Sim P-100, serial •••••B-1</p>' in page
+    assert SERIAL not in page

@@ -259,6 +259,11 @@ class CertificateRegister(SensorRecords):
                 )
             )
 
+    def certificate(self, number: str) -> Certificate | None:
+        """The register's row of certificate `number` (any state), None when there is none."""
+        with self.session() as s:
+            return s.scalar(select(Certificate).where(Certificate.number == number))
+
     def issued_for_run(self, run_id: str) -> Certificate | None:
         """The certificate in force (state issued) of the run `run_id`, if any."""
         with self.session() as s:

@@ -80,6 +80,9 @@ def test_every_mandatory_item_and_the_stored_numbers(complete_run, tmp_path):
         "reference standard calibration",
     ]:
         assert item in text, item
+    words = " ".join(text.split())  # the column says what it is: the calibration's U (issue 35)
+    assert "U vs. ISO 16063-21 limit" in words
+    assert "a statement about the uncertainty of the calibration, not about the sensor" in words
     pages = len(PdfReader(pdf).pages)
     for page in range(1, pages + 1):
         assert f"page {page} of {pages}" in text
