@@ -212,7 +212,6 @@ class SetupTab(QWidget):
         self.estimator.currentTextChanged.connect(self._estimator_changed)
         self.mode = QComboBox()
         self.mode.addItems(list(option("mode").choices))
-        self.mode.currentTextChanged.connect(self._mode_changed)
         self.stepped_block = QuantityEdit(
             quantities.STEPPED_BLOCK,
             "stepped block",
@@ -296,11 +295,6 @@ class SetupTab(QWidget):
             stepped_block_s=self.stepped_block.value(),
         )
 
-    def _mode_changed(self, mode: str) -> None:
-        """A stepped sine has no lpm (it analyses a multisine record): its default, periodic."""
-        if self.estimator.currentText() == Estimator.LPM and default_estimator(mode) != "lpm":
-            self.estimator.setCurrentText(default_estimator(mode))
-
     def _estimator_changed(self, estimator: str) -> None:
         """The periods follow the estimator's default (1 with lpm, 8 with the averaging
         estimators) while they hold the previous estimator's default; a count typed stays."""
@@ -349,8 +343,11 @@ class SetupTab(QWidget):
         return [e for e in (f.error() for f in fields) if e is not None]
 
     def _mode_changed(self, mode: str) -> None:
-        """The stepped sine's block is a field of that mode only."""
+        """The stepped sine's block is a field of that mode only; a stepped sine has no lpm
+        (it analyses a multisine record): the estimator then goes to that mode's default."""
         self.stepped_block.setEnabled(mode == Mode.STEPPED_SINE)
+        if self.estimator.currentText() == Estimator.LPM and default_estimator(mode) != "lpm":
+            self.estimator.setCurrentText(default_estimator(mode))
 
     def custom_lines(self) -> tuple[float, ...] | None:
         """The typed line list (Hz), None for the preset's; ValueError says what is wrong."""
