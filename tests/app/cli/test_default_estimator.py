@@ -112,3 +112,18 @@ def test_the_estimator_analyze_uses_is_the_one_the_recording_names(tmp_path):
     (copy / "config.json").write_text(json.dumps(config))
     assert recorded_estimator(args(copy)) == Estimator.PERIODIC
     assert recorded_estimator(args(tmp_path / "recording.csv")) == Estimator.PERIODIC
+
+
+@pytest.mark.slow  # reason: one simulated run through the CLI
+def test_a_stored_lpm_run_analyses_as_lpm_to_the_same_numbers(tmp_path, capsys):
+    """A new run (lpm, one period) re-analysed by `accelcal analyze <run folder>` without
+    --estimator: the lpm, to the numbers the run stored (its recorded drive, the ADC's
+    quantised loopback, is not taken for a fade: dsp.lpm's drive check)."""
+    out = tmp_path / "runs"
+    run = _json_run(capsys, out)
+    assert main(["analyze", str(out / run["run_id"]), "--json"]) == 0
+    analysed = json.loads(capsys.readouterr().out)
+    assert analysed["estimator"] == "lpm"
+    stated = [line["sensitivity_mv_per_ms2"] for line in run["results"]["lines"]]
+    again = [line["sensitivity_mv_per_ms2"] for line in analysed["lines"]]
+    assert again == pytest.approx(stated, rel=1e-9)
