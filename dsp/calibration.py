@@ -34,6 +34,7 @@ from dsp.errors import InputRefused
 from dsp.multisine import Plan
 from dsp.not_stated import not_stated_line as not_stated_line  # re-exported for its callers
 from dsp.not_stated import read_back_not_stated, unresolved_lines
+from dsp.quantiles import median  # np.median imports numpy.ma (issue 34)
 from dsp.resonance import search_response
 from dsp.result_values import _db, _fmt, _json_safe, _nan, _wrap_deg
 from dsp.spectral import MIN_PERIODS, Estimate
@@ -312,7 +313,7 @@ def compute_results(
         warnings.extend(nonlinear.warnings(estimate.nonlinear, labels, estimate.relative_type_a))
     for channel, snr in (("reference", estimate.reference_snr_db), ("DUT", estimate.dut_snr_db)):
         alive = snr > DEAD_SNR_DB
-        if not np.median(snr) > DEAD_SNR_DB:  # hum alone can light up a few lines
+        if not median(snr) > DEAD_SNR_DB:  # hum alone can light up a few lines
             raise AnalysisError(
                 f"{channel} channel: no signal at most lines ({int(alive.sum())} of "
                 f"{alive.size} above {DEAD_SNR_DB:g} dB SNR); check the cable, the IEPE supply "

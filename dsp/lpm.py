@@ -62,7 +62,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy import special  # the quantile functions themselves: scipy.stats costs ~1 s to import
 
 DRIVE_FLOOR_FACTOR = 10.0  # a recorded drive's leak: judged above this times its noise floor
 NONLINEAR_FALSE_ALARM = 0.01  # probability per line that noise alone is taken for nonlinearity
@@ -73,6 +72,25 @@ NOISE_AND_NONLINEAR = "noise+nonlinear"  # P >= 2, nonlinear distortion found an
 
 class LpmError(ValueError):
     """Input the LPM cannot analyse honestly; the message names the field or line."""
+
+
+def _has_duplicates(values: np.ndarray) -> bool:
+    """Whether two of `values` are equal (sorted neighbours; np.unique would import numpy.ma,
+    about 40 ms of a run's start-up with numpy 2.4, issue 34)."""
+    ordered = np.sort(np.ravel(values))
+    return bool(np.any(ordered[1:] == ordered[:-1]))
+
+
+def _f_quantile(d1: int, d2: np.ndarray, p: float) -> np.ndarray:
+    """The F(d1, d2) quantiles at `p` (d2 per line): in closed form for d1 = 2 (two periods:
+    the CDF is 1 - (1 + 2x/d2)^(-d2/2)), else from scipy.special (imported here: it costs
+    twice `import numpy`, issue 34)."""
+    if d1 == 2:
+        d2 = np.asarray(d2, dtype=float)
+        return 0.5 * d2 * np.expm1(-2.0 / d2 * np.log1p(-p))
+    from scipy import special
+
+    return np.asarray(special.fdtri(d1, d2, p), dtype=float)
 
 
 @dataclass(frozen=True)
@@ -286,7 +304,7 @@ def estimate(
     record_bins = n // 2 + 1
     if lines.ndim != 1 or lines.size == 0 or lines.min() < 1 or lines.max() >= record_bins - 1:
         raise LpmError(f"line bins: need at least one, within 1..{record_bins - 2}")
-    if np.unique(lines).size != lines.size:
+    if _has_duplicates(lines):
         raise LpmError("line bins: two lines on one bin")
     windows = window_offsets(lines, record_bins, settings, excluded_bins)
     layout = []
@@ -371,7 +389,7 @@ def _combine(
         relative = responses / response - 1.0
         between = np.sum(np.abs(relative - relative.mean(axis=0)) ** 2, axis=0) / (p_count - 1)
         nonlinear = np.maximum(between - noise, 0.0)
-        threshold = special.fdtri(2 * (p_count - 1), noise_dof, 1.0 - NONLINEAR_FALSE_ALARM)
+        threshold = _f_quantile(2 * (p_count - 1), noise_dof, 1.0 - NONLINEAR_FALSE_ALARM)
         found = between / noise > threshold
         kinds = tuple(NOISE_AND_NONLINEAR if f else NOISE for f in found)
         variance_of_mean = np.where(found, between, noise) / p_count
@@ -521,7 +539,7 @@ def design_grid(
         resolution = sample_rate_hz / n
         bins = np.rint(nominal / resolution).astype(np.int64)
         actual = bins * resolution
-        if bins.min() < 1 or np.unique(bins).size != bins.size:
+        if bins.min() < 1 or _has_duplicates(bins):
             continue
         if np.any(np.abs(actual - nominal) > tolerance * nominal + 1e-9 * nominal):
             continue

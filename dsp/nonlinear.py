@@ -48,7 +48,8 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import special  # not scipy.stats: ~1 s to import (dsp.spectral imports this)
+
+from dsp.quantiles import chi2_sf_even  # not scipy.special (issue 34): 2 and 2 orders
 
 NONLINEAR_FALSE_ALARM = 0.01  # probability per record that noise alone is taken for distortion
 MODEL_FALSE_ALARM = 0.01  # probability per record that a right model is called inadequate
@@ -159,7 +160,7 @@ def estimate(
     meat = real_design.T @ (real_design * (error**2)[:, None])
     covariance = gram_inv @ meat @ gram_inv
     wald = float(theta @ np.linalg.pinv(covariance) @ theta)
-    p_value = float(special.chdtrc(len(ORDERS), wald))
+    p_value = chi2_sf_even(len(ORDERS), wald)
     distortion = sum(t * x**order for t, order in zip(theta, ORDERS, strict=True))
     fraction = float(np.sqrt(np.mean(np.asarray(distortion) ** 2)))
     found = p_value < NONLINEAR_FALSE_ALARM and fraction > MIN_FRACTION
@@ -203,7 +204,7 @@ def _model_test(
     extra = slice(len(ORDERS), len(ALL_ORDERS))
     added = theta[extra]
     wald = float(added @ np.linalg.pinv(covariance[extra, extra]) @ added)
-    return float(special.chdtrc(len(CHECK_ORDERS), wald))
+    return chi2_sf_even(len(CHECK_ORDERS), wald)
 
 
 def cleaned(

@@ -48,12 +48,12 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import special  # the quantile functions themselves: scipy.stats costs ~1 s to import
 
 from dsp import nonlinear
 from dsp.estimators import DEFAULT_ESTIMATOR as DEFAULT_ESTIMATOR
 from dsp.estimators import ESTIMATORS as ESTIMATORS
 from dsp.nonlinear import NonlinearEstimate
+from dsp.quantiles import f2_quantile  # not scipy.special (issue 34): F(2, n) in closed form
 
 HARMONICS = (2, 3, 4, 5)
 FLOOR_HALF_WIDTH_BINS = 12
@@ -82,7 +82,7 @@ def detection_threshold(periods: int, tests: int, false_alarm: float = DISTORTIO
     """Threshold on T = |mean X|^2 / (s2_X / L) at one bin: the F(2, 2 (L - 1)) quantile at
     alpha_bin = 1 - (1 - false_alarm)^(1/tests) (Sidak over `tests` bins; module docstring)."""
     alpha = -np.expm1(np.log1p(-false_alarm) / max(int(tests), 1))
-    return float(special.fdtri(2, 2 * (periods - 1), 1.0 - alpha))
+    return f2_quantile(2 * (periods - 1), 1.0 - alpha)
 
 
 def period_spectrum(blocks: np.ndarray) -> np.ndarray:

@@ -26,6 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from dsp.quantiles import median  # np.median imports numpy.ma (issue 34)
+
 DETECT_POWER = 16.0  # a free bin this far over the noise power holds a tone
 ON_LINE_BINS = 0.2  # a tone nearer a line than this (bins) is not separable from it
 FLOOR_REACH = 32  # free bins each side whose median gives the local noise power
@@ -100,7 +102,7 @@ def noise_power(spectrum: np.ndarray, free: np.ndarray, reach: int = FLOOR_REACH
     step = max(1, reach // 2)
     anchors = range(0, index.size, step)
     medians = np.array(
-        [np.median(power[max(0, a - reach) : a + reach + 1]) / math.log(2) for a in anchors]
+        [median(power[max(0, a - reach) : a + reach + 1]) / math.log(2) for a in anchors]
     )
     slot = np.clip(np.rint(positions / step).astype(int), 0, len(anchors) - 1)
     out[:] = medians[slot]

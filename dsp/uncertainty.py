@@ -20,10 +20,10 @@ from enum import StrEnum
 from typing import Any
 
 import numpy as np
-from scipy import special  # the quantile functions themselves: scipy.stats costs ~1 s to import
 
 from dsp.annex_a import ComponentKind
 from dsp.estimators import RULES
+from dsp.quantiles import normal_quantile, t_quantile  # not scipy.special: issue 34
 
 __all__ = [
     "Budget",
@@ -415,8 +415,8 @@ def coverage_factor(dof: float, probability: float = 0.9545) -> float:
         raise ValueError(f"coverage_factor: dof must be > 0 (inf allowed), got {dof!r}")
     q = (1.0 + p) / 2.0
     if math.isinf(nu):
-        return float(special.ndtri(q))
-    return float(special.stdtrit(nu, q))
+        return normal_quantile(q)
+    return t_quantile(nu, q)
 
 
 def seed_coverage_factor(periods: int) -> float:

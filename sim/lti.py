@@ -15,14 +15,20 @@ signal into blocks of any size gives the same output.
 from __future__ import annotations
 
 import functools
+import importlib.machinery
+import importlib.util
+import sys
 from collections.abc import Callable
 from dataclasses import dataclass
-from types import ModuleType
+from pathlib import Path
 
 import numpy as np
 
-# scipy.signal and scipy.linalg are imported where used: building a model needs neither, and
-# `import sim.models` stays light for the command line's start-up.
+# Neither scipy.signal nor scipy.linalg is imported on a run's path: scipy.signal costs about
+# 1.5 s (it imports scipy.stats, interpolate, optimize), scipy.linalg twice `import numpy`,
+# against a warm run's whole budget of 1.5 s (issue 34). `tf2ss` below is scipy's,
+# transcribed; `expm` Higham's scaling and squaring; the sections are filtered by the compiled
+# kernel behind scipy.signal.sosfilt, loaded on its own.
 
 Stage = tuple[np.ndarray, np.ndarray]  # (num, den) polynomials in s, highest power first
 _MIX_CHUNK = 2048  # samples per matrix product when mixing the sections into the outputs
@@ -78,7 +84,7 @@ class Model:
         c = np.zeros((1, 0))
         d = np.array([[self.gain]])
         for num, den in self.stages:
-            a2, b2, c2, d2 = _signal().tf2ss(num, den)
+            a2, b2, c2, d2 = tf2ss(num, den)
             n1, n2 = a.shape[0], a2.shape[0]
             a_new = np.zeros((n1 + n2, n1 + n2))
             a_new[:n1, :n1] = a
@@ -91,22 +97,79 @@ class Model:
         return a, b, c, d
 
 
-def _signal() -> ModuleType:
-    """scipy.signal, imported on first use."""
-    import scipy.signal
+def tf2ss(
+    num: np.ndarray, den: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(A, B, C, D) of one stage in controller canonical form: scipy.signal.tf2ss for a 1-D
+    numerator, operation for operation (the same floats: tests/sim/test_lti_exact.py), without
+    importing scipy.signal."""
+    den = np.atleast_1d(np.asarray(den))
+    num = np.atleast_1d(np.asarray(num))
+    if den.ndim != 1 or num.ndim != 1:
+        raise ValueError("tf2ss: numerator and denominator must be 1-D polynomials")
+    if np.all(den == 0):
+        raise ValueError("tf2ss: the denominator is zero")
+    den = den[np.argmax(den != 0) :]  # leading zeros trimmed, as scipy's normalize does
+    num2, den = num[None, :] / den[0], den / den[0]
+    leading = 0
+    while leading < num2.shape[1] - 1 and np.all(np.abs(num2[:, leading]) <= 1e-14):
+        leading += 1  # scipy warns (BadCoefficients) and trims these too
+    num2 = num2[:, leading:]
+    m, k = num2.shape[1], len(den)
+    if m > k:
+        raise ValueError("tf2ss: improper transfer function (numerator longer than denominator)")
+    num2 = np.hstack((np.zeros((1, k - m), dtype=num2.dtype), num2))
+    d = np.atleast_2d(num2[:, 0])
+    if k == 1:
+        return np.zeros((1, 1)), np.zeros((1, 1)), np.zeros((1, 1)), d.reshape((1, 1))
+    a = np.r_[-np.array([den[1:]]), np.eye(k - 2, k - 1)]
+    b = np.eye(k - 1, 1)
+    c = num2[:, 1:] - np.outer(num2[:, 0], den[1:])
+    return a, b, c, d.reshape((1, 1))
 
-    return scipy.signal
+
+_KERNEL_MODULE = "scipy.signal._sosfilt"
 
 
 @functools.cache
 def _sosfilt_kernel() -> Callable[[np.ndarray, np.ndarray, np.ndarray], None] | None:
-    """The cython kernel behind scipy.signal.sosfilt (in place, without its copies), or None
-    on a scipy that lays it out otherwise."""
-    try:
-        from scipy.signal._sosfilt import _sosfilt
-    except ImportError:  # pragma: no cover - another scipy layout
+    """The compiled kernel behind scipy.signal.sosfilt (in place, without its copies), or None
+    on a scipy that lays it out otherwise.
+
+    Its extension module is loaded from scipy's folder under its own name, without running
+    scipy/signal/__init__.py (which imports scipy.stats and more: about 1.5 s); it is entered
+    in sys.modules, so a later `import scipy.signal` finds and reuses it."""
+    loaded: object | None = sys.modules.get(_KERNEL_MODULE)
+    if loaded is None:
+        loaded = _load_kernel_module()
+    kernel = getattr(loaded, "_sosfilt", None) if loaded is not None else None
+    return kernel if callable(kernel) else None
+
+
+def _load_kernel_module() -> object | None:
+    """scipy's _sosfilt extension, loaded by file (None: not where this scipy version puts it)."""
+    scipy_spec = importlib.util.find_spec("scipy")
+    folders = scipy_spec.submodule_search_locations if scipy_spec is not None else None
+    if not folders:  # pragma: no cover - no scipy
         return None
-    return _sosfilt
+    for suffix in importlib.machinery.EXTENSION_SUFFIXES:
+        path = Path(folders[0]) / "signal" / f"_sosfilt{suffix}"
+        if path.is_file():
+            break
+    else:  # pragma: no cover - another scipy layout
+        return None
+    loader = importlib.machinery.ExtensionFileLoader(_KERNEL_MODULE, str(path))
+    spec = importlib.util.spec_from_file_location(_KERNEL_MODULE, path, loader=loader)
+    if spec is None:  # pragma: no cover
+        return None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[_KERNEL_MODULE] = module  # one instance: the extension cannot be loaded twice
+    try:
+        loader.exec_module(module)
+    except ImportError:  # pragma: no cover - another scipy layout
+        del sys.modules[_KERNEL_MODULE]
+        return None
+    return module
 
 
 def _sosfilt_inplace(sos: np.ndarray, x: np.ndarray, zi: np.ndarray) -> None:
@@ -116,20 +179,104 @@ def _sosfilt_inplace(sos: np.ndarray, x: np.ndarray, zi: np.ndarray) -> None:
     if kernel is not None:
         kernel(sos, x, zi)
         return
-    for r in range(x.shape[0]):
-        x[r], zi[r] = _signal().sosfilt(sos, x[r], zi=zi[r])
+    import scipy.signal  # pragma: no cover - another scipy layout: the public function
+
+    for r in range(x.shape[0]):  # pragma: no cover
+        x[r], zi[r] = scipy.signal.sosfilt(sos, x[r], zi=zi[r])
+
+
+# Higham (2005), "The scaling and squaring method for the matrix exponential revisited":
+# the largest 1-norm for which each diagonal Pade approximant is exact to double precision,
+# and the coefficients of the degree-13 one
+_PADE_THETA = (
+    (3, 1.495585217958292e-2),
+    (5, 2.539398330063230e-1),
+    (7, 9.504178996162932e-1),
+    (9, 2.097847961257068e0),
+)
+_THETA_13 = 5.371920351148152
+_PADE_13 = (
+    64764752532480000.0,
+    32382376266240000.0,
+    7771770303897600.0,
+    1187353796428800.0,
+    129060195264000.0,
+    10559470521600.0,
+    670442572800.0,
+    33522128640.0,
+    1323241920.0,
+    40840800.0,
+    960960.0,
+    16380.0,
+    182.0,
+    1.0,
+)
+
+
+def _pade_coefficients(degree: int) -> list[float]:
+    """b_j = (2m - j)! m! / ((2m)! j! (m - j)!) scaled so b_m = 1 (exact integers here)."""
+    c = [1.0]
+    for j in range(1, degree + 1):
+        c.append(c[-1] * (degree - j + 1) / (j * (2 * degree - j + 1)))
+    top = c[-1]
+    return [v / top for v in c]
+
+
+def expm(matrix: np.ndarray) -> np.ndarray:
+    """The matrix exponential by scaling and squaring with a diagonal Pade approximant
+    (Higham 2005, the algorithm of scipy.linalg.expm before its 2009 refinement): exact to
+    double precision (tests/sim/test_lti_exact.py against scipy.linalg.expm). Here so that a
+    simulated run does not import scipy.linalg (twice `import numpy`, issue 34)."""
+    a = np.asarray(matrix, dtype=float)
+    n = a.shape[0]
+    identity = np.eye(n)
+    if n == 0:
+        return identity
+    norm = float(np.max(np.sum(np.abs(a), axis=0)))
+    for degree, theta in _PADE_THETA:
+        if norm <= theta:
+            c = _pade_coefficients(degree)
+            a2 = a @ a
+            powers = [identity, a2]
+            for _ in range(2, degree // 2 + 1):
+                powers.append(powers[-1] @ a2)
+            u = a @ sum(c[2 * k + 1] * powers[k] for k in range(degree // 2 + 1))
+            v = sum(c[2 * k] * powers[k] for k in range(degree // 2 + 1))
+            return np.linalg.solve(v - u, v + u)
+    squarings = max(0, int(np.ceil(np.log2(norm / _THETA_13))))
+    a = a / 2.0**squarings
+    c13 = _PADE_13
+    a2 = a @ a
+    a4 = a2 @ a2
+    a6 = a4 @ a2
+    u = a @ (
+        a6 @ (c13[13] * a6 + c13[11] * a4 + c13[9] * a2)
+        + c13[7] * a6
+        + c13[5] * a4
+        + c13[3] * a2
+        + c13[1] * identity
+    )
+    v = (
+        a6 @ (c13[12] * a6 + c13[10] * a4 + c13[8] * a2)
+        + c13[6] * a6
+        + c13[4] * a4
+        + c13[2] * a2
+        + c13[0] * identity
+    )
+    result = np.linalg.solve(v - u, v + u)
+    for _ in range(squarings):
+        result = result @ result
+    return result
 
 
 def _zoh(a: np.ndarray, b: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
     """(e^{A t}, Gamma(t) B) via one block-matrix exponential (Van Loan)."""
-    import scipy.linalg
-
     n, m = a.shape[0], b.shape[1]
     block = np.zeros((n + m, n + m))
     block[:n, :n] = a * t
     block[:n, n:] = b * t
-    expm = scipy.linalg.expm(block)
-    return expm[:n, :n], expm[:n, n:]
+    exponential = expm(block)
+    return exponential[:n, :n], exponential[:n, n:]
 
 
 class Network:

@@ -51,14 +51,71 @@ def zpk_stages(
     return tuple(stages), float(gain)
 
 
+# scipy.signal.ellipap(order, ripple_db, stop_db): the normalised analog prototype (zeros,
+# poles, gain) of the anti-imaging filters the simulated stands use, as scipy 1.17 computes
+# it. `elliptic_lowpass` scales it as scipy.signal.ellip(..., analog=True) does, to the same
+# floats (tests/sim/test_lti_exact.py compares them with scipy.signal.ellip bit for bit); other
+# designs call scipy.signal.ellip.
+_ELLIPTIC_PROTOTYPES: dict[
+    tuple[int, float, float], tuple[tuple[complex, ...], tuple[complex, ...], float]
+] = {
+    (10, 0.1, 80.0): (
+        (
+            complex(0.0, 5.539084211061333),
+            complex(0.0, 2.033785641736452),
+            complex(0.0, 1.4342331580389418),
+            complex(0.0, 1.2386772932204764),
+            complex(0.0, 1.172783001758194),
+            complex(0.0, -5.539084211061333),
+            complex(0.0, -2.033785641736452),
+            complex(0.0, -1.4342331580389418),
+            complex(0.0, -1.2386772932204764),
+            complex(0.0, -1.172783001758194),
+        ),
+        (
+            complex(-0.3475104744787929, -0.23347790258524243),
+            complex(-0.25099633595873666, -0.618903261262954),
+            complex(-0.1424633818455124, -0.8510695133670702),
+            complex(-0.06671804143483319, -0.9656315956148926),
+            complex(-0.019026412380692685, -1.0106542110185628),
+            complex(-0.3475104744787929, 0.23347790258524243),
+            complex(-0.25099633595873666, 0.618903261262954),
+            complex(-0.1424633818455124, 0.8510695133670702),
+            complex(-0.06671804143483319, 0.9656315956148926),
+            complex(-0.019026412380692685, 1.0106542110185628),
+        ),
+        9.999999999999916e-05,
+    ),
+}
+
+
+def elliptic_zpk(
+    order: int, edge_hz: float, ripple_db: float, stop_db: float
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """Zeros, poles (rad/s) and gain of an analog elliptic low-pass: what
+    scipy.signal.ellip(order, ripple_db, stop_db, 2 pi edge_hz, analog=True, output="zpk")
+    returns, from the tabulated prototype when there is one (scipy.signal not imported: about
+    1.5 s of a run's start-up), else from scipy.signal."""
+    prototype = _ELLIPTIC_PROTOTYPES.get((order, float(ripple_db), float(stop_db)))
+    wn = 2 * np.pi * edge_hz
+    if prototype is None:
+        import scipy.signal
+
+        z, p, k = scipy.signal.ellip(order, ripple_db, stop_db, wn, analog=True, output="zpk")
+        return z, p, float(k)
+    zeros, poles, k_proto = prototype
+    # scipy.signal.lp2lp_zpk, as iirfilter calls it for an analog low-pass
+    wo = float(np.asarray(wn, dtype=np.float64))
+    z_proto = np.array(zeros, dtype=complex)
+    p_proto = np.array(poles, dtype=complex)
+    degree = p_proto.shape[0] - z_proto.shape[0]
+    return wo * z_proto, wo * p_proto, k_proto * wo**degree
+
+
 def elliptic_lowpass(order: int, edge_hz: float, ripple_db: float, stop_db: float) -> Model:
     """Analog elliptic (Cauer) low-pass: passband to `edge_hz` within `ripple_db`, at least
     `stop_db` down in the stopband."""
-    import scipy.signal  # here: importing the models stays light
-
-    z, p, k = scipy.signal.ellip(
-        order, ripple_db, stop_db, 2 * np.pi * edge_hz, analog=True, output="zpk"
-    )
+    z, p, k = elliptic_zpk(order, edge_hz, ripple_db, stop_db)
     stages, gain = zpk_stages(z, p, k)
     return Model(stages, gain)
 

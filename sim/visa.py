@@ -23,6 +23,7 @@ import threading
 from typing import Any
 
 import pyvisa
+import yaml  # type: ignore[import-untyped]
 from pyvisa.rname import to_canonical_name
 from pyvisa_sim import parser
 from pyvisa_sim.devices import Devices
@@ -67,8 +68,24 @@ def parsed_definitions(path: str) -> dict[str, Any]:
     with _parsed_lock:
         data = _parsed.get(path)
         if data is None:
-            data = _parsed[path] = parser.parse_file(path)
+            data = _parsed[path] = parse_file(path)
     return copy.deepcopy(data)
+
+
+def parse_file(path: str) -> dict[str, Any]:
+    """pyvisa_sim.parser.parse_file, read by libyaml's C BaseLoader when PyYAML has it (the
+    same dict: every scalar a string; tests/sim/test_visa_sim.py): pyvisa-sim's pure-Python
+    BaseLoader takes about 0.1 s of every simulated run's start-up (issue 34)."""
+    loader = getattr(yaml, "CBaseLoader", None)
+    if loader is None:  # pragma: no cover - PyYAML built without libyaml
+        return parser.parse_file(path)
+    with open(path, encoding="utf-8") as stream:
+        data = yaml.load(stream, Loader=loader)
+    if not isinstance(data, dict) or "spec" not in data:
+        raise ValueError(f"{path}: does not specify a pyvisa-sim spec version")
+    if parser._ver_to_tuple(data["spec"]) > parser.SPEC_VERSION_TUPLE:
+        raise ValueError(f"{path}: spec version {data['spec']} is newer than pyvisa-sim's")
+    return data
 
 
 class _CachedLoader(parser.Loader):

@@ -16,12 +16,13 @@ from app.cli.exits import UsageError
 from app.files import FileExistsRefusal, check_target
 from app.io import quantities
 from app.io.quantities import Quantity, QuantityError
-from app.procedure.phase_store import stored_phases
-from app.stand.simulated import CATALOGUE, parse_faults, parse_sim_hum
-from dsp.multisine import PRESETS, Plan, make_plan
 
 if TYPE_CHECKING:
     from app.stand.simulated import DrivenHum, Fault
+    from dsp.multisine import Plan
+
+# the plan, the catalogue and the simulated stand are imported by the functions that use them:
+# they import numpy, which the records commands never need (issue 34)
 
 
 class Bounded:
@@ -158,6 +159,9 @@ def positive(name: str, value: float | None) -> None:
 
 def plan_from_options(args: argparse.Namespace, *, optimise: bool) -> Plan:
     """The plan the options describe: a preset, with any of its fields overridden."""
+    from app.procedure.phase_store import stored_phases
+    from dsp.multisine import PRESETS, make_plan
+
     preset = PRESETS[args.preset or "piezo"]
     freqs = (
         parse_frequencies(args.frequencies)
@@ -183,6 +187,8 @@ def plan_from_options(args: argparse.Namespace, *, optimise: bool) -> Plan:
 
 def dut_name(text: str) -> str:
     """--dut: a DUT of the simulated stand's catalogue (argparse type)."""
+    from app.stand.simulated import CATALOGUE
+
     if text in CATALOGUE:
         return text
     close = difflib.get_close_matches(text, list(CATALOGUE), n=1)
@@ -194,6 +200,8 @@ def dut_name(text: str) -> str:
 
 def sim_hum_option(texts: list[str]) -> tuple[DrivenHum, ...]:
     """--sim-hum AMPLITUDE@FREQUENCY options as hum of the simulated stand while driven."""
+    from app.stand.simulated import parse_sim_hum
+
     try:
         return parse_sim_hum(texts)
     except ValueError as exc:
@@ -202,6 +210,8 @@ def sim_hum_option(texts: list[str]) -> tuple[DrivenHum, ...]:
 
 def faults_option(texts: list[str]) -> tuple[Fault, ...]:
     """--fault KIND@SECONDS options as faults of the simulated stand."""
+    from app.stand.simulated import parse_faults
+
     try:
         return parse_faults(texts)
     except ValueError as exc:

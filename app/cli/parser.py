@@ -4,8 +4,6 @@ commands themselves live in one module each)."""
 from __future__ import annotations
 
 import argparse
-import re
-import sys
 from datetime import date
 from pathlib import Path
 from typing import Any
@@ -36,6 +34,7 @@ from app.cli.options import (
 )
 from app.cli.records import Handler
 from app.cli.records import add_commands as add_records_commands
+from app.cli.toplevel import top_parser
 from app.io.quantities import PERCENT_RULE
 from app.procedure.modes import MODE_MULTISINE
 from app.procedure.options import (
@@ -57,40 +56,11 @@ RECORDS_COMMANDS: dict[str, Handler] = {}  # filled by build_parser (app.cli.rec
 MCM_TRIALS = Bounded(int, 1000, 10_000_000, unit="trials")  # JCGM 101 7.2: 10^6 for 95 %
 
 
-class _Parser(argparse.ArgumentParser):
-    """ArgumentParser that takes an argument starting with a minus and a digit as a value, never
-    an option: a negative number in any float notation (-2e-06, -.5, -1.5E3) or a list that
-    starts with one (-10,160); argparse's own rule misses the exponent form and lists. No
-    option of this program starts with a digit."""
-
-    def __init__(self, *args: object, **kwargs: object) -> None:
-        super().__init__(*args, **kwargs)  # type: ignore[arg-type]
-        self._negative_number_matcher = NEGATIVE_NUMBER
-
-
-NEGATIVE_NUMBER = re.compile(r"^-\.?\d")
-
-
 def _iso_day(text: str) -> date:
     try:
         return date.fromisoformat(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"not a date yyyy-mm-dd: {text!r}") from None
-
-
-class _Version(argparse.Action):
-    """--version: the version (which asks git) is looked up only when asked for, not at every
-    start-up."""
-
-    def __init__(self, option_strings: list[str], dest: str, **kwargs: object) -> None:
-        kwargs.pop("default", None)
-        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, **kwargs)  # type: ignore[arg-type]
-
-    def __call__(self, parser, namespace, values, option_string=None) -> None:  # type: ignore[no-untyped-def]
-        from app.version import software_version
-
-        parser._print_message(f"accelcal {software_version()}\n", sys.stdout)
-        parser.exit()
 
 
 SIM_HUM_HELP = (
@@ -266,17 +236,7 @@ def _add_run_options(r: argparse.ArgumentParser) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(
-        prog="accelcal",
-        description="Accelerometer calibration by comparison, multisine excitation.",
-    )
-    parser.add_argument("--version", action=_Version, help="show the version and exit")
-    parser.add_argument(
-        "--verbose",
-        action="store_true",
-        help="also show what a run writes to its run.log, and information messages, on stderr",
-    )
-    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    parser, sub = top_parser()
 
     p = sub.add_parser("plan", help="show a frequency plan, its checks and predicted peaks")
     _add_plan_options(p)

@@ -76,6 +76,13 @@ def _list_options(p: argparse.ArgumentParser) -> None:
     _db_option(p)
 
 
+# the records commands' names, known before any parser is built (app.cli parses a command of
+# these with the records commands alone); `add_commands` returns exactly these
+COMMAND_NAMES = frozenset(
+    ("db", "customers", "models", "sensors", "refs", "due", "history", "register", "control")
+)
+
+
 def add_commands(sub: argparse._SubParsersAction) -> dict[str, Handler]:  # type: ignore[type-arg]
     """Add the records commands to the top-level subparsers; their handlers by name."""
     d = sub.add_parser("db", help="records database: upgrade (create or migrate), import runs")

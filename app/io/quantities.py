@@ -13,9 +13,10 @@ accept the same strings and refuse them with the same reason:
     percent       %             bare number = percent, `0.2%` the same; a fraction is never
                                 implied (0.2 is 0.2 %, not 20 %)
 
-A bare number never imports pint (most commands pass numbers): the library is imported, and
-its registry built, the first time a unit has to be read. An error names the option or field
-and the reason (`QuantityError`, a refusal: exit 2 on the command line).
+A bare number, or one in the working unit as shown above (`0.2%`, `160 Hz`), never imports
+pint (building its registry costs more than a run's start-up budget, issue 34): the library is
+imported, and its registry built, the first time another unit has to be read. An error names
+the option or field and the reason (`QuantityError`, a refusal: exit 2 on the command line).
 """
 
 from __future__ import annotations
@@ -170,6 +171,8 @@ def _with_unit(text: str, option: str, dimension: Dimension) -> float:
             option, f"{text!r}: a number is missing ({dimension.noun}: {dimension.accepted})"
         )
     number, unit_text = float(match.group(1)), match.group(2)
+    if unit_text.strip() == dimension.shown and math.isfinite(number):
+        return number  # the working unit itself (`0.2%`, `160 Hz`): pint would return it as is
     unit = _unit(unit_text, option, dimension, text)
     if not math.isfinite(number):
         raise QuantityError(option, f"must be a finite number, got {text!r}")

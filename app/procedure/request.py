@@ -418,7 +418,7 @@ def resolve_request(
     use, a reference standard not on record or past its due date without an override reason,
     or one whose stand-file table differs from the records'. An override granted is in the
     request (for results.json) and in the records' audit trail."""
-    from app.records.db.audit import current_actor
+    from app.records.db.actor import current_actor
 
     resolved = resolve_dut(choice, config.backend, config.raw.get("certificate") or {})
     notes = list(resolved.notes)

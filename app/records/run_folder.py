@@ -36,7 +36,7 @@ from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from enum import StrEnum
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from app.errors import Refusal
 from app.files import write_new
@@ -45,7 +45,9 @@ from app.io.csv_cells import neutralised
 from app.io.vocabulary import RunStatus
 from app.records.run_record import RunRecord, RunRecordError, UnsupportedSchemaError
 from app.records.seal import SEAL_NAME, write_seal
-from dsp.calibration import Results
+
+if TYPE_CHECKING:  # a type only: the records commands that read folders import no numpy
+    from dsp.calibration import Results
 
 
 class FolderState(StrEnum):

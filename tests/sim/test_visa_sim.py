@@ -81,14 +81,14 @@ def test_shared_manager_is_reused_and_fresh_one_starts_from_defaults():
 def test_the_definitions_are_parsed_once_and_fresh_instruments_stay_apart(monkeypatch):
     """Issue 31 point 7: one YAML parse per process; two fresh managers (as one simulated run
     opens) still have instruments of their own."""
-    from pyvisa_sim import parser
-
     import sim.visa
 
     simulated_resource_manager(fresh=True).close()  # parsed by now, whatever ran before
     parses = []
-    real_parse = parser.parse_file
-    monkeypatch.setattr(parser, "parse_file", lambda path: parses.append(path) or real_parse(path))
+    real_parse = sim.visa.parse_file  # the parse (libyaml's, issue 34) the cache calls
+    monkeypatch.setattr(
+        sim.visa, "parse_file", lambda path: parses.append(path) or real_parse(path)
+    )
     first_rm, second_rm = (simulated_resource_manager(fresh=True) for _ in range(2))
     try:
         assert parses == []  # neither parsed the file again
@@ -462,3 +462,30 @@ def test_measuring_amplifier_run_exchange_is_byte_exact(rm):
         ("->", b":Channel_1:Overload?\n"),
         ("<-", b":Channel_1:Overload 0\n"),
     ]
+
+
+def test_the_definitions_read_by_libyaml_are_pyvisa_sims() -> None:
+    """sim.visa.parse_file (libyaml's C BaseLoader) gives the dict pyvisa-sim's own parser
+    gives, and refuses a file without a spec version as it does."""
+    import importlib.resources
+
+    from pyvisa_sim import parser
+
+    from sim import visa
+
+    definitions = importlib.resources.files("sim") / visa.SIM_DEFINITIONS
+    with importlib.resources.as_file(definitions) as path:
+        assert visa.parse_file(str(path)) == parser.parse_file(str(path))
+
+
+def test_definitions_without_a_spec_version_are_refused(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    from sim import visa
+
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("devices: {}\n", encoding="utf-8")
+    with pytest.raises(ValueError, match="spec version"):
+        visa.parse_file(str(bad))
+    newer = tmp_path / "newer.yaml"
+    newer.write_text('spec: "99.0"\n', encoding="utf-8")
+    with pytest.raises(ValueError, match="newer"):
+        visa.parse_file(str(newer))

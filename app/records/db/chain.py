@@ -13,7 +13,6 @@ records key (app.records.db.records_key, Ed25519, a file the database never hold
 
 from __future__ import annotations
 
-import getpass
 import hashlib
 import json
 from dataclasses import dataclass
@@ -36,6 +35,7 @@ from sqlalchemy import func as sql_func
 from sqlalchemy.orm import Mapper, Session, object_session
 
 from app.records.db import records_key
+from app.records.db.actor import current_actor
 from app.records.db.models import Base, ChainEntry, JournalEntry
 
 CHAIN_TABLE = "records_chain"
@@ -374,14 +374,6 @@ def _record(action: str, mapper: Mapper[Any], connection: Connection, target: An
     pending = connection.info.pop(PENDING_HEAD, None)
     if session is not None and pending is not None:  # kept once the session commits
         session.info[PENDING_HEAD] = pending
-
-
-def current_actor() -> str:
-    """The operating-system user, the default actor of a write."""
-    try:
-        return getpass.getuser()
-    except (KeyError, OSError):
-        return "unknown"
 
 
 _PRESENT: dict[str, bool] = {}

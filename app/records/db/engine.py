@@ -18,18 +18,24 @@ import logging
 import os
 from importlib import resources
 from pathlib import Path
-from typing import Any
-
-from sqlalchemy import Engine, create_engine, event, inspect
-from sqlalchemy.engine import make_url
-from sqlalchemy.exc import ArgumentError
+from typing import TYPE_CHECKING, Any
 
 from app.records.db.errors import RecordsInputError
+
+if TYPE_CHECKING:
+    from sqlalchemy import Engine
+
+# SQLAlchemy is imported by the functions that use it: knowing whether records are in use
+# (`records_url`) must not cost its import (a run without records, issue 34).
 
 log = logging.getLogger(__name__)
 
 ENV_VAR = "ACCELCAL_DB"
 SQLITE_BUSY_TIMEOUT_S = 30.0
+# the newest migration (migrations/versions): what `open_engine` checks a database against
+# without importing Alembic (about twice `import numpy`, issue 34); a test holds it to
+# Alembic's own head (tests/app/records/db/test_engine_head.py)
+SCHEMA_HEAD = "0011"
 
 
 class DatabaseError(RecordsInputError):
@@ -41,17 +47,24 @@ class RecordsMissing(DatabaseError):
     `accelcal db upgrade` creates it."""
 
 
-def default_url() -> str:
-    """The embedded default: an SQLite file in the user's data directory
+def default_path() -> Path:
+    """The embedded default's file: records.sqlite in the user's data directory
     (app.files.data_dir: $ACCELCAL_DATA_DIR, else platformdirs)."""
     from app.files import data_dir
 
-    folder = data_dir()
-    return f"sqlite:///{folder / 'records.sqlite'}"
+    return data_dir() / "records.sqlite"
+
+
+def default_url() -> str:
+    """The embedded default: the SQLite file `default_path`."""
+    return f"sqlite:///{default_path()}"
 
 
 def resolve_url(explicit: str | None = None) -> str:
     """The database URL: `explicit`, else $ACCELCAL_DB, else the default SQLite file."""
+    from sqlalchemy.engine import make_url
+    from sqlalchemy.exc import ArgumentError
+
     url = explicit or os.environ.get(ENV_VAR) or default_url()
     try:
         parsed = make_url(url)
@@ -73,10 +86,8 @@ def records_url(explicit: str | None = None) -> str | None:
     certificate)."""
     if explicit or os.environ.get(ENV_VAR):
         return resolve_url(explicit)
-    default = default_url()
-    database = make_url(default).database
-    if database and Path(database).is_file():
-        return resolve_url(default)
+    if default_path().is_file():  # no file: no records, and SQLAlchemy is not even imported
+        return resolve_url(default_url())
     return None
 
 
@@ -91,6 +102,9 @@ def _sqlite_pragmas(dbapi_connection: Any, _record: Any) -> None:
 
 def make_engine(url: str) -> Engine:
     """An engine for `url` (already resolved); SQLite gets WAL, busy timeout, IMMEDIATE."""
+    from sqlalchemy import create_engine, event
+    from sqlalchemy.engine import make_url
+
     parsed = make_url(url)
     if parsed.get_backend_name() == "sqlite":
         database = parsed.database
@@ -128,6 +142,19 @@ def current_revision(engine: Engine) -> str | None:
 
     with engine.connect() as connection:
         return MigrationContext.configure(connection).get_current_revision()
+
+
+def _at_head(engine: Engine) -> bool:
+    """Whether the database's one stored revision (Alembic's alembic_version table, read with
+    SQLAlchemy Core) is SCHEMA_HEAD. False for anything else, which `open_engine` then asks
+    Alembic about (no schema, older, several heads, unknown)."""
+    from sqlalchemy import inspect, text
+
+    with engine.connect() as connection:
+        if not inspect(connection).has_table("alembic_version"):
+            return False
+        rows = connection.execute(text("SELECT version_num FROM alembic_version")).all()
+    return [tuple(row) for row in rows] == [(SCHEMA_HEAD,)]
 
 
 def upgrade(engine: Engine, revision: str = "head") -> tuple[str | None, str | None]:
@@ -169,12 +196,16 @@ def upgrade(engine: Engine, revision: str = "head") -> tuple[str | None, str | N
 
 
 def _has_tables(engine: Engine) -> bool:
+    from sqlalchemy import inspect
+
     return bool(inspect(engine).get_table_names())
 
 
 def _missing_sqlite_file(url: str) -> Path | None:
     """The file of an SQLite `url` when it does not exist yet (None: it exists, or the URL is
     in memory or another engine's)."""
+    from sqlalchemy.engine import make_url
+
     parsed = make_url(url)
     database = parsed.database
     if parsed.get_backend_name() != "sqlite" or not database or database == ":memory:":
@@ -198,6 +229,8 @@ def open_engine(url: str | None = None, *, create: bool = False) -> Engine:
         )
     engine = make_engine(resolved)
     try:
+        if _at_head(engine):  # the usual case, without importing Alembic
+            return engine
         current = current_revision(engine)
     except Exception as exc:  # unreachable server, bad file
         engine.dispose()
@@ -221,4 +254,6 @@ def open_engine(url: str | None = None, *, create: bool = False) -> Engine:
 
 
 def _safe(url: str) -> str:
+    from sqlalchemy.engine import make_url
+
     return make_url(url).render_as_string(hide_password=True)

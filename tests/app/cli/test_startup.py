@@ -1,9 +1,12 @@
 """The command line starts light: `import app.cli` imports no GUI, hardware, file-format or
-database library, and no scipy (issue 14 point 4; timing in bench/startup.py)."""
+database library, no numpy and no scipy; a records command imports no numpy, scipy or Alembic;
+a warm simulated run imports none of scipy.signal, scipy.stats, scipy.special, scipy.linalg,
+pint or SQLAlchemy (issue 14 point 4, issue 34 point 3; timing in bench/startup.py)."""
 
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -23,25 +26,55 @@ HEAVY = (
     "alembic",
     "psycopg",
     "scipy",
+    "pint",
+)
+NUMERIC = ("numpy", "scipy")
+# what a warm LPM run on the simulated stand has no use for (the full names: scipy.signal's
+# compiled sosfilt kernel is loaded on its own, as scipy.signal._sosfilt)
+NOT_IN_A_RUN = (
+    "scipy.signal",
+    "scipy.stats",
+    "scipy.special",
+    "scipy.linalg",
+    "scipy.interpolate",
+    "scipy.optimize",
+    "pint",
+    "sqlalchemy",
+    "alembic",
+    "numpy.ma",  # np.unique and np.median import it (about 40 ms): sorted and dsp.quantiles
 )
 
 pytestmark = pytest.mark.integration  # a fresh interpreter per test
 
 
-def imported_by(code: str) -> list[str]:
-    """Top-level packages of HEAVY that `code`, run in a fresh interpreter, imports."""
-    probe = (
-        f"{code}\nimport sys, json\n"
-        f"print(json.dumps(sorted({{m.split('.')[0] for m in sys.modules}} & {set(HEAVY)!r})))"
-    )
+def modules_after(code: str, env: dict[str, str] | None = None) -> set[str]:
+    """Every module name in sys.modules after `code` ran in a fresh interpreter."""
+    probe = f"{code}\nimport sys, json\nprint(json.dumps(sorted(sys.modules)))"
     out = subprocess.run(
-        [sys.executable, "-c", probe], cwd=ROOT, capture_output=True, text=True, check=True
+        [sys.executable, "-c", probe],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        check=True,
+        env=env,
     )
-    return json.loads(out.stdout.strip().splitlines()[-1])
+    return set(json.loads(out.stdout.strip().splitlines()[-1]))
 
 
-def test_import_app_cli_imports_no_heavy_library() -> None:
-    assert imported_by("import app.cli") == []
+def imported_by(code: str, packages: tuple[str, ...] = HEAVY, env: dict[str, str] | None = None):  # type: ignore[no-untyped-def]
+    """Top-level packages of `packages` that `code`, run in a fresh interpreter, imports."""
+    return sorted({m.split(".")[0] for m in modules_after(code, env)} & set(packages))
+
+
+def data_env(tmp_path: Path) -> dict[str, str]:
+    """The environment with a data directory of its own (stored responses, records)."""
+    env = dict(os.environ, ACCELCAL_DATA_DIR=str(tmp_path / "data"))
+    env.pop("ACCELCAL_DB", None)
+    return env
+
+
+def test_import_app_cli_imports_no_heavy_library_and_no_numpy() -> None:
+    assert imported_by("import app.cli", HEAVY + NUMERIC) == []
 
 
 def test_help_and_parsing_import_no_heavy_library() -> None:
@@ -52,6 +85,80 @@ def test_help_and_parsing_import_no_heavy_library() -> None:
         "    cli.build_parser().parse_args(['run', '--sim', '--dut', 'capacitive', '--level', '3'])"
     )
     assert imported_by(code) == []
+
+
+def test_plan_of_a_preset_imports_no_scipy_nor_pint() -> None:
+    code = (
+        "import contextlib, io\nfrom app import cli\n"
+        "with contextlib.redirect_stdout(io.StringIO()):\n"
+        "    assert cli.main(['plan', '--preset', 'piezo']) == 0"
+    )
+    assert imported_by(code) == []
+
+
+def test_records_commands_import_no_numpy_scipy_or_alembic(tmp_path: Path) -> None:
+    env = data_env(tmp_path)
+    url = f"sqlite:///{tmp_path / 'records.sqlite'}"
+    subprocess.run(
+        [sys.executable, "-m", "app", "db", "upgrade", "--db", url],
+        cwd=ROOT,
+        env=env,
+        check=True,
+        capture_output=True,
+    )
+    for command in (["customers", "list"], ["sensors", "list"], ["due"], ["customers", "--help"]):
+        code = (
+            "import contextlib, io\nfrom app import cli\n"
+            "with contextlib.redirect_stdout(io.StringIO()):\n"
+            f"    assert cli.main({[*command, '--db', url]!r}) == 0"
+        )
+        if command[-1] == "--help":
+            code = code.replace(f", '--db', {url!r}", "")
+        found = imported_by(code, (*NUMERIC, "alembic", "pint", "h5py", "PySide6"), env)
+        assert found == [], command
+
+
+def test_a_records_command_is_parsed_as_the_full_parser_does() -> None:
+    """The records-only parse (app.cli._parse) gives the namespace the full parser gives, for
+    every records command named in app.cli.records.COMMAND_NAMES."""
+    import argparse
+
+    from app.cli import _parse
+    from app.cli.parser import build_parser
+    from app.cli.records import COMMAND_NAMES, add_commands
+
+    sub = argparse.ArgumentParser().add_subparsers()
+    assert set(add_commands(sub)) == COMMAND_NAMES
+
+    for words in (
+        ["customers", "list", "--json"],
+        ["--verbose", "due", "--days", "30"],
+        ["sensors", "list", "--db", "sqlite:///x.sqlite"],
+    ):
+        args, handler = _parse(words)
+        assert handler is not None
+        full = vars(build_parser().parse_args(words))
+        assert vars(args) == full
+
+
+def test_a_warm_simulated_run_imports_no_scipy_signal_stats_special_pint_or_sqlalchemy(
+    tmp_path: Path,
+) -> None:
+    env = data_env(tmp_path)
+    run = ["run", "--sim", "--dut", "piezo", "--target-ua", "0.2%", "--estimator", "lpm"]
+    run += ["--out", str(tmp_path / "runs")]
+    subprocess.run(  # cold: measures and stores the stand's response
+        [sys.executable, "-m", "app", *run], cwd=ROOT, env=env, check=True, capture_output=True
+    )
+    code = (
+        "import contextlib, io\nfrom app import cli\n"
+        "quiet = contextlib.redirect_stdout(io.StringIO())\n"
+        "with quiet, contextlib.redirect_stderr(io.StringIO()):\n"
+        f"    assert cli.main({run!r}) == 0"
+    )
+    modules = modules_after(code, env)
+    assert "numpy" in modules and "scipy.signal._sosfilt" in modules  # it did simulate
+    assert sorted(name for name in NOT_IN_A_RUN if name in modules) == []
 
 
 def test_a_command_still_gets_its_errors_caught_by_kind(tmp_path: Path) -> None:
