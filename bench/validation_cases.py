@@ -30,6 +30,7 @@ from app.procedure.phase_store import stored_phases
 from app.procedure.run import RunRequest, execute
 from app.procedure.verdict import Band, Tolerances
 from dsp.calibration import ReferenceChain, Results
+from dsp.estimators import Estimator
 from dsp.multisine import preset_plan
 from dsp.uncertainty import Budget, Component, Distribution, Quantity
 from tests.synthetic import make_recording
@@ -67,7 +68,14 @@ def against_truth(results: Results, true_s: np.ndarray, true_phase: np.ndarray) 
 def sim_case(name: str, out: Path, dut: str, tolerance: float | None = None, seed: int = 1) -> Case:
     """A run on the simulated stand, checked against its recording's truth."""
     finished = execute(
-        RunRequest(dut=dut, periods=8, seed=seed, tolerance_percent=tolerance, out=out)
+        RunRequest(
+            dut=dut,
+            periods=8,
+            seed=seed,
+            tolerance_percent=tolerance,
+            out=out,
+            estimator=Estimator.PERIODIC,  # the table's protocol (lpm the default since issue 34)
+        )
     )
     results = finished.results
     truth = read_recording(out / finished.record.run_id / "recording.h5").truth

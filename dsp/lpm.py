@@ -63,6 +63,9 @@ from typing import Any
 
 import numpy as np
 
+from dsp.quantiles import f_quantiles, has_duplicates, median
+
+DRIVE_FLOOR_FACTOR = 10.0  # a recorded drive's leak: judged above this times its noise floor
 NONLINEAR_FALSE_ALARM = 0.01  # probability per line that noise alone is taken for nonlinearity
 TOTAL = "total"  # P = 1: noise and whatever nonlinear distortion reaches the non-excited bins
 NOISE = "noise"  # P >= 2, nothing nonlinear found: noise only
@@ -71,25 +74,6 @@ NOISE_AND_NONLINEAR = "noise+nonlinear"  # P >= 2, nonlinear distortion found an
 
 class LpmError(ValueError):
     """Input the LPM cannot analyse honestly; the message names the field or line."""
-
-
-def _has_duplicates(values: np.ndarray) -> bool:
-    """Whether two of `values` are equal (sorted neighbours; np.unique would import numpy.ma,
-    about 40 ms of a run's start-up with numpy 2.4, issue 34)."""
-    ordered = np.sort(np.ravel(values))
-    return bool(np.any(ordered[1:] == ordered[:-1]))
-
-
-def _f_quantile(d1: int, d2: np.ndarray, p: float) -> np.ndarray:
-    """The F(d1, d2) quantiles at `p` (d2 per line): in closed form for d1 = 2 (two periods:
-    the CDF is 1 - (1 + 2x/d2)^(-d2/2)), else from scipy.special (imported here: it costs
-    twice `import numpy`, issue 34)."""
-    if d1 == 2:
-        d2 = np.asarray(d2, dtype=float)
-        return 0.5 * d2 * np.expm1(-2.0 / d2 * np.log1p(-p))
-    from scipy import special
-
-    return np.asarray(special.fdtri(d1, d2, p), dtype=float)
 
 
 @dataclass(frozen=True)
@@ -303,7 +287,7 @@ def estimate(
     record_bins = n // 2 + 1
     if lines.ndim != 1 or lines.size == 0 or lines.min() < 1 or lines.max() >= record_bins - 1:
         raise LpmError(f"line bins: need at least one, within 1..{record_bins - 2}")
-    if _has_duplicates(lines):
+    if has_duplicates(lines):
         raise LpmError("line bins: two lines on one bin")
     layout = _layout(lines, record_bins, settings, excluded_bins)
     y_spec = np.fft.rfft(dut, axis=1) * (2.0 / n)
@@ -367,7 +351,7 @@ def estimate_spectra(
     lines = np.asarray(line_bins, dtype=np.int64)
     if lines.ndim != 1 or lines.size == 0 or lines.min() < 1 or lines.max() >= record_bins - 1:
         raise LpmError(f"line bins: need at least one, within 1..{record_bins - 2}")
-    if np.unique(lines).size != lines.size:
+    if has_duplicates(lines):
         raise LpmError("line bins: two lines on one bin")
     layout = _layout(lines, record_bins, settings, excluded_bins)
     return _from_spectra([y_spec], [u_spec], lines, layout, None if r_spec is None else [r_spec])
@@ -380,11 +364,25 @@ def _per_drive(
     layout: list[tuple[Any, ...]],
 ) -> tuple[np.ndarray, np.ndarray]:
     """Check the drive is periodic over each record (its peak-scaled spectra `r_specs`, one
-    per realisation); mean FRFs of both channels per drive V."""
+    per realisation, arrays or NeighbourSpectrum); mean FRFs of both channels per drive V."""
     line_level = np.array([np.abs(r[lines]) for r in r_specs])
+    # a recorded drive (the ADC's loopback, quantised) carries its periodic quantisation error
+    # at every bin of its period (the multiples of the lines' common divisor): a leak is judged
+    # above DRIVE_FLOOR_FACTOR times its median over those that are no line (a fade's leak is
+    # not periodic: it fills the bins between them beside the lines; a live run's exact
+    # drive has none)
+    step = int(np.gcd.reduce(np.asarray(lines, dtype=int)))
+    floor = np.zeros(len(r_specs))
+    for j, r in enumerate(r_specs):
+        grid = np.arange(step, int(r.size), step)
+        keep = np.ones(grid.size, dtype=bool)
+        keep[np.asarray(lines, dtype=int) // step - 1] = False  # the lines are on the grid
+        free = grid[keep]
+        if free.size:
+            floor[j] = DRIVE_FLOOR_FACTOR * median(np.abs(r[free]))
     for i, (k, bins, *_rest) in enumerate(layout):
         leak = np.array([np.max(np.abs(r[bins])) for r in r_specs])
-        if np.any(leak > 1e-3 * line_level[:, i]):
+        if np.any(leak > np.maximum(1e-3 * line_level[:, i], floor)):
             raise LpmError(
                 f"drive: not periodic over the record around bin {k} (leakage "
                 f"{float(np.max(leak / line_level[:, i])):.1e} of the line); a fade must end "
@@ -417,7 +415,7 @@ def _combine(
         relative = responses / response - 1.0
         between = np.sum(np.abs(relative - relative.mean(axis=0)) ** 2, axis=0) / (p_count - 1)
         nonlinear = np.maximum(between - noise, 0.0)
-        threshold = _f_quantile(2 * (p_count - 1), noise_dof, 1.0 - NONLINEAR_FALSE_ALARM)
+        threshold = f_quantiles(2 * (p_count - 1), noise_dof, 1.0 - NONLINEAR_FALSE_ALARM)
         found = between / noise > threshold
         kinds = tuple(NOISE_AND_NONLINEAR if f else NOISE for f in found)
         variance_of_mean = np.where(found, between, noise) / p_count
@@ -567,7 +565,7 @@ def design_grid(
         resolution = sample_rate_hz / n
         bins = np.rint(nominal / resolution).astype(np.int64)
         actual = bins * resolution
-        if bins.min() < 1 or _has_duplicates(bins):
+        if bins.min() < 1 or has_duplicates(bins):
             continue
         if np.any(np.abs(actual - nominal) > tolerance * nominal + 1e-9 * nominal):
             continue

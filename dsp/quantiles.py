@@ -196,3 +196,22 @@ def median(values: np.ndarray) -> float:
     if data.size % 2:
         return float(ordered[half])
     return float(np.mean(ordered[half - 1 : half + 1]))
+
+
+def has_duplicates(values: np.ndarray) -> bool:
+    """Whether two of `values` are equal (sorted neighbours; np.unique would import numpy.ma,
+    about 40 ms of a run's start-up with numpy 2.4, issue 34)."""
+    ordered = np.sort(np.ravel(values))
+    return bool(np.any(ordered[1:] == ordered[:-1]))
+
+
+def f_quantiles(d1: int, d2: np.ndarray, p: float) -> np.ndarray:
+    """The F(d1, d2) quantiles at `p` (d2 an array): in closed form for d1 = 2 (the CDF is
+    1 - (1 + 2x/d2)^(-d2/2)), else from scipy.special (imported here: it costs twice
+    `import numpy`, issue 34)."""
+    if d1 == 2:
+        d2 = np.asarray(d2, dtype=float)
+        return 0.5 * d2 * np.expm1(-2.0 / d2 * np.log1p(-p))
+    from scipy import special
+
+    return np.asarray(special.fdtri(d1, d2, p), dtype=float)

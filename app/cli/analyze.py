@@ -9,7 +9,7 @@ import sys
 from app.cli.exits import EXIT_OK, UsageError
 from app.cli.options import output_target, writable_folder
 from app.cli.printers import csv_with_status, print_results
-from app.cli.readers import load_recording
+from app.cli.readers import load_recording, recorded_estimator
 from app.files import FileExistsRefusal, write_new
 
 NO_BUDGET_WARNING = (
@@ -37,7 +37,7 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         print(f"accelcal analyze: warning: {NO_BUDGET_WARNING}", file=sys.stderr)
     analysis = analyze(
         recording,
-        estimator=args.estimator,
+        estimator=recorded_estimator(args),
         segments=args.segments,
         probability=args.coverage,
         rule="seed" if args.seed_rule else "gum",

@@ -45,7 +45,7 @@ from app.procedure.options import (
     option,
 )
 from app.stand.simulated import EXCITERS, FAULT_KINDS
-from dsp.estimators import DEFAULT_ESTIMATOR, ESTIMATORS
+from dsp.estimators import ESTIMATORS
 from dsp.multisine import PRESETS
 from dsp.profiles import Profile
 
@@ -104,7 +104,11 @@ def _add_range_options(p: argparse.ArgumentParser) -> None:
     )
     if p.prog.endswith(" run"):
         numeric_option(
-            g, "--fade-in", FADE_IN, "lpm: fade-in before the record, s (default 2 cycles)"
+            g,
+            "--fade-in",
+            FADE_IN,
+            "lpm: fade-in before the record, s (default one cycle of the lowest line, longer "
+            "near the stroke)",
         )
 
 
@@ -179,7 +183,7 @@ def _add_run_options(r: argparse.ArgumentParser) -> None:
     )
     _run_option(r, "target_type_a")
     _run_option(r, "max_acquisition_s")
-    _run_option(r, "estimator", default=DEFAULT_ESTIMATOR)
+    _run_option(r, "estimator")  # None: the mode's default (RunOptions.from_values)
     _run_option(r, "mode", default=MODE_MULTISINE)
     _run_option(r, "stepped_block_s")
     _run_option(r, "tolerance_percent")
@@ -248,7 +252,13 @@ def build_parser() -> argparse.ArgumentParser:
     a.add_argument(
         "file", type=Path, help="recording.h5, recording.csv, recording.tdms or a run folder"
     )
-    a.add_argument("--estimator", choices=ESTIMATORS, default=DEFAULT_ESTIMATOR)
+    a.add_argument(
+        "--estimator",
+        choices=ESTIMATORS,
+        default=None,
+        help="line estimator (default: the one the run folder's settings name; periodic for a "
+        "recording that names none, or with --segments)",
+    )
     numeric_option(a, "--segments", SEGMENTS, "the seed's protocol: L equal segments")
     numeric_option(a, "--coverage", COVERAGE, "coverage probability", default=0.9545)
     a.add_argument(

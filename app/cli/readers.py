@@ -18,6 +18,7 @@ from app.io.checks import MAX_TEXT_BYTES, InputFileError, check_input_file
 if TYPE_CHECKING:
     from dsp.calibration import ReferenceChain
     from dsp.cmc import Cmc
+    from dsp.estimators import Estimator
     from dsp.uncertainty import Budget
 
 
@@ -186,3 +187,27 @@ def _read_budget(path: Path) -> tuple[Budget, Cmc | None]:
     if refused:
         raise UsageError(f"--budget: {path}: component refused: {'; '.join(refused)}")
     return budget, cmc
+
+
+def recorded_estimator(args: argparse.Namespace) -> Estimator:
+    """The estimator `accelcal analyze` uses: `--estimator` when given; else the one a run
+    folder's config.json names (written before anything moved, so an interrupted run has it
+    too; a run from before the setting: periodic, as results.json is read); else, and with
+    `--segments` (the seed's protocol averages), RECORDING_ESTIMATOR (periodic). A stored run
+    is re-analysed as it was run, whatever the default of new runs."""
+    from app.records.run_folder import is_run_folder
+    from app.records.run_record import AnalysisSettings
+    from app.records.run_start import CONFIG_NAME, RunStart
+    from dsp.estimators import RECORDING_ESTIMATOR, Estimator
+
+    if args.estimator is not None:
+        return Estimator(args.estimator)
+    path = Path(args.file)
+    folder = path if path.is_dir() else path.parent
+    if args.segments is not None or not is_run_folder(folder):
+        return RECORDING_ESTIMATOR
+    try:
+        start = RunStart.from_json((folder / CONFIG_NAME).read_text(encoding="utf-8"))
+        return AnalysisSettings.from_dict(start.settings).estimator
+    except (OSError, ValueError):  # no readable config.json (or its settings): none named
+        return RECORDING_ESTIMATOR

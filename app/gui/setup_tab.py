@@ -50,7 +50,7 @@ from app.procedure.service import PlanPreview, PreparedRun, RunService
 from app.procedure.stopping import DEFAULT_MAX_PERIODS, DEFAULT_MAX_TIME_S
 from app.stand import config as stand_config
 from app.stand.simulated import CATALOGUE
-from dsp.estimators import Estimator
+from dsp.estimators import DEFAULT_ESTIMATOR, Estimator, default_estimator, default_periods
 from dsp.multisine import PRESETS, Plan
 
 log = logging.getLogger(__name__)
@@ -189,7 +189,11 @@ class SetupTab(QWidget):
         self.frequencies = QLineEdit()
         self.frequencies.setPlaceholderText("preset lines; or e.g. 10,12.5,...,1000 (Hz)")
         self.level = QuantityEdit(quantities.LEVEL, "level", value=5.0, suffix="m/s² peak per line")
-        self.periods = QSpinBox(minimum=3, maximum=10000, value=8, suffix=" periods")
+        # one record of one period with the default estimator (lpm); the estimator's own
+        # default follows it when it changes (_estimator_changed)
+        self.periods = QSpinBox(
+            minimum=1, maximum=10000, value=default_periods(DEFAULT_ESTIMATOR), suffix=" periods"
+        )
         self.target = QuantityEdit(
             quantities.TARGET_UA,
             "type A target",
@@ -203,6 +207,9 @@ class SetupTab(QWidget):
         )
         self.estimator = QComboBox()
         self.estimator.addItems(list(option("estimator").choices))
+        self.estimator.setCurrentText(DEFAULT_ESTIMATOR)
+        self._estimator_shown = self.estimator.currentText()
+        self.estimator.currentTextChanged.connect(self._estimator_changed)
         self.mode = QComboBox()
         self.mode.addItems(list(option("mode").choices))
         self.stepped_block = QuantityEdit(
@@ -288,6 +295,13 @@ class SetupTab(QWidget):
             stepped_block_s=self.stepped_block.value(),
         )
 
+    def _estimator_changed(self, estimator: str) -> None:
+        """The periods follow the estimator's default (1 with lpm, 8 with the averaging
+        estimators) while they hold the previous estimator's default; a count typed stays."""
+        previous, self._estimator_shown = self._estimator_shown, estimator
+        if estimator and self.periods.value() == default_periods(previous):
+            self.periods.setValue(default_periods(estimator))
+
     def apply_plan(self, plan: PlanSettings) -> None:
         """Put `plan` into the fields (and check them)."""
         self.nominal.setValue(plan.nominal_mv_per_ms2)
@@ -295,10 +309,10 @@ class SetupTab(QWidget):
         self.preset.setCurrentText(plan.preset)
         self.frequencies.setText(plan.frequencies)
         self.level.setValue(plan.level_ms2)
+        self.estimator.setCurrentText(plan.estimator)  # before the periods it would move
         self.periods.setValue(plan.periods)
         self.target.setValue(plan.target_percent)
         self.max_time.setValue(plan.max_time_s)
-        self.estimator.setCurrentText(plan.estimator)
         self.mode.setCurrentText(plan.mode)
         self.stepped_block.setValue(plan.stepped_block_s)
         self.validate()
@@ -329,8 +343,11 @@ class SetupTab(QWidget):
         return [e for e in (f.error() for f in fields) if e is not None]
 
     def _mode_changed(self, mode: str) -> None:
-        """The stepped sine's block is a field of that mode only."""
+        """The stepped sine's block is a field of that mode only; a stepped sine has no lpm
+        (it analyses a multisine record): the estimator then goes to that mode's default."""
         self.stepped_block.setEnabled(mode == Mode.STEPPED_SINE)
+        if self.estimator.currentText() == Estimator.LPM and default_estimator(mode) != "lpm":
+            self.estimator.setCurrentText(default_estimator(mode))
 
     def custom_lines(self) -> tuple[float, ...] | None:
         """The typed line list (Hz), None for the preset's; ValueError says what is wrong."""

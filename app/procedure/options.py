@@ -26,7 +26,7 @@ from app.lines import parse_frequencies
 from app.procedure.modes import DEFAULT_STEPPED_BLOCK_S
 from app.procedure.stopping import DEFAULT_TIME_BOUND_TEXT
 from app.stand.simulated import CATALOGUE, EXCITERS
-from dsp.estimators import DEFAULT_ESTIMATOR, Estimator
+from dsp.estimators import DEFAULT_ESTIMATOR, Estimator, default_estimator, default_periods
 from dsp.multisine import PRESETS
 from dsp.profiles import Profile
 
@@ -138,7 +138,7 @@ RUN_OPTIONS: tuple[OptionSpec, ...] = (
     OptionSpec(
         "periods",
         "--periods",
-        "periods to acquire (default 8; lpm: 1, one record)",
+        "periods to acquire (default 1 with lpm, one record; 8 with periodic, h1, seed)",
         bounds=Bounds(1, 10_000, whole=True),
     ),
     OptionSpec(
@@ -193,7 +193,8 @@ RUN_OPTIONS: tuple[OptionSpec, ...] = (
     OptionSpec(
         "fade_in_s",
         "--fade-in",
-        "lpm: fade-in before the record, s (default 2 cycles)",
+        "lpm: fade-in before the record, s (default one cycle of the lowest line, longer "
+        "near the stroke)",
         unit="s",
         quantity=quantities.FADE_IN,
     ),
@@ -213,7 +214,10 @@ RUN_OPTIONS: tuple[OptionSpec, ...] = (
         quantity=quantities.MAX_TIME,
     ),
     OptionSpec(
-        "estimator", "--estimator", "line estimator", choices=tuple(e.value for e in Estimator)
+        "estimator",
+        "--estimator",
+        "line estimator (default: lpm, one period, for a multisine; periodic for a stepped sine)",
+        choices=tuple(e.value for e in Estimator),
     ),
     OptionSpec("mode", "--mode", "excitation", choices=tuple(m.value for m in Mode)),
     OptionSpec(
@@ -279,7 +283,7 @@ class RunOptions:
     dut_mass_g: float | None = None
     preset: str | None = None
     level_ms2: float | None = None  # None: the DUT's, else 5 m/s^2
-    periods: int | None = None  # None: 8; lpm: 1
+    periods: int | None = None  # None: 1 with lpm, else 8 (dsp.estimators.default_periods)
     frequencies_hz: tuple[float, ...] | None = None
     sample_rate_hz: float | None = None
     period_samples: int | None = None
@@ -325,7 +329,7 @@ class RunOptions:
         """The periods acquired: as given, else one record of one period (lpm) or 8."""
         if self.periods is not None:
             return self.periods
-        return 1 if self.estimator == Estimator.LPM else 8
+        return default_periods(self.estimator)
 
     def replace(self, **changes: Any) -> RunOptions:
         return dataclasses.replace(self, **changes)
@@ -340,6 +344,8 @@ class RunOptions:
             if value is not None:
                 given[spec.name] = value
         given.update(more)
+        if given.get("estimator") is None:  # not given: the mode's (lpm for a multisine)
+            given["estimator"] = default_estimator(str(given.get("mode") or Mode.MULTISINE))
         return cls(**given)
 
 

@@ -19,6 +19,7 @@ import numpy as np
 from app.procedure.errors import PreflightError
 from app.procedure.ranging import RangePlan, plan_ranges
 from dsp.crestfactor import peak_grid_samples, synthesize
+from dsp.fades import fade_in_seconds, fade_motion, fade_out_seconds
 from dsp.multisine import Plan, PredictedPeaks
 from dsp.resolution import Converter
 
@@ -81,22 +82,31 @@ def check_preflight(
     level_scale: float = 1.0,
     offered_v: tuple[float, ...] | None = None,
     per_line: bool = False,
+    fade_in_s: float | None = None,
+    fade_out_s: float | None = None,
 ) -> PreflightReport:
     """Check `plan` (its amplitudes times `level_scale`) on the stand of `config` with the
     reference `chain` and, when known, the DUT's nominal sensitivity (mV/(m/s^2)). Without a
     chain (a window before its stand is opened) the reference channel is not checked here;
     the run's own preflight checks it before anything moves. The ranges are picked among
     `offered_v` (V; None: the stand file's `daq.input_ranges_v`), per line when `per_line`
-    (stepped sine, whose motion is then one line's at a time: `largest_line_peaks`)."""
+    (stepped sine, whose motion is then one line's at a time: `largest_line_peaks`). A
+    multisine's peaks cover its fades (`motion_peaks`: `fade_in_s`, None: the LPM's as
+    `fade_in_for` picks it; `fade_out_s`, None: dsp.fades' default)."""
     limits = config.limits
     ranges = {c.name: c.range_v for c in config.inputs}
-    raw = largest_line_peaks(plan) if per_line else plan.predicted_peaks()
-    peaks = PredictedPeaks(
-        acceleration_ms2=raw.acceleration_ms2 * level_scale,
-        velocity_m_per_s=raw.velocity_m_per_s * level_scale,
-        displacement_m=raw.displacement_m * level_scale,
-        displacement_peak_to_peak_m=raw.displacement_peak_to_peak_m * level_scale,
-    )
+    if per_line:
+        raw = largest_line_peaks(plan)
+        peaks = PredictedPeaks(
+            acceleration_ms2=raw.acceleration_ms2 * level_scale,
+            velocity_m_per_s=raw.velocity_m_per_s * level_scale,
+            displacement_m=raw.displacement_m * level_scale,
+            displacement_peak_to_peak_m=raw.displacement_peak_to_peak_m * level_scale,
+        )
+    else:  # the multisine's own orbit and its fades (issue 34)
+        target = level_scale * plan.amplitudes_ms2 * np.exp(1j * (plan.phases_rad - np.pi / 2))
+        fade_in_s = fade_in_for(plan, target, limits, fade_in_s)
+        peaks = motion_peaks(plan, target, fade_in_s=fade_in_s, fade_out_s=fade_out_s)
     problems = limit_problems(peaks, limits)
     if chain is not None:
         ref_s, _ = chain.sensitivity_at(plan.frequencies_hz)
@@ -177,14 +187,23 @@ def limit_problems(peaks: PredictedPeaks, limits: Limits) -> list[str]:
     return problems
 
 
-def predict_drive_peaks(
-    plan: Plan, drive_lines_v: np.ndarray, response: np.ndarray
+def motion_peaks(
+    plan: Plan,
+    acceleration: np.ndarray,
+    *,
+    fade_in_s: float | None = None,
+    fade_out_s: float | None = None,
+    fades: bool = True,
 ) -> PredictedPeaks:
-    """Peaks of the table motion the drive (complex volts per line, phasor convention of the
-    procedure: x(t) = Re sum X_k e^{j w_k t}) will give through `response` ((m/s^2)/V per
-    line): acceleration A_k = R_k D_k, velocity A_k/(j w_k), displacement -A_k/w_k^2,
-    synthesised on an oversampled grid (as Plan.predicted_peaks)."""
-    acceleration = np.asarray(response, complex) * np.asarray(drive_lines_v, complex)
+    """Peaks of the table motion for the acceleration per line (complex m/s^2, phasor
+    convention of the procedure: x(t) = Re sum X_k e^{j w_k t}): the steady orbit (velocity
+    A_k/(j w_k), displacement -A_k/w_k^2, synthesised on an oversampled grid as
+    Plan.predicted_peaks) and its fades (issue 34): a fade-in from rest and a fade-out to rest
+    (dsp.fades.fade_motion, free mass during a fade; `fade_in_s`/`fade_out_s`, None: the
+    defaults), the offsets the fade-in leaves added to the steady orbit's peaks, the residual
+    velocity after the fade-out counted. The drive's peak is not raised by a fade (its
+    envelope is at most 1)."""
+    acceleration = np.asarray(acceleration, complex)
     if acceleration.shape != (len(plan.bins),) or not np.all(np.isfinite(acceleration)):
         raise PreflightError("predicted motion: the drive or the response is not finite")
     omega = 2 * np.pi * np.asarray(plan.frequencies_hz, float)
@@ -194,21 +213,87 @@ def predict_drive_peaks(
         return synthesize(plan.bins, np.abs(phasors), np.angle(phasors) + np.pi / 2, n)
 
     displacement = wave(-acceleration / omega**2)
-    return PredictedPeaks(
-        acceleration_ms2=float(np.max(np.abs(wave(acceleration)))),
-        velocity_m_per_s=float(np.max(np.abs(wave(acceleration / (1j * omega))))),
-        displacement_m=float(np.max(np.abs(displacement))),
-        displacement_peak_to_peak_m=float(np.ptp(displacement)),
+    steady_v = float(np.max(np.abs(wave(acceleration / (1j * omega)))))
+    steady_a = float(np.max(np.abs(wave(acceleration))))
+    if not fades:  # the steady orbit alone (Plan.predicted_peaks' figures)
+        return PredictedPeaks(
+            steady_a, steady_v, float(np.max(np.abs(displacement))), float(np.ptp(displacement))
+        )
+    lowest = float(np.min(plan.frequencies_hz))
+    motion = fade_motion(
+        plan.frequencies_hz,
+        acceleration,
+        fade_in_seconds(lowest, fade_in_s),
+        fade_out_s if fade_out_s is not None else fade_out_seconds(lowest),
     )
+    offset = motion.offset_displacement_m
+    high = max(float(np.max(displacement)) + max(offset, 0.0), motion.displacement_high_m)
+    low = min(float(np.min(displacement)) + min(offset, 0.0), motion.displacement_low_m)
+    return PredictedPeaks(
+        acceleration_ms2=max(steady_a, motion.acceleration_peak_ms2),
+        velocity_m_per_s=max(
+            steady_v + abs(motion.offset_velocity_m_per_s),
+            motion.velocity_peak_m_per_s,
+            abs(motion.residual_velocity_m_per_s),
+        ),
+        displacement_m=max(high, -low),
+        displacement_peak_to_peak_m=high - low,
+    )
+
+
+def predict_drive_peaks(
+    plan: Plan,
+    drive_lines_v: np.ndarray,
+    response: np.ndarray,
+    *,
+    fade_in_s: float | None = None,
+    fades: bool = True,
+) -> PredictedPeaks:
+    """Peaks of the table motion the drive (complex volts per line) will give through
+    `response` ((m/s^2)/V per line): acceleration A_k = R_k D_k, its steady orbit and (with
+    `fades`) its fades (`motion_peaks`)."""
+    acceleration = np.asarray(response, complex) * np.asarray(drive_lines_v, complex)
+    if acceleration.shape != (len(plan.bins),) or not np.all(np.isfinite(acceleration)):
+        raise PreflightError("predicted motion: the drive or the response is not finite")
+    return motion_peaks(plan, acceleration, fade_in_s=fade_in_s, fades=fades)
+
+
+FADE_IN_STEPS = (1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0)  # cycles of the lowest line tried, in turn
+
+
+def fade_in_for(
+    plan: Plan, acceleration: np.ndarray, limits: Limits, given_s: float | None = None
+) -> float:
+    """The LPM's fade-in (s) for the acceleration per line (complex m/s^2): `given_s` when
+    given; else the shortest of FADE_IN_STEPS cycles of the lowest line (at most a period)
+    whose motion, its fades included (`motion_peaks`), stays within `limits`: a short fade-in
+    leaves the table an offset from its orbit (dsp.fades), so a level near the stroke gets a
+    longer one instead of a refusal. When none does, the longest (the refusal then names the
+    orbit's own excess)."""
+    if given_s is not None:
+        return given_s
+    lowest = float(np.min(plan.frequencies_hz))
+    seconds = fade_in_seconds(lowest)
+    for cycles in FADE_IN_STEPS:
+        seconds = min(cycles / lowest, plan.period_s)
+        if not limit_problems(motion_peaks(plan, acceleration, fade_in_s=seconds), limits):
+            break
+        if seconds >= plan.period_s:
+            break
+    return seconds
 
 
 def check_drive(
     plan: Plan, drive_lines_v: np.ndarray, response: np.ndarray, limits: Limits, what: str
 ) -> PredictedPeaks:
     """PreflightError (exit 2) naming the predicted displacement when the drive about to be
-    played (`what` says which) would take the table past a limit through `response`; else the
-    predicted peaks. Nothing has been played with this drive when it refuses."""
-    peaks = predict_drive_peaks(plan, drive_lines_v, response)
+    played (`what` says which) would take the table past a limit through `response` (its
+    fades included, the fade-in as `fade_in_for` picks it); else the predicted peaks.
+    Nothing has been played with this drive when it refuses."""
+    acceleration = np.asarray(response, complex) * np.asarray(drive_lines_v, complex)
+    if acceleration.shape != (len(plan.bins),) or not np.all(np.isfinite(acceleration)):
+        raise PreflightError("predicted motion: the drive or the response is not finite")
+    peaks = motion_peaks(plan, acceleration, fade_in_s=fade_in_for(plan, acceleration, limits))
     problems = limit_problems(peaks, limits)
     if problems:
         raise PreflightError(

@@ -119,6 +119,13 @@ class Procedure:
             self.settings.dut_nominal_mv_per_ms2,
             offered_v=self.stand.input_ranges_v,
             per_line=self.settings.mode == Mode.STEPPED_SINE,
+            # the lpm's fade-in (None: as the record run picks it), else a period's crossfade
+            fade_in_s=(
+                self.settings.fade_in_s
+                if self.settings.estimator in RECORD_ESTIMATORS
+                else self.plan.period_s
+            ),
+            fade_out_s=self.settings.fade_out_s,
         )
         report.raise_if_refused()
         self._log(report.summary())

@@ -4,8 +4,10 @@ A burst plays a zero period whose last `fade-in` samples fade the steady drive i
 continues the drive's own phase), reads whole periods of the steady drive as one record, and
 fades out. The start-up transient the fade leaves is estimated by the LPM's transient term
 (dsp.lpm_record), not waited out, so type A and the level check come from the first period.
-Warm: the first burst starts from the stand's stored response; cold: a gentle identification
-burst at `identification_drive_v` per line first (the same multisine, reduced level). A level
+Warm: the stand's stored response is checked first by a burst at CHECK_LEVEL (20 %) of the
+level (issue 25 point 7, here since issue 34 made the LPM the default: a stored response that
+is wrong is caught before the level is played); cold: a gentle identification burst at
+`identification_drive_v` per line first (the same multisine, reduced level). A level
 more than `equalisation_tolerance` off after the first period: the burst's own measurement
 corrects the drive, and another burst follows. Periods join the record until the run's
 stopping rule holds (periods, type A target, time bound). Units: V, m/s^2, s.
@@ -13,31 +15,24 @@ stopping rule holds (periods, type A target, time bound). Units: V, m/s^2, s.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from app.procedure.acquisition import report_target_not_met, with_driven_hum
 from app.procedure.background import BackgroundLevels, budget_with_background
 from app.procedure.context import RunContext
+from app.procedure.equalisation import CHECK_LEVEL, play_check_burst, stored_refusal
 from app.procedure.errors import PreflightError, ProcedureError
 from app.procedure.events import EqualisationStep, Progress, State
+from app.procedure.preflight import check_drive, fade_in_for
 from app.procedure.ranging import run_resolution, with_resolution
 from app.procedure.stand_memory import StandMemory
 from app.procedure.stopping import Stop, StoppingRule
+from app.stand.response import StoredResponse
 from dsp.crestfactor import synthesize
+from dsp.fades import FADE_IN_CYCLES as FADE_IN_CYCLES  # re-exported for its callers
+from dsp.fades import fade_envelope, fade_in_samples
 from dsp.lpm_record import RecordEstimate, record_estimate
-from dsp.multisine import fade_envelope
 from dsp.spectral import MIN_PERIODS, period_spectrum
-
-FADE_IN_CYCLES = 2.0  # default fade-in: cycles of the lowest line (at most one period)
-
-
-def fade_in_samples(lowest_hz: float, sample_rate_hz: float, period_samples: int, s: float | None):
-    """Fade-in length in samples: `s` seconds, else FADE_IN_CYCLES of the lowest line; within
-    2 .. one period."""
-    seconds = s if s is not None else FADE_IN_CYCLES / lowest_hz
-    return int(min(max(2, math.ceil(seconds * sample_rate_hz)), period_samples))
 
 
 class RecordRun:
@@ -48,11 +43,10 @@ class RecordRun:
         self.background = background
         self.memory = memory
         plan = ctx.plan
+        target = plan.amplitudes_ms2 * np.exp(1j * (plan.phases_rad - np.pi / 2))
+        fade_s = fade_in_for(plan, target, ctx.stand.config.limits, ctx.settings.fade_in_s)
         self.fade = fade_in_samples(
-            float(np.min(plan.frequencies_hz)),
-            plan.sample_rate_hz,
-            plan.period_samples,
-            ctx.settings.fade_in_s,
+            float(np.min(plan.frequencies_hz)), plan.sample_rate_hz, plan.period_samples, fade_s
         )
 
     # --- one burst ------------------------------------------------------------------------
@@ -112,20 +106,95 @@ class RecordRun:
         ctx.io.fade_out()
         return self._response(record)
 
+    def _check_burst(self, drive_lines: np.ndarray, stored: StoredResponse) -> np.ndarray:
+        """The stand's response ((m/s^2)/V per line) from a check burst of `drive_lines`
+        (complex V per line): short when it fits in a period (equalisation.play_check_burst);
+        one period read as an LPM record when it does not, or when the short burst disagrees
+        with `stored` by more than the tolerance without a refusal (a burst too short for a
+        low level reads noise as a change: the period confirms or refutes it)."""
+        ctx, plan = self.ctx, self.ctx.plan
+        measured = play_check_burst(
+            ctx, drive_lines, self.fade, stored.response, self.background.noise()[0]
+        )
+        if measured is not None:
+            error = float(np.max(np.abs(np.abs(measured / stored.response) - 1.0)))
+            if error <= ctx.settings.stored_response_tolerance:
+                return measured
+            at_level = drive_lines / CHECK_LEVEL
+            refusal = stored_refusal(plan, at_level, measured, ctx.stand.config.limits, error)
+            if refusal is not None:
+                ctx.notes.equalisation.append(error)
+                raise refusal  # the burst ended at 0 V: nothing plays
+            ctx.log(
+                f"stand response: the check burst read the stored one {100 * error:.1f} % "
+                "off: checked again over a period (lpm)"
+            )
+        drive = synthesize(
+            plan.bins, np.abs(drive_lines), np.angle(drive_lines) + np.pi / 2, plan.period_samples
+        )
+        self._lead(drive, State.EQUALISING)
+        record = self._record([self._read(State.EQUALISING)])
+        ctx.io.fade_out()
+        return self._response(record)
+
+    def check_stored(self, stored: StoredResponse) -> np.ndarray:
+        """Issue 25 point 7 in the LPM's bursts (issue 34: the default estimator): a stored
+        response is first played at CHECK_LEVEL of the level, one burst (fade-in, one period
+        read as a record, fade-out), and the stand's response measured from it. Agreeing within
+        `stored_response_tolerance` at every line: the stored response (it holds the exciter's
+        compression at the level). Disagreeing: the measured one (the burst identified the
+        stand), unless the level's drive asked of the stored response would take the table
+        past a limit through the measured one: PreflightError, the level never played."""
+        ctx, plan, s = self.ctx, self.ctx.plan, self.ctx.settings
+        limits = ctx.stand.config.limits
+        target = plan.amplitudes_ms2 * np.exp(1j * (plan.phases_rad - np.pi / 2))
+        at_level = target / stored.response
+        reduced = CHECK_LEVEL * at_level
+        check_drive(plan, reduced, stored.response, limits, "stored-response check burst")
+        ctx.state(
+            State.EQUALISING,
+            f"check burst at {100 * CHECK_LEVEL:g} % of the level: the stored response (lpm)",
+        )
+        measured = self._check_burst(reduced, stored)
+        error = float(np.max(np.abs(np.abs(measured / stored.response) - 1.0)))
+        ctx.log(
+            f"stand response: stored one checked at {100 * CHECK_LEVEL:g} % of the level: "
+            f"worst line {100 * error:.2f} % off (lpm, one period)"
+        )
+        if error <= s.stored_response_tolerance:
+            ctx.notes.stand_response = self.memory.describe(stored, "stored", check_error=error)
+            return stored.response
+        ctx.notes.equalisation.append(error)
+        refusal = stored_refusal(plan, at_level, measured, limits, error)
+        if refusal is not None:
+            raise refusal
+        ctx.log(
+            f"stand response: the stored one is off by {100 * error:.1f} % "
+            f"(> {100 * s.stored_response_tolerance:g} %): the check burst re-identified it"
+        )
+        ctx.notes.stand_response = self.memory.describe(
+            stored, "stored, disagreed: identified", check_error=error
+        )
+        return measured
+
     def run(self) -> None:
-        """Identification when no stored response serves, then bursts until the level holds;
-        the last burst acquires until the stopping rule; fades out."""
+        """The stand's response (a stored one checked by a burst at CHECK_LEVEL, else a gentle
+        identification burst), then bursts until the level holds; the last burst acquires until
+        the stopping rule; fades out."""
         ctx, s = self.ctx, self.ctx.settings
         stored = self.memory.recall()
         if stored is not None:
-            response, source = stored.response, "stored"
+            response = self.check_stored(stored)
         else:
-            response, source = self.identify(), "identified"
+            response = self.identify()
             self.ctx.notes.stand_response = self.memory.describe(None, "identified")
         plan = ctx.plan
         target = plan.amplitudes_ms2 * np.exp(1j * (plan.phases_rad - np.pi / 2))
         for iteration in range(1, s.max_equalisation_iterations + 1):
             drive_lines = target / response
+            check_drive(
+                plan, drive_lines, response, ctx.stand.config.limits, f"level burst {iteration}"
+            )
             drive = synthesize(
                 plan.bins,
                 np.abs(drive_lines),
@@ -149,16 +218,6 @@ class RecordRun:
             ctx.notes.equalisation.append(worst)
             ctx.emit(EqualisationStep(iteration, errors, worst))
             ctx.log(f"level check {iteration}: worst line {100 * worst:.2f} % (lpm, one period)")
-            if iteration == 1 and source == "stored":
-                if worst > s.stored_response_tolerance:
-                    ctx.log(
-                        f"stand response: the stored one is off by {100 * worst:.1f} % "
-                        f"(> {100 * s.stored_response_tolerance:g} %): the burst re-identifies"
-                    )
-                    outcome = "stored, disagreed: identified"
-                else:
-                    outcome = "stored"
-                ctx.notes.stand_response = self.memory.describe(stored, outcome, check_error=worst)
             response = measured
             converged = worst <= s.equalisation_tolerance
             last = iteration == s.max_equalisation_iterations

@@ -152,7 +152,7 @@ class RunRequest:
     profile: Profile = Profile.ACCELERATION
     corner_hz: float | None = None
     exciter: str | None = None  # simulated stand: a name of its exciter catalogue
-    fade_in_s: float | None = None  # lpm: the fade-in before the record (None: 2 cycles)
+    fade_in_s: float | None = None  # lpm: the fade-in before the record (None: fade_in_for)
     resonance: bool = False  # search the mounted resonance in the response (dsp.resonance)
     records_chain_head: str | None = None  # hex: the records' chain head, named by the seal
     # the reference standard as on record (None: the stand file's, or the simulated stand's)

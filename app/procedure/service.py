@@ -312,6 +312,7 @@ class RunService:
             chain,
             request.nominal_mv_per_ms2,
             per_line=request.mode == Mode.STEPPED_SINE,
+            fade_in_s=(request.fade_in_s if request.estimator == Estimator.LPM else plan.period_s),
         )
         return PlanPreview(plan, report, report.problems, tuple(plan.warnings))
 

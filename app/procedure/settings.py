@@ -38,8 +38,8 @@ class RunSettings:
     # not one the operator gave: the run's report says so
     max_acquisition_default: bool = False
     background_periods: int = 2
-    fade_out_s: float | None = None  # None: dsp.multisine.fade_out_samples (4 cycles)
-    # lpm: the fade-in before the analysed record; None: 2 cycles of the lowest line
+    fade_out_s: float | None = None  # None: dsp.fades.fade_out_samples (1.5 cycles)
+    # lpm: the fade-in before the analysed record; None: app.procedure.preflight.fade_in_for
     fade_in_s: float | None = None
     settle_tolerance: float = 0.002
     max_settle_periods: int = 12

@@ -32,6 +32,8 @@ from hardware.interfaces import DaqConfig
 
 log = logging.getLogger(__name__)
 
+PAUSE_FRACTION = 0.1  # 0 V for more than this share of a period: a pause, not excitation
+
 
 def limited_drive(period_v: np.ndarray, limit_v: float) -> np.ndarray:
     """The one gate every output period passes on its way to the DAQ (identification,
@@ -181,19 +183,33 @@ class StandIO:
     @property
     def excited_s(self) -> float:
         """How long the shaker has run (s): from the first to the last non-zero drive sample of
-        each burst of drive (fades included, background and pauses between lines not)."""
+        each burst of drive (fades included; background and pauses, 0 V for more than
+        PAUSE_FRACTION of a period, not)."""
         if self._burst is None:
             return self._excited_before_s
         first, last = self._burst
         return self._excited_before_s + (last - first + 1) / self.segment.plan.sample_rate_hz
 
     def _count_excitation(self, played: np.ndarray) -> None:
+        """Bursts of drive: a burst ends at a pause, the drive at exactly 0 V for more than
+        PAUSE_FRACTION of a period (a whole zero period, or within periods: a check burst at
+        the start of one, the next burst's fade-in at the end of another; issue 34). A
+        multisine is exactly 0 V at single samples only."""
         moving = np.flatnonzero(played)
-        if moving.size:
-            first = self._burst[0] if self._burst else self._segment_samples + int(moving[0])
-            self._burst = (first, self._segment_samples + int(moving[-1]))
-        else:
+        if not moving.size:
             self._end_burst()
+            self._segment_samples += played.size
+            return
+        at = self._segment_samples + moving
+        pause = max(1, int(PAUSE_FRACTION * played.size))
+        breaks = np.flatnonzero(np.diff(at) > pause)
+        starts = np.concatenate(([at[0]], at[breaks + 1]))
+        ends = np.concatenate((at[breaks], [at[-1]]))
+        for start, end in zip(starts, ends, strict=True):
+            if self._burst and start - self._burst[1] > pause:
+                self._end_burst()
+            first = self._burst[0] if self._burst else int(start)
+            self._burst = (first, int(end))
         self._segment_samples += played.size
 
     def _end_burst(self) -> None:

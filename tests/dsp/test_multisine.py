@@ -205,13 +205,14 @@ def test_random_valid_plans_have_distinct_bins_below_045_fs(fs, period_s, picks)
     np.testing.assert_allclose(plan.frequencies_hz, plan.bins * fs / n)
 
 
-def test_a_fade_out_lasts_four_cycles_of_the_lowest_line_and_at_least_50_ms():
+def test_a_fade_out_lasts_one_and_a_half_cycles_of_the_lowest_line_and_at_least_50_ms():
+    """Issue 34 point 2: 1.5 cycles (was 4; the lowest line left at rest: tests/dsp/test_fades)."""
     from dsp.multisine import fade_out_samples
 
-    assert fade_out_samples(10.0, 6000.0) == 2400  # 4 / 10 Hz = 0.4 s at 6 kS/s
-    assert fade_out_samples(2500.0, 6000.0) == 300  # 1.6 ms < 50 ms: 0.05 s x 6000
-    assert fade_out_samples(100.0, 51200.0) == 2560  # 40 ms < 50 ms: 0.05 s x 51200
-    assert fade_out_samples(8.0, 51200.0) == 25600  # 0.5 s
+    assert fade_out_samples(10.0, 6000.0) == 900  # 1.5 / 10 Hz = 0.15 s at 6 kS/s
+    assert fade_out_samples(2500.0, 6000.0) == 300  # 0.6 ms < 50 ms: 0.05 s x 6000
+    assert fade_out_samples(100.0, 51200.0) == 2560  # 15 ms < 50 ms: 0.05 s x 51200
+    assert fade_out_samples(8.0, 51200.0) == 9600  # 0.1875 s
 
 
 def test_a_fade_out_envelope_falls_to_exactly_zero_then_stays_there_to_a_period_boundary():

@@ -82,12 +82,12 @@ def test_the_lpm_nonlinearity_threshold_is_scipys_per_line() -> None:
     """dsp.lpm's F threshold: closed form for two periods (d2 per line), scipy beyond."""
     import numpy as np
 
-    from dsp.lpm import _f_quantile
+    from dsp.quantiles import f_quantiles
 
     d2 = np.array([2.0, 4.0, 10.0, 37.5, 100.0, 1000.0])
     for d1 in (2, 4, 8):
         np.testing.assert_allclose(
-            _f_quantile(d1, d2, 0.99), special.fdtri(d1, d2, 0.99), rtol=1e-13
+            f_quantiles(d1, d2, 0.99), special.fdtri(d1, d2, 0.99), rtol=1e-13
         )
 
 

@@ -270,10 +270,12 @@ def test_a_whole_day_three_sensors_two_customers_register_and_an_amendment(windo
         qtbot.keyClick(focus, Qt.Key.Key_N, Qt.KeyboardModifier.ControlModifier)
         assert window.setup_tab.dut_id.text() == ""
         assert window.setup_tab.nominal.value() == 0.0 and window.setup_tab.tolerance.value() == 5.0
-        assert window.setup_tab.frequencies.text() == "" and window.setup_tab.periods.value() == 8
+        # the tab as it opened: the default estimator, the lpm, and its one period (issue 34;
+        # periodic and 8 before)
+        assert window.setup_tab.frequencies.text() == "" and window.setup_tab.periods.value() == 1
         assert (
             window.setup_tab.level.value() == 5.0
-            and window.setup_tab.estimator.currentText() == "periodic"
+            and window.setup_tab.estimator.currentText() == "lpm"
         )
         assert window.setup_tab.field_marks.reason(window.setup_tab.dut_id) == ""
         assert (

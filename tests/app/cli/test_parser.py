@@ -283,7 +283,8 @@ def test_help_states_the_bounds(capsys):
         ({"nominal_mv_per_ms2": float("nan")}, "nominal sensitivity: must be > 0"),
         ({"dut": "nosuch"}, "dut: 'nosuch' is not in the DUT catalogue"),
         ({"level_ms2": float("inf")}, "level: must be > 0"),
-        ({"periods": 0}, "periods: at least 2"),
+        ({"periods": 0}, "periods: at least 1"),  # the lpm (the default since issue 34)
+        ({"periods": 1, "estimator": "periodic"}, "periods: at least 2"),
     ],
 )
 def test_a_bad_request_never_reaches_the_stand(monkeypatch, tmp_path, change, message):

@@ -308,7 +308,8 @@ def test_cli_run_and_show(tmp_path, capsys):
     folder = next(Path(tmp_path).iterdir())
     assert main(["show", str(folder)]) == 0
     assert "complete" in capsys.readouterr().out
-    assert main(["run", "--fault", "device-lost@15", "--out", str(tmp_path), "--json"]) == 3
+    # 10 s of simulated time: within the warm lpm run's 12 s (the default since issue 34)
+    assert main(["run", "--fault", "device-lost@10", "--out", str(tmp_path), "--json"]) == 3
     record = json.loads(capsys.readouterr().out)
     assert record["status"] == "aborted" and record["final_output_v"] == 0.0
     assert main(["run", "--level", "50", "--out", str(tmp_path)]) == 2
@@ -449,10 +450,11 @@ def test_the_drive_never_jumps_even_when_a_crossfade_is_cut_short(
     assert [p.peak_v for p in read] == pytest.approx(np.max(np.abs(drive), axis=1), abs=8 * lsb)
     moving = sum(1 for p in played if p.peak_v > 0)
     # by hand: the shaker runs from sample 1 of the fade-in (its sample 0 is 0 V) through
-    # whole periods to the fade-out's ramp of 4 cycles of 10 Hz at 6 kS/s = 2400 samples,
-    # whose last sample is 0 V: (moving - 1) periods - 1 sample + 2399 samples
+    # whole periods to the fade-out's ramp of 1.5 cycles of 10 Hz at 6 kS/s = 900 samples
+    # (4 cycles, 2400, before issue 34), whose last sample is 0 V: (moving - 1) periods - 1
+    # sample + 899 samples
     assert plan.period_samples == 12000 and plan.sample_rate_hz == 6000.0
-    expected_samples = (moving - 1) * 12000 - 1 + 2399
+    expected_samples = (moving - 1) * 12000 - 1 + 899
     assert finished.record.excitation_time_s == pytest.approx(expected_samples / 6000.0, abs=1e-9)
 
 
@@ -563,13 +565,16 @@ def _run_with_store(
     return finished, stand, plan
 
 
-def test_the_stored_response_with_its_check_period_brings_the_seed_characteristic_to_12_4_s(
+def test_the_stored_response_with_its_check_burst_brings_the_seed_characteristic_to_8_45_s(
     tmp_path,
 ):
-    """Issue 14 point 1: the seed's 25-line piezo characteristic at 0.2 % type A. The first run
-    identifies (gentle drive, two equalisation steps); it stores the response it converged
-    with, and the next run of the same stand, mass class and plan starts from it: fade-in
-    crossfade, two settled periods (the check, reused), one more period, the fade-out."""
+    """Issue 14 point 1: the seed's 25-line piezo characteristic at 0.2 % type A (periodic
+    estimator). The first run identifies (gentle drive, two equalisation steps); it stores the
+    response it converged with, and the next run of the same stand, mass class and plan
+    starts from it: a check burst at 20 % of the level (issue 34: 0.3 s inside one period;
+    issue 25 played a crossfade and a period, 4 s), fade-in crossfade, two settled periods
+    (the check, reused), one more period, the fade-out (1.5 cycles since issue 34).
+    (This test was named ..._to_12_4_s before issue 34.)"""
     import hashlib
 
     from app.stand.response import ResponseStore
@@ -581,12 +586,15 @@ def test_the_stored_response_with_its_check_period_brings_the_seed_characteristi
     assert cold.record.excitation_time_s > 15.0
     warm, stand, plan = _run_with_store(store)
     assert warm.status == "complete", warm.abort_reason
-    # issue 25 point 7: the stored response is first played at 20 % of the level (its
-    # crossfade and one check period), then crossfaded to the level. By hand: 6 periods of
-    # 12000 samples from sample 1, then the 2400-sample ramp's 2399 non-zero samples:
-    # (72000 - 1 + 2399) / 6000 Hz = 12.39967 s (8.39967 s before the check period)
-    assert warm.record.excitation_time_s == pytest.approx((72000 - 1 + 2399) / 6000.0, abs=1e-9)
-    assert warm.record.periods_read == 2 + 6 + 1  # background, 6 moving, the fade-out
+    # issue 25 point 7: the stored response is first played at 20 % of the level, since
+    # issue 34 as a burst within one period (fades of 300 samples from and to 0 V around a
+    # 1200-sample hold: 1798 non-zero samples), then a pause, then crossfaded to the level.
+    # By hand: the burst, then 4 periods of 12000 samples from sample 1, then the fade-out's
+    # 900-sample ramp's 899 non-zero samples: (1798 + 48000 - 1 + 899) / 6000 Hz = 8.4493 s
+    # (12.39967 s with issue 25's crossfade and check period and the 4-cycle fade-out)
+    expected = (1798 + 48000 - 1 + 899) / 6000.0
+    assert warm.record.excitation_time_s == pytest.approx(expected, abs=1e-9)
+    assert warm.record.periods_read == 2 + 1 + 4 + 1  # background, burst, 4 moving, fade-out
     assert len(warm.record.equalisation_worst) == 1 and warm.record.equalisation_worst[0] < 0.01
     note = warm.record.stand_response
     assert note["source"] == "stored" and note["mass_class"] == "up to 25 g"
@@ -678,7 +686,9 @@ def test_the_cli_keeps_the_stand_response_and_fresh_response_identifies_anew(tmp
     code, second = run_json()
     assert code == 0 and second["stand_response"]["source"] == "stored"
     assert second["stand_response"]["stored"]["run_id"] == first["run_id"]
-    assert second["excitation_time_s"] < first["excitation_time_s"] - 6.0
+    # the lpm (the default since issue 34): the identification burst and a level-correcting
+    # burst (2 x 2.25 s) replaced by the 0.3 s check burst: 4.2 s less
+    assert second["excitation_time_s"] < first["excitation_time_s"] - 3.5
     code, fresh = run_json("--fresh-response")
     assert code == 0 and fresh["stand_response"]["source"] == "identified"
     code, heavy = run_json("--dut-mass", "150")
@@ -723,7 +733,9 @@ def test_the_refusal_after_a_check_burst_says_what_was_played(tmp_path, capsys):
     )
     assert match, reason
     peak_v, played_s = float(match.group(1)), float(match.group(2))
-    assert 0.0 < peak_v < 10.0 and played_s > 1.0
+    # issue 34: the check is a 0.3 s burst at 20 % of the level (4.4 s of crossfade and
+    # period before), and the lpm (the default) checks too
+    assert 0.0 < peak_v < 10.0 and played_s == 0.3
 
 
 @pytest.mark.parametrize("where", ["all lines x 0.3", "10 Hz line x 0.2"])

@@ -262,8 +262,9 @@ def test_choose_period_keeps_the_preset_and_goes_non_uniform_below_1_hz():
         choose_period((0.4, 95.0), 200.0, 12001)  # not exact on the preset period
 
 
-def test_fade_in_is_two_cycles_of_the_lowest_line_within_one_period():
-    assert fade_in_samples(10.0, 6000.0, 12000, None) == 1200
+def test_fade_in_is_one_cycle_of_the_lowest_line_within_one_period():
+    """Issue 34 point 2: one cycle (was two: 0.1 s before the seed's record, was 0.2 s)."""
+    assert fade_in_samples(10.0, 6000.0, 12000, None) == 600
     assert fade_in_samples(0.4, 200.0, 300, None) == 300  # capped at one period
     assert fade_in_samples(10.0, 6000.0, 12000, 0.05) == 300
 
@@ -274,8 +275,8 @@ def test_stopping_rule_trusts_the_lpm_target_from_one_period():
 
 
 def test_periods_1_refused_for_periodic_accepted_for_lpm(tmp_path, capsys):
-    code = main(["run", "--periods", "1", "--out", str(tmp_path)])
-    assert code == 2
+    code = main(["run", "--periods", "1", "--estimator", "periodic", "--out", str(tmp_path)])
+    assert code == 2  # (the default estimator is the lpm since issue 34: named here)
     assert "--periods: the periodic estimator needs at least 3 periods" in capsys.readouterr().err
     with pytest.raises(ValueError, match="multisine"):
         RunSettings(estimator="lpm", periods=1, mode="stepped-sine")

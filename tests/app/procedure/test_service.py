@@ -133,7 +133,8 @@ def test_every_run_option_of_the_table_is_an_option_of_run_with_its_help():
     values = vars(_run_parser().parse_args(["--level", "2.5", "--target-ua", "0.2%"]))
     options = RunOptions.from_values(values)
     assert options.level_ms2 == 2.5 and options.target_type_a == pytest.approx(0.002)
-    assert options.estimator == "periodic" and options.periods_to_run == 8
+    # the defaults: the one-period lpm since issue 34 (periodic and 8 periods before)
+    assert options.estimator == "lpm" and options.periods_to_run == 1
 
 
 def test_one_parser_per_option_names_the_flag():
