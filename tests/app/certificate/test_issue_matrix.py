@@ -96,8 +96,7 @@ def web_lines(lab: Lab, number: str, trust: Path | None) -> tuple[bool, list[str
         page,
     )
     return 'id="verified" class="ok">Every check passed' in page, [
-        html.unescape(f"{word} {name}")
-        + (html.unescape(f": {detail}") if cls != "ok" else "")
+        html.unescape(f"{word} {name}") + (html.unescape(f": {detail}") if cls != "ok" else "")
         for cls, word, name, detail in rows
     ]
 
