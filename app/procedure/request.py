@@ -31,7 +31,7 @@ from app.procedure.reference import (
 from app.records.run_record import DutIdentity, Override, technician_name
 from app.stand.dut import DutSpec, Tolerances, spec_from_record, spec_from_stand, spec_from_teds
 from app.stand.simulated import CATALOGUE, catalogue_spec
-from dsp.estimators import DEFAULT_ESTIMATOR, Estimator
+from dsp.estimators import Estimator, default_estimator
 from dsp.multisine import PRESETS
 from dsp.profiles import Profile
 from dsp.spectral import MIN_PERIODS
@@ -126,7 +126,9 @@ class RunRequest:
     periods: int = 8
     target_type_a: float | None = None
     max_acquisition_s: float | None = None  # None: with a target, the default bound
-    estimator: Estimator = DEFAULT_ESTIMATOR
+    # None: the mode's (dsp.estimators.default_estimator: lpm for a multisine, periodic for a
+    # stepped sine), resolved when the request is made
+    estimator: Estimator = None  # type: ignore[assignment]
     mode: Mode = Mode.MULTISINE
     stepped_block_s: float | None = None  # None: app.procedure.modes.DEFAULT_STEPPED_BLOCK_S
     tolerance_percent: float | None = None
@@ -159,6 +161,10 @@ class RunRequest:
     reference: ReferenceTable | None = None
     overrides: tuple[Override, ...] = ()  # checks gone past with a stated reason
     technician: str | None = None  # who runs it (run --technician, the GUI's Technician)
+
+    def __post_init__(self) -> None:
+        if self.estimator is None:  # the mode's, as RunOptions resolves it for the faces
+            object.__setattr__(self, "estimator", default_estimator(str(self.mode)))
 
     def spec(self, backend: Backend) -> DutSpec:
         """The DUT's specification on a stand of `backend`, with what the request states

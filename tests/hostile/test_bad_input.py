@@ -90,7 +90,7 @@ CASES: list[tuple[str, list[str], str]] = [
     ("run-periods-1e12", ["run", "--periods", "1e12"], "--periods: must be in [1, 10000]"),
     (
         "run-periods-1",
-        ["run", "--periods", "1"],
+        ["run", "--estimator", "periodic", "--periods", "1"],  # the lpm (default) takes 1
         "--periods: the periodic estimator needs at least 3 periods",
     ),
     ("run-periods-fraction", ["run", "--periods", "2.5"], "--periods: must be a whole number"),

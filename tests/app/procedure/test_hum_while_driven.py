@@ -24,10 +24,10 @@ pytestmark = pytest.mark.slow  # each case is a whole simulated run through the 
 
 
 def run(tmp_path: Path, capsys, *extra: str) -> tuple[dict, Path]:
-    """One `accelcal run` of the piezo DUT (4 periods unless `extra` says), as JSON; its run
-    folder."""
+    """One `accelcal run` of the piezo DUT (the periodic estimator, 4 periods, whose settle
+    test these cases are about, unless `extra` names the lpm), as JSON; its run folder."""
     out = tmp_path / "runs"
-    periods = [] if "lpm" in extra else ["--periods", "4"]
+    periods = [] if "lpm" in extra else ["--estimator", "periodic", "--periods", "4"]
     code = main(["run", "--sim", "--dut", "piezo", *periods, "--out", str(out), "--json", *extra])
     record = json.loads(capsys.readouterr().out)
     assert code == 0, record.get("abort_reason")

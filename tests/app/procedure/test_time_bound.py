@@ -94,18 +94,21 @@ def _report(results):
 
 
 @pytest.mark.integration
-def test_an_unreachable_target_ends_at_the_default_bound_with_its_report(tmp_path, capsys):
+@pytest.mark.parametrize(("estimator", "reused"), [("periodic", 2), ("lpm", 0)])
+def test_an_unreachable_target_ends_at_the_default_bound_with_its_report(
+    tmp_path, capsys, estimator, reused
+):
     """The capacitive DUT's lines reach 0.13 % (1250 Hz) to 1.4 % (4 kHz, not stated: too
     few LSB) type A in 120 s: 0.05 % is out of reach. Without --max-time the run stops at
-    the default bound, in simulated seconds: 120 s of acquisition (2 settled periods reused,
-    58-59 read), and says which lines are above the target with the type A it states for
-    them, and which it does not state."""
-    record, config, results = _run(tmp_path, capsys)
+    the default bound, in simulated seconds: 120 s of acquisition (periodic: 2 settled periods
+    reused, 58-59 read; lpm, the default: one record of 59-60 periods), and says which lines
+    are above the target with the type A it states for them, and which it does not state."""
+    record, config, results = _run(tmp_path, capsys, "--estimator", estimator)
     settings = config["settings"]
     assert settings["max_acquisition_s"] == DEFAULT_MAX_TIME_S
     assert settings["max_acquisition_default"] is True
     periods = results["results"]["periods"]
-    read_s = 2.0 * (periods - 2)  # the 2 s periods read after the two reused ones
+    read_s = 2.0 * (periods - reused)  # the 2 s periods read after the reused ones
     assert DEFAULT_MAX_TIME_S - 2 * 2.0 < read_s <= DEFAULT_MAX_TIME_S
     assert record["excitation_time_s"] < DEFAULT_MAX_TIME_S + 20.0  # + equalisation, fades
     text = _report(results)
