@@ -94,15 +94,28 @@ def _report(results):
 
 
 @pytest.mark.integration
-@pytest.mark.parametrize(("estimator", "reused"), [("periodic", 2), ("lpm", 0)])
+def test_the_default_estimators_run_with_a_target_takes_the_default_bound(tmp_path, capsys):
+    """The lpm (the default since issue 34) with a type A target gets the same default bound
+    (the one stopping rule, app.procedure.stopping; the periodic case below runs to it: an
+    lpm record of 60 periods takes 90 s of the suite's time)."""
+    argv = ["run", "--sim", "--dut", "piezo", "--target-ua", "0.2%", "--json"]
+    assert main([*argv, "--out", str(tmp_path)]) == 0
+    record = json.loads(capsys.readouterr().out)
+    config = json.loads((tmp_path / record["run_id"] / "config.json").read_text())
+    assert config["settings"]["estimator"] == "lpm"
+    assert config["settings"]["max_acquisition_s"] == DEFAULT_MAX_TIME_S
+    assert config["settings"]["max_acquisition_default"] is True
+
+
+@pytest.mark.parametrize(("estimator", "reused"), [("periodic", 2)])
 def test_an_unreachable_target_ends_at_the_default_bound_with_its_report(
     tmp_path, capsys, estimator, reused
 ):
     """The capacitive DUT's lines reach 0.13 % (1250 Hz) to 1.4 % (4 kHz, not stated: too
     few LSB) type A in 120 s: 0.05 % is out of reach. Without --max-time the run stops at
     the default bound, in simulated seconds: 120 s of acquisition (periodic: 2 settled periods
-    reused, 58-59 read; lpm, the default: one record of 59-60 periods), and says which lines
-    are above the target with the type A it states for them, and which it does not state."""
+    reused, 58-59 read), and says which lines are above the target with the type A it states
+    for them, and which it does not state."""
     record, config, results = _run(tmp_path, capsys, "--estimator", estimator)
     settings = config["settings"]
     assert settings["max_acquisition_s"] == DEFAULT_MAX_TIME_S
