@@ -13,6 +13,7 @@ from __future__ import annotations
 import hashlib
 
 from app.certificate.readback import PrintedItems
+from app.records.db.lab import Lab
 
 CHECK = "in force in the records' register"
 
@@ -28,7 +29,6 @@ def register_findings(data: bytes, printed: PrintedItems, url: str) -> tuple[boo
     opened; ChainBroken (a Refusal) when they fail their check."""
     from app.records.db.engine import DatabaseError, open_engine
     from app.records.db.gate import quick_check
-    from app.records.db.lab import Lab
 
     try:
         engine = open_engine(url)
@@ -36,12 +36,17 @@ def register_findings(data: bytes, printed: PrintedItems, url: str) -> tuple[boo
         raise RecordsUnavailable(str(exc)) from None
     try:
         quick_check(engine)  # verified before it is read
+        return _findings(data, printed, Lab(engine))
     finally:
         engine.dispose()
+
+
+def _findings(data: bytes, printed: PrintedItems, lab: Lab) -> tuple[bool, str]:
+    """`register_findings` on records already opened and checked."""
     number = str(printed.number)
     if not number:
         return False, "the certificate prints no number"
-    row = Lab(open_engine(url)).certificate(number)
+    row = lab.certificate(number)
     if row is None:
         return False, f"the register has no certificate {number}"
     digest = hashlib.sha256(data).hexdigest()
@@ -50,13 +55,15 @@ def register_findings(data: bytes, printed: PrintedItems, url: str) -> tuple[boo
             f"this file is not the certificate {number} the register holds (SHA-256 "
             f"{digest[:16]}..., issued {row.sha256[:16]}...)"
         )
-    problems = _amendment_differences(printed, row.replaces or "", _reason_of(row, url))
+    replaced = lab.certificate(row.replaces) if row.replaces else None
+    reason = str(replaced.reason or "") if replaced is not None else ""  # kept on the old row
+    problems = _amendment_differences(printed, row.replaces or "", reason)
     if problems:
         return False, "; ".join(problems)
     if row.state == "withdrawn":
         return False, f"certificate {number} is WITHDRAWN: {row.reason or 'no reason recorded'}"
     if row.state == "replaced":
-        successor = _successor(url, number)
+        successor = next((r.number for r in lab.register() if r.replaces == number), "")
         return False, (
             f"certificate {number} is REPLACED by {successor or 'an amendment'} "
             f"({row.reason or 'no reason recorded'}): use that one"
@@ -64,29 +71,6 @@ def register_findings(data: bytes, printed: PrintedItems, url: str) -> tuple[boo
     issued = f"issued {row.issued_utc:%Y-%m-%d}"
     unhashed = "" if row.sha256 else " (entered before the register kept hashes: file not compared)"
     return True, f"certificate {number} {issued}, in force{unhashed}"
-
-
-def _reason_of(row: object, url: str) -> str:
-    """The reason an amendment gives: the register keeps it on the replaced row."""
-    replaces = getattr(row, "replaces", None)
-    if not replaces:
-        return ""
-    from app.records.db.engine import open_engine
-    from app.records.db.lab import Lab
-
-    old = Lab(open_engine(url)).certificate(replaces)
-    return str(old.reason or "") if old is not None else ""
-
-
-def _successor(url: str, number: str) -> str:
-    """The number of the certificate that replaces `number` ("" when none is found)."""
-    from app.records.db.engine import open_engine
-    from app.records.db.lab import Lab
-
-    for row in Lab(open_engine(url)).register():
-        if row.replaces == number:
-            return str(row.number)
-    return ""
 
 
 def _amendment_differences(printed: PrintedItems, replaces: str, reason: str) -> list[str]:
