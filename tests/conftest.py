@@ -16,6 +16,16 @@ import pytest
 if TYPE_CHECKING:
     from sqlalchemy import Engine
 
+# before numpy is imported (here, in every xdist worker, and in every process a test starts,
+# which inherits the environment): OpenBLAS on one thread. The suite runs one worker per core;
+# a second BLAS thread per worker only spins waiting for work (a run's matrix products are
+# small), and that spinning was about 40 % of a simulated run's CPU seconds in a test
+# (tests/app/procedure/test_procedure.py::test_simulated_runs_recover_the_truth: 7.4-7.9 CPU s
+# with OpenBLAS's default of 2 threads, 4.1-4.2 with 1). `OPENBLAS_NUM_THREADS=2 pytest ...`
+# still chooses otherwise.
+for _blas_threads in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_blas_threads, "1")
+
 # before anything creates a QSettings: the whole session's Qt settings live in a temporary
 # folder, never in the user's ~/.config (tests also get one folder each, below)
 _CONFIG_HOME = tempfile.mkdtemp(prefix="accelcal-tests-config-")
