@@ -40,7 +40,9 @@ class AccountRow:
     created_utc: datetime
 
 
-def _audit(s: Session, action: str, username: str, changes: dict[str, Any], actor: str | None) -> None:
+def _audit(
+    s: Session, action: str, username: str, changes: dict[str, Any], actor: str | None
+) -> None:
     s.add(
         AuditEntry(
             at_utc=datetime.now(UTC),

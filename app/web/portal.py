@@ -100,7 +100,11 @@ def portal_routes(deps: PortalDeps) -> list[Route]:
         if held is None:
             return None
         account = store.account(held.username)
-        if account is None or not account.active or password_stamp(account.password_hash) != held.stamp:
+        if (
+            account is None
+            or not account.active
+            or password_stamp(account.password_hash) != held.stamp
+        ):
             ended = sessions.revoke_user(held.username)
             log.info("portal: %d session(s) of %s ended", ended, held.username)
             request.session.pop(SESSION_KEY, None)

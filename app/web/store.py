@@ -350,7 +350,6 @@ class Store:
                 return None
             return StaffUser(row.username, row.display_name, row.password_hash, row.active)
 
-
     # ---- the customer portal: every query bound to one customer --------------------------
     def account(self, username: str) -> PortalAccount | None:
         """The customer account named `username` with its customer, or None."""

@@ -223,8 +223,8 @@ def test_a_customer_signs_in_sees_its_certificates_and_due_dates_and_not_another
         assert numbers == [portal_records.acme]
         assert portal_records.other not in browser.page_source
         due_rows = browser.find_elements(By.CSS_SELECTOR, "#due tbody tr")
-        due = {r.find_elements(By.TAG_NAME, "td")[0].text: r.find_elements(By.TAG_NAME, "td")[4].text
-               for r in due_rows}  # fmt: skip
+        cells = [row.find_elements(By.TAG_NAME, "td") for row in due_rows]
+        due = {row[0].text: row[4].text for row in cells}
         assert set(due) == {"SN-WEB-1", NEVER_CALIBRATED}
         assert due[NEVER_CALIBRATED] == "never calibrated here"
         pdf_link = browser.find_element(By.CSS_SELECTOR, "#certificates a.pdf")

@@ -146,7 +146,9 @@ def test_guessed_ids_and_path_tricks_find_nothing(
     url = path.format(own=own, other=other, own_lower=own.lower())
     response = acme.get(url)
     assert response.status_code == 404, url
-    assert not response.content.startswith(b"%PDF") and b"digitalCalibration" not in response.content
+    assert (
+        not response.content.startswith(b"%PDF") and b"digitalCalibration" not in response.content
+    )
 
 
 @pytest.mark.parametrize("path", ["/register", "/due", "/sensors/SN-WEB-1", "/certificates/{own}",
@@ -275,7 +277,9 @@ def test_the_other_customers_export_is_its_own(portal_app, portal_records: Porta
     ics = other.get("/portal/due.ics").content
     assert SERIAL.encode() not in ics and NEVER_CALIBRATED.encode() not in ics
     assert _not_found(other.get(f"/portal/certificates/{portal_records.acme}/certificate.pdf"))
-    assert other.get(f"/portal/certificates/{portal_records.other}/certificate.pdf").status_code == 200
+    assert (
+        other.get(f"/portal/certificates/{portal_records.other}/certificate.pdf").status_code == 200
+    )
 
 
 def test_disabling_removing_or_a_new_password_ends_the_customers_sessions(

@@ -5,7 +5,8 @@
 - an issued certificate is never edited: the only changes are its state to withdrawn or
   replaced (with the reason) and its files (path, SHA-256, DCC's SHA-256) set once;
 - on PostgreSQL, a user (staff, or a customer's account: migration 0014) is added, re-enabled
-  or given a new name, password or customer only by an administrator: a member of the role that owns `users` (the owner role of docs/records.md),
+  or given a new name, password or customer only by an administrator: a member of the role
+  that owns the table (the owner role of docs/records.md),
   never by the application role. SQLite has no roles: there a user added behind the
   application's back is caught by the chain (an unsigned entry, or a row no entry claims).
 
