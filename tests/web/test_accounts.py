@@ -124,3 +124,78 @@ def test_unknown_accounts_and_a_second_add_are_refused(db_url: str, monkeypatch,
     assert main(["records", "account", "add", "x1", "--customer", "ACME Ltd", "--password",
                  SECRET, "--db", db_url]) == 2  # fmt: skip
     assert "unrecognized arguments" in capsys.readouterr().err
+
+
+def test_on_postgresql_accounts_are_the_administrators_and_the_portal_reads_them() -> None:
+    """Migration 0014 on PostgreSQL: the owner adds an account; the application role may
+    disable one but not add, re-enable or rebind one (the rule's trigger); the web view's
+    read-only engine finds the account with its customer and that customer's sensors only."""
+    import os
+    import shutil
+    import tempfile
+
+    from sqlalchemy import text
+    from sqlalchemy.exc import DBAPIError
+
+    from app.records.db.chain_rules import ACCOUNTS_MESSAGE
+    from app.records.db.engine import make_engine, resolve_url, upgrade
+    from app.web.store import Store, open_read_only
+    from tests.pg_server import start_pgserver
+
+    folder = Path(tempfile.mkdtemp(prefix="accelcal-portal-pg-"))  # short: the socket lives here
+    try:
+        server = start_pgserver(folder)
+    except Exception as exc:  # no wheel, no start
+        shutil.rmtree(folder, ignore_errors=True)
+        if os.environ.get("CI") == "true":
+            pytest.fail(f"PostgreSQL could not start in CI: {exc}")
+        pytest.skip(f"PostgreSQL could not start: {exc}")
+    try:
+        url = resolve_url(server.get_uri())
+        owner = make_engine(url)
+        upgrade(owner)
+        lab = Lab(owner, actor="test")
+        lab.add_customer("ACME Ltd")
+        lab.add_customer("Other GmbH")
+        lab.add_model("Sim", "P-100", nominal_sensitivity=10.0, unit="mV/(m/s^2)",
+                      tolerance_percent=5.0, frequency_min_hz=10.0,
+                      frequency_max_hz=10000.0)  # fmt: skip
+        lab.add_sensor("SN-PG-1", model="P-100", owner="ACME Ltd")
+        lab.add_sensor("SN-PG-2", model="P-100", owner="Other GmbH")
+        add_account(owner, "acme.pg", SECRET, customer="ACME Ltd", display_name="A", actor="t")
+        with owner.begin() as c:
+            c.execute(text("CREATE ROLE portal_app NOLOGIN"))
+            c.execute(
+                text("GRANT SELECT, INSERT, UPDATE ON ALL TABLES IN SCHEMA public TO portal_app")
+            )
+            c.execute(text("GRANT USAGE, SELECT ON ALL SEQUENCES IN SCHEMA public TO portal_app"))
+        refused = [
+            "INSERT INTO customer_accounts (username, display_name, customer_id, password_hash, "
+            "active, created_utc) SELECT 'forged', 'F', id, 'x', true, now() FROM customers "
+            "WHERE name = 'Other GmbH'",
+            "UPDATE customer_accounts SET customer_id = "
+            "(SELECT id FROM customers WHERE name = 'Other GmbH')",
+            "UPDATE customer_accounts SET password_hash = 'x'",
+        ]
+        for statement in refused:
+            with pytest.raises(DBAPIError, match="only an administrator"), owner.begin() as c:
+                c.execute(text("SET LOCAL ROLE portal_app"))
+                c.execute(text(statement))
+        assert "only an administrator" in ACCOUNTS_MESSAGE
+        with owner.begin() as c:  # disabling is the application's to do
+            c.execute(text("SET LOCAL ROLE portal_app"))
+            c.execute(text("UPDATE customer_accounts SET active = false"))
+        with pytest.raises(DBAPIError, match="only an administrator"), owner.begin() as c:
+            c.execute(text("SET LOCAL ROLE portal_app"))
+            c.execute(text("UPDATE customer_accounts SET active = true"))
+        owner.dispose()
+        engine = open_read_only(url)
+        store = Store(engine)
+        account = store.account("acme.pg")
+        assert account is not None and account.customer == "ACME Ltd" and not account.active
+        assert [s.serial for s in store.customer_sensors(account.customer_id)] == ["SN-PG-1"]
+        assert store.customer_sensors(account.customer_id, "SN-PG-2") == []
+        engine.dispose()
+    finally:
+        server.cleanup()
+        shutil.rmtree(folder, ignore_errors=True)
