@@ -51,8 +51,8 @@ NOT_FOUND = "Not found in your records."  # one answer for what is not there or 
 class PortalDeps:
     """What the portal shares with the staff pages: the records, the page renderer
     (request, template, status, context), the form token, the argon2 check slots, the
-    trusted proxies and the refusal page (request, target, message, wait s) of a throttled
-    sign-in."""
+    trusted proxies, the refusal page (request, target, message, wait s, sign-in path) of a
+    throttled sign-in, the portal's sessions and throttle, and the lab's host name."""
 
     store: Store
     page: Callable[..., Response]
@@ -62,6 +62,7 @@ class PortalDeps:
     refused: Callable[[Request, str, str, float, str], Response]
     sessions: SessionStore
     throttle: Throttle
+    lab_host: str | None = None  # the --verify-url's host: the calendar UIDs' (else the request's)
 
 
 def _local(target: str) -> str:
@@ -247,7 +248,7 @@ def portal_routes(deps: PortalDeps) -> list[Route]:
         if kind == "csv":
             body = due_csv(items, datetime.now(UTC).date()).encode("utf-8")
             return Response(body, media_type="text/csv; charset=utf-8", headers=headers)
-        lab = request.url.hostname or "accelcal"
+        lab = deps.lab_host or request.url.hostname or "accelcal"
         body = due_ical(items, lab=lab, customer=account.customer)
         return Response(body, media_type="text/calendar; charset=utf-8", headers=headers)
 

@@ -22,7 +22,7 @@ from datetime import UTC, datetime
 from importlib import resources
 from pathlib import Path
 from typing import Any
-from urllib.parse import quote
+from urllib.parse import quote, urlsplit
 
 from starlette.applications import Starlette
 from starlette.concurrency import run_in_threadpool
@@ -352,6 +352,7 @@ def create_app(store: Store, config: WebConfig) -> Starlette:
         refused=refused,
         sessions=portal_sessions,
         throttle=Throttle(),
+        lab_host=urlsplit(config.verify_url).hostname if config.verify_url else None,
     )
     routes = [
         *portal_routes(portal),
