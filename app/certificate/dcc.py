@@ -62,6 +62,10 @@ REF_DEVIATION = "vib_relativeDeviation"
 REF_RESPONSE = "vib_frequencyResponse"
 REF_RESULT = "vib_referenceFrequencyResult"  # the result at the reference frequency
 CHAIN_HEAD_NAME = "Records chain head (SHA-256)"  # the records' chain head its seal names
+REF_RUN_ID = "vib_runIdentifier"  # issue 35: the run, its seal and the software validation
+REF_SEAL = "vib_runSeal"  # named by refType, for a machine
+REF_CHAIN_HEAD = "vib_recordsChainHead"
+REF_VALIDATION = "vib_softwareValidation"
 
 ET.register_namespace("dcc", DCC_NS)
 ET.register_namespace("si", SI_NS)
@@ -186,8 +190,9 @@ def build(run: StoredRun, info: CertificateInfo) -> bytes:
     admin = _d(root, "administrativeData")
     software = _d(_d(admin, "dccSoftware"), "software")
     _text(software, "name", "accelcal")
-    _d(software, "release", record.software_version or "unknown")
-    _d(software, "type", "application")
+    from app.certificate import dcc_statements as decisions  # issue 35: machine-readable
+
+    decisions.software_release(software, record.software_version)
     core = _d(admin, "coreData")
     _d(core, "countryCodeISO3166_1", country)
     _d(core, "usedLangCodeISO639_1", "en")
@@ -221,6 +226,7 @@ def build(run: StoredRun, info: CertificateInfo) -> bytes:
     _text(customer, "name", str(info.customer))
     _text(_d(customer, "location"), "further", info.customer_address or text.ADDRESS_NOT_STATED)
     _statements(admin, results, record)
+    decisions.decision_rule(_statements_of(admin), results)
     duty_statements(admin, run, info)
 
     result_set = _d(_d(root, "measurementResults"), "measurementResult")
@@ -289,6 +295,7 @@ def build(run: StoredRun, info: CertificateInfo) -> bytes:
             REF_DEVIATION,
         )
     _reference_result(results_element, results)
+    decisions.characteristic_conformity(results_element, results)
     ET.indent(root, space="  ")
     xml = ET.tostring(root, encoding="utf-8", xml_declaration=True)
     problem = validation_error(xml)
@@ -352,13 +359,13 @@ def _run_identifications(core: ET.Element, run: StoredRun) -> None:
     except SealError as exc:
         raise DccError(str(exc)) from None
     ids = _d(core, "identifications")
-    for label, value in (
-        (RUN_ID_NAME, run.record.run_id),
-        (SEAL_NAME, seal),
-        (CHAIN_HEAD_NAME, head),
+    for label, value, ref_type in (
+        (RUN_ID_NAME, run.record.run_id, REF_RUN_ID),
+        (SEAL_NAME, seal, REF_SEAL),
+        (CHAIN_HEAD_NAME, head, REF_CHAIN_HEAD),
     ):
         if value:
-            ident = _d(ids, "identification")
+            ident = _d(ids, "identification", refType=ref_type)
             _d(ident, "issuer", "calibrationLaboratory")
             _d(ident, "value", str(value))
             _text(ident, "name", label)
@@ -380,6 +387,13 @@ def _statements(admin: ET.Element, results: Results, record: RunRecord) -> None:
 
 
 CMC_NAME = "Calibration and measurement capability"
+
+
+def _statements_of(admin: ET.Element) -> ET.Element:
+    """The administrative data's dcc:statements (written by `_statements`)."""
+    statements = admin.find(f"{{{DCC_NS}}}statements")
+    assert statements is not None  # _statements wrote it
+    return statements
 
 
 def _override_statements(statements: ET.Element, record: RunRecord) -> None:
@@ -432,7 +446,7 @@ def duty_statements(admin: ET.Element, run: StoredRun, info: CertificateInfo) ->
         _text(statement, "declaration", address)
     claim = info.validation
     if claim is not None:
-        statement = _d(statements, "statement")
+        statement = _d(statements, "statement", refType=REF_VALIDATION)
         _text(statement, "name", STATEMENT_NAME)
         _text(statement, "declaration", claim.line())
 

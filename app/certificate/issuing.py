@@ -185,8 +185,11 @@ class Issuance:
         return carried_numbers(self.folders)
 
     def stage(self, info: CertificateInfo) -> Staged:
-        """Write the numbered PDF (and its DCC, validated first) under staging names."""
+        """Write the numbered PDF (and its DCC, validated first, then signed with the PDF's
+        key when there is one: app.certificate.dcc_sign) under staging names."""
         xml = _dcc_of(self.p.run, info)
+        if xml is not None and self.signer is not None:
+            xml = _signed_dcc(xml, self.signer)
         pdf_tmp = staging_path(self.p.out)
         xml_out = dcc_path(self.p.out)
         if xml is not None and xml_out.exists():
@@ -340,6 +343,22 @@ def _dcc_of(run: StoredRun, info: CertificateInfo) -> bytes | None:
         return None
     except DccError as exc:
         raise CertificateError(str(exc)) from None
+
+
+def _signed_dcc(xml: bytes, signer: Any) -> bytes:
+    """The DCC with the laboratory's enveloped XAdES signature, still valid against the
+    schema (the signature is the root's last child, where DCC 3.3.0 allows it)."""
+    from app.certificate.dcc import validation_error
+    from app.certificate.dcc_sign import DccSigningError, sign_dcc
+
+    try:
+        signed = sign_dcc(xml, signer)
+    except DccSigningError as exc:
+        raise CertificateError(str(exc)) from None
+    problem = validation_error(signed)
+    if problem is not None:
+        raise CertificateError(f"the signed DCC does not validate: {problem}")
+    return signed
 
 
 def _write_read_only(path: Path, data: bytes) -> None:

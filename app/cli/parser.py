@@ -443,8 +443,8 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--dut", type=dut_name, default="piezo", help="simulated DUT")
         numeric_option(p, "--seed", SEED, "simulated stand: random seed", default=0)
 
-    v = sub.add_parser("verify", help="check a certificate PDF: signature, DCC, run")
-    v.add_argument("pdf", type=Path, help="certificate PDF")
+    v = sub.add_parser("verify", help="check a certificate PDF (or its DCC): signatures, DCC, run")
+    v.add_argument("pdf", type=Path, help="certificate PDF, or its DCC (.xml) alone")
     v.add_argument("--run", type=Path, help="the run folder it certifies (manifest and numbers)")
     v.add_argument("--trust", type=Path, help="the CA certificate (PEM or DER) to trust")
     v.add_argument("--validation-report", type=Path, help="the validation report PDF it names")
