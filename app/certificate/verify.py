@@ -5,15 +5,18 @@ once); the signature's byte layout, parsed from the bytes (app.certificate.pdf_s
 signed range covers the whole file but exactly its /Contents hex string, no revision after it,
 no earlier signature); the signature's cryptography (pyHanko); the signer, always named with
 its issuer and validity, valid now, and trusted only when `--trust` names its CA (without it
-the report never says verified); the embedded DCC, parsed as bytes by an inert parser and
-valid against DCC 3.3.0; the PDF's printed items, read from its marked text layer
-(app.certificate.pdf_marks: delimiters the writer places as PDF operators, never text), equal
-to the DCC's, value by value; with `--run`, the run's manifest, its seal (recomputed) and the
-records chain head it names, its results equal to the DCC's, and the PDF's results table equal,
-cell by cell, to the run's lines as printed (app.certificate.printed.table_cells, from which
-the PDF was drawn); with the records in use, the register's word (app.certificate.
-register_status: the file issued, in force, not replaced or withdrawn, its amendment as
-entered). The whole check is bounded in time (TIME_LIMIT_S).
+the report never says verified); the embedded DCC's own signature (enveloped XAdES, by the
+PDF's signer, trusted by `--trust`: app.certificate.dcc_sign); the embedded DCC, parsed as
+bytes by an inert parser and valid against DCC 3.3.0; the PDF's printed items, read from its
+marked text layer (app.certificate.pdf_marks: delimiters the writer places as PDF operators,
+never text), equal to the DCC's, value by value; with `--run`, the run's manifest, its seal
+(recomputed) and the records chain head it names, its results equal to the DCC's, and the PDF's
+results table equal, cell by cell, to the run's lines as printed
+(app.certificate.printed.table_cells, from which the PDF was drawn); with the records in use,
+the register's word (app.certificate.register_status: the file issued, in force, not replaced
+or withdrawn, its amendment as entered). A DCC given alone (.xml) is checked the same way but
+for the PDF: its signature, its validity, the run's checks and the register's (its SHA-256
+against the DCC issued). The whole check is bounded in time (TIME_LIMIT_S).
 """
 
 from __future__ import annotations

@@ -15,6 +15,7 @@ import pytest
 
 os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 
+from app.certificate import dcc_sign
 from app.cli import main
 from tests.app.certificate.conftest import SENSOR, Lab, Pki, copy_run
 
@@ -23,6 +24,7 @@ pytestmark = pytest.mark.integration
 ITEMS = ("--authorised-by", "J. Smith", "--prepared-by", "A. Tech", "--temperature", "23",
          "--mounting", "stud, 2 N m")  # fmt: skip
 UNSIGNED = "signature: the PDF is not signed: nothing proves who issued it"
+UNSIGNED_DCC = f"{dcc_sign.CHECK}: {dcc_sign.UNSIGNED_DETAIL}"  # its own signature (issue 35)
 
 
 def verify_lines(capsys: pytest.CaptureFixture[str], pdf: Path, *argv: str | Path) -> list[str]:
@@ -35,13 +37,13 @@ def verify_lines(capsys: pytest.CaptureFixture[str], pdf: Path, *argv: str | Pat
 
 
 def assert_verified(lines: list[str], signed: bool) -> None:
-    """Signed: every check passed. Unsigned: every check passed but the signature's, which
-    says only that the PDF is not signed."""
+    """Signed: every check passed. Unsigned: every check passed but the signatures', the
+    PDF's and the DCC's own (issue 35), which say only that they are not signed."""
     failed = [line for line in lines[:-1] if not line.startswith("ok   ")]
     if signed:
         assert not failed and lines[-1] == "certificate verified", lines
     else:
-        assert failed == [f"FAIL {UNSIGNED}"], lines
+        assert failed == [f"FAIL {UNSIGNED}", f"FAIL {UNSIGNED_DCC}"], lines
         assert lines[-1] == f"certificate NOT verified: {UNSIGNED}"
     names = {line[5:].partition(":")[0] for line in lines[:-1]}
     for check in ("DCC numbers printed in the PDF", "run seal recomputed and named by the "
@@ -114,11 +116,13 @@ def assert_web_verified(lab: Lab, number: str, signed: bool, trust: Path | None)
     if signed:
         assert verified and not failed, rows
     elif trust is not None:
-        assert not verified and failed == [f"FAIL {UNSIGNED}"], rows
-    else:
-        policy = [r for r in rows if r.startswith("not signed signature")]
-        assert verified and not failed and len(policy) == 1, rows
-        assert "not signed, by the laboratory's policy" in policy[0], rows
+        assert not verified and failed == [f"FAIL {UNSIGNED}", f"FAIL {UNSIGNED_DCC}"], rows
+    else:  # the PDF's signature and the DCC's (issue 35), each "not signed" by policy
+        policy = [r for r in rows if r.startswith("not signed ")]
+        assert verified and not failed and len(policy) == 2, rows
+        assert policy[0].startswith("not signed signature"), rows
+        assert policy[1].startswith(f"not signed {dcc_sign.CHECK}"), rows
+        assert all("not signed, by the laboratory's policy" in p for p in policy), rows
 
 
 def _number(out: str) -> str:
