@@ -14,7 +14,7 @@ its `dcc:conformityXMLList` and the limits as quantities in its data).
   conditionalPass (the deviation inside the tolerance, its U interval across the limit) or
   conditionalFail (outside, U across): ILAC-G8:09/2019 4.2.3's words. Points without a statement
   (the reference frequency, 0 by definition; "not stated": no U, or one below the floor) are not
-  listed, and the declaration names them.
+  listed; the declaration names those not stated.
 - The software's release in the form DCC's Schematron accepts (`v0.1.2`), the full version in
   its description.
 """
@@ -148,14 +148,15 @@ def characteristic_conformity(results_element: ET.Element, results: Results) -> 
     if tolerance is None:
         return
     dcc, si = _names()
-    points, left_out = [], []
+    points: list[tuple[str, str, str, str, str]] = []
+    left_out: list[str] = []
     for ln, raw in zip(printed_lines(results), results.lines, strict=True):
-        status = dcc_status(ln.tolerance_verdict, raw.deviation_percent, tolerance)
-        if status is None or ln.deviation_expanded in ("n/a", "n/s"):
+        found = dcc_status(ln.tolerance_verdict, raw.deviation_percent, tolerance)
+        if found is None or ln.deviation_expanded in ("n/a", "n/s"):
             if ln.tolerance_verdict is not None:
                 left_out.append(f"{ln.frequency} Hz ({ln.tolerance_verdict or NOT_STATED})")
             continue
-        points.append((ln.frequency, ln.deviation, ln.deviation_expanded, ln.k, status))
+        points.append((ln.frequency, ln.deviation, ln.deviation_expanded, ln.k, found))
     if not points:
         return
     p = f"{results.coverage_probability:g}"

@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
+import re
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
@@ -222,6 +223,12 @@ def test_certificate_names_the_signed_report_and_verify_proves_it(
     out = capsys.readouterr().out
     assert f"software validation: report {report.name}" in out and "named" in out
     assert digest in _text(pdf).replace(" ", "") and digest in _dcc(pdf)
+    named = re.findall(  # issue 35: named by refType for a machine, not only in words
+        r'<dcc:statement refType="vib_softwareValidation">.*?<dcc:content lang="en">([^<]*)<',
+        _dcc(pdf),
+        re.S,
+    )
+    assert len(named) == 1 and digest in named[0], named
     assert main(["verify", str(pdf), "--trust", str(pki.ca),
                  "--validation-report", str(report)]) == 0  # fmt: skip
     out = capsys.readouterr().out
