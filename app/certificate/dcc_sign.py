@@ -84,13 +84,12 @@ def sign_dcc(xml: bytes, signer: Any) -> bytes:
 @dataclass(frozen=True)
 class DccSignature:
     """What a DCC's signature proves: whether there is one, whether it is intact over the
-    whole DCC, its signer (subject, issuer, validity; DER of its certificate), and whether
-    the given CA trusts it (None: no CA given)."""
+    whole DCC, its signer's certificate (DER), and whether the given CA trusts it (None: no
+    CA given). `accelcal verify` words it (app.certificate.verify)."""
 
     signed: bool
     intact: bool
     detail: str = ""
-    signer: Any = None  # app.certificate.verify.SignerInfo
     certificate_der: bytes = b""
     trusted: bool | None = None
 
@@ -121,17 +120,14 @@ def check_dcc_signature(xml: bytes, roots: list[Any] | None = None) -> DccSignat
     certificate = _signing_certificate(signatures[0])
     if certificate is None:
         return DccSignature(True, False, "the signature carries no X.509 certificate")
-    from app.certificate.verify import SignerInfo
-
-    signer = _signer_info(certificate, SignerInfo)
     der = _der(certificate)
     problem = _verify(xml, certificate, None)
     if problem is not None:
-        return DccSignature(True, False, problem, signer, der)
+        return DccSignature(True, False, problem, der)
     trusted = None
     if roots is not None:
         trusted = _verify(xml, certificate, roots) is None
-    return DccSignature(True, True, "", signer, der, trusted)
+    return DccSignature(True, True, "", der, trusted)
 
 
 def _signing_certificate(signature: Any) -> Any:
@@ -154,13 +150,6 @@ def _der(certificate: Any) -> bytes:
 
     der: bytes = certificate.public_bytes(Encoding.DER)
     return der
-
-
-def _signer_info(certificate: Any, info_type: Any) -> Any:
-    """The certificate as app.certificate.verify.SignerInfo (through asn1crypto, as the PDF's)."""
-    from asn1crypto import x509 as asn1_x509
-
-    return info_type.of(asn1_x509.Certificate.load(_der(certificate)))
 
 
 def _verify(xml: bytes, certificate: Any, roots: list[Any] | None) -> str | None:
@@ -202,27 +191,3 @@ def _ca_file(roots: list[Any] | None) -> Iterator[str | None]:
             handle.write(pem.armor("CERTIFICATE", root.dump()))
         handle.flush()
         yield handle.name
-
-
-def signature_finding(
-    xml: bytes, roots: list[Any] | None, pdf_signer_der: bytes = b""
-) -> tuple[bool, str]:
-    """(ok, detail) of the DCC's signature as `accelcal verify` reports it: not signed (a
-    failure, worded as the PDF's), not intact, signed by another than the PDF's signer (when
-    the PDF is signed: `pdf_signer_der`), not valid now, not trusted by the given CA (`roots`);
-    else ok, naming the signer (and, without a CA, that it is not checked)."""
-    status = check_dcc_signature(xml, roots)
-    if not status.signed or not status.intact:
-        return False, status.detail
-    who = status.signer.describe()
-    if pdf_signer_der and status.certificate_der != pdf_signer_der:
-        return False, f"signed by {who}, not by the PDF's signer"
-    problem = status.signer.validity_problem()
-    if problem is not None:
-        return False, f"intact, but its signer's certificate is {problem} ({who})"
-    if status.trusted is None:
-        return True, f"intact, signed by {who}; signer NOT checked (give --trust)"
-    if not status.trusted:
-        signer = status.signer
-        return False, f"intact, but {signer.subject} (issuer {signer.issuer}) is not trusted"
-    return True, f"intact, signed by {who}, trusted by the given CA"

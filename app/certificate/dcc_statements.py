@@ -25,11 +25,17 @@ import math
 import re
 import xml.etree.ElementTree as ET
 
-from app.certificate.dcc import DCC_NS, REF_FREQUENCY, SI_NS, UNIT_HZ, UNIT_PERCENT
 from app.certificate.printed import printed_lines
 from dsp.calibration import Results
 from dsp.conformity import DECISION_RULE, NOT_STATED, Outcome
 
+# the DCC's vocabulary as app.certificate.dcc writes it (which imports this module; the test
+# test_dcc_statements checks they are the same)
+DCC_NS = "https://ptb.de/dcc"
+SI_NS = "https://ptb.de/si"
+REF_FREQUENCY = "vib_frequency basic_referenceValue"
+UNIT_HZ = r"\hertz"
+UNIT_PERCENT = r"\percent"
 DECISION_RULE_REF = "basic_decisionRule"
 CONFORMITY_REF = "basic_conformity"
 LIMIT_LOWER_REF = "basic_toleranceLimitLower"

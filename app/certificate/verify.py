@@ -165,9 +165,9 @@ def _verify_dcc(
 ) -> None:  # fmt: skip
     """A DCC given alone: its signature (app.certificate.dcc_sign), its validity, and with
     `run` and `records` the run's and the register's checks as for a PDF (no PDF table)."""
-    from app.certificate.dcc_sign import CHECK, signature_finding
+    from app.certificate.dcc_sign import CHECK
 
-    report.add(CHECK, *signature_finding(data, roots))
+    report.add(CHECK, *_dcc_signature(data, roots))
     try:
         root = parse_inert(data)
     except PrintedError as exc:
@@ -319,9 +319,9 @@ def _check_dcc(
     if len(xml_list) != 1:
         report.add("embedded DCC", False, "no single certificate.xml attached")
         return None
-    from app.certificate.dcc_sign import CHECK, signature_finding
+    from app.certificate.dcc_sign import CHECK
 
-    report.add(CHECK, *signature_finding(bytes(xml_list[0]), roots, report.pdf_signer))
+    report.add(CHECK, *_dcc_signature(bytes(xml_list[0]), roots, report.pdf_signer))
     try:
         root = parse_inert(xml_list[0])
     except PrintedError as exc:
@@ -353,6 +353,34 @@ def _check_dcc(
         diff.insert(0, "the DCC states no result lines")
     report.add(name, not diff, "; ".join(diff[:3]))
     return dcc, marks
+
+
+def _dcc_signature(
+    xml: bytes, roots: list[Any] | None, pdf_signer_der: bytes = b""
+) -> tuple[bool, str]:
+    """(ok, detail) of the DCC's own signature (app.certificate.dcc_sign): not signed (a
+    failure, worded as the PDF's), not intact, signed by another than the PDF's signer (when
+    the PDF is signed: `pdf_signer_der`), not valid now, not trusted by the given CA (`roots`);
+    else ok, naming the signer (and, without a CA, that it is not checked)."""
+    from asn1crypto import x509 as asn1_x509
+
+    from app.certificate.dcc_sign import check_dcc_signature
+
+    status = check_dcc_signature(xml, roots)
+    if not status.signed or not status.intact:
+        return False, status.detail
+    signer = SignerInfo.of(asn1_x509.Certificate.load(status.certificate_der))
+    who = signer.describe()
+    if pdf_signer_der and status.certificate_der != pdf_signer_der:
+        return False, f"signed by {who}, not by the PDF's signer"
+    problem = signer.validity_problem()
+    if problem is not None:
+        return False, f"intact, but its signer's certificate is {problem} ({who})"
+    if status.trusted is None:
+        return True, f"intact, signed by {who}; signer NOT checked (give --trust)"
+    if not status.trusted:
+        return False, f"intact, but {signer.subject} (issuer {signer.issuer}) is not trusted"
+    return True, f"intact, signed by {who}, trusted by the given CA"
 
 
 def _check_run(run: Path, dcc: PrintedItems, marks: PageMarks | None, report: Verification) -> None:

@@ -9,11 +9,17 @@ from pathlib import Path
 
 import pytest
 
+from app.certificate import dcc
 from app.certificate import dcc_statements as decisions
 from app.certificate.dcc import DCC_NS, SI_NS
 from app.certificate.load import load_stored_run
 
 NS = {"dcc": DCC_NS, "si": SI_NS}
+
+
+def test_the_vocabulary_is_the_dcc_writers() -> None:
+    for name in ("DCC_NS", "SI_NS", "REF_FREQUENCY", "UNIT_HZ", "UNIT_PERCENT"):
+        assert getattr(decisions, name) == getattr(dcc, name), name
 
 
 @pytest.mark.parametrize(
