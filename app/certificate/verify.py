@@ -165,14 +165,14 @@ def _verify_dcc(
 ) -> None:  # fmt: skip
     """A DCC given alone: its signature (app.certificate.dcc_sign), its validity, and with
     `run` and `records` the run's and the register's checks as for a PDF (no PDF table)."""
-    from app.certificate.dcc_sign import CHECK
-
-    report.add(CHECK, *_dcc_signature(data, roots))
     try:
         root = parse_inert(data)
     except PrintedError as exc:
         report.add("DCC readable", False, str(exc))
         return
+    from app.certificate.dcc_sign import CHECK
+
+    report.add(CHECK, *_dcc_signature(data, roots))
     from lxml import etree
 
     from app.certificate.dcc import validation_error
@@ -319,14 +319,14 @@ def _check_dcc(
     if len(xml_list) != 1:
         report.add("embedded DCC", False, "no single certificate.xml attached")
         return None
-    from app.certificate.dcc_sign import CHECK
-
-    report.add(CHECK, *_dcc_signature(bytes(xml_list[0]), roots, report.pdf_signer))
     try:
         root = parse_inert(xml_list[0])
     except PrintedError as exc:
         report.add("embedded DCC readable", False, str(exc))
         return None
+    from app.certificate.dcc_sign import CHECK  # a DCC read inertly first: its own signature
+
+    report.add(CHECK, *_dcc_signature(bytes(xml_list[0]), roots, report.pdf_signer))
     from lxml import etree
 
     from app.certificate.dcc import validation_error
@@ -355,18 +355,27 @@ def _check_dcc(
     return dcc, marks
 
 
+COVERED_BY_PDF = (
+    "not signed itself (issued before DCCs were signed): the PDF's signature covers it, but "
+    "taken out of this PDF it proves nothing"
+)
+
+
 def _dcc_signature(
     xml: bytes, roots: list[Any] | None, pdf_signer_der: bytes = b""
 ) -> tuple[bool, str]:
     """(ok, detail) of the DCC's own signature (app.certificate.dcc_sign): not signed (a
     failure, worded as the PDF's), not intact, signed by another than the PDF's signer (when
     the PDF is signed: `pdf_signer_der`), not valid now, not trusted by the given CA (`roots`);
-    else ok, naming the signer (and, without a CA, that it is not checked)."""
+    else ok, naming the signer (and, without a CA, that it is not checked). An unsigned DCC
+    inside a signed PDF is ok: the PAdES signature covers it."""
     from asn1crypto import x509 as asn1_x509
 
     from app.certificate.dcc_sign import check_dcc_signature
 
     status = check_dcc_signature(xml, roots)
+    if not status.signed and pdf_signer_der:  # inside an intact signed PDF (issued before
+        return True, COVERED_BY_PDF  # DCCs were signed): the PDF's signature covers it
     if not status.signed or not status.intact:
         return False, status.detail
     signer = SignerInfo.of(asn1_x509.Certificate.load(status.certificate_der))

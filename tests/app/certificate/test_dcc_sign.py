@@ -175,3 +175,22 @@ def test_a_dcc_with_a_second_or_misplaced_signature_is_refused(
     moved[0].append(etree.fromstring(etree.tostring(signature)))
     status = dcc_sign.check_dcc_signature(etree.tostring(moved))
     assert status.signed and not status.intact
+
+
+def test_a_signed_pdf_issued_before_dccs_were_signed_still_verifies(
+    complete_run: Path, pki: Pki, sign_password: str, tmp_path: Path, capsys,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:  # fmt: skip
+    """Its DCC is unsigned but inside the PDF's PAdES signature: verified, and the report says
+    that the DCC alone proves nothing."""
+    from app.certificate.verify import COVERED_BY_PDF
+
+    run = copy_run(complete_run, tmp_path / "runs")
+    monkeypatch.setattr(issuing, "_signed_dcc", lambda xml, signer: xml)  # as before issue 35
+    pdf = tmp_path / "old.pdf"
+    assert main(["certificate", str(run), *ITEMS, "--sign", str(pki.key), "--out", str(pdf)]) == 0
+    lines = verify_lines(capsys, pdf, "--run", run, "--trust", pki.ca)
+    assert lines[-1] == "certificate verified", lines
+    assert f"ok   {dcc_sign.CHECK}: {COVERED_BY_PDF}" in lines
+    lines = verify_lines(capsys, pdf.with_suffix(".xml"), "--run", run, "--trust", pki.ca)
+    assert lines[0] == f"FAIL {dcc_sign.CHECK}: {dcc_sign.UNSIGNED_DETAIL}"

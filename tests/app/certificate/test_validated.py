@@ -224,7 +224,8 @@ def test_certificate_names_the_signed_report_and_verify_proves_it(
     assert f"software validation: report {report.name}" in out and "named" in out
     assert digest in _text(pdf).replace(" ", "") and digest in _dcc(pdf)
     named = re.findall(  # issue 35: named by refType for a machine, not only in words
-        r'<dcc:statement refType="vib_softwareValidation">.*?<dcc:content lang="en">([^<]*)<',
+        r'<dcc:statement refType="vib_softwareValidation">.*?<dcc:declaration>\s*'
+        r'<dcc:content lang="en">([^<]*)<',
         _dcc(pdf),
         re.S,
     )
