@@ -143,18 +143,41 @@ def add_commands(sub: argparse._SubParsersAction) -> dict[str, Handler]:  # type
     rsub = r.add_subparsers(dest="action", required=True, metavar="ACTION")
     ra = rsub.add_parser("add", help="add a reference standard with its calibration table")
     ra.add_argument("identifier")
-    ra.add_argument("--model", required=True)
-    ra.add_argument("--serial", required=True)
-    ra.add_argument("--certificate", required=True, help="its calibration certificate number")
-    ra.add_argument("--calibrated", type=_iso_date("--calibrated"), required=True)
-    ra.add_argument("--due", type=_iso_date("--due"), required=True)
+    ra.add_argument("--model", help="required with --table; with --dcc, the DCC's by default")
+    ra.add_argument("--serial", help="required with --table; with --dcc, must be the DCC's")
     ra.add_argument(
+        "--certificate",
+        help="its calibration certificate number (required with --table; with --dcc, the DCC's "
+        "uniqueIdentifier)",
+    )
+    ra.add_argument(
+        "--calibrated",
+        type=_iso_date("--calibrated"),
+        help="required with --table; with --dcc, the DCC's endPerformanceDate",
+    )
+    ra.add_argument("--due", type=_iso_date("--due"), required=True)
+    source = ra.add_mutually_exclusive_group(required=True)
+    source.add_argument(
         "--table",
         type=Path,
-        required=True,
         help="CSV: frequency_hz,sensitivity_mv_per_ms2,relative_expanded_uncertainty_percent"
         "[,phase_deg]; the uncertainty in percent (0.5 means 0.5 %%); the header is optional, "
         "an uncertainty column not named in percent is refused",
+    )
+    source.add_argument(
+        "--dcc",
+        type=Path,
+        metavar="FILE",
+        help="its calibrating laboratory's DCC (PTB DCC 3.x XML): validated, its signature "
+        "verified, its sensitivity table, dates, laboratory and item read; kept in the records "
+        "with its SHA-256, which every certificate made with the reference names",
+    )
+    ra.add_argument(
+        "--dcc-certificate",
+        type=Path,
+        metavar="PEM",
+        help="the DCC signer's X.509 certificate to verify its signature against (default: "
+        "the certificate the signature embeds)",
     )
     _db_option(ra)
     _list_options(rsub.add_parser("list", help="list reference standards"))
@@ -324,10 +347,19 @@ def cmd_sensors(args: argparse.Namespace) -> int:
 
 
 def cmd_refs(args: argparse.Namespace) -> int:
+    if args.action == "add" and args.dcc is not None:
+        from app.cli.reference_dcc import add_from_dcc
+
+        return add_from_dcc(args, lambda: _lab(args))
     lab = _lab(args)
     if args.action == "add":
         from app.records.db.reference_table import read_reference_table
 
+        if args.dcc_certificate is not None:
+            raise RecordsUsageError("--dcc-certificate: goes with --dcc")
+        for option in ("model", "serial", "certificate", "calibrated"):
+            if getattr(args, option) is None:
+                raise RecordsUsageError(f"--{option}: required with --table")
         table = read_reference_table(args.table)
         row = lab.add_reference(
             args.identifier,
