@@ -35,7 +35,8 @@ def pdf_rows(reference: Mapping[str, Any]) -> list[tuple[str, str]]:
         return []
     identifier, laboratory, sha256 = found
     issuer = f" of {escape(laboratory)}" if laboratory else ""
-    return [(LABEL, f"DCC {escape(identifier)}{issuer}<br/>SHA-256 {sha256}")]
+    # the hash on a line of its own, small enough never to be split (a reader copies it whole)
+    return [(LABEL, f'DCC {escape(identifier)}{issuer}<br/><font size="7">SHA-256 {sha256}</font>')]
 
 
 def dcc_identifications(identifications: ET.Element, reference: Mapping[str, Any]) -> None:
