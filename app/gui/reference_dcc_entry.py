@@ -54,7 +54,8 @@ def load_dcc(dialog: Any, path: Path, *, fill: bool = True) -> list[TableRow] | 
     if dcc.serial:
         dialog.serial.setText(dcc.serial)
     dialog.certificate.setText(dcc.unique_identifier)
-    dialog.calibrated.setDate(QDate(dcc.calibration_date))
+    day = dcc.calibration_date
+    dialog.calibrated.setDate(QDate(day.year, day.month, day.day))
     return dcc.table()
 
 

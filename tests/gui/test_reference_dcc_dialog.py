@@ -43,9 +43,7 @@ def marked(dialog, key: str) -> str:
     return html.unescape(dialog.marks.reason(dialog.fields[key]))
 
 
-def test_a_reference_is_added_from_its_dcc_and_a_malformed_one_is_refused_at_the_field(
-    window, url
-):
+def test_a_reference_is_added_from_its_dcc_and_a_malformed_one_is_refused_at_the_field(window, url):
     listing = window.sensors_tab.records_list("references")
     dialog = listing.open_editor(None)
     dialog.identifier.setText("REF-DCC")
