@@ -97,6 +97,15 @@ def test_a_hand_written_dcc_is_accepted_and_named_on_the_next_certificate(
     assert b'refType="vib_referenceDcc"' in xml
     assert b"<dcc:value>NMI-VIB-2026-0412</dcc:value>" in xml
     assert f"<dcc:value>{sha256}</dcc:value>".encode() in xml
+    # verify reads the certificate as before: every check but the (absent) PAdES signature
+    capsys.readouterr()
+    main(["verify", str(pdf), "--run", str(folder), "--db", url])
+    checks = capsys.readouterr().out.splitlines()
+    assert [line for line in checks if line.startswith("FAIL")] == [
+        "FAIL signature: the PDF is not signed: nothing proves who issued it"
+    ]
+    assert "ok   DCC numbers printed in the PDF" in checks
+    assert "ok   embedded DCC valid (DCC 3.3.0)" in checks
 
 
 def test_a_malformed_dcc_is_refused_naming_the_element_and_nothing_is_added(
