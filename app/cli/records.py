@@ -139,7 +139,7 @@ def add_commands(sub: argparse._SubParsersAction) -> dict[str, Handler]:  # type
     sw.add_argument("serial")
     _db_option(sw)
 
-    r = sub.add_parser("refs", help="reference standards: add, list")
+    r = sub.add_parser("refs", help="reference standards: add, list, dcc")
     rsub = r.add_subparsers(dest="action", required=True, metavar="ACTION")
     ra = rsub.add_parser("add", help="add a reference standard with its calibration table")
     ra.add_argument("identifier")
@@ -181,6 +181,10 @@ def add_commands(sub: argparse._SubParsersAction) -> dict[str, Handler]:  # type
     )
     _db_option(ra)
     _list_options(rsub.add_parser("list", help="list reference standards"))
+    rd = rsub.add_parser("dcc", help="write the DCC kept of a reference standard to a file")
+    rd.add_argument("identifier")
+    rd.add_argument("--out", type=Path, required=True, help="the file to write (never overwritten)")
+    _db_option(rd)
 
     due = sub.add_parser("due", help="sensors and reference standards due for calibration")
     numeric_option(due, "--days", DAYS, "horizon (default 30)", default=30)
@@ -352,6 +356,10 @@ def cmd_refs(args: argparse.Namespace) -> int:
 
         return add_from_dcc(args, lambda: _lab(args))
     lab = _lab(args)
+    if args.action == "dcc":
+        from app.cli.reference_dcc import write_kept
+
+        return write_kept(args, lab)
     if args.action == "add":
         from app.records.db.reference_table import read_reference_table
 

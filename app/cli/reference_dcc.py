@@ -2,7 +2,8 @@
 calibrating laboratory's DCC (app.io.reference_dcc): the DCC read and refused (exit 2, naming
 the element) before the records are opened; its table, identity, dates and item taken, options
 given checked against it; the DCC kept in the records with its SHA-256. Units as the records':
-Hz, mV/(m/s^2), relative U at k = 2, degrees."""
+Hz, mV/(m/s^2), relative U at k = 2, degrees. `accelcal refs dcc ID --out FILE` writes the DCC
+kept back out, byte for byte (its SHA-256 checked)."""
 
 from __future__ import annotations
 
@@ -104,4 +105,25 @@ def add_from_dcc(args: argparse.Namespace, open_lab: Callable[[], Lab]) -> int:
     )
     for line in describe(dcc):
         print(f"  {line}")
+    return 0
+
+
+def write_kept(args: argparse.Namespace, lab: Lab) -> int:
+    """Write reference `args.identifier`'s DCC in force to `args.out` (never overwritten)."""
+    from app.files import FileExistsRefusal, TargetRefusal, write_new
+
+    kept = lab.reference_dcc(args.identifier)
+    if kept is None:
+        raise DccOptionError(
+            f"reference {args.identifier}: no DCC in force (its table was not read from one, or "
+            "a recalibration replaced it)"
+        )
+    try:
+        write_new(args.out, kept.content)
+    except (FileExistsRefusal, TargetRefusal) as exc:
+        raise DccOptionError(f"--out: {exc}") from None
+    print(
+        f"{args.out}: DCC {kept.identity.unique_identifier} of {kept.identity.laboratory} "
+        f"({kept.file_name}, read in {kept.added_utc:%Y-%m-%d}), SHA-256 {kept.identity.sha256}"
+    )
     return 0

@@ -134,6 +134,8 @@ def parse_reference_dcc(
         root = etree.fromstring(data, parser)
     except etree.XMLSyntaxError as exc:
         raise ReferenceDccError(f"{source}: not well-formed XML ({exc})") from None
+    if root.getroottree().docinfo.doctype:  # entities, external references: never in a DCC
+        raise ReferenceDccError(f"{source}: a DOCTYPE (DTD) is not allowed in a DCC")
     if root.tag != f"{{{DCC_NS}}}digitalCalibrationCertificate":
         raise ReferenceDccError(
             f"{source}: /{_name(root)}: the root is not dcc:digitalCalibrationCertificate "

@@ -151,6 +151,22 @@ def test_table_options_stay_required_without_a_dcc(
     assert "not allowed with argument" in capsys.readouterr().err
 
 
+def test_the_dcc_kept_is_written_back_byte_for_byte_and_never_over_a_file(
+    url: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert _add(url, "points_pc_radian.xml", identifier="REF-C") == 0
+    out = tmp_path / "back.xml"
+    assert main(["refs", "dcc", "REF-C", "--out", str(out), "--db", url]) == 0
+    assert out.read_bytes() == (DATA / "points_pc_radian.xml").read_bytes()
+    sha256 = hashlib.sha256(out.read_bytes()).hexdigest()
+    assert "DCC CAL-2026-77-B of Accredited Vibration Lab Nord" in capsys.readouterr().out
+    assert main(["refs", "dcc", "REF-C", "--out", str(out), "--db", url]) == 2
+    assert "exists; it is never overwritten" in capsys.readouterr().err
+    assert main(["refs", "dcc", "REF-NONE", "--out", str(tmp_path / "x.xml"), "--db", url]) == 2
+    assert "reference REF-NONE: no DCC in force" in capsys.readouterr().err
+    assert Lab(open_engine(url)).reference_dcc("REF-C").identity.sha256 == sha256  # type: ignore[union-attr]
+
+
 def test_a_recalibration_from_a_csv_takes_the_dcc_out_of_force(url: str) -> None:
     assert _add(url, "lists_mv_degree.xml") == 0
     lab = Lab(open_engine(url), actor="t")
