@@ -165,12 +165,16 @@ def test_edits_of_a_good_dcc_are_refused_by_name(old: str, new: str, why: str | 
 
 
 def test_a_doctype_with_entities_is_refused_before_anything_is_expanded() -> None:
-    bomb = _lists().replace(
-        "<dcc:digitalCalibrationCertificate",
-        '<!DOCTYPE d [<!ENTITY a "aaaaaaaaaa"><!ENTITY b "&a;&a;&a;&a;&a;&a;&a;&a;&a;&a;">]>\n'
-        "<dcc:digitalCalibrationCertificate",
-        1,
-    ).replace("Dr. A. Prüfer", "&b;")
+    bomb = (
+        _lists()
+        .replace(
+            "<dcc:digitalCalibrationCertificate",
+            '<!DOCTYPE d [<!ENTITY a "aaaaaaaaaa"><!ENTITY b "&a;&a;&a;&a;&a;&a;&a;&a;&a;&a;">]>\n'
+            "<dcc:digitalCalibrationCertificate",
+            1,
+        )
+        .replace("Dr. A. Prüfer", "&b;")
+    )
     with pytest.raises(ReferenceDccError) as refused:
         parse_reference_dcc(bomb.encode("utf-8"), "f")
     assert str(refused.value) == "f: a DOCTYPE (DTD) is not allowed in a DCC"
