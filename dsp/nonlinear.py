@@ -181,7 +181,9 @@ def estimate(
     magnitude_u = np.sqrt(np.einsum("li,ij,lj->l", sensitivity.real, covariance, sensitivity.real))
     phase_u = np.sqrt(np.einsum("li,ij,lj->l", sensitivity.imag, covariance, sensitivity.imag))
 
-    model_p = _model_test(residual, h_free, scale, x, free, dict(zip(ORDERS, regressors)))
+    model_p = _model_test(
+        residual, h_free, scale, x, free, dict(zip(ORDERS, regressors, strict=True))
+    )
     return NonlinearEstimate(
         coefficients=theta,
         covariance=covariance,
