@@ -7,7 +7,9 @@ repetition, a call that releases it (numpy's FFTs and ufuncs do) gives gaps of t
 and the switch interval's size only. The figure per call is the smallest of REPEATS longest
 gaps (a load adds gaps to some repetitions, not to all), next to the call's own median time.
 The Qt window's thread needs the GIL at every Python callback, so a call that holds it longer
-than the 50 ms target stalls the window whatever else is done.
+than the 50 ms target stalls the window whatever else is done. A second figure: the time a
+thread takes for ROUND_TRIPS GIL round trips while another runs Python, per switch interval
+(the convoy: each round trip waits up to one interval; app.gui.worker.GIL_SWITCH_S).
 
 Run: python bench/gil_holds.py [--repeats 5] [--switch-ms 5] [--smoke]
 """
@@ -67,6 +69,42 @@ def longest_wait_ms(call: Callable[[], object], repeats: int) -> tuple[float, fl
         gaps.append(max(seen))
     gap, cpu = min(gaps)
     return 1e3 * gap, 1e3 * cpu, 1e3 * statistics.median(times)
+
+
+ROUND_TRIPS = 10  # GIL round trips per measurement: a frame's Python callbacks, about
+
+
+def round_trips_ms(switch_s: float, repeats: int) -> float:
+    """The median time (ms) one thread takes for ROUND_TRIPS GIL round trips (release and take
+    it back, as the window's thread does at each Python callback Qt makes) while another thread
+    runs Python bytecode (as the run worker does between numpy calls), at the switch interval
+    `switch_s`: the waiting thread takes the GIL back only when the holder is asked to drop it,
+    after the interval. Restores the interval it found."""
+    before = sys.getswitchinterval()
+    sys.setswitchinterval(switch_s)
+    stop = threading.Event()
+
+    def busy() -> None:
+        total = 0
+        while not stop.is_set():
+            for i in range(1000):
+                total += i
+
+    worker = threading.Thread(target=busy)
+    worker.start()
+    try:
+        time.sleep(0.02)
+        took = []
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            for _ in range(ROUND_TRIPS):
+                time.sleep(0)  # releases the GIL and takes it back
+            took.append(time.perf_counter() - t0)
+    finally:
+        stop.set()
+        worker.join()
+        sys.setswitchinterval(before)
+    return 1e3 * statistics.median(took)
 
 
 def calls() -> dict[str, Callable[[], object]]:
@@ -135,6 +173,14 @@ def main(argv: list[str] | None = None) -> int:
         call()  # warm
         wait, cpu, took = longest_wait_ms(call, args.repeats)
         print(f"| {name} | {took:.1f} ms | {wait:.1f} ms | {cpu:.1f} ms |")
+    print()
+    print(
+        f"{ROUND_TRIPS} GIL round trips of one thread while another runs Python (the window's "
+        "callbacks against a computing run worker), median:"
+    )
+    for switch_ms in (5.0, 1.0, 0.5):
+        took = round_trips_ms(1e-3 * switch_ms, max(3, args.repeats))
+        print(f"- switch interval {switch_ms:g} ms: {took:.1f} ms")
     return 0
 
 
