@@ -43,12 +43,13 @@ log = logging.getLogger(__name__)
 # worker's thread they stalled the window's thread that long just after Start
 RUN_IMPORTS = ("scipy.signal", "scipy.linalg")
 MAX_QUEUED = 2000  # events kept when the GUI falls behind (oldest dropped; Finished never)
-# the GIL's switch interval (s) while a run worker lives: a thread that waits for the GIL asks
-# the holder for it after this long (CPython's default is 5 ms). The window's thread takes the
-# GIL back at every Python callback Qt makes (each pyqtgraph item's paint, each timer slot), so
-# with a run worker computing (estimation, the preflight's synthesis) a frame of N callbacks
-# waited up to N x 5 ms: the 50-56 ms stalls of issue 34 point 6 with 7 ms of the window's own
-# work. A shorter interval costs the worker only a switch per interval while the window waits.
+# the GIL's switch interval (s) from the first run worker's start on (the process's setting, it
+# stays): a thread that waits for the GIL asks the holder for it after this long (CPython's
+# default is 5 ms). The window's thread takes the GIL back at every Python callback Qt makes
+# (each pyqtgraph item's paint, each timer slot), so with a run worker computing (estimation,
+# the preflight's synthesis) a frame of N callbacks waited up to N x 5 ms: the 50-56 ms stalls
+# of issue 34 point 6 with 7 ms of the window's own work (bench/gil_holds.py). A shorter
+# interval costs the worker only a switch per interval while the window waits.
 GIL_SWITCH_S = 0.0005
 
 
