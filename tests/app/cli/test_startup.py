@@ -250,3 +250,26 @@ def test_a_preset_plan_checks_only_its_own_shipped_phases() -> None:
         "assert checked == [phase_store.preset_keys()['piezo'].digest], checked\n"
     )
     subprocess.run([sys.executable, "-c", code], cwd=ROOT, check=True, capture_output=True)
+
+
+def test_a_plans_oversampled_figures_are_synthesised_once() -> None:
+    """`accelcal plan` asked for the predicted peaks twice (the stroke check, the report) and
+    the continuous crest factor once: three syntheses each time; a plan is immutable, so they
+    are made once per plan, and give what a fresh plan gives."""
+    from unittest import mock
+
+    from app.procedure.phase_store import stored_phases
+    from dsp import crestfactor
+    from dsp.multisine import preset_plan
+
+    plan = preset_plan("piezo", level_ms2=3.0, optimiser=stored_phases)
+    with mock.patch.object(crestfactor, "synthesize", wraps=crestfactor.synthesize) as synth:
+        first = plan.predicted_peaks()
+        crest = plan.continuous_crest_factor()
+        assert plan.predicted_peaks() == first
+        assert synth.call_count == 3  # acceleration, velocity, displacement: once
+    fresh = preset_plan("piezo", level_ms2=3.0, optimiser=stored_phases)
+    assert fresh.continuous_crest_factor() == crest and fresh.predicted_peaks() == first
+    assert plan.with_amplitudes(6.0).predicted_peaks().acceleration_ms2 == pytest.approx(
+        2 * first.acceleration_ms2, rel=1e-12
+    )  # another plan: its own figures
