@@ -25,6 +25,7 @@ from app.cli.listing import (
 )
 from app.cli.options import FREQUENCY, LEVEL, TOLERANCE, Bounded, numeric_option
 from app.cli.reviews import REVIEW_ACTIONS, add_review_commands
+from app.cli.toplevel import RECORDS_COMMAND_NAMES
 from app.io.quantities import PERCENT_RULE
 from app.records.db.errors import RecordsInputError
 
@@ -76,11 +77,9 @@ def _list_options(p: argparse.ArgumentParser) -> None:
     _db_option(p)
 
 
-# the records commands' names, known before any parser is built (app.cli parses a command of
-# these with the records commands alone); `add_commands` returns exactly these
-COMMAND_NAMES = frozenset(
-    ("db", "customers", "models", "sensors", "refs", "due", "history", "register", "control")
-)
+# the records commands' names (app.cli.toplevel: known before any parser is built);
+# `add_commands` returns exactly these
+COMMAND_NAMES = RECORDS_COMMAND_NAMES
 
 
 def add_commands(sub: argparse._SubParsersAction) -> dict[str, Handler]:  # type: ignore[type-arg]
