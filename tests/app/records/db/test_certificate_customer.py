@@ -46,7 +46,9 @@ def test_a_certificate_stays_with_the_customer_it_was_issued_to(
     assert verify(engine) == []  # the move is chained like every write
 
 
-def test_moving_a_sensor_names_an_unknown_sensor_or_customer(engine: Engine, tmp_path: Path) -> None:
+def test_moving_a_sensor_names_an_unknown_sensor_or_customer(
+    engine: Engine, tmp_path: Path
+) -> None:
     lab = _lab_day(engine, tmp_path)
     with pytest.raises(RecordsError, match="owner: no customer named 'Nobody'"):
         lab.move_sensor("SN-1", owner="Nobody")
@@ -144,10 +146,34 @@ def test_the_upgrade_binds_earlier_certificates_to_the_owner_at_upgrade(
     assert _bound(engine) == {"ACC-1": "Buyer GmbH", "ACC-2": "Buyer GmbH"}
     assert verify(engine) == []
     quick_check(engine)
-    for number, rule in (("ACC-1", chain_rules.FROZEN_MESSAGE), ("ACC-2", chain_rules.FINAL_MESSAGE)):
+    for number, rule in (
+        ("ACC-1", chain_rules.FROZEN_MESSAGE),
+        ("ACC-2", chain_rules.FINAL_MESSAGE),
+    ):
         with pytest.raises(Exception, match=rule), engine.begin() as c:
             c.execute(
                 text("UPDATE certificates SET customer_id = 1 WHERE number = :n"), {"n": number}
             )
     assert _bound(engine) == {"ACC-1": "Buyer GmbH", "ACC-2": "Buyer GmbH"}
+    engine.dispose()
+
+
+def test_the_move_command_gives_the_sensor_and_names_a_wrong_owner(
+    records_url: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from app.cli import main
+
+    engine = make_engine(records_url)
+    lab = _lab_day(engine, tmp_path)
+    lab.add_customer("Buyer GmbH")
+    (number,) = (c.number for c in lab.register())
+    capsys.readouterr()
+    assert main(["sensors", "move", "SN-1", "--owner", "Nobody", "--db", records_url]) == 2
+    err = capsys.readouterr().err
+    assert "owner: no customer named 'Nobody'" in err and "Traceback" not in err
+    assert main(["sensors", "move", "SN-1", "--owner", "Buyer GmbH", "--db", records_url]) == 0
+    out = capsys.readouterr().out
+    assert "sensor SN-1 now owned by Buyer GmbH" in out
+    assert lab.sensor("SN-1").owner.name == "Buyer GmbH"
+    assert _bound(engine) == {number: "ACME Ltd"}
     engine.dispose()
