@@ -231,7 +231,9 @@ class CertificateRegister(SensorRecords):
         """The customer a certificate of sensor `sensor_id` is issued to: its owner, read
         locked in the issuing transaction; refused when it is not `named` (the customer the
         certificate's PDF names, read before), i.e. the sensor changed owner meanwhile."""
-        sensor = s.scalar(select(Sensor).where(Sensor.id == sensor_id).with_for_update())
+        # FOR SHARE (PostgreSQL): a move (UPDATE) waits for the issue; other issues and runs
+        # of the sensor do not
+        sensor = s.scalar(select(Sensor).where(Sensor.id == sensor_id).with_for_update(read=True))
         assert sensor is not None  # a foreign key of the run
         if named is not None and sensor.owner_id != named:
             raise RecordsError(
@@ -292,7 +294,8 @@ class CertificateRegister(SensorRecords):
             )
 
     def register(self) -> list[Certificate]:
-        """Every certificate in the register, in issue order, with run and sensor."""
+        """Every certificate in the register, in issue order, with run, sensor and the
+        customer it was issued to."""
         with self.session() as s:
             return list(
                 s.scalars(
@@ -300,6 +303,7 @@ class CertificateRegister(SensorRecords):
                     .options(
                         joinedload(Certificate.run),
                         joinedload(Certificate.sensor).joinedload(Sensor.owner),
+                        joinedload(Certificate.customer),
                         joinedload(Certificate.as_found_run),
                     )
                     .order_by(Certificate.issued_utc, Certificate.id)
