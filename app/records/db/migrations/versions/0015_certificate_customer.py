@@ -13,7 +13,7 @@ one included. The journal notes every filled row; the upgrade enters them in the
 (app.records.db.chain_check.after_migration).
 
 Revision ID: 0015
-Revises: 0014
+Revises: 0013 (main chains 0011 -> 0014 -> 0013 -> 0015)
 Create Date: 2026-11-28
 """
 
@@ -29,7 +29,7 @@ from app.records.db.chain_rules import (
 )
 
 revision = "0015"
-down_revision = "0014"
+down_revision = "0013"
 branch_labels = None
 depends_on = None
 
