@@ -206,12 +206,12 @@ class LiveRecord:
             dut = np.array([b[1] for b in self._blocks])
             drive = np.array([b[2] for b in self._blocks])
             return record_estimate(ref, dut, self.plan, drive_blocks=drive)
-        pending = self._pending
+        pending, self._pending = self._pending, None
         if pending is None or pending.periods != self.count:
+            pending = None  # (its accumulator freed before another is made)
             pending = _Pending(self.count, self.count, BatchedRecord(self.count, self.plan))
         while pending.fed < self.count:
             self._feed_periods(pending, min(pending.fed + BATCH_PERIODS, self.count))
-        self._pending = None
         return pending.record.estimate()
 
     def mean_periods(self) -> tuple[np.ndarray, np.ndarray]:

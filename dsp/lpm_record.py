@@ -18,7 +18,7 @@ over the bins tested, 1 % false alarm per run) and bias-corrected for it. Volts 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import Any
 
@@ -202,7 +202,8 @@ class BatchedRecord:
                 )
             if (drive is not None) != self._with_drive:
                 raise AnalysisError("lpm: the drive is given for some periods and not others")
-            powers = [ref**order for order in nonlinear.ALL_ORDERS]
+            # the powers made one at a time as the accumulator reaches them (memory)
+            powers = [_power(ref, order) for order in nonlinear.ALL_ORDERS]
             extra = [] if drive is None else [np.asarray(drive, dtype=float)]
             self._accumulator.add(np.asarray(dut, dtype=float), ref, *powers, *extra)
         except lpm.LpmError as exc:
@@ -297,6 +298,11 @@ def _estimate_of_spectra(
         nonlinear=found,
     )
     return RecordEstimate(estimate, result, periods, found)
+
+
+def _power(x: np.ndarray, order: int) -> Callable[[], np.ndarray]:
+    """x**order, made when called."""
+    return lambda: x**order
 
 
 def hum_bins(plan: Plan, periods: int = 1) -> set[int]:

@@ -292,6 +292,7 @@ class RecordRun:
         ctx, s, io = self.ctx, self.ctx.settings, self.ctx.io
         period_s = ctx.plan.period_s
         started = io.excited_s - period_s  # the first period is acquired already
+        live.last = last_period(rule, period_s, io.excited_s - started)
         last: tuple[int, float] = (1, math.inf)  # the last estimate: periods, worst type A
         while True:
             count = live.count
@@ -338,13 +339,17 @@ class RecordRun:
             estimate = live.estimate().estimate if live.due else None
 
 
-def last_period(rule: StoppingRule, period_s: float) -> int | None:
-    """The period after which `rule` stops whatever the type A (its period limit, or the last
-    period within its time bound, `period_s` s each), None when neither bounds it."""
+def last_period(rule: StoppingRule, period_s: float, first_s: float) -> int | None:
+    """The period after which `rule` stops whatever the type A: its period limit, or the last
+    period within its time bound (`first_s` s of acquisition counted after the first period,
+    `period_s` s for each further one); None when neither bounds it."""
     last = rule.period_limit if rule.period_limit < NO_PERIOD_LIMIT else None
     if rule.max_time_s is not None:
         count = 1
-        while (count * period_s + period_s <= rule.max_time_s) and count < NO_PERIOD_LIMIT:
+        while (
+            count < NO_PERIOD_LIMIT
+            and rule.decide(count, math.inf, first_s + (count - 1) * period_s, period_s) is None
+        ):
             count += 1
         last = count if last is None else min(last, count)
     return last
