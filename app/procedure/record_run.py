@@ -276,9 +276,7 @@ class RecordRun:
         rule = StoppingRule(
             s.periods, s.target_type_a, s.max_acquisition_s, min_periods=MIN_PERIODS[s.estimator]
         )
-        with LiveRecord(
-            plan, target=s.target_type_a, last=last_period(rule, plan.period_s)
-        ) as live:
+        with LiveRecord(plan, target=s.target_type_a) as live:
             live.add(*first)
             self._acquire(rule, live, record.estimate, budget)
 
@@ -342,14 +340,17 @@ class RecordRun:
 def last_period(rule: StoppingRule, period_s: float, first_s: float) -> int | None:
     """The period after which `rule` stops whatever the type A: its period limit, or the last
     period within its time bound (`first_s` s of acquisition counted after the first period,
-    `period_s` s for each further one); None when neither bounds it."""
+    `period_s` s for each further one); None when neither bounds it. A bound that is a whole
+    number of periods is a tie the acquisition's own sums of seconds decide either way: the
+    earlier period is taken (a run that then goes on one more is estimated off its checkpoint,
+    dsp.lpm_live.LiveRecord.estimate, once)."""
     last = rule.period_limit if rule.period_limit < NO_PERIOD_LIMIT else None
-    if rule.max_time_s is not None:
+    bound = rule.max_time_s
+    if bound is not None:
         count = 1
-        while (
-            count < NO_PERIOD_LIMIT
-            and rule.decide(count, math.inf, first_s + (count - 1) * period_s, period_s) is None
-        ):
+        while count < NO_PERIOD_LIMIT and not (first_s + count * period_s > bound):
             count += 1
+        if count > 1 and math.isclose(first_s + (count - 1) * period_s, bound, rel_tol=1e-9):
+            count -= 1
         last = count if last is None else min(last, count)
     return last
