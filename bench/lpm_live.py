@@ -74,15 +74,17 @@ else:
         tracemalloc.start()
     argv = ["run", "--sim", "--dut", "capacitive", "--estimator", "lpm", "--target-ua",
             "0.05%", "--max-time", f"{2 * periods}s", "--seed", "1", "--json", "--out", out]
-    devnull = open(os.devnull, "w")
-    stdout, sys.stdout = sys.stdout, devnull
+    import io
+    printed = io.StringIO()
+    stdout, sys.stdout = sys.stdout, printed
     t0 = time.perf_counter()
     code = main(argv)
     seconds = time.perf_counter() - t0
     sys.stdout = stdout
     peak = tracemalloc.get_traced_memory()[1] if mode == "traced" else 0
-    runs = [p for p in os.scandir(out) if p.is_dir()]
-    result = json.loads(open(os.path.join(runs[-1].path, "results.json")).read())["results"]
+    run_id = json.loads(printed.getvalue())["run_id"]
+    stored = json.loads(open(os.path.join(out, run_id, "results.json")).read())
+    result = stored.get("results") or {}
 print(json.dumps({"code": code, "seconds": seconds, "traced_bytes": peak,
                   "rss_kib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss,
                   "periods": result.get("periods"), "work": work}))

@@ -171,9 +171,7 @@ def test_the_work_of_a_long_record_is_linear_in_its_periods(monkeypatch):
                         live.estimate()
                         checkpoints += 1
                     live.measured(worst)
-                assert (
-                    live.batch_periods_fed - before <= 2 * BATCH_PERIODS
-                )
+                assert live.batch_periods_fed - before <= 2 * BATCH_PERIODS
             assert live.count == periods and not live._blocks
             assert periods <= live.batch_periods_fed <= bound, (worst, live.batch_periods_fed)
             assert checkpoints <= most
