@@ -16,6 +16,13 @@ idle).
 `--also PATH` runs the same runs with another checkout's code (e.g. a worktree of main) for
 the before/after figures.
 
+`--parts` prints where the memory goes, in this process: the tracemalloc peak of the whole
+record's estimate (dsp.lpm_record.record_estimate) of 10, 13 and 16 periods and of a batched
+record (BatchedRecord: feeding a 16-period batch, then the estimate) of the capacitive plan on
+synthetic periods, and the wall time of feeding 64 periods (a ratio to nothing: for the lead).
+`--compare FOLDER` prints, for a stored lpm run folder, how far the batched estimate's type A
+and H are from the whole record's (the stopping rule's type A over 16 periods).
+
 Run: python bench/lpm_live.py [P ...]    (default 10 30 60)
 Smoke: python bench/lpm_live.py --smoke  (4 and 20 periods)
 """
@@ -139,12 +146,102 @@ def measure(code_root: Path, counts: list[int], env: dict[str, str]) -> None:
         )
 
 
+def parts() -> None:
+    """Print where a live lpm run's memory goes (tracemalloc, this process)."""
+    import time
+    import tracemalloc
+
+    import numpy as np
+
+    sys.path.insert(0, str(ROOT))
+    from dsp.crestfactor import synthesize
+    from dsp.lpm_record import BatchedRecord, record_estimate
+    from dsp.multisine import preset_plan
+
+    plan = preset_plan("capacitive")
+    n = plan.period_samples
+    rng = np.random.default_rng(1)
+    drive = synthesize(plan.bins, np.ones(len(plan.lines)), plan.phases_rad, n)
+
+    def periods(p: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        u = np.tile(drive, (p, 1)) + 1e-5 * rng.standard_normal((p, n))
+        return u, 0.5 * u + 1e-5 * rng.standard_normal((p, n)), np.tile(drive, (p, 1))
+
+    print(f"capacitive plan: {len(plan.lines)} lines, {n} samples per period")
+    tracemalloc.start()
+    for p in (10, 13, 16):
+        u, y, d = periods(p)
+        tracemalloc.reset_peak()
+        base = tracemalloc.get_traced_memory()[0]
+        record_estimate(u, y, plan, drive_blocks=d)
+        peak = (tracemalloc.get_traced_memory()[1] - base) / 2**20
+        print(f"whole record of {p} periods: peak {peak:.1f} MiB over its inputs")
+    u, y, d = periods(16)
+    base = tracemalloc.get_traced_memory()[0]
+    tracemalloc.reset_peak()
+    record = BatchedRecord(64, plan)
+    t0 = time.perf_counter()
+    for _ in range(4):
+        record.add(u, y, d)
+    seconds = time.perf_counter() - t0
+    held = (tracemalloc.get_traced_memory()[0] - base) / 2**20
+    peak = (tracemalloc.get_traced_memory()[1] - base) / 2**20
+    print(f"batched record: feeding 16-period batches peak {peak:.1f} MiB, held {held:.1f} MiB")
+    tracemalloc.reset_peak()
+    record.estimate()
+    peak = (tracemalloc.get_traced_memory()[1] - base) / 2**20
+    print(f"batched record: its estimate peak {peak:.1f} MiB")
+    print(f"feeding 64 periods: {seconds:.2f} s wall (load average {os.getloadavg()[0]:.2f})")
+
+
+def compare(folder: Path) -> None:
+    """Print how far the batched estimate of a stored lpm run's record is from the whole's."""
+    import numpy as np
+
+    sys.path.insert(0, str(ROOT))
+    from app.procedure.analysis import read_for_analysis
+    from dsp.lpm_record import record_estimate, record_estimate_batches
+
+    recording = read_for_analysis(folder)
+    p, n = recording.analysed_periods, recording.period_samples
+    reference, dut = recording.period_range(0, p)
+    start = recording.settle_periods * n
+    if recording.drive_v is None:
+        raise SystemExit(f"{folder}: no drive recorded")
+    drive = np.asarray(recording.drive_v[start : start + p * n]).reshape(p, n)
+    whole = record_estimate(reference, dut, recording.plan, drive_blocks=drive)
+    cut = ((reference[a : a + 16], dut[a : a + 16], drive[a : a + 16]) for a in range(0, p, 16))
+    batched = record_estimate_batches(cut, p, recording.plan)
+    a, b = whole.estimate.relative_type_a, batched.estimate.relative_type_a
+    differs = np.abs(b / a - 1)
+    found = (
+        whole.nonlinear and whole.nonlinear.found,
+        batched.nonlinear and batched.nonlinear.found,
+    )
+    print(f"{p} periods; distortion found whole / batched: {found[0]} / {found[1]}")
+    print(
+        f"type A: batched / whole - 1 at most {np.nanmax(differs):.3g} (median "
+        f"{np.nanmedian(differs):.3g}); worst line {np.nanmax(a):.6g} / {np.nanmax(b):.6g}"
+    )
+    h = np.abs(batched.estimate.response / whole.estimate.response - 1)
+    print(f"H: batched / whole - 1 at most {np.nanmax(h):.3g}")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("periods", nargs="*", type=int, help="run lengths (default 10 30 60)")
     parser.add_argument("--smoke", action="store_true", help="4 and 20 periods")
     parser.add_argument("--also", type=Path, help="another checkout to measure the same way")
+    parser.add_argument("--only-also", action="store_true", help="measure --also's code only")
+    parser.add_argument("--parts", action="store_true", help="where the memory goes")
+    parser.add_argument("--compare", type=Path, help="a run folder: batched against whole")
     args = parser.parse_args(argv)
+    if args.parts:
+        parts()
+        return 0
+    if args.compare is not None:
+        compare(args.compare)
+        return 0
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     counts = [4, 20] if args.smoke else (args.periods or [10, 30, 60])
     if any(p < 2 for p in counts):
@@ -153,7 +250,10 @@ def main(argv: list[str] | None = None) -> int:
         env = {**os.environ, "ACCELCAL_DATA_DIR": data}
         env.pop("PYTHONDONTWRITEBYTECODE", None)
         print(f"load average {os.getloadavg()[0]:.2f} {os.getloadavg()[1]:.2f}")
-        for root in [ROOT, *([args.also] if args.also else [])]:
+        roots = [*([] if args.only_also else [ROOT]), *([args.also] if args.also else [])]
+        if not roots:
+            parser.error("--only-also: give --also PATH")
+        for root in roots:
             measure(root.resolve(), counts, env)
         print(f"load average {os.getloadavg()[0]:.2f} {os.getloadavg()[1]:.2f}")
     return 0
