@@ -289,6 +289,9 @@ def build(run: StoredRun, info: CertificateInfo) -> bytes:
             REF_DEVIATION,
         )
     _reference_result(results_element, results)
+    from app.certificate.dcc_complete import complete_dcc  # issue 35 point 2
+
+    complete_dcc(admin, result_set, info)
     ET.indent(root, space="  ")
     xml = ET.tostring(root, encoding="utf-8", xml_declaration=True)
     problem = validation_error(xml)

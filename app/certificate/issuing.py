@@ -84,6 +84,9 @@ def _prepare(
     today = datetime.now(UTC).date().isoformat()
     if info.issue_date in (None, ""):
         info = dataclasses.replace(info, issue_date=today)  # issued today, never back-dated
+    from app.certificate.complete import complete, with_environment
+
+    info = with_environment(info, run.start)  # the reading at run start, where not typed
     info = info.merged(default_info(run.record, run.start))
     missing = missing_items(info)
     if missing:
@@ -91,6 +94,7 @@ def _prepare(
     invalid = invalid_items(info)
     if invalid:
         raise CertificateError(f"invalid item(s): {'; '.join(invalid)}")
+    info = complete(info, run.record, run.start, run.results)  # address, specification, ...
     _check_issue_date(str(info.issue_date), run, today)
     out = Path(out)
     into_run = _check_out(out, run.path)
