@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from datetime import date
 from typing import Any
 
+import app.certificate.text as text
 from app.certificate.info import (
     CertificateError,
     CertificateInfo,
@@ -247,7 +248,9 @@ def customer_address_text(info: CertificateInfo) -> str:
     if address:
         return address
     reason = " ".join((info.address_not_stated or "").split())
-    return f"Address not stated: {reason}" if reason else "Address not stated"
+    if reason:
+        return f"Address not stated: {reason}"
+    return text.ADDRESS_NOT_STATED  # a document built without the issuing checks (tests, old runs)
 
 
 def condition_value(value: float | None, unit: str, source: str, digits: int = 1) -> str:

@@ -26,7 +26,6 @@ MANDATORY = (
     ("dut_serial", "--dut-serial (or --dut-id when running)"),
     ("dut_type", "--dut-type"),
     ("temperature_c", "--temperature"),
-    ("humidity_percent", "--humidity"),
     ("mounting", "--mounting"),
 )
 

@@ -18,6 +18,7 @@ from app.cli import main
 NS = {"dcc": dcc.DCC_NS, "si": dcc.SI_NS}
 INFO = CertificateInfo(
     customer="Jürgen Weiß GmbH",
+    customer_address="1 Test Street, 00-001 Testtown",
     authorised_by="J. Smith",
     temperature_c=23.0,
     mounting="stud, 2 N m",

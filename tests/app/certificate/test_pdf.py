@@ -18,6 +18,7 @@ from app.records.run_folder import load_run
 
 INFO = CertificateInfo(
     customer="ACME Ltd",
+    customer_address="1 Test Street, 00-001 Testtown",
     authorised_by="J. Smith, head of laboratory",
     temperature_c=23.0,
     mounting="stud-mounted back-to-back, 2 N m",
@@ -153,6 +154,8 @@ def test_cli_certificate_default_place_and_exit_codes(complete_run, tmp_path, ca
         str(run),
         "--customer",
         "ACME Ltd",
+        "--customer-address",
+        "1 Test Street, 00-001 Testtown",
         "--authorised-by",
         "J. Smith",
         "--temperature",

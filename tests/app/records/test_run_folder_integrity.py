@@ -33,6 +33,8 @@ REPO = Path(__file__).resolve().parents[3]
 INFO_ARGS = [
     "--customer",
     "ACME Ltd",
+    "--customer-address",
+    "1 Test Street, 00-001 Testtown",
     "--prepared-by",
     "A. Tech",
     "--authorised-by",
