@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import functools
 import xml.etree.ElementTree as ET
+from collections.abc import Callable
 from importlib import resources
 from typing import Any
 
@@ -62,6 +63,8 @@ REF_DEVIATION = "vib_relativeDeviation"
 REF_RESPONSE = "vib_frequencyResponse"
 REF_RESULT = "vib_referenceFrequencyResult"  # the result at the reference frequency
 CHAIN_HEAD_NAME = "Records chain head (SHA-256)"  # the records' chain head its seal names
+
+Extension = Callable[[ET.Element, ET.Element, CertificateInfo], None]
 
 ET.register_namespace("dcc", DCC_NS)
 ET.register_namespace("si", SI_NS)
@@ -158,8 +161,9 @@ def line_values(lines: tuple[PrintedLine, ...]) -> dict[str, list[str]]:
     }
 
 
-def build(run: StoredRun, info: CertificateInfo) -> bytes:
-    """The DCC XML of a stored complete run with its (checked, numbered) certificate items."""
+def build(run: StoredRun, info: CertificateInfo, extend: Extension | None = None) -> bytes:
+    """The DCC XML of a stored complete run with its (checked, numbered) certificate items;
+    `extend(administrativeData, measurementResult, info)` adds to it before it is validated."""
     record, results = run.record, run.results
     start = run.start
     if start.stand is None:  # a folder without config.json: the record's stand
@@ -289,9 +293,8 @@ def build(run: StoredRun, info: CertificateInfo) -> bytes:
             REF_DEVIATION,
         )
     _reference_result(results_element, results)
-    from app.certificate.dcc_complete import complete_dcc  # issue 35 point 2
-
-    complete_dcc(admin, result_set, info)
+    if extend is not None:  # the issuing service's additions (app.certificate.dcc_complete)
+        extend(admin, result_set, info)
     ET.indent(root, space="  ")
     xml = ET.tostring(root, encoding="utf-8", xml_declaration=True)
     problem = validation_error(xml)

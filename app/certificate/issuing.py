@@ -21,6 +21,7 @@ from typing import Any
 
 from app.certificate.dcc import DccError, DccNotApplicable
 from app.certificate.dcc import build as build_dcc
+from app.certificate.dcc_complete import complete_dcc
 from app.certificate.info import (
     CertificateError,
     CertificateInfo,
@@ -339,7 +340,7 @@ def _dcc_of(run: StoredRun, info: CertificateInfo) -> bytes | None:
     """The run's DCC XML (validated), or None when the stand file names no laboratory country
     (the PDF is still issued; the CLI says why there is no DCC). CertificateError otherwise."""
     try:
-        return build_dcc(run, info)
+        return build_dcc(run, info, complete_dcc)  # with issue 35's items
     except DccNotApplicable:
         return None
     except DccError as exc:
