@@ -23,7 +23,7 @@ from app.certificate.complete import (
     with_environment,
     with_specification,
 )
-from app.certificate.info import CertificateError, CertificateInfo
+from app.certificate.info import CertificateError, CertificateInfo, missing_items
 from app.certificate.load import load_stored_run
 from app.certificate.remembered import RememberedConditions
 from app.cli import main
@@ -233,8 +233,11 @@ def test_without_a_reading_the_temperature_and_humidity_come_from_the_run_where_
     typed = with_environment(CertificateInfo(temperature_c=21.0), start)
     assert (typed.temperature_c, typed.temperature_source) == (21.0, TYPED)
     assert typed.humidity_percent == 45.3
-    empty = dataclasses.replace(start, extra={})
+    empty = dataclasses.replace(start, extra={})  # a run that read no sensor
     assert with_environment(CertificateInfo(), empty).humidity_percent is None
+    assert "temperature_c (--temperature)" in missing_items(
+        with_environment(CertificateInfo(), empty)
+    )
 
 
 def test_the_mounting_is_remembered_per_model_and_offered_with_a_note(
