@@ -272,3 +272,22 @@ def test_a_template_is_offered_before_its_model_and_models_do_not_mix(tmp_path: 
     assert store.offered("Kistler 8704") is None
     (tmp_path / "conditions.json").write_text("{not json", encoding="utf-8")
     assert store.offered("PCB 352C33") is None  # a damaged file offers nothing
+
+
+def test_a_records_customer_without_an_address_is_refused_unless_a_reason_is_given() -> None:
+    from types import SimpleNamespace
+
+    from app.certificate.register_issue import _identity
+
+    model = SimpleNamespace(maker="PCB", model="352C33", unit="mV/g")
+    owner = SimpleNamespace(name="ACME Ltd", address="")
+    sensor = SimpleNamespace(serial="SN-7", owner=owner, model=model)
+    with pytest.raises(CertificateError, match="records hold no address for customer 'ACME Ltd'"):
+        _identity(CertificateInfo(), sensor, "SN-7", "A. Tech")
+    info = _identity(CertificateInfo(address_not_stated="walk-in"), sensor, "SN-7", "A. Tech")
+    assert info.specification is not None  # the sensor model's data sheet, by default
+    assert info.specification.identity.startswith("PCB 352C33 data sheet")
+    owner.address = "1 Road, Town"
+    assert (
+        _identity(CertificateInfo(), sensor, "SN-7", "A. Tech").customer_address == "1 Road, Town"
+    )
