@@ -291,3 +291,32 @@ def test_a_records_customer_without_an_address_is_refused_unless_a_reason_is_giv
     assert (
         _identity(CertificateInfo(), sensor, "SN-7", "A. Tech").customer_address == "1 Road, Town"
     )
+
+
+def test_with_records_the_reference_standard_is_listed_with_its_records_due_date(
+    lab: Any, records_runs: tuple[Path, Path], tmp_path: Path
+) -> None:
+    from datetime import UTC, datetime, timedelta
+
+    from app.records.db.engine import open_engine
+    from app.records.db.lab import Lab
+    from app.records.run_folder import load_run
+
+    run = records_runs[1]
+    current = Lab(open_engine(lab.url)).issued_for_run(str(load_run(run).run_id))
+    amend = [] if current is None else ["--replaces", current.number, "--reason", "test"]
+    pdf = tmp_path / "c.pdf"
+    argv = ["certificate", str(run), "--db", lab.url, "--out", str(pdf), "--prepared-by",
+            "A. Tech", "--authorised-by", "J. Smith", "--temperature", "23", "--mounting",
+            "stud", *amend]  # fmt: skip
+    assert main(argv) == 0
+    due = (datetime.now(UTC).date() + timedelta(days=300)).isoformat()  # conftest's refs add
+    listed = _text(pdf)[_text(pdf).index("Instruments used") :]
+    assert f"SIM-0001 {due} records" in listed
+    # and the sensor model's data sheet names the specification (tolerance ±5 % on record)
+    assert "Specification: manufacturer's data sheet, PCB 352C33 data sheet" in _text(pdf)
+    normal = _dcc(pdf)["dcc:measurementResults"]["dcc:measurementResult"][0][
+        "dcc:measuringEquipments"
+    ]["dcc:measuringEquipment"][0]
+    ids = normal["dcc:identifications"]["dcc:identification"]
+    assert {_content(i["dcc:name"]): i["dcc:value"] for i in ids}["Calibration due date"] == due
