@@ -166,7 +166,7 @@ def test_the_instruments_are_listed_with_their_due_dates_in_the_pdf_and_the_dcc(
     listed = text[text.index("Instruments used") :]
     for serial in ("SIM-DAQ-0001", "SIM-2525-000", "SIM-1620-000"):  # wrapped in the table
         assert serial in listed
-    assert listed.count("2099-12-31") == 3
+    assert listed.count("2199-12-31") == 3
     equipment = _dcc(pdf)["dcc:measurementResults"]["dcc:measurementResult"][0][
         "dcc:measuringEquipments"
     ]["dcc:measuringEquipment"]
@@ -182,7 +182,7 @@ def test_the_instruments_are_listed_with_their_due_dates_in_the_pdf_and_the_dcc(
     assert found["SIM-DAQ-0001"] == (
         "vib_measuringInstrument",
         "simulated M-series-like multiplexed DAQ",
-        "2099-12-31",
+        "2199-12-31",
     )
     assert set(found) == {"SIM-DAQ-0001", "SIM-2525-0001", "SIM-1620-0001"}
 

@@ -46,6 +46,7 @@ INFO_ARGS = [
 ]
 INFO = {
     "customer": "ACME Ltd",
+    "customer_address": "1 Test Street, 00-001 Testtown",
     "authorised_by": "J. Smith",
     "temperature_c": 23.0,
     "mounting": "stud",

@@ -102,7 +102,7 @@ def test_a_run_with_an_overdue_instrument_is_refused_before_anything_moves(
 ) -> None:
     stand = tmp_path / "stand.toml"
     stand.write_text(
-        SIM_STAND.replace("calibration_due = 2099-12-31\n", "calibration_due = 2020-01-31\n", 1),
+        SIM_STAND.replace("calibration_due = 2199-12-31\n", "calibration_due = 2020-01-31\n", 1),
         encoding="utf-8",
     )
     out = tmp_path / "runs"
