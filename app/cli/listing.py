@@ -124,6 +124,17 @@ def user_row(u: Any) -> Row:
     }
 
 
+def account_row(a: Any) -> Row:
+    """`records account list --json`: a customer's portal account (no hash)."""
+    return {
+        "username": a.username,
+        "display_name": a.display_name,
+        "customer": a.customer,
+        "active": bool(a.active),
+        "created_utc": iso(a.created_utc),
+    }
+
+
 def history_object(history: Any) -> Row:
     """`history --json`: the sensor, its calibrations (oldest first) and the fitted drift."""
     return {

@@ -4,8 +4,9 @@ Staff pages need a signed-in user: a session kept on the server (app.web.guard),
 id rides in a signed cookie with the form token; app.web.users for the passwords. Sign-in is
 throttled per user name and per client (counted before the password is checked, a growing
 back-off), at most PASSWORD_CHECKS_AT_ONCE argon2 checks run at once. The one public page,
-/verify/NUMBER?code=CODE, shows only a certificate's status. Every response carries a strict
-Content-Security-Policy (no script at all) and no Referer.
+/verify/NUMBER?code=CODE, shows only a certificate's status. Customers sign in to their own
+portal under /portal (app.web.portal: their own certificates and due dates, nothing else).
+Every response carries a strict Content-Security-Policy (no script at all) and no Referer.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from datetime import UTC, datetime
 from importlib import resources
 from pathlib import Path
 from typing import Any
-from urllib.parse import quote
+from urllib.parse import quote, urlsplit
 
 from starlette.applications import Starlette
 from starlette.concurrency import run_in_threadpool
@@ -54,6 +55,8 @@ from app.web.guard import (
     client_address,
     password_stamp,
 )
+from app.web.portal import SESSION_KEY as PORTAL_SESSION_KEY
+from app.web.portal import PortalDeps, portal_routes
 from app.web.store import StaffUser, Store
 from app.web.users import dummy_check, password_matches
 
@@ -124,6 +127,7 @@ def create_app(store: Store, config: WebConfig) -> Starlette:
     """The web view over `store` (read-only records) with `config`."""
     templates = _templates()
     throttle, slots, sessions = Throttle(), CheckSlots(PASSWORD_CHECKS_AT_ONCE), SessionStore()
+    portal_sessions = SessionStore()  # customers' sessions: never looked up by the staff guard
     if not config.secure_cookie:
         log.warning(
             "web: the session cookie is not Secure (no --https-only, TLS or --proxy): "
@@ -211,6 +215,9 @@ def create_app(store: Store, config: WebConfig) -> Starlette:
         old = request.session.get("sid")
         if isinstance(old, str):
             sessions.revoke(old)
+        old_portal = request.session.get(PORTAL_SESSION_KEY)
+        if isinstance(old_portal, str):
+            portal_sessions.revoke(old_portal)
         request.session.clear()  # a new session: nothing carried over from before sign-in
         request.session["sid"] = sessions.open(
             account.username, account.display_name, account.password_hash
@@ -218,10 +225,12 @@ def create_app(store: Store, config: WebConfig) -> Starlette:
         log.info("web: %s signed in from %s", account.username, client)
         return RedirectResponse(target, 303)
 
-    def refused(request: Request, target: str, message: str, wait_s: float) -> Response:
+    def refused(
+        request: Request, target: str, message: str, wait_s: float, login: str = "/login"
+    ) -> Response:
         """429 with `message`, a link back to the sign-in and Retry-After (whole seconds): a
         fixed small page, no template (a hammering client costs the server next to nothing)."""
-        back = html.escape(f"/login?next={quote(target, safe='')}")
+        back = html.escape(f"{login}?next={quote(target, safe='')}")
         body = (
             '<!doctype html><html lang="en"><meta charset="utf-8"><title>Sign in: wait</title>'
             f'<p id="error">{html.escape(message)}</p><p><a href="{back}">Sign in</a></p></html>'
@@ -334,7 +343,19 @@ def create_app(store: Store, config: WebConfig) -> Starlette:
             return page(request, "verify.html", 404, number=number, status=None, **public)
         return page(request, "verify.html", number=number, status=status, **public)
 
+    portal = PortalDeps(
+        store=store,
+        page=page,
+        csrf=_csrf,
+        slots=slots,
+        proxies=config.proxies,
+        refused=refused,
+        sessions=portal_sessions,
+        throttle=Throttle(),
+        lab_host=urlsplit(config.verify_url).hostname if config.verify_url else None,
+    )
     routes = [
+        *portal_routes(portal),
         Route("/", home),
         Route("/login", login, methods=["GET"]),
         Route("/login", login_post, methods=["POST"]),

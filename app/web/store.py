@@ -1,6 +1,9 @@
 """What the web view reads from the records database, as typed values (no ORM object leaves a
 session): the register, one certificate, due items, a sensor's history, the public status of
-a certificate (with its review, ISO/IEC 17025 7.10) and staff users. The engine is read-only:
+a certificate (with its review, ISO/IEC 17025 7.10), staff users, and for the customer portal
+a customer account and that customer's own certificates and sensors (every portal query is
+filtered by the account's customer in SQL: another customer's rows are never read). The engine
+is read-only:
 SQLite connections are `query_only`, PostgreSQL transactions `default_transaction_read_only`;
 nothing here can write.
 """
@@ -32,6 +35,7 @@ from app.records.db.models import (
     Certificate,
     CertificateReview,
     Customer,
+    CustomerAccount,
     Run,
     Sensor,
     SensorModel,
@@ -121,6 +125,31 @@ class StaffUser:
     display_name: str
     password_hash: str
     active: bool
+
+
+@dataclass(frozen=True)
+class PortalAccount:
+    """A customer account as the portal's sign-in and guard need it: the customer it is bound
+    to (id and name) is read from the records at every request."""
+
+    username: str
+    display_name: str
+    password_hash: str
+    active: bool
+    customer_id: int
+    customer: str
+
+
+@dataclass(frozen=True)
+class SensorDue:
+    """A customer's sensor with its next calibration due: the date the records keep (the last
+    calibration here plus the sensor's interval in months; None: never calibrated here)."""
+
+    serial: str
+    model: str
+    interval_months: int
+    last_calibrated_utc: datetime | None
+    due: date | None
 
 
 def _safe(url: str) -> str:
@@ -320,6 +349,65 @@ class Store:
             if row is None:
                 return None
             return StaffUser(row.username, row.display_name, row.password_hash, row.active)
+
+    # ---- the customer portal: every query bound to one customer --------------------------
+    def account(self, username: str) -> PortalAccount | None:
+        """The customer account named `username` with its customer, or None."""
+        with self._session() as s:
+            row = s.execute(
+                select(CustomerAccount, Customer.name)
+                .join(Customer, CustomerAccount.customer_id == Customer.id)
+                .where(CustomerAccount.username == username)
+            ).first()
+            if row is None:
+                return None
+            a, name = row
+            return PortalAccount(
+                a.username, a.display_name, a.password_hash, a.active, a.customer_id, name
+            )
+
+    def customer_certificates(self, customer_id: int) -> list[CertificateRow]:
+        """The certificates of customer `customer_id`'s sensors, newest first."""
+        with self._session() as s:
+            return self._rows(s, Sensor.owner_id == customer_id)
+
+    def customer_certificate(self, customer_id: int, number: str) -> CertificateRow | None:
+        """Certificate `number` when it is of one of customer `customer_id`'s sensors, else
+        None (the same None as for a number that does not exist)."""
+        with self._session() as s:
+            rows = self._rows(s, Certificate.number == number, Sensor.owner_id == customer_id)
+        return rows[0] if rows else None
+
+    def customer_sensors(self, customer_id: int, serial: str | None = None) -> list[SensorDue]:
+        """Customer `customer_id`'s sensors (only `serial`, when given) with their due dates,
+        the never calibrated first, then soonest due."""
+        where = [Sensor.owner_id == customer_id]
+        if serial is not None:
+            where.append(Sensor.serial == serial)
+        with self._session() as s:
+            found = s.execute(
+                select(Sensor, SensorModel)
+                .join(SensorModel, Sensor.model_id == SensorModel.id)
+                .where(*where)
+            ).all()
+            rows = [
+                SensorDue(
+                    serial=sensor.serial,
+                    model=f"{model.maker} {model.model}",
+                    interval_months=sensor.interval_months,
+                    last_calibrated_utc=(
+                        _utc(sensor.last_calibrated_utc) if sensor.last_calibrated_utc else None
+                    ),
+                    due=sensor.due_date,
+                )
+                for sensor, model in found
+            ]
+        return sorted(rows, key=lambda r: (r.due is not None, r.due or date.min, r.serial))
+
+    def customer_sensor_certificates(self, customer_id: int, serial: str) -> list[CertificateRow]:
+        """The certificates of sensor `serial` when customer `customer_id` owns it."""
+        with self._session() as s:
+            return self._rows(s, Sensor.serial == serial, Sensor.owner_id == customer_id)
 
 
 def _escape_like(text: str) -> str:

@@ -4,6 +4,7 @@ run), certificate 3 withdrawn; a staff user; and the web app over it."""
 
 from __future__ import annotations
 
+import shutil
 from dataclasses import dataclass
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
@@ -140,3 +141,92 @@ def web_app(store, records):
         secret_key="k" * 40, verify_url="https://lab.example/verify", trust=records.lab_certificate
     )
     return create_app(store, config)
+
+
+# ---- the customer portal (issue 35 point 5) ---------------------------------------------
+ACME_ACCOUNT, OTHER_ACCOUNT = "acme.buyer", "other.buyer"
+ACME_PASSWORD, OTHER_PASSWORD = "acme portal password", "other portal password"
+NEVER_CALIBRATED = "SN-WEB-3"  # ACME's, no run: no due date
+
+
+@dataclass(frozen=True)
+class PortalRecords:
+    """Records of two customers, each with one issued certificate: ACME Ltd (sensor
+    SN-WEB-1, certificate `acme`; SN-WEB-3 never calibrated) and Other GmbH (SN-WEB-2,
+    certificate `other`), an account of each and a staff user."""
+
+    url: str
+    engine: Engine
+    acme: str
+    other: str
+    acme_pdf: Path
+    other_pdf: Path
+
+
+@pytest.fixture(scope="package")
+def portal_records(tmp_path_factory: pytest.TempPathFactory, records: Records) -> PortalRecords:
+    from app.web.accounts import add_account
+
+    base = tmp_path_factory.mktemp("portal")
+    url = resolve_url(new_records(base / "records.sqlite"))
+    engine = make_engine(url)
+    lab = Lab(engine, actor="test")
+    lab.add_customer("ACME Ltd", "1 Test Street, Testville")
+    lab.add_customer("Other GmbH", "2 Other Street, Elsewhere")
+    lab.add_model(
+        "Sim",
+        "P-100",
+        nominal_sensitivity=10.0,
+        unit="mV/(m/s^2)",
+        tolerance_percent=5.0,
+        frequency_min_hz=10.0,
+        frequency_max_hz=10000.0,
+    )
+    lab.add_sensor(SERIAL, model="P-100", owner="ACME Ltd")
+    lab.add_sensor("SN-WEB-2", model="P-100", owner="Other GmbH")
+    lab.add_sensor(NEVER_CALIBRATED, model="P-100", owner="ACME Ltd")
+    runs_root = base / "runs"
+    argv = ["run", "--sim", "--dut", "piezo", "--dut-id", "SN-WEB-2", "--periods", "3"]
+    assert main([*argv, "--seed", "5", "--out", str(runs_root)]) == 0
+    (other_run,) = runs_root.iterdir()
+    info = CertificateInfo(
+        authorised_by="J. Smith",
+        dut_type="piezoelectric accelerometer",
+        temperature_c=23.0,
+        mounting="stud-mounted",
+    )
+    acme_run = base / "acme-runs" / records.runs[0].name  # a copy: the staff tests' stays as it is
+    shutil.copytree(records.runs[0], acme_run)
+    numbers, pdfs = [], []
+    for index, run in enumerate((acme_run, other_run)):
+        pdf = base / f"portal-{index}.pdf"
+        issued = issue_registered(run, info, pdf, url=url, prepared_by="A. Preparer")
+        numbers.append(issued.number)
+        pdfs.append(pdf)
+    add_account(engine, ACME_ACCOUNT, ACME_PASSWORD, customer="ACME Ltd",
+                display_name="ACME purchasing", actor="test")  # fmt: skip
+    add_account(engine, OTHER_ACCOUNT, OTHER_PASSWORD, customer="Other GmbH",
+                display_name="Other purchasing", actor="test")  # fmt: skip
+    add_user(engine, USER, PASSWORD, display_name="Quality Manager", actor="test")
+    return PortalRecords(url, engine, numbers[0], numbers[1], pdfs[0], pdfs[1])
+
+
+@pytest.fixture(scope="package")
+def portal_store(portal_records: PortalRecords):
+    """The web view's read-only access to the portal's records."""
+    from app.web.store import Store, open_read_only
+
+    engine = open_read_only(portal_records.url)
+    yield Store(engine)
+    engine.dispose()
+
+
+PORTAL_SECRET = "p" * 8 + "ortal-secret-0123456789abcdefghij"
+
+
+@pytest.fixture
+def portal_app(portal_store):
+    """A fresh web app (its own throttles and sessions) over the portal's records."""
+    from app.web.server import WebConfig, create_app
+
+    return create_app(portal_store, WebConfig(secret_key=PORTAL_SECRET))

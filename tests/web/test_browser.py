@@ -12,10 +12,19 @@ import socket
 import threading
 import time
 from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 
-from tests.web.conftest import PASSWORD, USER, Records
+from tests.web.conftest import (
+    ACME_ACCOUNT,
+    ACME_PASSWORD,
+    NEVER_CALIBRATED,
+    PASSWORD,
+    USER,
+    PortalRecords,
+    Records,
+)
 
 pytestmark = pytest.mark.integration
 
@@ -41,13 +50,52 @@ def _free_port() -> int:
 @pytest.fixture
 def server(store) -> Iterator[str]:
     """The web view served by uvicorn on a free local port, in a thread; its base URL."""
+    yield from _serve(store, "s" * 40)
+
+
+def _chrome(downloads: Path | None = None) -> Iterator:
+    """A headless Chromium (downloads saved to `downloads` without asking, when given)."""
+    _need_browser()
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+
+    options = webdriver.ChromeOptions()
+    options.binary_location = str(CHROMIUM)
+    for argument in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage",
+                     "--window-size=1280,1000", "--disable-gpu"):  # fmt: skip
+        options.add_argument(argument)
+    if downloads is not None:
+        options.add_experimental_option(
+            "prefs",
+            {"download.default_directory": str(downloads), "download.prompt_for_download": False},
+        )
+    driver = webdriver.Chrome(service=Service(executable_path=str(CHROMEDRIVER)), options=options)
+    driver.set_page_load_timeout(30)
+    driver.implicitly_wait(20)  # a loaded 2-core machine: elements may come late
+    if downloads is not None:  # headless Chromium asks for this besides the preference
+        where = {"behavior": "allow", "downloadPath": str(downloads)}
+        driver.execute_cdp_cmd("Browser.setDownloadBehavior", where)
+    try:
+        yield driver
+    finally:
+        driver.quit()
+
+
+@pytest.fixture
+def browser() -> Iterator:
+    yield from _chrome()
+
+
+def _serve(store, secret: str) -> Iterator[str]:
+    """The web view over `store` served by uvicorn on a free local port, in a thread; its
+    base URL."""
     import uvicorn
 
     from app.web.server import WebConfig, create_app
 
     port = _free_port()
     base = f"http://127.0.0.1:{port}"
-    config = WebConfig(secret_key="s" * 40, verify_url=f"{base}/verify")
+    config = WebConfig(secret_key=secret, verify_url=f"{base}/verify")
     server = uvicorn.Server(
         uvicorn.Config(create_app(store, config), host="127.0.0.1", port=port, log_level="warning")
     )
@@ -58,29 +106,11 @@ def server(store) -> Iterator[str]:
         if time.monotonic() > deadline or not thread.is_alive():
             pytest.fail("the web view did not start")
         time.sleep(0.05)
-    yield base
-    server.should_exit = True
-    thread.join(timeout=10)
-
-
-@pytest.fixture
-def browser() -> Iterator:
-    _need_browser()
-    from selenium import webdriver
-    from selenium.webdriver.chrome.service import Service
-
-    options = webdriver.ChromeOptions()
-    options.binary_location = str(CHROMIUM)
-    for argument in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage",
-                     "--window-size=1280,1000", "--disable-gpu"):  # fmt: skip
-        options.add_argument(argument)
-    driver = webdriver.Chrome(service=Service(executable_path=str(CHROMEDRIVER)), options=options)
-    driver.set_page_load_timeout(30)
-    driver.implicitly_wait(20)  # a loaded 2-core machine: elements may come late
     try:
-        yield driver
+        yield base
     finally:
-        driver.quit()
+        server.should_exit = True
+        thread.join(timeout=10)
 
 
 @pytest.mark.long
@@ -152,3 +182,81 @@ def test_login_search_certificate_and_the_qr_code_to_the_public_status(
 
     browser.get(address.replace(f"/verify/{new}?", f"/verify/{old}?"))  # code of another
     assert browser.find_element(By.ID, "status").text == "not found"
+
+
+SHOTS = os.environ.get("ACCELCAL_WEB_SHOTS")  # a folder: the portal's pages saved as PNG there
+
+
+@pytest.mark.long
+def test_a_customer_signs_in_sees_its_certificates_and_due_dates_and_not_anothers(
+    portal_store, portal_records: PortalRecords, tmp_path: Path
+) -> None:
+    from icalendar import Calendar
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.support import expected_conditions as ec
+    from selenium.webdriver.support.ui import WebDriverWait
+
+    def shot(name: str) -> None:
+        if SHOTS:
+            browser.save_screenshot(str(Path(SHOTS) / f"portal-{name}.png"))
+
+    downloads = tmp_path / "downloads"
+    downloads.mkdir()
+    served = _serve(portal_store, "c" * 8 + "ustomer-portal-secret-0123456789")
+    base = next(served)
+    chrome = _chrome(downloads)
+    browser = next(chrome)
+    try:
+        browser.get(f"{base}/portal")
+        assert "/portal/login" in browser.current_url  # a stranger is sent to sign in
+        shot("login")
+        browser.find_element(By.ID, "username").send_keys(ACME_ACCOUNT)
+        browser.find_element(By.ID, "password").send_keys(ACME_PASSWORD)
+        browser.find_element(By.ID, "sign-in").click()
+        WebDriverWait(browser, 30).until(ec.url_to_be(f"{base}/portal"))
+        assert browser.find_element(By.TAG_NAME, "h1").text == "Certificates of ACME Ltd"
+        shot("home")
+        numbers = [
+            row.find_element(By.CSS_SELECTOR, "td").text
+            for row in browser.find_elements(By.CSS_SELECTOR, "#certificates tbody tr")
+        ]
+        assert numbers == [portal_records.acme]
+        assert portal_records.other not in browser.page_source
+        due_rows = browser.find_elements(By.CSS_SELECTOR, "#due tbody tr")
+        cells = [row.find_elements(By.TAG_NAME, "td") for row in due_rows]
+        due = {row[0].text: row[4].text for row in cells}
+        assert set(due) == {"SN-WEB-1", NEVER_CALIBRATED}
+        assert due[NEVER_CALIBRATED] == "never calibrated here"
+        pdf_link = browser.find_element(By.CSS_SELECTOR, "#certificates a.pdf")
+        assert pdf_link.get_attribute("href").endswith(
+            f"/portal/certificates/{portal_records.acme}/certificate.pdf"
+        )
+
+        browser.find_element(By.ID, "due-ics").click()  # the calendar file, downloaded
+        deadline = time.monotonic() + 30
+        while not list(downloads.glob("*.ics")) and time.monotonic() < deadline:
+            time.sleep(0.2)
+        (ics,) = downloads.glob("*.ics")
+        (event,) = Calendar.from_ical(ics.read_bytes()).walk("VEVENT")
+        assert event.decoded("dtstart").isoformat() == due["SN-WEB-1"]
+        assert "SN-WEB-1" in str(event["summary"])
+
+        browser.get(f"{base}/portal/sensors/SN-WEB-1")
+        assert browser.find_element(By.ID, "due-date").text == due["SN-WEB-1"]
+        shot("sensor")
+        for path in (
+            f"/portal/certificates/{portal_records.other}/certificate.pdf",
+            "/portal/sensors/SN-WEB-2",
+        ):
+            browser.get(base + path)
+            assert browser.find_element(By.TAG_NAME, "h1").text == "Not found"
+            assert browser.find_element(By.ID, "message").text == "Not found in your records."
+            assert "Other GmbH" not in browser.page_source
+        shot("not-found")
+        assert not list(downloads.glob("*.pdf"))  # another's certificate: nothing downloaded
+        browser.get(f"{base}/register")  # a staff page: the staff sign-in, no register
+        assert "/login" in browser.current_url and "/portal" not in browser.current_url
+        assert browser.find_element(By.TAG_NAME, "h1").text == "Sign in"
+    finally:
+        for generator in (chrome, served):
+            generator.close()

@@ -112,7 +112,7 @@ def test_the_web_view_refuses_a_missing_or_old_database(tmp_path: Path) -> None:
     with pytest.raises(DatabaseError, match="no records database"):
         open_read_only(f"sqlite:///{tmp_path / 'none.sqlite'}")
     assert not (tmp_path / "none.sqlite").exists()  # not created either
-    with pytest.raises(DatabaseError, match="schema revision 0005, this program needs 0011"):
+    with pytest.raises(DatabaseError, match="schema revision 0005, this program needs 0014"):
         open_read_only(_migrated(tmp_path, "0005"))
 
 

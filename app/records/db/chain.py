@@ -57,7 +57,7 @@ KEYS = Table(
 )
 SIGNED_COLUMNS = ("signature", "key_id")  # records_chain's columns since 0011
 # stored as their SHA-256 only (the chain must not copy a password hash)
-REDACTED = frozenset({("users", "password_hash")})
+REDACTED = frozenset({("users", "password_hash"), ("customer_accounts", "password_hash")})
 ROW_ACTIONS = ("insert", "update", "delete")
 _PG_LOCK_KEY = 0x6163_6365_6C63  # the transaction-level advisory lock of the chain's appenders
 

@@ -4,8 +4,9 @@
   ever deleted;
 - an issued certificate is never edited: the only changes are its state to withdrawn or
   replaced (with the reason) and its files (path, SHA-256, DCC's SHA-256) set once;
-- on PostgreSQL, a user is added, re-enabled or given a new name or password only by an
-  administrator: a member of the role that owns `users` (the owner role of docs/records.md),
+- on PostgreSQL, a user (staff, or a customer's account: migration 0014) is added, re-enabled
+  or given a new name, password or customer only by an administrator: a member of the role
+  that owns the table (the owner role of docs/records.md),
   never by the application role. SQLite has no roles: there a user added behind the
   application's back is caught by the chain (an unsigned entry, or a row no entry claims).
 
@@ -23,6 +24,10 @@ FROZEN_MESSAGE = "certificates: an issued certificate is never edited"
 FILES_MESSAGE = "certificates: the files of a certificate are set once"
 DELETE_MESSAGE = "certificates: a certificate is never deleted"
 USERS_MESSAGE = "users: only an administrator adds, re-enables or renames a user or sets a password"
+ACCOUNTS_MESSAGE = (
+    "customer_accounts: only an administrator adds, re-enables, renames or rebinds an account "
+    "or sets a password"
+)
 
 
 def sqlite_rules(certificate_columns: list[str]) -> list[str]:
@@ -97,4 +102,33 @@ def postgresql_rules() -> list[str]:
         "CREATE TRIGGER records_rule_users BEFORE INSERT OR UPDATE OR DELETE ON users "
         "FOR EACH ROW EXECUTE FUNCTION records_rule_users()",
         "ALTER TABLE users ENABLE ALWAYS TRIGGER records_rule_users",
+    ]
+
+
+_PG_ACCOUNTS = f"""
+CREATE FUNCTION records_rule_customer_accounts() RETURNS trigger AS $$
+BEGIN
+  IF TG_OP = 'UPDATE' AND NEW.username = OLD.username AND NEW.password_hash = OLD.password_hash
+     AND NEW.customer_id = OLD.customer_id AND NOT (NEW.active AND NOT OLD.active) THEN
+    RETURN NEW;
+  END IF;
+  IF pg_has_role(current_user, (SELECT relowner FROM pg_class WHERE oid = TG_RELID), 'MEMBER')
+  THEN
+    IF TG_OP = 'DELETE' THEN RETURN OLD; END IF;
+    RETURN NEW;
+  END IF;
+  RAISE EXCEPTION '{ACCOUNTS_MESSAGE} (role %)', current_user;
+END; $$ LANGUAGE plpgsql
+"""
+
+
+def postgresql_account_rules() -> list[str]:
+    """The PostgreSQL function and ALWAYS trigger of the customer accounts' rule (migration
+    0014): as the staff users', and the customer an account is bound to is the
+    administrator's to change too (the application role may only disable one)."""
+    return [
+        _PG_ACCOUNTS,
+        "CREATE TRIGGER records_rule_customer_accounts BEFORE INSERT OR UPDATE OR DELETE ON "
+        "customer_accounts FOR EACH ROW EXECUTE FUNCTION records_rule_customer_accounts()",
+        "ALTER TABLE customer_accounts ENABLE ALWAYS TRIGGER records_rule_customer_accounts",
     ]

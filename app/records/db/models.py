@@ -255,6 +255,22 @@ class User(Base):
     created_utc: Mapped[datetime] = mapped_column(DateTime(timezone=True))
 
 
+class CustomerAccount(Base):
+    """A customer's sign-in to the web view's portal (issue 35 point 5), created by staff and
+    bound to one records customer: a unique user name, a display name, an argon2 password hash
+    (app.web.accounts) and `active` (False: disabled by staff). It opens no staff page."""
+
+    __tablename__ = "customer_accounts"
+    id: Mapped[int] = mapped_column(primary_key=True)
+    username: Mapped[str] = mapped_column(String(100), unique=True)
+    display_name: Mapped[str] = mapped_column(String(200))
+    customer_id: Mapped[int] = mapped_column(ForeignKey("customers.id"))
+    password_hash: Mapped[str] = mapped_column(String(200))
+    active: Mapped[bool] = mapped_column(Boolean, default=True)
+    created_utc: Mapped[datetime] = mapped_column(DateTime(timezone=True))
+    customer: Mapped[Customer] = relationship()
+
+
 class CertificateReview(Base):
     """A certificate under review (ISO/IEC 17025 7.10): why (e.g. the impact of a reference
     standard found out of tolerance), when it was opened (UTC) and, once decided, whether the

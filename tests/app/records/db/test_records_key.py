@@ -127,7 +127,7 @@ def test_records_chained_before_0011_are_signed_by_the_upgrade(
 ) -> None:
     """A lab at revision 0010 (its chain unsigned, its fingerprint the schema cookie) upgrades:
     the first signed head covers the whole chain before it, and db verify holds."""
-    from app.records.db.engine import upgrade
+    from app.records.db.engine import SCHEMA_HEAD, upgrade
     from app.records.db.lab import Lab
 
     url = resolve_url(f"sqlite:///{tmp_path / 'lab.sqlite'}")
@@ -136,7 +136,7 @@ def test_records_chained_before_0011_are_signed_by_the_upgrade(
     Lab(engine, actor="alice").add_customer("ACME Ltd")  # chained unsigned, as 0010 did
     with engine.connect() as c:
         assert c.execute(text("SELECT count(*) FROM records_chain")).scalar() > 1
-    assert upgrade(engine) == ("0010", "0011")
+    assert upgrade(engine) == ("0010", SCHEMA_HEAD)  # the head: 0014 since the portal
     with engine.connect() as c:
         signed = c.execute(text("SELECT seq FROM records_chain WHERE signature IS NOT NULL"))
         last = c.execute(text("SELECT max(seq) FROM records_chain")).scalar()
