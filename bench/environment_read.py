@@ -5,9 +5,9 @@ app.stand.open.read_environment, as the run does it before config.json is writte
 Per repetition, in a fresh interpreter: the amplifiers' simulated resource manager first (as
 the simulated stand opens it: pyvisa and pyvisa-sim imported), then the first read (the
 sensor's definitions parsed, its library made: what the sensor adds to a run) and a warm
-read; the baseline is `stand_config.load()` of the same stand (what every run already does), measured in the same run. Prints medians in
-ms, their ratios to the baseline and the load average (wall times are load-dependent: the lead
-re-measures at idle).
+read; the baseline is `stand_config.load()` of the same stand (what every run already does),
+measured in the same run. Prints medians in ms, their ratios to the baseline and the load
+average (wall times are load-dependent: the lead re-measures at idle).
 
 Run: python bench/environment_read.py [--runs 11]
 """
