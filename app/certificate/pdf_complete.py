@@ -51,7 +51,7 @@ def instruments_section(info: CertificateInfo, head: Any, body: Any) -> list[Any
                 x.source,
             ]
         )
-    table = Table(rows, colWidths=[w * mm for w in (34, 60, 30, 28, 22)], hAlign="LEFT")
+    table = Table(rows, colWidths=[w * mm for w in (38, 56, 30, 28, 22)], hAlign="LEFT")
     table.setStyle(
         TableStyle(
             [
