@@ -294,23 +294,31 @@ def test_a_records_customer_without_an_address_is_refused_unless_a_reason_is_giv
 
 
 def test_with_records_the_reference_standard_is_listed_with_its_records_due_date(
-    lab: Any, records_runs: tuple[Path, Path], tmp_path: Path
+    tmp_path: Path,
 ) -> None:
+    """A records database of its own (the session's runs keep their one certificate each)."""
     from datetime import UTC, datetime, timedelta
 
-    from app.records.db.engine import open_engine
-    from app.records.db.lab import Lab
-    from app.records.run_folder import load_run
-
-    run = records_runs[1]
-    current = Lab(open_engine(lab.url)).issued_for_run(str(load_run(run).run_id))
-    amend = [] if current is None else ["--replaces", current.number, "--reason", "test"]
+    url = f"sqlite:///{tmp_path / 'records.sqlite'}"
+    today = datetime.now(UTC).date()
+    due = (today + timedelta(days=300)).isoformat()
+    for argv in (
+        ["db", "upgrade"],
+        ["customers", "add", "ACME Ltd", "--address", "1 Road, Town"],
+        ["models", "add", "PCB", "352C33", "--nominal", "100", "--unit", "mV/g", "--tolerance",
+         "5", "--fmin", "1", "--fmax", "10000"],
+        ["sensors", "add", "SN-7", "--model", "352C33", "--owner", "ACME Ltd"],
+        ["refs", "add", "REF-8305-SIM", "--model", "B&K 8305", "--serial", "SIM-0001",
+         "--certificate", "PTB-1", "--calibrated", str(today - timedelta(days=30)), "--due",
+         due, "--table", str(ROOT / "examples/ref-table.csv")],
+        ["run", "--sim", "--periods", "3", "--sensor", "SN-7", "--out", str(tmp_path / "runs")],
+    ):  # fmt: skip
+        assert main([*argv, "--db", url]) == 0, argv
+    (run,) = (tmp_path / "runs").iterdir()
     pdf = tmp_path / "c.pdf"
-    argv = ["certificate", str(run), "--db", lab.url, "--out", str(pdf), "--prepared-by",
-            "A. Tech", "--authorised-by", "J. Smith", "--temperature", "23", "--mounting",
-            "stud", *amend]  # fmt: skip
+    argv = ["certificate", str(run), "--db", url, "--out", str(pdf), "--prepared-by", "A. Tech",
+            "--authorised-by", "J. Smith", "--temperature", "23", "--mounting", "stud"]  # fmt: skip
     assert main(argv) == 0
-    due = (datetime.now(UTC).date() + timedelta(days=300)).isoformat()  # conftest's refs add
     listed = _text(pdf)[_text(pdf).index("Instruments used") :]
     assert f"SIM-0001 {due} records" in listed
     # and the sensor model's data sheet names the specification (tolerance ±5 % on record)
