@@ -31,6 +31,7 @@ from collections.abc import Callable
 from importlib import resources
 from typing import Any
 
+import app.certificate.reference_dcc as reference_dcc
 import app.certificate.text as text
 from app.certificate.info import CertificateInfo
 from app.certificate.load import StoredRun
@@ -247,6 +248,7 @@ def build(run: StoredRun, info: CertificateInfo, extend: Extension | None = None
             _d(ident, "issuer", issuer)
             _d(ident, "value", str(value))
             _text(ident, "name", label)
+    reference_dcc.dcc_identifications(ids, reference)  # issue 35 point 4
     conditions = _d(result_set, "influenceConditions")
     temperature = _d(conditions, "influenceCondition", refType="basic_temperature")
     _text(temperature, "name", "Ambient temperature")

@@ -33,6 +33,7 @@ from reportlab.platypus import (
     TableStyle,
 )
 
+import app.certificate.reference_dcc as reference_dcc
 import app.certificate.text as text
 from app import formatting as fmt
 from app.certificate.attach import embed
@@ -220,6 +221,7 @@ def write_pdf(
                     f"{_esc(reference.get('certificate_date', ''))}, traceable to national "
                     "standards",
                 ),
+                *reference_dcc.pdf_rows(reference),
             ]
         ),
         *instruments_section(info, HEAD, BODY),

@@ -43,8 +43,10 @@ class RecordRun:
         self.background = background
         self.memory = memory
         plan = ctx.plan
-        target = plan.amplitudes_ms2 * np.exp(1j * (plan.phases_rad - np.pi / 2))
-        fade_s = fade_in_for(plan, target, ctx.stand.config.limits, ctx.settings.fade_in_s)
+        fade_s = ctx.notes.fade_in_s  # as the run's preflight picked and checked it
+        if fade_s is None:  # no preflight made (a phase run on its own): picked here
+            target = plan.amplitudes_ms2 * np.exp(1j * (plan.phases_rad - np.pi / 2))
+            fade_s = fade_in_for(plan, target, ctx.stand.config.limits, ctx.settings.fade_in_s)
         self.fade = fade_in_samples(
             float(np.min(plan.frequencies_hz)), plan.sample_rate_hz, plan.period_samples, fade_s
         )

@@ -118,6 +118,11 @@ class ReferenceStandard:
     # the certificate's due date, ISO 8601); "" for the stand file (or the simulated stand)
     table_from: str = ""
     due_date: str = ""
+    # the reference DCC the records' table was read from (issue 35 point 4): its
+    # uniqueIdentifier, calibrating laboratory and SHA-256; "" when none
+    dcc_identifier: str = ""
+    dcc_laboratory: str = ""
+    dcc_sha256: str = ""
 
 
 @dataclass(frozen=True)
@@ -165,9 +170,11 @@ class StandConfig:
         *,
         due_date: str,
         table_from: str = "records",
+        dcc: tuple[str, str, str] = ("", "", ""),
     ) -> StandConfig:
         """This stand with its reference standard's certificate (number, dates ISO 8601) and
-        table (Hz, mV/(m/s^2), degrees) taken from `table_from` (the records). ConfigError
+        table (Hz, mV/(m/s^2), degrees) taken from `table_from` (the records), read from the
+        reference DCC `dcc` (uniqueIdentifier, laboratory, SHA-256; blank: none). ConfigError
         when the table is not a usable certificate table."""
         try:
             ReferenceChain(frequencies_hz, sensitivity_mv_per_ms2, phase_deg)
@@ -182,6 +189,9 @@ class StandConfig:
             phase_deg=tuple(phase_deg),
             table_from=table_from,
             due_date=due_date,
+            dcc_identifier=dcc[0],
+            dcc_laboratory=dcc[1],
+            dcc_sha256=dcc[2],
         )
         return replace(self, reference=reference)
 
