@@ -33,19 +33,14 @@ from reportlab.platypus import (
     TableStyle,
 )
 
+import app.certificate.pdf_complete as complete  # issue 35: conditions, spec, instruments
 import app.certificate.reference_dcc as reference_dcc
 import app.certificate.text as text
 from app import formatting as fmt
 from app.certificate.attach import embed
-from app.certificate.complete import customer_address_text
 from app.certificate.info import CertificateInfo
 from app.certificate.load import StoredRun
 from app.certificate.pdf_charts import FONT, FONT_BOLD, GRID, chart
-from app.certificate.pdf_complete import (
-    condition_rows,
-    instruments_section,
-    specification_paragraph,
-)
 from app.certificate.pdf_marks import MarkedParagraph, MarkedTable, MarkedText
 from app.certificate.pdf_page import numbered_canvas
 from app.certificate.printed import Item, printed_lines, table_cells
@@ -179,7 +174,7 @@ def write_pdf(
                 *_amendment_rows(info),
                 (
                     "Customer",
-                    f"{_esc(info.customer)}, {_esc(customer_address_text(info))}",
+                    f"{_esc(info.customer)}, {_esc(complete.customer_address_text(info))}",
                     Item.CUSTOMER,
                 ),
                 ("Item calibrated", f"{_esc(info.dut_type)}: {_esc(info.dut_model)}", None),
@@ -201,7 +196,7 @@ def write_pdf(
         Paragraph("Conditions", HEAD),
         _kv(
             [
-                *condition_rows(info),
+                *complete.condition_rows(info),
                 ("Mounting", _esc(info.mounting)),
                 ("Excitation level", f"{record.level_ms2 or 0:g} m/s² peak per frequency"),
             ]
@@ -224,7 +219,7 @@ def write_pdf(
                 *reference_dcc.pdf_rows(reference),
             ]
         ),
-        *instruments_section(info, HEAD, BODY),
+        *complete.instruments_section(info, HEAD, BODY),
         Paragraph("Result at the reference frequency", HEAD),
         _kv(
             [
@@ -490,7 +485,7 @@ def _statements(results: Results, info: CertificateInfo, p_percent: str) -> list
                 text.conformity_statement(results.verdict, results.tolerance_percent, verdicts),
                 BODY,
             ),
-            *specification_paragraph(info, BODY),  # whose tolerances (issue 35)
+            *complete.specification_paragraph(info, BODY),  # whose tolerances (issue 35)
         ]
     if info.notes:
         out += [Paragraph("Notes", HEAD), Paragraph(_esc(info.notes), BODY)]
