@@ -161,6 +161,7 @@ def issue_registered(
                 as_found_run_id=as_found,
                 produce=produce,
                 taken=lambda number: number.casefold() in taken,
+                customer_id=sensor.owner_id,  # the customer the PDF names (info.customer)
             )
         except BaseException:
             job.discard(staged[0] if staged else None)

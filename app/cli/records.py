@@ -119,7 +119,7 @@ def add_commands(sub: argparse._SubParsersAction) -> dict[str, Handler]:  # type
     _db_option(ma)
     _list_options(msub.add_parser("list", help="list sensor models"))
 
-    s = sub.add_parser("sensors", help="sensors: add, list, show")
+    s = sub.add_parser("sensors", help="sensors: add, list, show, move")
     ssub = s.add_subparsers(dest="action", required=True, metavar="ACTION")
     sa = ssub.add_parser("add", help="add a sensor")
     sa.add_argument("serial")
@@ -137,6 +137,12 @@ def add_commands(sub: argparse._SubParsersAction) -> dict[str, Handler]:  # type
     sw = ssub.add_parser("show", help="one sensor and its last calibration")
     sw.add_argument("serial")
     _db_option(sw)
+    sm = ssub.add_parser(
+        "move", help="give a sensor to another customer (its certificates stay with theirs)"
+    )
+    sm.add_argument("serial")
+    sm.add_argument("--owner", required=True, help="the new owner's customer name")
+    _db_option(sm)
 
     r = sub.add_parser("refs", help="reference standards: add, list, dcc")
     rsub = r.add_subparsers(dest="action", required=True, metavar="ACTION")
@@ -335,6 +341,13 @@ def cmd_sensors(args: argparse.Namespace) -> int:
             return 0
         for row in sensors:
             print(f"{row.serial}\t{row.model.maker} {row.model.model}\t{row.owner.name}")
+        return 0
+    if args.action == "move":
+        lab.move_sensor(args.serial, owner=args.owner)
+        print(
+            f"sensor {args.serial} now owned by {args.owner.strip()}; its certificates stay "
+            "with the customers they were issued to"
+        )
         return 0
     row = lab.sensor(args.serial)
     history = lab.history(args.serial)

@@ -240,9 +240,13 @@ class Certificate(Base):
     file: Mapped[str | None] = mapped_column(Text, nullable=True)
     sha256: Mapped[str | None] = mapped_column(String(64), nullable=True)
     dcc_sha256: Mapped[str | None] = mapped_column(String(64), nullable=True)
+    # the customer it is issued to (migration 0015): the sensor's owner when it was issued,
+    # the customer its PDF names; never changed (rows issued before 0015: the owner at upgrade)
+    customer_id: Mapped[int] = mapped_column(ForeignKey("customers.id"))
     run: Mapped[Run] = relationship(foreign_keys=[run_id])
     as_found_run: Mapped[Run | None] = relationship(foreign_keys=[as_found_run_id])
     sensor: Mapped[Sensor] = relationship()
+    customer: Mapped[Customer] = relationship()
 
 
 class AuditEntry(Base):
