@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import functools
 import xml.etree.ElementTree as ET
+from collections.abc import Callable
 from importlib import resources
 from typing import Any
 
@@ -67,6 +68,8 @@ REF_RUN_ID = "vib_runIdentifier"  # issue 35: the run, its seal and the software
 REF_SEAL = "vib_runSeal"  # named by refType, for a machine
 REF_CHAIN_HEAD = "vib_recordsChainHead"
 REF_VALIDATION = "vib_softwareValidation"
+
+Extension = Callable[[ET.Element, ET.Element, CertificateInfo], None]
 
 ET.register_namespace("dcc", DCC_NS)
 ET.register_namespace("si", SI_NS)
@@ -163,8 +166,9 @@ def line_values(lines: tuple[PrintedLine, ...]) -> dict[str, list[str]]:
     }
 
 
-def build(run: StoredRun, info: CertificateInfo) -> bytes:
-    """The DCC XML of a stored complete run with its (checked, numbered) certificate items."""
+def build(run: StoredRun, info: CertificateInfo, extend: Extension | None = None) -> bytes:
+    """The DCC XML of a stored complete run with its (checked, numbered) certificate items;
+    `extend(administrativeData, measurementResult, info)` adds to it before it is validated."""
     record, results = run.record, run.results
     start = run.start
     if start.stand is None:  # a folder without config.json: the record's stand
@@ -298,6 +302,8 @@ def build(run: StoredRun, info: CertificateInfo) -> bytes:
         )
     _reference_result(results_element, results)
     decisions.characteristic_conformity(results_element, results)
+    if extend is not None:  # the issuing service's additions (app.certificate.dcc_complete)
+        extend(admin, result_set, info)
     ET.indent(root, space="  ")
     xml = ET.tostring(root, encoding="utf-8", xml_declaration=True)
     problem = validation_error(xml)

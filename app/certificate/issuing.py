@@ -21,6 +21,7 @@ from typing import Any
 
 from app.certificate.dcc import DccError, DccNotApplicable
 from app.certificate.dcc import build as build_dcc
+from app.certificate.dcc_complete import complete_dcc
 from app.certificate.info import (
     CertificateError,
     CertificateInfo,
@@ -84,6 +85,9 @@ def _prepare(
     today = datetime.now(UTC).date().isoformat()
     if info.issue_date in (None, ""):
         info = dataclasses.replace(info, issue_date=today)  # issued today, never back-dated
+    from app.certificate.complete import complete, with_environment
+
+    info = with_environment(info, run.start)  # the reading at run start, where not typed
     info = info.merged(default_info(run.record, run.start))
     missing = missing_items(info)
     if missing:
@@ -91,6 +95,7 @@ def _prepare(
     invalid = invalid_items(info)
     if invalid:
         raise CertificateError(f"invalid item(s): {'; '.join(invalid)}")
+    info = complete(info, run.record, run.start, run.results)  # address, specification, ...
     _check_issue_date(str(info.issue_date), run, today)
     out = Path(out)
     into_run = _check_out(out, run.path)
@@ -338,7 +343,7 @@ def _dcc_of(run: StoredRun, info: CertificateInfo) -> bytes | None:
     """The run's DCC XML (validated), or None when the stand file names no laboratory country
     (the PDF is still issued; the CLI says why there is no DCC). CertificateError otherwise."""
     try:
-        return build_dcc(run, info)
+        return build_dcc(run, info, complete_dcc)  # with issue 35's items
     except DccNotApplicable:
         return None
     except DccError as exc:

@@ -57,6 +57,22 @@ def _iso_day(text: str) -> date:
         raise argparse.ArgumentTypeError(f"not a date yyyy-mm-dd: {text!r}") from None
 
 
+SPEC_KINDS = ("datasheet", "customer", "standard")  # app.certificate.info.SpecKind
+
+
+def humidity(text: str) -> float:
+    """--humidity: '45%' or '45' as % relative humidity (app.stand.instruments)."""
+    from app.stand.instruments import parse_humidity
+
+    try:
+        value = parse_humidity(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    if value is None:
+        raise argparse.ArgumentTypeError("humidity (--humidity): empty")
+    return value
+
+
 SIM_HUM_HELP = (
     "simulated: hum only while driven (a power-amplifier ground loop), e.g. 1mV@50.3Hz on the "
     "DUT channel or 1mV/0.2mV@100Hz (DUT/reference, V peak); repeatable"
@@ -302,7 +318,15 @@ def build_parser() -> argparse.ArgumentParser:
         "<run>/certificate-N.pdf)",
     )
     c.add_argument("--customer", help="customer name (mandatory)")
-    c.add_argument("--customer-address", default="", help="customer address")
+    c.add_argument(
+        "--customer-address", default="", help="customer address (required, or the next)"
+    )
+    c.add_argument(
+        "--address-not-stated",
+        default="",
+        metavar="REASON",
+        help="why the customer's address is not given (recorded and printed)",
+    )
     c.add_argument(
         "--authorised-by",
         help="who authorises it (mandatory): the name alone; under the records' two-person "
@@ -317,7 +341,20 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--dut-serial", help="DUT serial number (default: the run's --dut-id)")
     c.add_argument("--dut-type", help="DUT type, e.g. 'piezoelectric accelerometer'")
     numeric_option(c, "--temperature", TEMPERATURE, "ambient temperature, deg C")
-    c.add_argument("--mounting", help="how the DUT was mounted")
+    c.add_argument(
+        "--humidity", type=humidity, help="relative humidity, e.g. 45%% (default: the run's sensor)"
+    )
+    c.add_argument(
+        "--mounting", help="how the DUT was mounted (default: the last for its model or template)"
+    )
+    c.add_argument(
+        "--spec-kind",
+        choices=SPEC_KINDS,
+        help="the conformity statement's specification: manufacturer's data sheet, customer "
+        "requirement or standard",
+    )
+    c.add_argument("--spec-id", help="its document and revision, e.g. 'PCB 352C33 rev. D'")
+    c.add_argument("--spec-tolerances", help="its tolerances (default: those the verdict checked)")
     c.add_argument("--certificate-number", help="without records; default: AC-<run id>")
     c.add_argument(
         "--issue-date", help="YYYY-MM-DD, UTC (default: today; not before the calibration)"

@@ -307,6 +307,10 @@ class Procedure:
         """config.json and stand.toml, before anything moves (RunNotRecordedError)."""
         if self.folder is None:
             return
+        from app.stand.open import read_environment
+
+        now = datetime.now(UTC).isoformat(timespec="seconds")
+        environment = read_environment(self.stand.config, now)  # the sensor's, at run start
         try:
             start = RunStart(
                 stand=self.stand.config.raw,
@@ -314,6 +318,7 @@ class Procedure:
                 plan=self.plan.to_dict(),
                 settings=self.settings.__dict__,
                 identity=self.identity.to_dict(),
+                extra={"environment": environment} if environment is not None else {},
             )
             self.folder.write_text(CONFIG_NAME, start.to_json())
             if self.stand.config.text:

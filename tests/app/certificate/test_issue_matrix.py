@@ -133,7 +133,15 @@ def test_the_cli_without_records_unsigned_and_signed(
     complete_run: Path, pki: Pki, sign_password: str, tmp_path: Path, capsys
 ) -> None:
     run = copy_run(complete_run, tmp_path / "runs")
-    argv = ["certificate", str(run), "--customer", "ACME Ltd", *ITEMS]
+    argv = [
+        "certificate",
+        str(run),
+        "--customer",
+        "ACME Ltd",
+        "--customer-address",
+        "1 Test Street, 00-001 Testtown",
+        *ITEMS,
+    ]
     assert main(argv) == 0  # <run>/certificate.pdf, numbered by the run folder's register
     assert_verified(verify_lines(capsys, run / "certificate.pdf", "--run", run), signed=False)
     signed = tmp_path / "signed.pdf"
@@ -169,7 +177,16 @@ def test_a_long_customer_name_wrapped_onto_several_lines(
     run = copy_run(complete_run, tmp_path / "runs")
     customer = " ".join(["Physikalisch-Technische Kalibrierlaboratorien Braunschweig"] * 4)
     address = "Bundesallee 100, 38116 Braunschweig, " + "Gebäude " * 12 + "Raum 1"
-    argv = ["certificate", str(run), "--customer", customer, "--customer-address", address]
+    argv = [
+        "certificate",
+        str(run),
+        "--customer",
+        customer,
+        "--customer-address",
+        "1 Test Street, 00-001 Testtown",
+        "--customer-address",
+        address,
+    ]
     assert main([*argv, *ITEMS]) == 0
     pdf = run / "certificate.pdf"
     assert len(read_marks(pdf.read_bytes()).items[Item.CUSTOMER]) >= 3  # it did wrap
@@ -231,6 +248,7 @@ class Person:
 
 
 GUI_FIELDS = {"authorised_by": "J. Smith", "prepared_by": "A. Tech", "temperature": "23",
+              "customer_address": "1 Test Street, 00-001 Testtown",
               "mounting": "stud, 2 N m"}  # fmt: skip
 
 

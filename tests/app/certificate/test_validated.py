@@ -42,6 +42,7 @@ pytestmark = pytest.mark.integration
 
 INFO = CertificateInfo(
     customer="ACME Ltd",
+    customer_address="1 Test Street, 00-001 Testtown",
     authorised_by="J. Smith",
     temperature_c=23.0,
     mounting="stud-mounted back-to-back, 2 N m",
@@ -108,7 +109,8 @@ def _text(pdf: Path) -> str:
 
 
 def _certify(run: Path, out: Path, *extra: str) -> int:
-    return main(["certificate", str(run), "--customer", "ACME Ltd", "--authorised-by",
+    return main(["certificate", str(run), "--customer", "ACME Ltd",
+                 "--customer-address", "1 Test Street, 00-001 Testtown", "--authorised-by",
                  "J. Smith", "--temperature", "23", "--mounting", "stud, 2 N m", "--dut-model",
                  "PCB 352C33", "--dut-type", "piezoelectric accelerometer", "--out", str(out),
                  *extra])  # fmt: skip
