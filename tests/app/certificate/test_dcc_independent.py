@@ -29,7 +29,8 @@ from tests.app.certificate.independent_dcc import (
 pytestmark = pytest.mark.integration
 ROOT = Path(__file__).resolve().parents[3]
 ITEMS = ("--authorised-by", "J. Smith", "--prepared-by", "A. Tech", "--temperature", "23",
-         "--mounting", "stud, 2 N m")  # fmt: skip
+         "--mounting", "stud, 2 N m",
+         "--customer-address", "1 Test Street, 00-001 Testtown")  # fmt: skip
 
 
 @pytest.fixture(scope="module")

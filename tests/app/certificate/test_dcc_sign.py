@@ -23,8 +23,9 @@ from tests.app.certificate.conftest import Pki, copy_run
 from tests.app.certificate.throwaway_ca import PASSWORD, make_ca, make_signer
 
 pytestmark = pytest.mark.integration
-ITEMS = ("--customer", "ACME Ltd", "--authorised-by", "J. Smith", "--prepared-by", "A. Tech",
-         "--temperature", "23", "--mounting", "stud, 2 N m")  # fmt: skip
+ITEMS = ("--customer", "ACME Ltd", "--customer-address", "1 Test Street, 00-001 Testtown",
+         "--authorised-by", "J. Smith", "--prepared-by", "A. Tech", "--temperature", "23",
+         "--mounting", "stud, 2 N m")  # fmt: skip
 DS = "{http://www.w3.org/2000/09/xmldsig#}"
 # the references XAdES baseline B signs: the document (URI=""), the SignedProperties, the
 # signer's certificate in KeyInfo
