@@ -110,6 +110,7 @@ demo: $(RUNTIME_STAMP)
 	$(BIN)/accelcal run --sim --dut piezo --dut-id SN-DEMO-0001 --level 5 --seed 1 \
 	    --tolerance 5 --technician "A. Tech" --out $(DEMO_DIR)/runs
 	$(BIN)/accelcal certificate $$(ls -dt $(DEMO_DIR)/runs/*/ | head -n 1) --customer "ACME Ltd" \
+	    --customer-address "Hauptstraße 1, 38100 Braunschweig" \
 	    --authorised-by "J. Smith" --authorised-function "head of laboratory" --temperature 23 \
 	    --mounting "stud-mounted back-to-back on the reference, 2 N m"
 

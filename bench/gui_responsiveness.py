@@ -13,7 +13,14 @@ tab's own path). Both windows are measured the same way, in the same process:
   main thread's event-loop gap (a stall holds every timer);
 - slot CPU: the GUI thread's own CPU time (`time.thread_time`) in one frame-timer slot, which
   the machine's load does not inflate;
-- Start: the main thread's wall and CPU time in the Start click (opening the stand, the plan).
+- Start: the main thread's wall and CPU time in the Start click (opening the stand, the plan);
+- the longest stall's phase: the run's state (the worker's last `StateChanged`: "opening"
+  before the procedure's first) when the longest gap ended, the longest gap of every phase,
+  and the run worker's own CPU time within the longest gap (its thread's CPU clock: what it
+  computed while the window waited; the load does not inflate it, it only adds wall time).
+
+The run worker shortens the GIL's switch interval (`app.gui.worker.GIL_SWITCH_S`);
+`--gil-switch-ms 5` measures the same run with CPython's default, for a before/after.
 
 The idle window is the baseline: the machine's own scheduling noise with the same GUI and the
 same timers. The ratios live/idle are the figures that survive a loaded machine; the targets
@@ -21,6 +28,7 @@ same timers. The ratios live/idle are the figures that survive a loaded machine;
 an idle machine. The load average is printed at the start and at the end.
 
 Run:   QT_QPA_PLATFORM=offscreen python bench/gui_responsiveness.py [--seconds 10] [--smoke]
+       ... [--gil-switch-ms 5] [--trace stalls.txt]
        xvfb-run -a env QT_QPA_PLATFORM=xcb python bench/gui_responsiveness.py   (an X server)
 --smoke: a short run of 1 s periods (CI: checks the script runs, not the figures).
 Exit 0 when the targets are met (always in smoke mode), 1 when not, 2 on a bad option.
@@ -48,6 +56,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from PySide6.QtCore import QEventLoop, Qt, QTimer
 from PySide6.QtWidgets import QApplication
 
+from app.gui import worker as run_worker
 from app.gui.main_window import MainWindow
 from app.gui.plots import FRAME_HZ
 
@@ -71,6 +80,9 @@ class Window:
     slot_cpu_ms: np.ndarray  # GUI-thread CPU per frame-timer slot
     longest_at_s: float  # when the longest gap ended, from the window's start
     longest_state: str  # the Run tab's state line then
+    longest_phase: str  # the run's phase then (the worker's last StateChanged)
+    longest_worker_cpu_ms: float  # the run worker's CPU time within the longest gap
+    phases: dict[str, float]  # the longest gap (ms) in each phase the run went through
 
     @property
     def updates_per_s(self) -> float:
@@ -120,16 +132,48 @@ class Probe:
         self.gaps: list[float] = []
         self.cpu: list[float] = []
         self.t0 = self.last = time.perf_counter()
-        self.longest: tuple[float, float, str] = (0.0, 0.0, "")
+        self.longest: tuple[float, float, str, str, float] = (0.0, 0.0, "", "", 0.0)
+        self.phases: dict[str, float] = {}
+        self.clock: int | None = None  # the run worker thread's CPU clock, once it runs
+        self.worker_cpu = 0.0
+
+    def _phase(self) -> str:
+        """The run's phase now: the worker's last StateChanged ("idle" without a worker,
+        "opening" before the procedure's first state)."""
+        worker = self.tab.worker
+        if worker is None:
+            return "idle"
+        return str(worker.state) if worker.state is not None else "opening"
+
+    def _worker_cpu(self) -> float:
+        """The run worker's thread CPU time (s) so far (0 before it runs, the last value after
+        it ended)."""
+        worker = self.tab.worker
+        if self.clock is None and worker is not None and worker.thread.ident is not None:
+            try:
+                self.clock = time.pthread_getcpuclockid(worker.thread.ident)
+            except OSError:  # ended already
+                return self.worker_cpu
+        if self.clock is not None:
+            try:
+                self.worker_cpu = time.clock_gettime(self.clock)
+            except OSError:  # the thread has ended: its clock with it
+                self.clock = None
+        return self.worker_cpu
 
     def _beat(self) -> None:
         if self.trace is not None:  # re-armed every beat: it fires only in a stall
             faulthandler.dump_traceback_later(TRACE_AFTER_S, file=self.trace)
         now = time.perf_counter()
+        before = self.worker_cpu
+        cpu = self._worker_cpu()
         gap = now - self.last
         self.gaps.append(gap)
-        if gap > self.longest[0]:  # when, and what the Run tab said as it ended
-            self.longest = (gap, now - self.t0, str(self.tab.state.text()))
+        phase = self._phase()
+        self.phases[phase] = max(self.phases.get(phase, 0.0), 1e3 * gap)
+        if gap > self.longest[0]:  # when, what the Run tab said and the phase as it ended
+            worker_ms = 1e3 * (cpu - before) if before > 0 else float("nan")
+            self.longest = (gap, now - self.t0, str(self.tab.state.text()), phase, worker_ms)
         self.last = now
 
     def _slot(self) -> None:
@@ -149,6 +193,9 @@ class Probe:
             1e3 * np.array(self.cpu),
             self.longest[1],
             self.longest[2],
+            self.longest[3],
+            self.longest[4],
+            dict(self.phases),
         )
 
 
@@ -192,6 +239,13 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--smoke", action="store_true", help="a short run (CI)")
     parser.add_argument(
+        "--gil-switch-ms",
+        type=float,
+        default=1e3 * run_worker.GIL_SWITCH_S,
+        help="the GIL switch interval the run worker sets (ms; default the product's "
+        f"{1e3 * run_worker.GIL_SWITCH_S:g}; 5 is CPython's own, for a before/after)",
+    )
+    parser.add_argument(
         "--trace",
         type=Path,
         help="write every thread's stack to this file whenever the main thread stalls "
@@ -205,6 +259,9 @@ def main(argv: list[str] | None = None) -> int:
             parser.error(f"--{name.replace('_', '-')}: must be > 0 s")
     if args.period_samples < 2:
         parser.error("--period-samples: must be at least 2")
+    if not 0.01 <= args.gil_switch_ms <= 5:
+        parser.error("--gil-switch-ms: must be within 0.01 .. 5 ms (CPython's default)")
+    run_worker.GIL_SWITCH_S = 1e-3 * args.gil_switch_ms
     load_start = load()
     app = QApplication.instance() or QApplication(sys.argv[:1])
     work = Path(tempfile.mkdtemp(prefix="bench-gui-"))
@@ -284,8 +341,18 @@ def main(argv: list[str] | None = None) -> int:
         f"{live.slot_cpu_max_ms:.2f} ms | | |"
     )
     print(
-        f"longest live gap ended {live.longest_at_s:.2f} s after Start returned, the Run tab "
-        f"saying {live.longest_state!r}"
+        f"longest live stall: {live.longest_gap_ms:.1f} ms, in the run's phase "
+        f"'{live.longest_phase}', ended {live.longest_at_s:.2f} s after Start returned (the Run "
+        f"tab saying {live.longest_state!r}); the run worker's CPU within it "
+        f"{live.longest_worker_cpu_ms:.1f} ms"
+    )
+    print(
+        "longest stall per phase: "
+        + ", ".join(f"{phase} {ms:.1f} ms" for phase, ms in live.phases.items())
+    )
+    print(
+        f"GIL switch interval during the run: {1e3 * sys.getswitchinterval():g} ms "
+        f"(CPython's default 5 ms)"
     )
     print(
         f"new periods drawn: {live.periods_drawn} in {live.seconds:.1f} s; Start click on the "
@@ -300,10 +367,14 @@ def main(argv: list[str] | None = None) -> int:
         f"run ended: {finished.status if finished else 'not within 60 s'}"
         f"{f' ({finished.abort_reason})' if finished else ''}; Run tab: {tab.state.text()}"
     )
-    met = live.updates_per_s >= TARGET_RATE and live.longest_gap_ms < TARGET_STALL_MS
+    rate_ok = live.updates_per_s >= TARGET_RATE
+    stall_ok = live.longest_gap_ms < TARGET_STALL_MS
+    met = rate_ok and stall_ok
     print(
         f"targets (>= {TARGET_RATE:g} updates/s, longest stall < {TARGET_STALL_MS:g} ms): "
-        f"{'PASS' if met else 'FAIL'}"
+        f"{'PASS' if met else 'FAIL'}: {live.updates_per_s:.1f} updates/s "
+        f"{'pass' if rate_ok else 'FAIL'}, longest stall {live.longest_gap_ms:.1f} ms "
+        f"{'pass' if stall_ok else 'FAIL'}"
         + ("" if met else " (judge on an idle machine: the ratios above are the load-free part)")
     )
     window.close()

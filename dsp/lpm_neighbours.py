@@ -5,6 +5,7 @@ Spectra in V (peak-scaled), bins are record bins (k = P m + c). numpy only."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -117,12 +118,16 @@ class NeighbourAccumulator:
         self._first: list[np.ndarray] | None = None
         self.added = 0
 
-    def add(self, *channels: np.ndarray) -> None:
-        """Add the same consecutive periods of every channel, each shape (periods, N), V."""
-        blocks = [np.atleast_2d(np.asarray(x, dtype=float)) for x in channels]
+    def add(self, *channels: np.ndarray | Callable[[], np.ndarray]) -> None:
+        """Add the same consecutive periods of every channel, each shape (periods, N), V. A
+        channel may be given as a function that makes it (e.g. a power of another): it is
+        made when its turn comes, so one such channel is in memory at a time."""
+        made = [x for x in channels if not callable(x)]
+        blocks = [np.atleast_2d(np.asarray(x, dtype=float)) for x in made]
         count = blocks[0].shape[0] if blocks else 0
         if (
-            len(blocks) != self._tables.shape[0]
+            len(channels) != self._tables.shape[0]
+            or not blocks
             or any(x.shape != (count, self.period_samples) for x in blocks)
             or self.added + count > self.periods
             or self._handed
@@ -132,16 +137,34 @@ class NeighbourAccumulator:
                 f"{self.period_samples} samples, at most {self.periods} in all; got "
                 f"{[x.shape for x in blocks]} after {self.added}"
             )
-        if self._first is None:
-            self._first = [x[0].copy() for x in blocks]
+        keep_first = self._first is None
+        if keep_first:
+            self._first = []
+        assert self._first is not None
         p = np.arange(self.added, self.added + count)
         # each period less the first: the steady part, common to all, would otherwise add
         # P terms of the lines' size that cancel to the noise (rounding 10x the record's DFT)
         phases = np.exp(-2j * np.pi * np.outer(self.classes, p) / self.periods)
-        for table, x, first in zip(self._tables, blocks, self._first, strict=True):
-            rest = x - first
+        given = iter(blocks)
+        for c, (table, channel) in enumerate(zip(self._tables, channels, strict=True)):
+            x = (
+                np.atleast_2d(np.asarray(channel(), dtype=float))
+                if callable(channel)
+                else next(given)
+            )
+            if x.shape != (count, self.period_samples):
+                raise LpmError(
+                    f"neighbourhood: channel {c} made {x.shape}, not {(count, self.period_samples)}"
+                )
+            if keep_first:
+                self._first.append(x[0].copy())
+            rest = x - self._first[c]
+            del x
             for i in range(self.classes.size):
-                table[i] += phases[i] @ np.fft.fft(rest * self._modulation[i], axis=1)
+                # the phase sum as a plain product and sum over the periods, not a BLAS gemv:
+                # a threaded BLAS on a busy machine spun 12x the FFTs' time on it (load 8)
+                spectra = np.fft.fft(rest * self._modulation[i], axis=1)
+                table[i] += (phases[i][:, None] * spectra).sum(axis=0)
         self.added += count
 
     def spectrum(self, channel: int = 0) -> NeighbourSpectrum:

@@ -18,7 +18,7 @@ over the bins tested, 1 % false alarm per run) and bias-corrected for it. Volts 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import Any
 
@@ -153,35 +153,86 @@ def record_estimate_batches(
     estimate_neighbourhood) uses the free bins held, not every free bin of the record (for
     records of at most 2 NEIGHBOURHOOD_BINS + 1 periods that is every bin). Memory independent
     of `periods`. AnalysisError names the cause."""
-    settings = settings or lpm.LpmSettings()
-    n = plan.period_samples
-    half_width = max(NEIGHBOURHOOD_BINS, settings.reach, NOISE_HALF_WIDTH_BINS)
-    accumulator: NeighbourAccumulator | None = None
-    moments = dict.fromkeys((4, 5, 6), 0.0)
-    with_drive = False
-    try:
-        for reference, dut, drive in batches:
-            ref = np.atleast_2d(np.asarray(reference, dtype=float))
-            if ref.shape[1:] != (n,) or np.shape(dut) != ref.shape:
-                raise AnalysisError(
-                    f"lpm: expected whole periods of {n} samples for both channels, got "
-                    f"{ref.shape} and {np.shape(dut)}"
+    record = BatchedRecord(periods, plan, settings=settings)
+    for reference, dut, drive in batches:
+        record.add(reference, dut, drive)
+    return record.estimate()
+
+
+class BatchedRecord:
+    """The record of `periods` periods of `plan` fed a batch of consecutive periods at a time
+    (`add`), then estimated once (`estimate`): `record_estimate_batches` in two steps, so a
+    live run can feed it as its periods arrive (dsp.lpm_live). The result depends on how the
+    periods are cut into batches only through rounding; fed the batches `analyze` reads
+    (app.io.hdf5.iter_batches: 16 periods) it is bit-identical. Memory independent of
+    `periods`."""
+
+    def __init__(
+        self, periods: int, plan: Plan, *, settings: lpm.LpmSettings | None = None
+    ) -> None:
+        self.periods = int(periods)
+        self.plan = plan
+        self.settings = settings or lpm.LpmSettings()
+        self._half_width = max(NEIGHBOURHOOD_BINS, self.settings.reach, NOISE_HALF_WIDTH_BINS)
+        self._accumulator: NeighbourAccumulator | None = None
+        self._moments = dict.fromkeys((4, 5, 6), 0.0)
+        self._with_drive = False
+
+    @property
+    def added(self) -> int:
+        """Periods added so far."""
+        return 0 if self._accumulator is None else self._accumulator.added
+
+    def add(self, reference: np.ndarray, dut: np.ndarray, drive: np.ndarray | None) -> None:
+        """Add consecutive periods (shape (periods, N), V; the drive as played or recorded, or
+        None for every batch). AnalysisError names a wrong shape or a drive given for some
+        batches only."""
+        n = self.plan.period_samples
+        ref = np.atleast_2d(np.asarray(reference, dtype=float))
+        if ref.shape[1:] != (n,) or np.shape(dut) != ref.shape:
+            raise AnalysisError(
+                f"lpm: expected whole periods of {n} samples for both channels, got "
+                f"{ref.shape} and {np.shape(dut)}"
+            )
+        try:
+            if self._accumulator is None:
+                self._with_drive = drive is not None
+                self._accumulator = NeighbourAccumulator(
+                    self.periods, n, self._half_width, 6 + self._with_drive
                 )
-            if accumulator is None:
-                with_drive = drive is not None
-                accumulator = NeighbourAccumulator(periods, n, half_width, 6 + with_drive)
-            if (drive is not None) != with_drive:
+            if (drive is not None) != self._with_drive:
                 raise AnalysisError("lpm: the drive is given for some periods and not others")
-            powers = [ref**order for order in nonlinear.ALL_ORDERS]
+            # the powers made one at a time as the accumulator reaches them (memory)
+            powers = [_power(ref, order) for order in nonlinear.ALL_ORDERS]
             extra = [] if drive is None else [np.asarray(drive, dtype=float)]
-            accumulator.add(np.asarray(dut, dtype=float), ref, *powers, *extra)
-            for order in moments:
-                moments[order] += float(np.sum(ref**order))
-        if accumulator is None or accumulator.added != periods:
-            got = 0 if accumulator is None else accumulator.added
-            raise AnalysisError(f"lpm: {got} of {periods} periods read")
-    except lpm.LpmError as exc:
-        raise AnalysisError(f"lpm: {exc}") from None
+            self._accumulator.add(np.asarray(dut, dtype=float), ref, *powers, *extra)
+        except lpm.LpmError as exc:
+            raise AnalysisError(f"lpm: {exc}") from None
+        for order in self._moments:
+            self._moments[order] += float(np.sum(ref**order))
+
+    def estimate(self) -> RecordEstimate:
+        """The record's estimate, once every period is added (AnalysisError otherwise). The
+        accumulated spectra are handed over: call it once."""
+        accumulator = self._accumulator
+        if accumulator is None or accumulator.added != self.periods:
+            raise AnalysisError(f"lpm: {self.added} of {self.periods} periods read")
+        self._accumulator = None
+        return _estimate_of_spectra(
+            accumulator, self._with_drive, self._moments, self.periods, self.plan, self.settings
+        )
+
+
+def _estimate_of_spectra(
+    accumulator: NeighbourAccumulator,
+    with_drive: bool,
+    moments: dict[int, float],
+    periods: int,
+    plan: Plan,
+    settings: lpm.LpmSettings,
+) -> RecordEstimate:
+    """The LPM and the nonlinear fit of a record whose spectra `accumulator` holds."""
+    n = plan.period_samples
     y_spec, u_spec = accumulator.spectrum(0), accumulator.spectrum(1)
     powers_spec = {o: accumulator.spectrum(2 + i) for i, o in enumerate(nonlinear.ALL_ORDERS)}
     r_spec = accumulator.spectrum(6) if with_drive else None
@@ -247,6 +298,11 @@ def record_estimate_batches(
         nonlinear=found,
     )
     return RecordEstimate(estimate, result, periods, found)
+
+
+def _power(x: np.ndarray, order: int) -> Callable[[], np.ndarray]:
+    """x**order, made when called."""
+    return lambda: x**order
 
 
 def hum_bins(plan: Plan, periods: int = 1) -> set[int]:

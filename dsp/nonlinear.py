@@ -102,8 +102,14 @@ def _interpolated(lines: np.ndarray, values: np.ndarray, at: np.ndarray) -> np.n
 def free_bins(record_bins: int, line_bins: np.ndarray, excluded: Iterable[int] = ()) -> np.ndarray:
     """The detection bins of a record of `record_bins` rfft bins: every bin that is no line,
     no DC, no Nyquist and not excluded (mains harmonics)."""
-    blocked = {int(b) for b in line_bins} | {int(b) for b in excluded} | {0, record_bins - 1}
-    return np.array([b for b in range(1, record_bins - 1) if b not in blocked], dtype=np.int64)
+    free = np.ones(max(int(record_bins), 0), dtype=bool)  # one mask, no Python loop over bins
+    free[:1] = False  # DC
+    free[-1:] = False  # Nyquist
+    for blocked in (line_bins, excluded):
+        b = np.asarray(list(blocked) if not isinstance(blocked, np.ndarray) else blocked)
+        b = b.astype(np.int64).ravel()
+        free[b[(b >= 0) & (b < free.size)]] = False
+    return np.flatnonzero(free).astype(np.int64)
 
 
 def _scale(u_lines: np.ndarray) -> float:
@@ -175,7 +181,9 @@ def estimate(
     magnitude_u = np.sqrt(np.einsum("li,ij,lj->l", sensitivity.real, covariance, sensitivity.real))
     phase_u = np.sqrt(np.einsum("li,ij,lj->l", sensitivity.imag, covariance, sensitivity.imag))
 
-    model_p = _model_test(residual, h_free, scale, x, free)
+    model_p = _model_test(
+        residual, h_free, scale, x, free, dict(zip(ORDERS, regressors, strict=True))
+    )
     return NonlinearEstimate(
         coefficients=theta,
         covariance=covariance,
@@ -308,15 +316,24 @@ def estimate_neighbourhood(
 
 
 def _model_test(
-    residual: np.ndarray, h_free: np.ndarray, scale: float, x: np.ndarray, free: np.ndarray
+    residual: np.ndarray,
+    h_free: np.ndarray,
+    scale: float,
+    x: np.ndarray,
+    free: np.ndarray,
+    spectra: dict[int, np.ndarray] | None = None,
 ) -> float:
     """Relation (4): the p-value of the Wald test (HC0) that the orders CHECK_ORDERS add
-    nothing to the model at the free bins, both fitted together."""
+    nothing to the model at the free bins, both fitted together. `spectra`: the peak-scaled
+    spectra of x**order already computed (the model's orders: not computed again)."""
     n = x.size
-    design = np.stack(
-        [scale * h_free * (np.fft.rfft(x**order) * (2.0 / n))[free] for order in ALL_ORDERS],
-        axis=1,
-    )
+    known = spectra or {}
+
+    def spectrum(order: int) -> np.ndarray:
+        held = known.get(order)
+        return held if held is not None else np.fft.rfft(x**order) * (2.0 / n)
+
+    design = np.stack([scale * h_free * spectrum(order)[free] for order in ALL_ORDERS], axis=1)
     real_design = np.vstack([design.real, design.imag])
     real_residual = np.concatenate([residual.real, residual.imag])
     theta, *_ = np.linalg.lstsq(real_design, real_residual, rcond=None)

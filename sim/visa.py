@@ -31,6 +31,8 @@ from pyvisa_sim.highlevel import SimVisaLibrary
 
 __all__ = [
     "SIM_DEFINITIONS",
+    "SIM_ENVIRONMENT_DEFINITIONS",
+    "SIM_ENVIRONMENT_SENSOR",
     "SIM_MEASURING_AMPLIFIER",
     "SIM_MEASURING_AMPLIFIER_CHANNELS",
     "SIM_POWER_AMPLIFIER",
@@ -44,11 +46,17 @@ SIM_MEASURING_AMPLIFIER = "GPIB0::12::INSTR"
 SIM_MEASURING_AMPLIFIER_CHANNELS = 2
 #: The simulated SCPI power amplifier.
 SIM_POWER_AMPLIFIER = "ASRL1::INSTR"
+#: The simulated environment sensor (a Fluke 1620A thermo-hygrometer) and its definitions.
+SIM_ENVIRONMENT_DEFINITIONS = "environment.yaml"
+SIM_ENVIRONMENT_SENSOR = "ASRL3::INSTR"
 
 
-def simulated_resource_manager(*, fresh: bool = False) -> pyvisa.ResourceManager:
-    """A pyvisa resource manager on the `@sim` backend serving `sim/amplifiers.yaml`."""
-    definitions = importlib.resources.files("sim") / SIM_DEFINITIONS
+def simulated_resource_manager(
+    *, fresh: bool = False, definitions_name: str = SIM_DEFINITIONS
+) -> pyvisa.ResourceManager:
+    """A pyvisa resource manager on the `@sim` backend serving `sim/amplifiers.yaml` (or the
+    package's `definitions_name`, e.g. SIM_ENVIRONMENT_DEFINITIONS)."""
+    definitions = importlib.resources.files("sim") / definitions_name
     with importlib.resources.as_file(definitions) as path:
         name = str(path)
         if fresh:  # a library path of its own: pyvisa keeps one library object per path

@@ -107,10 +107,11 @@ def seed_lab(
     addresses: Mapping[str, str] | None = None,
 ) -> Lab:
     """Add to `lab` the customers owning `sensors` (serial -> owner; an address from
-    `addresses` where given), the model PCB 352C33 (`nominal_sensitivity` in mV/(m/s^2),
+    `addresses` where given, else "1 <owner> Street": a certificate needs one, issue 35), the
+    model PCB 352C33 (`nominal_sensitivity` in mV/(m/s^2),
     tolerance 5 %, `frequency_min_hz` to 10 kHz) and the sensors; returns `lab`."""
     for owner in dict.fromkeys(sensors.values()):
-        lab.add_customer(owner, (addresses or {}).get(owner, ""))
+        lab.add_customer(owner, (addresses or {}).get(owner, f"1 {owner} Street"))
     lab.add_model(
         *SEED_MODEL,
         nominal_sensitivity=nominal_sensitivity,

@@ -27,9 +27,11 @@ from __future__ import annotations
 
 import functools
 import xml.etree.ElementTree as ET
+from collections.abc import Callable
 from importlib import resources
 from typing import Any
 
+import app.certificate.reference_dcc as reference_dcc
 import app.certificate.text as text
 from app.certificate.info import CertificateInfo
 from app.certificate.load import StoredRun
@@ -62,6 +64,12 @@ REF_DEVIATION = "vib_relativeDeviation"
 REF_RESPONSE = "vib_frequencyResponse"
 REF_RESULT = "vib_referenceFrequencyResult"  # the result at the reference frequency
 CHAIN_HEAD_NAME = "Records chain head (SHA-256)"  # the records' chain head its seal names
+REF_RUN_ID = "vib_runIdentifier"  # issue 35: the run, its seal and the software validation
+REF_SEAL = "vib_runSeal"  # named by refType, for a machine
+REF_CHAIN_HEAD = "vib_recordsChainHead"
+REF_VALIDATION = "vib_softwareValidation"
+
+Extension = Callable[[ET.Element, ET.Element, CertificateInfo], None]
 
 ET.register_namespace("dcc", DCC_NS)
 ET.register_namespace("si", SI_NS)
@@ -158,8 +166,9 @@ def line_values(lines: tuple[PrintedLine, ...]) -> dict[str, list[str]]:
     }
 
 
-def build(run: StoredRun, info: CertificateInfo) -> bytes:
-    """The DCC XML of a stored complete run with its (checked, numbered) certificate items."""
+def build(run: StoredRun, info: CertificateInfo, extend: Extension | None = None) -> bytes:
+    """The DCC XML of a stored complete run with its (checked, numbered) certificate items;
+    `extend(administrativeData, measurementResult, info)` adds to it before it is validated."""
     record, results = run.record, run.results
     start = run.start
     if start.stand is None:  # a folder without config.json: the record's stand
@@ -186,8 +195,9 @@ def build(run: StoredRun, info: CertificateInfo) -> bytes:
     admin = _d(root, "administrativeData")
     software = _d(_d(admin, "dccSoftware"), "software")
     _text(software, "name", "accelcal")
-    _d(software, "release", record.software_version or "unknown")
-    _d(software, "type", "application")
+    from app.certificate import dcc_statements as decisions  # issue 35: machine-readable
+
+    decisions.software_release(software, record.software_version)
     core = _d(admin, "coreData")
     _d(core, "countryCodeISO3166_1", country)
     _d(core, "usedLangCodeISO639_1", "en")
@@ -221,6 +231,7 @@ def build(run: StoredRun, info: CertificateInfo) -> bytes:
     _text(customer, "name", str(info.customer))
     _text(_d(customer, "location"), "further", info.customer_address or text.ADDRESS_NOT_STATED)
     _statements(admin, results, record)
+    decisions.decision_rule(_statements_of(admin), results)
     duty_statements(admin, run, info)
 
     result_set = _d(_d(root, "measurementResults"), "measurementResult")
@@ -243,6 +254,7 @@ def build(run: StoredRun, info: CertificateInfo) -> bytes:
             _d(ident, "issuer", issuer)
             _d(ident, "value", str(value))
             _text(ident, "name", label)
+    reference_dcc.dcc_identifications(ids, reference)  # issue 35 point 4
     conditions = _d(result_set, "influenceConditions")
     temperature = _d(conditions, "influenceCondition", refType="basic_temperature")
     _text(temperature, "name", "Ambient temperature")
@@ -289,6 +301,9 @@ def build(run: StoredRun, info: CertificateInfo) -> bytes:
             REF_DEVIATION,
         )
     _reference_result(results_element, results)
+    decisions.characteristic_conformity(results_element, results)
+    if extend is not None:  # the issuing service's additions (app.certificate.dcc_complete)
+        extend(admin, result_set, info)
     ET.indent(root, space="  ")
     xml = ET.tostring(root, encoding="utf-8", xml_declaration=True)
     problem = validation_error(xml)
@@ -352,13 +367,13 @@ def _run_identifications(core: ET.Element, run: StoredRun) -> None:
     except SealError as exc:
         raise DccError(str(exc)) from None
     ids = _d(core, "identifications")
-    for label, value in (
-        (RUN_ID_NAME, run.record.run_id),
-        (SEAL_NAME, seal),
-        (CHAIN_HEAD_NAME, head),
+    for label, value, ref_type in (
+        (RUN_ID_NAME, run.record.run_id, REF_RUN_ID),
+        (SEAL_NAME, seal, REF_SEAL),
+        (CHAIN_HEAD_NAME, head, REF_CHAIN_HEAD),
     ):
         if value:
-            ident = _d(ids, "identification")
+            ident = _d(ids, "identification", refType=ref_type)
             _d(ident, "issuer", "calibrationLaboratory")
             _d(ident, "value", str(value))
             _text(ident, "name", label)
@@ -380,6 +395,13 @@ def _statements(admin: ET.Element, results: Results, record: RunRecord) -> None:
 
 
 CMC_NAME = "Calibration and measurement capability"
+
+
+def _statements_of(admin: ET.Element) -> ET.Element:
+    """The administrative data's dcc:statements (written by `_statements`)."""
+    statements = admin.find(f"{{{DCC_NS}}}statements")
+    assert statements is not None  # _statements wrote it
+    return statements
 
 
 def _override_statements(statements: ET.Element, record: RunRecord) -> None:
@@ -432,7 +454,7 @@ def duty_statements(admin: ET.Element, run: StoredRun, info: CertificateInfo) ->
         _text(statement, "declaration", address)
     claim = info.validation
     if claim is not None:
-        statement = _d(statements, "statement")
+        statement = _d(statements, "statement", refType=REF_VALIDATION)
         _text(statement, "name", STATEMENT_NAME)
         _text(statement, "declaration", claim.line())
 

@@ -11,6 +11,7 @@ import math
 import re
 from dataclasses import dataclass, fields
 from datetime import date
+from enum import StrEnum
 from typing import Any
 
 from app.certificate.validated import ValidationClaim
@@ -31,6 +32,54 @@ MANDATORY = (
 
 class CertificateError(Refusal):
     """A certificate that must not be issued; the message says why (missing items by name)."""
+
+
+class SpecKind(StrEnum):
+    """What kind of document the conformity statement is made against."""
+
+    DATASHEET = "datasheet"
+    CUSTOMER = "customer"
+    STANDARD = "standard"
+
+
+SPEC_WORDS: dict[str, str] = {
+    SpecKind.DATASHEET: "manufacturer's data sheet",
+    SpecKind.CUSTOMER: "customer requirement",
+    SpecKind.STANDARD: "standard",
+}
+
+
+@dataclass(frozen=True)
+class Specification:
+    """The specification a conformity statement is made against: its kind, its identity
+    (document and revision) and its tolerances in words (e.g. "sensitivity ±5 %")."""
+
+    kind: SpecKind
+    identity: str
+    tolerances: str
+
+    def line(self) -> str:
+        """One sentence naming it, as the PDF and the DCC state it."""
+        return (
+            f"Specification: {SPEC_WORDS[self.kind]}, {self.identity}; tolerances: "
+            f"{self.tolerances}."
+        )
+
+
+@dataclass(frozen=True)
+class UsedInstrument:
+    """An instrument used, as the certificate lists it: kind, model, serial, calibration due
+    (ISO date; "" unknown) and where it is known from (stand file, records)."""
+
+    kind: str
+    model: str
+    serial: str
+    calibration_due: str
+    source: str
+
+    def line(self) -> str:
+        due = self.calibration_due or "not stated"
+        return f"{self.kind}: {self.model}, serial {self.serial}, calibration due {due}"
 
 
 @dataclass(frozen=True)
@@ -70,6 +119,18 @@ class CertificateInfo:
     # an amendment: the certificate it replaces and why (set by the records' register when
     # issuing with --replaces; printed on page 1 and in the DCC's coreData)
     amendment: Amendment | None = None
+    # issue 35 point 2 (app.certificate.complete): why the customer's address is not stated
+    # (instead of an address), the relative humidity (%), where temperature and humidity come
+    # from (typed, or the sensor read at run start), the specification behind the statement
+    # of conformity, and the instruments used (set by the issuing service)
+    address_not_stated: str = ""
+    humidity_percent: float | None = None
+    temperature_source: str = ""
+    humidity_source: str = ""
+    specification: Specification | None = None
+    instruments: tuple[UsedInstrument, ...] = ()
+    conditions_from: str = ""  # where the mounting was offered from ("model X")
+    template: str = ""  # the run template chosen (its remembered mounting is offered first)
 
     def merged(self, defaults: dict[str, Any]) -> CertificateInfo:
         """Options win; empty ones take the default."""
@@ -130,6 +191,14 @@ def invalid_items(info: CertificateInfo) -> list[str]:
                 f"temperature_c (--temperature): {t!r} is not a temperature in "
                 f"[{low:g}, {high:g}] deg C"
             )
+    h = info.humidity_percent
+    if h is not None:
+        try:
+            ok = math.isfinite(float(h)) and 0.0 <= float(h) <= 100.0
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
+            problems.append(f"humidity_percent (--humidity): {h!r} is not a humidity in [0, 100] %")
     d = info.issue_date
     if d not in (None, ""):
         try:

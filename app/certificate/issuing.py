@@ -21,6 +21,7 @@ from typing import Any
 
 from app.certificate.dcc import DccError, DccNotApplicable
 from app.certificate.dcc import build as build_dcc
+from app.certificate.dcc_complete import complete_dcc
 from app.certificate.info import (
     CertificateError,
     CertificateInfo,
@@ -84,6 +85,9 @@ def _prepare(
     today = datetime.now(UTC).date().isoformat()
     if info.issue_date in (None, ""):
         info = dataclasses.replace(info, issue_date=today)  # issued today, never back-dated
+    from app.certificate.complete import complete, with_environment
+
+    info = with_environment(info, run.start)  # the reading at run start, where not typed
     info = info.merged(default_info(run.record, run.start))
     missing = missing_items(info)
     if missing:
@@ -91,6 +95,7 @@ def _prepare(
     invalid = invalid_items(info)
     if invalid:
         raise CertificateError(f"invalid item(s): {'; '.join(invalid)}")
+    info = complete(info, run.record, run.start, run.results)  # address, specification, ...
     _check_issue_date(str(info.issue_date), run, today)
     out = Path(out)
     into_run = _check_out(out, run.path)
@@ -185,8 +190,11 @@ class Issuance:
         return carried_numbers(self.folders)
 
     def stage(self, info: CertificateInfo) -> Staged:
-        """Write the numbered PDF (and its DCC, validated first) under staging names."""
+        """Write the numbered PDF (and its DCC, validated first, then signed with the PDF's
+        key when there is one: app.certificate.dcc_sign) under staging names."""
         xml = _dcc_of(self.p.run, info)
+        if xml is not None and self.signer is not None:
+            xml = _signed_dcc(xml, self.signer)
         pdf_tmp = staging_path(self.p.out)
         xml_out = dcc_path(self.p.out)
         if xml is not None and xml_out.exists():
@@ -335,11 +343,27 @@ def _dcc_of(run: StoredRun, info: CertificateInfo) -> bytes | None:
     """The run's DCC XML (validated), or None when the stand file names no laboratory country
     (the PDF is still issued; the CLI says why there is no DCC). CertificateError otherwise."""
     try:
-        return build_dcc(run, info)
+        return build_dcc(run, info, complete_dcc)  # with issue 35's items
     except DccNotApplicable:
         return None
     except DccError as exc:
         raise CertificateError(str(exc)) from None
+
+
+def _signed_dcc(xml: bytes, signer: Any) -> bytes:
+    """The DCC with the laboratory's enveloped XAdES signature, still valid against the
+    schema (the signature is the root's last child, where DCC 3.3.0 allows it)."""
+    from app.certificate.dcc import validation_error
+    from app.certificate.dcc_sign import DccSigningError, sign_dcc
+
+    try:
+        signed = sign_dcc(xml, signer)
+    except DccSigningError as exc:
+        raise CertificateError(str(exc)) from None
+    problem = validation_error(signed)
+    if problem is not None:
+        raise CertificateError(f"the signed DCC does not validate: {problem}")
+    return signed
 
 
 def _write_read_only(path: Path, data: bytes) -> None:

@@ -33,6 +33,8 @@ from reportlab.platypus import (
     TableStyle,
 )
 
+import app.certificate.pdf_complete as complete  # issue 35: conditions, spec, instruments
+import app.certificate.reference_dcc as reference_dcc
 import app.certificate.text as text
 from app import formatting as fmt
 from app.certificate.attach import embed
@@ -172,8 +174,7 @@ def write_pdf(
                 *_amendment_rows(info),
                 (
                     "Customer",
-                    f"{_esc(info.customer)}, "
-                    + _esc(info.customer_address or text.ADDRESS_NOT_STATED),
+                    f"{_esc(info.customer)}, {_esc(complete.customer_address_text(info))}",
                     Item.CUSTOMER,
                 ),
                 ("Item calibrated", f"{_esc(info.dut_type)}: {_esc(info.dut_model)}", None),
@@ -195,7 +196,7 @@ def write_pdf(
         Paragraph("Conditions", HEAD),
         _kv(
             [
-                ("Ambient temperature", f"{float(info.temperature_c or 0.0):.1f} °C"),
+                *complete.condition_rows(info),
                 ("Mounting", _esc(info.mounting)),
                 ("Excitation level", f"{record.level_ms2 or 0:g} m/s² peak per frequency"),
             ]
@@ -215,8 +216,10 @@ def write_pdf(
                     f"{_esc(reference.get('certificate_date', ''))}, traceable to national "
                     "standards",
                 ),
+                *reference_dcc.pdf_rows(reference),
             ]
         ),
+        *complete.instruments_section(info, HEAD, BODY),
         Paragraph("Result at the reference frequency", HEAD),
         _kv(
             [
@@ -482,6 +485,7 @@ def _statements(results: Results, info: CertificateInfo, p_percent: str) -> list
                 text.conformity_statement(results.verdict, results.tolerance_percent, verdicts),
                 BODY,
             ),
+            *complete.specification_paragraph(info, BODY),  # whose tolerances (issue 35)
         ]
     if info.notes:
         out += [Paragraph("Notes", HEAD), Paragraph(_esc(info.notes), BODY)]

@@ -16,7 +16,13 @@ import dataclasses
 from pathlib import Path
 from typing import Any
 
-from app.certificate.info import Amendment, CertificateError, CertificateInfo
+from app.certificate.info import (
+    Amendment,
+    CertificateError,
+    CertificateInfo,
+    Specification,
+    SpecKind,
+)
 from app.certificate.issuing import Issuance, Staged, _step, issuance
 from app.certificate.leftovers import Leftover, Registered, find_issuance_leftovers
 from app.records.db.certificates import IssuedFiles
@@ -44,8 +50,19 @@ def _identity(
                 f"{option}: {given!r} is not the run's {actual!r} (run DUT {run_serial}, from "
                 "the records); a certificate states the sensor that was calibrated"
             )
+    address = info.customer_address or sensor.owner.address or ""
+    if not address.strip() and not info.address_not_stated.strip():
+        raise CertificateError(
+            f"customer_address (--customer-address): the records hold no address for customer "
+            f"{sensor.owner.name!r}; give it, or state why it is not given "
+            '(--address-not-stated "REASON")'
+        )
+    specification = info.specification or Specification(  # whose tolerances (issue 35)
+        SpecKind.DATASHEET, f"{model} data sheet, as entered in the records' sensor model", ""
+    )
     return dataclasses.replace(
         info,
+        specification=specification,
         customer=sensor.owner.name,
         customer_address=info.customer_address or sensor.owner.address or "",
         dut_model=model,
@@ -144,6 +161,7 @@ def issue_registered(
                 as_found_run_id=as_found,
                 produce=produce,
                 taken=lambda number: number.casefold() in taken,
+                customer_id=sensor.owner_id,  # the customer the PDF names (info.customer)
             )
         except BaseException:
             job.discard(staged[0] if staged else None)

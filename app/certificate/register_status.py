@@ -23,10 +23,12 @@ class RecordsUnavailable(Exception):
     is not consulted, and the report says so beside its checks."""
 
 
-def register_findings(data: bytes, printed: PrintedItems, url: str) -> tuple[bool, str]:
-    """(ok, detail) of the certificate whose PDF bytes are `data` and whose printed items are
-    `printed` against the register at `url`. RecordsUnavailable when the records cannot be
-    opened; ChainBroken (a Refusal) when they fail their check."""
+def register_findings(
+    data: bytes, printed: PrintedItems, url: str, of_dcc: bool = False
+) -> tuple[bool, str]:
+    """(ok, detail) of the certificate whose PDF bytes (`of_dcc`: DCC bytes) are `data` and
+    whose printed items are `printed` against the register at `url`. RecordsUnavailable
+    when the records cannot be opened; ChainBroken (a Refusal) when they fail their check."""
     from app.records.db.engine import DatabaseError, open_engine
     from app.records.db.gate import quick_check
 
@@ -36,12 +38,14 @@ def register_findings(data: bytes, printed: PrintedItems, url: str) -> tuple[boo
         raise RecordsUnavailable(str(exc)) from None
     try:
         quick_check(engine)  # verified before it is read
-        return _findings(data, printed, Lab(engine))
+        return _findings(data, printed, Lab(engine), of_dcc)
     finally:
         engine.dispose()
 
 
-def _findings(data: bytes, printed: PrintedItems, lab: Lab) -> tuple[bool, str]:
+def _findings(
+    data: bytes, printed: PrintedItems, lab: Lab, of_dcc: bool = False
+) -> tuple[bool, str]:
     """`register_findings` on records already opened and checked."""
     number = str(printed.number)
     if not number:
@@ -50,10 +54,13 @@ def _findings(data: bytes, printed: PrintedItems, lab: Lab) -> tuple[bool, str]:
     if row is None:
         return False, f"the register has no certificate {number}"
     digest = hashlib.sha256(data).hexdigest()
-    if row.sha256 and row.sha256 != digest:
+    issued_hash = row.dcc_sha256 if of_dcc else row.sha256
+    if of_dcc and not issued_hash:
+        return False, f"the register holds no DCC of certificate {number}"
+    if issued_hash and issued_hash != digest:
         return False, (
             f"this file is not the certificate {number} the register holds (SHA-256 "
-            f"{digest[:16]}..., issued {row.sha256[:16]}...)"
+            f"{digest[:16]}..., issued {issued_hash[:16]}...)"
         )
     replaced = lab.certificate(row.replaces) if row.replaces else None
     reason = str(replaced.reason or "") if replaced is not None else ""  # kept on the old row

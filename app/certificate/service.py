@@ -68,6 +68,7 @@ class IssueOutcome:
     register: RegisterKind
     prepared_by: str
     notes: tuple[str, ...] = ()  # what the faces show beside it: the two-person rule, validation
+    conditions_note: str = ""  # "mounting: 'X' (from model M)" when offered, not typed
 
     @property
     def number(self) -> str:
@@ -231,6 +232,7 @@ def issue_certificate(request: IssueRequest) -> IssueOutcome:
         records_quick_check(url)
     people = check_signatories(url, info.prepared_by, str(info.authorised_by or ""))
     validation = validation_claim(request, signer)
+    info, offered = _offered_mounting(info, run, url)
     info = dataclasses.replace(
         info,
         prepared_by=people.prepared_by,
@@ -248,8 +250,40 @@ def issue_certificate(request: IssueRequest) -> IssueOutcome:
     log.info("certificate %s of %s issued (%s register): %s", issued.number, run.name,
              register, out)  # fmt: skip
     notes = (people.note, validation.summary())
+    _remember(info, run, url)
     return IssueOutcome(
-        issued, out, dcc if dcc.exists() else None, register, info.prepared_by, notes
+        issued,
+        out,
+        dcc if dcc.exists() else None,
+        register,
+        info.prepared_by,
+        notes,
+        offered.note() if offered is not None else "",
+    )
+
+
+def _offered_mounting(
+    info: CertificateInfo, run: Path, url: str | None
+) -> tuple[CertificateInfo, Any]:
+    """`info` with the mounting remembered for its model (or template) when none is typed
+    (app.certificate.remembered), and the offer (None: typed, or nothing remembered)."""
+    if info.mounting and info.mounting.strip():
+        return info, None
+    from app.certificate.remembered import RememberedConditions, run_model
+
+    offered = RememberedConditions().offered(info.dut_model or run_model(run, url), info.template)
+    if offered is None:
+        return info, None
+    info = dataclasses.replace(info, mounting=offered.mounting, conditions_from=offered.source)
+    return info, offered
+
+
+def _remember(info: CertificateInfo, run: Path, url: str | None) -> None:
+    """Keep the certificate's mounting for its model and template (the next one is offered it)."""
+    from app.certificate.remembered import RememberedConditions, run_model
+
+    RememberedConditions().remember(
+        info.dut_model or run_model(run, url), info.mounting, info.template
     )
 
 

@@ -62,13 +62,16 @@ def stated_report_sha256(pdf: Path) -> str | None:
 
 def stated_validation(pdf: Path) -> StatedValidation | None:
     """The validation report a certificate PDF states in its embedded DCC (read inertly,
-    app.certificate.readback), or None when it names no validation report.
-    ValidationClaimError when the PDF holds no single readable DCC."""
+    app.certificate.readback), or None when it names no validation report; `pdf` may be the
+    DCC alone (.xml). ValidationClaimError when the PDF holds no single readable DCC."""
     from pypdf import PdfReader
     from pypdf.errors import PyPdfError
 
     try:
-        xml_list = list(PdfReader(pdf).attachments.get("certificate.xml") or [])
+        if pdf.suffix.lower() == ".xml":  # a DCC given alone (issue 35)
+            xml_list = [pdf.read_bytes()]
+        else:
+            xml_list = list(PdfReader(pdf).attachments.get("certificate.xml") or [])
     except (OSError, PyPdfError, ValueError) as exc:
         raise ValidationClaimError(f"{pdf}: not a readable PDF ({exc})") from None
     if len(xml_list) != 1:

@@ -5,15 +5,18 @@ once); the signature's byte layout, parsed from the bytes (app.certificate.pdf_s
 signed range covers the whole file but exactly its /Contents hex string, no revision after it,
 no earlier signature); the signature's cryptography (pyHanko); the signer, always named with
 its issuer and validity, valid now, and trusted only when `--trust` names its CA (without it
-the report never says verified); the embedded DCC, parsed as bytes by an inert parser and
-valid against DCC 3.3.0; the PDF's printed items, read from its marked text layer
-(app.certificate.pdf_marks: delimiters the writer places as PDF operators, never text), equal
-to the DCC's, value by value; with `--run`, the run's manifest, its seal (recomputed) and the
-records chain head it names, its results equal to the DCC's, and the PDF's results table equal,
-cell by cell, to the run's lines as printed (app.certificate.printed.table_cells, from which
-the PDF was drawn); with the records in use, the register's word (app.certificate.
-register_status: the file issued, in force, not replaced or withdrawn, its amendment as
-entered). The whole check is bounded in time (TIME_LIMIT_S).
+the report never says verified); the embedded DCC's own signature (enveloped XAdES, by the
+PDF's signer, trusted by `--trust`: app.certificate.dcc_sign); the embedded DCC, parsed as
+bytes by an inert parser and valid against DCC 3.3.0; the PDF's printed items, read from its
+marked text layer (app.certificate.pdf_marks: delimiters the writer places as PDF operators,
+never text), equal to the DCC's, value by value; with `--run`, the run's manifest, its seal
+(recomputed) and the records chain head it names, its results equal to the DCC's, and the PDF's
+results table equal, cell by cell, to the run's lines as printed
+(app.certificate.printed.table_cells, from which the PDF was drawn); with the records in use,
+the register's word (app.certificate.register_status: the file issued, in force, not replaced
+or withdrawn, its amendment as entered). A DCC given alone (.xml) is checked the same way but
+for the PDF: its signature, its validity, the run's checks and the register's (its SHA-256
+against the DCC issued). The whole check is bounded in time (TIME_LIMIT_S).
 """
 
 from __future__ import annotations
@@ -60,6 +63,7 @@ class Verification:
 
     checks: list[tuple[str, bool, str]] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)  # shown beside the checks, not one of them
+    pdf_signer: bytes = field(default=b"", repr=False)  # the PDF signer's certificate (DER)
 
     def add(self, name: str, ok: bool, detail: str = "") -> None:
         self.checks.append((name, ok, _one_line(detail)))
@@ -137,9 +141,12 @@ def verify(
         raise VerifyRefusal(str(exc)) from None
     report = Verification()
     with _quiet(), _time_limit(TIME_LIMIT_S):
+        if _is_dcc(pdf, data):  # a DCC given alone (issue 35): its own signature proves it
+            _verify_dcc(data, run, roots, records, report)
+            return report
         if not _check_signature(data, roots, report):
             return report  # nothing an unproven file says is worth parsing further
-        found = _check_dcc(data, report)
+        found = _check_dcc(data, report, roots)
         if found is not None and run is not None:
             _check_run(run, *found, report)
         if found is not None and records is not None:
@@ -147,13 +154,47 @@ def verify(
     return report
 
 
-def _check_register(data: bytes, printed: PrintedItems, url: str, report: Verification) -> None:
+def _is_dcc(path: Path, data: bytes) -> bool:
+    """True for a DCC file (.xml, or bytes that open as XML), not a PDF."""
+    return path.suffix.lower() == ".xml" or data.lstrip()[:1] == b"<"
+
+
+def _verify_dcc(
+    data: bytes, run: Path | None, roots: list[Any] | None, records: str | None,
+    report: Verification,
+) -> None:  # fmt: skip
+    """A DCC given alone: its signature (app.certificate.dcc_sign), its validity, and with
+    `run` and `records` the run's and the register's checks as for a PDF (no PDF table)."""
+    try:
+        root = parse_inert(data)
+    except PrintedError as exc:
+        report.add("DCC readable", False, str(exc))
+        return
+    from app.certificate.dcc_sign import CHECK
+
+    report.add(CHECK, *_dcc_signature(data, roots))
+    from lxml import etree
+
+    from app.certificate.dcc import validation_error
+
+    problem = validation_error(etree.tostring(root, encoding="utf-8", xml_declaration=True))
+    report.add("DCC valid (DCC 3.3.0)", problem is None, problem or "")
+    dcc = items_from_dcc(root)
+    if run is not None:
+        _check_run(run, dcc, None, report)
+    if records is not None:
+        _check_register(data, dcc, records, report, of_dcc=True)
+
+
+def _check_register(
+    data: bytes, printed: PrintedItems, url: str, report: Verification, of_dcc: bool = False
+) -> None:
     """Add the register's check (app.certificate.register_status), or a note when the records
     cannot be opened."""
     from app.certificate.register_status import CHECK, RecordsUnavailable, register_findings
 
     try:
-        report.add(CHECK, *register_findings(data, printed, url))
+        report.add(CHECK, *register_findings(data, printed, url, of_dcc))
     except RecordsUnavailable as exc:
         report.notes.append(f"register: not consulted: {exc}")
 
@@ -195,6 +236,7 @@ def _check_signature(data: bytes, roots: list[Any] | None, report: Verification)
         report.add(name, False, str(exc))
         return False
     signer = SignerInfo.of(sig.signer_cert)
+    report.pdf_signer = sig.signer_cert.dump()
     status = _validate(sig, roots)
     intact = bool(status is not None and status.intact and status.valid)
     report.add(
@@ -262,9 +304,11 @@ def _load_certificate(path: Path) -> Any:
 # --- DCC and printed items --------------------------------------------------------------------
 
 
-def _check_dcc(data: bytes, report: Verification) -> tuple[PrintedItems, PageMarks] | None:
-    """Add the DCC's checks; the DCC's printed items and the PDF's marked text layer, or None
-    when the DCC cannot be read."""
+def _check_dcc(
+    data: bytes, report: Verification, roots: list[Any] | None = None
+) -> tuple[PrintedItems, PageMarks] | None:
+    """Add the DCC's checks (its own signature first: app.certificate.dcc_sign); the DCC's
+    printed items and the PDF's marked text layer, or None when the DCC cannot be read."""
     from pypdf import PdfReader
 
     try:
@@ -280,6 +324,9 @@ def _check_dcc(data: bytes, report: Verification) -> tuple[PrintedItems, PageMar
     except PrintedError as exc:
         report.add("embedded DCC readable", False, str(exc))
         return None
+    from app.certificate.dcc_sign import CHECK  # a DCC read inertly first: its own signature
+
+    report.add(CHECK, *_dcc_signature(bytes(xml_list[0]), roots, report.pdf_signer))
     from lxml import etree
 
     from app.certificate.dcc import validation_error
@@ -308,11 +355,48 @@ def _check_dcc(data: bytes, report: Verification) -> tuple[PrintedItems, PageMar
     return dcc, marks
 
 
-def _check_run(run: Path, dcc: PrintedItems, marks: PageMarks, report: Verification) -> None:
+COVERED_BY_PDF = (
+    "not signed itself (issued before DCCs were signed): the PDF's signature covers it, but "
+    "taken out of this PDF it proves nothing"
+)
+
+
+def _dcc_signature(
+    xml: bytes, roots: list[Any] | None, pdf_signer_der: bytes = b""
+) -> tuple[bool, str]:
+    """(ok, detail) of the DCC's own signature (app.certificate.dcc_sign): not signed (a
+    failure, worded as the PDF's), not intact, signed by another than the PDF's signer (when
+    the PDF is signed: `pdf_signer_der`), not valid now, not trusted by the given CA (`roots`);
+    else ok, naming the signer (and, without a CA, that it is not checked). An unsigned DCC
+    inside a signed PDF is ok: the PAdES signature covers it."""
+    from asn1crypto import x509 as asn1_x509
+
+    from app.certificate.dcc_sign import check_dcc_signature
+
+    status = check_dcc_signature(xml, roots)
+    if not status.signed and pdf_signer_der:  # inside an intact signed PDF (issued before
+        return True, COVERED_BY_PDF  # DCCs were signed): the PDF's signature covers it
+    if not status.signed or not status.intact:
+        return False, status.detail
+    signer = SignerInfo.of(asn1_x509.Certificate.load(status.certificate_der))
+    who = signer.describe()
+    if pdf_signer_der and status.certificate_der != pdf_signer_der:
+        return False, f"signed by {who}, not by the PDF's signer"
+    problem = signer.validity_problem()
+    if problem is not None:
+        return False, f"intact, but its signer's certificate is {problem} ({who})"
+    if status.trusted is None:
+        return True, f"intact, signed by {who}; signer NOT checked (give --trust)"
+    if not status.trusted:
+        return False, f"intact, but {signer.subject} (issuer {signer.issuer}) is not trusted"
+    return True, f"intact, signed by {who}, trusted by the given CA"
+
+
+def _check_run(run: Path, dcc: PrintedItems, marks: PageMarks | None, report: Verification) -> None:
     """Add the run's checks: its manifest, its seal (and the records chain head it names)
-    against the ones the certificate names, its results against the DCC's, and the PDF's
-    results table cell by cell against the run's lines as printed (the PrintedLine objects
-    the PDF was drawn from: app.certificate.printed.table_cells)."""
+    against the ones the certificate names, its results against the DCC's, and (`marks`: a
+    PDF's) the PDF's results table cell by cell against the run's lines as printed (the
+    PrintedLine objects the PDF was drawn from: app.certificate.printed.table_cells)."""
     from app.certificate.load import load_stored_run
     from app.records.seal import SealError, read_seal
 
@@ -346,6 +430,8 @@ def _check_run(run: Path, dcc: PrintedItems, marks: PageMarks, report: Verificat
     got = PrintedItems(run_id=dcc.run_id, verdict=dcc.verdict, lines=dcc.lines)
     diff = differences(expected, got, "run", "DCC")
     report.add("DCC numbers equal the run's results", not diff, "; ".join(diff[:3]))
+    if marks is None:
+        return
     diff = _table_differences(lines, results.phase_corrected_for_skew, marks)
     report.add("PDF results table equals the run's results", not diff, "; ".join(diff[:3]))
 

@@ -31,7 +31,7 @@ from app.cli.exits import (
     run_command,
     silence_stdout,
 )
-from app.cli.toplevel import command_word, top_parser
+from app.cli.toplevel import RECORDS_COMMAND_NAMES, command_word, top_parser
 
 if TYPE_CHECKING:
     import argparse
@@ -112,14 +112,22 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def _parse(argv: list[str]) -> tuple[argparse.Namespace, Handler | None]:
     """The parsed arguments and, for a records command, its handler (parsed by the records
-    commands alone: no plan, stand or numpy imported). SystemExit from argparse passes."""
-    from app.cli.records import COMMAND_NAMES, add_commands
+    commands alone: no plan, stand or numpy imported; `plan` by its own options alone: no
+    run options, simulated stand or records commands). SystemExit from argparse passes."""
+    word = command_word(argv)
+    if word in RECORDS_COMMAND_NAMES:
+        from app.cli.records import add_commands
 
-    if command_word(argv) in COMMAND_NAMES:
         parser, sub = top_parser()
         records = add_commands(sub)
         args = parser.parse_args(argv)
         return args, records[args.command]
+    if word == "plan":
+        from app.cli.plan_parser import add_plan_command
+
+        parser, sub = top_parser()
+        add_plan_command(sub)
+        return parser.parse_args(argv), None
     from app.cli.parser import RECORDS_COMMANDS, build_parser
 
     args = build_parser().parse_args(argv)

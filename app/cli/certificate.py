@@ -13,16 +13,29 @@ from app.cli.options import writable_folder
 
 def cmd_certificate(args: argparse.Namespace) -> int:
     from app.certificate import CertificateInfo
+    from app.certificate.info import CertificateError, Specification, SpecKind
     from app.certificate.service import IssueRequest, issue_certificate
     from app.records.run_folder import is_run_folder
 
     if args.out is not None and not is_run_folder(args.out.parent):  # a run's own: see issue()
         writable_folder(args.out.parent, "--out")
+    specification = None
+    if args.spec_kind or args.spec_id or args.spec_tolerances:
+        if not (args.spec_kind and args.spec_id):
+            raise CertificateError(
+                "specification (--spec-kind, --spec-id): give its kind and its document"
+            )
+        specification = Specification(
+            SpecKind(args.spec_kind), " ".join(args.spec_id.split()), args.spec_tolerances or ""
+        )
     request = IssueRequest(
         run=args.run,
         info=CertificateInfo(
             customer=args.customer,
             customer_address=args.customer_address,
+            address_not_stated=args.address_not_stated,
+            humidity_percent=args.humidity,
+            specification=specification,
             authorised_by=args.authorised_by,
             dut_model=args.dut_model,
             dut_serial=args.dut_serial,
@@ -46,6 +59,8 @@ def cmd_certificate(args: argparse.Namespace) -> int:
     )
     outcome = issue_certificate(request)
     print(f"certificate {outcome.number}: {outcome.pdf}")
+    if outcome.conditions_note:
+        print(outcome.conditions_note)
     for note in outcome.notes:
         print(note)
     if outcome.dcc is not None:

@@ -162,8 +162,10 @@ def _certificate_problems(engine: Engine, extra: list[Path], trust: Path | None)
 
 def _pdf_problem(pdf: Path, run: Path | None, trust: Path | None) -> str | None:
     """The first failed check of `accelcal verify` on `pdf` (with its run and the trust
-    store). An unsigned PDF of a run is not a problem in itself: its DCC, its run and its
-    SHA-256 against the register are checked."""
+    store). An unsigned PDF of a run is not a problem in itself (nor its DCC unsigned beside
+    it, the same lab's policy): its DCC, its run and its SHA-256 against the register are
+    checked."""
+    from app.certificate import dcc_sign
     from app.certificate.verify import VerifyRefusal, verify
 
     try:
@@ -175,7 +177,8 @@ def _pdf_problem(pdf: Path, run: Path | None, trust: Path | None) -> str | None:
         return None
     unsigned = failed[0][1].startswith("the PDF is not signed")
     if unsigned and run is not None:
-        rest = failed[1:]  # the DCC and the run were still checked
+        dcc_unsigned = (dcc_sign.CHECK, dcc_sign.UNSIGNED_DETAIL)
+        rest = [f for f in failed[1:] if f != dcc_unsigned]  # the DCC and the run were checked
         return f"{pdf}: {rest[0][0]}: {rest[0][1]}" if rest else None
     return f"{pdf}: {failed[0][0]}: {failed[0][1]}"
 

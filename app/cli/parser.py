@@ -10,14 +10,9 @@ from typing import Any
 
 from app.cli.options import (
     COVERAGE,
-    FADE_IN,
-    FREQUENCY,
     GAIN,
     LEVEL,
-    MAINS,
-    PERIOD,
     RANGE,
-    SAMPLE_RATE,
     SEED,
     SEGMENTS,
     SENSITIVITY,
@@ -32,21 +27,20 @@ from app.cli.options import (
     dut_name,
     numeric_option,
 )
+from app.cli.plan_parser import add_plan_command, add_plan_options
 from app.cli.records import Handler
 from app.cli.records import add_commands as add_records_commands
 from app.cli.toplevel import top_parser
 from app.io.quantities import PERCENT_RULE
 from app.procedure.modes import MODE_MULTISINE
 from app.procedure.options import (
-    CAPACITY_NOTE,
     EXACT_MAINS_HELP,
     RESONANCE_HELP,
     OptionSpec,
     option,
 )
-from app.stand.simulated import EXCITERS, FAULT_KINDS
+from app.stand.simulated import FAULT_KINDS
 from dsp.estimators import ESTIMATORS
-from dsp.multisine import PRESETS
 from dsp.profiles import Profile
 
 WORKERS = Bounded(int, 1, 64)
@@ -63,53 +57,26 @@ def _iso_day(text: str) -> date:
         raise argparse.ArgumentTypeError(f"not a date yyyy-mm-dd: {text!r}") from None
 
 
+SPEC_KINDS = ("datasheet", "customer", "standard")  # app.certificate.info.SpecKind
+
+
+def humidity(text: str) -> float:
+    """--humidity: '45%' or '45' as % relative humidity (app.stand.instruments)."""
+    from app.stand.instruments import parse_humidity
+
+    try:
+        value = parse_humidity(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    if value is None:
+        raise argparse.ArgumentTypeError("humidity (--humidity): empty")
+    return value
+
+
 SIM_HUM_HELP = (
     "simulated: hum only while driven (a power-amplifier ground loop), e.g. 1mV@50.3Hz on the "
     "DUT channel or 1mV/0.2mV@100Hz (DUT/reference, V peak); repeatable"
 )
-
-
-def _add_plan_options(p: argparse.ArgumentParser | argparse._ArgumentGroup) -> None:
-    p.add_argument("--preset", choices=sorted(PRESETS), help="named plan (default piezo)")
-    p.add_argument("--frequencies", help="line list in Hz, e.g. 10,12.5,...,2500 (ISO 266 fill)")
-    numeric_option(p, "--sample-rate", SAMPLE_RATE, f"sample rate in Hz ({CAPACITY_NOTE})")
-    numeric_option(p, "--period", PERIOD, f"period length in samples ({CAPACITY_NOTE})")
-    numeric_option(p, "--level", LEVEL, "target peak acceleration per line, e.g. 5 or 0.5g")
-    numeric_option(p, "--reference-frequency", FREQUENCY, "reference frequency in Hz")
-    numeric_option(p, "--mains", MAINS, "mains frequency in Hz (50)", default=None)
-    p.add_argument("--exact-mains-bins", action="store_true", help=EXACT_MAINS_HELP)
-
-
-def _add_range_options(p: argparse.ArgumentParser) -> None:
-    """Issue 26: the whole range from the command line (run and plan)."""
-    g = p.add_argument_group("range (issue 26): lines, rate, period, profile, exciter")
-    if p.prog.endswith(" run"):  # plan has these among its plan options
-        g.add_argument("--frequencies", help="line list in Hz, e.g. 0.4,...,8 (ISO 266 fill)")
-        numeric_option(g, "--sample-rate", SAMPLE_RATE, f"sample rate in Hz ({CAPACITY_NOTE})")
-        numeric_option(g, "--period", PERIOD, f"period in samples ({CAPACITY_NOTE})")
-        numeric_option(g, "--reference-frequency", FREQUENCY, "reference frequency in Hz")
-    g.add_argument(
-        "--profile",
-        choices=[p.value for p in Profile],
-        default=Profile.ACCELERATION.value,
-        help="per-line level: constant acceleration, or constant velocity or displacement "
-        "below --corner (then --level above it); every line clipped by the exciter's stroke",
-    )
-    numeric_option(g, "--corner", FREQUENCY, "corner frequency of the profile, Hz")
-    g.add_argument(
-        "--exciter",
-        choices=EXCITERS,
-        help="simulated stand's exciter (long-stroke: 150 mm, 0.4 Hz up); its stroke clips "
-        "and checks the plan",
-    )
-    if p.prog.endswith(" run"):
-        numeric_option(
-            g,
-            "--fade-in",
-            FADE_IN,
-            "lpm: fade-in before the record, s (default one cycle of the lowest line, longer "
-            "near the stroke)",
-        )
 
 
 def _run_option(
@@ -238,15 +205,7 @@ def _add_run_options(r: argparse.ArgumentParser) -> None:
 def build_parser() -> argparse.ArgumentParser:
     parser, sub = top_parser()
 
-    p = sub.add_parser("plan", help="show a frequency plan, its checks and predicted peaks")
-    _add_plan_options(p)
-    p.add_argument(
-        "--shift-mains",
-        action="store_true",
-        help="move lines off mains harmonics (the default; kept for old scripts)",
-    )
-    _add_range_options(p)
-    p.add_argument("--json", action="store_true", help="machine-readable output")
+    add_plan_command(sub)
 
     a = sub.add_parser("analyze", help="re-analyse a recording (HDF5 of this program, CSV or TDMS)")
     a.add_argument(
@@ -288,7 +247,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--reference-frequency, --settle-periods and --mains re-analyse it, the others are "
         "refused; a TDMS file gives the sample rate, 1/wf_increment)"
     )
-    _add_plan_options(csv_group)
+    add_plan_options(csv_group)
     numeric_option(
         csv_group, "--reference-sensitivity", SENSITIVITY, "e.g. 1.02 (mV/(m/s^2)) or 10mV/g"
     )
@@ -359,7 +318,15 @@ def build_parser() -> argparse.ArgumentParser:
         "<run>/certificate-N.pdf)",
     )
     c.add_argument("--customer", help="customer name (mandatory)")
-    c.add_argument("--customer-address", default="", help="customer address")
+    c.add_argument(
+        "--customer-address", default="", help="customer address (required, or the next)"
+    )
+    c.add_argument(
+        "--address-not-stated",
+        default="",
+        metavar="REASON",
+        help="why the customer's address is not given (recorded and printed)",
+    )
     c.add_argument(
         "--authorised-by",
         help="who authorises it (mandatory): the name alone; under the records' two-person "
@@ -374,7 +341,20 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--dut-serial", help="DUT serial number (default: the run's --dut-id)")
     c.add_argument("--dut-type", help="DUT type, e.g. 'piezoelectric accelerometer'")
     numeric_option(c, "--temperature", TEMPERATURE, "ambient temperature, deg C")
-    c.add_argument("--mounting", help="how the DUT was mounted")
+    c.add_argument(
+        "--humidity", type=humidity, help="relative humidity, e.g. 45%% (default: the run's sensor)"
+    )
+    c.add_argument(
+        "--mounting", help="how the DUT was mounted (default: the last for its model or template)"
+    )
+    c.add_argument(
+        "--spec-kind",
+        choices=SPEC_KINDS,
+        help="the conformity statement's specification: manufacturer's data sheet, customer "
+        "requirement or standard",
+    )
+    c.add_argument("--spec-id", help="its document and revision, e.g. 'PCB 352C33 rev. D'")
+    c.add_argument("--spec-tolerances", help="its tolerances (default: those the verdict checked)")
     c.add_argument("--certificate-number", help="without records; default: AC-<run id>")
     c.add_argument(
         "--issue-date", help="YYYY-MM-DD, UTC (default: today; not before the calibration)"
@@ -443,8 +423,8 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--dut", type=dut_name, default="piezo", help="simulated DUT")
         numeric_option(p, "--seed", SEED, "simulated stand: random seed", default=0)
 
-    v = sub.add_parser("verify", help="check a certificate PDF: signature, DCC, run")
-    v.add_argument("pdf", type=Path, help="certificate PDF")
+    v = sub.add_parser("verify", help="check a certificate PDF (or its DCC): signatures, DCC, run")
+    v.add_argument("pdf", type=Path, help="certificate PDF, or its DCC (.xml) alone")
     v.add_argument("--run", type=Path, help="the run folder it certifies (manifest and numbers)")
     v.add_argument("--trust", type=Path, help="the CA certificate (PEM or DER) to trust")
     v.add_argument("--validation-report", type=Path, help="the validation report PDF it names")

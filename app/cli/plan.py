@@ -46,9 +46,18 @@ def _stroke(exciter: str | None) -> float:
         from app.stand.simulated import exciter_stroke_m
 
         return exciter_stroke_m(exciter)
-    from app.stand.config import load
+    return builtin_stroke_m()
 
-    return load().limits.displacement_peak_to_peak_m
+
+def builtin_stroke_m() -> float:
+    """The built-in simulated stand's travel (m peak to peak), `load().limits`' figure, read
+    from its file alone: `plan` does not import app.stand.config (its budget, reference chain
+    and channels) for one number (issue 34 point 3; a test holds the two equal)."""
+    import tomllib
+    from importlib import resources
+
+    text = resources.files("sim").joinpath("stand.toml").read_text(encoding="utf-8")
+    return float(tomllib.loads(text)["limits"]["displacement_peak_to_peak_m"])
 
 
 def _plan(args: argparse.Namespace) -> Plan:

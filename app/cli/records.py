@@ -25,6 +25,7 @@ from app.cli.listing import (
 )
 from app.cli.options import FREQUENCY, LEVEL, TOLERANCE, Bounded, numeric_option
 from app.cli.reviews import REVIEW_ACTIONS, add_review_commands
+from app.cli.toplevel import RECORDS_COMMAND_NAMES
 from app.io.quantities import PERCENT_RULE
 from app.records.db.errors import RecordsInputError
 
@@ -76,11 +77,9 @@ def _list_options(p: argparse.ArgumentParser) -> None:
     _db_option(p)
 
 
-# the records commands' names, known before any parser is built (app.cli parses a command of
-# these with the records commands alone); `add_commands` returns exactly these
-COMMAND_NAMES = frozenset(
-    ("db", "customers", "models", "sensors", "refs", "due", "history", "register", "control")
-)
+# the records commands' names (app.cli.toplevel: known before any parser is built);
+# `add_commands` returns exactly these
+COMMAND_NAMES = RECORDS_COMMAND_NAMES
 
 
 def add_commands(sub: argparse._SubParsersAction) -> dict[str, Handler]:  # type: ignore[type-arg]
@@ -120,7 +119,7 @@ def add_commands(sub: argparse._SubParsersAction) -> dict[str, Handler]:  # type
     _db_option(ma)
     _list_options(msub.add_parser("list", help="list sensor models"))
 
-    s = sub.add_parser("sensors", help="sensors: add, list, show")
+    s = sub.add_parser("sensors", help="sensors: add, list, show, move")
     ssub = s.add_subparsers(dest="action", required=True, metavar="ACTION")
     sa = ssub.add_parser("add", help="add a sensor")
     sa.add_argument("serial")
@@ -138,26 +137,59 @@ def add_commands(sub: argparse._SubParsersAction) -> dict[str, Handler]:  # type
     sw = ssub.add_parser("show", help="one sensor and its last calibration")
     sw.add_argument("serial")
     _db_option(sw)
+    sm = ssub.add_parser(
+        "move", help="give a sensor to another customer (its certificates stay with theirs)"
+    )
+    sm.add_argument("serial")
+    sm.add_argument("--owner", required=True, help="the new owner's customer name")
+    _db_option(sm)
 
-    r = sub.add_parser("refs", help="reference standards: add, list")
+    r = sub.add_parser("refs", help="reference standards: add, list, dcc")
     rsub = r.add_subparsers(dest="action", required=True, metavar="ACTION")
     ra = rsub.add_parser("add", help="add a reference standard with its calibration table")
     ra.add_argument("identifier")
-    ra.add_argument("--model", required=True)
-    ra.add_argument("--serial", required=True)
-    ra.add_argument("--certificate", required=True, help="its calibration certificate number")
-    ra.add_argument("--calibrated", type=_iso_date("--calibrated"), required=True)
-    ra.add_argument("--due", type=_iso_date("--due"), required=True)
+    ra.add_argument("--model", help="required with --table; with --dcc, the DCC's by default")
+    ra.add_argument("--serial", help="required with --table; with --dcc, must be the DCC's")
     ra.add_argument(
+        "--certificate",
+        help="its calibration certificate number (required with --table; with --dcc, the DCC's "
+        "uniqueIdentifier)",
+    )
+    ra.add_argument(
+        "--calibrated",
+        type=_iso_date("--calibrated"),
+        help="required with --table; with --dcc, the DCC's endPerformanceDate",
+    )
+    ra.add_argument("--due", type=_iso_date("--due"), required=True)
+    source = ra.add_mutually_exclusive_group(required=True)
+    source.add_argument(
         "--table",
         type=Path,
-        required=True,
         help="CSV: frequency_hz,sensitivity_mv_per_ms2,relative_expanded_uncertainty_percent"
         "[,phase_deg]; the uncertainty in percent (0.5 means 0.5 %%); the header is optional, "
         "an uncertainty column not named in percent is refused",
     )
+    source.add_argument(
+        "--dcc",
+        type=Path,
+        metavar="FILE",
+        help="its calibrating laboratory's DCC (PTB DCC 3.x XML): validated, its signature "
+        "verified, its sensitivity table, dates, laboratory and item read; kept in the records "
+        "with its SHA-256, which every certificate made with the reference names",
+    )
+    ra.add_argument(
+        "--dcc-certificate",
+        type=Path,
+        metavar="PEM",
+        help="the DCC signer's X.509 certificate to verify its signature against (default: "
+        "the certificate the signature embeds)",
+    )
     _db_option(ra)
     _list_options(rsub.add_parser("list", help="list reference standards"))
+    rd = rsub.add_parser("dcc", help="write the DCC kept of a reference standard to a file")
+    rd.add_argument("identifier")
+    rd.add_argument("--out", type=Path, required=True, help="the file to write (never overwritten)")
+    _db_option(rd)
 
     due = sub.add_parser("due", help="sensors and reference standards due for calibration")
     numeric_option(due, "--days", DAYS, "horizon (default 30)", default=30)
@@ -310,6 +342,13 @@ def cmd_sensors(args: argparse.Namespace) -> int:
         for row in sensors:
             print(f"{row.serial}\t{row.model.maker} {row.model.model}\t{row.owner.name}")
         return 0
+    if args.action == "move":
+        lab.move_sensor(args.serial, owner=args.owner)
+        print(
+            f"sensor {args.serial} now owned by {args.owner.strip()}; its certificates stay "
+            "with the customers they were issued to"
+        )
+        return 0
     row = lab.sensor(args.serial)
     history = lab.history(args.serial)
     print(f"serial:     {row.serial}")
@@ -324,10 +363,23 @@ def cmd_sensors(args: argparse.Namespace) -> int:
 
 
 def cmd_refs(args: argparse.Namespace) -> int:
+    if args.action == "add" and args.dcc is not None:
+        from app.cli.reference_dcc import add_from_dcc
+
+        return add_from_dcc(args, lambda: _lab(args))
     lab = _lab(args)
+    if args.action == "dcc":
+        from app.cli.reference_dcc import write_kept
+
+        return write_kept(args, lab)
     if args.action == "add":
         from app.records.db.reference_table import read_reference_table
 
+        if args.dcc_certificate is not None:
+            raise RecordsUsageError("--dcc-certificate: goes with --dcc")
+        for option in ("model", "serial", "certificate", "calibrated"):
+            if getattr(args, option) is None:
+                raise RecordsUsageError(f"--{option}: required with --table")
         table = read_reference_table(args.table)
         row = lab.add_reference(
             args.identifier,

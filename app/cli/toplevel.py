@@ -11,6 +11,12 @@ import re
 import sys
 
 NEGATIVE_NUMBER = re.compile(r"^-\.?\d")
+# the records commands' names, known before any parser is built (app.cli parses a command of
+# these with the records commands alone, and any other without importing them);
+# app.cli.records.add_commands returns exactly these
+RECORDS_COMMAND_NAMES = frozenset(
+    ("db", "customers", "models", "sensors", "refs", "due", "history", "register", "control")
+)
 PROG = "accelcal"
 DESCRIPTION = "Accelerometer calibration by comparison, multisine excitation."
 

@@ -3,7 +3,10 @@
 Nothing is carried over from the previous certificate (another customer's name or another
 DUT's model on a certificate is the error this prevents); the dialog names the run it is for.
 When the records know the run's sensor (by its serial), its customer, address, model and serial
-are filled in from them (and say so); everything else starts empty.
+are filled in from them (and say so); the mounting remembered for the sensor's model or the
+chosen run template is offered (app.certificate.remembered, and says from where); everything
+else starts empty. Temperature and humidity left empty are taken from the stand's environment
+sensor as read at run start; the specification names whose tolerances the verdict checked.
 
 "Prepared by" is filled from the window's Technician field (else who the run records); with
 the records open, "Prepared by" and "Approved by" (who signs it) are checked by the records'
@@ -16,12 +19,22 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 
-from PySide6.QtWidgets import QDialog, QDialogButtonBox, QFormLayout, QLabel, QLineEdit, QWidget
+from PySide6.QtWidgets import (
+    QComboBox,
+    QDialog,
+    QDialogButtonBox,
+    QFormLayout,
+    QLabel,
+    QLineEdit,
+    QWidget,
+)
 
 from app.certificate import CertificateInfo
+from app.certificate.info import SPEC_WORDS, Specification, SpecKind
 from app.gui.field_marks import ERROR, FieldMarks, NoteLabel
 from app.records.db.errors import RecordsInputError
 from app.records.run_record import RunRecord
+from app.stand.instruments import parse_humidity
 
 Signatories = Callable[[str, str], object]  # (prepared by, approved by): raises when refused
 
@@ -42,14 +55,18 @@ class CertificateDialog(QDialog):
     FIELDS = (
         ("customer", "Customer"),
         ("customer_address", "Customer address"),
+        ("address_not_stated", "Address not stated, because"),
         ("authorised_by", "Authorised by"),
         ("authorised_function", "Function (e.g. head of laboratory)"),
         ("mounting", "Mounting"),
         ("dut_model", "DUT model (empty: from the run)"),
         ("dut_serial", "DUT serial (empty: from the run)"),
         ("dut_type", "DUT type (empty: from the run)"),
+        ("spec_id", "Specification: document and revision"),
+        ("spec_tolerances", "Specification: tolerances (empty: those checked)"),
         ("notes", "Notes"),
     )
+    NO_SPECIFICATION = "(none: the run's own, e.g. its catalogue data sheet)"
 
     def __init__(
         self,
@@ -60,12 +77,17 @@ class CertificateDialog(QDialog):
         prepared_by: str = "",
         check: Signatories | None = None,
         heading: str = "",
+        offered_from: str = "",
+        template: str = "",
     ):
         """`prepared_by` fills "Prepared by"; `check` is the records' rule for the two
-        signatories, run when OK is pressed (None: no records, no rule)."""
+        signatories, run when OK is pressed (None: no records, no rule); `offered_from` says
+        where the mounting in `defaults` is remembered from ("model X"); `template` is the run
+        template chosen (the mounting is remembered for it too)."""
         super().__init__(parent)
         self.setWindowTitle(f"Certificate of run {record.run_id}")
         self._check = check
+        self.template = template
         form = QFormLayout(self)
         self.title = NoteLabel()  # wrapped, as tall as its text
         self.title.setText(f"<b>{heading or 'Certificate'} of {run_identity(record)}</b>")
@@ -84,11 +106,24 @@ class CertificateDialog(QDialog):
             if defaults.get(key):
                 edit.setText(str(defaults[key]))
                 edit.setToolTip("from the records, for the run's sensor")
+            if key == "mounting" and offered_from and defaults.get(key):
+                edit.setToolTip(f"from {offered_from}")
+                label = f"Mounting (from {offered_from})"
+            if key == "spec_id":
+                self.spec_kind = QComboBox()
+                self.spec_kind.addItem(self.NO_SPECIFICATION, None)
+                for kind in SpecKind:
+                    self.spec_kind.addItem(SPEC_WORDS[kind], kind)
+                form.addRow("Specification: kind", self.spec_kind)
             form.addRow(label, edit)
             self.edits[key] = edit
         self.temperature = QLineEdit()
         self.temperature.setPlaceholderText("°C, as measured during the run")
         form.addRow("Ambient temperature (°C)", self.temperature)
+        self.humidity = QLineEdit()
+        self.humidity.setPlaceholderText("%, e.g. 45 %; empty: as the stand's sensor read it")
+        form.addRow("Relative humidity (%)", self.humidity)
+        self.temperature.setPlaceholderText("°C; empty: as the stand's sensor read it")
         buttons = QDialogButtonBox(
             QDialogButtonBox.StandardButton.Ok | QDialogButtonBox.StandardButton.Cancel
         )
@@ -98,6 +133,8 @@ class CertificateDialog(QDialog):
         marked: dict[str, QWidget] = {
             "approved_by": self.edits["authorised_by"],
             "prepared_by": self.prepared,
+            "humidity": self.humidity,
+            "specification": self.edits["spec_id"],
         }
         self.marks = FieldMarks(marked)
 
@@ -106,7 +143,17 @@ class CertificateDialog(QDialog):
         return self.prepared.text().strip()
 
     def accept(self) -> None:
-        """Close only when the records take the two signatories; else say why at the field."""
+        """Close only when the humidity reads and the specification is whole and the records
+        take the two signatories; else say why at the field."""
+        for key, problem in (
+            ("humidity", self._humidity_problem()),
+            ("specification", self._spec_problem()),
+        ):
+            widget = self.marks.fields[key]
+            self.marks.note(widget, problem, ERROR)
+            if problem:
+                widget.setFocus()
+                return
         if self._check is not None:
             approved = self.edits["authorised_by"]
             for edit in (approved, self.prepared):
@@ -133,11 +180,46 @@ class CertificateDialog(QDialog):
             return None
         return value if math.isfinite(value) else None
 
+    def humidity_percent(self) -> float | None:
+        """The typed relative humidity in % (None: empty, or not one: refused at OK)."""
+        try:
+            return parse_humidity(self.humidity.text())
+        except ValueError:
+            return None
+
+    def _humidity_problem(self) -> str | None:
+        try:
+            parse_humidity(self.humidity.text())
+        except ValueError as exc:
+            return str(exc).replace(" (--humidity)", "")
+        return None
+
+    def specification(self) -> Specification | None:
+        """The specification chosen (None: the run's own)."""
+        kind = self.spec_kind.currentData()
+        identity = " ".join(self.edits["spec_id"].text().split())
+        if kind is None or not identity:
+            return None
+        return Specification(SpecKind(kind), identity, self.edits["spec_tolerances"].text().strip())
+
+    def _spec_problem(self) -> str | None:
+        kind = self.spec_kind.currentData()
+        identity = self.edits["spec_id"].text().strip()
+        if kind is not None and not identity:
+            return "specification: name its document and revision"
+        if kind is None and identity:
+            return "specification: choose its kind (data sheet, customer requirement, standard)"
+        return None
+
     def info(self) -> CertificateInfo:
         values = {key: edit.text().strip() or None for key, edit in self.edits.items()}
         return CertificateInfo(
             customer=values["customer"],
             customer_address=values["customer_address"] or "",
+            address_not_stated=values["address_not_stated"] or "",
+            humidity_percent=self.humidity_percent(),
+            specification=self.specification(),
+            template=self.template,
             authorised_by=values["authorised_by"],
             authorised_function=values["authorised_function"] or "",
             mounting=values["mounting"],

@@ -78,13 +78,20 @@ def ask(
             if replaces is None:
                 return None
     heading = f"Amendment of {replaces} ({reason})" if replaces else "Certificate"
+    defaults = dict(window.records.certificate_defaults(record))
+    template = chosen_template(window)
+    offered = _offered(folder, url, defaults.get("dut_model"), template)
+    if offered is not None:
+        defaults["mounting"] = offered.mounting
     dialog = CertificateDialog(
         window,
         record,
-        window.records.certificate_defaults(record),
+        defaults,
         prepared_by=window.setup_tab.technician.text().strip() or _prepared_default(folder),
         check=functools.partial(check_signatories, url) if url is not None else None,
         heading=html.escape(heading),
+        offered_from=offered.source if offered is not None else "",
+        template=template,
     )
     window.certificate_dialog_open = dialog  # tests and screenshots reach the open dialog
     try:
@@ -100,6 +107,28 @@ def ask(
     if answer != QMessageBox.StandardButton.Yes:
         return None
     return issue(window, folder, dialog.info(), replaces=replaces, reason=reason)
+
+
+def chosen_template(window: Any) -> str:
+    """The run template chosen on the Setup tab ("" : none, the model's own settings)."""
+    from app.gui.templates import NONE_CHOSEN
+
+    picker = getattr(window.setup_tab, "templates", None)
+    if picker is None or not picker.templates:
+        return ""
+    name = picker.combo.currentText()
+    return "" if name == NONE_CHOSEN else name
+
+
+def _offered(folder: Path, url: str | None, model: str | None, template: str) -> Any:
+    """The mounting remembered for the run's sensor model (or its template), None."""
+    from app.certificate.remembered import RememberedConditions, run_model
+
+    try:
+        return RememberedConditions().offered(model or run_model(folder, url), template)
+    except (OSError, ValueError) as exc:  # an offer lost, never the dialog
+        log.warning("remembered mounting not read: %s", exc)
+        return None
 
 
 def _prepared_default(folder: Path) -> str:

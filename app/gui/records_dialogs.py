@@ -35,6 +35,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
+import app.gui.reference_dcc_entry as dcc_entry
 from app.gui.field_marks import ERROR, FieldMarks
 from app.gui.table_items import read_only_item, shown_unit
 from app.io import quantities
@@ -346,6 +347,7 @@ class ReferenceDialog(RecordDialog):
         self.current = current
         c = current
         self.rows: list[TableRow] | None = None  # read from the chosen file
+        self.dcc: Any = None  # the DCC read (app.io.reference_dcc) when a DCC was chosen
         self.identifier = self.add("identifier", "Identifier", QLineEdit(c.identifier if c else ""))
         self.identifier.setReadOnly(c is not None)
         self.model = self.add("model", "Model", QLineEdit(c.model if c else ""))
@@ -362,15 +364,16 @@ class ReferenceDialog(RecordDialog):
         self.add("due", "Due on", self.due)
         self.table_file = QLineEdit()
         self.table_file.setPlaceholderText(
-            "CSV file" + (" (blank: keep the table on record)" if c is not None else "")
+            "CSV file or DCC" + (" (blank: keep the table on record)" if c is not None else "")
         )
         self.table_file.setToolTip(
             "one line per frequency: frequency_hz, sensitivity_mv_per_ms2, "
-            "relative_expanded_uncertainty[, phase_deg] (as accelcal refs add --table)"
+            "relative_expanded_uncertainty[, phase_deg] (as accelcal refs add --table), or "
+            "the reference's DCC (.xml, as accelcal refs add --dcc)"
         )
         self.table_file.editingFinished.connect(self.load_table)
         self.add("table", "Calibration table", self.table_file)
-        browse = QPushButton("Choose CSV file ...")
+        browse = QPushButton("Choose CSV file or DCC ...")
         browse.clicked.connect(self.choose_table)
         self.form.addRow("", browse)
         self.preview = QTableWidget(0, len(TABLE_COLUMNS))
@@ -395,20 +398,26 @@ class ReferenceDialog(RecordDialog):
         self.resize(560, self.sizeHint().height())
 
     def choose_table(self) -> None:
-        path, _ = QFileDialog.getOpenFileName(self, "Calibration table", "", "CSV (*.csv)")
+        path, _ = QFileDialog.getOpenFileName(self, "Calibration table", "", dcc_entry.FILE_FILTER)
         if path:
             self.table_file.setText(path)
             self.load_table()
 
-    def load_table(self) -> list[TableRow] | None:
-        """Read the CSV named in the file field (the records' reader) and show it; a bad file
+    def load_table(self, fill: bool = True) -> list[TableRow] | None:
+        """Read the CSV named in the file field (the records' reader), or the DCC
+        (app.gui.reference_dcc_entry; `fill`: its fields filled in), and show it; a bad file
         is marked at the field. None when the field is blank or the file is refused."""
         assert self.marks is not None
         self.marks.note(self.table_file, None)
         text = self.table_file.text().strip()
-        self.rows = None
+        self.rows, self.dcc = None, None
         if not text:
             return None
+        if dcc_entry.is_dcc(Path(text)):
+            self.rows = dcc_entry.load_dcc(self, Path(text), fill=fill)
+            if self.rows is not None:
+                self.show_rows(self.rows)
+            return self.rows
         try:
             self.rows = read_reference_table(Path(text), "table")
         except RecordsInputError as exc:
@@ -428,11 +437,20 @@ class ReferenceDialog(RecordDialog):
     def save(self) -> Any:
         rows = None
         if self.table_file.text().strip():
-            rows = self.load_table()
+            rows = self.load_table(fill=False)  # the fields as typed are checked
             if rows is None:
                 raise FieldError("table", self.marks.reason(self.table_file) if self.marks else "")
         elif self.current is None:
-            raise FieldError("table", "choose the CSV file of its calibration table")
+            raise FieldError("table", "choose the CSV file of its calibration table or its DCC")
+        if self.dcc is not None:
+            wrong = dcc_entry.mismatches(
+                self.dcc,
+                serial=self.serial.text(),
+                certificate=self.certificate.text(),
+                calibrated=_date(self.calibrated),
+            )
+            if wrong:
+                raise FieldErrors([FieldError(key, reason) for key, reason in wrong])
         values: dict[str, Any] = {
             "model": self.model.text(),
             "serial": self.serial.text(),
@@ -441,8 +459,12 @@ class ReferenceDialog(RecordDialog):
             "due_date": _date(self.due),
         }
         if self.current is None:
-            return self.lab.add_reference(self.identifier.text(), table=rows, **values)
-        return self.lab.update_reference(self.current.identifier, table=rows, **values)
+            return self.lab.add_reference(
+                self.identifier.text(), table=rows, dcc=self.dcc, **values
+            )
+        return self.lab.update_reference(
+            self.current.identifier, table=rows, dcc=self.dcc, **values
+        )
 
 
 class RecordsList(QDialog):

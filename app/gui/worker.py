@@ -14,6 +14,7 @@ import collections
 import dataclasses
 import importlib
 import logging
+import sys
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -23,7 +24,15 @@ import numpy as np
 
 from app.gui.live_view import MIN_COLUMNS, EstimateView, PeriodView, block_view, estimate_view
 from app.io.vocabulary import RunStatus
-from app.procedure import Event, Finished, PeriodBlock, PeriodEstimate, Procedure
+from app.procedure import (
+    Event,
+    Finished,
+    PeriodBlock,
+    PeriodEstimate,
+    Procedure,
+    State,
+    StateChanged,
+)
 from app.records.run_record import RunRecord
 from hardware.errors import HardwareError
 
@@ -34,6 +43,24 @@ log = logging.getLogger(__name__)
 # worker's thread they stalled the window's thread that long just after Start
 RUN_IMPORTS = ("scipy.signal", "scipy.linalg")
 MAX_QUEUED = 2000  # events kept when the GUI falls behind (oldest dropped; Finished never)
+# the GIL's switch interval (s) from the first run worker's start on (the process's setting, it
+# stays): a thread that waits for the GIL asks the holder for it after this long (CPython's
+# default is 5 ms). The window's thread takes the GIL back at every Python callback Qt makes
+# (each pyqtgraph item's paint, each timer slot), so with a run worker computing (estimation,
+# the preflight's synthesis) a frame of N callbacks waited up to N x 5 ms: the 50-56 ms stalls
+# of issue 34 point 6 with 7 ms of the window's own work (bench/gil_holds.py). A shorter
+# interval costs the worker only a switch per interval while the window waits.
+GIL_SWITCH_S = 0.0005
+
+
+def hand_gil_over_sooner(interval_s: float | None = None) -> float:
+    """Shorten the interpreter's GIL switch interval to `interval_s` (None: GIL_SWITCH_S as the
+    module holds it when called; never lengthened: a shorter one set by the caller stays);
+    the interval now in force (s)."""
+    interval_s = GIL_SWITCH_S if interval_s is None else interval_s
+    if sys.getswitchinterval() > interval_s:
+        sys.setswitchinterval(interval_s)
+    return sys.getswitchinterval()
 
 
 def copied(event: Event) -> Event:
@@ -100,6 +127,7 @@ class RunWorker:
         self.stand = stand
         self.finished: Finished | None = None
         self.refusal: Exception | None = None  # why the run could not be opened
+        self.state: State | None = None  # the run's phase as its last StateChanged said
         self._opener: Callable[[], tuple[Procedure, Any]] | None = None
         self._stop: tuple[str, bool] | None = None  # (reason, emergency) asked before opening
         self._events: collections.deque[Any] = collections.deque(maxlen=MAX_QUEUED)
@@ -119,6 +147,7 @@ class RunWorker:
         return worker
 
     def start(self) -> None:
+        hand_gil_over_sooner()
         self.thread.start()
 
     def is_alive(self) -> bool:
@@ -165,6 +194,8 @@ class RunWorker:
     def _on_event(self, event: Event) -> None:
         if isinstance(event, Finished):
             return  # kept apart in `finished`, never dropped from a full queue
+        if isinstance(event, StateChanged):
+            self.state = event.state
         shown = self._shown(copied(event))
         with self._lock:
             self._events.append(shown)

@@ -38,6 +38,7 @@ class RunNotes:
     measured_response: np.ndarray | None = None  # converged response, (m/s^2)/V per line
     measured_response_error: float | None = None  # its equalisation error (fraction)
     ranges: RangePlan | None = None  # the input ranges per line, from the preflight
+    fade_in_s: float | None = None  # the LPM's fade-in (s) the preflight picked and checked
 
 
 @dataclass

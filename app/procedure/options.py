@@ -25,6 +25,7 @@ from app.io.vocabulary import Mode
 from app.lines import parse_frequencies
 from app.procedure.modes import DEFAULT_STEPPED_BLOCK_S
 from app.procedure.stopping import DEFAULT_TIME_BOUND_TEXT
+from app.procedure.switches import CAPACITY_NOTE, EXACT_MAINS_HELP
 from app.stand.simulated import CATALOGUE, EXCITERS
 from dsp.estimators import DEFAULT_ESTIMATOR, Estimator, default_estimator, default_periods
 from dsp.multisine import PRESETS
@@ -94,20 +95,12 @@ class OptionSpec:
         return f"{self.help}; {self.bounds.describe(self.unit)}"
 
 
-# The help of the run's switches (the command line's flags, the GUI's check boxes): one text each
-EXACT_MAINS_HELP = (
-    "keep lines on mains harmonics on their exact bins (default: each moved one bin, "
-    "alternately up and down, and stated at its actual frequency; a line kept there cannot be "
-    "told from hum while driven)"
-)
+# The help of the run's switches (the command line's flags, the GUI's check boxes): one text
+# each (EXACT_MAINS_HELP in app.procedure.switches, which `accelcal plan` reads light)
 RESONANCE_HELP = (
     "after the run, search the DUT's mounted resonance in its response (a plan to "
     "20 kHz+ at a low level, e.g. --frequencies 1000,...,25000 --sample-rate 102400)"
 )
-
-
-# the sample rate and period are bounded by this machine as well (app.procedure.capacity)
-CAPACITY_NOTE = "refused before anything moves when this machine has not the memory for it"
 
 
 # The run options that are numbers, words or lists (flags stay as `accelcal run` always had them).

@@ -135,7 +135,7 @@ def stored_phases(
     if not keyable:  # not a plan the store can key: the optimiser names what is wrong
         return crestfactor.optimise_phases(bins, amplitudes, period_samples, seed=seed)
     key = PhaseKey.of(bins, a, period_samples, seed)
-    shipped = _shipped().get(key.digest)
+    shipped = _shipped_phases(key.digest)
     if shipped is not None:
         return shipped.copy()
     path = cache_path(key)
@@ -235,11 +235,11 @@ def preset_keys() -> dict[str, PhaseKey]:
 
 
 @functools.cache
-def _shipped() -> dict[str, np.ndarray]:
-    """The shipped phases by key digest (read once per process; untrusted files skipped)."""
+def _shipped_documents() -> dict[str, tuple[str, Any]]:
+    """The shipped files' documents by the key digest each names, with the file's name (read
+    once per process; not yet checked: `_shipped_phases` checks the one a plan asks for)."""
     folder = importlib.resources.files("app").joinpath(*SHIPPED_FOLDER)
-    found: dict[str, np.ndarray] = {}
-    keys = {key.digest: key for key in preset_keys().values()}
+    found: dict[str, tuple[str, Any]] = {}
     if not folder.is_dir():
         return found
     for entry in folder.iterdir():
@@ -247,12 +247,43 @@ def _shipped() -> dict[str, np.ndarray]:
             continue
         try:
             document = json.loads(entry.read_text(encoding="utf-8"))
-            key = keys.get(str(document.get("key"))) if isinstance(document, dict) else None
-            if key is None:
-                raise ValueError("not the phases of a current preset plan")
-            found[key.digest] = trusted(document, key)
-        except (OSError, ValueError, TypeError, KeyError) as exc:
+        except (OSError, ValueError) as exc:
             log.warning("shipped phases %s ignored (%s)", entry.name, exc)
+            continue
+        digest = str(document.get("key")) if isinstance(document, dict) else ""
+        found[digest] = (entry.name, document)
+    return found
+
+
+@functools.cache
+def _shipped_phases(digest: str) -> np.ndarray | None:
+    """The shipped phases of the preset key `digest` once checked (`trusted`: each check
+    synthesises the plan twice, so only the plan asked for is checked, once per process;
+    issue 34 point 3), or None (none shipped, or the file is not trusted: warned)."""
+    key = {k.digest: k for k in preset_keys().values()}.get(digest)
+    held = _shipped_documents().get(digest)
+    if key is None or held is None:
+        return None
+    name, document = held
+    try:
+        return trusted(document, key)
+    except (ValueError, TypeError, KeyError) as exc:
+        log.warning("shipped phases %s ignored (%s)", name, exc)
+        return None
+
+
+def _shipped() -> dict[str, np.ndarray]:
+    """Every shipped preset's phases by key digest, each checked (untrusted files, and files
+    of no current preset plan, skipped with a warning)."""
+    found: dict[str, np.ndarray] = {}
+    current = {k.digest for k in preset_keys().values()}
+    for digest, (name, _document) in _shipped_documents().items():
+        if digest not in current:
+            log.warning("shipped phases %s ignored (not the phases of a current preset plan)", name)
+            continue
+        phases = _shipped_phases(digest)
+        if phases is not None:
+            found[digest] = phases
     return found
 
 

@@ -21,7 +21,6 @@ from dataclasses import dataclass
 
 from app.procedure.capacity import check_capacity
 from app.procedure.phase_store import stored_phases
-from dsp import lpm
 from dsp.multisine import PRESETS, Plan, PlanError, make_plan
 from dsp.profiles import AmplitudeProfile, Profile, check_stroke
 
@@ -56,6 +55,8 @@ def choose_period(frequencies: Sequence[float], fs: float, preset_period: int) -
     """The period in samples for these lines (module docstring); PlanError when none fits."""
     if _exact(frequencies, fs, preset_period) and min(frequencies) * preset_period / fs >= 1:
         return preset_period
+    from dsp import lpm  # the LPM's grid design, for custom lines only (a preset's plan: none)
+
     try:
         return lpm.design_grid(frequencies, fs, max_period_s=EXACT_MAX_PERIOD_S).period_samples
     except lpm.LpmError:

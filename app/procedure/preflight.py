@@ -41,6 +41,7 @@ class PreflightReport:
     problems: tuple[str, ...]
     ranges: RangePlan | None = None
     converter: Converter = field(default_factory=Converter)
+    fade_in_s: float | None = None  # a multisine's fade-in (s) the peaks cover (`fade_in_for`)
 
     @property
     def ok(self) -> bool:
@@ -95,6 +96,7 @@ def check_preflight(
     `fade_in_for` picks it; `fade_out_s`, None: dsp.fades' default)."""
     limits = config.limits
     ranges = {c.name: c.range_v for c in config.inputs}
+    picked_fade_in_s = None
     if per_line:
         raw = largest_line_peaks(plan)
         peaks = PredictedPeaks(
@@ -105,8 +107,11 @@ def check_preflight(
         )
     else:  # the multisine's own orbit and its fades (issue 34)
         target = level_scale * plan.amplitudes_ms2 * np.exp(1j * (plan.phases_rad - np.pi / 2))
-        fade_in_s = fade_in_for(plan, target, limits, fade_in_s)
-        peaks = motion_peaks(plan, target, fade_in_s=fade_in_s, fade_out_s=fade_out_s)
+        if fade_in_s is None and fade_out_s is None:  # the peaks the fade-in was picked by
+            picked_fade_in_s, peaks = fade_in_and_peaks(plan, target, limits)
+        else:
+            picked_fade_in_s = fade_in_for(plan, target, limits, fade_in_s)
+            peaks = motion_peaks(plan, target, fade_in_s=picked_fade_in_s, fade_out_s=fade_out_s)
     problems = limit_problems(peaks, limits)
     if chain is not None:
         ref_s, _ = chain.sensitivity_at(plan.frequencies_hz)
@@ -136,7 +141,12 @@ def check_preflight(
         level_scale=level_scale,
     )
     return PreflightReport(
-        peaks, plan.crest_factor(), tuple(problems), range_plan, config.converter
+        peaks,
+        plan.crest_factor(),
+        tuple(problems),
+        range_plan,
+        config.converter,
+        fade_in_s=picked_fade_in_s,
     )
 
 
@@ -270,17 +280,28 @@ def fade_in_for(
     leaves the table an offset from its orbit (dsp.fades), so a level near the stroke gets a
     longer one instead of a refusal. When none does, the longest (the refusal then names the
     orbit's own excess)."""
+    return fade_in_and_peaks(plan, acceleration, limits, given_s)[0]
+
+
+def fade_in_and_peaks(
+    plan: Plan, acceleration: np.ndarray, limits: Limits, given_s: float | None = None
+) -> tuple[float, PredictedPeaks]:
+    """`fade_in_for`'s fade-in (s) and the motion's peaks with it (`motion_peaks`, the default
+    fade-out): the peaks it judged the fade-in by, not computed again by its callers."""
     if given_s is not None:
-        return given_s
+        return given_s, motion_peaks(plan, acceleration, fade_in_s=given_s)
     lowest = float(np.min(plan.frequencies_hz))
     seconds = fade_in_seconds(lowest)
+    peaks = None
     for cycles in FADE_IN_STEPS:
         seconds = min(cycles / lowest, plan.period_s)
-        if not limit_problems(motion_peaks(plan, acceleration, fade_in_s=seconds), limits):
+        peaks = motion_peaks(plan, acceleration, fade_in_s=seconds)
+        if not limit_problems(peaks, limits):
             break
         if seconds >= plan.period_s:
             break
-    return seconds
+    assert peaks is not None  # FADE_IN_STEPS is not empty
+    return seconds, peaks
 
 
 def check_drive(
@@ -293,7 +314,7 @@ def check_drive(
     acceleration = np.asarray(response, complex) * np.asarray(drive_lines_v, complex)
     if acceleration.shape != (len(plan.bins),) or not np.all(np.isfinite(acceleration)):
         raise PreflightError("predicted motion: the drive or the response is not finite")
-    peaks = motion_peaks(plan, acceleration, fade_in_s=fade_in_for(plan, acceleration, limits))
+    _, peaks = fade_in_and_peaks(plan, acceleration, limits)  # the peaks it picked it by
     problems = limit_problems(peaks, limits)
     if problems:
         raise PreflightError(

@@ -36,7 +36,7 @@ from app.procedure.errors import (
 )
 from app.procedure.events import Event, Finished, InputRanges, Listener, State
 from app.procedure.identification import Identification
-from app.procedure.preflight import check_preflight
+from app.procedure.preflight import PreflightReport, check_preflight
 from app.procedure.ranging import run_resolution, with_resolution
 from app.procedure.record_run import RecordRun
 from app.procedure.request import RunIdentity
@@ -97,6 +97,7 @@ class Procedure:
         self.ctx = RunContext(stand, plan, settings, self.io, self.notes, self._emit, self._log)
         self.memory = StandMemory(response_store, stand, plan, settings, self._log)
         self._ranges_text = ""  # the preflight's input ranges, told once the run starts
+        self._preflight: PreflightReport | None = None  # computed once (`preflight_report`)
 
     # --- control (thread-safe) ------------------------------------------------------------
 
@@ -110,9 +111,17 @@ class Procedure:
 
     # --- the run ---------------------------------------------------------------------------
 
-    def preflight(self) -> None:
-        """The checks made before anything moves; PreflightError says what is refused."""
-        report = check_preflight(
+    def preflight_report(self) -> PreflightReport:
+        """The run's preflight (`check_preflight`), computed once per run: `run.prepare` checks
+        it before the run folder exists and `run()` uses the same report (issue 34 point 6:
+        each computation is a synthesis of the plan's motion and its fades, worker CPU that
+        competes with the window for the GIL)."""
+        if self._preflight is None:
+            self._preflight = self._check_preflight()
+        return self._preflight
+
+    def _check_preflight(self) -> PreflightReport:
+        return check_preflight(
             self.plan,
             self.stand.config,
             self.stand.chain,
@@ -127,11 +136,18 @@ class Procedure:
             ),
             fade_out_s=self.settings.fade_out_s,
         )
+
+    def preflight(self) -> None:
+        """The checks made before anything moves (`preflight_report`); PreflightError says
+        what is refused. Logged (run.log) and applied (input ranges, the LPM's fade-in) at
+        every call: the first may come before the run has its folder."""
+        report = self.preflight_report()
         report.raise_if_refused()
         self._log(report.summary())
         for text in report.resolution_warnings:  # the measured amplitude decides: logged only
             self._log(text)
         self.notes.ranges = report.ranges
+        self.notes.fade_in_s = report.fade_in_s
         self._ranges_text = report.ranges_text()
         if report.ranges is not None and self.settings.mode != Mode.STEPPED_SINE:
             self.io.set_ranges(report.ranges.run_ranges)  # stepped sine: per line
@@ -291,6 +307,10 @@ class Procedure:
         """config.json and stand.toml, before anything moves (RunNotRecordedError)."""
         if self.folder is None:
             return
+        from app.stand.open import read_environment
+
+        now = datetime.now(UTC).isoformat(timespec="seconds")
+        environment = read_environment(self.stand.config, now)  # the sensor's, at run start
         try:
             start = RunStart(
                 stand=self.stand.config.raw,
@@ -298,6 +318,7 @@ class Procedure:
                 plan=self.plan.to_dict(),
                 settings=self.settings.__dict__,
                 identity=self.identity.to_dict(),
+                extra={"environment": environment} if environment is not None else {},
             )
             self.folder.write_text(CONFIG_NAME, start.to_json())
             if self.stand.config.text:

@@ -15,6 +15,8 @@ stopping rule holds (periods, type A target, time bound). Units: V, m/s^2, s.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from app.procedure.acquisition import report_target_not_met, with_driven_hum
@@ -26,13 +28,18 @@ from app.procedure.events import EqualisationStep, Progress, State
 from app.procedure.preflight import check_drive, fade_in_for
 from app.procedure.ranging import run_resolution, with_resolution
 from app.procedure.stand_memory import StandMemory
-from app.procedure.stopping import Stop, StoppingRule
+from app.procedure.stopping import NO_PERIOD_LIMIT, Stop, StoppingRule
 from app.stand.response import StoredResponse
 from dsp.crestfactor import synthesize
 from dsp.fades import FADE_IN_CYCLES as FADE_IN_CYCLES  # re-exported for its callers
 from dsp.fades import fade_envelope, fade_in_samples
+from dsp.lpm_live import LiveRecord
 from dsp.lpm_record import RecordEstimate, record_estimate
-from dsp.spectral import MIN_PERIODS, period_spectrum
+from dsp.spectral import MIN_PERIODS, Estimate, period_spectrum
+from dsp.uncertainty import Budget
+
+# one period: reference, DUT, the drive as played, the drive as recorded (V)
+Period = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 
 
 class RecordRun:
@@ -43,8 +50,10 @@ class RecordRun:
         self.background = background
         self.memory = memory
         plan = ctx.plan
-        target = plan.amplitudes_ms2 * np.exp(1j * (plan.phases_rad - np.pi / 2))
-        fade_s = fade_in_for(plan, target, ctx.stand.config.limits, ctx.settings.fade_in_s)
+        fade_s = ctx.notes.fade_in_s  # as the run's preflight picked and checked it
+        if fade_s is None:  # no preflight made (a phase run on its own): picked here
+            target = plan.amplitudes_ms2 * np.exp(1j * (plan.phases_rad - np.pi / 2))
+            fade_s = fade_in_for(plan, target, ctx.stand.config.limits, ctx.settings.fade_in_s)
         self.fade = fade_in_samples(
             float(np.min(plan.frequencies_hz)), plan.sample_rate_hz, plan.period_samples, fade_s
         )
@@ -69,17 +78,20 @@ class RecordRun:
         io.drive = drive
         io.write(drive)
 
-    def _record(self, blocks: list[tuple[np.ndarray, np.ndarray, np.ndarray]]) -> RecordEstimate:
+    def _record(self, blocks: list[Period]) -> RecordEstimate:
         ref = np.array([b[0] for b in blocks])
         dut = np.array([b[1] for b in blocks])
         drive = np.array([b[2] for b in blocks])
         return record_estimate(ref, dut, self.ctx.plan, drive_blocks=drive)
 
-    def _read(self, state: State) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _read(self, state: State) -> Period:
+        """One period: reference, DUT, the drive as played and as recorded (V)."""
         io = self.ctx.io
         block = io.read(state)
         ref, dut = io.split_channels(block)
-        return ref, dut, io.played
+        index = io.channel_index
+        recorded = block[index["drive"]] if "drive" in index else io.played  # as the writer's
+        return ref, dut, io.played, recorded
 
     def _response(self, record: RecordEstimate) -> np.ndarray:
         """The stand's response per line, (m/s^2) per drive V (complex), from the record."""
@@ -235,9 +247,7 @@ class RecordRun:
                 return
             ctx.io.fade_out()
 
-    def acquire(
-        self, first: tuple[np.ndarray, np.ndarray, np.ndarray], record: RecordEstimate
-    ) -> None:
+    def acquire(self, first: Period, record: RecordEstimate) -> None:
         """Periods join the record (after `first`) until the stopping rule; results after each."""
         ctx, s, io = self.ctx, self.ctx.settings, self.ctx.io
         ctx.state(State.ACQUIRING, "one record: lpm")
@@ -268,31 +278,56 @@ class RecordRun:
         rule = StoppingRule(
             s.periods, s.target_type_a, s.max_acquisition_s, min_periods=MIN_PERIODS[s.estimator]
         )
-        period_s = plan.period_s
+        with LiveRecord(plan, target=s.target_type_a) as live:
+            live.add(*first)
+            self._acquire(rule, live, record.estimate, budget)
+
+    def _acquire(
+        self, rule: StoppingRule, live: LiveRecord, estimate: Estimate | None, budget: Budget
+    ) -> None:
+        """The acquisition loop: a period joins `live` (holding the first) until the rule
+        stops it. The rule asks for the type A of the whole record so far; a record over
+        dsp.lpm_record.WHOLE_RECORD_PERIODS is estimated at checkpoints only (dsp.lpm_live),
+        between them the type A is not known (the progress states the last one measured)."""
+        ctx, s, io = self.ctx, self.ctx.settings, self.ctx.io
+        period_s = ctx.plan.period_s
         started = io.excited_s - period_s  # the first period is acquired already
-        blocks = [first]
+        live.last = last_period(rule, period_s, io.excited_s - started)
+        last: tuple[int, float] = (1, math.inf)  # the last estimate: periods, worst type A
         while True:
-            count = len(blocks)
+            count = live.count
             if io.writer is not None:
                 io.writer.set_acquired_periods(count)
-            estimate = record.estimate
-            results = ctx.publish(estimate, budget)
             acquired_s = io.excited_s - started
-            worst_a = float(np.nanmax(estimate.relative_type_a))
+            if estimate is not None:
+                results = ctx.publish(estimate, budget)
+                worst_a = float(np.nanmax(estimate.relative_type_a))
+                last = (count, worst_a)
+                live.measured(worst_a)
+                shown, text = worst_a, f"record of {count} period(s), worst type A"
+                text += f" {100 * worst_a:.3f} %"
+                stop = rule.decide(count, worst_a, acquired_s, period_s)
+            else:  # between checkpoints: the type A at the pace measured, for the progress
+                shown = last[1] * math.sqrt(last[0] / count)
+                text = (
+                    f"record of {count} period(s), worst type A {100 * last[1]:.3f} % at "
+                    f"{last[0]} (next estimate at {live.checkpoint})"
+                )
+                stop = rule.decide(count, math.inf, acquired_s, period_s)
             ctx.emit(
                 Progress(
-                    rule.fraction(count, worst_a),
+                    rule.fraction(count, shown),
                     acquired_s,
-                    rule.remaining_s(count, period_s, acquired_s, worst_a),
-                    f"record of {count} period(s), worst type A {100 * worst_a:.3f} %",
+                    rule.remaining_s(count, period_s, acquired_s, shown),
+                    text,
                     until_target=s.target_type_a is not None,
                 )
             )
-            stop = rule.decide(count, worst_a, acquired_s, period_s)
             if stop is not None:
-                spectra = tuple(  # the record's periods averaged, each channel
-                    period_spectrum(np.mean([b[c] for b in blocks], axis=0)) for c in (0, 1)
-                )
+                if estimate is None:  # stopped off a checkpoint: the record's estimate now
+                    estimate = live.estimate().estimate
+                    results = ctx.publish(estimate, budget)
+                spectra = tuple(period_spectrum(x) for x in live.mean_periods())
                 budget, again = with_driven_hum(ctx, budget, (spectra[0], spectra[1]), estimate)
                 results = again or results
                 if stop is Stop.TARGET and s.target_type_a is not None:
@@ -300,5 +335,24 @@ class RecordRun:
                 elif stop is Stop.TIME_BOUND:
                     report_target_not_met(ctx, rule, results, estimate, acquired_s)
                 return
-            blocks.append(self._read(State.ACQUIRING))
-            record = self._record(blocks)
+            live.add(*self._read(State.ACQUIRING))
+            estimate = live.estimate().estimate if live.due else None
+
+
+def last_period(rule: StoppingRule, period_s: float, first_s: float) -> int | None:
+    """The period after which `rule` stops whatever the type A: its period limit, or the last
+    period within its time bound (`first_s` s of acquisition counted after the first period,
+    `period_s` s for each further one); None when neither bounds it. A bound that is a whole
+    number of periods is a tie the acquisition's own sums of seconds decide either way: the
+    earlier period is taken (a run that then goes on one more is estimated off its checkpoint,
+    dsp.lpm_live.LiveRecord.estimate, once)."""
+    last = rule.period_limit if rule.period_limit < NO_PERIOD_LIMIT else None
+    bound = rule.max_time_s
+    if bound is not None:
+        count = 1
+        while count < NO_PERIOD_LIMIT and not (first_s + count * period_s > bound):
+            count += 1
+        if count > 1 and math.isclose(first_s + (count - 1) * period_s, bound, rel_tol=1e-9):
+            count -= 1
+        last = count if last is None else min(last, count)
+    return last

@@ -203,6 +203,12 @@ def resolve_reference(
         note = (
             f"reference standard {name}: certificate {table.certificate_number}, due "
             f"{table.due_date}; its table from the records"
+            + (
+                ""
+                if table.dcc is None
+                else f", read from its DCC {table.dcc.unique_identifier} (SHA-256 "
+                f"{table.dcc.sha256})"
+            )
         )
         return ResolvedReference(table, (), (note,))
     what = f"reference standard {name} was due for calibration on {table.due_date}"

@@ -116,6 +116,11 @@ def with_reference(config: StandConfig, reference: ReferenceTable | None) -> Sta
         reference.sensitivity_mv_per_ms2,
         table_phases(reference),
         due_date=reference.due_date.isoformat(),
+        dcc=(
+            ("", "", "")
+            if reference.dcc is None
+            else (reference.dcc.unique_identifier, reference.dcc.laboratory, reference.dcc.sha256)
+        ),
     )
 
 

@@ -106,6 +106,19 @@ def check_options(options: RunOptions) -> None:
         raise RequestError(f"--profile {options.profile}: needs --corner (Hz)")
 
 
+def check_instruments_due(config: StandConfig, today: date) -> None:
+    """Refuse a run with a stand instrument ([[instrument]]: DAQ, amplifiers, environment
+    sensor) overdue for calibration today (PreflightError naming each and its due date)."""
+    from app.stand.instruments import overdue
+
+    late = overdue(config.instruments, today)
+    if late:
+        raise PreflightError(
+            f"instrument ({config.source}): {'; '.join(late)}; recalibrate it or correct its "
+            "calibration_due in the stand file's [[instrument]] entry"
+        )
+
+
 def records_in_use(options: RunOptions, lab: Any = None) -> bool:
     """Whether a run of `options` uses the records: the records already open (`lab`), else as
     asked (`options.records`), else a sensor named or a records database found (--db,
@@ -333,6 +346,7 @@ class RunService:
         options.reference_override); the DUT resolved; the phases of `unit_plan` when it is
         the plan of these lines (else optimised when the run starts)."""
         check_options(options)
+        check_instruments_due(self.config, today or date.today())
         records = records_in_use(options, lab)
         head = records_gate(options, lab)
         choice = self.choice(options, records=records, lab=lab, today=today, operator=operator)

@@ -28,6 +28,7 @@ Sections (units in the names):
     [[cmc]]       the laboratory's CMC per band (dsp.cmc: min_frequency_hz, max_frequency_hz,
                   magnitude_percent, phase_deg); without it no PASS, no certificate (issue 32)
     [simulation]  simulated stand only: which components it draws its deviations from
+    [[instrument]] role, model, serial, calibration_due, resource/driver (app.stand.instruments)
 
 With no file, the built-in simulated stand (`sim/stand.toml`) is used.
 """
@@ -48,6 +49,7 @@ from app.errors import Refusal
 from app.io.checks import MAX_TEXT_BYTES, InputFileError, check_input_file
 from app.io.vocabulary import Backend
 from app.stand.exciters import parse_exciters
+from app.stand.instruments import Instrument, InstrumentError, parse_instruments
 from app.stand.schema import SCHEMA
 from dsp.annex_a import implausible_components, missing_components
 from dsp.budget_terms import skew_phase_component
@@ -116,6 +118,11 @@ class ReferenceStandard:
     # the certificate's due date, ISO 8601); "" for the stand file (or the simulated stand)
     table_from: str = ""
     due_date: str = ""
+    # the reference DCC the records' table was read from (issue 35 point 4): its
+    # uniqueIdentifier, calibrating laboratory and SHA-256; "" when none
+    dcc_identifier: str = ""
+    dcc_laboratory: str = ""
+    dcc_sha256: str = ""
 
 
 @dataclass(frozen=True)
@@ -144,6 +151,7 @@ class StandConfig:
     # the +-ranges (V) the inputs offer, as the stand file states them (() : the device's own)
     input_ranges_v: tuple[float, ...] = ()
     converter: Converter = field(default_factory=Converter)
+    instruments: tuple[Instrument, ...] = ()  # [[instrument]]: DAQ, amplifiers, sensor
     raw: dict[str, Any] = field(default_factory=dict, repr=False)
     text: str = field(default="", repr=False)  # the stand file as read (copied into each run)
 
@@ -162,9 +170,11 @@ class StandConfig:
         *,
         due_date: str,
         table_from: str = "records",
+        dcc: tuple[str, str, str] = ("", "", ""),
     ) -> StandConfig:
         """This stand with its reference standard's certificate (number, dates ISO 8601) and
-        table (Hz, mV/(m/s^2), degrees) taken from `table_from` (the records). ConfigError
+        table (Hz, mV/(m/s^2), degrees) taken from `table_from` (the records), read from the
+        reference DCC `dcc` (uniqueIdentifier, laboratory, SHA-256; blank: none). ConfigError
         when the table is not a usable certificate table."""
         try:
             ReferenceChain(frequencies_hz, sensitivity_mv_per_ms2, phase_deg)
@@ -179,6 +189,9 @@ class StandConfig:
             phase_deg=tuple(phase_deg),
             table_from=table_from,
             due_date=due_date,
+            dcc_identifier=dcc[0],
+            dcc_laboratory=dcc[1],
+            dcc_sha256=dcc[2],
         )
         return replace(self, reference=reference)
 
@@ -442,6 +455,10 @@ def _parse(data: dict[str, Any], text: str, source: str) -> StandConfig:
         exciters = parse_exciters(data, simulated=backend == Backend.SIM)
     except ValueError as exc:
         raise ConfigError(f"{r.source}: {exc}") from None
+    try:
+        instruments = parse_instruments(data.get("instrument"))
+    except InstrumentError as exc:
+        raise ConfigError(f"{r.source}: {exc}") from None
     measuring = amps.get("measuring")
     power = amps.get("power")
     for key, value in (("measuring", measuring), ("power", power)):
@@ -468,6 +485,7 @@ def _parse(data: dict[str, Any], text: str, source: str) -> StandConfig:
         exciter_components=exciters,
         input_ranges_v=offered,
         converter=converter,
+        instruments=instruments,
         raw=data,
         text=text,
     )

@@ -175,3 +175,35 @@ def offered_ranges(config: StandConfig, daq: Daq) -> tuple[float, ...]:
                 f"device offers ({', '.join(f'{d:g}' for d in device)} V)"
             )
     return config.input_ranges_v
+
+
+def read_environment(config: StandConfig, now_utc: str) -> dict[str, object] | None:
+    """The ambient temperature (deg C) and relative humidity (%) read from the environment
+    sensor the stand file names ([[instrument]] with a resource), as config.json stores it
+    (app.certificate.complete.EnvironmentRecord); None when the stand names none or the
+    sensor cannot be read (logged: the certificate then asks for typed values)."""
+    from app.stand.instruments import environment_sensor
+    from hardware.errors import HardwareError
+
+    sensor = environment_sensor(config.instruments)
+    if sensor is None:
+        return None
+    from hardware.environment import Fluke1620A
+
+    manager = None
+    if config.backend == "sim":  # the simulated stand's sensor, sim/environment.yaml
+        from sim.visa import SIM_ENVIRONMENT_DEFINITIONS, simulated_resource_manager
+
+        manager = simulated_resource_manager(definitions_name=SIM_ENVIRONMENT_DEFINITIONS)
+    try:
+        with Fluke1620A(sensor.resource, manager) as device:
+            reading = device.read(1)
+    except HardwareError as exc:
+        log.warning("environment sensor %s not read: %s", sensor.label, exc)
+        return None
+    return {
+        "temperature_c": round(reading.temperature_c, 3),
+        "humidity_percent": round(reading.humidity_percent, 2),
+        "sensor": sensor.label,
+        "read_utc": now_utc,
+    }

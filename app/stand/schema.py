@@ -24,6 +24,7 @@ SCHEMA: dict[str, frozenset[str]] = {
             "plan",
             "cmc",
             "exciters",
+            "instrument",  # [[instrument]]: checked by app.stand.instruments
         }
     ),
     "plan": frozenset(  # issue 26: the stand's own plan (app.procedure.planning)
@@ -74,6 +75,7 @@ SCHEMA: dict[str, frozenset[str]] = {
             "dut_serial",
             "dut_type",
             "temperature_c",
+            "humidity_percent",
             "mounting",
             "certificate_number",
             "issue_date",

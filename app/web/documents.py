@@ -40,8 +40,13 @@ NOT_SIGNED_BY_POLICY = (
 def _policy(line: CheckLine, trust: Path | None) -> CheckLine:
     """A lab that does not sign (no CA given to the web view) sees its unsigned certificates
     as "not signed, by the laboratory's policy", not as a failure; with a CA an unsigned PDF
-    stays a failure."""
-    unsigned = not line.ok and line.name == "signature" and line.detail == UNSIGNED_DETAIL
+    stays a failure. So does the DCC's own signature (app.certificate.dcc_sign)."""
+    from app.certificate import dcc_sign
+
+    unsigned = not line.ok and (
+        (line.name == "signature" and line.detail == UNSIGNED_DETAIL)
+        or (line.name == dcc_sign.CHECK and line.detail == dcc_sign.UNSIGNED_DETAIL)
+    )
     if trust is None and unsigned:
         return CheckLine(line.name, True, NOT_SIGNED_BY_POLICY, shown="not signed")
     return line

@@ -216,7 +216,7 @@ class Store:
             select(Certificate, Run, Sensor, Customer, SensorModel)
             .join(Run, Certificate.run_id == Run.id)
             .join(Sensor, Certificate.sensor_id == Sensor.id)
-            .join(Customer, Sensor.owner_id == Customer.id)
+            .join(Customer, Certificate.customer_id == Customer.id)  # issued to, not the owner now
             .join(SensorModel, Sensor.model_id == SensorModel.id)
             .where(*where)
             .order_by(Certificate.issued_utc.desc(), Certificate.id.desc())
@@ -367,15 +367,17 @@ class Store:
             )
 
     def customer_certificates(self, customer_id: int) -> list[CertificateRow]:
-        """The certificates of customer `customer_id`'s sensors, newest first."""
+        """The certificates issued to customer `customer_id` (Certificate.customer_id: of
+        sensors it owned then, whoever owns them now), newest first."""
         with self._session() as s:
-            return self._rows(s, Sensor.owner_id == customer_id)
+            return self._rows(s, Certificate.customer_id == customer_id)
 
     def customer_certificate(self, customer_id: int, number: str) -> CertificateRow | None:
-        """Certificate `number` when it is of one of customer `customer_id`'s sensors, else
-        None (the same None as for a number that does not exist)."""
+        """Certificate `number` when it was issued to customer `customer_id`, else None (the
+        same None as for a number that does not exist; a sensor's later owner gets None too)."""
         with self._session() as s:
-            rows = self._rows(s, Certificate.number == number, Sensor.owner_id == customer_id)
+            where = (Certificate.number == number, Certificate.customer_id == customer_id)
+            rows = self._rows(s, *where)
         return rows[0] if rows else None
 
     def customer_sensors(self, customer_id: int, serial: str | None = None) -> list[SensorDue]:
@@ -405,9 +407,10 @@ class Store:
         return sorted(rows, key=lambda r: (r.due is not None, r.due or date.min, r.serial))
 
     def customer_sensor_certificates(self, customer_id: int, serial: str) -> list[CertificateRow]:
-        """The certificates of sensor `serial` when customer `customer_id` owns it."""
+        """The certificates of sensor `serial` issued to customer `customer_id` (none of a
+        previous owner's; the portal shows the sensor's page only to its owner now)."""
         with self._session() as s:
-            return self._rows(s, Sensor.serial == serial, Sensor.owner_id == customer_id)
+            return self._rows(s, Sensor.serial == serial, Certificate.customer_id == customer_id)
 
 
 def _escape_like(text: str) -> str:

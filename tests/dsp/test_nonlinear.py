@@ -139,6 +139,24 @@ def test_detection_bins_are_every_free_bin():
     assert free.tolist() == [1, 3, 4, 6, 8, 9, 10]
 
 
+def test_detection_bins_as_a_mask_are_the_bins_the_loop_over_every_bin_gave():
+    """free_bins is a boolean mask (issue 34 point 6: the list comprehension over a record's
+    bins held the run worker in Python); the same bins as the set rule it replaced, with lines
+    at the ends, repeated, beyond the record, and mains bins given as a generator."""
+
+    def by_loop(size: int, lines, excluded) -> list[int]:
+        blocked = {int(b) for b in lines} | {int(b) for b in excluded} | {0, size - 1}
+        return [b for b in range(1, size - 1) if b not in blocked]
+
+    rng = np.random.default_rng(5)
+    for size in (0, 1, 2, 3, 17, 51_201):
+        lines = rng.integers(-3, size + 4, 9) if size else np.array([], dtype=np.int64)
+        mains = [int(b) for b in rng.integers(0, size + 2, 4)] + [size - 1, 1]
+        free = nonlinear.free_bins(size, lines, excluded=(b for b in mains))
+        assert free.dtype == np.int64
+        assert free.tolist() == by_loop(size, lines, mains), size
+
+
 def test_the_simulated_mems_cubic_dut_states_its_fraction():
     dut = DUT_CATALOGUE["mems-cubic"]
     assert dut.cubic_fraction(MEMS_CUBIC_RMS_MS2) == pytest.approx(MEMS_CUBIC_FRACTION)

@@ -28,5 +28,9 @@ def test_the_gui_benchmark_runs_to_its_end_in_smoke_mode(qtbot, capsys, monkeypa
     assert "longest main-thread gap" in out and "p99 main-thread gap" in out
     assert "load average (1, 5, 15 min) at start" in out and "Qt platform: offscreen" in out
     assert "targets (>= 30 updates/s, longest stall < 50 ms): " in out
+    # the longest stall's phase of the run and the worker's CPU in it (issue 34 point 6)
+    assert "longest live stall: " in out and "in the run's phase '" in out
+    assert "the run worker's CPU within it" in out and "longest stall per phase: " in out
+    assert "GIL switch interval during the run: 0.5 ms" in out
     assert "run ended: aborted (stopped by the operator)" in out
     assert "Run tab: ABORTED" in out

@@ -183,6 +183,7 @@ def certificate_steps(
         seen.append({k: e.text() for k, e in dialog.edits.items()})
         seen[-1]["prepared_by"] = dialog.prepared_by()
         seen[-1]["temperature"] = dialog.temperature.text()
+        seen[-1]["mounting_from"] = dialog.edits["mounting"].toolTip()
         dialog.edits["authorised_by"].setText(same_person)
         dialog.edits["mounting"].setText("stud, 2 N m")
         dialog.temperature.setText("23.1")
@@ -255,7 +256,14 @@ def test_a_whole_day_three_sensors_two_customers_register_and_an_amendment(windo
         # the dialog asked afresh: only the records' customer and sensor, the technician
         assert seen[n]["customer"] == customer and seen[n]["dut_serial"] == serial
         assert seen[n]["prepared_by"] == "A. Tech"
-        assert seen[n]["authorised_by"] == seen[n]["mounting"] == seen[n]["temperature"] == ""
+        assert seen[n]["authorised_by"] == seen[n]["temperature"] == ""
+        # issue 35: the mounting typed for the first sensor of a model is offered to the next
+        # of it (PZ-0003 after PZ-0001, not V-0002 of another model), saying from where (the
+        # model: PZ-0001's certificate followed the save of template "after run 1", so its
+        # template "quick A" holds none of its own)
+        offered = serial == "PZ-0003"
+        assert seen[n]["mounting"] == ("stud, 2 N m" if offered else "")
+        assert seen[n]["mounting_from"] == ("from model SimCo PZ-10" if offered else "")
         assert seen[n]["notes"] == ""
         assert window.last_certificate is not None
         assert (folders[serial] / "certificate.pdf").is_file()

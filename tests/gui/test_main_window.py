@@ -137,7 +137,11 @@ def test_from_an_empty_window_to_a_certificate(window, qtbot, monkeypatch):
     path = window.issue_certificate(
         folder,
         CertificateInfo(
-            customer="ACME Ltd", authorised_by="J. Smith", temperature_c=23.0, mounting="stud"
+            customer="ACME Ltd",
+            authorised_by="J. Smith",
+            temperature_c=23.0,
+            mounting="stud",
+            customer_address="1 Test Street, 00-001 Testtown",
         ),
     )
     assert path is not None and path.exists() and path.name == "certificate.pdf"

@@ -156,6 +156,20 @@ def test_a_clean_run_shows_pass_large_and_in_the_runs_list_and_the_certificate_i
     assert seen["customer"] == "ACME Ltd" and seen["customer_address"] == "1 Main Street"
     assert seen["dut_model"] == "Brüel & Kjær 4533-B" and seen["dut_serial"] == "SN-7"
     assert seen["authorised_by"] == "" and seen["mounting"] == ""  # asked afresh
+    # issue 35: the mounting remembered for the sensor's model is offered, saying from where
+    from app.certificate.remembered import RememberedConditions
+
+    RememberedConditions().remember("Brüel & Kjær 4533-B", "stud M3, 1 N m")
+    offered = {}
+
+    def offered_exec(dialog):
+        offered["mounting"] = dialog.edits["mounting"].text()
+        offered["tip"] = dialog.edits["mounting"].toolTip()
+        return QDialog.DialogCode.Rejected
+
+    monkeypatch.setattr(certificate_dialog.CertificateDialog, "exec", offered_exec)
+    window.certificate_action()
+    assert offered == {"mounting": "stud M3, 1 N m", "tip": "from model Brüel & Kjær 4533-B"}
 
 
 def test_esc_aborts_a_run_through_the_menu_action_to_0_v(qtbot, tmp_path):

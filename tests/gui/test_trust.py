@@ -92,7 +92,13 @@ def test_an_aborted_run_opened_in_the_runs_tab_is_never_certified_nor_another(
     assert window.runs_tab.state_of(good_folder.name) == "complete"
     assert window.runs_tab.state_of(bad_folder.name) == "aborted"
     answers = Answers(
-        monkeypatch, {"customer": "ACME Ltd", "authorised_by": "J. Smith", "mounting": "stud"}
+        monkeypatch,
+        {
+            "customer": "ACME Ltd",
+            "customer_address": "1 Test Street",
+            "authorised_by": "J. Smith",
+            "mounting": "stud",
+        },
     )
     # the complete run was shown last; now the technician opens the aborted one
     row = next(
@@ -128,6 +134,7 @@ def test_the_certificate_dialog_starts_empty_for_every_certificate(window, qtbot
         monkeypatch,
         {
             "customer": "First Customer",
+            "customer_address": "1 First Street",
             "authorised_by": "J. Smith",
             "mounting": "stud",
             "dut_model": "Model A",

@@ -285,6 +285,8 @@ def test_the_table_covers_every_point_7_and_8_item_of_issue_12():
 CERTIFICATE_OK = [
     "--customer",
     "ACME Ltd",
+    "--customer-address",
+    "1 Test Street, 00-001 Testtown",
     "--authorised-by",
     "J. Smith",
     "--temperature",

@@ -13,7 +13,13 @@ from sqlalchemy import select, text
 from sqlalchemy.exc import DBAPIError, OperationalError
 
 from app.certificate.qr import QrError, check_verify_url, qr_png, verification_code, verify_address
-from app.records.db.engine import DatabaseError, make_engine, resolve_url, upgrade
+from app.records.db.engine import (
+    SCHEMA_HEAD,
+    DatabaseError,
+    make_engine,
+    resolve_url,
+    upgrade,
+)
 from app.records.db.lab import RecordsError
 from app.records.db.models import AuditEntry, Certificate, User
 from app.records.run_folder import sha256_of
@@ -112,7 +118,9 @@ def test_the_web_view_refuses_a_missing_or_old_database(tmp_path: Path) -> None:
     with pytest.raises(DatabaseError, match="no records database"):
         open_read_only(f"sqlite:///{tmp_path / 'none.sqlite'}")
     assert not (tmp_path / "none.sqlite").exists()  # not created either
-    with pytest.raises(DatabaseError, match="schema revision 0005, this program needs 0014"):
+    with pytest.raises(
+        DatabaseError, match=f"schema revision 0005, this program needs {SCHEMA_HEAD}"
+    ):
         open_read_only(_migrated(tmp_path, "0005"))
 
 

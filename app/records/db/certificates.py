@@ -119,6 +119,7 @@ class CertificateRegister(SensorRecords):
         as_found_run_id: str | None = None,
         produce: Callable[[str], IssuedFiles | None] | None = None,
         taken: Callable[[str], bool] | None = None,
+        customer_id: int | None = None,
     ) -> Certificate:
         """Enter a certificate for a complete, indexed run of a known sensor in the register.
         Its number is the next in the lab's pattern, allocated in the same transaction (no gap,
@@ -131,7 +132,9 @@ class CertificateRegister(SensorRecords):
         entry without its certificate). `taken(number)`: a number some file on disk already
         carries (a crashed issue's leftover); it is skipped, never given twice. One issued
         certificate per run: another is refused (amend it: `replaces`); an amendment must
-        replace a certificate of the same sensor."""
+        replace a certificate of the same sensor. The certificate is issued to the sensor's
+        owner now (its `customer_id`, never changed); `customer_id`, when given, is the owner
+        the caller's certificate names: refused if the sensor has another owner by now."""
         prepared_by, approved_by = self.check_signatories(prepared_by, approved_by)
         when = when or datetime.now(UTC)
         pattern = self.setting(SETTING_PATTERN, DEFAULT_PATTERN)
@@ -211,6 +214,7 @@ class CertificateRegister(SensorRecords):
                 approved_by=approved_by,
                 issued_utc=when,
                 as_found_run=as_found,
+                customer_id=self._issued_to(s, run.sensor_id, customer_id),
             )
             s.add(certificate)
             if produce is not None:
@@ -221,6 +225,22 @@ class CertificateRegister(SensorRecords):
                     certificate.sha256 = files.sha256
                     certificate.dcc_sha256 = files.dcc_sha256
         return certificate
+
+    @staticmethod
+    def _issued_to(s: Session, sensor_id: int, named: int | None) -> int:
+        """The customer a certificate of sensor `sensor_id` is issued to: its owner, read
+        locked in the issuing transaction; refused when it is not `named` (the customer the
+        certificate's PDF names, read before), i.e. the sensor changed owner meanwhile."""
+        # FOR SHARE (PostgreSQL): a move (UPDATE) waits for the issue; other issues and runs
+        # of the sensor do not
+        sensor = s.scalar(select(Sensor).where(Sensor.id == sensor_id).with_for_update(read=True))
+        assert sensor is not None  # a foreign key of the run
+        if named is not None and sensor.owner_id != named:
+            raise RecordsError(
+                f"customer: sensor {sensor.serial} changed owner while its certificate was "
+                "issued; issue it again (the certificate names its owner)"
+            )
+        return sensor.owner_id
 
     @staticmethod
     def _ensure_counter(s: Session, prefix: str) -> None:
@@ -274,7 +294,8 @@ class CertificateRegister(SensorRecords):
             )
 
     def register(self) -> list[Certificate]:
-        """Every certificate in the register, in issue order, with run and sensor."""
+        """Every certificate in the register, in issue order, with run, sensor and the
+        customer it was issued to."""
         with self.session() as s:
             return list(
                 s.scalars(
@@ -282,6 +303,7 @@ class CertificateRegister(SensorRecords):
                     .options(
                         joinedload(Certificate.run),
                         joinedload(Certificate.sensor).joinedload(Sensor.owner),
+                        joinedload(Certificate.customer),
                         joinedload(Certificate.as_found_run),
                     )
                     .order_by(Certificate.issued_utc, Certificate.id)

@@ -50,6 +50,25 @@ def sqlite_rules(certificate_columns: list[str]) -> list[str]:
     ]
 
 
+CUSTOMER_MESSAGE = "certificates: a certificate is issued to a customer"
+SQLITE_CERTIFICATE_RULES = (
+    "records_rule_certificate_final",
+    "records_rule_certificate_frozen",
+    "records_rule_certificate_files",
+    "records_rule_certificate_delete",
+)
+
+
+def sqlite_customer_rule() -> str:
+    """SQLite's stand-in for the NOT NULL of certificates.customer_id (migration 0015: a
+    column added by ALTER TABLE cannot be NOT NULL there): a certificate issued to nobody is
+    refused."""
+    return (
+        "CREATE TRIGGER records_rule_certificate_customer BEFORE INSERT ON certificates "
+        f"WHEN NEW.customer_id IS NULL BEGIN SELECT RAISE(ABORT, '{CUSTOMER_MESSAGE}'); END"
+    )
+
+
 _PG_CERTIFICATES = f"""
 CREATE FUNCTION records_rule_certificates() RETURNS trigger AS $$
 DECLARE

@@ -150,6 +150,25 @@ class ReferencePoint(Base):
     reference: Mapped[ReferenceStandard] = relationship(back_populates="points")
 
 
+class ReferenceDccFile(Base):
+    """A reference standard's DCC as read in (`refs add --dcc`): its identity, the signature
+    as verified, the SHA-256 and the file itself (base64 of its bytes); the one `in_force` is
+    the reference's current calibration (a recalibration takes it out of force, migration
+    0013)."""
+
+    __tablename__ = "reference_dccs"
+    id: Mapped[int] = mapped_column(primary_key=True)
+    reference_id: Mapped[int] = mapped_column(ForeignKey("reference_standards.id"), index=True)
+    unique_identifier: Mapped[str] = mapped_column(String(200))
+    laboratory: Mapped[str] = mapped_column(String(300))
+    sha256: Mapped[str] = mapped_column(String(64))
+    signature: Mapped[str] = mapped_column(String(500))
+    file_name: Mapped[str] = mapped_column(String(255))
+    content_base64: Mapped[str] = mapped_column(Text)
+    added_utc: Mapped[datetime] = mapped_column(DateTime(timezone=True))
+    in_force: Mapped[bool] = mapped_column(Boolean, default=True)
+
+
 class Stand(Base):
     """A calibration stand, known by the SHA-256 of its stand file."""
 
@@ -221,9 +240,13 @@ class Certificate(Base):
     file: Mapped[str | None] = mapped_column(Text, nullable=True)
     sha256: Mapped[str | None] = mapped_column(String(64), nullable=True)
     dcc_sha256: Mapped[str | None] = mapped_column(String(64), nullable=True)
+    # the customer it is issued to (migration 0015): the sensor's owner when it was issued,
+    # the customer its PDF names; never changed (rows issued before 0015: the owner at upgrade)
+    customer_id: Mapped[int] = mapped_column(ForeignKey("customers.id"))
     run: Mapped[Run] = relationship(foreign_keys=[run_id])
     as_found_run: Mapped[Run | None] = relationship(foreign_keys=[as_found_run_id])
     sensor: Mapped[Sensor] = relationship()
+    customer: Mapped[Customer] = relationship()
 
 
 class AuditEntry(Base):

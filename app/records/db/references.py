@@ -7,10 +7,13 @@ standards due for calibration.
 
 from __future__ import annotations
 
+import base64
+import hashlib
 import json
 from collections.abc import Sequence
 from dataclasses import dataclass
 from datetime import UTC, date, datetime, timedelta
+from typing import TYPE_CHECKING
 
 from sqlalchemy import or_, select
 from sqlalchemy.orm import joinedload
@@ -18,12 +21,43 @@ from sqlalchemy.orm import joinedload
 from app.records.db.models import (
     AuditEntry,
     Customer,
+    ReferenceDccFile,
     ReferencePoint,
     ReferenceStandard,
     Sensor,
 )
 from app.records.db.store import RecordsError, Store, number_field, text_field
 from app.records.run_record import Override
+
+if TYPE_CHECKING:
+    from sqlalchemy.orm import Session
+
+    from app.io.reference_dcc import ReferenceDcc
+
+
+@dataclass(frozen=True)
+class DccIdentity:
+    """The reference standard's DCC in force: its uniqueIdentifier, calibrating laboratory,
+    SHA-256 (hex) and its signature as verified when it was read in."""
+
+    unique_identifier: str
+    laboratory: str
+    sha256: str
+    signature: str = ""
+
+    @classmethod
+    def of(cls, row: ReferenceDccFile) -> DccIdentity:
+        return cls(row.unique_identifier, row.laboratory, row.sha256, row.signature)
+
+
+@dataclass(frozen=True)
+class StoredDcc:
+    """A reference DCC as kept: its identity, file name and bytes (SHA-256 checked)."""
+
+    identity: DccIdentity
+    file_name: str
+    content: bytes
+    added_utc: datetime
 
 
 @dataclass(frozen=True)
@@ -42,10 +76,11 @@ class ReferenceTable:
     sensitivity_mv_per_ms2: tuple[float, ...]
     relative_expanded_uncertainty: tuple[float, ...]
     phase_deg: tuple[float | None, ...]
+    dcc: DccIdentity | None = None  # the DCC in force, when the table was read from one
 
     @classmethod
-    def of(cls, ref: ReferenceStandard) -> ReferenceTable:
-        """The table of a reference standard read with its points."""
+    def of(cls, ref: ReferenceStandard, dcc: DccIdentity | None = None) -> ReferenceTable:
+        """The table of a reference standard read with its points (and its DCC in force)."""
         points = sorted(ref.points, key=lambda p: p.frequency_hz)
         return cls(
             identifier=ref.identifier,
@@ -58,6 +93,7 @@ class ReferenceTable:
             sensitivity_mv_per_ms2=tuple(p.sensitivity_mv_per_ms2 for p in points),
             relative_expanded_uncertainty=tuple(p.relative_expanded_uncertainty for p in points),
             phase_deg=tuple(p.phase_deg for p in points),
+            dcc=dcc,
         )
 
 
@@ -80,6 +116,25 @@ def _points(table: Sequence[tuple[float, float, float, float | None]]) -> list[R
             )
         )
     return points
+
+
+def _keep_dcc(s: Session, ref: ReferenceStandard, dcc: ReferenceDcc) -> None:
+    """Keep `dcc` (the file, its identity, SHA-256 and signature) as `ref`'s DCC in force."""
+    s.add(
+        ReferenceDccFile(
+            reference_id=ref.id,
+            unique_identifier=text_field(
+                dcc.unique_identifier, "DCC uniqueIdentifier", max_len=200
+            ),
+            laboratory=text_field(dcc.laboratory, "DCC calibration laboratory", max_len=300),
+            sha256=dcc.sha256,
+            signature=dcc.signature.line()[:500],
+            file_name=(dcc.file_name or "reference-dcc.xml")[:255],
+            content_base64=base64.b64encode(dcc.content).decode("ascii"),
+            added_utc=datetime.now(UTC),
+            in_force=True,
+        )
+    )
 
 
 @dataclass(frozen=True)
@@ -106,10 +161,12 @@ class ReferenceRecords(Store):
         calibration_date: date,
         due_date: date,
         table: Sequence[tuple[float, float, float, float | None]],
+        dcc: ReferenceDcc | None = None,
     ) -> ReferenceStandard:
         """A reference standard with its calibration table: rows of (frequency Hz,
         sensitivity mV/(m/s^2), relative expanded uncertainty as a fraction (0.005 is 0.5 %),
-        phase deg or None; a run refuses a table with a phase on some rows only)."""
+        phase deg or None; a run refuses a table with a phase on some rows only). `dcc`: the
+        DCC the table was read from (app.io.reference_dcc), kept with it and in force."""
         identifier = text_field(identifier, "reference id", max_len=100)
         if due_date <= calibration_date:
             raise RecordsError(
@@ -131,6 +188,9 @@ class ReferenceRecords(Store):
             ):
                 raise RecordsError(f"reference id: {identifier!r} already exists")
             s.add(row)
+            if dcc is not None:
+                s.flush()
+                _keep_dcc(s, row, dcc)
         return row
 
     def update_reference(
@@ -143,10 +203,12 @@ class ReferenceRecords(Store):
         calibration_date: date,
         due_date: date,
         table: Sequence[tuple[float, float, float, float | None]] | None = None,
+        dcc: ReferenceDcc | None = None,
     ) -> ReferenceStandard:
         """Change reference standard `identifier` (a recalibration: its certificate, dates and,
         unless None, its whole calibration table, in `add_reference`'s units), checked as
-        `add_reference` checks them; the old values stay in the audit trail."""
+        `add_reference` checks them; the old values stay in the audit trail. A new table takes
+        the DCC in force out of force; `dcc`: the new table's DCC (then in force)."""
         if due_date <= calibration_date:
             raise RecordsError(
                 f"due date: {due_date} is not after the calibration date {calibration_date}"
@@ -173,7 +235,37 @@ class ReferenceRecords(Store):
                     s.delete(old)
                 s.flush()
                 row.points = points
+                for kept in s.scalars(
+                    select(ReferenceDccFile).where(
+                        ReferenceDccFile.reference_id == row.id, ReferenceDccFile.in_force
+                    )
+                ):
+                    kept.in_force = False
+                if dcc is not None:
+                    s.flush()
+                    _keep_dcc(s, row, dcc)
         return row
+
+    def reference_dcc(self, identifier: str) -> StoredDcc | None:
+        """The DCC in force of reference standard `identifier` with its bytes, None when its
+        table was not read from one; RecordsError when the bytes kept no longer have the
+        SHA-256 recorded."""
+        with self.session() as s:
+            row = s.scalar(
+                select(ReferenceDccFile)
+                .join(ReferenceStandard, ReferenceDccFile.reference_id == ReferenceStandard.id)
+                .where(
+                    ReferenceStandard.identifier == identifier.strip(), ReferenceDccFile.in_force
+                )
+            )
+            if row is None:
+                return None
+            content = base64.b64decode(row.content_base64)
+            if hashlib.sha256(content).hexdigest() != row.sha256:
+                raise RecordsError(
+                    f"reference {identifier}: its DCC kept no longer has the SHA-256 recorded"
+                )
+            return StoredDcc(DccIdentity.of(row), row.file_name, content, row.added_utc)
 
     def references(self) -> list[ReferenceStandard]:
         """Every reference standard with its table, by identifier."""
@@ -223,7 +315,14 @@ class ReferenceRecords(Store):
                         f"by its id in the stand file's [reference] table"
                     )
                 ref = found[0] if found else None
-            return None if ref is None else ReferenceTable.of(ref)
+            if ref is None:
+                return None
+            dcc = s.scalar(
+                select(ReferenceDccFile).where(
+                    ReferenceDccFile.reference_id == ref.id, ReferenceDccFile.in_force
+                )
+            )
+            return ReferenceTable.of(ref, None if dcc is None else DccIdentity.of(dcc))
 
     def record_override(self, override: Override, row_key: str) -> None:
         """Enter `override` in the audit trail (action "override", table reference_standards,

@@ -212,6 +212,20 @@ class SensorRecords(Store):
             row.name, row.address = new_name, address.strip()
         return row
 
+    def move_sensor(self, serial: str, *, owner: str) -> Sensor:
+        """Give sensor `serial` to customer `owner` (sold, or moved in the records; audited and
+        chained). Its certificates stay the customer's they were issued to (Certificate.
+        customer_id); its due date is the new owner's. Unknown sensor or customer: refused."""
+        with self.session() as s:
+            sensor = s.scalar(select(Sensor).where(Sensor.serial == serial.strip()))
+            if sensor is None:
+                raise RecordsError(f"serial: no sensor {serial!r}")
+            customer = s.scalar(select(Customer).where(Customer.name == owner.strip()))
+            if customer is None:
+                raise RecordsError(f"owner: no customer named {owner!r}")
+            sensor.owner = customer
+        return sensor
+
     def update_model(
         self,
         name: str,

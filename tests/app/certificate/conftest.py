@@ -77,7 +77,7 @@ def lab(tmp_path_factory: pytest.TempPathFactory) -> Lab:
     url = f"sqlite:///{base / 'records.sqlite'}"
     today = datetime.now(UTC).date()
     _cli("db", "upgrade", "--db", url)
-    _cli("customers", "add", CUSTOMER, "--db", url)
+    _cli("customers", "add", CUSTOMER, "--address", "1 Test Street, 00-001 Testtown", "--db", url)
     _cli("models", "add", "PCB", "352C33", "--nominal", "100", "--unit", "mV/g",
          "--tolerance", "5", "--fmin", "1", "--fmax", "10000", "--db", url)  # fmt: skip
     _cli("sensors", "add", SENSOR, "--model", "352C33", "--owner", CUSTOMER, "--db", url)

@@ -41,7 +41,7 @@ def certified(tmp_path_factory: pytest.TempPathFactory, pki: Pki) -> Certified:
     url = f"sqlite:///{base / 'records.sqlite'}"
     today = datetime.now(UTC).date()
     _cli("db", "upgrade", "--db", url)
-    _cli("customers", "add", "ACME Ltd", "--db", url)
+    _cli("customers", "add", "ACME Ltd", "--address", "1 Test Street", "--db", url)
     _cli("models", "add", "PCB", "352C33", "--nominal", "100", "--unit", "mV/g",
          "--tolerance", "5", "--fmin", "1", "--fmax", "10000", "--db", url)  # fmt: skip
     _cli("sensors", "add", "SN-7", "--model", "352C33", "--owner", "ACME Ltd", "--db", url)

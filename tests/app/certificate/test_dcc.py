@@ -18,6 +18,7 @@ from app.cli import main
 NS = {"dcc": dcc.DCC_NS, "si": dcc.SI_NS}
 INFO = CertificateInfo(
     customer="Jürgen Weiß GmbH",
+    customer_address="1 Test Street, 00-001 Testtown",
     authorised_by="J. Smith",
     temperature_c=23.0,
     mounting="stud, 2 N m",
@@ -171,7 +172,11 @@ def test_reftypes_indentation_address_and_the_marked_reference_result(
 
 
 def test_no_address_is_said_so_not_filled_with_the_name(run_folder: Path, tmp_path: Path) -> None:
-    issue(run_folder, INFO, tmp_path / "cert.pdf")
+    # issue 35: no address only with the reason, which is stated
+    info = CertificateInfo(
+        **{**INFO.__dict__, "customer_address": "", "address_not_stated": "walk-in customer"}
+    )
+    issue(run_folder, info, tmp_path / "cert.pdf")
     root = ET.fromstring((tmp_path / "cert.xml").read_bytes())
     address = root.findtext(".//dcc:customer/dcc:location/dcc:further/dcc:content", namespaces=NS)
-    assert address == "address not stated" and address != INFO.customer
+    assert address == "Address not stated: walk-in customer" and address != INFO.customer

@@ -15,6 +15,7 @@ import pytest
 
 os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 
+from app.certificate import dcc_sign
 from app.cli import main
 from tests.app.certificate.conftest import SENSOR, Lab, Pki, copy_run
 
@@ -23,6 +24,7 @@ pytestmark = pytest.mark.integration
 ITEMS = ("--authorised-by", "J. Smith", "--prepared-by", "A. Tech", "--temperature", "23",
          "--mounting", "stud, 2 N m")  # fmt: skip
 UNSIGNED = "signature: the PDF is not signed: nothing proves who issued it"
+UNSIGNED_DCC = f"{dcc_sign.CHECK}: {dcc_sign.UNSIGNED_DETAIL}"  # its own signature (issue 35)
 
 
 def verify_lines(capsys: pytest.CaptureFixture[str], pdf: Path, *argv: str | Path) -> list[str]:
@@ -35,13 +37,13 @@ def verify_lines(capsys: pytest.CaptureFixture[str], pdf: Path, *argv: str | Pat
 
 
 def assert_verified(lines: list[str], signed: bool) -> None:
-    """Signed: every check passed. Unsigned: every check passed but the signature's, which
-    says only that the PDF is not signed."""
+    """Signed: every check passed. Unsigned: every check passed but the signatures', the
+    PDF's and the DCC's own (issue 35), which say only that they are not signed."""
     failed = [line for line in lines[:-1] if not line.startswith("ok   ")]
     if signed:
         assert not failed and lines[-1] == "certificate verified", lines
     else:
-        assert failed == [f"FAIL {UNSIGNED}"], lines
+        assert failed == [f"FAIL {UNSIGNED}", f"FAIL {UNSIGNED_DCC}"], lines
         assert lines[-1] == f"certificate NOT verified: {UNSIGNED}"
     names = {line[5:].partition(":")[0] for line in lines[:-1]}
     for check in ("DCC numbers printed in the PDF", "run seal recomputed and named by the "
@@ -114,11 +116,13 @@ def assert_web_verified(lab: Lab, number: str, signed: bool, trust: Path | None)
     if signed:
         assert verified and not failed, rows
     elif trust is not None:
-        assert not verified and failed == [f"FAIL {UNSIGNED}"], rows
-    else:
-        policy = [r for r in rows if r.startswith("not signed signature")]
-        assert verified and not failed and len(policy) == 1, rows
-        assert "not signed, by the laboratory's policy" in policy[0], rows
+        assert not verified and failed == [f"FAIL {UNSIGNED}", f"FAIL {UNSIGNED_DCC}"], rows
+    else:  # the PDF's signature and the DCC's (issue 35), each "not signed" by policy
+        policy = [r for r in rows if r.startswith("not signed ")]
+        assert verified and not failed and len(policy) == 2, rows
+        assert policy[0].startswith("not signed signature"), rows
+        assert policy[1].startswith(f"not signed {dcc_sign.CHECK}"), rows
+        assert all("not signed, by the laboratory's policy" in p for p in policy), rows
 
 
 def _number(out: str) -> str:
@@ -129,7 +133,15 @@ def test_the_cli_without_records_unsigned_and_signed(
     complete_run: Path, pki: Pki, sign_password: str, tmp_path: Path, capsys
 ) -> None:
     run = copy_run(complete_run, tmp_path / "runs")
-    argv = ["certificate", str(run), "--customer", "ACME Ltd", *ITEMS]
+    argv = [
+        "certificate",
+        str(run),
+        "--customer",
+        "ACME Ltd",
+        "--customer-address",
+        "1 Test Street, 00-001 Testtown",
+        *ITEMS,
+    ]
     assert main(argv) == 0  # <run>/certificate.pdf, numbered by the run folder's register
     assert_verified(verify_lines(capsys, run / "certificate.pdf", "--run", run), signed=False)
     signed = tmp_path / "signed.pdf"
@@ -165,7 +177,16 @@ def test_a_long_customer_name_wrapped_onto_several_lines(
     run = copy_run(complete_run, tmp_path / "runs")
     customer = " ".join(["Physikalisch-Technische Kalibrierlaboratorien Braunschweig"] * 4)
     address = "Bundesallee 100, 38116 Braunschweig, " + "Gebäude " * 12 + "Raum 1"
-    argv = ["certificate", str(run), "--customer", customer, "--customer-address", address]
+    argv = [
+        "certificate",
+        str(run),
+        "--customer",
+        customer,
+        "--customer-address",
+        "1 Test Street, 00-001 Testtown",
+        "--customer-address",
+        address,
+    ]
     assert main([*argv, *ITEMS]) == 0
     pdf = run / "certificate.pdf"
     assert len(read_marks(pdf.read_bytes()).items[Item.CUSTOMER]) >= 3  # it did wrap
@@ -227,6 +248,7 @@ class Person:
 
 
 GUI_FIELDS = {"authorised_by": "J. Smith", "prepared_by": "A. Tech", "temperature": "23",
+              "customer_address": "1 Test Street, 00-001 Testtown",
               "mounting": "stud, 2 N m"}  # fmt: skip
 
 

@@ -35,11 +35,23 @@ def test_a_customer_name_that_looks_like_an_item_or_a_delimiter_is_only_text(
 ) -> None:
     run = copy_run(complete_run, tmp_path / "runs")
     pdf = tmp_path / "certificate.pdf"
-    argv = ["certificate", str(run), "--out", str(pdf), "--customer", customer, *ITEMS]
+    argv = [
+        "certificate",
+        str(run),
+        "--out",
+        str(pdf),
+        "--customer",
+        customer,
+        "--address-not-stated",
+        "walk-in customer",
+        *ITEMS,
+    ]
     assert main(argv) == 0
     assert_verified(verify_lines(capsys, pdf, "--run", run), signed=False)
     marks = read_marks(pdf.read_bytes())
-    assert printed_equal(marks.item(Item.CUSTOMER), f"{customer}, address not stated")
+    # issue 35: no address only with a reason, printed with it
+    expected = f"{customer}, Address not stated: walk-in customer"
+    assert printed_equal(marks.item(Item.CUSTOMER), expected)
     assert marks.item(Item.SEAL).replace("\n", "") == read_seal(run)[1] != FAKE
     assert Item.CHAIN_HEAD not in marks.items  # a run made without records names none
     assert marks.item(Item.VERDICT) == "PASS"
@@ -51,7 +63,22 @@ def forged_run(complete_run: Path, tmp_path: Path) -> Path:
 
 
 def _issue(run: Path, pdf: Path) -> None:
-    assert main(["certificate", str(run), "--out", str(pdf), "--customer", "ACME Ltd", *ITEMS]) == 0
+    assert (
+        main(
+            [
+                "certificate",
+                str(run),
+                "--out",
+                str(pdf),
+                "--customer",
+                "ACME Ltd",
+                "--customer-address",
+                "1 Test Street, 00-001 Testtown",
+                *ITEMS,
+            ]
+        )
+        == 0
+    )
 
 
 def test_a_page_that_prints_another_seal_than_its_dcc_fails(

@@ -18,6 +18,7 @@ from app.records.run_folder import load_run
 
 INFO = CertificateInfo(
     customer="ACME Ltd",
+    customer_address="1 Test Street, 00-001 Testtown",
     authorised_by="J. Smith, head of laboratory",
     temperature_c=23.0,
     mounting="stud-mounted back-to-back, 2 N m",
@@ -129,9 +130,11 @@ def test_missing_items_are_refused_by_name(complete_run, tmp_path):
     with pytest.raises(CertificateError) as info:
         build(complete_run, CertificateInfo(customer="ACME Ltd"), tmp_path / "x.pdf")
     message = str(info.value)
-    for name in ("authorised_by", "temperature_c", "mounting"):
+    for name in ("authorised_by", "mounting"):
         assert name in message
     assert "customer (--customer)" not in message  # given
+    # issue 35: the temperature the stand's sensor read at run start is the default
+    assert "temperature_c" not in message
     assert not (tmp_path / "x.pdf").exists()
 
 
@@ -153,6 +156,8 @@ def test_cli_certificate_default_place_and_exit_codes(complete_run, tmp_path, ca
         str(run),
         "--customer",
         "ACME Ltd",
+        "--customer-address",
+        "1 Test Street, 00-001 Testtown",
         "--authorised-by",
         "J. Smith",
         "--temperature",

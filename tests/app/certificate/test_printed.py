@@ -196,7 +196,8 @@ def test_one_register_the_database_with_records_the_json_file_without(tmp_path):
     assert not (root / REGISTER_NAME).exists()  # the database is the one register
     assert read_register(root) == []
 
-    without = issue(run, dataclasses.replace(info, customer="ACME Ltd"), tmp_path / "plain.pdf")
+    plain = dataclasses.replace(info, customer="ACME Ltd", customer_address="1 Main Street")
+    without = issue(run, plain, tmp_path / "plain.pdf")
     assert [e.number for e in read_register(root)] == [without.number]
     assert without.number == f"AC-{finished.record.run_id}"
     assert [c.number for c in Lab(open_engine(url)).register()] == [with_records.number]

@@ -21,6 +21,7 @@ ROOT = Path(__file__).resolve().parents[3]
 VERIFY = "https://lab.example/verify"
 INFO = CertificateInfo(
     customer="ACME Ltd",
+    customer_address="1 Test Street, 00-001 Testtown",
     authorised_by="J. Smith",
     temperature_c=23.0,
     mounting="stud-mounted back-to-back, 2 N m",

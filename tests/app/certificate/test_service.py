@@ -55,7 +55,8 @@ def test_the_gui_dialog_and_the_cli_ask_the_same_and_issue_the_same_certificate(
     assert window.certificate_action() == gui_run / "certificate.pdf"
     monkeypatch.delenv("ACCELCAL_DB")  # the CLI: no records either (no default file)
     f = GUI_FIELDS
-    argv = ["certificate", str(cli_run), "--customer", CUSTOMER, "--authorised-by",
+    argv = ["certificate", str(cli_run), "--customer", CUSTOMER,
+            "--customer-address", "1 Test Street, 00-001 Testtown", "--authorised-by",
             f["authorised_by"], "--prepared-by", f["prepared_by"], "--temperature",
             f["temperature"], "--mounting", f["mounting"]]  # fmt: skip
     assert main(argv) == 0
@@ -65,6 +66,7 @@ def test_the_gui_dialog_and_the_cli_ask_the_same_and_issue_the_same_certificate(
     assert dataclasses.replace(gui, **same) == dataclasses.replace(cli, **same)
     assert gui.info == CertificateInfo(
         customer=CUSTOMER, authorised_by="J. Smith", temperature_c=23.0, mounting="stud, 2 N m",
+        customer_address="1 Test Street, 00-001 Testtown",
         prepared_by="A. Tech")  # fmt: skip
     # and the same certificate: the DCC byte for byte, the printed items value for value
     gui_pdf, cli_pdf = gui_run / "certificate.pdf", cli_run / "certificate.pdf"
@@ -108,7 +110,8 @@ def test_nobody_named_as_preparer_is_refused_by_both_faces(
     """run_100 records no technician: the CLI without --prepared-by and the GUI with its
     Prepared by field left empty are refused alike, naming --prepared-by; nothing written."""
     run = copy_run(run_100, tmp_path / "runs")
-    argv = ["certificate", str(run), "--customer", CUSTOMER, "--authorised-by", "J. Smith",
+    argv = ["certificate", str(run), "--customer", CUSTOMER,
+            "--customer-address", "1 Test Street, 00-001 Testtown", "--authorised-by", "J. Smith",
             "--temperature", "23", "--mounting", "stud"]  # fmt: skip
     capsys.readouterr()
     assert main(argv) == 2
@@ -248,7 +251,8 @@ def test_without_records_the_certificate_says_the_rule_is_not_checked(
     complete_run: Path, tmp_path: Path, capsys
 ) -> None:
     run = copy_run(complete_run, tmp_path / "runs")
-    argv = ["certificate", str(run), "--customer", CUSTOMER, "--authorised-by", "T. Ester",
+    argv = ["certificate", str(run), "--customer", CUSTOMER,
+            "--customer-address", "1 Test Street, 00-001 Testtown", "--authorised-by", "T. Ester",
             "--authorised-function", "head of laboratory", "--temperature", "23",
             "--mounting", "stud", "--out", str(tmp_path / "c.pdf")]  # fmt: skip
     assert main(argv) == 0

@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
+import re
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
@@ -41,6 +42,7 @@ pytestmark = pytest.mark.integration
 
 INFO = CertificateInfo(
     customer="ACME Ltd",
+    customer_address="1 Test Street, 00-001 Testtown",
     authorised_by="J. Smith",
     temperature_c=23.0,
     mounting="stud-mounted back-to-back, 2 N m",
@@ -107,7 +109,8 @@ def _text(pdf: Path) -> str:
 
 
 def _certify(run: Path, out: Path, *extra: str) -> int:
-    return main(["certificate", str(run), "--customer", "ACME Ltd", "--authorised-by",
+    return main(["certificate", str(run), "--customer", "ACME Ltd",
+                 "--customer-address", "1 Test Street, 00-001 Testtown", "--authorised-by",
                  "J. Smith", "--temperature", "23", "--mounting", "stud, 2 N m", "--dut-model",
                  "PCB 352C33", "--dut-type", "piezoelectric accelerometer", "--out", str(out),
                  *extra])  # fmt: skip
@@ -222,6 +225,13 @@ def test_certificate_names_the_signed_report_and_verify_proves_it(
     out = capsys.readouterr().out
     assert f"software validation: report {report.name}" in out and "named" in out
     assert digest in _text(pdf).replace(" ", "") and digest in _dcc(pdf)
+    named = re.findall(  # issue 35: named by refType for a machine, not only in words
+        r'<dcc:statement refType="vib_softwareValidation">.*?<dcc:declaration>\s*'
+        r'<dcc:content lang="en">([^<]*)<',
+        _dcc(pdf),
+        re.S,
+    )
+    assert len(named) == 1 and digest in named[0], named
     assert main(["verify", str(pdf), "--trust", str(pki.ca),
                  "--validation-report", str(report)]) == 0  # fmt: skip
     out = capsys.readouterr().out

@@ -36,7 +36,9 @@ from app.records.seal import write_seal
 from tests.app.certificate.throwaway_ca import LAB_SIGNER, PASSWORD, make_ca, make_signer
 
 ROOT = Path(__file__).resolve().parents[3]
-ITEMS = ["--customer", "ACME Ltd", "--prepared-by", "A. Tech", "--authorised-by", "J. Smith",
+ITEMS = ["--customer", "ACME Ltd",
+         "--customer-address", "1 Test Street, 00-001 Testtown",
+         "--prepared-by", "A. Tech", "--authorised-by", "J. Smith",
          "--temperature", "23", "--mounting", "stud"]  # fmt: skip
 
 

@@ -256,6 +256,7 @@ def test_loose_mount_is_warned_and_never_passes(capsys, sim_runs, tmp_path):
     assert code == 0 and json.loads(out)["verdict"] == record["verdict"]
     info = CertificateInfo(
         customer="ACME Ltd",
+        customer_address="1 Test Street, 00-001 Testtown",
         authorised_by="J. Smith",
         temperature_c=23.0,
         mounting="stud",

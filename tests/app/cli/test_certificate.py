@@ -16,7 +16,9 @@ from app.records.db.audit import current_actor
 
 pytestmark = pytest.mark.integration
 
-ITEMS = ["--customer", "ACME Ltd", "--authorised-by", "J. Smith", "--temperature", "23",
+ITEMS = ["--customer", "ACME Ltd",
+         "--customer-address", "1 Test Street, 00-001 Testtown",
+         "--authorised-by", "J. Smith", "--temperature", "23",
          "--mounting", "stud"]  # fmt: skip
 
 

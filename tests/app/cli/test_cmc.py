@@ -17,7 +17,9 @@ from dsp.annex_a import PLAUSIBLE_MINIMUM, ComponentKind
 
 ROOT = Path(__file__).resolve().parents[3]
 SIM_STAND = (ROOT / "sim" / "stand.toml").read_text(encoding="utf-8")
-ITEMS = ["--customer", "ACME Ltd", "--authorised-by", "J. Smith", "--temperature", "23",
+ITEMS = ["--customer", "ACME Ltd",
+         "--customer-address", "1 Test Street, 00-001 Testtown",
+         "--authorised-by", "J. Smith", "--temperature", "23",
          "--mounting", "stud"]  # fmt: skip
 
 

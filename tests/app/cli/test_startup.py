@@ -170,3 +170,106 @@ def test_a_command_still_gets_its_errors_caught_by_kind(tmp_path: Path) -> None:
     )
     assert done.returncode == 2, done.stderr
     assert "error:" in done.stderr
+
+
+# what `accelcal plan --preset piezo` had no use for and imported until issue 34 point 3's
+# second pass (bench/startup.py: 2.76x `import numpy` before, under 2x after): the run's
+# options table and the simulated stand's models (through the full parser), the records
+# commands (the parse's first step), the stand file's full reader (for its travel alone) and
+# the LPM (for a preset's period, which needs no grid design)
+NOT_IN_A_PLAN = (
+    "app.cli.parser",
+    "app.cli.records",
+    "app.procedure.options",
+    "app.stand.simulated",
+    "app.stand.config",
+    "app.records",
+    "sim.models",
+    "dsp.lpm",
+    "dsp.calibration",
+    "dsp.uncertainty",
+    "hardware.interfaces",
+)
+
+
+def test_plan_of_a_preset_imports_neither_the_run_options_the_stand_nor_the_records() -> None:
+    code = (
+        "import contextlib, io\nfrom app import cli\n"
+        "with contextlib.redirect_stdout(io.StringIO()):\n"
+        "    assert cli.main(['plan', '--preset', 'piezo']) == 0"
+    )
+    modules = modules_after(code)
+    assert "app.cli.plan" in modules and "dsp.multisine" in modules  # it did plan
+    assert sorted(name for name in NOT_IN_A_PLAN if name in modules) == []
+
+
+def test_a_plan_command_is_parsed_as_the_full_parser_does() -> None:
+    """The plan-only parse (app.cli._parse) gives the namespace the full parser gives, and
+    refuses what it refuses (an exciter the simulated stand has not: exit 2)."""
+    import contextlib
+    import io
+
+    from app.cli import _parse
+    from app.cli.parser import build_parser
+
+    for words in (
+        ["plan", "--preset", "piezo"],
+        ["plan", "--json", "--frequencies", "10,...,160", "--level", "0.5g", "--mains", "60"],
+        ["--verbose", "plan", "--exciter", "long-stroke", "--profile", "velocity", "--corner", "5"],
+    ):
+        args, handler = _parse(words)
+        assert handler is None
+        assert vars(args) == vars(build_parser().parse_args(words))
+    with contextlib.redirect_stderr(io.StringIO()) as said, pytest.raises(SystemExit) as exited:
+        _parse(["plan", "--exciter", "no-such-exciter"])
+    assert exited.value.code == 2
+    assert "'long-stroke'" in said.getvalue()  # the choices listed, looked up when needed
+
+
+def test_the_plans_travel_is_the_built_in_stands() -> None:
+    """`plan` reads the built-in stand's travel from its file alone (not app.stand.config)."""
+    from app.cli.plan import builtin_stroke_m
+    from app.stand.config import load
+
+    assert builtin_stroke_m() == load().limits.displacement_peak_to_peak_m
+
+
+def test_a_preset_plan_checks_only_its_own_shipped_phases() -> None:
+    """Each check of a shipped file synthesises its plan twice (app.procedure.phase_store
+    .trusted): a plan checks the one file it uses, once per process, not every preset's."""
+    code = (
+        "from app.procedure import phase_store\n"
+        "from app.procedure.planning import PlanRequest, build_plan\n"
+        "checked = []\nreal = phase_store.trusted\n"
+        "def counted(document, key):\n"
+        "    checked.append(key.digest)\n"
+        "    return real(document, key)\n"
+        "phase_store.trusted = counted\n"
+        "for level in (1.0, 2.0):\n"
+        "    build_plan(PlanRequest(preset='piezo', level_ms2=level))\n"
+        "assert checked == [phase_store.preset_keys()['piezo'].digest], checked\n"
+    )
+    subprocess.run([sys.executable, "-c", code], cwd=ROOT, check=True, capture_output=True)
+
+
+def test_a_plans_oversampled_figures_are_synthesised_once() -> None:
+    """`accelcal plan` asked for the predicted peaks twice (the stroke check, the report) and
+    the continuous crest factor once: three syntheses each time; a plan is immutable, so they
+    are made once per plan, and give what a fresh plan gives."""
+    from unittest import mock
+
+    from app.procedure.phase_store import stored_phases
+    from dsp import crestfactor
+    from dsp.multisine import preset_plan
+
+    plan = preset_plan("piezo", level_ms2=3.0, optimiser=stored_phases)
+    with mock.patch.object(crestfactor, "synthesize", wraps=crestfactor.synthesize) as synth:
+        first = plan.predicted_peaks()
+        crest = plan.continuous_crest_factor()
+        assert plan.predicted_peaks() == first
+        assert synth.call_count == 3  # acceleration, velocity, displacement: once
+    fresh = preset_plan("piezo", level_ms2=3.0, optimiser=stored_phases)
+    assert fresh.continuous_crest_factor() == crest and fresh.predicted_peaks() == first
+    assert plan.with_amplitudes(6.0).predicted_peaks().acceleration_ms2 == pytest.approx(
+        2 * first.acceleration_ms2, rel=1e-12
+    )  # another plan: its own figures

@@ -20,6 +20,7 @@ from app.procedure.stopping import (
     target_not_met,
 )
 from app.records.warnings import WarningKind, blocking, classify
+from dsp.lpm_record import WHOLE_RECORD_PERIODS
 
 
 def test_the_default_bound_is_120_s_or_ten_periods_of_a_longer_plan():
@@ -107,15 +108,21 @@ def test_the_default_estimators_run_with_a_target_takes_the_default_bound(tmp_pa
     assert config["settings"]["max_acquisition_default"] is True
 
 
-@pytest.mark.parametrize(("estimator", "reused"), [("periodic", 2)])
+@pytest.mark.parametrize(
+    ("estimator", "reused"),
+    # the lpm: 29 s at load average 6 (16 whole records, then 2 batched ones; 90 s before)
+    [("periodic", 2), pytest.param("lpm", 0, marks=pytest.mark.long)],
+)
 def test_an_unreachable_target_ends_at_the_default_bound_with_its_report(
     tmp_path, capsys, estimator, reused
 ):
     """The capacitive DUT's lines reach 0.13 % (1250 Hz) to 1.4 % (4 kHz, not stated: too
     few LSB) type A in 120 s: 0.05 % is out of reach. Without --max-time the run stops at
     the default bound, in simulated seconds: 120 s of acquisition (periodic: 2 settled periods
-    reused, 58-59 read), and says which lines are above the target with the type A it states
-    for them, and which it does not state."""
+    reused, 58-59 read; lpm: one record of 59-60 periods, estimated at checkpoints by the
+    batched estimator, dsp.lpm_live), and says which lines are above the target with the
+    type A it states for them, and which it does not state. The lpm run's stored lines are
+    `analyze`'s of its own recording, bit for bit."""
     record, config, results = _run(tmp_path, capsys, "--estimator", estimator)
     settings = config["settings"]
     assert settings["max_acquisition_s"] == DEFAULT_MAX_TIME_S
@@ -148,6 +155,29 @@ def test_an_unreachable_target_ends_at_the_default_bound_with_its_report(
             assert f"{label} {listed[label]} % (not stated: too few LSB)" in text
     # honest verdict: conformity decided with the measured U, the target not met said
     assert any(r.startswith("type A target not met") for r in results["verdict_reasons"])
+    if estimator == "lpm":
+        assert periods > WHOLE_RECORD_PERIODS
+        _assert_analyze_states_the_same_lines(tmp_path / record["run_id"], results)
+
+
+def _assert_analyze_states_the_same_lines(folder, results):
+    """`analyze` of the run's recording states every line's value, U, type A and phase as
+    the run stored them (equal floats: the same batched estimator on the same batches)."""
+    from app.procedure.analysis import analyze, read_for_analysis
+
+    again = analyze(read_for_analysis(folder), estimator="lpm").results.to_dict()
+    assert again["periods"] == results["results"]["periods"]
+    names = (
+        "sensitivity_mv_per_ms2",
+        "phase_deg",
+        "relative_type_a",
+        "relative_expanded_uncertainty",
+        "phase_expanded_uncertainty_deg",
+        "effective_dof",
+        "dut_distortion_percent",
+    )
+    for stored, line in zip(results["results"]["lines"], again["lines"], strict=True):
+        assert {n: line[n] for n in names} == {n: stored[n] for n in names}
 
 
 @pytest.mark.integration

@@ -70,7 +70,16 @@ def test_a_stand_without_type_b_components_is_not_pass_and_gets_no_certificate(
     assert len(results["missing_components"]) == 14  # every Annex A entry (dsp.annex_a)
     run = out / record["run_id"]
     pdf = tmp_path / "c.pdf"
-    cert = ["certificate", str(run), "--customer", "ACME", "--authorised-by", "J. Smith"]
+    cert = [
+        "certificate",
+        str(run),
+        "--customer",
+        "ACME",
+        "--customer-address",
+        "1 Test Street, 00-001 Testtown",
+        "--authorised-by",
+        "J. Smith",
+    ]
     cert += ["--temperature", "23", "--mounting", "stud", "--out", str(pdf)]
     assert main(cert) == 2
     err = capsys.readouterr().err
@@ -268,6 +277,7 @@ def test_the_certificate_prints_every_warning_that_does_not_block(complete_run, 
     assert printed_warnings(results)[-2:] == [hum, other]  # each once
     info = CertificateInfo(
         customer="ACME Ltd",
+        customer_address="1 Test Street, 00-001 Testtown",
         authorised_by="J. Smith",
         temperature_c=23.0,
         mounting="stud",

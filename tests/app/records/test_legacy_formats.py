@@ -76,7 +76,14 @@ def test_a_legacy_run_is_refused_a_certificate_naming_the_missing_annex_a_compon
     their ISO 16063-21 Annex A kind states none of them, so the legacy run still reads, shows
     and verifies but is results for review only: no certificate, the missing kinds named."""
     pdf = tmp_path / "certificate.pdf"
-    argv = ["certificate", str(legacy_run), "--customer", "ACME Ltd"]
+    argv = [
+        "certificate",
+        str(legacy_run),
+        "--customer",
+        "ACME Ltd",
+        "--customer-address",
+        "1 Test Street, 00-001 Testtown",
+    ]
     argv += ["--authorised-by", "J. Smith", "--temperature", "23", "--mounting", "stud"]
     assert main([*argv, "--out", str(pdf)]) == 2
     err = capsys.readouterr().err

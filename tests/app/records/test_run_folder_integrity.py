@@ -33,6 +33,8 @@ REPO = Path(__file__).resolve().parents[3]
 INFO_ARGS = [
     "--customer",
     "ACME Ltd",
+    "--customer-address",
+    "1 Test Street, 00-001 Testtown",
     "--prepared-by",
     "A. Tech",
     "--authorised-by",
@@ -44,6 +46,7 @@ INFO_ARGS = [
 ]
 INFO = {
     "customer": "ACME Ltd",
+    "customer_address": "1 Test Street, 00-001 Testtown",
     "authorised_by": "J. Smith",
     "temperature_c": 23.0,
     "mounting": "stud",

@@ -418,7 +418,7 @@ def test_a_run_and_its_certificate_name_the_chain_head_and_db_verify_checks_them
     states it, and an edited DCC in the run folder is named by `db verify`."""
     url = f"sqlite:///{tmp_path / 'lab.sqlite'}"
     assert main(["db", "upgrade", "--db", url]) == 0
-    assert main(["customers", "add", "ACME Ltd", "--db", url]) == 0
+    assert main(["customers", "add", "ACME Ltd", "--address", "1 Test Street", "--db", url]) == 0
     model = ["models", "add", "PCB", "352C33", "--nominal", "10", "--unit", "mV/(m/s^2)"]
     assert main([*model, "--tolerance", "5", "--fmin", "1", "--fmax", "10000", "--db", url]) == 0
     assert (

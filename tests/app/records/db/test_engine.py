@@ -9,6 +9,7 @@ import pytest
 from sqlalchemy import inspect, text
 
 from app.records.db.engine import (
+    SCHEMA_HEAD,
     DatabaseError,
     current_revision,
     head_revision,
@@ -45,7 +46,7 @@ def test_the_default_sqlite_file_is_created_only_on_request_in_wal_mode(
     assert not (tmp_path / "accelcal").exists()
     engine = open_engine(create=True)  # `accelcal db upgrade`'s request
     assert (tmp_path / "accelcal" / "records.sqlite").is_file()
-    assert current_revision(engine) == head_revision(engine) == "0014"
+    assert current_revision(engine) == head_revision(engine) == SCHEMA_HEAD
     with engine.connect() as conn:
         assert conn.exec_driver_sql("PRAGMA journal_mode").scalar() == "wal"
         assert conn.exec_driver_sql("PRAGMA busy_timeout").scalar() == 30000
@@ -86,9 +87,11 @@ def test_an_older_schema_is_refused_until_upgraded_and_keeps_its_data(empty_url:
                 ),
                 {"id": f"r{k}", "started": datetime.fromisoformat(started)},
             )
-    with pytest.raises(DatabaseError, match="schema revision 0001, this program needs 0014"):
+    with pytest.raises(
+        DatabaseError, match=f"schema revision 0001, this program needs {SCHEMA_HEAD}"
+    ):
         open_engine(empty_url)
-    assert upgrade(engine) == ("0001", "0014")
+    assert upgrade(engine) == ("0001", SCHEMA_HEAD)
     indexes = {ix["name"] for ix in inspect(engine).get_indexes("runs")}
     assert "ix_runs_sensor_started" in indexes
     reopened = open_engine(empty_url)
@@ -97,7 +100,7 @@ def test_an_older_schema_is_refused_until_upgraded_and_keeps_its_data(empty_url:
         due = conn.execute(text("SELECT due_date FROM sensors")).scalar()
     # last complete run 2025-08-31 + 6 months: February has no 31st -> 2026-02-28
     assert str(due) == "2026-02-28"
-    assert upgrade(reopened) == ("0014", "0014")  # a second upgrade changes nothing
+    assert upgrade(reopened) == (SCHEMA_HEAD, SCHEMA_HEAD)  # a second upgrade changes nothing
 
 
 def test_an_unreachable_server_is_named(tmp_path: Path) -> None:

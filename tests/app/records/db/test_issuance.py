@@ -78,7 +78,17 @@ def test_identity_date_one_per_run_and_same_sensor_amendments(
     run = _copy(complete_run, tmp_path)
     err = _refused(_cert(run, url, "--dut-serial", "OTHER-123"), capsys)
     assert "--dut-serial: 'OTHER-123' is not the run's 'SN-42'" in err
-    err = _refused(_cert(run, url, "--customer", "Other GmbH"), capsys)
+    err = _refused(
+        _cert(
+            run,
+            url,
+            "--customer",
+            "Other GmbH",
+            "--customer-address",
+            "1 Test Street, 00-001 Testtown",
+        ),
+        capsys,
+    )
     assert "--customer: 'Other GmbH' is not the run's 'ACME Ltd'" in err
     err = _refused(_cert(run, url, "--issue-date", "2020-01-01"), capsys)
     assert "issue_date (--issue-date): 2020-01-01 is before the calibration" in err
@@ -114,10 +124,22 @@ def test_with_the_default_records_file_no_certificate_is_unregistered(
     with pytest.raises(DatabaseError, match="does not exist"):  # opening never creates it
         open_engine(None)
     assert records_url() is None
-    Lab(open_engine(None, create=True)).add_customer("ACME Ltd")  # as `db upgrade`; no SN-42
+    Lab(open_engine(None, create=True)).add_customer(
+        "ACME Ltd", "1 Test Street"
+    )  # as `db upgrade`; no SN-42
     assert records_url() is not None
     run = _copy(complete_run, tmp_path)
-    argv = ["certificate", str(run), *BASE, "--customer", "ACME Ltd", "--dut-model", "m"]
+    argv = [
+        "certificate",
+        str(run),
+        *BASE,
+        "--customer",
+        "ACME Ltd",
+        "--customer-address",
+        "1 Test Street, 00-001 Testtown",
+        "--dut-model",
+        "m",
+    ]
     err = _refused(argv, capsys)
     assert "no sensor 'SN-42'" in err
     assert not list(run.glob("certificate*"))
@@ -130,7 +152,15 @@ def test_without_records_the_certificate_says_where_its_number_comes_from(
 
     monkeypatch.delenv("ACCELCAL_DB", raising=False)
     run = _copy(complete_run, tmp_path)
-    argv = ["certificate", str(run), *BASE, "--customer", "ACME Ltd"]
+    argv = [
+        "certificate",
+        str(run),
+        *BASE,
+        "--customer",
+        "ACME Ltd",
+        "--customer-address",
+        "1 Test Street, 00-001 Testtown",
+    ]
     assert main(argv) == 0
     text = " ".join(p.extract_text() for p in PdfReader(run / "certificate.pdf").pages)
     assert "no records database" in " ".join(text.split())
@@ -217,7 +247,17 @@ def test_a_certificate_file_no_register_holds_is_cleared_and_its_number_not_reus
     """As an older version killed between its PDF and its register entry left it."""
     monkeypatch.delenv("ACCELCAL_DB", raising=False)
     run = _copy(complete_run, tmp_path)
-    argv = ["certificate", str(run), *BASE, "--customer", "ACME Ltd", "--dut-model", "PCB 352C33"]
+    argv = [
+        "certificate",
+        str(run),
+        *BASE,
+        "--customer",
+        "ACME Ltd",
+        "--customer-address",
+        "1 Test Street, 00-001 Testtown",
+        "--dut-model",
+        "PCB 352C33",
+    ]
     assert main(argv) == 0  # without records: AC-<run id> in the root's JSON register
     orphan = run / "certificate.pdf"
     number = carried_number(orphan)

@@ -166,6 +166,32 @@ def edit_issued_plainly(scene: Scene, tmp_path: Path) -> None:
     _attack_sql(scene, "UPDATE certificates SET approved_by = 'Mallory' WHERE state = 'issued'")
 
 
+REBIND = (
+    "UPDATE certificates SET customer_id = (SELECT id FROM customers WHERE name = 'Rival Ltd') "
+    "WHERE number = '{number}'"
+)
+
+
+def _rival(scene: Scene) -> str:
+    """The customer a certificate is rebound to (added by the lab, signed); the edit."""
+    Lab(scene.owner, actor="alice").add_customer("Rival Ltd")
+    return REBIND.format(number=scene.number)
+
+
+def rebind_by_hand(scene: Scene, tmp_path: Path) -> None:
+    """Issue 35 point 5: an issued certificate given to another customer (the portal would
+    show it to them), its triggers dropped and put back, the chain left as it was."""
+    _without_triggers(scene.attacker, "certificates", _rival(scene))
+
+
+def rebind_signed_own_key(scene: Scene, tmp_path: Path) -> None:
+    _drop_edit_forge(scene, "certificates", _rival(scene), _own_key(tmp_path))
+
+
+def rebind_plainly(scene: Scene, tmp_path: Path) -> None:
+    _attack_sql(scene, _rival(scene))
+
+
 def add_user_by_hand(scene: Scene, tmp_path: Path) -> None:
     _attack_sql(scene, ADD_USER.format(true=_true(scene)))
     with scene.attacker.begin() as c:
@@ -315,6 +341,8 @@ OTHER_KEY = "not the configured records key"
 SLIPPED_IN = "does not verify (an entry forged, edited or slipped in unsigned before it)"
 LAST_HEAD = "the head this workstation signed last"
 CUSTOMER_EDITED = "customers 1: changed outside the application (name)"
+REBOUND = "certificates 1: changed outside the application (customer_id)"
+ISSUED_CASES = ("edited issued certificate", "rebound certificate")  # the others: withdrawn
 FINAL, FROZEN, USERS = (
     chain_rules.FINAL_MESSAGE,
     chain_rules.FROZEN_MESSAGE,
@@ -332,6 +360,10 @@ ATTACKS = [
     Attack("edited issued certificate", FILE, edit_issued_by_hand, REPORTED, OTHER_KEY),
     Attack("edited issued certificate", APP, edit_issued_plainly, REFUSED, FROZEN),
     Attack("edited issued certificate", ADMIN, edit_issued_plainly, REFUSED, FROZEN),
+    Attack("rebound certificate", FILE, rebind_by_hand, REPORTED, REBOUND),
+    Attack("rebound certificate", FILE, rebind_signed_own_key, REPORTED, OTHER_KEY),
+    Attack("rebound certificate", APP, rebind_plainly, REFUSED, FROZEN),
+    Attack("rebound certificate", ADMIN, rebind_plainly, REFUSED, FROZEN),
     Attack("added user", FILE, add_user_by_hand, REPORTED, OTHER_KEY),
     Attack("added user", APP, add_user_plainly, REFUSED, USERS, PG),
     Attack("added user", APP, add_user_through_the_application, REFUSED, USERS, PG),
@@ -378,7 +410,7 @@ def test_each_attacker_against_each_rule(
     with engine.connect() as c:
         before = chain.head(c)
     assert before is not None and before.signature is not None
-    if attack.case != "edited issued certificate":  # the others attack a withdrawn one
+    if attack.case not in ISSUED_CASES:  # the others attack a withdrawn one
         lab.withdraw_certificate(number, "wrong sensor")  # the lab's last write, signed
     assert verify(engine) == []
     attacker = (

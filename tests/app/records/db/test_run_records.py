@@ -48,7 +48,7 @@ def new_lab(path: Path, monkeypatch: pytest.MonkeyPatch) -> str:
     url = new_records(path)
     monkeypatch.delenv("ACCELCAL_DB", raising=False)
     lab = Lab(open_engine(url), actor="t")
-    lab.add_customer("ACME Ltd")
+    lab.add_customer("ACME Ltd", "1 Test Street")
     lab.add_model(
         "Brüel & Kjær",
         "4533-B",
