@@ -163,7 +163,7 @@ class RegisterTab(QWidget):
             c.state,
             review,
             c.sensor.serial,
-            c.customer.name,  # issued to (migration 0015), whoever owns the sensor now
+            c.customer.name,  # issued to (migration 0014), whoever owns the sensor now
             c.run.run_id,
             c.issued_utc.strftime("%Y-%m-%d %H:%M"),
             c.prepared_by,

@@ -1,5 +1,5 @@
 """The Register tab's Customer column is the customer each certificate was issued to (issue 35
-point 5, migration 0015), not the sensor's owner now."""
+point 5, migration 0014), not the sensor's owner now."""
 
 from __future__ import annotations
 

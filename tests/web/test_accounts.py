@@ -127,7 +127,7 @@ def test_unknown_accounts_and_a_second_add_are_refused(db_url: str, monkeypatch,
 
 
 def test_on_postgresql_accounts_are_the_administrators_and_the_portal_reads_them() -> None:
-    """Migration 0014 on PostgreSQL: the owner adds an account; the application role may
+    """Migration 0012 on PostgreSQL: the owner adds an account; the application role may
     disable one but not add, re-enable or rebind one (the rule's trigger); the web view's
     read-only engine finds the account with its customer and that customer's sensors only."""
     import os

@@ -4,7 +4,7 @@
   ever deleted;
 - an issued certificate is never edited: the only changes are its state to withdrawn or
   replaced (with the reason) and its files (path, SHA-256, DCC's SHA-256) set once;
-- on PostgreSQL, a user (staff, or a customer's account: migration 0014) is added, re-enabled
+- on PostgreSQL, a user (staff, or a customer's account: migration 0012) is added, re-enabled
   or given a new name, password or customer only by an administrator: a member of the role
   that owns the table (the owner role of docs/records.md),
   never by the application role. SQLite has no roles: there a user added behind the
@@ -60,7 +60,7 @@ SQLITE_CERTIFICATE_RULES = (
 
 
 def sqlite_customer_rule() -> str:
-    """SQLite's stand-in for the NOT NULL of certificates.customer_id (migration 0015: a
+    """SQLite's stand-in for the NOT NULL of certificates.customer_id (migration 0014: a
     column added by ALTER TABLE cannot be NOT NULL there): a certificate issued to nobody is
     refused."""
     return (
@@ -143,7 +143,7 @@ END; $$ LANGUAGE plpgsql
 
 def postgresql_account_rules() -> list[str]:
     """The PostgreSQL function and ALWAYS trigger of the customer accounts' rule (migration
-    0014): as the staff users', and the customer an account is bound to is the
+    0012): as the staff users', and the customer an account is bound to is the
     administrator's to change too (the application role may only disable one)."""
     return [
         _PG_ACCOUNTS,

@@ -240,8 +240,8 @@ class Certificate(Base):
     file: Mapped[str | None] = mapped_column(Text, nullable=True)
     sha256: Mapped[str | None] = mapped_column(String(64), nullable=True)
     dcc_sha256: Mapped[str | None] = mapped_column(String(64), nullable=True)
-    # the customer it is issued to (migration 0015): the sensor's owner when it was issued,
-    # the customer its PDF names; never changed (rows issued before 0015: the owner at upgrade)
+    # the customer it is issued to (migration 0014): the sensor's owner when it was issued,
+    # the customer its PDF names; never changed (rows issued before 0014: the owner at upgrade)
     customer_id: Mapped[int] = mapped_column(ForeignKey("customers.id"))
     run: Mapped[Run] = relationship(foreign_keys=[run_id])
     as_found_run: Mapped[Run | None] = relationship(foreign_keys=[as_found_run_id])

@@ -1,4 +1,4 @@
-"""The customer a certificate is issued to (issue 35 point 5, migration 0015): bound at issue
+"""The customer a certificate is issued to (issue 35 point 5, migration 0014): bound at issue
 to the sensor's owner then, kept when the sensor changes owner, never changed afterwards (the
 rules refuse it, the chain names it: tests/app/records/db/test_records_attacks.py), and filled
 by the upgrade for certificates issued before it from the sensor's owner at upgrade."""
@@ -90,7 +90,7 @@ def test_a_certificate_is_refused_when_its_sensor_changed_owner_while_issuing(
 
 
 def test_sqlite_refuses_a_certificate_issued_to_nobody(records_url: str, tmp_path: Path) -> None:
-    """SQLite cannot add a NOT NULL column: the trigger of migration 0015 stands in for it."""
+    """SQLite cannot add a NOT NULL column: the trigger of migration 0014 stands in for it."""
     engine = make_engine(records_url)
     _lab_day(engine, tmp_path)
     with pytest.raises(Exception, match=chain_rules.CUSTOMER_MESSAGE), engine.begin() as c:
@@ -114,12 +114,12 @@ _CERTIFICATE = (
 def test_the_upgrade_binds_earlier_certificates_to_the_owner_at_upgrade(
     empty_url: str, tmp_path: Path
 ) -> None:
-    """A lab at revision 0014 with an issued and a withdrawn certificate, whose sensor was
+    """A lab at revision 0013 with an issued and a withdrawn certificate, whose sensor was
     sold before the upgrade: both are bound to the owner at upgrade (docs/records.md says
     so; the rules that refuse editing them are set aside for it), every filled row is
     chained, and the rules hold over the new column afterwards."""
     engine = make_engine(empty_url)
-    upgrade(engine, "0014")
+    upgrade(engine, "0013")
     lab = seed_lab(Lab(engine, actor="alice"), {"SN-1": "ACME Ltd"})
     lab.add_customer("Buyer GmbH")
     with Session(engine) as s:
@@ -136,13 +136,13 @@ def test_the_upgrade_binds_earlier_certificates_to_the_owner_at_upgrade(
             )
         )
         s.commit()
-    with engine.begin() as c:  # the 0014 register's rows, chained as a migration enters them
+    with engine.begin() as c:  # the 0013 register's rows, chained as a migration enters them
         for seq, state, reason in ((1, "issued", None), (2, "withdrawn", "wrong sensor")):
             values = {"number": f"ACC-{seq}", "seq": seq, "state": state, "reason": reason}
             c.execute(text(_CERTIFICATE), values)
         chain_check.after_migration(c)
     lab.move_sensor("SN-1", owner="Buyer GmbH")
-    assert upgrade(engine) == ("0014", SCHEMA_HEAD)
+    assert upgrade(engine) == ("0013", SCHEMA_HEAD)
     assert _bound(engine) == {"ACC-1": "Buyer GmbH", "ACC-2": "Buyer GmbH"}
     assert verify(engine) == []
     quick_check(engine)

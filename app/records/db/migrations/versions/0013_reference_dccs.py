@@ -4,7 +4,7 @@ SHA-256 and the file itself (base64); the one in force names the reference on ev
 certificate made with it. Journalled like every records table.
 
 Revision ID: 0013
-Revises: 0014 (chained after main's customer accounts; assigned 0011)
+Revises: 0012
 Create Date: 2026-11-27
 """
 
@@ -16,7 +16,7 @@ from alembic import op
 from app.records.db.chain import journal_trigger_sql
 
 revision = "0013"
-down_revision = "0014"
+down_revision = "0012"
 branch_labels = None
 depends_on = None
 

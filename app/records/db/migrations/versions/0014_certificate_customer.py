@@ -12,8 +12,8 @@ there). On PostgreSQL the rule freezes every column of an issued certificate alr
 one included. The journal notes every filled row; the upgrade enters them in the chain
 (app.records.db.chain_check.after_migration).
 
-Revision ID: 0015
-Revises: 0013 (main chains 0011 -> 0014 -> 0013 -> 0015)
+Revision ID: 0014
+Revises: 0013
 Create Date: 2026-11-28
 """
 
@@ -28,7 +28,7 @@ from app.records.db.chain_rules import (
     sqlite_rules,
 )
 
-revision = "0015"
+revision = "0014"
 down_revision = "0013"
 branch_labels = None
 depends_on = None

@@ -4,8 +4,8 @@ name, the records customer it is bound to, argon2 password hash, active flag and
 table is audited, so it gets its journal trigger; on PostgreSQL, as for staff users, only an
 administrator adds, re-enables, renames or rebinds an account or sets its password.
 
-Revision ID: 0014
-Revises: 0011 (the lead chains the helpers' migrations at merge)
+Revision ID: 0012
+Revises: 0011
 Create Date: 2026-11-27
 """
 
@@ -17,7 +17,7 @@ from alembic import op
 from app.records.db.chain import journal_trigger_sql
 from app.records.db.chain_rules import postgresql_account_rules
 
-revision = "0014"
+revision = "0012"
 down_revision = "0011"
 branch_labels = None
 depends_on = None
