@@ -356,7 +356,8 @@ def test_a_whole_day_three_sensors_two_customers_register_and_an_amendment(windo
     modal.check()
     assert f"Amendment of {expected[1]} (customer address corrected)" in amended[0]["title"]
     assert runs["V-0002"] in amended[0]["title"]
-    assert amended[0]["authorised_by"] == "" and amended[0]["mounting"] == ""
+    # the approver is typed anew; the mounting is offered from the model (issue 35), not blank
+    assert amended[0]["authorised_by"] == "" and amended[0]["mounting"] == "stud, 2 N m"
     assert amended[0]["customer"] == "Vibration Labs GmbH" and amended[0]["dut_serial"] == "V-0002"
     register = lab.register()
     assert [c.number for c in register] == [*expected, f"ACC-{year}-0004"]
