@@ -46,7 +46,12 @@ log = logging.getLogger("bench.environment_read")
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=11, help="fresh interpreters (median)")
+    parser.add_argument("--smoke", action="store_true", help="one interpreter (CI)")
     args = parser.parse_args()
+    if args.smoke:
+        args.runs = 1
+    if args.runs < 1:
+        parser.error("--runs: must be at least 1")
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     samples: dict[str, list[float]] = {"load": [], "amplifiers": [], "first": [], "warm": []}
     env = {**os.environ, "PYTHONDONTWRITEBYTECODE": "1"}
