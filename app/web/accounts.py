@@ -23,7 +23,7 @@ from sqlalchemy.orm import Session
 from app.records.db.audit import current_actor
 from app.records.db.lab import RecordsError
 from app.records.db.models import AuditEntry, Customer, CustomerAccount, User
-from app.web.users import MIN_PASSWORD_LENGTH, USERNAME, hash_password
+from app.web.users import MIN_PASSWORD_LENGTH, checked_new_account, hash_password
 
 TABLE = "customer_accounts"
 
@@ -76,16 +76,7 @@ def add_account(
     characters) and a display name; RecordsError naming the field when refused (also when a
     staff user or another account has the name). Audited by `actor` (default: the
     operating-system user), without the hash."""
-    username = username.strip()
-    if not USERNAME.match(username):
-        raise RecordsError(
-            f"username: {username!r} must be 2 to 100 letters, digits, '.', '_' or '-'"
-        )
-    if len(password) < MIN_PASSWORD_LENGTH:
-        raise RecordsError(f"password: shorter than {MIN_PASSWORD_LENGTH} characters")
-    display_name = display_name.strip()
-    if not display_name or len(display_name) > 200:
-        raise RecordsError("display name: must be 1 to 200 characters")
+    username, display_name = checked_new_account(username, password, display_name)
     with Session(engine) as s, s.begin():
         owner = s.scalar(select(Customer).where(Customer.name == customer.strip()))
         if owner is None:

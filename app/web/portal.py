@@ -38,7 +38,7 @@ from app.web.documents import (
 )
 from app.web.guard import CheckSlots, SessionStore, Throttle, client_address, password_stamp
 from app.web.store import PortalAccount, Store
-from app.web.users import dummy_check, password_matches
+from app.web.users import signed_in
 
 log = logging.getLogger(__name__)
 
@@ -74,15 +74,8 @@ def _local(target: str) -> str:
 
 
 def _check(store: Store, username: str, password: str) -> PortalAccount | None:
-    """The active account `username` when `password` is its own, else None; an unknown name
-    costs a password check too."""
-    account = store.account(username) if username else None
-    if account is None:
-        dummy_check(password)
-        return None
-    if account.active and password_matches(account.password_hash, password):
-        return account
-    return None
+    """The active account `username` when `password` is its own, else None."""
+    return signed_in(store.account(username) if username else None, password)
 
 
 def _filename(text: str) -> str:

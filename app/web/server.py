@@ -58,7 +58,7 @@ from app.web.guard import (
 from app.web.portal import SESSION_KEY as PORTAL_SESSION_KEY
 from app.web.portal import PortalDeps, portal_routes
 from app.web.store import StaffUser, Store
-from app.web.users import dummy_check, password_matches
+from app.web.users import signed_in
 
 log = logging.getLogger(__name__)
 
@@ -383,15 +383,9 @@ def create_app(store: Store, config: WebConfig) -> Starlette:
 
 
 def _check_password(store: Store, username: str, password: str) -> StaffUser | None:
-    """The active staff user `username` when `password` is theirs, else None; an unknown
-    user costs the time of a password check too (argon2: run it off the event loop)."""
-    account = store.user(username) if username else None
-    if account is None:
-        dummy_check(password)
-        return None
-    if account.active and password_matches(account.password_hash, password):
-        return account
-    return None
+    """The active staff user `username` when `password` is theirs, else None (argon2: run it
+    off the event loop)."""
+    return signed_in(store.user(username) if username else None, password)
 
 
 def _csrf(request: Request) -> str:

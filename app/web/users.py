@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import re
 from datetime import UTC, datetime
+from typing import Protocol, TypeVar
 
 from sqlalchemy import Engine, select
 from sqlalchemy.orm import Session
@@ -55,6 +56,43 @@ def dummy_check(password: str) -> None:
     password_matches(_DUMMY_HASH[0], password)
 
 
+class _SignIn(Protocol):
+    @property
+    def active(self) -> bool: ...
+    @property
+    def password_hash(self) -> str: ...
+
+
+Account = TypeVar("Account", bound=_SignIn)
+
+
+def signed_in(account: Account | None, password: str) -> Account | None:
+    """`account` when it is active and `password` is its own, else None; a missing account
+    (an unknown name) costs the time of a password check too. Staff and customers alike."""
+    if account is None:
+        dummy_check(password)
+        return None
+    if account.active and password_matches(account.password_hash, password):
+        return account
+    return None
+
+
+def checked_new_account(username: str, password: str, display_name: str) -> tuple[str, str]:
+    """`username` and `display_name` stripped, when they and `password` may make an account
+    (staff or customer): RecordsError naming the field otherwise."""
+    username = username.strip()
+    if not USERNAME.match(username):
+        raise RecordsError(
+            f"username: {username!r} must be 2 to 100 letters, digits, '.', '_' or '-'"
+        )
+    if len(password) < MIN_PASSWORD_LENGTH:
+        raise RecordsError(f"password: shorter than {MIN_PASSWORD_LENGTH} characters")
+    display_name = display_name.strip()
+    if not display_name or len(display_name) > 200:
+        raise RecordsError("display name: must be 1 to 200 characters")
+    return username, display_name
+
+
 def list_users(engine: Engine) -> list[User]:
     """Every staff user, by user name (the rows carry their hash: show only the other
     columns)."""
@@ -73,16 +111,7 @@ def add_user(
     """Add staff user `username` (letters, digits, . _ -; 2 to 100) with `password` (at least
     MIN_PASSWORD_LENGTH characters) and a display name; RecordsError naming the field when
     refused. Audited by `actor` (default: the operating-system user), without the hash."""
-    username = username.strip()
-    if not USERNAME.match(username):
-        raise RecordsError(
-            f"username: {username!r} must be 2 to 100 letters, digits, '.', '_' or '-'"
-        )
-    if len(password) < MIN_PASSWORD_LENGTH:
-        raise RecordsError(f"password: shorter than {MIN_PASSWORD_LENGTH} characters")
-    display_name = display_name.strip()
-    if not display_name or len(display_name) > 200:
-        raise RecordsError("display name: must be 1 to 200 characters")
+    username, display_name = checked_new_account(username, password, display_name)
     now = datetime.now(UTC)
     with Session(engine) as s, s.begin():
         if s.scalar(select(User).where(User.username == username)):
