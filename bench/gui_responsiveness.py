@@ -82,6 +82,7 @@ class Window:
     longest_state: str  # the Run tab's state line then
     longest_phase: str  # the run's phase then (the worker's last StateChanged)
     longest_worker_cpu_ms: float  # the run worker's CPU time within the longest gap
+    longest_main_cpu_ms: float  # the GUI (main) thread's own CPU time within it (painting)
     phases: dict[str, float]  # the longest gap (ms) in each phase the run went through
 
     @property
@@ -132,7 +133,8 @@ class Probe:
         self.gaps: list[float] = []
         self.cpu: list[float] = []
         self.t0 = self.last = time.perf_counter()
-        self.longest: tuple[float, float, str, str, float] = (0.0, 0.0, "", "", 0.0)
+        self.longest: tuple[float, float, str, str, float, float] = (0.0, 0.0, "", "", 0.0, 0.0)
+        self.main_cpu = time.thread_time()
         self.phases: dict[str, float] = {}
         self.clock: int | None = None  # the run worker thread's CPU clock, once it runs
         self.worker_cpu = 0.0
@@ -167,13 +169,22 @@ class Probe:
         now = time.perf_counter()
         before = self.worker_cpu
         cpu = self._worker_cpu()
+        main_before, self.main_cpu = self.main_cpu, time.thread_time()
         gap = now - self.last
         self.gaps.append(gap)
         phase = self._phase()
         self.phases[phase] = max(self.phases.get(phase, 0.0), 1e3 * gap)
         if gap > self.longest[0]:  # when, what the Run tab said and the phase as it ended
             worker_ms = 1e3 * (cpu - before) if before > 0 else float("nan")
-            self.longest = (gap, now - self.t0, str(self.tab.state.text()), phase, worker_ms)
+            main_ms = 1e3 * (self.main_cpu - main_before)
+            self.longest = (
+                gap,
+                now - self.t0,
+                str(self.tab.state.text()),
+                phase,
+                worker_ms,
+                main_ms,
+            )
         self.last = now
 
     def _slot(self) -> None:
@@ -195,6 +206,7 @@ class Probe:
             self.longest[2],
             self.longest[3],
             self.longest[4],
+            self.longest[5],
             dict(self.phases),
         )
 
@@ -344,7 +356,8 @@ def main(argv: list[str] | None = None) -> int:
         f"longest live stall: {live.longest_gap_ms:.1f} ms, in the run's phase "
         f"'{live.longest_phase}', ended {live.longest_at_s:.2f} s after Start returned (the Run "
         f"tab saying {live.longest_state!r}); the run worker's CPU within it "
-        f"{live.longest_worker_cpu_ms:.1f} ms"
+        f"{live.longest_worker_cpu_ms:.1f} ms, the GUI thread's own "
+        f"{live.longest_main_cpu_ms:.1f} ms"
     )
     print(
         "longest stall per phase: "

@@ -495,13 +495,20 @@ def _floor_layout(
         return period_samples - b if b > period_samples // 2 else b
 
     harmonic_set = {fold(h * int(b)) for b in bins for h in HARMONICS}
-    excluded = line_set | harmonic_set | {0}
-    free = np.array([b for b in range(n_bins) if b not in excluded], dtype=np.int64)
+    # vectorised: a Python loop over every bin held the GIL for tens of ms at the start of a
+    # live run (the GUI's longest stall, issue 34.6)
+    all_bins = np.arange(n_bins, dtype=np.int64)
+    excluded = np.fromiter(line_set | harmonic_set | {0}, dtype=np.int64)
+    free = all_bins[~np.isin(all_bins, excluded)]
     if free.size == 0:
-        free = np.array([b for b in range(1, n_bins) if b not in line_set], dtype=np.int64)
+        lines = np.fromiter(line_set, dtype=np.int64)
+        free = all_bins[1:][~np.isin(all_bins[1:], lines)]
     floor_bins = []
     for b in bins:
-        near = free[np.abs(free - b) <= FLOOR_HALF_WIDTH_BINS]
+        # `free` is sorted: the bins within the half-width are one slice
+        lo = int(np.searchsorted(free, b - FLOOR_HALF_WIDTH_BINS, side="left"))
+        hi = int(np.searchsorted(free, b + FLOOR_HALF_WIDTH_BINS, side="right"))
+        near = free[lo:hi]
         if near.size < 4:
             near = free[np.argsort(np.abs(free - b))[: min(2 * FLOOR_HALF_WIDTH_BINS, free.size)]]
         floor_bins.append(near)

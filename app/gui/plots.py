@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 import pyqtgraph as pg
-from PySide6.QtCore import Qt
+from PySide6.QtCore import Qt, QTimer
+from PySide6.QtGui import QShowEvent
 from PySide6.QtWidgets import QLabel, QStackedWidget, QWidget
 
 from app.gui.live_view import (
@@ -58,6 +59,7 @@ class ChartStack(QStackedWidget):
 
     def __init__(self, chart: QWidget, message: str) -> None:
         super().__init__()
+        self._rendered = False  # the hidden chart painted once at the stack's size (`_render`)
         self.message = QLabel(message)
         self.message.setAlignment(Qt.AlignmentFlag.AlignCenter)
         self.message.setWordWrap(True)
@@ -71,6 +73,20 @@ class ChartStack(QStackedWidget):
         if message is not None:
             self.message.setText(message)
         self.setCurrentWidget(self.chart if shown else self.message)
+
+    def showEvent(self, event: QShowEvent) -> None:
+        """On the first show, paint the hidden chart once when the window is idle: its first
+        paint (fonts, titles, axis pictures: about 30 ms on the GUI thread) is then not paid
+        when a run starts and the worker competes for the interpreter (issue 34.6)."""
+        super().showEvent(event)
+        if not self._rendered:
+            self._rendered = True
+            QTimer.singleShot(0, self._render)
+
+    def _render(self) -> None:
+        if not self.showing_chart and self.isVisible():
+            self.chart.resize(self.size())  # a hidden page keeps its own size until shown
+            self.chart.grab()
 
     @property
     def showing_chart(self) -> bool:

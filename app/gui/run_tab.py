@@ -289,6 +289,8 @@ class RunTab(QWidget):
         self.frame = LiveFrame()
         if procedure is not None:
             self.opened(procedure)
+        else:  # the run waits for its plots to be painted once it has opened (`opened`)
+            worker.view_ready.clear()
         self.worker = worker
         self.stop_button.setEnabled(True)
         gc.freeze()
@@ -299,6 +301,9 @@ class RunTab(QWidget):
         period, the progress with its phases' steps."""
         self.frame.plan, self.frame.steps = procedure.plan, PhaseSteps.of(procedure)
         self.live.prepare(procedure.plan)
+        if self.worker is not None:  # painted now, while the run waits for it (RunWorker)
+            self.live.graphics.viewport().repaint()
+            self.worker.view_ready.set()
 
     def stop(self) -> None:
         """Fade the drive out and end the run (kept as aborted)."""

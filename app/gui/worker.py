@@ -43,6 +43,7 @@ log = logging.getLogger(__name__)
 # worker's thread they stalled the window's thread that long just after Start
 RUN_IMPORTS = ("scipy.signal", "scipy.linalg")
 MAX_QUEUED = 2000  # events kept when the GUI falls behind (oldest dropped; Finished never)
+VIEW_WAIT_S = 0.5  # s, the longest a run waits for the tab to paint its opened plots
 # the GIL's switch interval (s) from the first run worker's start on (the process's setting, it
 # stays): a thread that waits for the GIL asks the holder for it after this long (CPython's
 # default is 5 ms). The window's thread takes the GIL back at every Python callback Qt makes
@@ -135,6 +136,12 @@ class RunWorker:
         # pixel columns of the live plots (the GUI thread sets it as the window resizes)
         self.columns = MIN_COLUMNS
         self._view_failed = False
+        # set by the tab once it has painted the opened run's plots (`opened`): the run waits
+        # for it (at most VIEW_WAIT_S) so the first paint does not compete with the run's
+        # start for the interpreter (the GUI's longest stall, issue 34.6); set from the start
+        # for a worker nobody shows
+        self.view_ready = threading.Event()
+        self.view_ready.set()
         if procedure is not None:
             procedure.listener = self._on_event
         self.thread = threading.Thread(target=self._run, name="calibration-run", daemon=True)
@@ -249,6 +256,7 @@ class RunWorker:
             return
         procedure = self.procedure
         assert procedure is not None
+        self.view_ready.wait(VIEW_WAIT_S)
         try:
             finished = procedure.run()
         except BaseException as exc:  # the procedure catches its own; this is a last resort

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import threading
 
 import numpy as np
 import pytest
@@ -14,6 +15,7 @@ os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 from PySide6.QtWidgets import QLabel
 
 from app.gui.run_tab import ElidedLabel, LiveFrame, PhaseSteps, RunTab
+from app.gui.worker import RunWorker
 from app.procedure import (
     EqualisationStep,
     Finished,
@@ -318,3 +320,63 @@ def test_a_one_period_estimate_says_coherence_n_a_and_why(qtbot):
     lines = tuple(dataclasses.replace(ln, coherence=math.nan) for ln in results.lines)
     tab.draw_characteristic(dataclasses.replace(results, lines=lines))
     assert tab.coherence.text() == COHERENCE_NOT_AVAILABLE
+
+
+class _Opened:
+    """A procedure's part: its plan, and a run that notes whether the tab had laid its plots
+    out for the plan when the run began (then ends aborted at once)."""
+
+    def __init__(self, plan, prepared: threading.Event) -> None:
+        self.plan, self.listener, self.prepared = plan, None, prepared
+        self.began_prepared: bool | None = None
+
+    def run(self) -> Finished:
+        self.began_prepared = self.prepared.is_set()
+        record = RunRecord(run_id=None, status="aborted", abort_reason="done", final_output_v=0.0)
+        return Finished("aborted", "done", None, record)
+
+    def abort(self, reason: str = "") -> None:
+        pass
+
+    def close(self) -> None:
+        pass
+
+
+def test_a_run_begins_once_the_tab_has_painted_its_opened_plots(qtbot, tmp_path, monkeypatch):
+    """Issue 34.6: the opened run waits for the tab's first paint of its plots, so that paint
+    (tens of ms on the GUI thread) never competes with the run's start for the interpreter."""
+    from dsp import iso266
+    from dsp.multisine import make_plan
+
+    freqs = iso266.nominal_frequencies(10, 1000)
+    plan = make_plan(freqs, 8192.0, 8192, 1.0, 160.0, phases_rad=np.zeros(len(freqs)))
+    prepared = threading.Event()
+    tab = RunTab()
+    qtbot.addWidget(tab)
+    tab.out = tmp_path
+    laid_out = tab.live.prepare
+
+    def prepare(plan_):
+        laid_out(plan_)
+        prepared.set()
+
+    monkeypatch.setattr(tab.live, "prepare", prepare)
+    procedure = _Opened(plan, prepared)
+    worker = RunWorker.opening(lambda: (procedure, procedure))
+    tab._start(worker, {"reference": 2.0, "dut": 2.0}, None)
+    assert not worker.view_ready.is_set()  # cleared: the run will wait for the tab
+    qtbot.waitUntil(lambda: worker.done, timeout=10_000)
+    assert procedure.began_prepared is True
+    assert tab.live.widget.showing_chart
+
+
+def test_a_run_nobody_paints_for_waits_only_a_bounded_time(monkeypatch):
+    from app.gui import worker as worker_module
+
+    monkeypatch.setattr(worker_module, "VIEW_WAIT_S", 0.05)
+    procedure = _Opened(None, threading.Event())
+    worker = RunWorker.opening(lambda: (procedure, procedure))
+    worker.view_ready.clear()  # as the tab does, but no tab will set it
+    worker.start()
+    assert worker.join(5.0)
+    assert procedure.began_prepared is False and worker.finished is not None
