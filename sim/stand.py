@@ -101,14 +101,7 @@ class SimulatedStand:
         faults: tuple[Fault, ...] = (),
         systematic: bool = True,
     ):
-        if isinstance(dut, str):
-            try:
-                dut = DUT_CATALOGUE[dut]
-            except KeyError:
-                raise ValueError(
-                    f"dut: unknown {dut!r}; the catalogue has {', '.join(DUT_CATALOGUE)}"
-                ) from None
-        self.dut = dut
+        self.dut = dut = catalogue_sensor(dut)
         self.model = model or StandModel()
         self.sim_budget = sim_budget or SimBudget.load()
         self.seed = seed
@@ -239,17 +232,7 @@ class SimulatedStand:
     def configure(self, config: DaqConfig) -> DaqStatus:
         """Build the exact sampled models for this sample rate and channel set; each input's
         range coerced up to an offered one (HardwareError above the largest)."""
-        ranges: dict[str, float] = {}
-        for channel in config.inputs:
-            used = self.model.adc.coerced_range(channel.range_v)
-            if used is None:
-                raise HardwareError(
-                    f"simulated DAQ: {channel.name} channel range +-{channel.range_v:g} V is "
-                    f"above the largest it offers (+-{max(self.model.adc.ranges_v):g} V)"
-                )
-            ranges[channel.name] = used
-        self._ranges = ranges
-        self._config = config
+        self._set_ranges(config)
         fs = config.sample_rate_hz
         m, d = self.model, self.deviations
         dut_model = self.dut.model()
@@ -290,6 +273,21 @@ class SimulatedStand:
         self._chain = MultiZoh(network, outputs, fs)
         self._cubic = ZohFilter(dut_model, fs, skew) if self.dut.cubic_per_ms2_sq else None
         return DaqStatus(actual_sample_rate_hz=fs, skew_s=skew)
+
+    def _set_ranges(self, config: DaqConfig) -> None:
+        """Each input's range coerced up to an offered one (HardwareError above the largest);
+        `config` from now on."""
+        ranges: dict[str, float] = {}
+        for channel in config.inputs:
+            used = self.model.adc.coerced_range(channel.range_v)
+            if used is None:
+                raise HardwareError(
+                    f"simulated DAQ: {channel.name} channel range +-{channel.range_v:g} V is "
+                    f"above the largest it offers (+-{max(self.model.adc.ranges_v):g} V)"
+                )
+            ranges[channel.name] = used
+        self._ranges = ranges
+        self._config = config
 
     def start(self, period_v: np.ndarray) -> None:
         self._require_config()
@@ -462,6 +460,17 @@ class SimulatedStand:
             * m.reference_gain
         )
         reference += noise
+        return self._outputs(chain, reference, drive, v_off)
+
+    def _outputs(
+        self, chain: dict[str, np.ndarray], reference: np.ndarray, drive: np.ndarray, v_off: bool
+    ) -> dict[str, np.ndarray]:
+        """`_simulate`'s end: the DUT's output, hum and converter on both channels (V), each
+        quantised at its input's range (the reference's sensor output given)."""
+        m, d = self.model, self.deviations
+        n = drive.size
+        fs = self._require_config().sample_rate_hz
+        sensor_noise = math.sqrt(fs / 2) * G_N
         dut = chain["dut"]
         if self._cubic is not None:
             dut += self._cubic.process(self.dut.cubic_per_ms2_sq * chain["cubic_input"] ** 3)
@@ -553,3 +562,15 @@ def _hum_span(fs: float, mains_hz: float, max_cycles: int = 50) -> int | None:
         if abs(samples - round(samples)) < 1e-9 * samples and round(samples) >= 1:
             return round(samples)
     return None
+
+
+def catalogue_sensor(dut: str | SensorModel) -> SensorModel:
+    """A catalogue DUT by name, or the sensor given (ValueError naming the catalogue)."""
+    if not isinstance(dut, str):
+        return dut
+    try:
+        return DUT_CATALOGUE[dut]
+    except KeyError:
+        raise ValueError(
+            f"dut: unknown {dut!r}; the catalogue has {', '.join(DUT_CATALOGUE)}"
+        ) from None

@@ -49,6 +49,7 @@ from app.errors import Refusal
 from app.io.checks import MAX_TEXT_BYTES, InputFileError, check_input_file
 from app.io.vocabulary import Backend
 from app.stand.exciters import parse_exciters
+from app.stand.fixture import Fixture, FixtureError, parse_fixture
 from app.stand.instruments import Instrument, InstrumentError, parse_instruments
 from app.stand.schema import SCHEMA
 from dsp.annex_a import implausible_components, missing_components
@@ -152,6 +153,8 @@ class StandConfig:
     input_ranges_v: tuple[float, ...] = ()
     converter: Converter = field(default_factory=Converter)
     instruments: tuple[Instrument, ...] = ()  # [[instrument]]: DAQ, amplifiers, sensor
+    # [fixture]: the positions of several DUTs in one run (app.stand.fixture); None: one DUT
+    fixture: Fixture | None = None
     raw: dict[str, Any] = field(default_factory=dict, repr=False)
     text: str = field(default="", repr=False)  # the stand file as read (copied into each run)
 
@@ -388,6 +391,14 @@ def _parse(data: dict[str, Any], text: str, source: str) -> StandConfig:
         c for c in (_channel(r, "reference"), _channel(r, "dut"), _channel(r, "drive", False)) if c
     )
     _distinct_channels(inputs, r)
+    try:
+        fixture = parse_fixture(
+            data,
+            next((c for c in inputs if c.name == "dut"), None),
+            {c.physical: c.name for c in inputs},
+        )
+    except FixtureError as exc:
+        raise ConfigError(f"{r.source}: {exc}") from None
     offered, converter = _converter(r, daq)
     skew = r.value(daq, "daq", "skew_s", float, 0.0)
     if not 0 <= skew < 1e-3:
@@ -479,13 +490,15 @@ def _parse(data: dict[str, Any], text: str, source: str) -> StandConfig:
         reference=reference,
         dut_gain=r.positive(dut_channel, "dut_channel", "gain", 1.0),
         budget=budget,
-        simulation=dict(simulation),
+        # [simulation.fixture] is the simulated fixture's physics (sim.fixture), not a target
+        simulation={k: v for k, v in simulation.items() if k != "fixture"},
         plan=_plan(r),
         cmc=cmc,
         exciter_components=exciters,
         input_ranges_v=offered,
         converter=converter,
         instruments=instruments,
+        fixture=fixture,
         raw=data,
         text=text,
     )

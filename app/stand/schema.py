@@ -25,8 +25,11 @@ SCHEMA: dict[str, frozenset[str]] = {
             "cmc",
             "exciters",
             "instrument",  # [[instrument]]: checked by app.stand.instruments
+            "fixture",  # [fixture] and [[fixture.position]]: several DUTs (app.stand.fixture)
         }
     ),
+    # issue 36: the fixture of several DUTs; each [[fixture.position]] holds POSITION_KEYS
+    "fixture": frozenset({"name", "mass_kg", "mass_limit_kg", "crosstalk_db", "position"}),
     "plan": frozenset(  # issue 26: the stand's own plan (app.procedure.planning)
         {
             "frequencies_hz",
@@ -83,3 +86,17 @@ SCHEMA: dict[str, frozenset[str]] = {
         }
     ),
 }
+
+# the keys of one [[fixture.position]] (checked by app.stand.fixture, naming the position)
+POSITION_KEYS = frozenset(
+    {
+        "name",
+        "physical",
+        "axes",
+        "distance_mm",
+        "azimuth_deg",
+        "mass_limit_kg",
+        "relative_motion",
+        "relative_motion_phase_deg",
+    }
+)
