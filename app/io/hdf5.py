@@ -355,11 +355,15 @@ def write_recording(path: str | Path, recording: Recording) -> None:
         writer.set_status(recording.status or RunStatus.COMPLETE)  # written whole
 
 
-def read_recording(path: str | Path, *, stored: bool = False) -> Recording:
+def read_recording(
+    path: str | Path, *, stored: bool = False, dut_channel: str = "dut"
+) -> Recording:
     """Read and validate an HDF5 recording of this program; RecordingError names the file and
     the dataset or attribute that is not what this program writes (app.io.hdf5_fields). With
     `stored` the channels stay in the file (StoredSignal: validated here a block at a time,
-    read a slice at a time by the analysis), so memory does not grow with the record."""
+    read a slice at a time by the analysis), so memory does not grow with the record.
+    `dut_channel`: the DUT channel read as the recording's DUT (a batch recording of several
+    DUTs, issue 36, holds "dut.<position>" channels)."""
     path = Path(path)
     name = path.name
     try:
@@ -393,7 +397,7 @@ def read_recording(path: str | Path, *, stored: bool = False) -> Recording:
         stored_file = StoredFile(path, f, stamp) if stored else None
         signals: dict[str, Samples] = {}
         ranges: dict[str, float] = {}
-        for channel in (*CHANNELS, "drive"):
+        for key, channel in (("reference", "reference"), ("dut", dut_channel), ("drive", "drive")):
             label = f"{name}: /signals/{channel}"
             ds = fields.float_dataset(f, f"signals/{channel}", name, optional=channel == "drive")
             if ds is None:
@@ -402,13 +406,13 @@ def read_recording(path: str | Path, *, stored: bool = False) -> Recording:
             if unit not in (None, "V"):
                 raise RecordingError(f"{label} attribute 'unit': {unit!r}, expected 'V' (volts)")
             if stored_file is not None:
-                signals[channel] = StoredSignal(stored_file, f"signals/{channel}", ds.size, label)
+                signals[key] = StoredSignal(stored_file, f"signals/{channel}", ds.size, label)
             else:
-                signals[channel] = np.asarray(ds[()], dtype=float)
+                signals[key] = np.asarray(ds[()], dtype=float)
             stored_range = fields.number_attr(
                 ds.attrs, "range_v", f"{label} attribute", low=0.0, high=1e6
             )
-            ranges[channel] = stored_range or 0.0
+            ranges[key] = stored_range or 0.0
         status = recording_status(f.attrs.get("status"))
         truth = _read_truth(f, name)
     if plan.sample_rate_hz != head.sample_rate_hz or plan.period_samples != head.period_samples:
@@ -435,7 +439,8 @@ def read_recording(path: str | Path, *, stored: bool = False) -> Recording:
         status=status,
         cmc=cmc,
     )
-    validate(recording, name, labels={c: f"/signals/{c}" for c in signals})
+    labels = {c: f"/signals/{dut_channel if c == 'dut' else c}" for c in signals}
+    validate(recording, name, labels=labels)
     return recording
 
 

@@ -76,6 +76,7 @@ class PeriodEstimate:
     periods: int
     estimate: Estimate
     results: Results
+    member: str = ""  # several DUTs in one run (issue 36): the DUT's position; "": the one DUT
 
 
 @dataclass(frozen=True)

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from app.procedure.errors import PreflightError
-from app.procedure.ranging import RangePlan, plan_ranges
+from app.procedure.ranging import RangePlan, plan_ranges, ranges_by_name
 from dsp.crestfactor import peak_grid_samples, synthesize
 from dsp.fades import fade_in_seconds, fade_motion, fade_out_seconds
 from dsp.multisine import Plan, PredictedPeaks
@@ -95,7 +95,7 @@ def check_preflight(
     multisine's peaks cover its fades (`motion_peaks`: `fade_in_s`, None: the LPM's as
     `fade_in_for` picks it; `fade_out_s`, None: dsp.fades' default)."""
     limits = config.limits
-    ranges = {c.name: c.range_v for c in config.inputs}
+    ranges = ranges_by_name(config.inputs)
     picked_fade_in_s = None
     if per_line:
         raw = largest_line_peaks(plan)

@@ -15,7 +15,7 @@ import logging
 import math
 import sys
 from datetime import UTC, datetime
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -47,7 +47,7 @@ from app.procedure.stepped import SteppedSine
 from app.procedure.verdict import Tolerances, tolerances_for, with_verdict
 from app.records.run_folder import RunFolder
 from app.records.run_record import RunRecord, StandInfo
-from app.records.run_start import CONFIG_NAME, RunStart
+from app.records.run_start import CONFIG_NAME, BatchLink, RunStart
 from app.stand.open import Stand
 from app.stand.response import ResponseStore
 from dsp.calibration import AnalysisError
@@ -68,6 +68,16 @@ def _plain(value: Any) -> dict[str, Any]:
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
         return json.loads(json.dumps(value.__dict__, default=str))
     return json.loads(json.dumps(dict(value), default=str))
+
+
+class BatchHooks(Protocol):
+    """What a run of several DUTs (app.procedure.batch) adds to the run of its first DUT."""
+
+    def config_stored(self, start: RunStart) -> None:
+        """The first DUT's config.json is stored: store the other members' likewise."""
+
+    def open_writers(self, procedure: Procedure) -> None:
+        """The recording is open: open the other members' (`procedure.io.member_writers`)."""
 
 
 class Procedure:
@@ -98,6 +108,8 @@ class Procedure:
         self.memory = StandMemory(response_store, stand, plan, settings, self._log)
         self._ranges_text = ""  # the preflight's input ranges, told once the run starts
         self._preflight: PreflightReport | None = None  # computed once (`preflight_report`)
+        self.batch_link: BatchLink | None = None  # one DUT of several (config.json "batch")
+        self.batch: BatchHooks | None = None  # the other DUTs of the run
 
     # --- control (thread-safe) ------------------------------------------------------------
 
@@ -199,8 +211,9 @@ class Procedure:
             io.disable_power()
             if io.writer is not None:
                 escaping = sys.exc_info()[0] is not None  # e.g. SystemExit: not complete
-                io.writer.set_status(RunStatus.ABORTED if escaping else status, reason)
-                io.writer.close()
+                for writer in (io.writer, *io.member_writers.values()):
+                    writer.set_status(RunStatus.ABORTED if escaping else status, reason)
+                    writer.close()
         if status == RunStatus.ABORTED:
             self.ctx.state(State.ABORTED, reason or "")
         else:
@@ -319,10 +332,13 @@ class Procedure:
                 settings=self.settings.__dict__,
                 identity=self.identity.to_dict(),
                 extra={"environment": environment} if environment is not None else {},
+                batch=self.batch_link,
             )
             self.folder.write_text(CONFIG_NAME, start.to_json())
             if self.stand.config.text:
                 self.folder.write_text("stand.toml", self.stand.config.text)
+            if self.batch is not None:
+                self.batch.config_stored(start)
         except OSError as exc:  # nothing has moved yet
             raise RunNotRecordedError(
                 f"run {self.folder.run_id} not started, nothing moved: its configuration "
@@ -401,6 +417,8 @@ class Procedure:
                 cmc=self.stand.config.cmc,
             )
             self._write_truth()
+            if self.batch is not None:
+                self.batch.open_writers(self)
 
     def _write_truth(self) -> None:
         """The simulated stand's true DUT sensitivity and phase at every line (/truth), at the

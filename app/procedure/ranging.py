@@ -30,7 +30,7 @@ import numpy as np
 from dsp.multisine import Plan
 from dsp.resolution import Converter, LineResolution, line_resolution, resolution_components
 from dsp.uncertainty import Budget
-from hardware.interfaces import InputChannel, choose_range
+from hardware.interfaces import InputChannel, choose_range, is_dut_channel
 
 if TYPE_CHECKING:
     from app.stand.config import StandConfig
@@ -187,7 +187,7 @@ def plan_ranges(
 ) -> RangePlan:
     """The ranges of a run of `plan` (module docstring): one per channel from the whole plan's
     predicted peak, or (`per_line`, stepped sine) one per line from that line's amplitude."""
-    limits: dict[str, float] = {c.name: c.range_v for c in config.inputs}
+    limits: dict[str, float] = ranges_by_name(config.inputs)
     freqs = np.asarray(plan.frequencies_hz, float)
     amplitudes = np.asarray(plan.amplitudes_ms2, float) * level_scale
     if chain is not None:
@@ -233,6 +233,17 @@ def plan_ranges(
         dict(limits),
         config.converter.bits,
     )
+
+
+def ranges_by_name(inputs: Sequence[InputChannel]) -> dict[str, float]:
+    """Each input's +-range (V) by name; with several DUTs (issue 36: "dut.<position>"
+    inputs, no "dut") also "dut": the first DUT input's, the one the run's own phases read."""
+    ranges = {c.name: c.range_v for c in inputs}
+    if "dut" not in ranges:
+        first = next((name for name in ranges if is_dut_channel(name)), None)
+        if first is not None:
+            ranges["dut"] = ranges[first]
+    return ranges
 
 
 def with_ranges(

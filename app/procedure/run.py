@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 import signal
 import threading
+from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 from app.io.vocabulary import Backend
@@ -31,6 +32,7 @@ from app.stand.response import ResponseStore
 from app.stand.simulated import EXCITERS, exciter_stroke_m, plan_preset_for
 from dsp.multisine import PRESETS, Plan, preset_plan
 from dsp.profiles import Profile
+from dsp.uncertainty import Budget
 
 if TYPE_CHECKING:
     from app.records.db.references import ReferenceTable
@@ -56,11 +58,15 @@ def prepare(
     listener: Listener | None = None,
     *,
     config: StandConfig | None = None,
+    duts: Mapping[str, str] | None = None,
+    extra_budget: Budget | None = None,
 ) -> tuple[Procedure, Any]:
     """Open the stand, build the plan and check it before anything moves (PreflightError,
     ConfigError, PlanError on refusal; nothing is created then). `config`: the stand file as
-    the run service loaded it (None: loaded here from `request.stand_file`). Returns the
-    procedure and the stand (to close)."""
+    the run service loaded it (None: loaded here from `request.stand_file`). `duts`: several
+    DUTs on the stand file's fixture (input "dut.<position>" -> simulated catalogue DUT;
+    app.procedure.batch), the first the run's own; `extra_budget`: components added to the
+    run's budget (its position's terms). Returns the procedure and the stand (to close)."""
     check_request(request)
     if config is None:
         config = stand_config.load(request.stand_file)
@@ -74,6 +80,10 @@ def prepare(
     if request.reference is not None:  # the records' table, not the simulator's own
         chain = config.reference_chain()
         budget = reference_budget(config.budget, request.reference)  # and its uncertainty
+    if extra_budget is not None:
+        budget = Budget((*(budget or config.budget).components, *extra_budget.components))
+    if duts:  # every DUT's input on the fixture, [daq.dut]'s settings: one acquisition
+        config = with_dut_inputs(config, list(duts))
     stand = open_stand(
         config,
         dut=request.dut,
@@ -85,6 +95,7 @@ def prepare(
         chain=chain,
         budget=budget,
         driven_hum=request.sim_hum,
+        duts=duts,
     )
     try:
         procedure = Procedure(
@@ -102,6 +113,19 @@ def prepare(
         stand.close()
         raise
     return procedure, stand
+
+
+def with_dut_inputs(config: StandConfig, channels: list[str]) -> StandConfig:
+    """The stand with the fixture's DUT inputs `channels` ("dut.<position>") in place of its
+    "dut" input (reference first, drive last)."""
+    assert config.fixture is not None
+    dut = next(c for c in config.inputs if c.name == "dut")
+    positions = [name.split(".")[1] for name in channels]
+    fixture_inputs = {c.name: c for c in config.fixture.inputs(dut, positions)}
+    inputs = [c for c in config.inputs if c.name == "reference"]
+    inputs += [fixture_inputs[name] for name in channels]
+    inputs += [c for c in config.inputs if c.name == "drive"]
+    return dataclasses.replace(config, inputs=tuple(inputs))
 
 
 def with_reference(config: StandConfig, reference: ReferenceTable | None) -> StandConfig:

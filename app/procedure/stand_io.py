@@ -28,7 +28,7 @@ from dsp.sinefit import sine_fit
 from dsp.spectral import period_spectrum, settle_excess
 from dsp.tones import LineLeak, line_leak
 from hardware.errors import AmplifierFaultError, DeviceLostError, HardwareError, OverloadError
-from hardware.interfaces import DaqConfig
+from hardware.interfaces import DaqConfig, is_dut_channel
 
 log = logging.getLogger(__name__)
 
@@ -100,7 +100,13 @@ class StandIO:
         config = stand.config
         self.inputs = config.inputs
         self.channel_index: dict[str, int] = {c.name: i for i, c in enumerate(self.inputs)}
-        self.ranges: dict[str, float] = {c.name: c.range_v for c in self.inputs}
+        # the DUT channel the run's own estimate reads: "dut", or with several DUTs (issue 36)
+        # the first "dut.<position>"; the others are recorded to `member_writers`
+        self.dut_name = "dut"
+        if "dut" not in self.channel_index:
+            self.dut_name = next((n for n in self.channel_index if is_dut_channel(n)), "dut")
+        self.member_writers: dict[str, RecordingWriter] = {}
+        self.ranges: dict[str, float] = self._named_ranges()
         self.drive_limit_v = min(config.limits.drive_peak_v, config.output.range_v)
         self.writer: RecordingWriter | None = None
         self.drive = np.zeros(plan.period_samples)  # the steady drive (what a fade-out fades)
@@ -142,8 +148,19 @@ class StandIO:
     def set_ranges(self, ranges: dict[str, float]) -> None:
         """The named input channels' +-ranges (V) from the next DAQ configuration on (the
         overload check follows them)."""
+        if self.dut_name != "dut" and "dut" in ranges:  # several DUTs: the DUT range on each
+            dut = ranges["dut"]
+            ranges = {**ranges, **{n: dut for n in self.channel_index if is_dut_channel(n)}}
         self.inputs = with_ranges(self.inputs, ranges)
-        self.ranges = {c.name: c.range_v for c in self.inputs}
+        self.ranges = self._named_ranges()
+
+    def _named_ranges(self) -> dict[str, float]:
+        """Each input's +-range (V) by name; with several DUTs "dut" too (the run's own DUT
+        channel's, as the single-DUT phases ask for it)."""
+        ranges = {c.name: c.range_v for c in self.inputs}
+        if self.dut_name != "dut" and self.dut_name in ranges:
+            ranges["dut"] = ranges[self.dut_name]
+        return ranges
 
     def reconfigure(self, ranges: dict[str, float]) -> bool:
         """The input ranges changed between phases: fade out, stop, the DAQ configured anew
@@ -174,11 +191,11 @@ class StandIO:
 
     def split_channels(self, block: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(reference, DUT) samples of a period as read."""
-        return block[self.channel_index["reference"]], block[self.channel_index["dut"]]
+        return block[self.channel_index["reference"]], block[self.channel_index[self.dut_name]]
 
     def pair(self, block: np.ndarray) -> np.ndarray:
         """Rows (reference, DUT) of a period as read."""
-        return block[[self.channel_index["reference"], self.channel_index["dut"]]]
+        return block[[self.channel_index["reference"], self.channel_index[self.dut_name]]]
 
     @property
     def excited_s(self) -> float:
@@ -362,7 +379,9 @@ class StandIO:
         if self.writer is not None and not self.recording_full:
             index = self.channel_index
             drive = block[index["drive"]] if "drive" in index else played
-            self.writer.append(block[index["reference"]], block[index["dut"]], drive)
+            self.writer.append(block[index["reference"]], block[index[self.dut_name]], drive)
+            for name, writer in self.member_writers.items():  # the other DUTs of a batch
+                writer.append(block[index["reference"]], block[index[name]], drive)
         amplifier = self.stand.measuring_amplifier
         if amplifier is not None and amplifier.overloaded(
             self.stand.config.reference_amplifier_channel

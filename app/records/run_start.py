@@ -16,7 +16,68 @@ from typing import Any
 from app.errors import Refusal
 
 CONFIG_NAME = "config.json"
-_KEYS = ("stand", "stand_source", "plan", "settings", "identity")
+_KEYS = ("stand", "stand_source", "plan", "settings", "identity", "batch")
+
+
+@dataclass(frozen=True)
+class BatchMemberLink:
+    """One DUT of a batch as every member's config.json names it."""
+
+    position: str
+    channel: str
+    serial: str
+    run_id: str
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "position": self.position,
+            "channel": self.channel,
+            "serial": self.serial,
+            "run_id": self.run_id,
+        }
+
+
+@dataclass(frozen=True)
+class BatchLink:
+    """A run that is one DUT of several in one excitation (issue 36): the batch, this DUT's
+    position, its channel in the batch recording, the position's distance from the reference
+    axis (mm) and every member. config.json's optional "batch" object (absent in a
+    single-DUT run, whose file is as before)."""
+
+    batch_id: str
+    position: str
+    channel: str
+    distance_mm: float
+    members: tuple[BatchMemberLink, ...]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "batch_id": self.batch_id,
+            "position": self.position,
+            "channel": self.channel,
+            "distance_mm": self.distance_mm,
+            "members": [m.to_dict() for m in self.members],
+        }
+
+    @classmethod
+    def from_dict(cls, data: Any, name: str = CONFIG_NAME) -> BatchLink:
+        """The link from config.json's "batch" (RunStartError naming the field)."""
+        try:
+            members = tuple(
+                BatchMemberLink(
+                    str(m["position"]), str(m["channel"]), str(m["serial"]), str(m["run_id"])
+                )
+                for m in data["members"]
+            )
+            return cls(
+                str(data["batch_id"]),
+                str(data["position"]),
+                str(data["channel"]),
+                float(data["distance_mm"]),
+                members,
+            )
+        except (KeyError, TypeError, ValueError) as exc:
+            raise RunStartError(f"{name}: batch: not a batch link ({exc})") from None
 
 
 class RunStartError(Refusal):
@@ -39,6 +100,7 @@ class RunStart:
     settings: dict[str, Any] = field(default_factory=dict)
     identity: dict[str, Any] = field(default_factory=dict)
     extra: dict[str, Any] = field(default_factory=dict)
+    batch: BatchLink | None = None  # one DUT of several in one run (issue 36)
 
     @property
     def laboratory(self) -> dict[str, Any]:
@@ -68,6 +130,8 @@ class RunStart:
             settings=self.settings,
             identity=self.identity,
         )
+        if self.batch is not None:
+            data["batch"] = self.batch.to_dict()
         data.update(self.extra)
         return data
 
@@ -95,6 +159,7 @@ class RunStart:
             settings=_table(data.get("settings")),
             identity=_table(data.get("identity")),
             extra={k: v for k, v in data.items() if k not in _KEYS},
+            batch=BatchLink.from_dict(data["batch"], name) if "batch" in data else None,
         )
 
     @classmethod

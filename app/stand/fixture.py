@@ -122,6 +122,14 @@ class FixturePosition:
             )
         return Budget(tuple(parts))
 
+    def owns(self, component_name: str) -> bool:
+        """Whether a budget component of that name is one of this position's (`budget`)."""
+        crosstalk = f"{CROSSTALK_NAME} {self.name}"
+        return component_name.startswith(f"{MOTION_NAME} {self.name} ") or component_name in (
+            crosstalk,
+            f"{crosstalk} (phase)",
+        )
+
     def over_limit_hz(self, frequencies_hz: Sequence[float]) -> list[float]:
         """The lines (Hz) at which this position's stated relative motion alone (k = 2) makes U
         exceed the ISO 16063-21 limit of the band."""

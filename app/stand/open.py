@@ -5,8 +5,9 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -68,6 +69,7 @@ def open_stand(
     chain: ReferenceChain | None = None,
     budget: Budget | None = None,
     driven_hum: tuple[DrivenHum, ...] = (),
+    duts: Mapping[str, str] | None = None,
 ) -> Stand:
     """The stand of `config`; the simulated one needs a catalogue DUT (`dut`), carrying
     `dut_mass_g` (g) instead of its catalogue mass when given, and `exciter` (a name of
@@ -75,7 +77,9 @@ def open_stand(
     reference chain and type B budget the analysis uses when the run takes them from
     elsewhere than the stand (the records' certificate table); the stand is not changed
     after it is opened. `driven_hum`: hum the simulated stand adds only while it is driven
-    (issue 32 point 3)."""
+    (issue 32 point 3). `duts`: several DUTs on the stand file's fixture (input channel
+    "dut.<position>" -> catalogue DUT; the simulated stand: sim.fixture_stand, the fixture's
+    motion from sim.fixture_rigid.fixture_motion)."""
     if config.backend == "sim":
         # without a power amplifier only the legacy `amplifier-fault` (raised by the DAQ) works
         kinds = {f.kind for f in faults} & (set(POWER_AMPLIFIER_FAULT_KINDS) - {"amplifier-fault"})
@@ -94,8 +98,7 @@ def open_stand(
         sensor = DUT_CATALOGUE.get(dut)
         if sensor is not None and dut_mass_g is not None:
             sensor = dataclasses.replace(sensor, mass_g=dut_mass_g)
-        sim = SimulatedStand(
-            sensor if sensor is not None else dut,
+        common: dict[str, Any] = dict(
             model=model,
             sim_budget=SimBudget(config.budget, config.simulation),
             seed=seed,
@@ -103,6 +106,17 @@ def open_stand(
             faults=faults,
             systematic=systematic,
         )
+        sim: SimulatedStand
+        if duts:
+            from sim.fixture_rigid import fixture_motion
+            from sim.fixture_stand import FixtureStand
+
+            fixture_g = 1000 * config.fixture.mass_kg if config.fixture is not None else 0.0
+            sim = FixtureStand(
+                duts, fixture=fixture_motion(config.raw), fixture_mass_g=fixture_g, **common
+            )
+        else:
+            sim = SimulatedStand(sensor if sensor is not None else dut, **common)
         return Stand(
             input_ranges_v=offered_ranges(config, sim),
             config=config,
@@ -112,7 +126,12 @@ def open_stand(
             measuring_amplifier=sim.measuring_amplifier() if config.measuring_amplifier else None,
             power_amplifier=sim.power_amplifier() if config.power_amplifier else None,
             truth=sim.truth,
-            description=f"simulated stand, DUT {dut!r}, seed {seed}",
+            description=(
+                f"simulated stand, DUTs {', '.join(f'{k[4:]}={v}' for k, v in duts.items())}, "
+                f"seed {seed}"
+                if duts
+                else f"simulated stand, DUT {dut!r}, seed {seed}"
+            ),
             realisation=f"simulated, seed {seed}, {'drawn' if systematic else 'nominal'} values",
         )
     if faults:

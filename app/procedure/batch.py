@@ -1,0 +1,534 @@
+"""Several DUTs in one run (issue 36): one excitation, every channel acquired, an estimate
+per DUT.
+
+The run is the single-DUT procedure on the first DUT (its channel "dut.<position>": the
+equalisation and the plan's level hold at the reference as always, the live estimate is that
+DUT's), with every other DUT's channel recorded beside it into its own run folder. When the
+run ends, each other DUT is estimated from its own recording by the same estimator code
+(app.procedure.analysis, the pair reference and dut.<position>), its budget the run's with
+its own position's terms (stated relative motion, crosstalk) in place of the first's. Each
+member is a complete run folder (config.json with its `batch` link, recording, results,
+manifest, seal); the batch folder holds the all-channel recording and batch.json naming each
+member's seal (app.records.batch).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import logging
+import shutil
+from collections.abc import Sequence
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+
+from app.io.hdf5 import RecordingWriter, Truth, read_recording, software_version
+from app.io.vocabulary import Backend, Mode, RunStatus
+from app.procedure import Finished, Listener, Procedure
+from app.procedure.errors import PreflightError
+from app.procedure.events import Event, PeriodEstimate
+from app.procedure.request import RequestError, RunIdentity, RunRequest
+from app.records.batch import Batch, BatchMember, seal_batch
+from app.records.run_folder import RunFolder, new_run_id
+from app.records.run_record import DutIdentity
+from app.records.run_start import CONFIG_NAME, BatchLink, BatchMemberLink, RunStart
+from app.records.seal import named_seal
+from app.stand.config import StandConfig
+from app.stand.dut import DutSpec
+from app.stand.fixture import Fixture, FixturePosition
+from app.stand.simulated import catalogue_spec
+from dsp.uncertainty import Budget
+from hardware.interfaces import is_dut_channel
+
+log = logging.getLogger(__name__)
+
+MAX_DUTS = 8  # the simulated stand's DAQ inputs beside the reference and the drive
+
+
+@dataclass(frozen=True)
+class MemberChoice:
+    """One DUT of a batch as the operator names it: position, serial, and on the simulated
+    stand its catalogue model (None: the run's --dut)."""
+
+    position: str
+    serial: str
+    model: str | None = None
+
+
+@dataclass
+class Member:
+    """A DUT of a batch being run: where it is, what it is, its run folder."""
+
+    position: FixturePosition
+    serial: str
+    model: str | None
+    spec: DutSpec
+    folder: RunFolder
+    terms: Budget  # its position's type B components
+    warnings: tuple[str, ...] = ()
+    writer: RecordingWriter | None = None
+
+    @property
+    def channel(self) -> str:
+        return self.position.channel
+
+
+@dataclass(frozen=True)
+class BatchFinished:
+    """How a batch ended: its folder, and each member's Finished in the fixture's order."""
+
+    batch_id: str
+    folder: Path
+    members: tuple[tuple[MemberChoice, Finished], ...]
+
+
+def check_members(config: StandConfig, choices: Sequence[MemberChoice]) -> Fixture:
+    """The stand's fixture, the choices checked against it (RequestError naming --dut: no
+    fixture, an unknown position, a position or serial twice, more DUTs than positions or
+    than the simulated DAQ's inputs, a triaxial position)."""
+    fixture = config.fixture
+    if fixture is None:
+        raise RequestError(
+            f"--dut POSITION=SERIAL: the stand file {config.source} has no [fixture] table"
+        )
+    if len(choices) > len(fixture.positions):
+        raise RequestError(
+            f"--dut: {len(choices)} DUTs for the fixture's {len(fixture.positions)} positions"
+        )
+    if config.backend == Backend.SIM and len(choices) > MAX_DUTS:
+        raise RequestError(f"--dut: the simulated stand takes at most {MAX_DUTS} DUTs")
+    positions: set[str] = set()
+    serials: set[str] = set()
+    for choice in choices:
+        try:
+            position = fixture.position(choice.position)
+        except KeyError as exc:
+            raise RequestError(f"--dut {choice.position}={choice.serial}: {exc.args[0]}") from None
+        if position.axes:
+            raise RequestError(
+                f"--dut {choice.position}={choice.serial}: a triaxial position (three inputs); "
+                "its calibration is the triaxial procedure's"
+            )
+        if choice.position in positions:
+            raise RequestError(f"--dut: position {choice.position!r} given twice")
+        if choice.serial in serials:
+            raise RequestError(f"--dut: serial {choice.serial!r} given twice")
+        positions.add(choice.position)
+        serials.add(choice.serial)
+    return fixture
+
+
+def _mass_kg(spec: DutSpec) -> float:
+    return (spec.mass_g or 0.0) / 1000.0
+
+
+def ordered(fixture: Fixture, choices: Sequence[MemberChoice]) -> list[MemberChoice]:
+    """The choices in the fixture's order of positions (the first is the run's own DUT)."""
+    rank = {p.name: i for i, p in enumerate(fixture.positions)}
+    return sorted(choices, key=lambda c: rank[c.position])
+
+
+def _member_spec(request: RunRequest, choice: MemberChoice, backend: Backend) -> DutSpec:
+    """The DUT's specification: its catalogue model on the simulated stand (else the
+    request's), with its serial and the request's nominal and tolerance over it."""
+    if backend == Backend.SIM:
+        base = catalogue_spec(choice.model or request.dut)
+    else:
+        base = request.dut_spec or DutSpec()
+    return base.with_options(
+        serial=choice.serial,
+        nominal_mv_per_ms2=request.nominal_mv_per_ms2,
+        tolerance_percent=request.tolerance_percent,
+    )
+
+
+def _crosstalk_ratio(specs: dict[str, DutSpec], channel: str, reference_v_per_ms2: float) -> float:
+    """The largest other channel's voltage over this one's (nominal sensitivities; the
+    reference's `reference_v_per_ms2` mV/(m/s^2) at its amplifier's output)."""
+    own = specs[channel].nominal_mv_per_ms2 or 1.0
+    others = [s.nominal_mv_per_ms2 or 1.0 for name, s in specs.items() if name != channel]
+    return max([reference_v_per_ms2, *others]) / own
+
+
+def plan_members(
+    request: RunRequest,
+    config: StandConfig,
+    choices: Sequence[MemberChoice],
+    frequencies_hz: Sequence[float],
+    reference_mv_per_ms2: float,
+) -> list[tuple[MemberChoice, DutSpec, Budget, tuple[str, ...]]]:
+    """Each member's spec, its position's budget terms and its warnings, in the fixture's
+    order. PreflightError naming the key when the DUTs and the fixture weigh more than the
+    fixture's limits, or when a position's stated relative motion exceeds the ISO 16063-21
+    limit at every line of the plan."""
+    fixture = check_members(config, choices)
+    members = ordered(fixture, choices)
+    specs = {
+        fixture.position(c.position).channel: _member_spec(request, c, config.backend)
+        for c in members
+    }
+    masses = {c.position: _mass_kg(specs[fixture.position(c.position).channel]) for c in members}
+    problems = fixture.mass_problems(masses)
+    if problems:
+        raise PreflightError("; ".join(problems))
+    out = []
+    for choice in members:
+        position = fixture.position(choice.position)
+        over = position.over_limit_hz(frequencies_hz)
+        if over and len(over) == len(frequencies_hz):
+            raise PreflightError(
+                f"fixture.position {position.name!r} relative_motion: its stated relative "
+                "motion alone exceeds the ISO 16063-21 limit at every line of the plan"
+            )
+        warnings = ()
+        if over:
+            lines = ", ".join(f"{f:g}" for f in over)
+            warnings = (
+                f"fixture position {position.name}: its stated relative motion alone exceeds "
+                f"the ISO 16063-21 limit at {lines} Hz",
+            )
+        ratio = _crosstalk_ratio(specs, position.channel, reference_mv_per_ms2)
+        terms = position.budget(fixture.crosstalk_db, ratio)
+        out.append((choice, specs[position.channel], terms, warnings))
+    return out
+
+
+def member_budget(budget: Budget, lead: FixturePosition, terms: Budget) -> Budget:
+    """`budget` (the run's, with the first DUT's position terms) with a member's own
+    position terms in their place."""
+    kept = tuple(c for c in budget.components if not lead.owns(c.name))
+    return Budget((*kept, *terms.components))
+
+
+class BatchRun:
+    """The other members of a run of several DUTs: their configs, recordings, results and the
+    batch folder (app.procedure.procedure.BatchHooks)."""
+
+    def __init__(
+        self,
+        batch_id: str,
+        folder: Path,
+        fixture: Fixture,
+        lead: Member,
+        others: list[Member],
+        identity: RunIdentity,
+    ):
+        self.batch_id = batch_id
+        self.folder = folder
+        self.fixture = fixture
+        self.lead = lead
+        self.others = others
+        self.identity = identity
+        self.started_utc = datetime.now(UTC).isoformat(timespec="seconds")
+
+    @property
+    def members(self) -> list[Member]:
+        return [self.lead, *self.others]
+
+    def link(self, member: Member) -> BatchLink:
+        """The member's config.json "batch" object."""
+        return BatchLink(
+            self.batch_id,
+            member.position.name,
+            member.channel,
+            member.position.distance_mm,
+            tuple(
+                BatchMemberLink(m.position.name, m.channel, m.serial, m.folder.run_id)
+                for m in self.members
+            ),
+        )
+
+    def member_identity(self, member: Member, backend: Backend) -> RunIdentity:
+        """The run's identity with this member's DUT."""
+        dut = DutIdentity(
+            member.model if backend == Backend.SIM else None,
+            member.serial,
+            member.spec.nominal_mv_per_ms2
+            if self.identity.dut is None
+            else (self.identity.dut.nominal_sensitivity_mv_per_ms2),
+        )
+        return dataclasses.replace(self.identity, dut=dut)
+
+    # --- BatchHooks -----------------------------------------------------------------------
+
+    def config_stored(self, start: RunStart) -> None:
+        """Each other member's config.json (its identity and batch link) and stand.toml."""
+        backend = Backend.SIM if self.lead.model is not None else Backend.NIDAQ
+        stand_text = self.lead.folder.path / "stand.toml"
+        for member in self.others:
+            own = dataclasses.replace(
+                start,
+                identity=self.member_identity(member, backend).to_dict(),
+                batch=self.link(member),
+            )
+            member.folder.write_text(CONFIG_NAME, own.to_json())
+            if stand_text.exists():
+                member.folder.write_text("stand.toml", stand_text.read_text(encoding="utf-8"))
+
+    def open_writers(self, procedure: Procedure) -> None:
+        """Each other member's recording, beside the run's own: the same plan, chain and
+        ranges, its own position's budget terms and (simulated stand) its own truth."""
+        io = procedure.io
+        stand = procedure.stand
+        for member in self.others:
+            writer = RecordingWriter(
+                member.folder.recording,
+                procedure.plan,
+                stand.chain,
+                member_budget(stand.budget, self.lead.position, member.terms),
+                with_drive=True,
+                ranges_v={**io.ranges, "dut": io.ranges[member.channel]},
+                cmc=stand.config.cmc,
+            )
+            member.writer = writer
+            io.member_writers[member.channel] = writer
+            truth_of = getattr(stand.daq, "truth_of", None)
+            if truth_of is not None:
+                _write_member_truth(procedure, writer, truth_of(member.channel), member.model)
+
+    # --- the end --------------------------------------------------------------------------
+
+    def finish(
+        self, procedure: Procedure, finished: Finished, listener: Listener | None
+    ) -> list[Finished]:
+        """Every other member's results (its own recording, the run's estimator), its run
+        folder finished and sealed; then the batch folder. Each member's Finished."""
+        out = []
+        lead_recording = self.lead.folder.recording
+        for member in self.others:
+            results = None
+            if finished.status == RunStatus.COMPLETE:
+                _copy_marks(lead_recording, member.folder.recording, self.lead, member)
+                results = self._results(procedure, member)
+                if listener is not None:
+                    listener(
+                        PeriodEstimate(
+                            procedure.io.periods_read, results[0], results[1], member.position.name
+                        )
+                    )
+            record = dataclasses.replace(
+                finished.record,
+                run_id=member.folder.run_id,
+                dut=self.member_identity(member, procedure.stand.config.backend).dut,
+            )
+            _copy_log(self.lead.folder.path, member.folder)
+            record = member.folder.finish(record, None if results is None else results[1])
+            own = None if results is None else results[1]
+            out.append(Finished(finished.status, finished.abort_reason, own, record))
+        self._seal(finished.status)
+        return out
+
+    def _results(self, procedure: Procedure, member: Member) -> tuple[Any, Any]:
+        """(estimate, results) of a member's recording with the run's estimator and rules,
+        the verdict against its own specification, its position's warnings added."""
+        from app.procedure.analysis import analyze
+
+        settings = procedure.settings
+        analysis = analyze(
+            read_recording(member.folder.recording),
+            estimator=str(settings.estimator),
+            probability=settings.probability,
+            rule=str(settings.rule),
+            tolerances=member.spec.tolerances(procedure.plan.reference_frequency_hz),
+        )
+        results = analysis.results
+        if member.warnings:
+            results = dataclasses.replace(results, warnings=(*results.warnings, *member.warnings))
+        return analysis.estimate, results
+
+    def _seal(self, status: RunStatus) -> None:
+        """The batch folder: the all-channel recording, batch.json naming each member's seal,
+        manifest and seal."""
+        _batch_recording(self.folder / "recording.h5", self.lead, self.others)
+        members = []
+        for m in self.members:
+            try:
+                seal = named_seal(m.folder.path) or ""
+            except Exception as exc:  # a member not sealed: named without its seal
+                log.warning("batch %s: member %s seal not read: %s", self.batch_id, m.serial, exc)
+                seal = ""
+            members.append(BatchMember(m.position.name, m.channel, m.serial, m.folder.run_id, seal))
+        batch = Batch(
+            self.batch_id, self.fixture.name, self.started_utc, str(status), tuple(members)
+        )
+        seal_batch(self.folder, batch, software_version())
+
+
+def _write_member_truth(
+    procedure: Procedure, writer: RecordingWriter, sensor: Any, model: str | None
+) -> None:
+    """A member's simulated truth at the lines, at the excitation's rms (as the run's own)."""
+    plan = procedure.plan
+    rms = float(np.sqrt(np.sum(plan.amplitudes_ms2**2) / 2))
+    values = sensor.sensitivity(plan.frequencies_hz, rms)
+    writer.write_truth(
+        Truth(
+            plan.frequencies_hz,
+            np.abs(values),
+            np.degrees(np.angle(values)),
+            {
+                "dut": model or "",
+                "description": procedure.stand.description,
+                "level_ms2": float(procedure.identity.level_ms2 or 0.0),
+                "rms_ms2": rms,
+            },
+        )
+    )
+
+
+def _copy_marks(lead: Path, target: Path, lead_member: Member, member: Member) -> None:
+    """The run's marks on a member's recording: settle and acquired periods, mode, the
+    resolution warnings, the budget as used (with its own position terms), the ranges."""
+    with h5py.File(lead, "r") as src, h5py.File(target, "r+") as dst:
+        for key in ("settle_periods", "acquired_periods", "mode"):
+            if key in src.attrs:
+                dst.attrs[key] = src.attrs[key]
+        config = src["config"].attrs
+        if "resolution_warnings" in config:
+            dst["config"].attrs["resolution_warnings"] = config["resolution_warnings"]
+        budget = Budget.from_list(json.loads(config["budget"]))
+        own = member_budget(budget, lead_member.position, member.terms)
+        dst["config"].attrs["budget"] = json.dumps(own.to_list())
+        for name in ("reference", "dut", "drive"):
+            if name in src["signals"] and name in dst["signals"]:
+                dst["signals"][name].attrs["range_v"] = src["signals"][name].attrs["range_v"]
+
+
+def _copy_log(lead: Path, member: RunFolder) -> None:
+    """The run's log (one excitation) into a member's folder."""
+    source = lead / "run.log"
+    if source.exists():
+        with (member.path / "run.log").open("a", encoding="utf-8") as handle:
+            handle.write(source.read_text(encoding="utf-8"))
+
+
+def _batch_recording(target: Path, lead: Member, others: Sequence[Member]) -> None:
+    """The all-channel recording: the run's own (reference, drive, its DUT as
+    "dut.<position>") with every other member's DUT channel beside it; no truth (each
+    member's own recording holds its DUT's)."""
+    shutil.copyfile(lead.folder.recording, target)
+    target.chmod(0o644)
+    with h5py.File(target, "r+") as f:
+        signals = f["signals"]
+        signals.move("dut", lead.channel)
+        for member in others:
+            with h5py.File(member.folder.recording, "r") as src:
+                src.copy(src["signals/dut"], signals, name=member.channel)
+        if "truth" in f:
+            del f["truth"]
+        f.attrs["batch_channels"] = ",".join(m.channel for m in (lead, *others))
+
+
+def batch_channels(path: str | Path) -> tuple[str, ...]:
+    """The DUT channels of a batch recording ("dut.<position>" ...); () for any other."""
+    with h5py.File(path, "r") as f:
+        if "signals" not in f:
+            return ()
+        return tuple(name for name in f["signals"] if is_dut_channel(name) and name != "dut")
+
+
+def listener_for(listener: Listener | None, position: str) -> Listener | None:
+    """The run's listener, its live estimates marked as the first DUT's (`position`)."""
+    if listener is None:
+        return None
+
+    def tell(event: Event) -> None:
+        if isinstance(event, PeriodEstimate) and not event.member:
+            event = dataclasses.replace(event, member=position)
+        listener(event)
+
+    return tell
+
+
+def new_batch_folder(out: Path, count: int) -> tuple[str, Path]:
+    """A new batch folder under the runs root `out`: its id and path."""
+    out.mkdir(parents=True, exist_ok=True)
+    batch_id = new_run_id(f"batch-{count}")
+    path = out / batch_id
+    path.mkdir()
+    return batch_id, path
+
+
+def refuse_mode(request: RunRequest) -> None:
+    """A batch runs the multisine (RequestError naming --mode for the stepped sine)."""
+    if request.mode != Mode.MULTISINE:
+        raise RequestError("--mode: several DUTs in one run take the multisine only")
+
+
+def execute_batch(
+    request: RunRequest,
+    choices: Sequence[MemberChoice],
+    listener: Listener | None = None,
+    *,
+    config: StandConfig,
+) -> BatchFinished:
+    """Run the DUTs `choices` on the stand's fixture in one excitation (`request`: the run's
+    settings; its DUT the simulated default model): refused before anything moves
+    (RequestError, PreflightError naming the option or key) as a single run is, else every
+    member's run folder and the batch folder written, whatever the end."""
+    from app.procedure.run import _graceful_signals, prepare, request_plan, with_stand_plan
+
+    refuse_mode(request)
+    fixture = check_members(config, choices)
+    request = with_stand_plan(request, config.plan)
+    frequencies = [float(f) for f in request_plan(request).frequencies_hz]
+    table = config.reference.sensitivity_mv_per_ms2
+    reference_mv = float(np.median(table)) * config.reference.gain if table else 0.0
+    planned = plan_members(request, config, choices, frequencies, reference_mv)
+    first_choice, _, first_terms, first_warnings = planned[0]
+    total_g = 1000 * fixture.mass_kg + sum((spec.mass_g or 0.0) for _, spec, _, _ in planned)
+    lead_request = dataclasses.replace(
+        request,
+        dut=first_choice.model or request.dut,
+        dut_id=first_choice.serial,
+        dut_mass_g=total_g,  # what the exciter carries: the stored response's mass class
+    )
+    duts = {
+        fixture.position(c.position).channel: (c.model or request.dut) for c, _, _, _ in planned
+    }
+    lead_position = fixture.position(first_choice.position)
+    procedure, stand = prepare(
+        lead_request,
+        listener_for(listener, lead_position.name),
+        config=config,
+        duts=duts,
+        extra_budget=first_terms,
+    )
+    try:
+        batch_id, folder = new_batch_folder(Path(request.out), len(planned))
+        members = []
+        for choice, spec, terms, warnings in planned:
+            members.append(
+                Member(
+                    fixture.position(choice.position),
+                    choice.serial,
+                    (choice.model or request.dut) if config.backend == Backend.SIM else None,
+                    spec,
+                    RunFolder.create(request.out, choice.serial),
+                    terms,
+                    warnings,
+                )
+            )
+        for member in members:
+            member.folder.records_chain_head = request.records_chain_head
+        run = BatchRun(batch_id, folder, fixture, members[0], members[1:], procedure.identity)
+        procedure.folder = members[0].folder
+        procedure.batch_link = run.link(members[0])
+        procedure.batch = run
+        for text in first_warnings:
+            procedure.ctx.warn(text)
+        with _graceful_signals(procedure):
+            finished = procedure.run()
+    finally:
+        stand.close()
+    others = run.finish(procedure, finished, listener)
+    return BatchFinished(
+        batch_id,
+        folder,
+        tuple(zip((c for c, _, _, _ in planned), (finished, *others), strict=True)),
+    )
