@@ -303,7 +303,8 @@ class BatchRun:
         for member in self.others:
             results = None
             if finished.status == RunStatus.COMPLETE:
-                _copy_marks(lead_recording, member.folder.recording, self.lead, member)
+                _copy_marks(lead_recording, member.folder.recording)
+                _own_budget(procedure, member.folder.recording)
                 results = self._results(procedure, member)
                 if listener is not None:
                     listener(
@@ -381,22 +382,65 @@ def _write_member_truth(
     )
 
 
-def _copy_marks(lead: Path, target: Path, lead_member: Member, member: Member) -> None:
-    """The run's marks on a member's recording: settle and acquired periods, mode, the
-    resolution warnings, the budget as used (with its own position terms), the ranges."""
+def _copy_marks(lead: Path, target: Path) -> None:
+    """The run's marks on a member's recording: settle and acquired periods, mode, ranges."""
     with h5py.File(lead, "r") as src, h5py.File(target, "r+") as dst:
         for key in ("settle_periods", "acquired_periods", "mode"):
             if key in src.attrs:
                 dst.attrs[key] = src.attrs[key]
-        config = src["config"].attrs
-        if "resolution_warnings" in config:
-            dst["config"].attrs["resolution_warnings"] = config["resolution_warnings"]
-        budget = Budget.from_list(json.loads(config["budget"]))
-        own = member_budget(budget, lead_member.position, member.terms)
-        dst["config"].attrs["budget"] = json.dumps(own.to_list())
         for name in ("reference", "dut", "drive"):
             if name in src["signals"] and name in dst["signals"]:
                 dst["signals"][name].attrs["range_v"] = src["signals"][name].attrs["range_v"]
+
+
+def _own_budget(procedure: Procedure, path: Path) -> None:
+    """A member's budget as the run makes its own (app.procedure.record_run): the stand's
+    budget with its position's terms (stored when its recording opened), plus the mains hum
+    from its own channel's background periods (the first periods read, drive at 0 V) and each
+    line's resolution term from its own amplitudes and ranges; its "too few LSB" warnings
+    (the lines it does not state) stored with it."""
+    from app.procedure.background import BackgroundLevels, budget_with_background
+    from app.procedure.ranging import run_resolution, with_resolution
+    from dsp.spectral import SpectralAccumulator, period_spectrum
+
+    recording = read_recording(path)
+    plan, n = procedure.plan, recording.period_samples
+    bins = np.asarray(plan.bins)
+    count = max(1, procedure.settings.background_periods)
+    background = SpectralAccumulator(n, plan.bins)
+    power = np.zeros((2, bins.size))
+    for k in range(count):
+        pair = [
+            np.asarray(x[k * n : (k + 1) * n], float)
+            for x in (recording.reference_v, recording.dut_v)
+        ]
+        background.add_period(*pair)
+        power += [np.abs(period_spectrum(x)[bins]) ** 2 for x in pair]
+    quiet = background.estimate()
+    rms = np.sqrt(power / count)
+    levels = BackgroundLevels(
+        quiet.reference_amplitude_v,
+        quiet.dut_amplitude_v,
+        quiet.reference_noise_v,
+        quiet.dut_noise_v,
+        rms[0],
+        rms[1],
+    )
+    driven = SpectralAccumulator(n, plan.bins)
+    reference, dut = recording.analysis_periods()
+    driven.add_periods(reference, dut)
+    lines = driven.estimate()
+    amplitudes = (lines.reference_amplitude_v, lines.dut_amplitude_v)
+    budget = budget_with_background(
+        recording.budget, plan, levels, amplitudes, procedure.settings.background_periods
+    )
+    resolution = run_resolution(
+        plan, amplitudes, levels.noise(), recording.ranges_v, procedure.stand.config.converter
+    )
+    budget, too_few = with_resolution(budget, resolution)
+    with h5py.File(path, "r+") as f:
+        f["config"].attrs["budget"] = json.dumps(budget.to_list())
+        f["config"].attrs["resolution_warnings"] = json.dumps(list(too_few))
 
 
 def _copy_log(lead: Path, member: RunFolder) -> None:
