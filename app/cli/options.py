@@ -7,6 +7,7 @@ from __future__ import annotations
 import argparse
 import difflib
 import math
+import re
 import tempfile
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -196,6 +197,21 @@ def dut_name(text: str) -> str:
     raise argparse.ArgumentTypeError(
         f"{text!r} is not in the DUT catalogue ({', '.join(CATALOGUE)}){hint}"
     )
+
+
+def dut_entry(text: str) -> str | tuple[str, str]:
+    """--dut: a catalogue DUT (MODEL), or one DUT of several in one run (POSITION=SERIAL:
+    a position of the stand file's fixture and the DUT's serial); argparse type."""
+    if "=" not in text:
+        return dut_name(text)
+    position, serial = (part.strip() for part in text.split("=", 1))
+    if not re.fullmatch(r"[A-Za-z0-9_-]{1,16}", position):
+        raise argparse.ArgumentTypeError(
+            f"{text!r}: POSITION must be 1-16 of A-Z a-z 0-9 _ - (a [[fixture.position]] name)"
+        )
+    if not serial:
+        raise argparse.ArgumentTypeError(f"{text!r}: no SERIAL after '='")
+    return position, serial
 
 
 def sim_hum_option(texts: list[str]) -> tuple[DrivenHum, ...]:

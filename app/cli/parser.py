@@ -24,6 +24,7 @@ from app.cli.options import (
     TOLERANCE,
     Bounded,
     QuantityType,
+    dut_entry,
     dut_name,
     numeric_option,
 )
@@ -126,7 +127,16 @@ def _add_run_options(r: argparse.ArgumentParser) -> None:
     """`accelcal run`'s options: the run's own from the options table, then the face's."""
     r.add_argument("--sim", action="store_true", help="the built-in simulated stand (default)")
     r.add_argument("--stand", type=Path, help="stand configuration (stand.toml)")
-    _run_option(r, "dut", type=dut_name, default="piezo")
+    _run_option(r, "dut", type=dut_entry, action="append", metavar="MODEL|POSITION=SERIAL")
+    r.add_argument(
+        "--dut-model",
+        action="append",
+        default=[],
+        metavar="POSITION=MODEL",
+        help="several DUTs in one run (issue 36): --dut POSITION=SERIAL once per DUT names "
+        "the stand file's [[fixture.position]] and the DUT's serial; on the simulated stand "
+        "the catalogue model at a position (default: the bare --dut MODEL, else piezo)",
+    )
     _run_option(r, "dut_id", default=None)
     _run_option(r, "technician")
     _run_option(r, "nominal_mv_per_ms2")

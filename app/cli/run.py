@@ -15,6 +15,7 @@ from app.cli.printers import TerminalProgress, print_run_end, print_sweep
 from app.formatting import resonance_text
 
 if TYPE_CHECKING:
+    from app.procedure.batch import MemberChoice
     from app.procedure.options import RunOptions
     from app.procedure.service import PreparedRun, RunService
 
@@ -27,9 +28,11 @@ def run_options(args: argparse.Namespace) -> RunOptions:
     if args.sim and args.stand:
         raise UsageError("--sim and --stand: choose one")
     writable_folder(args.out, "--out")
+    models = [entry for entry in args.dut or [] if isinstance(entry, str)]
+    values = {**vars(args), "dut": models[-1] if models else "piezo"}
     try:
         return RunOptions.from_values(
-            vars(args),
+            values,
             stand_file=args.stand,
             sensor=args.sensor,
             db=args.db,
@@ -47,16 +50,59 @@ def run_options(args: argparse.Namespace) -> RunOptions:
         raise UsageError(str(exc)) from None
 
 
+def batch_members(args: argparse.Namespace) -> list[MemberChoice]:
+    """The DUTs of a run of several (`--dut POSITION=SERIAL` repeated, `--dut-model
+    POSITION=MODEL`); [] for a single-DUT run. UsageError naming the option: a position or
+    serial twice, a --dut-model for a position no --dut names, options that name one DUT."""
+    from app.cli.options import dut_name
+    from app.procedure.batch import MemberChoice
+
+    pairs = [entry for entry in args.dut or [] if isinstance(entry, tuple)]
+    if not pairs:
+        if args.dut_model:
+            raise UsageError("--dut-model: give the DUTs with --dut POSITION=SERIAL")
+        return []
+    for flag, given in (
+        ("--dut-id", args.dut_id),
+        ("--sensor", args.sensor),
+        ("--teds", args.teds),
+        ("--levels", args.levels),
+    ):
+        if given:
+            raise UsageError(f"{flag}: names one DUT; with --dut POSITION=SERIAL give each DUT's")
+    positions = [p for p, _ in pairs]
+    for position in positions:
+        if positions.count(position) > 1:
+            raise UsageError(f"--dut: position {position!r} given twice")
+    serials = [s for _, s in pairs]
+    for serial in serials:
+        if serials.count(serial) > 1:
+            raise UsageError(f"--dut: serial {serial!r} given twice")
+    models: dict[str, str] = {}
+    for text in args.dut_model:
+        position, _, model = text.partition("=")
+        if position not in positions:
+            raise UsageError(f"--dut-model {text}: no --dut names position {position!r}")
+        try:
+            models[position] = dut_name(model)
+        except argparse.ArgumentTypeError as exc:
+            raise UsageError(f"--dut-model {text}: {exc}") from None
+    return [MemberChoice(p, s, models.get(p)) for p, s in pairs]
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     """`accelcal run`: parse, call the run service, show."""
     from app.procedure.service import RunService
 
     options = run_options(args)
+    members = batch_members(args)
     levels = levels_option(args.levels) if args.levels else None
     service = RunService(options.stand_file)
     prepared = service.prepare(options)
     for note in prepared.notes:
         print(note, file=sys.stderr)
+    if members:
+        return run_batch(service, prepared, members, args)
     progress = None if args.json else TerminalProgress(sorted(levels) if levels else None)
     if levels is not None:
         return run_levels(service, prepared, levels, args, progress)
@@ -95,3 +141,42 @@ def run_levels(
     else:
         print_sweep(summary)
     return int(status)
+
+
+def run_batch(
+    service: RunService,
+    prepared: PreparedRun,
+    members: list[MemberChoice],
+    args: argparse.Namespace,
+) -> int:
+    """`accelcal run --dut A=SN1 --dut B=SN2 ...`: several DUTs in one run; each member's
+    results as a single run's, then the batch."""
+    progress = None if args.json else TerminalProgress(None)
+    batch = service.run_batch(prepared, members, listener=progress)
+    if progress is not None:
+        progress.close()
+    if args.json:
+        print(
+            json.dumps(
+                {
+                    "batch_id": batch.batch_id,
+                    "members": [
+                        {
+                            "position": m.position,
+                            "serial": m.serial,
+                            **json.loads(o.record.to_json()),
+                        }
+                        for m, o in batch.outcomes
+                    ],
+                },
+                indent=2,
+            )
+        )
+        return int(batch.exit_status)
+    for member, outcome in batch.outcomes:
+        if outcome.index_note:
+            print(outcome.index_note, file=sys.stderr)
+        print(f"--- position {member.position}: DUT {member.serial}")
+        print_run_end(outcome.record, outcome.results, args.out / str(outcome.record.run_id))
+    print(f"batch {batch.batch_id}: {len(batch.outcomes)} DUTs in {batch.folder}")
+    return int(batch.exit_status)

@@ -48,7 +48,10 @@ from dsp.profiles import Profile
 from dsp.spectral import check_periods
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
     from app.procedure import Finished, Listener, Procedure
+    from app.procedure.batch import MemberChoice
     from app.procedure.sweep import Sweep
     from app.stand.config import StandConfig
     from app.stand.dut import DutSpec
@@ -77,6 +80,17 @@ class PlanPreview:
     @property
     def ok(self) -> bool:
         return self.plan is not None and not self.problems
+
+
+@dataclass(frozen=True)
+class BatchOutcome:
+    """A run of several DUTs as the faces show it: the batch, each member's outcome in the
+    fixture's order, the exit status (the worst member's)."""
+
+    batch_id: str
+    folder: Path
+    outcomes: tuple[tuple[MemberChoice, RunOutcome], ...]
+    exit_status: ExitStatus
 
 
 @dataclass(frozen=True)
@@ -384,6 +398,22 @@ class RunService:
             notes=prepared.notes,
         )
 
+    def run_batch(
+        self,
+        prepared: PreparedRun,
+        members: Sequence[MemberChoice],
+        listener: Listener | None = None,
+    ) -> BatchOutcome:
+        """Several DUTs in one run on the stand's fixture (app.procedure.batch): each member's
+        outcome (indexed into the records as that sensor's calibration when they are in use)
+        and the batch's exit status (the worst member's)."""
+        from app.procedure.batch import execute_batch
+
+        finished = execute_batch(prepared.request, members, listener, config=prepared.config)
+        outcomes = tuple((member, self.finish(prepared, one)) for member, one in finished.members)
+        status = max((o.exit_status for _, o in outcomes), default=ExitStatus.OK)
+        return BatchOutcome(finished.batch_id, finished.folder, outcomes, status)
+
     def sweep(
         self, prepared: PreparedRun, levels: list[float], listener: Listener | None = None
     ) -> tuple[Sweep, ExitStatus]:
@@ -413,6 +443,7 @@ def _phases(plan: Plan) -> tuple[float, ...]:
 
 
 __all__ = [
+    "BatchOutcome",
     "PlanPreview",
     "PreflightError",
     "PreparedRun",
