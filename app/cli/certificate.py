@@ -6,17 +6,24 @@ two-person rule, staging, signing: all there); this prints what was issued."""
 from __future__ import annotations
 
 import argparse
+import sys
+from pathlib import Path
+from typing import Any
 
-from app.cli.exits import EXIT_OK
+from app.cli.exits import EXIT_BAD_INPUT, EXIT_OK, UsageError
 from app.cli.options import writable_folder
+from app.errors import Refusal
 
 
 def cmd_certificate(args: argparse.Namespace) -> int:
-    from app.certificate import CertificateInfo
     from app.certificate.info import CertificateError, Specification, SpecKind
-    from app.certificate.service import IssueRequest, issue_certificate
+    from app.certificate.service import issue_certificate
     from app.records.run_folder import is_run_folder
 
+    if args.batch is not None:
+        return certificates_of_batch(args)
+    if args.run is None:
+        raise UsageError("certificate: give a run folder, or --batch BATCH")
     if args.out is not None and not is_run_folder(args.out.parent):  # a run's own: see issue()
         writable_folder(args.out.parent, "--out")
     specification = None
@@ -28,8 +35,19 @@ def cmd_certificate(args: argparse.Namespace) -> int:
         specification = Specification(
             SpecKind(args.spec_kind), " ".join(args.spec_id.split()), args.spec_tolerances or ""
         )
-    request = IssueRequest(
-        run=args.run,
+    request = issue_request(args, args.run, specification)
+    outcome = issue_certificate(request)
+    _print_outcome(outcome)
+    return EXIT_OK
+
+
+def issue_request(args: argparse.Namespace, run: Path, specification: Any) -> Any:
+    """The IssueRequest of the command line for the run folder `run`."""
+    from app.certificate import CertificateInfo
+    from app.certificate.service import IssueRequest
+
+    return IssueRequest(
+        run=run,
         info=CertificateInfo(
             customer=args.customer,
             customer_address=args.customer_address,
@@ -57,7 +75,9 @@ def cmd_certificate(args: argparse.Namespace) -> int:
         trust=args.trust,
         db=args.db,
     )
-    outcome = issue_certificate(request)
+
+
+def _print_outcome(outcome: Any) -> None:
     print(f"certificate {outcome.number}: {outcome.pdf}")
     if outcome.conditions_note:
         print(outcome.conditions_note)
@@ -67,4 +87,60 @@ def cmd_certificate(args: argparse.Namespace) -> int:
         print(f"digital calibration certificate (DCC 3.3.0, in the PDF too): {outcome.dcc}")
     else:
         print("no digital calibration certificate: the stand file names no laboratory.country")
+
+
+def certificates_of_batch(args: argparse.Namespace) -> int:
+    """`certificate --batch BATCH`: one certificate per member of the batch, each issued by
+    the certificate service on its own run folder (its own number, the customer given, the
+    two-person rule per certificate). Options that name one certificate are refused."""
+    from app.certificate.info import CertificateError, Specification, SpecKind
+    from app.certificate.service import issue_certificate
+    from app.records.batch import BatchError, read_batch
+
+    for flag, given in (
+        ("run", args.run),
+        ("--out", args.out),
+        ("--certificate-number", args.certificate_number),
+        ("--dut-serial", args.dut_serial),
+        ("--replaces", args.replaces),
+        ("--sweep", args.sweep),
+    ):
+        if given:
+            raise UsageError(f"{flag}: names one certificate; --batch issues one per member")
+    folder = batch_folder(args.batch)
+    try:
+        batch = read_batch(folder)
+    except BatchError as exc:
+        raise UsageError(f"--batch: {exc}") from None
+    specification = None
+    if args.spec_kind or args.spec_id or args.spec_tolerances:
+        if not (args.spec_kind and args.spec_id):
+            raise CertificateError(
+                "specification (--spec-kind, --spec-id): give its kind and its document"
+            )
+        specification = Specification(
+            SpecKind(args.spec_kind), " ".join(args.spec_id.split()), args.spec_tolerances or ""
+        )
+    refused = 0
+    for member in batch.members:
+        run = folder.parent / member.run_id
+        print(f"position {member.position}: DUT {member.serial}, run {member.run_id}")
+        try:
+            _print_outcome(issue_certificate(issue_request(args, run, specification)))
+        except Refusal as exc:  # the others are still issued; this one says why not
+            refused += 1
+            print(f"position {member.position}: no certificate: {exc}", file=sys.stderr)
+    if refused:
+        print(f"{refused} of {len(batch.members)} certificates refused", file=sys.stderr)
+        return EXIT_BAD_INPUT
     return EXIT_OK
+
+
+def batch_folder(text: str) -> Path:
+    """A batch by folder, or by id under ./runs (UsageError naming --batch)."""
+    from app.records.batch import is_batch_folder
+
+    for candidate in (Path(text), Path("runs") / text):
+        if is_batch_folder(candidate):
+            return candidate
+    raise UsageError(f"--batch: {text!r} is not a batch folder (nor ./runs/{text})")

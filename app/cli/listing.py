@@ -146,6 +146,12 @@ def history_object(history: Any) -> Row:
                 "reference_frequency_hz": p.reference_frequency_hz,
                 "sensitivity_mv_per_ms2": p.sensitivity_mv_per_ms2,
                 "expanded_uncertainty_mv_per_ms2": p.expanded_uncertainty_mv_per_ms2,
+                # one DUT of several in one run (issue 36): the batch, the other DUTs' serials
+                **(
+                    {"batch_id": p.batch_id, "shared_with": list(p.shared_with)}
+                    if getattr(p, "batch_id", None)
+                    else {}
+                ),
             }
             for p in history.points
         ],

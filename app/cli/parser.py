@@ -294,8 +294,10 @@ def build_parser() -> argparse.ArgumentParser:
     r = sub.add_parser("run", help="run a calibration (simulated stand unless --stand)")
     _add_run_options(r)
 
-    w = sub.add_parser("show", help="print a stored run")
-    w.add_argument("run", type=Path, help="run folder")
+    w = sub.add_parser("show", help="print a stored run, or a batch's members")
+    w.add_argument(
+        "run", type=Path, help="run folder, or a batch folder (several DUTs in one run) or its id"
+    )
     w.add_argument("--json", action="store_true", help="the run record as JSON")
 
     sub.add_parser("devices", help="NI-DAQmx devices and VISA resources found, or why none")
@@ -320,7 +322,13 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--db", help="records database URL (default: $ACCELCAL_DB, else the local file)")
 
     c = sub.add_parser("certificate", help="the PDF certificate of a stored complete run")
-    c.add_argument("run", type=Path, help="run folder")
+    c.add_argument("run", type=Path, nargs="?", help="run folder")
+    c.add_argument(
+        "--batch",
+        metavar="BATCH",
+        help="several DUTs in one run: one certificate per member of the batch (its folder, or "
+        "its id under the runs folder ./runs), each its own number",
+    )
     c.add_argument(
         "--out",
         type=Path,

@@ -433,9 +433,14 @@ def cmd_history(args: argparse.Namespace) -> int:
             if p.expanded_uncertainty_mv_per_ms2 is None
             else f"{p.expanded_uncertainty_mv_per_ms2:.3g}"
         )
+        shared = (
+            f"; in batch {p.batch_id} with {', '.join(p.shared_with) or 'no other DUT on record'}"
+            if p.batch_id
+            else ""
+        )
         print(
             f"{p.started_utc:%Y-%m-%d}  {p.run_id}  {p.sensitivity_mv_per_ms2:.5g} "
-            f"mV/(m/s^2) at {p.reference_frequency_hz:g} Hz, U = {u}"
+            f"mV/(m/s^2) at {p.reference_frequency_hz:g} Hz, U = {u}{shared}"
         )
     if history.drift_percent_per_year is None:
         print("drift: needs two calibrations at least 30 days apart")

@@ -11,9 +11,14 @@ from app.cli.printers import print_results
 
 
 def cmd_show(args: argparse.Namespace) -> int:
+    from app.records.batch import is_batch_folder
     from app.records.run_folder import is_run_folder, load_run
 
     folder = Path(args.run)
+    if not folder.exists() and is_batch_folder(Path("runs") / folder):  # a batch id
+        folder = Path("runs") / folder
+    if is_batch_folder(folder):
+        return _show_batch(folder, args.json)
     if folder.is_dir() and not is_run_folder(folder):
         runs = sorted(p for p in folder.iterdir() if p.is_dir() and is_run_folder(p))
         if runs:
@@ -66,4 +71,52 @@ def _list_runs(root: Path, runs: list[Path], as_json: bool) -> int:
     width = max(len(str(r["run"])) for r in rows)
     for r in rows:
         print(f"  {r['run']:<{width}}  {r['state']:<11}  {r['dut_id'] or ''}".rstrip())
+    return EXIT_OK
+
+
+def _show_batch(folder: Path, as_json: bool) -> int:
+    """A batch folder (several DUTs in one run): its seal checked, each member's run with its
+    verified state and verdict."""
+    from app.records.batch import BatchError, read_batch
+    from app.records.run_folder import inspect_run
+
+    try:
+        batch = read_batch(folder)
+    except BatchError as exc:
+        raise UsageError(str(exc)) from None
+    rows = []
+    for member in batch.members:
+        check = inspect_run(folder.parent / member.run_id)
+        record = check.record
+        rows.append(
+            {
+                "position": member.position,
+                "channel": member.channel,
+                "serial": member.serial,
+                "run_id": member.run_id,
+                "state": str(check.state),
+                "verdict": str(record.verdict) if record is not None and record.verdict else None,
+                "seal_sha256": member.seal_sha256,
+            }
+        )
+    if as_json:
+        print(
+            json.dumps(
+                {
+                    "batch_id": batch.batch_id,
+                    "fixture": batch.fixture,
+                    "status": batch.status,
+                    "members": rows,
+                },
+                indent=2,
+            )
+        )
+        return EXIT_OK
+    print(f"batch {batch.batch_id}: {batch.status}, {len(rows)} DUTs on {batch.fixture}")
+    print(f"started {batch.started_utc}")
+    for r in rows:
+        print(
+            f"  {r['position']:<6} {r['serial']:<16} {r['run_id']}  {r['state']:<9} "
+            f"{r['verdict'] or ''}".rstrip()
+        )
     return EXIT_OK

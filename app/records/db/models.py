@@ -194,6 +194,8 @@ class Run(Base):
     reference_frequency_hz: Mapped[float | None] = mapped_column(Float, nullable=True)
     sensitivity_mv_per_ms2: Mapped[float | None] = mapped_column(Float, nullable=True)
     expanded_uncertainty_mv_per_ms2: Mapped[float | None] = mapped_column(Float, nullable=True)
+    # the batch it was one DUT of (issue 36, migration 0015); None: a single-DUT run
+    batch_id: Mapped[str | None] = mapped_column(String(100), nullable=True, index=True)
     sensor: Mapped[Sensor | None] = relationship(back_populates="runs")
     stand: Mapped[Stand] = relationship()
 

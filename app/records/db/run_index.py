@@ -16,11 +16,13 @@ from pathlib import Path
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
+from app.records.batch import is_batch_folder
 from app.records.db.models import AuditEntry, Run, Sensor, Stand
 from app.records.db.sensors import SensorRecords
 from app.records.db.store import RecordsError, utc
 from app.records.run_folder import MANIFEST_NAME, STATUS_COMPLETE, inspect_run, sha256_of
 from app.records.run_record import RunRecord
+from app.records.run_start import RunStart
 
 DAYS_PER_YEAR = 365.2425
 MIN_DRIFT_SPAN_DAYS = 30
@@ -38,6 +40,8 @@ class HistoryPoint:
     reference_frequency_hz: float
     sensitivity_mv_per_ms2: float
     expanded_uncertainty_mv_per_ms2: float | None
+    batch_id: str | None = None  # one DUT of several in one run (issue 36)
+    shared_with: tuple[str, ...] = ()  # the serials of the other DUTs of that run
 
 
 @dataclass(frozen=True)
@@ -101,7 +105,7 @@ class RunIndex(SensorRecords):
         folders = (
             [root]
             if (root / MANIFEST_NAME).exists()
-            else sorted(p for p in root.iterdir() if p.is_dir())
+            else sorted(p for p in root.iterdir() if p.is_dir() and not is_batch_folder(p))
         )
         imported: list[str] = []
         known: list[str] = []
@@ -158,6 +162,7 @@ class RunIndex(SensorRecords):
                 f"({existing.folder}); a run id is never reused"
             )
         started = utc(datetime.fromisoformat(record.started_utc))
+        link = RunStart.read(folder).batch  # one DUT of several in one run: its batch
         return Run(
             run_id=str(record.run_id),
             manifest_sha256=manifest,
@@ -170,6 +175,7 @@ class RunIndex(SensorRecords):
             reference_frequency_hz=reference.get("frequency_hz"),
             sensitivity_mv_per_ms2=reference.get("sensitivity_mv_per_ms2"),
             expanded_uncertainty_mv_per_ms2=reference.get("expanded_uncertainty_mv_per_ms2"),
+            batch_id=None if link is None else link.batch_id,
         )
 
     def history(self, serial: str) -> History:
@@ -186,6 +192,15 @@ class RunIndex(SensorRecords):
                 )
                 .order_by(Run.started_utc)
             ).all()
+            batches = {r.batch_id for r in runs if r.batch_id}
+            shared: dict[str, list[str]] = {}
+            if batches:
+                for batch_id, dut_id in s.execute(
+                    select(Run.batch_id, Run.dut_id)
+                    .where(Run.batch_id.in_(batches), Run.dut_id != sensor.serial)
+                    .order_by(Run.dut_id)
+                ):
+                    shared.setdefault(batch_id, []).append(dut_id)
         points = tuple(
             HistoryPoint(
                 r.run_id,
@@ -193,6 +208,8 @@ class RunIndex(SensorRecords):
                 float(r.reference_frequency_hz or 0.0),
                 float(r.sensitivity_mv_per_ms2 or 0.0),
                 r.expanded_uncertainty_mv_per_ms2,
+                r.batch_id,
+                tuple(shared.get(r.batch_id, ())) if r.batch_id else (),
             )
             for r in runs
         )
