@@ -312,10 +312,12 @@ class BatchRun:
                             procedure.io.periods_read, results[0], results[1], member.position.name
                         )
                     )
+            budget = _stored_budget(member.folder.recording)  # its own, as its results use
             record = dataclasses.replace(
                 finished.record,
                 run_id=member.folder.run_id,
                 dut=self.member_identity(member, procedure.stand.config.backend).dut,
+                budget=tuple(budget.to_list()) if budget is not None else finished.record.budget,
             )
             _copy_log(self.lead.folder.path, member.folder)
             record = member.folder.finish(record, None if results is None else results[1])
@@ -441,6 +443,15 @@ def _own_budget(procedure: Procedure, path: Path) -> None:
     with h5py.File(path, "r+") as f:
         f["config"].attrs["budget"] = json.dumps(budget.to_list())
         f["config"].attrs["resolution_warnings"] = json.dumps(list(too_few))
+
+
+def _stored_budget(path: Path) -> Budget | None:
+    """The budget a member's recording stores (None: no recording, or none stored)."""
+    if not path.exists():
+        return None
+    with h5py.File(path, "r") as f:
+        text = f["config"].attrs.get("budget") if "config" in f else None
+    return None if text is None else Budget.from_list(json.loads(text))
 
 
 def _copy_log(lead: Path, member: RunFolder) -> None:

@@ -1,0 +1,229 @@
+"""Several DUTs in one run (issue 36 point 1): one excitation, each DUT its own complete run
+folder (config.json with its batch link, recording, results, manifest, seal), the batch folder
+with the all-channel recording and batch.json naming each member's seal; each member's budget
+with its own position's terms; refusals before anything moves."""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import os
+import stat
+from collections.abc import Iterator
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from app.cli import main
+from app.io.hdf5 import read_recording
+from app.procedure.batch import MemberChoice, execute_batch
+from app.procedure.errors import PreflightError
+from app.procedure.events import PeriodEstimate
+from app.procedure.request import RequestError, RunRequest
+from app.records.batch import BatchError, read_batch
+from app.records.run_folder import inspect_run
+from app.records.run_start import RunStart
+from app.stand import config as stand_config
+from dsp.calibration import Results
+
+pytestmark = pytest.mark.integration
+
+STAND = Path(__file__).parents[3] / "sim" / "stand-fixture4.toml"
+SINGLE_RUN_FILES = [
+    "config.json", "manifest.json", "recording.h5", "results.csv", "results.json", "run.log",
+    "seal.json", "stand.toml",
+]  # fmt: skip
+CHOICES = [
+    MemberChoice("A", "SN-A"),
+    MemberChoice("B", "SN-B", "piezo"),
+    MemberChoice("C", "SN-C", "piezo"),
+    MemberChoice("D", "SN-D"),
+]
+
+
+@pytest.fixture(scope="module")
+def batch(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[object, list[object]]]:
+    """One batch of four piezo DUTs at A-D (periods 4), and the events it sent."""
+    base = tmp_path_factory.mktemp("batch")
+    events: list[object] = []
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("XDG_DATA_HOME", str(base / "data"))
+        request = RunRequest(
+            stand_file=STAND, out=base / "runs", seed=7, periods=4, stored_response=False
+        )
+        finished = execute_batch(request, CHOICES, events.append, config=stand_config.load(STAND))
+    yield finished, events
+
+
+def test_four_duts_give_four_complete_sealed_run_folders(batch) -> None:
+    finished, _ = batch
+    assert [c.position for c, _ in finished.members] == ["A", "B", "C", "D"]
+    run_ids = set()
+    for choice, one in finished.members:
+        folder = finished.folder.parent / str(one.record.run_id)
+        assert sorted(os.listdir(folder)) == SINGLE_RUN_FILES  # as a single run stores
+        check = inspect_run(folder)
+        assert check.certifiable, check.problems
+        assert check.record is not None and check.record.dut is not None
+        assert check.record.dut.id == choice.serial
+        assert isinstance(one.results, Results) and one.results.verdict == "PASS"
+        run_ids.add(one.record.run_id)
+    assert len(run_ids) == 4
+
+
+def test_each_member_is_linked_to_the_batch_and_the_batch_names_each_seal(batch) -> None:
+    finished, _ = batch
+    recorded = read_batch(finished.folder)
+    assert recorded.batch_id == finished.batch_id and recorded.status == "complete"
+    assert [m.position for m in recorded.members] == ["A", "B", "C", "D"]
+    for member in recorded.members:
+        folder = finished.folder.parent / member.run_id
+        seal = hashlib.sha256((folder / "seal.json").read_bytes()).hexdigest()
+        assert member.seal_sha256 == seal
+        link = RunStart.read(folder).batch
+        assert link is not None and link.batch_id == finished.batch_id
+        assert (link.position, link.channel) == (member.position, f"dut.{member.position}")
+        assert link.distance_mm == 15.0
+        assert [m.serial for m in link.members] == ["SN-A", "SN-B", "SN-C", "SN-D"]
+        identity = json.loads((folder / "config.json").read_text())["identity"]
+        assert identity["dut"]["id"] == member.serial
+
+
+def test_a_changed_batch_file_is_refused(batch, tmp_path: Path) -> None:
+    finished, _ = batch
+    import shutil
+
+    copy = tmp_path / finished.folder.name
+    shutil.copytree(finished.folder, copy)
+    target = copy / "batch.json"
+    target.chmod(stat.S_IWUSR | stat.S_IRUSR)
+    target.write_text(target.read_text().replace("SN-B", "SN-X"))
+    with pytest.raises(BatchError, match="batch.json: hash mismatch"):
+        read_batch(copy)
+
+
+def test_the_batch_recording_holds_every_channel_as_each_member_recorded_it(batch) -> None:
+    finished, _ = batch
+    with h5py.File(finished.folder / "recording.h5", "r") as f:
+        names = list(f["signals"])
+        assert sorted(names) == ["drive", "dut.A", "dut.B", "dut.C", "dut.D", "reference"]
+        for choice, one in finished.members:
+            member = read_recording(
+                finished.folder.parent / str(one.record.run_id) / "recording.h5"
+            )
+            np.testing.assert_array_equal(f["signals"][f"dut.{choice.position}"][()], member.dut_v)
+            np.testing.assert_array_equal(f["signals"]["reference"][()], member.reference_v)
+    # a member read from the batch recording by its channel
+    joined = read_recording(finished.folder / "recording.h5", dut_channel="dut.C")
+    assert joined.dut_v.size == joined.reference_v.size > 0
+
+
+def test_each_member_carries_its_own_position_terms_and_lines_within_u_of_its_truth(batch):
+    finished, _ = batch
+    for choice, one in finished.members:
+        names = {c["name"] for c in one.record.budget}
+        own = [n for n in names if n.startswith("fixture") and f" {choice.position}" in n]
+        others = [
+            n for n in names for p in "ABCD" if p != choice.position
+            and (n.startswith(f"fixture relative motion {p} ") or n == f"fixture crosstalk {p}")
+        ]  # fmt: skip
+        assert own and not others, (choice.position, sorted(names))
+        recording = read_recording(finished.folder.parent / str(one.record.run_id) / "recording.h5")
+        assert recording.truth is not None and recording.truth.attrs["dut"] == "piezo"
+        for line, truth in zip(
+            one.results.lines, recording.truth.sensitivity_mv_per_ms2, strict=True
+        ):
+            if line.sensitivity_mv_per_ms2 is None:
+                continue
+            assert abs(line.sensitivity_mv_per_ms2 - truth) <= line.expanded_uncertainty_mv_per_ms2
+
+
+def test_the_live_estimates_say_which_dut_they_belong_to(batch) -> None:
+    _, events = batch
+    members = {e.member for e in events if isinstance(e, PeriodEstimate)}
+    assert members == {"A", "B", "C", "D"}
+
+
+def test_a_single_run_on_the_fixture_stand_stores_what_it_did_before(tmp_path: Path) -> None:
+    out = tmp_path / "runs"
+    argv = ["run", "--stand", str(STAND), "--dut", "piezo", "--dut-id", "SN-1", "--periods", "3"]
+    assert main([*argv, "--out", str(out)]) == 0
+    (folder,) = out.iterdir()
+    assert sorted(os.listdir(folder)) == SINGLE_RUN_FILES
+    assert "batch" not in json.loads((folder / "config.json").read_text())
+    with h5py.File(folder / "recording.h5", "r") as f:
+        assert sorted(f["signals"]) == ["drive", "dut", "reference"]
+
+
+def _refused(tmp_path: Path, config, choices, **request) -> Exception:
+    out = tmp_path / "runs"
+    with pytest.raises((RequestError, PreflightError)) as exc:
+        execute_batch(RunRequest(stand_file=STAND, out=out, **request), choices, config=config)
+    assert not out.exists()  # nothing created, nothing moved
+    return exc.value
+
+
+def test_a_batch_beyond_the_fixture_mass_limit_is_refused(tmp_path: Path) -> None:
+    config = stand_config.load(STAND)
+    assert config.fixture is not None
+    light = dataclasses.replace(config.fixture, mass_limit_kg=0.015)
+    error = _refused(tmp_path, dataclasses.replace(config, fixture=light), CHOICES[:2])
+    assert "fixture.mass_limit_kg" in str(error)
+
+
+def test_a_position_unusable_over_the_whole_plan_is_refused(tmp_path: Path) -> None:
+    text = STAND.read_text().replace(
+        "relative_motion = [[10.0, 0.01], [1000.0, 0.05], [10000.0, 1.0]]",
+        "relative_motion = [[10.0, 5.0]]",
+        1,
+    )
+    config = stand_config.parse(text, "loud.toml")
+    error = _refused(tmp_path, config, CHOICES[:2])
+    assert "fixture.position 'A' relative_motion" in str(error)
+
+
+@pytest.mark.parametrize(
+    ("choices", "named"),
+    [
+        ([MemberChoice("Q", "1")], "position 'Q' is not on the fixture"),
+        ([MemberChoice("A", "1"), MemberChoice("A", "2")], "position 'A' given twice"),
+        ([MemberChoice("A", "1"), MemberChoice("B", "1")], "serial '1' given twice"),
+        ([MemberChoice(p, p) for p in "ABCDA"], "5 DUTs for the fixture's 4 positions"),
+    ],
+)
+def test_a_batch_that_cannot_run_is_refused_naming_the_option(tmp_path, choices, named) -> None:
+    error = _refused(tmp_path, stand_config.load(STAND), choices)
+    assert named in str(error) and "--dut" in str(error)
+
+
+def test_the_stepped_sine_is_refused_for_a_batch(tmp_path: Path) -> None:
+    error = _refused(tmp_path, stand_config.load(STAND), CHOICES[:2], mode="stepped-sine")
+    assert "--mode" in str(error)
+
+
+@pytest.mark.parametrize(
+    ("argv", "named"),
+    [
+        (["--dut", "A=1", "--dut", "A=2"], "--dut: position 'A' given twice"),
+        (["--dut", "A=1", "--dut", "B=1"], "--dut: serial '1' given twice"),
+        (["--dut", "A=1", "--dut-model", "B=piezo"], "--dut-model B=piezo: no --dut names"),
+        (["--dut", "A=1", "--dut-model", "A=nothing"], "--dut-model A=nothing"),
+        (["--dut", "A=1", "--sensor", "S"], "--sensor: names one DUT"),
+        (["--dut", "A b=1"], "POSITION must be"),
+        (["--dut", "Z=1"], "position 'Z' is not on the fixture"),
+    ],
+)
+def test_the_command_line_refuses_naming_the_option(tmp_path, capsys, argv, named) -> None:
+    out = tmp_path / "runs"
+    assert main(["run", "--stand", str(STAND), *argv, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert named in err and "Traceback" not in err
+    assert not out.exists()
+
+
+def test_a_batch_needs_a_stand_with_a_fixture(tmp_path: Path, capsys) -> None:
+    assert main(["run", "--sim", "--dut", "A=1", "--out", str(tmp_path / "runs")]) == 2
+    assert "has no [fixture] table" in capsys.readouterr().err
