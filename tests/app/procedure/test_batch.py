@@ -101,7 +101,7 @@ def test_a_changed_batch_file_is_refused(batch, tmp_path: Path) -> None:
     target = copy / "batch.json"
     target.chmod(stat.S_IWUSR | stat.S_IRUSR)
     target.write_text(target.read_text().replace("SN-B", "SN-X"))
-    with pytest.raises(BatchError, match="batch.json: hash mismatch"):
+    with pytest.raises(BatchError, match=r"batch\.json: hash mismatch"):
         read_batch(copy)
 
 

@@ -96,7 +96,7 @@ axes = { x = "sim/ai4", y = "sim/ai5", z = "sim/ai6" }
     ],
 )
 def test_a_fixture_that_cannot_be_used_is_refused_naming_the_key(extra: str, named: str) -> None:
-    with pytest.raises(ConfigError, match="test.toml") as exc:
+    with pytest.raises(ConfigError, match=r"test\.toml") as exc:
         _with_fixture(extra)
     assert named in str(exc.value)
 
