@@ -176,7 +176,7 @@ def plan_members(
     problems = fixture.mass_problems(masses)
     if problems:
         raise PreflightError("; ".join(problems))
-    out = []
+    out: list[tuple[MemberChoice, DutSpec, Budget, tuple[str, ...]]] = []
     for choice in members:
         position = fixture.position(choice.position)
         over = position.over_limit_hz(frequencies_hz)
@@ -185,7 +185,7 @@ def plan_members(
                 f"fixture.position {position.name!r} relative_motion: its stated relative "
                 "motion alone exceeds the ISO 16063-21 limit at every line of the plan"
             )
-        warnings = ()
+        warnings: tuple[str, ...] = ()
         if over:
             lines = ", ".join(f"{f:g}" for f in over)
             warnings = (
@@ -258,7 +258,7 @@ class BatchRun:
 
     def config_stored(self, start: RunStart) -> None:
         """Each other member's config.json (its identity and batch link) and stand.toml."""
-        backend = Backend.SIM if self.lead.model is not None else Backend.NIDAQ
+        backend = Backend.SIM if self.lead.model is not None else Backend.NIDAQMX
         stand_text = self.lead.folder.path / "stand.toml"
         for member in self.others:
             own = dataclasses.replace(

@@ -21,7 +21,14 @@ from dataclasses import dataclass
 from typing import Any
 
 from app.stand.schema import POSITION_KEYS, SCHEMA
-from dsp.uncertainty import Budget, Component, Law, Quantity, iso_16063_21_limit
+from dsp.uncertainty import (
+    Budget,
+    Component,
+    Distribution,
+    Law,
+    Quantity,
+    iso_16063_21_limit,
+)
 from hardware.interfaces import InputChannel
 
 POSITION_NAME = re.compile(r"^[A-Za-z0-9_-]{1,16}$")
@@ -110,13 +117,15 @@ class FixturePosition:
         if crosstalk_db is not None:
             u = 10 ** (crosstalk_db / 20) * crosstalk_ratio
             note = f"{crosstalk_db:g} dB x {crosstalk_ratio:.3g} (other channel / this one)"
-            parts.append(Component(f"{CROSSTALK_NAME} {self.name}", u, "standard", note=note))
+            parts.append(
+                Component(f"{CROSSTALK_NAME} {self.name}", u, Distribution.STANDARD, note=note)
+            )
             parts.append(
                 Component(
                     f"{CROSSTALK_NAME} {self.name} (phase)",
                     math.degrees(u),
-                    "standard",
-                    quantity="phase",
+                    Distribution.STANDARD,
+                    quantity=Quantity.PHASE,
                     note=note,
                 )
             )
@@ -207,7 +216,7 @@ def _segments(
         Component(
             f"{name} <{pts[0][0]:g} Hz",
             pts[0][1],
-            "standard",
+            Distribution.STANDARD,
             quantity=quantity,
             max_frequency_hz=below,
         )
@@ -220,7 +229,7 @@ def _segments(
                 Component(
                     where,
                     max(v1, v2),
-                    "standard",
+                    Distribution.STANDARD,
                     quantity=quantity,
                     min_frequency_hz=f1,
                     max_frequency_hz=hi,
@@ -232,7 +241,7 @@ def _segments(
                 Component(
                     where,
                     v1,
-                    "standard",
+                    Distribution.STANDARD,
                     quantity=quantity,
                     min_frequency_hz=f1,
                     max_frequency_hz=hi,
@@ -247,7 +256,7 @@ def _segments(
                 Component(
                     where,
                     v2,
-                    "standard",
+                    Distribution.STANDARD,
                     quantity=quantity,
                     min_frequency_hz=f1,
                     max_frequency_hz=hi,
@@ -260,7 +269,7 @@ def _segments(
         Component(
             f"{name} >={pts[-1][0]:g} Hz",
             pts[-1][1],
-            "standard",
+            Distribution.STANDARD,
             quantity=quantity,
             min_frequency_hz=pts[-1][0],
         )
@@ -284,7 +293,7 @@ def _table(value: Any, where: str) -> MotionTable:
     """[[f_hz, value], ...] with rising frequencies > 0 and values >= 0."""
     if not isinstance(value, list) or not value:
         raise FixtureError(f"{where}: must be a non-empty list of [frequency_hz, value] pairs")
-    points = []
+    points: list[tuple[float, float]] = []
     for i, pair in enumerate(value):
         if not isinstance(pair, list) or len(pair) != 2:
             raise FixtureError(f"{where}[{i}]: must be a pair [frequency_hz, value]")

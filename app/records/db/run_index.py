@@ -200,7 +200,7 @@ class RunIndex(SensorRecords):
                     .where(Run.batch_id.in_(batches), Run.dut_id != sensor.serial)
                     .order_by(Run.dut_id)
                 ):
-                    shared.setdefault(batch_id, []).append(dut_id)
+                    shared.setdefault(str(batch_id), []).append(dut_id)
         points = tuple(
             HistoryPoint(
                 r.run_id,
