@@ -227,3 +227,27 @@ def test_the_command_line_refuses_naming_the_option(tmp_path, capsys, argv, name
 def test_a_batch_needs_a_stand_with_a_fixture(tmp_path: Path, capsys) -> None:
     assert main(["run", "--sim", "--dut", "A=1", "--out", str(tmp_path / "runs")]) == 2
     assert "has no [fixture] table" in capsys.readouterr().err
+
+
+def test_analyze_of_a_batch_gives_each_dut_as_its_member_run_states_it(batch, capsys) -> None:
+    finished, _ = batch
+    assert main(["analyze", str(finished.folder), "--json"]) == 0
+    analysed = json.loads(capsys.readouterr().out)
+    assert analysed["batch_id"] == finished.batch_id
+    rows = {row["channel"]: row for row in analysed["members"]}
+    assert sorted(rows) == ["dut.A", "dut.B", "dut.C", "dut.D"]
+    for choice, one in finished.members:
+        row = rows[f"dut.{choice.position}"]
+        assert row["serial"] == choice.serial and row["verdict"] == "PASS"
+        stored = json.loads(
+            (finished.folder.parent / str(one.record.run_id) / "results.json").read_text()
+        )
+        for mine, theirs in zip(row["lines"], stored["results"]["lines"], strict=True):
+            assert mine["sensitivity_mv_per_ms2"] == pytest.approx(
+                theirs["sensitivity_mv_per_ms2"], rel=1e-9
+            )
+            assert mine["expanded_uncertainty_mv_per_ms2"] == pytest.approx(
+                theirs["expanded_uncertainty_mv_per_ms2"], rel=1e-9
+            )
+    assert main(["analyze", str(finished.folder), "--csv", "x.csv"]) == 2
+    assert "--csv: not for a batch" in capsys.readouterr().err

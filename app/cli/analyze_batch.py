@@ -1,0 +1,105 @@
+"""`accelcal analyze` of a batch (issue 36: several DUTs in one run): the all-channel
+recording analysed per DUT channel, the pair (reference, dut.<position>), by the same
+analysis as a single recording; each DUT with its own budget and the simulated truth (hence
+the catalogue DUT's tolerances) of its member run, when the member's folder is beside the
+batch; else the batch recording's budget, said so."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+from pathlib import Path
+
+from app.cli.exits import EXIT_OK, UsageError
+from app.cli.printers import print_results
+
+
+def batch_recording(path: Path) -> Path | None:
+    """The batch recording `path` names (a batch folder, or its recording.h5), else None."""
+    from app.records.batch import is_batch_folder
+
+    if path.is_dir():
+        return path / "recording.h5" if is_batch_folder(path) else None
+    if path.suffix.lower() in (".h5", ".hdf5") and is_batch_folder(path.parent):
+        return path
+    return None
+
+
+def cmd_analyze_batch(args: argparse.Namespace, recording_path: Path) -> int:
+    """Analyse every DUT channel of the batch recording at `recording_path`."""
+    from app.io.hdf5 import RecordingError, read_recording
+    from app.procedure.analysis import analyze
+    from app.procedure.batch import batch_channels
+    from app.records.batch import BatchError, read_batch
+
+    for flag, given in (
+        ("--csv", args.csv),
+        ("--budget", args.budget),
+        ("--reference-frequency", args.reference_frequency),
+        ("--settle-periods", args.settle_periods),
+        ("--mains", args.mains),
+    ):
+        if given is not None:
+            raise UsageError(f"{flag}: not for a batch; analyse a member's run folder with it")
+    folder = recording_path.parent
+    try:
+        batch = read_batch(folder)  # its seal and manifest checked first
+    except BatchError as exc:
+        raise RecordingError(str(exc)) from None
+    members = {m.channel: m for m in batch.members}
+    out = []
+    for channel in batch_channels(recording_path):
+        recording = read_recording(recording_path, stored=True, dut_channel=channel)
+        member = members.get(channel)
+        own = folder.parent / member.run_id / "recording.h5" if member else None
+        note = "its member run's budget"
+        if own is not None and own.exists():
+            stored = read_recording(own, stored=True)  # its budget, and the truth it names
+            recording = dataclasses.replace(recording, budget=stored.budget, truth=stored.truth)
+        else:
+            note = "the batch recording's budget (the member's run folder is not beside it)"
+        analysis = analyze(
+            recording,
+            estimator=_estimator(args, folder.parent / member.run_id if member else None),
+            segments=args.segments,
+            probability=args.coverage,
+            rule="seed" if args.seed_rule else "gum",
+            tolerance_percent=args.tolerance,
+            mcm_trials=args.mcm,
+        )
+        out.append((channel, member, note, analysis))
+    if args.json:
+        rows = [
+            {
+                "channel": channel,
+                "position": member.position if member else None,
+                "serial": member.serial if member else None,
+                "budget": note,
+                "status": analysis.status or "unknown",
+                **analysis.results.to_dict(),
+            }
+            for channel, member, note, analysis in out
+        ]
+        print(json.dumps({"batch_id": batch.batch_id, "members": rows}, indent=2))
+        return EXIT_OK
+    for channel, member, note, analysis in out:
+        serial = f", DUT {member.serial}" if member else ""
+        print(f"--- {channel}{serial} ({note})")
+        print_results(analysis.results, f"{recording_path} {channel}", analysis.status)
+    return EXIT_OK
+
+
+def _estimator(args: argparse.Namespace, member_run: Path | None) -> str:
+    """--estimator when given; else the one the member's run used (its config.json), as a
+    single run is re-analysed; else periodic."""
+    from app.records.run_start import RunStart
+    from dsp.estimators import RECORDING_ESTIMATOR
+
+    if args.estimator is not None:
+        return str(args.estimator)
+    if args.segments is None and member_run is not None and member_run.is_dir():
+        used = RunStart.read(member_run).settings.get("estimator")
+        if used:
+            return str(used)
+    return str(RECORDING_ESTIMATOR)
