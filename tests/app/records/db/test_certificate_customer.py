@@ -9,7 +9,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 
 import pytest
-from sqlalchemy import Engine, select, text
+from sqlalchemy import Engine, insert, select, text
 from sqlalchemy.orm import Session
 
 from app.records.db import chain_check, chain_rules
@@ -123,16 +123,22 @@ def test_the_upgrade_binds_earlier_certificates_to_the_owner_at_upgrade(
     lab = seed_lab(Lab(engine, actor="alice"), {"SN-1": "ACME Ltd"})
     lab.add_customer("Buyer GmbH")
     with Session(engine) as s:
-        s.add(
-            Run(
+        stand = Stand(stand_file_sha256="b" * 64, name="stand")
+        s.add(stand)
+        s.flush()
+        sensor = s.scalar(select(Sensor))
+        assert sensor is not None
+        # the 0013 run index's columns only (the ORM's Run has runs.batch_id, migration 0015)
+        s.execute(
+            insert(Run).values(
                 run_id="r1",
                 manifest_sha256=_sealed_folder(tmp_path / "r1", None),
                 folder=str(tmp_path / "r1"),
                 status="complete",
                 started_utc=datetime(2026, 11, 23, tzinfo=UTC),
                 dut_id="SN-1",
-                stand=Stand(stand_file_sha256="b" * 64, name="stand"),
-                sensor=s.scalar(select(Sensor)),
+                stand_id=stand.id,
+                sensor_id=sensor.id,
             )
         )
         s.commit()
