@@ -314,6 +314,7 @@ def _check_keys(runs: Mapping[str, Mapping[str, object]]) -> None:
                 f"triaxial: orientation {o!r} missing: the run with the exciter along the "
                 f"sensor's axis {o} is needed (three orientations x, y, z)"
             )
+    for o in names:
         for j in runs[o]:
             if j not in names:
                 raise InputRefused(f"triaxial: orientation {o!r}: channel {j!r} is not x, y or z")
