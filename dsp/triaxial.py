@@ -39,6 +39,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from dsp.annex_a import ComponentKind
+from dsp.calibration import Results
 from dsp.errors import InputRefused
 from dsp.triaxial_lines import AXES, Axis, ChannelLines, check_consistent, check_keys
 from dsp.uncertainty import Budget, Component, Quantity, coverage_factor, welch_satterthwaite
@@ -184,7 +185,7 @@ class TriaxialResult:
 
 
 def triaxial_result(
-    runs: Mapping[str, Mapping[str, object]],
+    runs: Mapping[str, Mapping[str, Results]],
     budget: Budget,
     table_transverse: Budget,
 ) -> TriaxialResult:
@@ -467,6 +468,7 @@ def _matrix(
     """S[row, column] at line i (the reference line): a diagonal entry as its run states it;
     an off-diagonal one with the table's transverse motion times S[row, row] added to its
     run's own terms (magnitude: in phase with it; phase: in quadrature)."""
+    p = typed[(Axis.X, Axis.X)].coverage_probability
     rows = []
     for j in AXES:
         row = []
@@ -479,19 +481,12 @@ def _matrix(
             u_mag = size * float(ch.relative_expanded[i]) / k_mag if k_mag > 0 else math.nan
             u_ph = float(ch.phase_expanded_deg[i]) / k_ph if k_ph > 0 else math.nan
             if o != j:
-                f = float(ch.frequency_hz[i])
-                parts, dofs = [u_mag], [float(ch.dof[i])]
-                ph_parts = [math.radians(u_ph)]
-                for u_t, dof in _table_terms(table, f):
-                    parts.append(s_jj * u_t)
-                    ph_parts.append(s_jj * u_t / size if size > 0 else math.pi)
-                    dofs.append(dof)
-                u_mag = math.hypot(*parts)
-                nu = welch_satterthwaite(parts, dofs)
-                ph_nu = welch_satterthwaite(ph_parts, [float(ch.dof[i]), *dofs[1:]])
-                k_mag = coverage_factor(nu, ch.coverage_probability)
-                u_ph = math.degrees(math.hypot(*ph_parts))
-                k_ph = coverage_factor(ph_nu, ch.coverage_probability)
+                table_u = _table_terms(table, float(ch.frequency_hz[i]))
+                own = (u_mag, float(ch.dof[i]))
+                u_mag, k_mag = _combined([own, *((s_jj * u, d) for u, d in table_u)], p)
+                quadrature = [(s_jj * u / size, d) for u, d in table_u] if size > 0 else []
+                u_rad, k_ph = _combined([(math.radians(u_ph), own[1]), *quadrature], p)
+                u_ph = math.degrees(u_rad) if size > 0 else math.nan
             row.append(
                 MatrixEntry(
                     row=j,
@@ -506,3 +501,14 @@ def _matrix(
             )
         rows.append(tuple(row))
     return tuple(rows)
+
+
+def _combined(parts: list[tuple[float, float]], p: float) -> tuple[float, float]:
+    """(u, k) of independent (u_i, dof_i): root sum of squares, Welch-Satterthwaite, Student
+    t at p; NaN when a part is not finite."""
+    us = [u for u, _ in parts]
+    if not all(math.isfinite(u) for u in us):
+        return math.nan, math.nan
+    u = math.hypot(*us)
+    nu = welch_satterthwaite(us, [d for _, d in parts]) if u > 0 else math.inf
+    return u, coverage_factor(nu, p)

@@ -14,6 +14,7 @@ from enum import StrEnum
 
 import numpy as np
 
+from dsp.calibration import Results
 from dsp.errors import InputRefused
 from dsp.uncertainty import Budget, Quantity
 
@@ -57,11 +58,9 @@ class ChannelLines:
     phase_stated: bool = True
 
     @classmethod
-    def from_results(cls, results: object, budget: Budget) -> ChannelLines:
+    def from_results(cls, results: Results, budget: Budget) -> ChannelLines:
         """From a run's dsp.calibration.Results: the type A's dof is what its nu_eff leaves
         once the budget's finite-dof components are taken out (GUM G.4.1 solved for nu_A)."""
-        from dsp.calibration import Results
-
         if not isinstance(results, Results):
             raise InputRefused(f"triaxial: expected dsp.calibration.Results, got {results!r}")
         lines = results.lines
@@ -123,6 +122,7 @@ def _type_a_dof(u_a: float, u_c: float, nu_eff: float, budget: Budget, f: float)
 
 
 def check_keys(runs: Mapping[str, Mapping[str, object]]) -> None:
+    """Refuse a set of runs without the orientations x, y, z each with channels x, y, z."""
     names = [a.value for a in AXES]
     for o in runs:
         if o not in names:
@@ -149,6 +149,8 @@ def check_keys(runs: Mapping[str, Mapping[str, object]]) -> None:
 
 
 def check_consistent(lines: Mapping[tuple[Axis, Axis], ChannelLines]) -> None:
+    """Refuse lines whose plans, reference line, coverage probability or skew statement
+    differ, naming the orientation and channel."""
     first = lines[(Axis.X, Axis.X)]
     for (o, j), ch in lines.items():
         where = f"triaxial: orientation {o.value!r}, channel {j.value!r}"

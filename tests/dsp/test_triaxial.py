@@ -68,6 +68,10 @@ def test_a_diagonal_matrix_gives_zero_transverse_with_the_table_term_as_its_u():
         np.testing.assert_array_equal(axis.largest_percent.value, 0.0)
         assert np.all(np.isnan(axis.angle_deg.value))
     assert result.warnings == ()
+    zero = result.matrix[0][1]  # S[x, y] = 0: the table's 0.1 % of S[x, x] = 10, no phase
+    assert zero.magnitude_mv_per_ms2 == 0.0
+    assert zero.magnitude_expanded == pytest.approx(2 * 10 * 0.001, rel=1e-5)
+    assert math.isnan(zero.phase_expanded_deg)
 
 
 def test_a_two_percent_transverse_at_thirty_degrees_is_recovered():
