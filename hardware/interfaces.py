@@ -18,7 +18,8 @@ import numpy as np
 
 from hardware.errors import InputRefused
 
-#: An input's logical name: "reference", "drive", or a DUT channel (`is_dut_channel`).
+# "reference", "drive", and a DUT input: "dut" (a single-DUT run) or "dut.<position>" and
+# "dut.<position>.<axis>" (several DUTs in one run, issue 36)
 ChannelName = str
 
 
@@ -84,10 +85,10 @@ class DaqConfig:
 
 @dataclass(frozen=True)
 class DaqStatus:
-    """What a configured DAQ reports back: actual sample rate (Hz) and the (first) DUT channel's
-    sampling delay after the reference channel (s; non-zero on multiplexed boards); `skews_s`:
-    every input's sampling delay after the reference (s; empty when a driver does not say, and
-    `skew_s` then holds)."""
+    """What a configured DAQ reports back: actual sample rate (Hz) and the DUT channel's sampling
+    delay after the reference channel (s; non-zero on multiplexed boards): the first DUT
+    channel's in `skew_s`, every input's in `skews_s` (by channel name; empty: a single-DUT
+    driver may leave it so, `skew_s` then holds)."""
 
     actual_sample_rate_hz: float
     skew_s: float
