@@ -372,6 +372,8 @@ def test_a_physical_input_used_twice_or_naming_several_is_refused_naming_the_cha
         "dut_A",
         "monitor",
         "dut.A.",
+        "dut.A\n",  # fullmatch: "$" would take a name with a newline
+        "reference.A",
     ],
 )
 def test_a_channel_name_that_is_no_dut_reference_or_drive_is_refused_naming_it(name):
