@@ -537,6 +537,7 @@ def read_teds_bits(physical_channel: str, *, ni: SimpleNamespace | None = None) 
     ni = ni or import_nidaqmx()
     try:
         channel = ni.system.PhysicalChannel(physical_channel)
+        channel.configure_teds()  # DAQmx scans the sensor mounted now (not the last one seen)
         data = bytes(channel.teds_bit_stream)
     except Exception as exc:
         raise translate_error(exc, f"NI-DAQ {physical_channel} TEDS") from None
