@@ -210,3 +210,51 @@ def test_coverage_of_the_main_axes_and_transverse_statements_over_seeds():
     # the ratio's phase over-covers: the stated table motion may have any phase, the
     # simulated table moves in phase with the axial motion below its rocking mode
     assert c.fraction("ratio phase") >= 0.95
+
+
+def test_the_linearised_u_agrees_with_a_monte_carlo_of_the_measurement_model():
+    """The GUM statement (linearised, analytic) against 200 000 draws of the model itself:
+    each measurement S[x, o] with its own complex relative error (type A on both parts), the
+    table's transverse motion in each orientation adding to S[x, o] / S[x, x] directly; the
+    shared S[x, x] correlates the two ratios."""
+    s = np.diag([10.0 + 0j, 9.0, 11.0])
+    s[0, 1] = 10.0 * 0.02 * np.exp(0.35j)
+    s[0, 2] = 10.0 * 0.012 * np.exp(-0.2j)
+    u_rel = {"x": 0.05, "y": 0.08, "z": 0.12}  # relative type A of S[x, o], per part (x: large,
+    # so the correlation through S[x, x] shows)
+    lines = _matrix_lines(s)
+    for o, u in u_rel.items():
+        lines[(o, "x")] = _channel(complex(s[0, "xyz".index(o)]), u_a=u)
+    table = Budget((Component("table", 0.0008, Distribution.STANDARD),))
+    x = triaxial_from_lines(lines, NO_BUDGET, table).axes[0]
+
+    rng = np.random.default_rng(5)
+    n = 200_000
+
+    def measured(o: str) -> np.ndarray:
+        e = u_rel[o] * (rng.standard_normal(n) + 1j * rng.standard_normal(n))
+        return s[0, "xyz".index(o)] * (1 + e)
+
+    def table_motion() -> np.ndarray:
+        return 0.0008 * (rng.standard_normal(n) + 1j * rng.standard_normal(n))
+
+    main = measured("x")
+    t_y = measured("y") / main + table_motion()
+    t_z = measured("z") / main + table_motion()
+    drawn = {
+        "ratio": 100 * np.abs(t_y),
+        "phase": np.degrees(np.angle(t_y)),
+        "largest": 100 * np.hypot(np.abs(t_y), np.abs(t_z)),
+        "angle": np.degrees(np.arctan2(t_z.real, t_y.real)),
+    }
+    stated = {
+        "ratio": x.transverse[0].magnitude_percent,
+        "phase": x.transverse[0].phase_deg,
+        "largest": x.largest_percent,
+        "angle": x.angle_deg,
+    }
+    for name, draws in drawn.items():
+        u = float(stated[name].standard[0])
+        assert np.std(draws) == pytest.approx(u, rel=0.03), name
+        low, high = np.quantile(draws, [0.02275, 0.97725])
+        assert (high - low) / 2 == pytest.approx(float(stated[name].expanded[0]), rel=0.05), name
