@@ -199,9 +199,9 @@ def test_stored_results_of_three_simulated_orientations_give_the_sensors_truth()
 
 @pytest.mark.slow
 def test_coverage_of_the_main_axes_and_transverse_statements_over_seeds():
-    """20 simulated calibrations (seeds 1000-1019; the figures over 200 seeds are in the
-    module's docstring of tests/dsp/triaxial_sim.py): k = 2 intervals cover the truth near
-    95 %, and the normalised errors' rms is near 1 (the U is not simply inflated)."""
+    """20 simulated calibrations (seeds 1000-1019; the figures over 200 seeds are in
+    tests/dsp/triaxial_sim.py's docstring): k = 2 intervals cover the truth near 95 %, and
+    the normalised errors' rms is near 1 (the U is not simply inflated)."""
     c = triaxial_sim.run_coverage(range(1000, 1020))
     for kind in ("main", "main phase", "ratio", "largest", "angle"):
         assert 0.92 <= c.fraction(kind) <= 0.99, (kind, c.fraction(kind))
