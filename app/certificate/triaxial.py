@@ -14,10 +14,18 @@ transverse sensitivity at the reference frequency with its direction.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 from app import formatting as fmt
-from dsp.triaxial import AxisResult, Stated, TriaxialResult
+from app.certificate.info import CertificateError
+from dsp.triaxial import AXES, AxisResult, Stated, TriaxialResult, triaxial_result
+from dsp.uncertainty import Budget
+
+if TYPE_CHECKING:
+    from app.certificate.load import StoredRun
 
 NOT_STATED = fmt.NOT_STATED_SHORT
 SECTION_TITLE = "Triaxial sensor: main axes, transverse sensitivity and sensitivity matrix"
@@ -179,3 +187,51 @@ def direction_text(axis: PrintedAxis) -> str:
         else " (direction not stated)"
     )
     return f"axis {axis.axis}: {big.value} % ± {big.expanded} % of its sensitivity{where}"
+
+
+def stored_triaxial(
+    folders: Mapping[str, Mapping[str, str | Path]], table_transverse: Budget
+) -> TriaxialResult:
+    """The TriaxialResult of nine stored runs, `folders[orientation][channel]` (x, y, z each),
+    each loaded as a certificate reads it (app.certificate.load: verified, complete,
+    certifiable). CertificateError naming the orientation and channel when a run cannot be
+    certified, when the runs' budgets differ, or when one channel's three runs name different
+    sensors; dsp.triaxial's refusals (InputRefused) for the rest."""
+    from app.certificate.load import load_stored_run
+
+    names = [a.value for a in AXES]
+    runs: dict[str, dict[str, StoredRun]] = {}
+    budgets: dict[tuple[str, str], Budget] = {}
+    for o in names:
+        runs[o] = {}
+        for j in names:
+            path = folders.get(o, {}).get(j)
+            where = f"triaxial: orientation {o!r}, channel {j!r}"
+            if path is None:
+                raise CertificateError(f"{where}: no run folder given")
+            try:
+                run = load_stored_run(path)
+            except CertificateError as exc:
+                raise CertificateError(f"{where}: {exc}") from None
+            runs[o][j] = run
+            budgets[(o, j)] = run.budget
+    first = budgets[("x", "x")]
+    for (o, j), budget in budgets.items():
+        if budget != first:
+            raise CertificateError(
+                f"triaxial: orientation {o!r}, channel {j!r}: its budget differs from "
+                "orientation 'x', channel 'x' (one stand, one budget for the three orientations)"
+            )
+    for j in names:
+        ids = {o: _dut_id(runs[o][j].record.dut) for o in names}
+        if len(set(ids.values())) > 1:
+            listed = ", ".join(f"{o}: {i!r}" for o, i in ids.items())
+            raise CertificateError(
+                f"triaxial: channel {j!r}: its runs name different sensors ({listed})"
+            )
+    results = {o: {j: runs[o][j].results for j in names} for o in names}
+    return triaxial_result(results, first, table_transverse)
+
+
+def _dut_id(dut: object) -> str | None:
+    return getattr(dut, "id", None)

@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 from pypdf import PdfReader
 
-from app.certificate import CertificateInfo, dcc
+from app.certificate import CertificateError, CertificateInfo, dcc
 from app.certificate.load import load_stored_run
-from app.certificate.triaxial import direction_text, printed, printed_triaxial
+from app.certificate.triaxial import direction_text, printed, printed_triaxial, stored_triaxial
 from app.certificate.triaxial_dcc import REF_LARGEST, REF_RATIO, add_triaxial, extension
 from app.certificate.triaxial_pdf import sample_pdf
 from dsp.triaxial import TriaxialResult, triaxial_result
@@ -140,3 +140,25 @@ def test_the_pdf_section_draws_the_matrix_and_each_axis(result, tmp_path: Path):
     )
     assert direction_text(section.axes[2]) in words.replace("\n", " ")
     assert "page 1 of" in words
+
+
+def test_nine_stored_runs_are_loaded_as_a_certificate_reads_them(complete_run: Path, tmp_path):
+    """The seam for the certificate's assembly: nine run folders (here one run standing for
+    all nine: every ratio is then 1, the matrix all ones times its sensitivity)."""
+    folders = {o: {j: complete_run for j in "xyz"} for o in "xyz"}
+    tri = stored_triaxial(folders, triaxial_sim.TABLE_STATED)
+    stored = load_stored_run(complete_run).results
+    i = tri.reference_index
+    assert tri.axes[0].sensitivity_mv_per_ms2.value[i] == pytest.approx(
+        stored.reference.sensitivity_mv_per_ms2
+    )
+    np.testing.assert_allclose(tri.axes[1].transverse[0].magnitude_percent.value, 100.0)
+    missing = {o: dict(folders[o]) for o in folders}
+    del missing["y"]["z"]
+    with pytest.raises(CertificateError, match=r"orientation 'y', channel 'z': no run folder"):
+        stored_triaxial(missing, triaxial_sim.TABLE_STATED)
+    empty = tmp_path / "not-a-run"
+    empty.mkdir()
+    missing["y"]["z"] = empty
+    with pytest.raises(CertificateError, match=r"orientation 'y', channel 'z': "):
+        stored_triaxial(missing, triaxial_sim.TABLE_STATED)
