@@ -34,7 +34,9 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
+from enum import StrEnum
+from typing import Any
 
 import numpy as np
 
@@ -179,6 +181,26 @@ class TriaxialResult:
     def axis(self, name: str) -> AxisResult:
         """The result of axis `name` ('x', 'y' or 'z')."""
         return self.axes[AXES.index(Axis(name))]
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready nested dict (arrays as lists, NaN and inf as None, axes by name)."""
+        return _json(asdict(self))
+
+
+def _json(value: Any) -> Any:
+    """`value` with arrays as lists, StrEnums as their strings, NaN and inf as None."""
+    if isinstance(value, dict):
+        return {str(k): _json(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_json(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return [_json(float(v)) for v in value.tolist()]
+    if isinstance(value, StrEnum):
+        return value.value
+    if isinstance(value, bool | int | str) or value is None:
+        return value
+    number = float(value)
+    return number if math.isfinite(number) else None
 
 
 # ---- the inputs and their checks ---------------------------------------------------------

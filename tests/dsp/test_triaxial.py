@@ -5,6 +5,7 @@ point 3). The coverage figures: `python -m tests.dsp.triaxial_sim --seeds 200`."
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 
 import numpy as np
@@ -258,3 +259,16 @@ def test_the_linearised_u_agrees_with_a_monte_carlo_of_the_measurement_model():
         assert np.std(draws) == pytest.approx(u, rel=0.03), name
         low, high = np.quantile(draws, [0.02275, 0.97725])
         assert (high - low) / 2 == pytest.approx(float(stated[name].expanded[0]), rel=0.05), name
+
+
+def test_the_result_is_json_ready():
+    s = np.diag([10.0 + 0j, 9.0, 11.0])
+    s[0, 1] = 0.2
+    data = triaxial_from_lines(_matrix_lines(s), NO_BUDGET, TABLE_1E3).to_dict()
+    text = json.dumps(data, allow_nan=False)  # NaN (no direction of a zero ratio) as null
+    back = json.loads(text)
+    assert back["axes"][0]["axis"] == "x"
+    assert back["axes"][0]["transverse"][0]["magnitude_percent"]["value"] == [2.0, 2.0, 2.0]
+    assert back["axes"][1]["angle_deg"]["value"] == [None, None, None]
+    assert back["matrix"][0][1]["column"] == "y"
+    assert back["reference_frequency_hz"] == 160.0
