@@ -118,7 +118,7 @@ def test_bending_grows_as_d_squared_and_spares_the_axis():
     expected = 0.02 * (20.0 / 40.0) ** 2 * r2 / (1 - r2)  # damping: (r / Q)^2 = 7e-7 of it
     assert near.real[0] == pytest.approx(expected, rel=1e-5)
     far = model.motion_ratio("D", f) - 1.0
-    assert far.real[0] / near.real[0] == pytest.approx(4.0, rel=1e-12)
+    assert far.real[0] / near.real[0] == pytest.approx(4.0, rel=1e-8)  # (1 + x - 1)
     assert model.motion_ratio("A", f)[0] == 1.0
 
 
