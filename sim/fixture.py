@@ -72,6 +72,7 @@ Units: frequencies Hz, distances m (mm in the table), angles degrees, ratios dim
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -247,7 +248,7 @@ class FixtureModel:
 
 
 def relative_motion_truth(
-    model: FixtureModel, frequency_hz: Sequence[float]
+    model: FixtureModel, frequency_hz: Sequence[float] | np.ndarray
 ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """Per position: |ratio - 1| (percent) and the ratio's phase (degrees) at the frequencies
     (Hz): what the stated `relative_motion` and `relative_motion_phase_deg` must bound."""
@@ -277,31 +278,41 @@ def stated_terms(
     floor_percent: float = 0.005,
     floor_deg: float = 0.003,
 ) -> list[StatedTerm]:
-    """The terms a lab would state for this fixture: per position, at each node (Hz), the
-    largest truth (relative_motion_truth) over the intervals on either side of it (a dense
-    grid), times `margin`, never below the floors (percent, degrees: what the lab's measurement
-    of its block could resolve). Both ends of an interval then state at least `margin` times
-    its largest truth, so the log-log interpolation between them (`interpolated`) does too."""
+    """The terms a lab would state for this fixture: per position, rows at the nodes (Hz) and
+    at the rocking and bending modes between them, each `margin` times the truth
+    (relative_motion_truth) there, never below the floors (percent, degrees: what the lab's
+    measurement of its block could resolve); then, interval by interval, both ends raised
+    until the log-log interpolation (`interpolated`) is `margin` times the truth on a dense
+    grid between them (a resonance's top is concave in log-log: the chord would cut it)."""
     nodes = sorted(float(f) for f in nodes_hz)
     if len(nodes) < 2 or nodes[0] <= 0:
         raise ValueError("stated_terms: needs at least two frequencies > 0 Hz")
     if margin < 1.0:
         raise ValueError(f"stated_terms: margin {margin:g} below 1 cannot bound the truth")
-    grids = [np.geomspace(lo, hi, 64) for lo, hi in zip(nodes[:-1], nodes[1:], strict=True)]
-    truths = [relative_motion_truth(model, grid) for grid in grids]
+    modes = [model.rocking_x, model.rocking_y, *([model.bending] if model.bending else [])]
+    inside = [m.frequency_hz for m in modes if nodes[0] < m.frequency_hz < nodes[-1]]
+    f = np.asarray(sorted(set(nodes) | set(inside)))
+    truth = relative_motion_truth(model, f)
+    grids = [np.geomspace(lo, hi, 256) for lo, hi in itertools.pairwise(f)]
+    dense = [relative_motion_truth(model, grid) for grid in grids]
     terms = []
     for name in model.positions:
-        tops = [float(t[name][0].max()) for t in truths]  # per interval
-        angles = [float(np.abs(t[name][1]).max()) for t in truths]
-        magnitude = []
-        phase = []
-        for i, node in enumerate(nodes):
-            near = slice(max(i - 1, 0), i + 1)  # the intervals below and above node i
-            top = max(tops[near])
-            angle = max(angles[near])
-            magnitude.append((node, _round_up(max(margin * top, floor_percent))))
-            phase.append((node, _round_up(max(margin * angle, floor_deg))))
-        terms.append(StatedTerm(name, tuple(magnitude), tuple(phase)))
+        magnitude = np.maximum(margin * truth[name][0], floor_percent)
+        phase = np.maximum(margin * np.abs(truth[name][1]), floor_deg)
+        for which, values in ((0, magnitude), (1, phase)):
+            for i, grid in enumerate(grids):
+                rows = [(f[i], values[i]), (f[i + 1], values[i + 1])]
+                wanted = margin * np.abs(dense[i][name][which])
+                short = float(np.max(wanted / interpolated(rows, grid)))
+                if short > 1.0:
+                    values[i : i + 2] *= short * (1 + 1e-9)
+        terms.append(
+            StatedTerm(
+                name,
+                tuple((float(x), _round_up(float(v))) for x, v in zip(f, magnitude, strict=True)),
+                tuple((float(x), _round_up(float(v))) for x, v in zip(f, phase, strict=True)),
+            )
+        )
     return terms
 
 

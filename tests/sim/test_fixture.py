@@ -182,3 +182,9 @@ def test_the_stated_terms_bound_the_truth_between_their_nodes(model):
         assert np.all(interpolated(terms[name].magnitude, f) >= 1.2 * magnitude * (1 - 1e-9))
         assert np.all(interpolated(terms[name].phase, f) >= np.abs(phase))
     assert terms["A"].magnitude[0][1] == 0.005  # on the axis only the floor
+    # where nothing bends the curve the row is the margin times the truth, rounded up
+    at_1k = dict(terms["D"].magnitude)[1000.0]
+    truth_1k = relative_motion_truth(model, [1000.0])["D"][0][0]
+    assert 1.2 * truth_1k <= at_1k <= 1.21 * truth_1k
+    # the rocking mode is a row of its own
+    assert ROCKING_HZ in dict(terms["D"].magnitude)
