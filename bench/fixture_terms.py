@@ -103,20 +103,15 @@ def from_stand(path: Path) -> tuple[FixtureModel, dict[str, dict[str, Any]], flo
     """A stand file's model ([simulation.fixture] with the positions' geometry), stated rows
     and stated crosstalk."""
     data = tomllib.loads(path.read_text(encoding="utf-8"))
-    fixture = data.get("fixture")
-    table = data.get("simulation", {}).get("fixture")
-    if not isinstance(fixture, dict) or not isinstance(table, dict):
+    model = FixtureModel.from_stand(data)
+    if model is None:
         raise SystemExit(f"{path}: needs [fixture] and [simulation.fixture]")
-    positions = fixture.get("position", [])
-    geometry = [
-        PositionGeometry(p["name"], p.get("distance_mm", 0.0) * 1e-3, p.get("azimuth_deg", 0.0))
-        for p in positions
-    ]
+    positions = data["fixture"].get("position", [])
     stated = {
         p["name"]: {k: p[k] for k in ("relative_motion", "relative_motion_phase_deg") if k in p}
         for p in positions
     }
-    return FixtureModel.from_table(table, geometry), stated, float(fixture["crosstalk_db"])
+    return model, stated, float(data["fixture"]["crosstalk_db"])
 
 
 def toml_text(model: FixtureModel, stated: dict[str, dict[str, Any]], margin: float) -> str:

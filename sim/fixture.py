@@ -195,6 +195,27 @@ class FixtureModel:
             block_radius_m=radius_mm * 1e-3,
         )
 
+    @classmethod
+    def from_stand(cls, stand: Mapping[str, Any]) -> FixtureModel | None:
+        """The model of a stand file's tables as read (its [simulation.fixture] with the
+        [[fixture.position]] entries' name, distance_mm and azimuth_deg); None when it has no
+        [simulation.fixture] (the rigid fixture then). InputRefused naming the table or key."""
+        table = stand.get("simulation", {}).get("fixture")
+        if table is None:
+            return None
+        fixture = stand.get("fixture")
+        if not isinstance(table, Mapping) or not isinstance(fixture, Mapping):
+            raise InputRefused(f"[{TABLE}]: a table, with the stand's [fixture] and its positions")
+        positions = []
+        for index, entry in enumerate(fixture.get("position", []), start=1):
+            where = f"[[fixture.position]] {index}"
+            if not isinstance(entry, Mapping) or not isinstance(entry.get("name"), str):
+                raise InputRefused(f"{where}: needs a name")
+            distance = _number(entry, "distance_mm", 0.0, 1e4, 0.0, where=where)
+            azimuth = _number(entry, "azimuth_deg", -360.0, 360.0, 0.0, where=where)
+            positions.append(PositionGeometry(entry["name"], distance * 1e-3, azimuth))
+        return cls.from_table(table, positions)
+
     def geometry(self, position: str) -> PositionGeometry:
         """The position named `position`; InputRefused naming it and the known ones."""
         try:
@@ -355,19 +376,26 @@ def _frequencies(frequency_hz: np.ndarray) -> np.ndarray:
 
 
 def _number(
-    table: Mapping[str, Any], key: str, low: float, high: float, default: float | None = None
+    table: Mapping[str, Any],
+    key: str,
+    low: float,
+    high: float,
+    default: float | None = None,
+    *,
+    where: str = f"[{TABLE}]",
 ) -> float:
     """table[key] as a float within [low, high]; InputRefused naming the key otherwise."""
     if key not in table:
         if default is None:
-            raise InputRefused(f"[{TABLE}] {key}: missing ({KEYS[key][1]})")
+            raise InputRefused(f"{where} {key}: missing ({KEYS[key][1]})")
         return default
     value = table[key]
     if isinstance(value, bool) or not isinstance(value, int | float):
-        raise InputRefused(f"[{TABLE}] {key}: {value!r} is not a number ({KEYS[key][1]})")
+        meaning = f" ({KEYS[key][1]})" if key in KEYS else ""
+        raise InputRefused(f"{where} {key}: {value!r} is not a number{meaning}")
     number = float(value)
     if not (math.isfinite(number) and low <= number <= high):
-        raise InputRefused(f"[{TABLE}] {key}: {number:g} is not within {low:g}..{high:g}")
+        raise InputRefused(f"{where} {key}: {number:g} is not within {low:g}..{high:g}")
     return number
 
 

@@ -188,3 +188,23 @@ def test_the_stated_terms_bound_the_truth_between_their_nodes(model):
     assert 1.2 * truth_1k <= at_1k <= 1.21 * truth_1k
     # the rocking mode is a row of its own
     assert ROCKING_HZ in dict(terms["D"].magnitude)
+
+
+def test_from_stand_reads_the_positions_geometry_and_the_physics():
+    stand = {
+        "fixture": {
+            "position": [
+                {"name": "A", "physical": "sim/ai1"},
+                {"name": "B", "distance_mm": 20.0, "azimuth_deg": 180.0},
+            ]
+        },
+        "simulation": {"fixture": TABLE},
+    }
+    model = FixtureModel.from_stand(stand)
+    assert model is not None
+    assert model.positions["B"] == PositionGeometry("B", 0.020, 180.0)
+    assert model.positions["A"] == PositionGeometry("A", 0.0, 0.0)
+    assert FixtureModel.from_stand({"fixture": stand["fixture"]}) is None  # rigid
+    stand["fixture"]["position"][1]["distance_mm"] = "far"
+    with pytest.raises(InputRefused, match=r"\[\[fixture.position\]\] 2 distance_mm: 'far'"):
+        FixtureModel.from_stand(stand)
