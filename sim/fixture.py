@@ -72,6 +72,7 @@ Units: frequencies Hz, distances m (mm in the table), angles degrees, ratios dim
 
 from __future__ import annotations
 
+import hashlib
 import itertools
 import math
 from collections.abc import Mapping, Sequence
@@ -83,6 +84,7 @@ import numpy as np
 from hardware.errors import InputRefused
 
 TABLE = "simulation.fixture"
+RATIO_CACHE = 64  # motion ratios kept (position x frequency grid)
 # key: (required, meaning) of [simulation.fixture]
 KEYS: dict[str, tuple[bool, str]] = {
     "rocking_hz": (True, "rocking frequency, Hz: one number or [about x, about y]"),
@@ -142,6 +144,11 @@ class FixtureModel:
     bending: Mode | None = None
     bending_participation: float = 0.0
     block_radius_m: float = 0.05
+    # motion ratios already computed, by (position, the frequencies' digest): the simulated
+    # stand asks for the same DFT bins every period
+    _ratios: dict[tuple[str, bytes], np.ndarray] = field(
+        default_factory=dict, init=False, repr=False, compare=False
+    )
 
     @classmethod
     def from_table(
@@ -229,6 +236,17 @@ class FixtureModel:
         `frequency_hz` (Hz, any shape; the result has its shape)."""
         where = self.geometry(position)
         f = _frequencies(frequency_hz)
+        key = (position, hashlib.blake2b(f.tobytes() + repr(f.shape).encode()).digest())
+        known = self._ratios.get(key)
+        if known is None:
+            known = self._ratio(where, f)
+            if len(self._ratios) >= RATIO_CACHE:
+                self._ratios.clear()
+            self._ratios[key] = known
+        return known.copy()
+
+    def _ratio(self, where: PositionGeometry, f: np.ndarray) -> np.ndarray:
+        """motion_ratio's value, computed."""
         d = where.distance_m
         phi = math.radians(where.azimuth_deg)
         phi_e = math.radians(self.eccentricity_azimuth_deg)

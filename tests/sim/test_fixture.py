@@ -208,3 +208,17 @@ def test_from_stand_reads_the_positions_geometry_and_the_physics():
     stand["fixture"]["position"][1]["distance_mm"] = "far"
     with pytest.raises(InputRefused, match=r"\[\[fixture.position\]\] 2 distance_mm: 'far'"):
         FixtureModel.from_stand(stand)
+
+
+def test_a_repeated_grid_gives_the_same_ratio_and_a_caller_cannot_spoil_it(model):
+    """The stand asks for the same bins every period: kept, handed out as a copy."""
+    f = np.fft.rfftfreq(64, 1 / 20_000.0)
+    first = model.motion_ratio("B", f)
+    first[:] = 0.0
+    again = model.motion_ratio("B", f)
+    np.testing.assert_array_equal(
+        again, FixtureModel.from_table(TABLE, POSITIONS).motion_ratio("B", f)
+    )
+    assert np.all(again != 0.0)
+    assert model.motion_ratio("D", f)[5] != again[5]  # the position is part of the key
+    assert model.motion_ratio("B", f[:10]).shape == (10,)  # and the grid
