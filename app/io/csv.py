@@ -445,6 +445,31 @@ def read_csv_channels(
     )
 
 
+def several_dut_columns(path: str | Path) -> tuple[str, ...]:
+    """The DUT columns of a several-DUT CSV: those its header names `dut.<position>` (or
+    `dut.<position>.<axis>`); () for a file without such a header, which `read_csv` reads as
+    today (how `analyze` tells the two apart). Reads at most HEADER_BYTES; RecordingError when
+    the file cannot be read or its header is malformed."""
+    path = Path(path)
+    try:
+        check_input_file(path, MAX_CSV_BYTES, "CSV recording")
+        with open(path, "rb") as handle:
+            head = handle.read(HEADER_BYTES)
+    except InputFileError as exc:
+        raise RecordingError(str(exc)) from None
+    except OSError as exc:
+        raise RecordingError(f"{path.name}: cannot be read as text ({exc})") from None
+    for line in head.decode("utf-8", errors="replace").splitlines():
+        if line.lstrip().startswith("#"):
+            continue
+        cells = [c.strip() for c in line.replace(";", ",").split(",")]
+        if not any(c.startswith("dut.") for c in cells):
+            return ()
+        names, _ = _header(head, path.name)
+        return tuple(c for c in names if is_dut_channel(c))
+    return ()
+
+
 def _header(head: bytes, name: str) -> tuple[list[str], dict[str, float]]:
     """A several-DUT CSV's column names (its first line after the comments) and the skews its
     `# skew_s[channel] = ...` lines give (s); RecordingError naming the line."""

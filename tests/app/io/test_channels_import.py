@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from app.io.csv import read_csv, read_csv_channels
+from app.io.csv import read_csv, read_csv_channels, several_dut_columns
 from app.io.hdf5 import RecordingError
 from app.io.tdms import SKEW_PROPERTY, inspect_tdms_channels, read_tdms_channels
 from app.procedure.analysis import analyze
@@ -211,3 +211,18 @@ def test_tdms_channel_not_in_volts_refused_naming_it(tmp_path):
     path = _tdms(tmp_path / "g.tdms", _signals(), properties={"dut.B": {"unit_string": "g"}})
     with pytest.raises(RecordingError, match=r"channel accel/dut\.B \(dut\.B\): unit_string 'g'"):
         inspect_tdms_channels(path)
+
+
+def test_several_dut_columns_tells_the_two_kinds_of_csv_apart(tmp_path):
+    signals = _signals()
+    several = _csv(tmp_path / "n.csv", signals, ["reference", "dut.A", "drive", "dut.T.x"], ["# x"])
+    assert several_dut_columns(several) == ("dut.A", "dut.T.x")
+    for header in ("reference_v,dut_v", "reference,dut,drive"):
+        single = tmp_path / "one.csv"
+        single.write_text(header + "\n0.1,0.2,0.3\n", encoding="utf-8")
+        assert several_dut_columns(single) == ()
+    single.write_text("0.1,0.2\n", encoding="utf-8")
+    assert several_dut_columns(single) == ()
+    single.write_text("reference,dut.A,dut.A\n", encoding="utf-8")
+    with pytest.raises(RecordingError, match=r"column 3 'dut\.A': named twice"):
+        several_dut_columns(single)
