@@ -7,8 +7,8 @@ an axial acceleration that is not the reference's. ISO 16063-21:2003 Annex A lis
 "relative motion between the reference and the DUT" component; it grows with the distance from
 the axis and with frequency towards the armature's rocking modes (G. P. Ripper, G. A. Garcia,
 R. S. Dias, "Primary accelerometer calibration problems due to vibration exciters", XVIII IMEKO
-World Congress, Rio de Janeiro, 2006: rocking and cross motion of the exciter at high
-frequency; PTB's multi-component exciter work, working group 1.71, measures the rotational
+World Congress, Rio de Janeiro, 2006: the exciters' cross motion, transverse and rocking, at
+high frequency; PTB's multi-component exciter work, working group 1.71, measures the rotational
 components that make it). This module is the simulator's truth of it, never the budget: the
 stand file states the budget's terms (`relative_motion`, `crosstalk_db`), and
 bench/fixture_terms.py checks that they bound what this model does.
@@ -44,7 +44,8 @@ so that, with the eccentricity at azimuth phi_e (e_x = e cos phi_e, e_y = e sin 
     ratio(d, phi) = 1 + d e (sin(phi) sin(phi_e) H_x / rho_x^2 + cos(phi) cos(phi_e) H_y / rho_y^2)
 
 Well below both modes H ~ (f / f0)^2: the relative motion grows as f^2 and linearly with d; at
-a mode |ratio - 1| peaks near d e Q / rho^2; opposite azimuths give opposite signs; the side
+a mode H = -jQ, so |ratio - 1| peaks near d e Q / rho^2 times the azimuths' projection (the
+sin or cos products above); opposite azimuths give opposite signs; the side
 of the eccentric mass moves more below the modes (it lags, then overshoots: in phase with the
 displacement). A stiffness asymmetry of the armature's flexures couples too, with a moment
 k_z e_k z = k_z e_k a / w^2 that falls as 1/f^2: it matters near the suspension's own

@@ -226,3 +226,15 @@ def test_several_dut_columns_tells_the_two_kinds_of_csv_apart(tmp_path):
     single.write_text("reference,dut.A,dut.A\n", encoding="utf-8")
     with pytest.raises(RecordingError, match=r"column 3 'dut\.A': named twice"):
         several_dut_columns(single)
+
+
+@pytest.mark.parametrize("newline", ["\r", "\r\n", "\n"])
+def test_csv_of_any_line_end_and_semicolons_reads_the_same(tmp_path, newline):
+    signals = _signals()
+    order = ["reference", "dut.A", "dut.B"]
+    text = _csv(tmp_path / "a.csv", signals, order, ["# skew_s[dut.B] = 1e-06"]).read_text()
+    path = tmp_path / "b.csv"
+    path.write_bytes(text.replace(",", ";").replace("\n", newline).encode())
+    members = read_csv_channels(path, PLAN, CHAIN, Budget(()))
+    np.testing.assert_array_equal(members["dut.B"].dut_v, signals["dut.B"])
+    assert members["dut.B"].chain.skew_s == 1e-06 and members["dut.A"].chain.skew_s is None
