@@ -12,7 +12,6 @@ chain's skew that channel's own. `analyze` runs on each as on a single-DUT recor
 from __future__ import annotations
 
 import dataclasses
-import re
 from collections.abc import Mapping
 
 import numpy as np
@@ -22,19 +21,12 @@ from app.io.hdf5 import CHANNELS, Recording, RecordingError, merge_skew, validat
 from dsp.calibration import ReferenceChain
 from dsp.multisine import Plan
 from dsp.uncertainty import Budget
+from hardware.interfaces import is_dut_channel  # the design's DUT channel names
 
-# The design's DUT channel name (hardware.interfaces.DUT_CHANNEL / is_dut_channel after issue
-# 36's merge: the same regex).
-DUT_CHANNEL = re.compile(r"^dut(\.[A-Za-z0-9_-]{1,16}){0,2}$")
 # Samples of all the channels an import holds together: today's three channels' worth, so a
 # several-DUT import takes no more memory than the largest single-DUT one.
 MAX_IMPORT_SAMPLES = 3 * MAX_RECORDING_SAMPLES
 MAX_DUT_CHANNELS = 32  # more than any DAQ's analog inputs this program drives
-
-
-def is_dut_channel(name: str) -> bool:
-    """A DUT input's name: 'dut', 'dut.<position>' or 'dut.<position>.<axis>'."""
-    return DUT_CHANNEL.fullmatch(name) is not None
 
 
 @dataclasses.dataclass(frozen=True)

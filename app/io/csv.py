@@ -31,7 +31,6 @@ from app.io.channels import (
     MAX_IMPORT_SAMPLES,
     ImportedChannel,
     check_names,
-    is_dut_channel,
     member_recordings,
 )
 from app.io.checks import MAX_CSV_BYTES, MAX_RECORDING_SAMPLES, InputFileError, check_input_file
@@ -39,6 +38,7 @@ from app.io.hdf5 import CHANNELS, Recording, RecordingError, merge_skew, validat
 from dsp.calibration import ReferenceChain
 from dsp.multisine import Plan
 from dsp.uncertainty import Budget
+from hardware.interfaces import is_dut_channel
 
 SKEW_LINE = re.compile(r"^#\s*skew_s\s*=\s*(\S+)\s*$")
 # a several-DUT CSV's skew of one channel: "# skew_s[dut.B] = 6e-06"

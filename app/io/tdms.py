@@ -36,7 +36,6 @@ from app.io.channels import (
     MAX_DUT_CHANNELS,
     MAX_IMPORT_SAMPLES,
     ImportedChannel,
-    is_dut_channel,
     member_recordings,
 )
 from app.io.checks import MAX_TDMS_BYTES, InputFileError, check_dataset_size, check_input_file
@@ -44,6 +43,7 @@ from app.io.hdf5 import CHANNELS, Recording, RecordingError, merge_skew, validat
 from dsp.calibration import ReferenceChain
 from dsp.multisine import Plan
 from dsp.uncertainty import Budget
+from hardware.interfaces import is_dut_channel
 
 log = logging.getLogger(__name__)
 
