@@ -46,10 +46,14 @@ class RigidFixture:
 
 
 def fixture_motion(stand_config: Mapping[str, Any]) -> FixtureMotion:
-    """The simulated fixture of a stand file (`stand_config`: its tables as read): the rigid
-    fixture today. The stand file's [simulation.fixture] (sim.fixture.FixtureModel.from_table
-    with the [[fixture.position]] geometry) is wired here."""
-    return RigidFixture()
+    """The simulated fixture of a stand file (`stand_config`: its tables as read): the
+    physics of its [simulation.fixture] with the [[fixture.position]] geometry
+    (sim.fixture.FixtureModel.from_stand; InputRefused naming a bad key), else the rigid
+    fixture."""
+    from sim.fixture import FixtureModel
+
+    model = FixtureModel.from_stand(stand_config)
+    return RigidFixture() if model is None else model
 
 
 def is_rigid(fixture: FixtureMotion) -> bool:

@@ -98,3 +98,24 @@ def test_a_fixture_stand_refuses_a_channel_that_is_not_a_position() -> None:
         FixtureStand({"dut": "piezo"})
     with pytest.raises(ValueError, match="catalogue"):
         FixtureStand({"dut.A": "nothing"})
+
+
+def test_the_stand_files_fixture_physics_is_wired_in_its_one_place() -> None:
+    import tomllib
+    from pathlib import Path
+
+    from hardware.errors import InputRefused
+    from sim.fixture import FixtureModel
+
+    root = Path(__file__).parents[2] / "sim"
+    rigid = tomllib.loads((root / "stand-fixture4.toml").read_text(encoding="utf-8"))
+    assert isinstance(fixture_motion(rigid), RigidFixture)  # no [simulation.fixture]
+    tables = tomllib.loads((root / "stand-fixture4-physics.toml").read_text(encoding="utf-8"))
+    model = fixture_motion(tables)
+    assert isinstance(model, FixtureModel)
+    f = np.array([160.0, 11200.0])
+    assert abs(model.motion_ratio("A", f)[0] - 1) < 1e-4  # on the axis, far below the modes
+    assert abs(abs(model.motion_ratio("D", f)[1]) - 1) > 1e-3  # off axis, near a rocking mode
+    tables["simulation"]["fixture"]["rocking_hx"] = 1.0
+    with pytest.raises(InputRefused, match="rocking_hx"):
+        fixture_motion(tables)
