@@ -32,11 +32,21 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         from app.records.warnings import SEED_RULE_WARNING
 
         print(f"accelcal analyze: warning: {SEED_RULE_WARNING}", file=sys.stderr)
-    from app.cli.analyze_batch import batch_recording, cmd_analyze_batch
+    from app.cli.analyze_batch import (
+        batch_recording,
+        cmd_analyze_batch,
+        cmd_analyze_channels,
+        several_dut_recordings,
+    )
 
     batch = batch_recording(args.file)
     if batch is not None:  # several DUTs in one run: per DUT channel
         return cmd_analyze_batch(args, batch)
+    several = several_dut_recordings(args)  # a CSV or TDMS of several DUTs: likewise
+    if several is not None:
+        if args.csv is not None:
+            raise UsageError("--csv: one recording's table; a several-DUT file has one per DUT")
+        return cmd_analyze_channels(args, several)
     recording = load_recording(args)
     if not recording.budget.components:  # a CSV or TDMS without --budget (or an empty one)
         print(f"accelcal analyze: warning: {NO_BUDGET_WARNING}", file=sys.stderr)

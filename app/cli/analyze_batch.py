@@ -10,6 +10,7 @@ import argparse
 import dataclasses
 import json
 from pathlib import Path
+from typing import Any
 
 from app.cli.exits import EXIT_OK, UsageError
 from app.cli.printers import print_results
@@ -69,6 +70,11 @@ def cmd_analyze_batch(args: argparse.Namespace, recording_path: Path) -> int:
             mcm_trials=args.mcm,
         )
         out.append((channel, member, note, analysis))
+    return _report(args, batch.batch_id, str(recording_path), out)
+
+
+def _report(args: argparse.Namespace, batch_id: str | None, source: str, out: list) -> int:
+    """Each DUT channel's results: as JSON (one row per channel) or printed in turn."""
     if args.json:
         rows = [
             {
@@ -81,13 +87,82 @@ def cmd_analyze_batch(args: argparse.Namespace, recording_path: Path) -> int:
             }
             for channel, member, note, analysis in out
         ]
-        print(json.dumps({"batch_id": batch.batch_id, "members": rows}, indent=2))
+        print(json.dumps({"batch_id": batch_id, "members": rows}, indent=2))
         return EXIT_OK
     for channel, member, note, analysis in out:
         serial = f", DUT {member.serial}" if member else ""
         print(f"--- {channel}{serial} ({note})")
-        print_results(analysis.results, f"{recording_path} {channel}", analysis.status)
+        print_results(analysis.results, f"{source} {channel}", analysis.status)
     return EXIT_OK
+
+
+def several_dut_recordings(args: argparse.Namespace) -> dict[str, Any] | None:
+    """A CSV or TDMS recording of several DUTs (channels named dut.<position>, issue 36) as
+    one two-channel recording per DUT channel (app.io.csv / app.io.tdms); None for any other
+    file (read as today)."""
+    from app.cli.options import plan_from_options, positive
+    from app.cli.readers import _chain_and_budget
+    from app.io.hdf5 import RecordingError
+
+    suffix = args.file.suffix.lower()
+    if args.file.is_dir() or suffix not in (".csv", ".txt", ".tdms"):
+        return None
+    if suffix == ".tdms":
+        from app.io.tdms import inspect_tdms_channels, read_tdms_channels
+
+        if args.dut is not None:
+            return None
+        try:
+            source = inspect_tdms_channels(args.file, args.reference)
+        except RecordingError:
+            return None  # no channel named dut.<position>: a single-DUT file
+        if set(source.duts) <= {"dut"}:
+            return None
+        positive("--sample-rate", args.sample_rate)
+        rate = source.sample_rate_hz or args.sample_rate
+        if rate is None:
+            raise UsageError(
+                f"--sample-rate: {args.file.name} states none (no wf_increment); give it in Hz"
+            )
+        chain, budget, cmc = _chain_and_budget(args, "TDMS")
+        plan_args = argparse.Namespace(**{**vars(args), "sample_rate": rate})
+        plan = plan_from_options(plan_args, optimise=False)
+        recordings = read_tdms_channels(
+            args.file, plan, chain, budget, reference=args.reference,
+            settle_periods=args.settle_periods or 0, range_v=args.range_v, source=source,
+        )  # fmt: skip
+    else:
+        from app.io.csv import read_csv_channels, several_dut_columns
+
+        if not several_dut_columns(args.file):
+            return None
+        chain, budget, cmc = _chain_and_budget(args, "CSV")
+        plan = plan_from_options(args, optimise=False)
+        recordings = read_csv_channels(
+            args.file, plan, chain, budget,
+            settle_periods=args.settle_periods or 0, range_v=args.range_v,
+        )  # fmt: skip
+    return {name: dataclasses.replace(r, cmc=cmc) for name, r in recordings.items()}
+
+
+def cmd_analyze_channels(args: argparse.Namespace, recordings: dict[str, Any]) -> int:
+    """`analyze` of a several-DUT CSV or TDMS: each DUT channel by the same analysis."""
+    from app.procedure.analysis import analyze
+    from dsp.estimators import RECORDING_ESTIMATOR
+
+    out = []
+    for channel, recording in recordings.items():
+        analysis = analyze(
+            recording,
+            estimator=str(args.estimator or RECORDING_ESTIMATOR),
+            segments=args.segments,
+            probability=args.coverage,
+            rule="seed" if args.seed_rule else "gum",
+            tolerance_percent=args.tolerance,
+            mcm_trials=args.mcm,
+        )
+        out.append((channel, None, "the --budget given", analysis))
+    return _report(args, None, str(args.file), out)
 
 
 def _estimator(args: argparse.Namespace, member_run: Path | None) -> str:

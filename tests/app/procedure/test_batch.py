@@ -251,3 +251,33 @@ def test_analyze_of_a_batch_gives_each_dut_as_its_member_run_states_it(batch, ca
             )
     assert main(["analyze", str(finished.folder), "--csv", "x.csv"]) == 2
     assert "--csv: not for a batch" in capsys.readouterr().err
+
+
+def test_analyze_of_a_several_dut_csv_gives_each_dut_channel(tmp_path: Path, capsys) -> None:
+    from tests.app.io.test_channels_import import GAINS, _csv, _signals
+
+    path = _csv(tmp_path / "rec.csv", _signals(), ["reference", *GAINS, "drive"])
+    plan = ["--frequencies", "100,200,400", "--sample-rate", "2000", "--period", "40",
+            "--reference-frequency", "100"]  # fmt: skip
+    assert main(["analyze", str(path), *plan, "--reference-sensitivity", "1", "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)["members"]
+    assert [row["channel"] for row in rows] == list(GAINS)
+    for row in rows:
+        found = [line["sensitivity_mv_per_ms2"] for line in row["lines"]]
+        np.testing.assert_allclose(found, 10.0 * GAINS[row["channel"]], rtol=1e-3)
+    assert main(["analyze", str(path), *plan, "--reference-sensitivity", "1", "--csv",
+                 str(tmp_path / "out.csv")]) == 2  # fmt: skip
+    assert "--csv: one recording's table" in capsys.readouterr().err
+
+
+def test_analyze_of_a_several_dut_tdms_gives_each_dut_channel(tmp_path: Path, capsys) -> None:
+    from tests.app.io.test_channels_import import GAINS, _signals, _tdms
+
+    path = _tdms(tmp_path / "rec.tdms", _signals())
+    plan = ["--frequencies", "100,200,400", "--period", "40", "--reference-frequency", "100"]
+    assert main(["analyze", str(path), *plan, "--reference-sensitivity", "1", "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)["members"]
+    assert sorted(row["channel"] for row in rows) == sorted(GAINS)
+    for row in rows:
+        found = [line["sensitivity_mv_per_ms2"] for line in row["lines"]]
+        np.testing.assert_allclose(found, 10.0 * GAINS[row["channel"]], rtol=1e-3)
