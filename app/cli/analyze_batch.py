@@ -31,7 +31,7 @@ def cmd_analyze_batch(args: argparse.Namespace, recording_path: Path) -> int:
     """Analyse every DUT channel of the batch recording at `recording_path`."""
     from app.io.hdf5 import RecordingError, read_recording
     from app.procedure.analysis import analyze
-    from app.procedure.batch import batch_channels
+    from app.procedure.batch_files import batch_channels
     from app.records.batch import BatchError, read_batch
 
     for flag, given in (

@@ -15,21 +15,26 @@ member's seal (app.records.batch).
 from __future__ import annotations
 
 import dataclasses
-import json
 import logging
-import shutil
 from collections.abc import Sequence
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-import h5py
 import numpy as np
 
-from app.io.hdf5 import RecordingWriter, Truth, read_recording, software_version
+from app.io.hdf5 import RecordingWriter, read_recording, software_version
 from app.io.vocabulary import Backend, Mode, RunStatus
 from app.procedure import Finished, Listener, Procedure
+from app.procedure.batch_files import (
+    copy_log,
+    copy_marks,
+    own_budget,
+    stored_budget,
+    write_batch_recording,
+    write_member_truth,
+)
 from app.procedure.errors import PreflightError
 from app.procedure.events import Event, PeriodEstimate
 from app.procedure.request import RequestError, RunIdentity, RunRequest
@@ -37,13 +42,12 @@ from app.records.batch import Batch, BatchMember, seal_batch
 from app.records.run_folder import RunFolder, new_run_id
 from app.records.run_record import DutIdentity
 from app.records.run_start import CONFIG_NAME, BatchLink, BatchMemberLink, RunStart
-from app.records.seal import named_seal
+from app.records.seal import SealError, named_seal
 from app.stand.config import StandConfig
 from app.stand.dut import DutSpec
 from app.stand.fixture import Fixture, FixturePosition
 from app.stand.simulated import catalogue_spec
 from dsp.uncertainty import Budget
-from hardware.interfaces import is_dut_channel
 
 log = logging.getLogger(__name__)
 
@@ -217,8 +221,10 @@ class BatchRun:
         lead: Member,
         others: list[Member],
         identity: RunIdentity,
+        backend: Backend,
     ):
         self.batch_id = batch_id
+        self.backend = backend
         self.folder = folder
         self.fixture = fixture
         self.lead = lead
@@ -243,14 +249,12 @@ class BatchRun:
             ),
         )
 
-    def member_identity(self, member: Member, backend: Backend) -> RunIdentity:
-        """The run's identity with this member's DUT."""
+    def member_identity(self, member: Member) -> RunIdentity:
+        """The run's identity with this member's DUT: its catalogue model (simulated stand),
+        its serial, and the nominal the run states (the request's, as a single run's)."""
+        stated = self.identity.dut.nominal_sensitivity_mv_per_ms2 if self.identity.dut else None
         dut = DutIdentity(
-            member.model if backend == Backend.SIM else None,
-            member.serial,
-            member.spec.nominal_mv_per_ms2
-            if self.identity.dut is None
-            else (self.identity.dut.nominal_sensitivity_mv_per_ms2),
+            member.model if self.backend == Backend.SIM else None, member.serial, stated
         )
         return dataclasses.replace(self.identity, dut=dut)
 
@@ -258,12 +262,11 @@ class BatchRun:
 
     def config_stored(self, start: RunStart) -> None:
         """Each other member's config.json (its identity and batch link) and stand.toml."""
-        backend = Backend.SIM if self.lead.model is not None else Backend.NIDAQMX
         stand_text = self.lead.folder.path / "stand.toml"
         for member in self.others:
             own = dataclasses.replace(
                 start,
-                identity=self.member_identity(member, backend).to_dict(),
+                identity=self.member_identity(member).to_dict(),
                 batch=self.link(member),
             )
             member.folder.write_text(CONFIG_NAME, own.to_json())
@@ -289,7 +292,7 @@ class BatchRun:
             io.member_writers[member.channel] = writer
             truth_of = getattr(stand.daq, "truth_of", None)
             if truth_of is not None:
-                _write_member_truth(procedure, writer, truth_of(member.channel), member.model)
+                write_member_truth(procedure, writer, truth_of(member.channel), member.model)
 
     # --- the end --------------------------------------------------------------------------
 
@@ -303,8 +306,8 @@ class BatchRun:
         for member in self.others:
             results = None
             if finished.status == RunStatus.COMPLETE:
-                _copy_marks(lead_recording, member.folder.recording)
-                _own_budget(procedure, member.folder.recording)
+                copy_marks(lead_recording, member.folder.recording)
+                own_budget(procedure, member.folder.recording)
                 results = self._results(procedure, member)
                 if listener is not None:
                     listener(
@@ -312,14 +315,14 @@ class BatchRun:
                             procedure.io.periods_read, results[0], results[1], member.position.name
                         )
                     )
-            budget = _stored_budget(member.folder.recording)  # its own, as its results use
+            budget = stored_budget(member.folder.recording)  # its own, as its results use
             record = dataclasses.replace(
                 finished.record,
                 run_id=member.folder.run_id,
-                dut=self.member_identity(member, procedure.stand.config.backend).dut,
+                dut=self.member_identity(member).dut,
                 budget=tuple(budget.to_list()) if budget is not None else finished.record.budget,
             )
-            _copy_log(self.lead.folder.path, member.folder)
+            copy_log(self.lead.folder.path, member.folder)
             record = member.folder.finish(record, None if results is None else results[1])
             own = None if results is None else results[1]
             out.append(Finished(finished.status, finished.abort_reason, own, record))
@@ -347,12 +350,16 @@ class BatchRun:
     def _seal(self, status: RunStatus) -> None:
         """The batch folder: the all-channel recording, batch.json naming each member's seal,
         manifest and seal."""
-        _batch_recording(self.folder / "recording.h5", self.lead, self.others)
+        write_batch_recording(
+            self.folder / "recording.h5",
+            (self.lead.channel, self.lead.folder.recording),
+            [(m.channel, m.folder.recording) for m in self.others],
+        )
         members = []
         for m in self.members:
             try:
                 seal = named_seal(m.folder.path) or ""
-            except Exception as exc:  # a member not sealed: named without its seal
+            except SealError as exc:  # a member whose seal does not check: named without it
                 log.warning("batch %s: member %s seal not read: %s", self.batch_id, m.serial, exc)
                 seal = ""
             members.append(BatchMember(m.position.name, m.channel, m.serial, m.folder.run_id, seal))
@@ -360,131 +367,6 @@ class BatchRun:
             self.batch_id, self.fixture.name, self.started_utc, str(status), tuple(members)
         )
         seal_batch(self.folder, batch, software_version())
-
-
-def _write_member_truth(
-    procedure: Procedure, writer: RecordingWriter, sensor: Any, model: str | None
-) -> None:
-    """A member's simulated truth at the lines, at the excitation's rms (as the run's own)."""
-    plan = procedure.plan
-    rms = float(np.sqrt(np.sum(plan.amplitudes_ms2**2) / 2))
-    values = sensor.sensitivity(plan.frequencies_hz, rms)
-    writer.write_truth(
-        Truth(
-            plan.frequencies_hz,
-            np.abs(values),
-            np.degrees(np.angle(values)),
-            {
-                "dut": model or "",
-                "description": procedure.stand.description,
-                "level_ms2": float(procedure.identity.level_ms2 or 0.0),
-                "rms_ms2": rms,
-            },
-        )
-    )
-
-
-def _copy_marks(lead: Path, target: Path) -> None:
-    """The run's marks on a member's recording: settle and acquired periods, mode, ranges."""
-    with h5py.File(lead, "r") as src, h5py.File(target, "r+") as dst:
-        for key in ("settle_periods", "acquired_periods", "mode"):
-            if key in src.attrs:
-                dst.attrs[key] = src.attrs[key]
-        for name in ("reference", "dut", "drive"):
-            if name in src["signals"] and name in dst["signals"]:
-                dst["signals"][name].attrs["range_v"] = src["signals"][name].attrs["range_v"]
-
-
-def _own_budget(procedure: Procedure, path: Path) -> None:
-    """A member's budget as the run makes its own (app.procedure.record_run): the stand's
-    budget with its position's terms (stored when its recording opened), plus the mains hum
-    from its own channel's background periods (the first periods read, drive at 0 V) and each
-    line's resolution term from its own amplitudes and ranges; its "too few LSB" warnings
-    (the lines it does not state) stored with it."""
-    from app.procedure.background import BackgroundLevels, budget_with_background
-    from app.procedure.ranging import run_resolution, with_resolution
-    from dsp.spectral import SpectralAccumulator, period_spectrum
-
-    recording = read_recording(path)
-    plan, n = procedure.plan, recording.period_samples
-    bins = np.asarray(plan.bins)
-    count = max(1, procedure.settings.background_periods)
-    background = SpectralAccumulator(n, plan.bins)
-    power = np.zeros((2, bins.size))
-    for k in range(count):
-        pair = [
-            np.asarray(x[k * n : (k + 1) * n], float)
-            for x in (recording.reference_v, recording.dut_v)
-        ]
-        background.add_period(*pair)
-        power += [np.abs(period_spectrum(x)[bins]) ** 2 for x in pair]
-    quiet = background.estimate()
-    rms = np.sqrt(power / count)
-    levels = BackgroundLevels(
-        quiet.reference_amplitude_v,
-        quiet.dut_amplitude_v,
-        quiet.reference_noise_v,
-        quiet.dut_noise_v,
-        rms[0],
-        rms[1],
-    )
-    driven = SpectralAccumulator(n, plan.bins)
-    reference, dut = recording.analysis_periods()
-    driven.add_periods(reference, dut)
-    lines = driven.estimate()
-    amplitudes = (lines.reference_amplitude_v, lines.dut_amplitude_v)
-    budget = budget_with_background(
-        recording.budget, plan, levels, amplitudes, procedure.settings.background_periods
-    )
-    resolution = run_resolution(
-        plan, amplitudes, levels.noise(), recording.ranges_v, procedure.stand.config.converter
-    )
-    budget, too_few = with_resolution(budget, resolution)
-    with h5py.File(path, "r+") as f:
-        f["config"].attrs["budget"] = json.dumps(budget.to_list())
-        f["config"].attrs["resolution_warnings"] = json.dumps(list(too_few))
-
-
-def _stored_budget(path: Path) -> Budget | None:
-    """The budget a member's recording stores (None: no recording, or none stored)."""
-    if not path.exists():
-        return None
-    with h5py.File(path, "r") as f:
-        text = f["config"].attrs.get("budget") if "config" in f else None
-    return None if text is None else Budget.from_list(json.loads(text))
-
-
-def _copy_log(lead: Path, member: RunFolder) -> None:
-    """The run's log (one excitation) into a member's folder."""
-    source = lead / "run.log"
-    if source.exists():
-        with (member.path / "run.log").open("a", encoding="utf-8") as handle:
-            handle.write(source.read_text(encoding="utf-8"))
-
-
-def _batch_recording(target: Path, lead: Member, others: Sequence[Member]) -> None:
-    """The all-channel recording: the run's own (reference, drive, its DUT as
-    "dut.<position>") with every other member's DUT channel beside it; no truth (each
-    member's own recording holds its DUT's)."""
-    shutil.copyfile(lead.folder.recording, target)
-    target.chmod(0o644)
-    with h5py.File(target, "r+") as f:
-        signals = f["signals"]
-        signals.move("dut", lead.channel)
-        for member in others:
-            with h5py.File(member.folder.recording, "r") as src:
-                src.copy(src["signals/dut"], signals, name=member.channel)
-        if "truth" in f:
-            del f["truth"]
-        f.attrs["batch_channels"] = ",".join(m.channel for m in (lead, *others))
-
-
-def batch_channels(path: str | Path) -> tuple[str, ...]:
-    """The DUT channels of a batch recording ("dut.<position>" ...); () for any other."""
-    with h5py.File(path, "r") as f:
-        if "signals" not in f:
-            return ()
-        return tuple(name for name in f["signals"] if is_dut_channel(name) and name != "dut")
 
 
 def listener_for(listener: Listener | None, position: str) -> Listener | None:
@@ -571,7 +453,9 @@ def execute_batch(
             )
         for member in members:
             member.folder.records_chain_head = request.records_chain_head
-        run = BatchRun(batch_id, folder, fixture, members[0], members[1:], procedure.identity)
+        run = BatchRun(
+            batch_id, folder, fixture, members[0], members[1:], procedure.identity, config.backend
+        )
         procedure.folder = members[0].folder
         procedure.batch_link = run.link(members[0])
         procedure.batch = run
