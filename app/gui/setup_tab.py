@@ -13,19 +13,23 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from PySide6.QtCore import QSettings, Qt, QTimer, Signal
+from PySide6.QtCore import QSettings, QSize, Qt, QTimer, Signal
 from PySide6.QtWidgets import (
     QCheckBox,
     QComboBox,
     QFileDialog,
     QFormLayout,
+    QFrame,
     QGroupBox,
     QHBoxLayout,
     QLabel,
+    QLayout,
     QLineEdit,
     QMessageBox,
     QPushButton,
+    QScrollArea,
     QSpinBox,
+    QVBoxLayout,
     QWidget,
 )
 
@@ -56,6 +60,7 @@ from dsp.multisine import PRESETS, Plan
 log = logging.getLogger(__name__)
 
 OPTIMISING = "optimising the multisine phases ..."  # progress shown while the plan is made
+FIELD_MIN_CHARS = 26  # the Stand and DUT fields' narrowest (average characters)
 
 
 @dataclass
@@ -113,9 +118,20 @@ class SetupTab(QWidget):
         # with the same fields, and a preview of a 51.2 kS/s plan costs the GUI thread 0.5 s
         self._previewed: tuple[Any, RunOptions, Plan, PlanPreview] | None = None
         self.plans = PlanCache(RunService.unit_plan, self.service.preset_keys())
-        layout = QHBoxLayout(self)
-        layout.addWidget(self._stand_box(), 1)
-        layout.addWidget(self._plan_box(), 2)
+        # the two boxes scroll as one when the window is smaller than they need (a screen
+        # smaller than the form): their rows never overlap (`minimumSizeHint` says the need)
+        self.form = QWidget()
+        boxes = QHBoxLayout(self.form)
+        boxes.addWidget(self._stand_box(), 2)
+        boxes.addWidget(self._plan_box(), 3)
+        self.scroll = QScrollArea()
+        self.scroll.setWidgetResizable(True)
+        self.scroll.setFrameShape(QFrame.Shape.NoFrame)
+        self.scroll.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
+        self.scroll.setWidget(self.form)
+        layout = QVBoxLayout(self)
+        layout.setContentsMargins(0, 0, 0, 0)
+        layout.addWidget(self.scroll)
         self.plan_defaults = self.plan_settings()
         self.field_marks = field_marks.install(self)  # bad input marked at its field
         self.serial_entry = SerialEntry(self, records, self.field_marks)
@@ -134,17 +150,19 @@ class SetupTab(QWidget):
         stand = QGroupBox("Stand and DUT")
         form = QFormLayout(stand)
         form.setRowWrapPolicy(QFormLayout.RowWrapPolicy.WrapLongRows)
-        self.stand_label = QLabel(f"{self.config.source} ({self.config.backend})")
-        self.stand_label.setWordWrap(True)
+        # the stand's name wraps on a row of its own (beside the buttons it was cut at the
+        # height of a button), the buttons under it
+        self.stand_label = wrapping_label(f"{self.config.source} ({self.config.backend})")
         choose = QPushButton("Stand file ...")
         choose.clicked.connect(self.choose_stand)
         simulated = QPushButton("Simulated stand")
         simulated.clicked.connect(lambda: self.load_stand(None))
-        stand_row = QHBoxLayout()
-        stand_row.addWidget(self.stand_label, 1)
-        stand_row.addWidget(choose)
-        stand_row.addWidget(simulated)
-        form.addRow("Stand", stand_row)
+        stand_buttons = QHBoxLayout()
+        stand_buttons.addWidget(choose)
+        stand_buttons.addWidget(simulated)
+        stand_buttons.addStretch(1)
+        form.addRow("Stand", self.stand_label)
+        form.addRow("", stand_buttons)
         self.reference_label = wrapping_label(describe_reference(self.config))
         self.reference_label.setTextFormat(Qt.TextFormat.RichText)
         form.addRow("Reference standard", self.reference_label)
@@ -178,6 +196,20 @@ class SetupTab(QWidget):
         form.addRow("", self.teds.button)
         form.addRow("Nominal sensitivity", self.nominal)
         form.addRow("Tolerance of the characteristic", self.tolerance)
+        # a field narrower than this goes under its label (WrapLongRows) instead of being
+        # squeezed beside it: the reference text, a serial and its note stay readable
+        narrowest = FIELD_MIN_CHARS * self.fontMetrics().averageCharWidth()
+        for field in (
+            self.stand_label,
+            self.reference_label,
+            self.technician,
+            self.dut,
+            self.dut_id,
+            self.teds.button,
+            self.nominal,
+            self.tolerance,
+        ):
+            field.setMinimumWidth(narrowest)
         return stand
 
     def _plan_box(self) -> QGroupBox:
@@ -276,6 +308,42 @@ class SetupTab(QWidget):
         # the block field's own tooltip says how it reads; the option's help says what it does
         spec = option("stepped_block_s")
         self.stepped_block.setToolTip(f"{spec.help}. {self.stepped_block.toolTip()}")
+
+    # --- the size it needs ---------------------------------------------------------------
+
+    def sizeHint(self) -> QSize:
+        """The form's size hint (px), as tall as its wrapped labels are at that width (the
+        scroll area's own hint would cap it)."""
+        hint = self.form.sizeHint()
+        width = hint.width() + self._scroll_bar_px()
+        return QSize(width, max(hint.height(), self.height_for(width)))
+
+    def minimumSizeHint(self) -> QSize:
+        """The form's narrowest (px). Narrower, or lower than `height_for` its width, the
+        form scrolls: its rows never overlap."""
+        hint = self.form.minimumSizeHint()
+        return QSize(hint.width() + self._scroll_bar_px(), hint.height())
+
+    def height_for(self, width: int) -> int:
+        """The height (px) the tab needs at `width` (px) to show every row of the form whole
+        and unscrolled: its wrapped labels and notes at that width."""
+        narrowest = self.form.minimumSizeHint()
+        height = self.form.heightForWidth(max(width - self._scroll_bar_px(), narrowest.width()))
+        return max(height, narrowest.height())
+
+    def forget_sizes(self) -> None:
+        """Drop the form's cached sizes: a widget changed before its window was first shown
+        (a label given its text) does not invalidate the layouts around it, and `height_for`
+        would read the heights they cached before."""
+        self.form.ensurePolished()  # the style's fonts and margins, as when shown
+        for widget in self.form.findChildren(QWidget):
+            widget.updateGeometry()
+        for layout in self.form.findChildren(QLayout):
+            layout.invalidate()
+        self.form.updateGeometry()
+
+    def _scroll_bar_px(self) -> int:
+        return int(self.scroll.verticalScrollBar().sizeHint().width())
 
     # --- the plan fields ----------------------------------------------------------------
 
