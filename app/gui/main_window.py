@@ -129,6 +129,8 @@ class MainWindow(QMainWindow):
         asks: the window's minimum size hint, and tall enough for the Setup tab's form to
         show every row whole and unscrolled at that width (its wrapped labels and notes)."""
         self.setup_tab.forget_sizes()
+        self.tabs.updateGeometry()
+        self.layout().invalidate()  # the window's minimum, cached before
         hint = self.minimumSizeHint()
         width = max(self.width(), hint.width())
         # tab bar, menu bar and frames (px): the Setup tab's form is the tallest and widest

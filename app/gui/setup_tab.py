@@ -341,6 +341,7 @@ class SetupTab(QWidget):
         for layout in self.form.findChildren(QLayout):
             layout.invalidate()
         self.form.updateGeometry()
+        self.updateGeometry()  # and the tab's own, cached by the tab widget's stack
 
     def _scroll_bar_px(self) -> int:
         return int(self.scroll.verticalScrollBar().sizeHint().width())

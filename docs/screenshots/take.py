@@ -26,6 +26,7 @@ from app.certificate.register_issue import issue_registered
 from app.records.db.engine import open_engine
 from app.records.db.lab import Lab
 from app.records.db.models import Run, Stand
+from app.web.users import add_user
 
 HERE = Path(__file__).resolve().parent
 
@@ -83,6 +84,9 @@ def records(url: str) -> None:
         max_acquisition_s=30.0,
         estimator="periodic",
     )
+    # the two-person rule's persons: users of the records (`accelcal records user add`)
+    for username, name in (("atech", "A. Tech"), ("jsmith", "J. Smith")):
+        add_user(lab.engine, username, "screenshots only", display_name=name, actor="screenshots")
     lab.set_setting("two_person_rule", "on")
     ids = {s.serial: s.id for s in lab.sensors()}
     with lab.session() as session:
