@@ -130,7 +130,9 @@ class MainWindow(QMainWindow):
         show every row whole and unscrolled at that width (its wrapped labels and notes)."""
         self.setup_tab.forget_sizes()
         self.tabs.updateGeometry()
-        self.layout().invalidate()  # the window's minimum, cached before
+        layout = self.layout()
+        if layout is not None:
+            layout.invalidate()  # the window's minimum, cached before
         hint = self.minimumSizeHint()
         width = max(self.width(), hint.width())
         # tab bar, menu bar and frames (px): the Setup tab's form is the tallest and widest

@@ -124,14 +124,14 @@ class SetupTab(QWidget):
         boxes = QHBoxLayout(self.form)
         boxes.addWidget(self._stand_box(), 2)
         boxes.addWidget(self._plan_box(), 3)
-        self.scroll = QScrollArea()
-        self.scroll.setWidgetResizable(True)
-        self.scroll.setFrameShape(QFrame.Shape.NoFrame)
-        self.scroll.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
-        self.scroll.setWidget(self.form)
+        self.form_area = QScrollArea()
+        self.form_area.setWidgetResizable(True)
+        self.form_area.setFrameShape(QFrame.Shape.NoFrame)
+        self.form_area.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
+        self.form_area.setWidget(self.form)
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
-        layout.addWidget(self.scroll)
+        layout.addWidget(self.form_area)
         self.plan_defaults = self.plan_settings()
         self.field_marks = field_marks.install(self)  # bad input marked at its field
         self.serial_entry = SerialEntry(self, records, self.field_marks)
@@ -344,7 +344,7 @@ class SetupTab(QWidget):
         self.updateGeometry()  # and the tab's own, cached by the tab widget's stack
 
     def _scroll_bar_px(self) -> int:
-        return int(self.scroll.verticalScrollBar().sizeHint().width())
+        return int(self.form_area.verticalScrollBar().sizeHint().width())
 
     # --- the plan fields ----------------------------------------------------------------
 

@@ -30,7 +30,7 @@ from app.records.db.models import Run, Stand
 from app.records.run_record import RunRecord
 from tests.records_db import new_records
 
-NOTE = "from the records: PCB 352C33, owner ACME Ltd, due 2026-11-03; nominal 100 mV/g, tolerance 5 %"
+NOTE = "from the records: PCB 352C33, owner ACME Ltd, due 2026-11-03; nominal 100 mV/g, tol. 5 %"
 LAPTOP, FULL_HD = QSize(1366, 768), QSize(1920, 1080)
 RESULT_ROWS_AT_1366 = 15  # of a 25-line run, in view at 1366 x 768 (all 25 at 1920 x 1080)
 # what a line edit draws around its text (px): frame and margins, each side
@@ -122,9 +122,7 @@ def test_a_window_restored_at_910_by_515_is_at_least_its_minimum_and_nothing_ove
 
 
 @pytest.mark.parametrize("screen", [LAPTOP, FULL_HD], ids=["1366x768", "1920x1080"])
-def test_a_restored_window_grows_to_the_setup_forms_need_within_the_screen(
-    qtbot, tmp_path, screen
-):
+def test_a_restored_window_grows_to_the_setup_forms_need_within_the_screen(qtbot, tmp_path, screen):
     w = MainWindow(out=tmp_path / "runs", paced=False)
     qtbot.addWidget(w)
     w.wait_for_plans()
@@ -138,7 +136,7 @@ def test_a_restored_window_grows_to_the_setup_forms_need_within_the_screen(
     qtbot.waitExposed(w)
     settle()
     if need.height() <= screen.height():  # every row whole without scrolling
-        assert setup.scroll.verticalScrollBar().maximum() == 0
+        assert setup.form_area.verticalScrollBar().maximum() == 0
     assert overlapping(setup.form) == [] and clipped(setup.form) == []
     # a saved size over the screen comes back within it, placed on it
     w.setGeometry(200, 100, screen.width() + 300, screen.height() + 200)
