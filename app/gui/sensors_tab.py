@@ -32,7 +32,7 @@ from PySide6.QtWidgets import (
 
 from app.gui.plots import ChartStack
 from app.gui.records_link import RecordsLink
-from app.gui.results_tab import wrapping_label
+from app.gui.results_tab import compact_rows, wrapping_label
 from app.gui.table_items import read_only_item
 from app.records.db.errors import RecordsInputError
 
@@ -57,7 +57,7 @@ def calendar_axis() -> pg.DateAxisItem:
     years = dates.ZoomLevel(
         [
             dates.TickSpec(dates.YEAR_SPACING, dates.makeYStepper(1), "%Y", autoSkip=[1, 5, 10]),
-            dates.TickSpec(dates.MONTH_SPACING, dates.makeMStepper(1), "%Y-%m"),
+            dates.TickSpec(dates.MONTH_SPACING, dates.makeMStepper(1), "%Y-%m", autoSkip=[1, 3, 6]),
         ],
         "2025-11",
     )
@@ -85,10 +85,11 @@ def date_range(x: np.ndarray) -> tuple[float, float]:
 
 def readable_columns(table: QTableWidget) -> None:
     """Each column as wide as its header and its cells (no elided serial, model, owner or
-    date); the last takes what is left."""
+    date); the last takes what is left; rows one text line tall."""
     header = table.horizontalHeader()
     header.setSectionResizeMode(QHeaderView.ResizeMode.ResizeToContents)
     header.setStretchLastSection(True)
+    compact_rows(table)
 
 
 def _text(table: QTableWidget, row: int, column: int) -> str:
