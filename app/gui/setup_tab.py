@@ -13,21 +13,18 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from PySide6.QtCore import QSettings, QSize, Qt, QTimer, Signal
+from PySide6.QtCore import QSettings, Qt, QTimer, Signal
 from PySide6.QtWidgets import (
     QCheckBox,
     QComboBox,
     QFileDialog,
     QFormLayout,
-    QFrame,
     QGroupBox,
     QHBoxLayout,
     QLabel,
-    QLayout,
     QLineEdit,
     QMessageBox,
     QPushButton,
-    QScrollArea,
     QSpinBox,
     QVBoxLayout,
     QWidget,
@@ -35,6 +32,7 @@ from PySide6.QtWidgets import (
 
 from app.gui import field_marks
 from app.gui.actions import START, with_key
+from app.gui.form_area import FormArea
 from app.gui.plan_cache import PlanCache
 from app.gui.quantity_edit import QuantityEdit
 from app.gui.reference_view import describe_reference
@@ -119,16 +117,12 @@ class SetupTab(QWidget):
         self._previewed: tuple[Any, RunOptions, Plan, PlanPreview] | None = None
         self.plans = PlanCache(RunService.unit_plan, self.service.preset_keys())
         # the two boxes scroll as one when the window is smaller than they need (a screen
-        # smaller than the form): their rows never overlap (`minimumSizeHint` says the need)
+        # smaller than the form): their rows never overlap (app.gui.form_area)
         self.form = QWidget()
         boxes = QHBoxLayout(self.form)
         boxes.addWidget(self._stand_box(), 2)
         boxes.addWidget(self._plan_box(), 3)
-        self.form_area = QScrollArea()
-        self.form_area.setWidgetResizable(True)
-        self.form_area.setFrameShape(QFrame.Shape.NoFrame)
-        self.form_area.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
-        self.form_area.setWidget(self.form)
+        self.form_area = FormArea(self.form)
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
         layout.addWidget(self.form_area)
@@ -311,40 +305,17 @@ class SetupTab(QWidget):
 
     # --- the size it needs ---------------------------------------------------------------
 
-    def sizeHint(self) -> QSize:
-        """The form's size hint (px), as tall as its wrapped labels are at that width (the
-        scroll area's own hint would cap it)."""
-        hint = self.form.sizeHint()
-        width = hint.width() + self._scroll_bar_px()
-        return QSize(width, max(hint.height(), self.height_for(width)))
-
-    def minimumSizeHint(self) -> QSize:
-        """The form's narrowest (px). Narrower, or lower than `height_for` its width, the
-        form scrolls: its rows never overlap."""
-        hint = self.form.minimumSizeHint()
-        return QSize(hint.width() + self._scroll_bar_px(), hint.height())
-
     def height_for(self, width: int) -> int:
-        """The height (px) the tab needs at `width` (px) to show every row of the form whole
-        and unscrolled: its wrapped labels and notes at that width."""
-        narrowest = self.form.minimumSizeHint()
-        height = self.form.heightForWidth(max(width - self._scroll_bar_px(), narrowest.width()))
-        return max(height, narrowest.height())
+        """The height (px) the tab needs at `width` (px) to show every row whole, unscrolled."""
+        return self.form_area.height_for(width)
 
     def forget_sizes(self) -> None:
-        """Drop the form's cached sizes: a widget changed before its window was first shown
-        (a label given its text) does not invalidate the layouts around it, and `height_for`
-        would read the heights they cached before."""
-        self.form.ensurePolished()  # the style's fonts and margins, as when shown
-        for widget in self.form.findChildren(QWidget):
-            widget.updateGeometry()
-        for layout in self.form.findChildren(QLayout):
+        """Drop the sizes cached before the window was first shown (`FormArea.forget_sizes`)."""
+        self.form_area.forget_sizes()
+        layout = self.layout()
+        if layout is not None:
             layout.invalidate()
-        self.form.updateGeometry()
         self.updateGeometry()  # and the tab's own, cached by the tab widget's stack
-
-    def _scroll_bar_px(self) -> int:
-        return int(self.form_area.verticalScrollBar().sizeHint().width())
 
     # --- the plan fields ----------------------------------------------------------------
 
