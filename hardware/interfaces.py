@@ -9,14 +9,18 @@ Units: volts, hertz, seconds, mV/(m/s^2) for transducer sensitivities.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 from typing import Literal, Protocol, runtime_checkable
 
 import numpy as np
 
 from hardware.errors import InputRefused
 
-ChannelName = Literal["reference", "dut", "drive"]
+# "reference", "drive", and a DUT input: "dut" (a single-DUT run) or "dut.<position>" and
+# "dut.<position>.<axis>" (several DUTs in one run, issue 36)
+ChannelName = str
 
 
 @dataclass(frozen=True)
@@ -49,6 +53,14 @@ class OutputChannel:
             raise InputRefused("output channel: range_v must be > 0 V")
 
 
+DUT_CHANNEL = re.compile(r"^dut(\.[A-Za-z0-9_-]{1,16}){0,2}$")
+
+
+def is_dut_channel(name: str) -> bool:
+    """A DUT input's name: 'dut', 'dut.<position>' or 'dut.<position>.<axis>'."""
+    return DUT_CHANNEL.fullmatch(name) is not None
+
+
 @dataclass(frozen=True)
 class DaqConfig:
     """Sample rate (Hz), period length (samples), the output and the input channels."""
@@ -60,8 +72,11 @@ class DaqConfig:
 
     def __post_init__(self) -> None:
         names = [c.name for c in self.inputs]
-        if "reference" not in names or "dut" not in names:
-            raise InputRefused("DAQ configuration: needs a 'reference' and a 'dut' input channel")
+        if "reference" not in names or not any(is_dut_channel(n) for n in names):
+            raise InputRefused(
+                "DAQ configuration: needs a 'reference' and at least one DUT input channel"
+                " ('dut', or 'dut.<position>')"
+            )
         if len(set(names)) != len(names):
             raise InputRefused("DAQ configuration: input channel names must be unique")
         if not self.sample_rate_hz > 0 or self.period_samples < 4:
@@ -71,10 +86,13 @@ class DaqConfig:
 @dataclass(frozen=True)
 class DaqStatus:
     """What a configured DAQ reports back: actual sample rate (Hz) and the DUT channel's sampling
-    delay after the reference channel (s; non-zero on multiplexed boards)."""
+    delay after the reference channel (s; non-zero on multiplexed boards): the first DUT
+    channel's in `skew_s`, every input's in `skews_s` (by channel name; empty: a single-DUT
+    driver may leave it so, `skew_s` then holds)."""
 
     actual_sample_rate_hz: float
     skew_s: float
+    skews_s: Mapping[str, float] = field(default_factory=dict)
 
 
 def checked_output_period(period_v: np.ndarray, config: DaqConfig, device: str) -> np.ndarray:

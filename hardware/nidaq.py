@@ -1,9 +1,17 @@
 """The `hardware.interfaces.Daq` protocol on a National Instruments DAQ through `nidaqmx`.
 
-One AI task (one voltage channel per `DaqConfig.inputs` entry, in that order) and one AO task
-(the drive). Synchronisation follows NI's shared-clock pattern: the AO task is clocked by the
-AI sample clock (`/<device>/ai/SampleClock`) and armed on the AI start trigger
-(`/<device>/ai/StartTrigger`), so it is started first and begins with the first AI sample.
+One AI task and one AO task (the drive). The AI task holds one voltage channel per
+`DaqConfig.inputs` entry, in that order: the reference, every DUT channel ("dut", or
+"dut.<position>[.<axis>]" in a several-DUT run) and the drive read-back, each with its own
+range, terminal, coupling and IEPE current, all on the one AI sample clock; a name that is no
+such channel, or two inputs on one physical channel, is refused before any device is touched.
+On a multiplexed board the convert clock samples the channels one after another in that order,
+1 / `ai_conv_rate` apart: `DaqStatus.skews_s` holds every input's delay after the reference
+(0 on simultaneous-sampling boards), `skew_s` the first DUT channel's.
+
+Synchronisation follows NI's shared-clock pattern: the AO task is clocked by the AI sample clock
+(`/<device>/ai/SampleClock`) and armed on the AI start trigger (`/<device>/ai/StartTrigger`), so
+it is started first and begins with the first AI sample.
 
 The AO buffer is one period, regenerated. `write_period` writes a whole new period into that
 buffer: with regeneration DAQmx accepts the write once the previous period has been
@@ -12,7 +20,8 @@ boundary, after a latency of up to about one period plus the device's on-board F
 
 A reader thread reads whole periods with `AnalogMultiChannelReader.read_many_sample` into a
 small pool of preallocated (channels, N) float64 arrays and hands them over on a bounded queue;
-`read_period` returns a copy. The pool holds two more arrays than the queue, so the reader never
+`read_period` returns a copy, (channels, N) in `DaqConfig.inputs` order (DAQmx de-interleaves
+the scans: GROUP_BY_CHANNEL). The pool holds two more arrays than the queue, so the reader never
 overwrites an array that is queued or being copied; when nobody reads, the reader waits and the
 DAQmx input buffer (four periods) overflows, which surfaces as an error from `read_period`.
 Reader errors are passed on through the queue and re-raised (translated) by `read_period`.
@@ -21,6 +30,10 @@ Reader errors are passed on through the queue and re-raised (translated) by `rea
 it does this on every path (also after an error) and never raises. If the zeros cannot be
 written it falls back to a one-sample on-demand AO write of 0 V; if that fails too, `output_v`
 becomes None (unknown), and stays so until a later `stop` manages the 0 V write.
+
+`read_teds_channels` reads the TEDS of every sensor input on its own physical channel
+(`PhysicalChannel.configure_teds()` then `teds_bit_stream`): per channel name the bytes, or the
+reason there are none (`hardware.teds.ChannelTeds`).
 
 nidaqmx is imported lazily; a missing Python package or NI-DAQmx driver raises
 `DaqNotFoundError` whose message starts with "NI-DAQmx is not installed: ".
@@ -33,7 +46,7 @@ import math
 import queue
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from types import SimpleNamespace
 from typing import Any
 
@@ -47,7 +60,14 @@ from hardware.errors import (
     HardwareError,
     InputRefused,
 )
-from hardware.interfaces import DaqConfig, DaqStatus, checked_output_period
+from hardware.interfaces import (
+    DaqConfig,
+    DaqStatus,
+    InputChannel,
+    checked_output_period,
+    is_dut_channel,
+)
+from hardware.teds import ChannelTeds
 
 log = logging.getLogger(__name__)
 
@@ -61,6 +81,8 @@ DEVICE_LOST_CODES = frozenset(
 DEVICE_NOT_FOUND_CODES = frozenset({-200220})
 #: The device cannot do what was asked (attribute value or attribute not supported).
 NOT_SUPPORTED_CODES = frozenset({-200077, -200197})
+#: DAQmx error codes meaning "no TEDS on this channel", with the reason given for them.
+NO_TEDS = {-200709: "no TEDS sensor detected", -200741: "the channel does not support TEDS"}
 
 #: How many finished periods may wait for `read_period`.
 QUEUE_PERIODS = 4
@@ -173,18 +195,21 @@ class NiDaq:
     # --- the Daq protocol -------------------------------------------------------------------
 
     def configure(self, config: DaqConfig) -> DaqStatus:
-        """Create and configure the AI and AO tasks; return the actual rate and the skew."""
+        """Create and configure the AI and AO tasks; return the actual rate and the skews
+        (InputRefused naming the channel, before anything is touched, for a channel this
+        driver cannot take)."""
+        check_inputs(config.inputs, self._context)
         with self._lock:
             self.stop()
             self._config = config
             self._create_tasks()
             assert self._actual_rate is not None
             names = [c.name for c in config.inputs]
-            skew = 0.0
-            conv_rate = self._conv_rate()
-            if conv_rate:
-                skew = (names.index("dut") - names.index("reference")) / conv_rate
-            return DaqStatus(actual_sample_rate_hz=self._actual_rate, skew_s=skew)
+            conv_rate = self._conv_rate()  # 0: simultaneous sampling, no convert clock
+            first = names.index("reference")
+            skews = {n: (i - first) / conv_rate if conv_rate else 0.0 for i, n in enumerate(names)}
+            dut = next(n for n in names if is_dut_channel(n))
+            return DaqStatus(self._actual_rate, skew_s=skews[dut], skews_s=skews)
 
     def start(self, period_v: np.ndarray) -> None:
         """Write one period to AO, arm AO, start AI (which starts both) and the reader."""
@@ -466,6 +491,33 @@ class NiDaq:
         return checked_output_period(period_v, self._require_config(), self._context)
 
 
+def check_inputs(inputs: Sequence[InputChannel], context: str) -> None:
+    """InputRefused naming the channel: a name other than "reference", "drive" or a DUT
+    channel's, a physical channel string naming no or several inputs (a list or a range), or
+    two inputs on one physical channel (DAQmx names are case-insensitive)."""
+    seen: dict[str, str] = {}
+    for channel in inputs:
+        name, physical = channel.name, channel.physical
+        if name not in ("reference", "drive") and not is_dut_channel(name):
+            raise InputRefused(
+                f"{context}: input channel {name!r}: not a channel name ('reference', 'drive', "
+                "'dut', 'dut.<position>' or 'dut.<position>.<axis>'; a position or axis is 1-16 "
+                "of A-Z a-z 0-9 _ -)"
+            )
+        key = physical.strip().lstrip("/").lower()
+        if not key or "," in key or ":" in key:
+            raise InputRefused(
+                f"{context}: input channel {name!r}: physical channel {physical!r} must name "
+                "one input, e.g. 'Dev1/ai1'"
+            )
+        if key in seen:
+            raise InputRefused(
+                f"{context}: input channels {seen[key]!r} and {name!r} are both on physical "
+                f"channel {physical!r}; each input needs its own"
+            )
+        seen[key] = name
+
+
 def _quietly(action: Callable[[], Any], what: str) -> None:
     """Run a clean-up action; log (never raise) its error: the task may already be broken."""
     try:
@@ -485,6 +537,7 @@ def read_teds_bits(physical_channel: str, *, ni: SimpleNamespace | None = None) 
     ni = ni or import_nidaqmx()
     try:
         channel = ni.system.PhysicalChannel(physical_channel)
+        channel.configure_teds()  # DAQmx scans the sensor mounted now (not the last one seen)
         data = bytes(channel.teds_bit_stream)
     except Exception as exc:
         raise translate_error(exc, f"NI-DAQ {physical_channel} TEDS") from None
@@ -508,3 +561,37 @@ def write_teds_bits(
         )
     except Exception as exc:
         raise translate_error(exc, f"NI-DAQ {physical_channel} TEDS write") from None
+
+
+def read_teds_channels(
+    inputs: Sequence[InputChannel], *, ni: SimpleNamespace | None = None
+) -> dict[str, ChannelTeds]:
+    """The TEDS of every sensor input (all but "drive"), in `inputs` order: per channel name
+    the bytes DAQmx reads from the sensor on its physical channel (`configure_teds()` with no
+    file looks for a TEDS sensor there, then `teds_bit_stream`), or the reason there are none.
+    InputRefused (`check_inputs`) before anything is read; DaqNotFoundError when NI-DAQmx is
+    missing, DeviceLostError when the device goes away: no channel could be read."""
+    check_inputs(inputs, "NI-DAQ TEDS")
+    ni = ni or import_nidaqmx()
+    out: dict[str, ChannelTeds] = {}
+    for channel in inputs:
+        if channel.name == "drive":
+            continue
+        physical = channel.physical
+        try:
+            phys = ni.system.PhysicalChannel(physical)
+            phys.configure_teds()
+            data = bytes(int(b) for b in phys.teds_bit_stream)
+        except Exception as exc:
+            error = translate_error(exc, f"NI-DAQ {physical} TEDS")
+            lost = isinstance(error, DeviceLostError)
+            if lost or str(error).startswith("NI-DAQmx is not installed: "):
+                raise error from None
+            none = NO_TEDS.get(getattr(exc, "error_code", None) or 0)
+            out[channel.name] = ChannelTeds(physical, None, none or str(error))
+        else:
+            found = any(data)  # nothing, or an empty memory
+            out[channel.name] = ChannelTeds(
+                physical, data if found else None, "" if found else NO_TEDS[-200709]
+            )
+    return out

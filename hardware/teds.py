@@ -12,7 +12,8 @@ first, with no byte alignment. Physical values are stored as codes:
 A decoded TEDS keeps every code, so encode(decode(bits)) == bits; the physical values are
 derived properties, and `with_sensitivity` sets a new sensitivity (and calibration date) by
 code. An NI `.ted` file holds one bit per byte after a 40-bit header; `bitstream_bytes` packs
-the bits LSB first into bytes, as nidaqmx's PhysicalChannel.teds_bit_stream gives them.
+the bits LSB first into bytes, as nidaqmx's PhysicalChannel.teds_bit_stream gives them;
+`ChannelTeds` is one input channel's read (hardware.nidaq.read_teds_channels): bytes or why none.
 Template 25's extended-functionality and force branches, not verified on data, are refused.
 """
 
@@ -348,6 +349,33 @@ def bits_from_bytes(data: bytes, count: int | None = None) -> tuple[int, ...]:
     """The bits of LSB-first packed bytes (the first `count`, default all)."""
     bits = tuple((byte >> i) & 1 for byte in data for i in range(8))
     return bits if count is None else bits[:count]
+
+
+@dataclass(frozen=True)
+class ChannelTeds:
+    """One input channel's TEDS as read on its physical channel: the bytes (bits LSB first, as
+    DAQmx's teds_bit_stream gives them), or `data` None and the reason there are none."""
+
+    physical: str
+    data: bytes | None
+    reason: str = ""
+
+    def __post_init__(self) -> None:
+        if (self.data is None) != bool(self.reason):
+            raise TedsError(
+                f"TEDS of {self.physical}: either the bytes read or the reason there are none"
+            )
+
+    def bits(self) -> tuple[int, ...]:
+        """The TEDS bits (transmission order, the last byte's padding included); TedsError
+        with the reason when the channel gave none."""
+        if self.data is None:
+            raise TedsError(f"TEDS of {self.physical}: {self.reason}")
+        return bits_from_bytes(self.data)
+
+    def decoded(self) -> Teds:
+        """The TEDS decoded (`decode`); TedsError naming the field, or the reason none."""
+        return decode(self.bits())
 
 
 def read_ted_file(path: str | Path) -> tuple[int, ...]:

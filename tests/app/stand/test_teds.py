@@ -42,10 +42,15 @@ class FakeChannel:
 
     def __init__(self, name: str) -> None:
         self.name = name
+        self.configured = False
+
+    def configure_teds(self, file_path: object = None) -> None:
+        """DAQmx scans the sensor now mounted; until then the channel has no TEDS to give."""
+        self.configured = True
 
     @property
     def teds_bit_stream(self) -> bytes:
-        return FakeChannel.stream
+        return FakeChannel.stream if self.configured else b""
 
     def write_to_teds_from_array(self, bit_stream: list[int], basic_teds_options: object) -> None:
         FakeChannel.written.append((self.name, bit_stream, basic_teds_options))
