@@ -36,6 +36,7 @@ from app.records.db.errors import RecordsInputError
 from app.records.run_record import RunRecord
 from app.stand.instruments import parse_humidity
 
+FIELD_CHARS = 64  # each field's narrowest, in average characters: an address of 55 whole
 Signatories = Callable[[str, str], object]  # (prepared by, approved by): raises when refused
 
 
@@ -93,6 +94,8 @@ class CertificateDialog(QDialog):
         self.title.setText(f"<b>{heading or 'Certificate'} of {run_identity(record)}</b>")
         form.addRow(self.title)
         self.edits: dict[str, QLineEdit] = {}
+        # a customer's name and address, a model or a document reads whole (px)
+        field_width = FIELD_CHARS * self.fontMetrics().averageCharWidth()
         defaults = defaults or {}
         if defaults:
             form.addRow(QLabel("<i>Customer and sensor filled in from the records.</i>"))
@@ -108,7 +111,9 @@ class CertificateDialog(QDialog):
                 edit.setToolTip("from the records, for the run's sensor")
             if key == "mounting" and offered_from and defaults.get(key):
                 edit.setToolTip(f"from {offered_from}")
-                label = f"Mounting (from {offered_from})"
+                # "&" of a model's maker (Brüel & Kjær) shown, not taken for a shortcut key
+                label = f"Mounting (from {offered_from.replace('&', '&&')})"
+            edit.setMinimumWidth(field_width)
             if key == "spec_id":
                 self.spec_kind = QComboBox()
                 self.spec_kind.addItem(self.NO_SPECIFICATION, None)

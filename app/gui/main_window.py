@@ -17,7 +17,8 @@ from datetime import UTC, date, datetime
 from pathlib import Path
 from typing import Any
 
-from PySide6.QtCore import QSettings, QSize, Signal, Slot
+from PySide6.QtCore import QRect, QSettings, QSize, Signal, Slot
+from PySide6.QtGui import QGuiApplication
 from PySide6.QtWidgets import QMainWindow, QMessageBox, QTabWidget
 
 from app.certificate import CertificateInfo
@@ -108,13 +109,12 @@ class MainWindow(QMainWindow):
         self.records.changed.connect(self.setup_tab.show_reference)
         self.run_finished.connect(self._index_run)
         self.window_actions = WindowActions(self)  # menus and shortcuts (Ctrl+R, Ctrl+., Esc, ...)
+        self.setup_tab.validate()  # its checks and predicted peaks: part of what it needs
+        # the last size and place, but never under what the tabs need nor over the screen
         geometry = self.settings.value("geometry")
-        if geometry is not None:
-            self.restoreGeometry(geometry)
-        else:
+        if geometry is None or not self.restoreGeometry(geometry):
             self.resize(self.default_size())
         self.fit_screen()
-        self.setup_tab.validate()
 
     def default_size(self) -> QSize:
         """1280 x 820 px, or more where a tab (the Setup tab's form) asks for more: no tab is
@@ -124,14 +124,41 @@ class MainWindow(QMainWindow):
             max(DEFAULT_SIZE.width(), hint.width()), max(DEFAULT_SIZE.height(), hint.height())
         )
 
-    def fit_screen(self) -> None:
-        """Never wider or taller than the available area of the screen the window is on."""
-        screen = self.screen() or self.window().screen()
-        if screen is None:
+    def needed_size(self) -> QSize:
+        """The smallest size (px) at the window's width that draws every tab as its layout
+        asks: the window's minimum size hint, and tall enough for the Setup tab's form to
+        show every row whole and unscrolled at that width (its wrapped labels and notes)."""
+        self.setup_tab.forget_sizes()
+        self.tabs.updateGeometry()
+        layout = self.layout()
+        if layout is not None:
+            layout.invalidate()  # the window's minimum, cached before
+        hint = self.minimumSizeHint()
+        width = max(self.width(), hint.width())
+        # tab bar, menu bar and frames (px): the Setup tab's form is the tallest and widest
+        # minimum of the tabs, so the window's minimum is the Setup tab's plus these
+        chrome = hint - self.setup_tab.minimumSizeHint()
+        height = self.setup_tab.height_for(width - chrome.width()) + chrome.height()
+        return QSize(width, max(hint.height(), height))
+
+    def fit_screen(self, area: QRect | None = None) -> None:
+        """At least `needed_size` (a restored window never comes up smaller than its content
+        needs), never wider or taller than the available `area` of the screen (None: of the
+        screen the window is on), and inside it. Where the screen is smaller than the need,
+        the Setup tab's form scrolls."""
+        if area is None:
+            screen = self.screen() or QGuiApplication.primaryScreen()
+            area = screen.availableGeometry() if screen is not None else None
+        size = self.needed_size().expandedTo(self.size())
+        if area is None:
+            self.resize(size)
             return
-        area = screen.availableGeometry()
-        if self.width() > area.width() or self.height() > area.height():
-            self.resize(min(self.width(), area.width()), min(self.height(), area.height()))
+        size = size.boundedTo(area.size())
+        self.resize(size)
+        x = min(max(self.x(), area.left()), area.right() + 1 - size.width())
+        y = min(max(self.y(), area.top()), area.bottom() + 1 - size.height())
+        if (x, y) != (self.x(), self.y()):
+            self.move(x, y)
 
     def next_sensor(self) -> None:
         """A fresh start for the next sensor: serial, nominal, tolerance, template and plan

@@ -9,6 +9,7 @@ cannot be opened the tab says why and the rest of the window works.
 from __future__ import annotations
 
 import logging
+from collections import OrderedDict
 from datetime import UTC, date, datetime
 from typing import Any
 
@@ -31,7 +32,7 @@ from PySide6.QtWidgets import (
 
 from app.gui.plots import ChartStack
 from app.gui.records_link import RecordsLink
-from app.gui.results_tab import wrapping_label
+from app.gui.results_tab import compact_rows, wrapping_label
 from app.gui.table_items import read_only_item
 from app.records.db.errors import RecordsInputError
 
@@ -40,6 +41,55 @@ log = logging.getLogger(__name__)
 SENSOR_COLUMNS = ("Serial", "Model", "Owner", "Interval", "Due")
 DUE_COLUMNS = ("Kind", "Identifier", "Due", "Owner")
 OVERDUE = "#c0392b"
+
+
+DAY_S = 86400.0
+MARGIN_DAYS = 30.0  # the history's date axis reaches this far before the first and after the last
+MIN_DAYS_SHOWN = 14.0  # the narrowest date range the history chart zooms in to
+
+
+def calendar_axis() -> pg.DateAxisItem:
+    """pyqtgraph's date axis (UTC) with dates for ticks at every zoom: years, then months as
+    2025-11, then days as 2025-11-03; never times of day (a calibration's date is what the
+    history says; with one calibration the axis showed hours and seconds)."""
+    from pyqtgraph.graphicsItems import DateAxisItem as dates
+
+    years = dates.ZoomLevel(
+        [
+            dates.TickSpec(dates.YEAR_SPACING, dates.makeYStepper(1), "%Y", autoSkip=[1, 5, 10]),
+            dates.TickSpec(dates.MONTH_SPACING, dates.makeMStepper(1), "%Y-%m", autoSkip=[1, 3, 6]),
+        ],
+        "2025-11",
+    )
+    days = dates.ZoomLevel(
+        [
+            dates.TickSpec(dates.MONTH_SPACING, dates.makeMStepper(1), "%Y-%m-%d"),
+            dates.TickSpec(
+                dates.DAY_SPACING, dates.makeSStepper(dates.DAY_SPACING), "%Y-%m-%d", [1, 5]
+            ),
+        ],
+        "2025-11-03",
+    )
+    axis = pg.DateAxisItem(orientation="bottom", utcOffset=0)
+    # the finest level is used at any density under its bound (DateAxisItem's own rule)
+    axis.zoomLevels = OrderedDict([(np.inf, years), (15 * DAY_S, days)])
+    return axis
+
+
+def date_range(x: np.ndarray) -> tuple[float, float]:
+    """The shown range (s since the epoch) around calibrations at `x`: MARGIN_DAYS before
+    the first and after the last (one calibration: two months around it)."""
+    margin = MARGIN_DAYS * DAY_S
+    return float(np.min(x)) - margin, float(np.max(x)) + margin
+
+
+def readable_columns(table: QTableWidget) -> None:
+    """Each column as wide as its header and its cells (no elided serial, model, owner or
+    date); the last takes what is left; rows one text line tall."""
+    header = table.horizontalHeader()
+    header.setSectionResizeMode(QHeaderView.ResizeMode.ResizeToContents)
+    header.setStretchLastSection(True)
+    compact_rows(table)
 
 
 def _text(table: QTableWidget, row: int, column: int) -> str:
@@ -94,7 +144,7 @@ class SensorsTab(QWidget):
         self.sensors.setHorizontalHeaderLabels(list(SENSOR_COLUMNS))
         self.sensors.setSelectionBehavior(QAbstractItemView.SelectionBehavior.SelectRows)
         self.sensors.setSelectionMode(QAbstractItemView.SelectionMode.SingleSelection)
-        self.sensors.horizontalHeader().setSectionResizeMode(QHeaderView.ResizeMode.Stretch)
+        readable_columns(self.sensors)
         self.sensors.verticalHeader().setVisible(False)
         self.sensors.itemSelectionChanged.connect(self._selected)
         left.addWidget(self.sensors, 1)
@@ -107,19 +157,21 @@ class SensorsTab(QWidget):
         due_layout.addWidget(self.days)
         self.due = QTableWidget(0, len(DUE_COLUMNS))
         self.due.setHorizontalHeaderLabels(list(DUE_COLUMNS))
-        self.due.horizontalHeader().setSectionResizeMode(QHeaderView.ResizeMode.Stretch)
+        readable_columns(self.due)
         self.due.verticalHeader().setVisible(False)
         self.due.setSelectionBehavior(QAbstractItemView.SelectionBehavior.SelectRows)
         self.due.itemDoubleClicked.connect(self._due_clicked)
         due_layout.addWidget(self.due, 1)
         left.addWidget(due_box, 1)
-        body.addLayout(left, 2)
+        body.addLayout(left, 1)  # half the width: the tables' columns whole at 1366 px
 
         right = QVBoxLayout()
         self.chart = pg.PlotWidget(
             title="History: sensitivity at the reference frequency, ± U",
-            axisItems={"bottom": pg.DateAxisItem(utcOffset=0)},
+            axisItems={"bottom": calendar_axis()},
         )
+        # never zoomed in under a few weeks: the axis then has no date to show
+        self.chart.getPlotItem().getViewBox().setLimits(minXRange=MIN_DAYS_SHOWN * DAY_S)
         self.chart.setLabel("left", "sensitivity", units="mV/(m/s²)")
         self.chart.setLabel("bottom", "calibration date (UTC)")
         self.chart.getAxis("left").enableAutoSIPrefix(False)
@@ -133,7 +185,7 @@ class SensorsTab(QWidget):
         right.addWidget(self.chart_stack, 1)
         self.history_text = wrapping_label("Select a sensor to see its history.")
         right.addWidget(self.history_text)
-        body.addLayout(right, 3)
+        body.addLayout(right, 1)
         layout.addLayout(body, 1)
 
         self.serial: str | None = None
@@ -197,6 +249,9 @@ class SensorsTab(QWidget):
             self._failed(exc)
             return []
         self.sensors.blockSignals(True)
+        # no row selected: the row found is then selected anew, and its history drawn, also
+        # when another serial stood in that row before
+        self.sensors.clearSelection()
         self.sensors.setRowCount(len(found))
         today = self.today()
         for row, sensor in enumerate(found):
@@ -254,7 +309,8 @@ class SensorsTab(QWidget):
         self.points.setData(x, y)
         self.line.setData(x, y)
         self.bars.setData(x=x, y=y, height=2 * u)
-        self.chart.enableAutoRange()
+        self.chart.setXRange(*date_range(x), padding=0)  # days around one calibration
+        self.chart.enableAutoRange(axis="y")
         drift = history.drift_percent_per_year
         drift_text = (
             "drift not stated (needs calibrations over at least 30 days)"

@@ -26,11 +26,13 @@ from PySide6.QtWidgets import (
     QMessageBox,
     QPushButton,
     QSpinBox,
+    QVBoxLayout,
     QWidget,
 )
 
 from app.gui import field_marks
 from app.gui.actions import START, with_key
+from app.gui.form_area import FormArea
 from app.gui.plan_cache import PlanCache
 from app.gui.quantity_edit import QuantityEdit
 from app.gui.reference_view import describe_reference
@@ -56,6 +58,7 @@ from dsp.multisine import PRESETS, Plan
 log = logging.getLogger(__name__)
 
 OPTIMISING = "optimising the multisine phases ..."  # progress shown while the plan is made
+FIELD_MIN_CHARS = 26  # the Stand and DUT fields' narrowest (average characters)
 
 
 @dataclass
@@ -113,9 +116,16 @@ class SetupTab(QWidget):
         # with the same fields, and a preview of a 51.2 kS/s plan costs the GUI thread 0.5 s
         self._previewed: tuple[Any, RunOptions, Plan, PlanPreview] | None = None
         self.plans = PlanCache(RunService.unit_plan, self.service.preset_keys())
-        layout = QHBoxLayout(self)
-        layout.addWidget(self._stand_box(), 1)
-        layout.addWidget(self._plan_box(), 2)
+        # the two boxes scroll as one when the window is smaller than they need (a screen
+        # smaller than the form): their rows never overlap (app.gui.form_area)
+        self.form = QWidget()
+        boxes = QHBoxLayout(self.form)
+        boxes.addWidget(self._stand_box(), 2)
+        boxes.addWidget(self._plan_box(), 3)
+        self.form_area = FormArea(self.form)
+        layout = QVBoxLayout(self)
+        layout.setContentsMargins(0, 0, 0, 0)
+        layout.addWidget(self.form_area)
         self.plan_defaults = self.plan_settings()
         self.field_marks = field_marks.install(self)  # bad input marked at its field
         self.serial_entry = SerialEntry(self, records, self.field_marks)
@@ -134,17 +144,19 @@ class SetupTab(QWidget):
         stand = QGroupBox("Stand and DUT")
         form = QFormLayout(stand)
         form.setRowWrapPolicy(QFormLayout.RowWrapPolicy.WrapLongRows)
-        self.stand_label = QLabel(f"{self.config.source} ({self.config.backend})")
-        self.stand_label.setWordWrap(True)
+        # the stand's name wraps on a row of its own (beside the buttons it was cut at the
+        # height of a button), the buttons under it
+        self.stand_label = wrapping_label(f"{self.config.source} ({self.config.backend})")
         choose = QPushButton("Stand file ...")
         choose.clicked.connect(self.choose_stand)
         simulated = QPushButton("Simulated stand")
         simulated.clicked.connect(lambda: self.load_stand(None))
-        stand_row = QHBoxLayout()
-        stand_row.addWidget(self.stand_label, 1)
-        stand_row.addWidget(choose)
-        stand_row.addWidget(simulated)
-        form.addRow("Stand", stand_row)
+        stand_buttons = QHBoxLayout()
+        stand_buttons.addWidget(choose)
+        stand_buttons.addWidget(simulated)
+        stand_buttons.addStretch(1)
+        form.addRow("Stand", self.stand_label)
+        form.addRow("", stand_buttons)
         self.reference_label = wrapping_label(describe_reference(self.config))
         self.reference_label.setTextFormat(Qt.TextFormat.RichText)
         form.addRow("Reference standard", self.reference_label)
@@ -178,6 +190,20 @@ class SetupTab(QWidget):
         form.addRow("", self.teds.button)
         form.addRow("Nominal sensitivity", self.nominal)
         form.addRow("Tolerance of the characteristic", self.tolerance)
+        # a field narrower than this goes under its label (WrapLongRows) instead of being
+        # squeezed beside it: the reference text, a serial and its note stay readable
+        narrowest = FIELD_MIN_CHARS * self.fontMetrics().averageCharWidth()
+        for field in (
+            self.stand_label,
+            self.reference_label,
+            self.technician,
+            self.dut,
+            self.dut_id,
+            self.teds.button,
+            self.nominal,
+            self.tolerance,
+        ):
+            field.setMinimumWidth(narrowest)
         return stand
 
     def _plan_box(self) -> QGroupBox:
@@ -276,6 +302,20 @@ class SetupTab(QWidget):
         # the block field's own tooltip says how it reads; the option's help says what it does
         spec = option("stepped_block_s")
         self.stepped_block.setToolTip(f"{spec.help}. {self.stepped_block.toolTip()}")
+
+    # --- the size it needs ---------------------------------------------------------------
+
+    def height_for(self, width: int) -> int:
+        """The height (px) the tab needs at `width` (px) to show every row whole, unscrolled."""
+        return self.form_area.height_for(width)
+
+    def forget_sizes(self) -> None:
+        """Drop the sizes cached before the window was first shown (`FormArea.forget_sizes`)."""
+        self.form_area.forget_sizes()
+        layout = self.layout()
+        if layout is not None:
+            layout.invalidate()
+        self.updateGeometry()  # and the tab's own, cached by the tab widget's stack
 
     # --- the plan fields ----------------------------------------------------------------
 

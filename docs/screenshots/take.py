@@ -1,7 +1,7 @@
 """Screenshots of every tab: a records database with two customers' sensors, their history,
 run templates and a certificate register (issued, amended, withdrawn), one simulated run of a
 registered sensor from its template, its certificate issued through the register, each tab
-grabbed.
+grabbed, and the certificate dialog of that run.
 
     xvfb-run -s "-screen 0 1920x1080x24" env QT_QPA_PLATFORM=xcb \
         python docs/screenshots/take.py [WIDTHxHEIGHT]        # default 1366x768
@@ -15,6 +15,7 @@ import sys
 import tempfile
 from datetime import UTC, date, datetime
 from pathlib import Path
+from typing import Any
 
 os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 
@@ -26,6 +27,7 @@ from app.certificate.register_issue import issue_registered
 from app.records.db.engine import open_engine
 from app.records.db.lab import Lab
 from app.records.db.models import Run, Stand
+from app.web.users import add_user
 
 HERE = Path(__file__).resolve().parent
 
@@ -83,6 +85,9 @@ def records(url: str) -> None:
         max_acquisition_s=30.0,
         estimator="periodic",
     )
+    # the two-person rule's persons: users of the records (`accelcal records user add`)
+    for username, name in (("atech", "A. Tech"), ("jsmith", "J. Smith")):
+        add_user(lab.engine, username, "screenshots only", display_name=name, actor="screenshots")
     lab.set_setting("two_person_rule", "on")
     ids = {s.serial: s.id for s in lab.sensors()}
     with lab.session() as session:
@@ -120,6 +125,29 @@ def records(url: str) -> None:
     lab.withdraw_certificate(lab.register()[2].number, "wrong sensor mounted")
 
 
+def certificate_dialog(window: Any, folder: Path, width: int, height: int) -> Path:
+    """The certificate dialog of the run in `folder` as the Certificate action opens it (the
+    customer and sensor from the records), grabbed and closed unanswered."""
+    from app.gui.certificate_dialog import CertificateDialog
+    from app.records.run_folder import load_run
+
+    record = load_run(folder)
+    dialog = CertificateDialog(
+        window,
+        record,
+        dict(window.records.certificate_defaults(record)),
+        prepared_by="A. Tech",
+        heading="Certificate",
+    )
+    dialog.show()
+    for _ in range(5):
+        QCoreApplication.processEvents()
+    path = HERE / f"7-certificate-{width}x{height}.png"
+    dialog.grab().save(str(path))
+    dialog.reject()
+    return path
+
+
 def main() -> int:
     size = sys.argv[1] if len(sys.argv) > 1 else "1366x768"
     width, height = (int(v) for v in size.split("x"))
@@ -149,6 +177,7 @@ def main() -> int:
     window.records.wait_jobs()
     folder = window.results_tab.folder
     assert folder is not None, "the run did not complete"
+    print(certificate_dialog(window, folder, width, height))
     issued = issue_registered(
         folder,
         CertificateInfo(
