@@ -46,7 +46,7 @@ from app.records.seal import SealError, named_seal
 from app.stand.config import StandConfig
 from app.stand.dut import DutSpec
 from app.stand.fixture import Fixture, FixturePosition
-from app.stand.simulated import catalogue_spec
+from app.stand.simulated import catalogue_spec, reference_sensitivity_mv_per_ms2
 from dsp.uncertainty import Budget
 
 log = logging.getLogger(__name__)
@@ -414,8 +414,14 @@ def execute_batch(
     fixture = check_members(config, choices)
     request = with_stand_plan(request, config.plan)
     frequencies = [float(f) for f in request_plan(request).frequencies_hz]
+    # the reference channel's volts per m/s^2 (the crosstalk term's ratio): its stated
+    # table, else the simulated reference's nominal; a real stand without a table: left out
     table = config.reference.sensitivity_mv_per_ms2
-    reference_mv = float(np.median(table)) * config.reference.gain if table else 0.0
+    reference_mv = 0.0
+    if table:
+        reference_mv = float(np.median(table)) * config.reference.gain
+    elif config.backend == Backend.SIM:
+        reference_mv = reference_sensitivity_mv_per_ms2() * config.reference.gain
     planned = plan_members(request, config, choices, frequencies, reference_mv)
     first_choice, _, first_terms, first_warnings = planned[0]
     total_g = 1000 * fixture.mass_kg + sum((spec.mass_g or 0.0) for _, spec, _, _ in planned)

@@ -62,6 +62,12 @@ __all__ = [
 ]
 
 
+def reference_sensitivity_mv_per_ms2() -> float:
+    """The simulated reference standard's nominal sensitivity, mV/(m/s^2), before its
+    conditioning amplifier (the stand file's reference gain)."""
+    return float(StandModel().reference.sensitivity_mv_per_ms2)
+
+
 def catalogue_spec(name: str | None) -> DutSpec:
     """The specification of the catalogue DUT `name` (its data sheet, its mass, its plan
     preset); a name not in the catalogue (None too) gives an unknown DUT."""

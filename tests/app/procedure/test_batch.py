@@ -304,3 +304,25 @@ def test_a_position_over_the_iso_limit_at_some_lines_is_reported_at_those_lines(
     noted = [w for w in c.warnings if w.startswith("fixture position C:")]
     assert len(noted) == 1 and "2000 Hz" in noted[0] and "1000 Hz" not in noted[0]
     assert not any("fixture position" in w for w in a.warnings)
+
+
+def test_the_crosstalk_term_is_the_stated_level_times_the_largest_other_channel() -> None:
+    """u = 10^(-80/20) x (largest other channel's V per m/s^2 / this one's): piezo 10.2,
+    capacitive 35 mV/(m/s^2) (catalogue nominals), the reference 10 here."""
+    from app.procedure.batch import plan_members
+
+    config = stand_config.load(STAND)
+    choices = [MemberChoice("A", "1", "piezo"), MemberChoice("C", "2", "capacitive")]
+    planned = plan_members(RunRequest(), config, choices, [160.0], 10.0)
+    crosstalk = {
+        choice.position: next(c for c in terms.components if c.name == f"fixture crosstalk {p}")
+        for choice, _, terms, _ in planned
+        for p in [choice.position]
+    }
+    assert crosstalk["A"].standard_uncertainty == pytest.approx(1e-4 * 35.0 / 10.2, rel=1e-12)
+    assert crosstalk["C"].standard_uncertainty == pytest.approx(1e-4 * 10.2 / 35.0, rel=1e-12)
+    louder = plan_members(RunRequest(), config, choices, [160.0], 50.0)  # the reference's
+    (_, _, terms, _) = louder[1]
+    assert next(c for c in terms.components if c.name == "fixture crosstalk C").value == (
+        pytest.approx(1e-4 * 50.0 / 35.0, rel=1e-12)
+    )
