@@ -20,11 +20,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
-from app.io.hdf5 import RecordingWriter, read_recording, software_version
+from app.io.hdf5 import RecordingError, RecordingWriter, read_recording, software_version
 from app.io.vocabulary import Backend, Mode, RunStatus
 from app.procedure import Finished, Listener, Procedure
 from app.procedure.batch_files import (
@@ -47,6 +46,8 @@ from app.stand.config import StandConfig
 from app.stand.dut import DutSpec
 from app.stand.fixture import Fixture, FixturePosition
 from app.stand.simulated import catalogue_spec, reference_sensitivity_mv_per_ms2
+from dsp.calibration import AnalysisError, Results
+from dsp.spectral import Estimate
 from dsp.uncertainty import Budget
 
 log = logging.getLogger(__name__)
@@ -305,31 +306,37 @@ class BatchRun:
         lead_recording = self.lead.folder.recording
         for member in self.others:
             results = None
-            if finished.status == RunStatus.COMPLETE:
-                copy_marks(lead_recording, member.folder.recording)
-                own_budget(procedure, member.folder.recording)
-                results = self._results(procedure, member)
-                if listener is not None:
+            status, reason = finished.status, finished.abort_reason
+            if status == RunStatus.COMPLETE:
+                try:
+                    copy_marks(lead_recording, member.folder.recording)
+                    own_budget(procedure, member.folder.recording)
+                    estimate, results = self._results(procedure, member)
+                except (RecordingError, AnalysisError, ValueError) as exc:  # this DUT only
+                    log.warning("batch %s: %s not analysed: %s", self.batch_id, member.channel, exc)
+                    status, reason = RunStatus.ABORTED, f"{member.channel}: not analysed: {exc}"
+                if results is not None and listener is not None:
                     listener(
                         PeriodEstimate(
-                            procedure.io.periods_read, results[0], results[1], member.position.name
+                            procedure.io.periods_read, estimate, results, member.position.name
                         )
                     )
             budget = stored_budget(member.folder.recording)  # its own, as its results use
             record = dataclasses.replace(
                 finished.record,
                 run_id=member.folder.run_id,
+                status=status,
+                abort_reason=reason,
                 dut=self.member_identity(member).dut,
                 budget=tuple(budget.to_list()) if budget is not None else finished.record.budget,
             )
             copy_log(self.lead.folder.path, member.folder)
-            record = member.folder.finish(record, None if results is None else results[1])
-            own = None if results is None else results[1]
-            out.append(Finished(finished.status, finished.abort_reason, own, record))
+            record = member.folder.finish(record, results)
+            out.append(Finished(status, reason, results, record))
         self._seal(finished.status)
         return out
 
-    def _results(self, procedure: Procedure, member: Member) -> tuple[Any, Any]:
+    def _results(self, procedure: Procedure, member: Member) -> tuple[Estimate, Results]:
         """(estimate, results) of a member's recording with the run's estimator and rules,
         the verdict against its own specification, its position's warnings added."""
         from app.procedure.analysis import analyze

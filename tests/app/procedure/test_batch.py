@@ -326,3 +326,29 @@ def test_the_crosstalk_term_is_the_stated_level_times_the_largest_other_channel(
     assert next(c for c in terms.components if c.name == "fixture crosstalk C").value == (
         pytest.approx(1e-4 * 50.0 / 35.0, rel=1e-12)
     )
+
+
+def test_a_member_that_cannot_be_analysed_ends_aborted_the_others_complete(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from app.io.hdf5 import RecordingError
+    from app.procedure import batch as batch_module
+
+    real = batch_module.BatchRun._results
+
+    def failing(self, procedure, member):  # type: ignore[no-untyped-def]
+        if member.channel == "dut.B":
+            raise RecordingError("recording.h5: unreadable (test)")
+        return real(self, procedure, member)
+
+    monkeypatch.setattr(batch_module.BatchRun, "_results", failing)
+    request = RunRequest(
+        stand_file=STAND, out=tmp_path / "runs", seed=3, periods=3, stored_response=False
+    )
+    finished = execute_batch(request, CHOICES[:3], config=stand_config.load(STAND))
+    states = {c.position: (one.status, one.abort_reason) for c, one in finished.members}
+    assert states["A"] == ("complete", None) and states["C"] == ("complete", None)
+    assert states["B"][0] == "aborted" and "dut.B: not analysed" in str(states["B"][1])
+    for _, one in finished.members:  # every member sealed, the batch naming every seal
+        assert inspect_run(finished.folder.parent / str(one.record.run_id)).record is not None
+    assert all(m.seal_sha256 for m in read_batch(finished.folder).members)
