@@ -190,7 +190,8 @@ def report(sensors: int, h: Handling, m: Measured) -> None:
     print("| a day's batch | time | sensors per hour | ratio |")
     print("| --- | --- | --- | --- |")
     print(
-        f"| {sensors} sensors one at a time | {one / 60:.1f} min | {per_hour(sensors, one):.1f} | 1.00x |"
+        f"| {sensors} sensors one at a time | {one / 60:.1f} min | "
+        f"{per_hour(sensors, one):.1f} | 1.00x |"
     )
     print(
         f"| {sensors} sensors four at a time | {four / 60:.1f} min | "
@@ -198,7 +199,8 @@ def report(sensors: int, h: Handling, m: Measured) -> None:
     )
     three, guided = triaxial_three_runs_s(h, m), triaxial_guided_s(h, m)
     print(
-        f"| a triaxial sensor, three runs | {three / 60:.1f} min | {per_hour(1, three):.1f} | 1.00x |"
+        f"| a triaxial sensor, three runs | {three / 60:.1f} min | "
+        f"{per_hour(1, three):.1f} | 1.00x |"
     )
     print(
         f"| a triaxial sensor, one guided session | {guided / 60:.1f} min | "
