@@ -22,11 +22,23 @@ from sim.models import G_N, SensorModel
 from sim.stand import SimulatedStand, catalogue_sensor
 
 
+def channel_delays(config: DaqConfig, interval_s: float) -> dict[str, float]:
+    """Each sampled input's delay after the reference (s) on a multiplexed converter: the
+    inputs in `config.inputs` order, `interval_s` apart (the stand file's [daq] skew_s, the
+    first DUT channel's delay), the reference's 0. The drive read-back is not delayed here
+    (the simulator copies it), so it is left out."""
+    names = [c.name for c in config.inputs if c.name != "drive"]
+    first = names.index("reference")
+    return {name: (i - first) * interval_s for i, name in enumerate(names)}
+
+
 class FixtureStand(SimulatedStand):
     """`SimulatedStand` with `duts` (input channel "dut.<position>" -> its sensor, or a
     catalogue name) on `fixture` (rigid by default), the exciter loaded by every DUT and the
-    fixture's own `fixture_mass_g` (g). Other arguments as SimulatedStand's; the first DUT is
-    `dut` (its TEDS, `truth`)."""
+    fixture's own `fixture_mass_g` (g). `multiplexed`: the inputs sampled one after another,
+    `skew_s` apart (`channel_delays`, an M-series-like board; the app's simulated stand), else
+    every DUT channel `skew_s` after the reference. Other arguments as SimulatedStand's; the
+    first DUT is `dut` (its TEDS, `truth`)."""
 
     def __init__(
         self,
@@ -34,6 +46,7 @@ class FixtureStand(SimulatedStand):
         *,
         fixture: FixtureMotion | None = None,
         fixture_mass_g: float = 0.0,
+        multiplexed: bool = False,
         **kwargs: object,
     ):
         if not duts:
@@ -45,6 +58,7 @@ class FixtureStand(SimulatedStand):
         super().__init__(next(iter(self.duts.values())), **kwargs)  # type: ignore[arg-type]
         self.fixture: FixtureMotion = fixture or RigidFixture()
         self.fixture_mass_g = float(fixture_mass_g)
+        self.multiplexed = multiplexed
         # each DUT's own noise streams (sensor, converter), apart from the single-DUT ones
         streams = np.random.SeedSequence([self.seed, 36]).spawn(2 * len(self.duts))
         self._dut_noise = {
@@ -58,8 +72,8 @@ class FixtureStand(SimulatedStand):
         return self.duts[channel]
 
     def configure(self, config: DaqConfig) -> DaqStatus:
-        """One network node per DUT input; every DUT channel sampled `skew_s` after the
-        reference (simultaneous DUT channels)."""
+        """One network node per DUT input, each sampled at its own delay (`multiplexed`: the
+        n-th input after the reference n x `skew_s` after it); every input's in `skews_s`."""
         self._set_ranges(config)
         fs = config.sample_rate_hz
         m, d = self.model, self.deviations
@@ -77,7 +91,9 @@ class FixtureStand(SimulatedStand):
             .add("reference", m.reference.model(), "acceleration")
             .add("transverse", m.exciter.transverse_stage(), "acceleration")
         )
-        skew = m.skew_s
+        delays = channel_delays(config, m.skew_s)
+        if not self.multiplexed:  # every DUT channel sampled `skew_s` after the reference
+            delays = {n: (0.0 if n == "reference" else m.skew_s) for n in delays}
         outputs = {name: (name, 0.0) for name in ("acceleration", "displacement", "reference")}
         self._cubics = {}
         for name, sensor in self.duts.items():
@@ -88,6 +104,7 @@ class FixtureStand(SimulatedStand):
             network = network.combine(f"{name}:input", terms).add(
                 name, sensor.model(), f"{name}:input"
             )
+            skew = delays.get(name, m.skew_s)
             outputs[name] = (name, skew)
             if sensor.cubic_per_ms2_sq:
                 self._cubics[name] = ZohFilter(sensor.model(), fs, skew)
@@ -95,8 +112,12 @@ class FixtureStand(SimulatedStand):
             outputs["cubic_input"] = ("acceleration", 0.5 / fs)
         self._chain = MultiZoh(network, outputs, fs)
         self._cubic = None
-        skews = {c.name: (skew if is_dut_channel(c.name) else 0.0) for c in config.inputs}
-        return DaqStatus(actual_sample_rate_hz=fs, skew_s=skew, skews_s=skews)
+        first = next((n for n in delays if is_dut_channel(n)), None)
+        return DaqStatus(
+            actual_sample_rate_hz=fs,
+            skew_s=delays[first] if first is not None else m.skew_s,
+            skews_s=delays,
+        )
 
     def _outputs(
         self, chain: dict[str, np.ndarray], reference: np.ndarray, drive: np.ndarray, v_off: bool

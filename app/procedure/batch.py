@@ -34,8 +34,10 @@ from app.procedure.batch_files import (
     write_batch_recording,
     write_member_truth,
 )
+from app.procedure.batch_skew import member_skews, skew_tolerance_s
 from app.procedure.errors import PreflightError
 from app.procedure.events import Event, PeriodEstimate
+from app.procedure.ranging import RangePlan, member_ranges
 from app.procedure.request import RequestError, RunIdentity, RunRequest
 from app.records.batch import Batch, BatchMember, seal_batch
 from app.records.run_folder import RunFolder, new_run_id
@@ -46,9 +48,10 @@ from app.stand.config import StandConfig
 from app.stand.dut import DutSpec
 from app.stand.fixture import Fixture, FixturePosition
 from app.stand.simulated import catalogue_spec, reference_sensitivity_mv_per_ms2
-from dsp.calibration import AnalysisError, Results
+from dsp.calibration import AnalysisError, ReferenceChain, Results
 from dsp.spectral import Estimate
 from dsp.uncertainty import Budget
+from hardware.interfaces import DaqStatus
 
 log = logging.getLogger(__name__)
 
@@ -77,6 +80,7 @@ class Member:
     terms: Budget  # its position's type B components
     warnings: tuple[str, ...] = ()
     writer: RecordingWriter | None = None
+    skew_s: float | None = None  # its channel's sampling delay (s), once the DAQ is configured
 
     @property
     def channel(self) -> str:
@@ -259,7 +263,45 @@ class BatchRun:
         )
         return dataclasses.replace(self.identity, dut=dut)
 
+    def member_chain(self, procedure: Procedure, member: Member) -> ReferenceChain:
+        """The run's reference chain with this member's own channel delay (its phase's skew
+        correction; the run's when not known yet)."""
+        chain = procedure.stand.chain
+        if member.skew_s is None:
+            return chain
+        return dataclasses.replace(chain, skew_s=member.skew_s)
+
     # --- BatchHooks -----------------------------------------------------------------------
+
+    def member_ranges(self, procedure: Procedure, ranges: RangePlan) -> dict[str, float]:
+        """Each member's DUT channel's +-range (V) from its own nominal sensitivity's
+        predicted peak (app.procedure.ranging.member_ranges), as a single run picks its DUT's
+        ("dut": the first member's, the run's own phases read it); logged."""
+        chosen = member_ranges(
+            ranges,
+            procedure.plan,
+            {m.channel: m.spec.nominal_mv_per_ms2 for m in self.members},
+            procedure.stand.chain.dut_gain,
+        )
+        for channel, value in chosen.items():
+            procedure.ctx.log(f"input range {channel}: +-{value:g} V (its own DUT's nominal)")
+        return {**chosen, "dut": chosen[self.lead.channel]}
+
+    def configured(self, procedure: Procedure, status: DaqStatus) -> None:
+        """Each member's own channel delay (app.procedure.batch_skew: the driver's, checked
+        against the stand file's; PreflightError naming the position), logged; the run's own
+        chain (its first DUT's) takes the first member's."""
+        config = procedure.stand.config
+        skews = member_skews(
+            [m.position for m in self.members],
+            status.skews_s,
+            config.skew_s,
+            skew_tolerance_s(config),
+        )
+        for member in self.members:
+            member.skew_s = skews[member.channel].skew_s
+            procedure.ctx.log(skews[member.channel].line())
+        procedure.use_chain(self.member_chain(procedure, self.lead))
 
     def config_stored(self, start: RunStart) -> None:
         """Each other member's config.json (its identity and batch link) and stand.toml."""
@@ -283,7 +325,7 @@ class BatchRun:
             writer = RecordingWriter(
                 member.folder.recording,
                 procedure.plan,
-                stand.chain,
+                self.member_chain(procedure, member),
                 member_budget(stand.budget, self.lead.position, member.terms),
                 with_drive=True,
                 ranges_v={**io.ranges, "dut": io.ranges[member.channel]},
@@ -329,6 +371,7 @@ class BatchRun:
                 abort_reason=reason,
                 dut=self.member_identity(member).dut,
                 budget=tuple(budget.to_list()) if budget is not None else finished.record.budget,
+                reference_chain=self.member_chain(procedure, member).to_dict(),
             )
             copy_log(self.lead.folder.path, member.folder)
             record = member.folder.finish(record, results)

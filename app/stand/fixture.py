@@ -79,6 +79,8 @@ class FixturePosition:
     mass_limit_kg: float | None = None
     relative_motion: MotionTable = MotionTable()
     relative_motion_phase_deg: MotionTable = MotionTable()
+    # its input's stated sampling delay after the reference (s; None: [daq] skew_s holds)
+    skew_s: float | None = None
 
     @property
     def channels(self) -> tuple[str, ...]:
@@ -355,7 +357,18 @@ def _position(entry: Any, index: int) -> FixturePosition:
             if "relative_motion_phase_deg" in entry
             else MotionTable()
         ),
+        skew_s=_skew(entry.get("skew_s"), f"{where}.skew_s"),
     )
+
+
+def _skew(value: Any, where: str) -> float | None:
+    """A position's stated sampling delay (s), 0 to 1 ms as [daq] skew_s; None: not stated."""
+    if value is None:
+        return None
+    skew = _number(value, where, minimum=0.0)
+    if skew >= 1e-3:
+        raise FixtureError(f"{where}: must be between 0 and 1 ms, got {skew:g} s")
+    return skew
 
 
 def parse_fixture(
