@@ -55,12 +55,16 @@ def _positions(folder: str) -> dict[str, str]:
 
 def shared_runs(session: Session, serial: str) -> list[SharedRun]:
     """The runs of sensor `serial` that were one DUT of several, newest first."""
-    own = session.execute(
-        select(Run)
-        .join(Sensor, Run.sensor_id == Sensor.id)
-        .where(Sensor.serial == serial, Run.batch_id.is_not(None))
-        .order_by(Run.started_utc.desc(), Run.id.desc())
-    ).scalars().all()
+    own = (
+        session.execute(
+            select(Run)
+            .join(Sensor, Run.sensor_id == Sensor.id)
+            .where(Sensor.serial == serial, Run.batch_id.is_not(None))
+            .order_by(Run.started_utc.desc(), Run.id.desc())
+        )
+        .scalars()
+        .all()
+    )
     if not own:
         return []
     batches = {r.batch_id for r in own}

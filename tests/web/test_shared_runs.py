@@ -52,8 +52,15 @@ def shared(tmp_path_factory: pytest.TempPathFactory) -> SharedRecords:
     lab = Lab(engine, actor="test")
     lab.add_customer("ACME Ltd", "1 Test Street, Testville")
     lab.add_customer("Other GmbH", "2 Other Street, Elsewhere")
-    lab.add_model("Sim", "P-100", nominal_sensitivity=10.0, unit="mV/(m/s^2)",
-                  tolerance_percent=5.0, frequency_min_hz=10.0, frequency_max_hz=10000.0)  # fmt: skip
+    lab.add_model(
+        "Sim",
+        "P-100",
+        nominal_sensitivity=10.0,
+        unit="mV/(m/s^2)",
+        tolerance_percent=5.0,
+        frequency_min_hz=10.0,
+        frequency_max_hz=10000.0,
+    )
     for serial, owner in ((ACME_A, "ACME Ltd"), (OTHER_B, "Other GmbH"), (ACME_C, "ACME Ltd")):
         lab.add_sensor(serial, model="P-100", owner=owner)
     request = RunRequest(
