@@ -20,6 +20,7 @@ from sim.fixture_rigid import FixtureMotion, RigidFixture, apply_crosstalk, appl
 from sim.lti import MultiZoh, Network, ZohFilter
 from sim.models import G_N, SensorModel
 from sim.stand import SimulatedStand, catalogue_sensor
+from sim.teds import position_teds
 
 
 def channel_delays(config: DaqConfig, interval_s: float) -> dict[str, float]:
@@ -66,6 +67,17 @@ class FixtureStand(SimulatedStand):
             for i, name in enumerate(self.duts)
         }
         self._cubics: dict[str, ZohFilter] = {}
+        # each position's sensor its own TEDS; the first's is the stand's `dut_teds`
+        self.position_teds = position_teds(self.duts, self.seed)
+        self.dut_teds = next(iter(self.position_teds.values()))
+
+    def read_teds_channel(self, channel: str) -> tuple[int, ...]:
+        """The bits of the TEDS of the sensor on DUT input `channel` (KeyError: no such)."""
+        return self.position_teds[channel].read()
+
+    def write_teds_channel(self, channel: str, bits: tuple[int, ...]) -> None:
+        """Write the TEDS of the sensor on DUT input `channel` (refused unless it decodes)."""
+        self.position_teds[channel].write(bits)
 
     def truth_of(self, channel: str) -> SensorModel:
         """The sensor on the DUT input `channel` (its truth: `.sensitivity(f, rms)`)."""

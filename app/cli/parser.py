@@ -440,6 +440,11 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--stand", type=Path, help="stand configuration (default: simulated)")
         p.add_argument("--dut", type=dut_name, default="piezo", help="simulated DUT")
         numeric_option(p, "--seed", SEED, "simulated stand: random seed", default=0)
+        p.add_argument(
+            "--channel",
+            metavar="CHANNEL",
+            help="one DUT input of the stand file's fixture, e.g. dut.B (default: the DUT channel)",
+        )
 
     v = sub.add_parser("verify", help="check a certificate PDF (or its DCC): signatures, DCC, run")
     v.add_argument("pdf", type=Path, help="certificate PDF, or its DCC (.xml) alone")
