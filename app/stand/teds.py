@@ -90,12 +90,12 @@ def open_port(
     if channel is not None and channel != "dut":
         named = fixture_channel(config, channel)
         if config.backend == "sim":
-            from sim.fixture_stand import FixtureStand
+            from app.stand.simulated import open_simulated_fixture
 
             assert config.fixture is not None
             dut_input = next(c for c in config.inputs if c.name == "dut")
             duts = {c.name: dut for c in config.fixture.inputs(dut_input)}
-            sim = FixtureStand(duts, seed=seed)
+            sim = open_simulated_fixture(duts, seed)
             return TedsPort(f"simulated stand, {channel} DUT {dut!r}", sim=sim, channel=named)
         return TedsPort(f"{config.device} {channel} {named.physical}", channel=named)
     if config.backend == "sim":
