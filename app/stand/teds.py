@@ -102,8 +102,8 @@ def open_port(
         from app.stand.simulated import open_simulated
 
         return TedsPort(f"simulated stand, DUT {dut!r}", sim=open_simulated(dut, seed))
-    channel = next(c for c in config.inputs if c.name == "dut")
-    return TedsPort(f"{config.device} {channel.physical}", physical_channel=channel.physical)
+    own = next(c for c in config.inputs if c.name == "dut")
+    return TedsPort(f"{config.device} {own.physical}", physical_channel=own.physical)
 
 
 def describe(teds: Teds) -> list[str]:
