@@ -88,6 +88,8 @@ class FixtureEntry:
                 continue
             serial.setPlaceholderText("serial (scan or type; empty: not run)")
             entry = SerialEntry(self.setup, self.link, self.marks, serial)
+            # a DUT on record offers its model's run templates, as the single serial does
+            entry.sensor_changed.connect(self.setup.templates.show_for)
             teds = TedsEntry(self.setup, self.link, serial, entry, position)
             teds.button.setText(f"Read TEDS at {position.name}")
             teds.button.setToolTip(

@@ -80,7 +80,7 @@ class TedsEntry(QObject):
     @property
     def field(self) -> Any:
         """The serial field the read fills."""
-        return self._field if self._field is not None else self.field
+        return self._field if self._field is not None else self.setup.dut_id
 
     @property
     def entry(self) -> Any:
