@@ -231,3 +231,73 @@ def test_certificates_for_all_duts_in_one_confirmation(qtbot, tmp_path, monkeypa
     assert len(set(numbers)) == 2  # each its own number
     for f in finished:  # each member's run still verifies (the certificate beside it)
         assert load_run(tmp_path / "runs" / str(f.record.run_id)).complete
+
+
+class _Stand:
+    def __init__(self) -> None:
+        self.closed = False
+
+    def close(self) -> None:
+        self.closed = True
+
+
+class _Procedure:
+    """A run that ends at once, complete."""
+
+    plan = None
+    listener = None
+
+    def run(self):
+        from app.io.vocabulary import RunStatus
+        from app.procedure import Finished
+        from app.records.run_record import RunRecord
+
+        record = RunRecord(run_id="lead", status=RunStatus.COMPLETE)
+        return Finished(RunStatus.COMPLETE, None, None, record)
+
+
+def test_the_worker_ends_a_batch_after_the_stand_is_closed_and_queues_its_events():
+    from app.procedure import WarningRaised
+
+    stand = _Stand()
+    seen: list = []
+
+    def ending(finished, listener):
+        seen.append((finished.record.run_id, stand.closed))
+        listener(WarningRaised("member B analysed"))
+        return "the batch"
+
+    worker = RunWorker.opening(lambda: (_Procedure(), stand), ending)
+    worker.start()
+    assert worker.join(10)
+    assert seen == [("lead", True)]  # after the stand was closed, with the run's Finished
+    assert worker.ended == "the batch" and worker.done
+    assert any(isinstance(e, WarningRaised) and "member B" in e.text for e in worker.drain())
+
+
+def test_a_failing_batch_end_keeps_the_runs_own_end(caplog):
+    def ending(finished, listener):
+        raise RuntimeError("disk gone")
+
+    worker = RunWorker.opening(lambda: (_Procedure(), _Stand()), ending)
+    worker.start()
+    assert worker.join(10)
+    assert worker.finished is not None and worker.finished.record.run_id == "lead"
+    assert worker.ended is None and "the other DUTs of the batch" in caplog.text
+
+
+def test_the_live_views_read_the_first_dut_channel_of_a_batch_block():
+    import numpy as np
+
+    from app.gui.live_view import block_view, own_dut
+    from app.gui.run_tab import shown_dut
+    from dsp.multisine import preset_plan
+
+    channels = ("reference", "dut.A", "dut.B", "drive")
+    assert own_dut(channels) == "dut.A" and own_dut(("reference", "dut", "drive")) == "dut"
+    assert shown_dut("dut", channels) == "dut.A" and shown_dut("reference", channels) == "reference"
+    plan = preset_plan("piezo")
+    n = plan.period_samples
+    samples = np.vstack([np.full(n, 0.1), np.full(n, 0.3), np.full(n, 0.7), np.zeros(n)])
+    view = block_view(samples, channels, plan, 300)
+    assert view.peaks_v["dut"] == pytest.approx(0.3)  # dut.A, never dut.B
