@@ -22,6 +22,8 @@ def cmd_certificate(args: argparse.Namespace) -> int:
 
     if args.batch is not None:
         return certificates_of_batch(args)
+    if args.triaxial is not None:
+        return certificate_of_triaxial(args)
     if args.run is None:
         raise UsageError("certificate: give a run folder, or --batch BATCH")
     if args.out is not None and not is_run_folder(args.out.parent):  # a run's own: see issue()
@@ -134,6 +136,41 @@ def certificates_of_batch(args: argparse.Namespace) -> int:
         print(f"{refused} of {len(batch.members)} certificates refused", file=sys.stderr)
         return EXIT_BAD_INPUT
     return EXIT_OK
+
+
+def certificate_of_triaxial(args: argparse.Namespace) -> int:
+    """`certificate --triaxial BX BY BZ`: one certificate of a triaxial sensor from its three
+    orientation batches (app.certificate.triaxial_issue), issued by the certificate service on
+    the x orientation's x channel run with the triaxial section in the PDF and the DCC."""
+    import dataclasses
+
+    from app.certificate.triaxial_issue import triaxial_result_of, triaxial_runs
+
+    for flag, given in (("run", args.run), ("--batch", args.batch), ("--sweep", args.sweep)):
+        if given:
+            raise UsageError(f"{flag}: --triaxial names its three batches only")
+    runs = triaxial_runs([batch_folder(text) for text in args.triaxial])
+    result = triaxial_result_of(runs)
+    request = issue_request(args, runs.main_run, None)
+    info = dataclasses.replace(
+        request.info,
+        triaxial=result,
+        dut_type=request.info.dut_type or "triaxial accelerometer",
+    )
+    outcome = issue_certificate_of(dataclasses.replace(request, info=info))
+    print(
+        f"triaxial {runs.position}={runs.serial}: orientations "
+        + ", ".join(f"{o} {b}" for o, b in sorted(runs.batches.items()))
+    )
+    _print_outcome(outcome)
+    return EXIT_OK
+
+
+def issue_certificate_of(request: Any) -> Any:
+    """The certificate service's issue of `request` (app.certificate.service)."""
+    from app.certificate.service import issue_certificate
+
+    return issue_certificate(request)
 
 
 def batch_folder(text: str) -> Path:

@@ -137,6 +137,12 @@ def _add_run_options(r: argparse.ArgumentParser) -> None:
         "the stand file's [[fixture.position]] and the DUT's serial; on the simulated stand "
         "the catalogue model at a position (default: the bare --dut MODEL, else piezo)",
     )
+    r.add_argument(
+        "--orientation",
+        choices=("x", "y", "z"),
+        help="a triaxial DUT (issue 36): --dut POSITION=SERIAL names a position with axes; "
+        "this run has the sensor's axis x, y or z along the exciter (one run per orientation)",
+    )
     _run_option(r, "dut_id", default=None)
     _run_option(r, "technician")
     _run_option(r, "nominal_mv_per_ms2")
@@ -328,6 +334,14 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="BATCH",
         help="several DUTs in one run: one certificate per member of the batch (its folder, or "
         "its id under the runs folder ./runs), each its own number",
+    )
+    c.add_argument(
+        "--triaxial",
+        nargs=3,
+        metavar="BATCH",
+        help="a triaxial sensor (issue 36): its three orientation runs' batches (folders, or "
+        "ids under ./runs; x, y, z in any order) make one certificate with the three axes, "
+        "the sensitivity matrix and the transverse sensitivities",
     )
     c.add_argument(
         "--out",

@@ -77,9 +77,13 @@ class Member:
     terms: Budget  # its position's type B components
     warnings: tuple[str, ...] = ()
     writer: RecordingWriter | None = None
+    axis: str | None = None  # a triaxial DUT's channel (x, y, z; app.procedure.triaxial)
+    transverse: bool = False  # that channel is not along the exciter: its signal is small
 
     @property
     def channel(self) -> str:
+        if self.axis is not None:
+            return f"dut.{self.position.name}.{self.axis}"
         return self.position.channel
 
 
@@ -348,6 +352,7 @@ class BatchRun:
             probability=settings.probability,
             rule=str(settings.rule),
             tolerances=member.spec.tolerances(procedure.plan.reference_frequency_hz),
+            transverse=member.transverse,
         )
         results = analysis.results
         if member.warnings:

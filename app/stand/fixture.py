@@ -79,6 +79,16 @@ class FixturePosition:
     mass_limit_kg: float | None = None
     relative_motion: MotionTable = MotionTable()
     relative_motion_phase_deg: MotionTable = MotionTable()
+    # a triaxial position: the table's acceleration along a transverse axis of the sensor per
+    # axial acceleration (exciter's transverse motion, mounting alignment), standard
+    # uncertainty, percent, at frequencies (Hz); dsp.triaxial's `table_transverse`
+    transverse_motion: MotionTable = MotionTable()
+
+    def transverse_budget(self) -> Budget:
+        """The stated transverse motion as magnitude components (fractions)."""
+        return Budget(
+            tuple(_segments(f"table transverse motion {self.name}", self.transverse_motion, 0.01))
+        )
 
     @property
     def channels(self) -> tuple[str, ...]:
@@ -353,6 +363,11 @@ def _position(entry: Any, index: int) -> FixturePosition:
         relative_motion_phase_deg=(
             _table(entry["relative_motion_phase_deg"], f"{where}.relative_motion_phase_deg")
             if "relative_motion_phase_deg" in entry
+            else MotionTable()
+        ),
+        transverse_motion=(
+            _table(entry["transverse_motion"], f"{where}.transverse_motion")
+            if "transverse_motion" in entry
             else MotionTable()
         ),
     )

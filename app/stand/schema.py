@@ -98,5 +98,6 @@ POSITION_KEYS = frozenset(
         "mass_limit_kg",
         "relative_motion",
         "relative_motion_phase_deg",
+        "transverse_motion",  # a triaxial position's table transverse motion (issue 36 pt 3)
     }
 )
