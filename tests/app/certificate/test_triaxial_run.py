@@ -64,7 +64,7 @@ def test_a_triaxial_dut_in_three_orientations_gives_one_certificate_within_u_of_
     for folder, o in zip(batches, "xyz", strict=True):
         batch = read_batch(folder)
         # the main axis first, every channel its own sealed run folder
-        assert [m.channel for m in batch.members][0] == f"dut.T.{o}"
+        assert batch.members[0].channel == f"dut.T.{o}"
         assert sorted(m.channel for m in batch.members) == ["dut.T.x", "dut.T.y", "dut.T.z"]
         for m in batch.members:
             results = json.loads((tmp_path / "runs" / m.run_id / "results.json").read_text())
