@@ -149,7 +149,7 @@ def certificate_of_triaxial(args: argparse.Namespace) -> int:
     for flag, given in (("run", args.run), ("--batch", args.batch), ("--sweep", args.sweep)):
         if given:
             raise UsageError(f"{flag}: --triaxial names its three batches only")
-    runs = triaxial_runs([batch_folder(text) for text in args.triaxial])
+    runs = triaxial_runs([batch_folder(text, "--triaxial") for text in args.triaxial])
     result = triaxial_result_of(runs)
     request = issue_request(args, runs.main_run, None)
     info = dataclasses.replace(
@@ -173,11 +173,11 @@ def issue_certificate_of(request: Any) -> Any:
     return issue_certificate(request)
 
 
-def batch_folder(text: str) -> Path:
-    """A batch by folder, or by id under ./runs (UsageError naming --batch)."""
+def batch_folder(text: str, flag: str = "--batch") -> Path:
+    """A batch by folder, or by id under ./runs (UsageError naming `flag`)."""
     from app.records.batch import is_batch_folder
 
     for candidate in (Path(text), Path("runs") / text):
         if is_batch_folder(candidate):
             return candidate
-    raise UsageError(f"--batch: {text!r} is not a batch folder (nor ./runs/{text})")
+    raise UsageError(f"{flag}: {text!r} is not a batch folder (nor ./runs/{text})")

@@ -121,7 +121,7 @@ def check_members(config: StandConfig, choices: Sequence[MemberChoice]) -> Fixtu
         if position.axes:
             raise RequestError(
                 f"--dut {choice.position}={choice.serial}: a triaxial position (three inputs); "
-                "its calibration is the triaxial procedure's"
+                "run it once per orientation with --orientation x|y|z"
             )
         if choice.position in positions:
             raise RequestError(f"--dut: position {choice.position!r} given twice")

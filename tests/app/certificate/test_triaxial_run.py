@@ -160,6 +160,8 @@ def test_orientation_refusals_name_the_option(tmp_path: Path, monkeypatch, capsy
     assert main([*argv, "--orientation", "y"]) == 2
     assert "--orientation: give the triaxial DUT once" in capsys.readouterr().err
     assert main(["run", "--stand", str(STAND), "--dut", "T=SN-1"]) == 2
-    assert "a triaxial position" in capsys.readouterr().err
+    assert "a triaxial position (three inputs); run it once per orientation" in (
+        capsys.readouterr().err
+    )
     assert main(["certificate", "--triaxial", "a", "b", "c", *ITEMS]) == 2
-    assert "--batch: 'a' is not a batch folder" in capsys.readouterr().err
+    assert "--triaxial: 'a' is not a batch folder" in capsys.readouterr().err
