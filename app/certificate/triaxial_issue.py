@@ -120,3 +120,71 @@ def triaxial_result_of(runs: TriaxialRuns) -> TriaxialResult:
         return stored_triaxial(runs.folders, table)
     except InputRefused as exc:
         raise CertificateError(f"--triaxial: {exc}") from None
+
+
+def section_differences(xml: bytes, result: TriaxialResult) -> list[str]:
+    """Where the DCC `xml`'s triaxial section differs from `result` as printed: every matrix
+    entry (magnitude, phase, their U), per axis the largest transverse sensitivity at the
+    reference frequency and the transverse ratios' lists ([] when all are equal)."""
+    import xml.etree.ElementTree as ET
+
+    from app.certificate.dcc import DCC_NS, SI_NS
+    from app.certificate.triaxial import printed_triaxial
+
+    ns = {"dcc": DCC_NS, "si": SI_NS}
+    root = ET.fromstring(xml)
+    section = printed_triaxial(result)
+    out: list[str] = []
+    for row in section.matrix:
+        for entry in row:
+            q = root.find(f".//dcc:quantity[@id='S-{entry.row}-{entry.column}']", ns)
+            if q is None:
+                out.append(f"S[{entry.row}, {entry.column}]: not in the DCC")
+                continue
+            got = (
+                q.findtext("si:real/si:value", namespaces=ns),
+                q.findtext(".//si:valueExpandedMU", namespaces=ns),
+            )
+            want = (entry.magnitude.value, entry.magnitude.expanded)
+            if entry.magnitude.stated and got != want:
+                out.append(f"S[{entry.row}, {entry.column}]: DCC {got}, runs {want}")
+    quantities = {
+        q.findtext("dcc:name/dcc:content", namespaces=ns) or "": q
+        for q in root.iterfind(".//dcc:quantity", ns)
+    }
+    for axis in section.axes:
+        name = f"Axis {axis.axis}: largest transverse sensitivity at the reference frequency"
+        q = quantities.get(name)
+        want_big = axis.largest_at_reference.value
+        if axis.largest_at_reference.stated and (
+            q is None or q.findtext("si:real/si:value", namespaces=ns) != want_big
+        ):
+            out.append(f"{name}: the runs give {want_big}")
+        for towards, cells in (
+            (axis.towards_k, [ln.ratio_k.value for ln in axis.lines if ln.ratio_k.stated]),
+            (axis.towards_l, [ln.ratio_l.value for ln in axis.lines if ln.ratio_l.stated]),
+        ):
+            name = f"Axis {axis.axis}: transverse sensitivity ratio towards {towards}"
+            q = quantities.get(name)
+            got_list = (
+                (q.findtext("si:realListXMLList/si:valueXMLList", namespaces=ns) or "").split()
+                if q is not None
+                else []
+            )
+            if got_list != cells:
+                out.append(f"{name}: the DCC's list differs from the runs'")
+    return out
+
+
+def dcc_of(path: Path) -> bytes:
+    """The DCC XML of a certificate: the file itself (.xml), else the PDF's embedded
+    certificate.xml (CertificateError when it has none)."""
+    if path.suffix.lower() == ".xml":
+        return path.read_bytes()
+    from pypdf import PdfReader
+
+    attachments = PdfReader(path).attachments
+    found = attachments.get("certificate.xml")
+    if not found:
+        raise CertificateError(f"{path}: no embedded DCC (certificate.xml)")
+    return bytes(found[0])

@@ -461,6 +461,13 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument("--trust", type=Path, help="the CA certificate (PEM or DER) to trust")
     v.add_argument("--validation-report", type=Path, help="the validation report PDF it names")
     v.add_argument(
+        "--triaxial",
+        nargs=3,
+        metavar="BATCH",
+        help="a triaxial certificate: its three orientation batches, the section recomputed "
+        "from their nine runs and compared with the DCC value by value",
+    )
+    v.add_argument(
         "--db",
         metavar="URL",
         help="records database whose register says whether it is in force (default "

@@ -117,6 +117,23 @@ def test_a_triaxial_dut_in_three_orientations_gives_one_certificate_within_u_of_
     assert pdf.exists() and xml_path.exists()
     assert main(["verify", str(pdf), "--run", str(run), "--trust", str(pki.ca)]) == 0
     assert "certificate verified" in capsys.readouterr().out
+    # the run check for three runs: the section recomputed from the nine runs, value by value
+    argv = ["verify", str(pdf), "--run", str(run), "--trust", str(pki.ca), "--triaxial", *names]
+    assert main(argv) == 0
+    assert "ok   triaxial section: equal to the nine runs" in capsys.readouterr().out
+    entry = printed_triaxial(result).matrix[0][1].magnitude
+    tampered = tmp_path / "tampered.xml"
+    text = xml_path.read_text(encoding="utf-8")
+    at = text.index('id="S-x-y"')
+    value_at = text.index(f"<si:value>{entry.value}</si:value>", at)
+    tampered.write_text(
+        text[:value_at]
+        + "<si:value>9.999</si:value>"
+        + text[value_at + len(f"<si:value>{entry.value}</si:value>") :],
+        encoding="utf-8",
+    )
+    assert main(["verify", str(tampered), "--triaxial", *names]) == 2
+    assert "FAIL triaxial section: S[x, y]" in capsys.readouterr().out
 
     # read back from the DCC: the values are the TriaxialResult's, as printed
     section = printed_triaxial(result)
