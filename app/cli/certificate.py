@@ -151,7 +151,7 @@ def certificate_of_triaxial(args: argparse.Namespace) -> int:
             raise UsageError(f"{flag}: --triaxial names its three batches only")
     runs = triaxial_runs([batch_folder(text, "--triaxial") for text in args.triaxial])
     result = triaxial_result_of(runs)
-    request = issue_request(args, runs.main_run, None)
+    request = issue_request(args, runs.main_run, specification_of(args))
     info = dataclasses.replace(
         request.info,
         triaxial=result,
@@ -164,6 +164,22 @@ def certificate_of_triaxial(args: argparse.Namespace) -> int:
     )
     _print_outcome(outcome)
     return EXIT_OK
+
+
+def specification_of(args: argparse.Namespace) -> Any:
+    """The specification the options name (--spec-kind, --spec-id, --spec-tolerances), or
+    None; CertificateError when one is given without the other."""
+    from app.certificate.info import CertificateError, Specification, SpecKind
+
+    if not (args.spec_kind or args.spec_id or args.spec_tolerances):
+        return None
+    if not (args.spec_kind and args.spec_id):
+        raise CertificateError(
+            "specification (--spec-kind, --spec-id): give its kind and its document"
+        )
+    return Specification(
+        SpecKind(args.spec_kind), " ".join(args.spec_id.split()), args.spec_tolerances or ""
+    )
 
 
 def issue_certificate_of(request: Any) -> Any:

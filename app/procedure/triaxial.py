@@ -8,7 +8,9 @@ reference as always), the other two are members whose signal is the transverse o
 from the dead-channel refusal, dsp.calibration.compute_results `transverse`). Each channel is
 a complete run folder and the orientation a batch folder (batch.json names the three), so the
 three orientations' batches make one certificate (app.certificate.triaxial_issue). The three
-channels share one budget: the position's terms, its crosstalk ratio the main axis's.
+channels share the position's terms (its crosstalk ratio the main axis's). The runs name no
+catalogue model (the simulated sensor is sim/triaxial.py's): the certificate takes
+--dut-model.
 """
 
 from __future__ import annotations
@@ -128,7 +130,6 @@ def execute_triaxial(
     own = spec.nominal_mv_per_ms2 or 1.0
     terms = position.budget(fixture.crosstalk_db, max(reference_mv, own) / own)  # one for all
     axes = [orientation, *(a for a in AXES if a != orientation)]  # the main axis first
-    sim = config.backend == Backend.SIM
     duts = {f"dut.{position.name}.{a}": f"{TRIAXIAL_SIM_MODEL}{orientation}" for a in axes}
     lead_request = dataclasses.replace(
         request,
@@ -142,13 +143,18 @@ def execute_triaxial(
         duts=duts,
         extra_budget=terms,
     )
+    stated = procedure.identity.dut
+    if stated is not None:  # not the catalogue model the stand's checks used: no such model
+        procedure.identity = dataclasses.replace(
+            procedure.identity, dut=dataclasses.replace(stated, catalogue=None)
+        )
     try:
         batch_id, folder = new_batch_folder(Path(request.out), 3)
         members = [
             Member(
                 position,
                 choice.serial,
-                request.dut if sim else None,
+                None,  # the simulated sensor is sim/triaxial.py's, not a catalogue model
                 spec,
                 RunFolder.create(request.out, f"{choice.serial}-{orientation}{a}"),
                 terms,

@@ -29,7 +29,10 @@ NS = {"dcc": dcc.DCC_NS, "si": dcc.SI_NS}
 ITEMS = ["--customer", "ACME Ltd",
          "--customer-address", "1 Test Street, 00-001 Testtown",
          "--authorised-by", "J. Smith", "--temperature", "23",
-         "--mounting", "cube fixture, stud"]  # fmt: skip
+         "--mounting", "cube fixture, stud",
+         "--dut-model", "simulated triaxial (sim/triaxial.py)",
+         "--spec-kind", "datasheet",
+         "--spec-id", "simulated triaxial data sheet, rev. 1"]  # fmt: skip
 
 
 def _wrap(deg: np.ndarray) -> np.ndarray:
