@@ -20,6 +20,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -49,6 +50,9 @@ from app.stand.simulated import catalogue_spec, reference_sensitivity_mv_per_ms2
 from dsp.calibration import AnalysisError, Results
 from dsp.spectral import Estimate
 from dsp.uncertainty import Budget
+
+if TYPE_CHECKING:
+    from app.stand.open import Stand
 
 log = logging.getLogger(__name__)
 
@@ -412,18 +416,40 @@ def refuse_mode(request: RunRequest) -> None:
         raise RequestError("--mode: several DUTs in one run take the multisine only")
 
 
-def execute_batch(
+@dataclass
+class OpenedBatch:
+    """A batch opened and not run yet (`open_batch`): the first DUT's procedure (to `run()`,
+    on any thread: a face's worker), the stand (to close after the run), and the rest of the
+    batch for `end`."""
+
+    procedure: Procedure
+    stand: Stand
+    run: BatchRun
+    choices: tuple[MemberChoice, ...]  # in the fixture's order: the first is the procedure's
+
+    def end(self, finished: Finished, listener: Listener | None = None) -> BatchFinished:
+        """The run has ended (`finished`, the stand closed): every other member estimated,
+        its folder finished and sealed, then the batch folder (BatchRun.finish)."""
+        others = self.run.finish(self.procedure, finished, listener)
+        return BatchFinished(
+            self.run.batch_id,
+            self.run.folder,
+            tuple(zip(self.choices, (finished, *others), strict=True)),
+        )
+
+
+def open_batch(
     request: RunRequest,
     choices: Sequence[MemberChoice],
     listener: Listener | None = None,
     *,
     config: StandConfig,
-) -> BatchFinished:
-    """Run the DUTs `choices` on the stand's fixture in one excitation (`request`: the run's
+) -> OpenedBatch:
+    """Open the DUTs `choices` on the stand's fixture for one excitation (`request`: the run's
     settings; its DUT the simulated default model): refused before anything moves
-    (RequestError, PreflightError naming the option or key) as a single run is, else every
-    member's run folder and the batch folder written, whatever the end."""
-    from app.procedure.run import _graceful_signals, prepare, request_plan, with_stand_plan
+    (RequestError, PreflightError naming the option or key) as a single run is, else the
+    stand open and every member's run folder and the batch folder made."""
+    from app.procedure.run import prepare, request_plan, with_stand_plan
 
     refuse_mode(request)
     fixture = check_members(config, choices)
@@ -482,13 +508,28 @@ def execute_batch(
         procedure.batch = run
         for text in first_warnings:
             procedure.ctx.warn(text)
-        with _graceful_signals(procedure):
-            finished = procedure.run()
-    finally:
+    except BaseException:
         stand.close()
-    others = run.finish(procedure, finished, listener)
-    return BatchFinished(
-        batch_id,
-        folder,
-        tuple(zip((c for c, _, _, _ in planned), (finished, *others), strict=True)),
-    )
+        raise
+    return OpenedBatch(procedure, stand, run, tuple(c for c, _, _, _ in planned))
+
+
+def execute_batch(
+    request: RunRequest,
+    choices: Sequence[MemberChoice],
+    listener: Listener | None = None,
+    *,
+    config: StandConfig,
+) -> BatchFinished:
+    """Run the DUTs `choices` on the stand's fixture in one excitation (`open_batch`, then the
+    run with the signals handled on the main thread, then `OpenedBatch.end`): every member's
+    run folder and the batch folder written, whatever the end."""
+    from app.procedure.run import _graceful_signals
+
+    opened = open_batch(request, choices, listener, config=config)
+    try:
+        with _graceful_signals(opened.procedure):
+            finished = opened.procedure.run()
+    finally:
+        opened.stand.close()
+    return opened.end(finished, listener)
