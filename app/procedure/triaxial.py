@@ -28,6 +28,7 @@ from app.procedure.batch import (
     BatchRun,
     Member,
     MemberChoice,
+    OpenedBatch,
     _member_spec,
     listener_for,
     new_batch_folder,
@@ -84,18 +85,20 @@ def next_message(position: str, orientation: str) -> str:
     return f"next: mount {position} with its {after} axis along the exciter (--orientation {after})"
 
 
-def execute_triaxial(
+def open_triaxial(
     request: RunRequest,
     choice: MemberChoice,
     orientation: str,
     listener: Listener | None = None,
     *,
     config: StandConfig,
-) -> BatchFinished:
-    """Run the triaxial DUT `choice` in `orientation` (x, y or z along the exciter): refused
-    before anything moves (RequestError, PreflightError naming the option or key), else its
-    three channels' run folders and the orientation's batch folder, whatever the end."""
-    from app.procedure.run import _graceful_signals, prepare, request_plan, with_stand_plan
+) -> OpenedBatch:
+    """Open the triaxial DUT `choice` in `orientation` (x, y or z along the exciter) as
+    app.procedure.batch.open_batch opens a batch (a face runs its procedure, closes the
+    stand, then `end`): refused before anything moves (RequestError, PreflightError naming
+    the option or key), else the stand open and its three channels' run folders and the
+    orientation's batch folder made."""
+    from app.procedure.run import prepare, request_plan, with_stand_plan
 
     if orientation not in AXES:
         raise RequestError(f"--orientation: must be x, y or z, got {orientation!r}")
@@ -174,18 +177,36 @@ def execute_triaxial(
         procedure.batch = run
         for text in warnings:
             procedure.ctx.warn(text)
-        with _graceful_signals(procedure):
-            finished = procedure.run()
-    finally:
+    except BaseException:
         stand.close()
-    others = run.finish(procedure, finished, listener)
-    member_choices = [
+        raise
+    member_choices = tuple(
         MemberChoice(f"{position.name}.{a}", choice.serial, choice.model) for a in axes
-    ]
-    log.info("triaxial %s orientation %s: batch %s", choice.serial, orientation, batch_id)
-    return BatchFinished(
-        batch_id, folder, tuple(zip(member_choices, (finished, *others), strict=True))
     )
+    log.info("triaxial %s orientation %s: batch %s", choice.serial, orientation, batch_id)
+    return OpenedBatch(procedure, stand, run, member_choices)
+
+
+def execute_triaxial(
+    request: RunRequest,
+    choice: MemberChoice,
+    orientation: str,
+    listener: Listener | None = None,
+    *,
+    config: StandConfig,
+) -> BatchFinished:
+    """Run the triaxial DUT `choice` in `orientation` (`open_triaxial`, the run with the
+    signals handled on the main thread, `OpenedBatch.end`): its three channels' run folders
+    and the orientation's batch folder written, whatever the end."""
+    from app.procedure.run import _graceful_signals
+
+    opened = open_triaxial(request, choice, orientation, listener, config=config)
+    try:
+        with _graceful_signals(opened.procedure):
+            finished = opened.procedure.run()
+    finally:
+        opened.stand.close()
+    return opened.end(finished, listener)
 
 
 def run_triaxial(
