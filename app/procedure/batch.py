@@ -85,9 +85,13 @@ class Member:
     warnings: tuple[str, ...] = ()
     writer: RecordingWriter | None = None
     skew_s: float | None = None  # its channel's sampling delay (s), once the DAQ is configured
+    axis: str | None = None  # a triaxial DUT's channel (x, y, z; app.procedure.triaxial)
+    transverse: bool = False  # that channel is not along the exciter: its signal is small
 
     @property
     def channel(self) -> str:
+        if self.axis is not None:
+            return f"dut.{self.position.name}.{self.axis}"
         return self.position.channel
 
 
@@ -125,7 +129,7 @@ def check_members(config: StandConfig, choices: Sequence[MemberChoice]) -> Fixtu
         if position.axes:
             raise RequestError(
                 f"--dut {choice.position}={choice.serial}: a triaxial position (three inputs); "
-                "its calibration is the triaxial procedure's"
+                "run it once per orientation with --orientation x|y|z"
             )
         if choice.position in positions:
             raise RequestError(f"--dut: position {choice.position!r} given twice")
@@ -398,6 +402,7 @@ class BatchRun:
             # and per-point conformity): the same setting for every DUT of the run
             tolerance_percent=settings.tolerance_percent,
             tolerances=member.spec.tolerances(procedure.plan.reference_frequency_hz),
+            transverse=member.transverse,
         )
         results = analysis.results
         if member.warnings:

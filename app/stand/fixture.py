@@ -81,6 +81,16 @@ class FixturePosition:
     relative_motion_phase_deg: MotionTable = MotionTable()
     # its input's stated sampling delay after the reference (s; None: [daq] skew_s holds)
     skew_s: float | None = None
+    # a triaxial position: the table's acceleration along a transverse axis of the sensor per
+    # axial acceleration (exciter's transverse motion, mounting alignment), standard
+    # uncertainty, percent, at frequencies (Hz); dsp.triaxial's `table_transverse`
+    transverse_motion: MotionTable = MotionTable()
+
+    def transverse_budget(self) -> Budget:
+        """The stated transverse motion as magnitude components (fractions)."""
+        return Budget(
+            tuple(_segments(f"table transverse motion {self.name}", self.transverse_motion, 0.01))
+        )
 
     @property
     def channels(self) -> tuple[str, ...]:
@@ -358,6 +368,11 @@ def _position(entry: Any, index: int) -> FixturePosition:
             else MotionTable()
         ),
         skew_s=_skew(entry.get("skew_s"), f"{where}.skew_s"),
+        transverse_motion=(
+            _table(entry["transverse_motion"], f"{where}.transverse_motion")
+            if "transverse_motion" in entry
+            else MotionTable()
+        ),
     )
 
 
