@@ -57,14 +57,13 @@ def member_skews(
     stated_s: float,
     tolerance_s: float,
 ) -> dict[str, ChannelSkew]:
-    """Each position's channel's delay (by channel name): the driver's `reported` delay (s,
-    `DaqStatus.skews_s`) when it gives that channel's, else the position's stated `skew_s`,
-    else `stated_s` ([daq] skew_s). PreflightError naming the position when its stated delay
-    and the reported one differ by more than `tolerance_s` (s)."""
+    """Each position's channels' delays (by channel name; a triaxial position has three): the
+    driver's `reported` delay (s, `DaqStatus.skews_s`) when it gives that channel's, else the
+    position's stated `skew_s`, else `stated_s` ([daq] skew_s). PreflightError naming the
+    position when its stated delay and the reported one differ by more than `tolerance_s` (s)."""
     out: dict[str, ChannelSkew] = {}
-    for position in positions:
-        channel = position.channel
-        stated = position.skew_s
+    for position, channel in ((p, c) for p in positions for c in p.channels):
+        stated = position.skew_s  # None for a triaxial position's three (app.stand.fixture)
         if channel in reported:
             skew = float(reported[channel])
             if stated is not None and not _agree(skew, stated, tolerance_s):

@@ -347,6 +347,11 @@ def _position(entry: Any, index: int) -> FixturePosition:
         ):
             raise FixtureError(f"{where}.axes: must be {{ x = ..., y = ..., z = ... }} DAQ inputs")
         axes = {axis: axes[axis] for axis in AXES}
+        if "skew_s" in entry:  # three inputs, three delays: the DAQ reports each channel's
+            raise FixtureError(
+                f"{where}.skew_s: a triaxial position (axes) has three inputs, so no one delay; "
+                "leave it out (each channel's delay is the DAQ driver's, else [daq] skew_s)"
+            )
     limit = entry.get("mass_limit_kg")
     return FixturePosition(
         name=name,

@@ -93,6 +93,12 @@ axes = { x = "sim/ai4", y = "sim/ai5", z = "sim/ai6" }
         (POSITION_A.replace("mass_limit_kg = 0.05", "mass_limit_kg = -1"), "mass_limit_kg"),
         (POSITION_A.replace("distance_mm = 10.0", 'distance_mm = "far"'), "distance_mm"),
         (POSITION_A.replace("[10.0, 0.01],", "[10.0],"), "relative_motion[0]"),
+        (
+            POSITION_A
+            + '[[fixture.position]]\nname = "T"\nskew_s = 8e-6\n'
+            + 'axes = { x = "sim/ai4", y = "sim/ai5", z = "sim/ai6" }\n',
+            "fixture.position 'T'.skew_s: a triaxial position",
+        ),
     ],
 )
 def test_a_fixture_that_cannot_be_used_is_refused_naming_the_key(extra: str, named: str) -> None:
