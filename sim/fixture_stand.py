@@ -45,6 +45,10 @@ class FixtureStand(SimulatedStand):
         super().__init__(next(iter(self.duts.values())), **kwargs)  # type: ignore[arg-type]
         self.fixture: FixtureMotion = fixture or RigidFixture()
         self.fixture_mass_g = float(fixture_mass_g)
+        mounted = getattr(self.fixture, "mounted", None)
+        if mounted is not None:  # this run's mounting of the block (sim.fixture: per seed)
+            masses = {name.split(".")[1]: s.mass_g for name, s in self.duts.items()}
+            self.fixture = mounted(self.seed, masses, self.fixture_mass_g)
         # each DUT's own noise streams (sensor, converter), apart from the single-DUT ones
         streams = np.random.SeedSequence([self.seed, 36]).spawn(2 * len(self.duts))
         self._dut_noise = {
