@@ -26,6 +26,7 @@ import logging
 import math
 import os
 import shutil
+import signal
 import sys
 import tempfile
 import time
@@ -94,69 +95,93 @@ def run_block(
 ) -> tuple[dict[str, Tally], list[float]]:
     """The runs of one block of seeds: per position its tally; the wall time per run (s)."""
     config = stand_config.load(stand)
-    fixture = FixtureModel.from_stand(config.raw)
-    block_g = 1000.0 * config.fixture.mass_kg if config.fixture is not None else 0.0
     positions = [p.name for p in config.fixture.positions] if config.fixture else []
     tallies = {p: Tally() for p in positions}
     walls = []
-    for seed in range(block * BLOCK + 1, block * BLOCK + runs + 1):
-        folder = out / str(seed)
-        extra: dict[str, object] = plan(max_hz)
-        if periods is not None:
-            extra["periods"] = periods
-        request = RunRequest(
-            stand_file=stand,
-            out=folder,
-            seed=seed,
-            stored_response=False,
-            **extra,  # type: ignore[arg-type]
-        )
-        choices = [MemberChoice(p, f"S{seed}-{p}") for p in positions]
-        start = time.perf_counter()
-        batch = execute_batch(request, choices, config=config)
-        walls.append(time.perf_counter() - start)
-        for choice, finished in batch.members:
-            if finished.results is None:
-                log.warning(
-                    "seed %d %s: %s %s",
-                    seed,
-                    choice.position,
-                    finished.status,
-                    finished.abort_reason,
-                )
-                continue
-            recording = read_recording(folder / str(finished.record.run_id) / "recording.h5")
-            truth = recording.truth
-            assert truth is not None
-            tally = tallies[choice.position]
-            motion = None
-            if fixture is not None:
-                masses = {p: DUT_MASS_G for p in positions}
-                mount = fixture.mounted(seed, masses, block_g)
-                f = np.array([ln.frequency_hz for ln in finished.results.lines])
-                ratio = mount.motion_ratio(choice.position, f)
-                motion = 100.0 * (np.abs(ratio) - 1.0)
-            for i, (line, value, phase) in enumerate(
-                zip(
-                    finished.results.lines,
-                    truth.sensitivity_mv_per_ms2,
-                    truth.phase_deg,
-                    strict=True,
-                )
-            ):
-                if line.sensitivity_mv_per_ms2 is None:
-                    continue
-                key = line.nominal_frequency_hz
-                error = abs(line.sensitivity_mv_per_ms2 - value)
-                tally.stated[key] += 1
-                tally.within[key] += error <= line.expanded_uncertainty_mv_per_ms2
-                phase_error = abs((line.phase_deg - phase + 180.0) % 360.0 - 180.0)
-                tally.phase_within[key] += phase_error <= line.phase_expanded_uncertainty_deg
-                if motion is not None:
-                    tally.motion_sq[key] += float(motion[i]) ** 2
-                    tally.mountings[key] += 1
-        shutil.rmtree(folder, ignore_errors=True)
+    try:
+        for seed in range(block * BLOCK + 1, block * BLOCK + runs + 1):
+            one_run(seed, stand, out / str(seed), extra_of(periods, max_hz), config, tallies, walls)
+    except KeyboardInterrupt:  # SIGINT or SIGTERM: report the runs done
+        log.warning("block %d: stopped after %d run(s)", block, len(walls))
     return tallies, walls
+
+
+def extra_of(periods: int | None, max_hz: float) -> dict[str, object]:
+    """The request's plan and periods (None: the request's default)."""
+    extra: dict[str, object] = plan(max_hz)
+    if periods is not None:
+        extra["periods"] = periods
+    return extra
+
+
+def one_run(
+    seed: int,
+    stand: Path,
+    folder: Path,
+    extra: dict[str, object],
+    config: stand_config.StandConfig,
+    tallies: dict[str, Tally],
+    walls: list[float],
+) -> None:
+    """One batch run of `seed` into `folder`, counted into `tallies` (then removed)."""
+    fixture = FixtureModel.from_stand(config.raw)
+    block_g = 1000.0 * config.fixture.mass_kg if config.fixture is not None else 0.0
+    positions = list(tallies)
+    counted = {p: Tally() for p in positions}  # this run's counts, added when it is whole
+    request = RunRequest(
+        stand_file=stand,
+        out=folder,
+        seed=seed,
+        stored_response=False,
+        **extra,  # type: ignore[arg-type]
+    )
+    choices = [MemberChoice(p, f"S{seed}-{p}") for p in positions]
+    start = time.perf_counter()
+    batch = execute_batch(request, choices, config=config)
+    walls.append(time.perf_counter() - start)
+    for choice, finished in batch.members:
+        if finished.results is None:
+            log.warning(
+                "seed %d %s: %s %s",
+                seed,
+                choice.position,
+                finished.status,
+                finished.abort_reason,
+            )
+            continue
+        recording = read_recording(folder / str(finished.record.run_id) / "recording.h5")
+        truth = recording.truth
+        assert truth is not None
+        tally = counted[choice.position]
+        motion = None
+        if fixture is not None:
+            masses = {p: DUT_MASS_G for p in positions}
+            mount = fixture.mounted(seed, masses, block_g)
+            f = np.array([ln.frequency_hz for ln in finished.results.lines])
+            ratio = mount.motion_ratio(choice.position, f)
+            motion = 100.0 * (np.abs(ratio) - 1.0)
+        for i, (line, value, phase) in enumerate(
+            zip(
+                finished.results.lines,
+                truth.sensitivity_mv_per_ms2,
+                truth.phase_deg,
+                strict=True,
+            )
+        ):
+            if line.sensitivity_mv_per_ms2 is None:
+                continue
+            key = line.nominal_frequency_hz
+            error = abs(line.sensitivity_mv_per_ms2 - value)
+            tally.stated[key] += 1
+            tally.within[key] += error <= line.expanded_uncertainty_mv_per_ms2
+            phase_error = abs((line.phase_deg - phase + 180.0) % 360.0 - 180.0)
+            tally.phase_within[key] += phase_error <= line.phase_expanded_uncertainty_deg
+            if motion is not None:
+                tally.motion_sq[key] += float(motion[i]) ** 2
+                tally.mountings[key] += 1
+    shutil.rmtree(folder, ignore_errors=True)
+    for name, tally in counted.items():
+        tallies[name].add(tally)
 
 
 def stated_motion(stand: Path) -> dict[str, list[list[float]]]:
@@ -220,6 +245,10 @@ def _at(rows: list[list[float]], frequency_hz: float) -> float:
     return float(np.exp(np.interp(x, np.log(f[:, 0]), np.log(f[:, 1]))))
 
 
+def _interrupt(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt
+
+
 def main() -> int:
     logging.basicConfig(level=logging.WARNING, format="%(message)s")
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -243,15 +272,19 @@ def main() -> int:
     out = Path(tempfile.mkdtemp(prefix="coverage-fixture-"))
     results = []
     walls: list[float] = []
+    signal.signal(signal.SIGTERM, _interrupt)
     try:
         for block in range(args.first_block, args.first_block + blocks):
             tallies, block_walls = run_block(block, runs, periods, args.stand, out, args.max_hz)
             results.append(tallies)
             walls += block_walls
+            if len(block_walls) < runs:
+                break  # stopped: no further block
     finally:
         shutil.rmtree(out, ignore_errors=True)
     print(
-        f"{args.stand.name}: {blocks} block(s) x {runs} batch run(s), periods "
+        f"{args.stand.name}: {len(results)} block(s) from {args.first_block}, "
+        f"{len(walls)} of {blocks * runs} batch run(s) done, periods "
         f"{periods if periods is not None else 'default'}, unpaced"
     )
     outside = report(results, args.stand)
