@@ -258,3 +258,18 @@ def condition_value(value: float | None, unit: str, source: str, digits: int = 1
     if value is None:
         return "not stated"
     return f"{float(value):.{digits}f} {unit}" + (f" ({source})" if source else "")
+
+
+def fixture_position_text(start: RunStart) -> str | None:
+    """Where on the fixture a DUT of a several-DUT run was mounted and with how many others
+    (issue 36): the certificate's Conditions row and the DCC's statement say the same; None for
+    a single-DUT run."""
+    batch = start.batch
+    if batch is None:
+        return None
+    others = len(batch.members) - 1
+    return (
+        f"position {batch.position} of the fixture, {batch.distance_mm:g} mm from the reference "
+        f"axis; calibrated in one excitation with {others} other DUT{'s' if others != 1 else ''} "
+        f"(batch {batch.batch_id})"
+    )

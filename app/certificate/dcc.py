@@ -457,6 +457,15 @@ def duty_statements(admin: ET.Element, run: StoredRun, info: CertificateInfo) ->
         statement = _d(statements, "statement", refType=REF_VALIDATION)
         _text(statement, "name", STATEMENT_NAME)
         _text(statement, "declaration", claim.line())
+    from app.certificate.complete import fixture_position_text
+
+    fixture = fixture_position_text(run.start)  # issue 36: a DUT of a several-DUT run
+    if fixture is not None:
+        statement = _d(statements, "statement", refType=REF_FIXTURE)
+        _text(statement, "name", FIXTURE_NAME)
+        _text(statement, "declaration", fixture)
 
 
 VERIFY_NAME = "Verification address"
+FIXTURE_NAME = "Mounting position on the fixture"
+REF_FIXTURE = "vib_fixturePosition"

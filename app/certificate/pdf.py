@@ -198,6 +198,7 @@ def write_pdf(
             [
                 *complete.condition_rows(info),
                 ("Mounting", _esc(info.mounting)),
+                *[("Fixture", _esc(f)) for f in [complete.fixture_position_text(run.start)] if f],
                 ("Excitation level", f"{record.level_ms2 or 0:g} m/s² peak per frequency"),
             ]
         ),

@@ -11,6 +11,7 @@ from reportlab.platypus import Paragraph, Table, TableStyle
 
 from app.certificate.complete import condition_value
 from app.certificate.complete import customer_address_text as customer_address_text
+from app.certificate.complete import fixture_position_text as fixture_position_text
 from app.certificate.info import CertificateInfo
 from app.certificate.pdf_charts import FONT, FONT_BOLD, GRID
 

@@ -347,6 +347,9 @@ class BatchRun:
             estimator=str(settings.estimator),
             probability=settings.probability,
             rule=str(settings.rule),
+            # the characteristic's tolerance as the lead's results have it (the DCC's limits
+            # and per-point conformity): the same setting for every DUT of the run
+            tolerance_percent=settings.tolerance_percent,
             tolerances=member.spec.tolerances(procedure.plan.reference_frequency_hz),
         )
         results = analysis.results

@@ -6,9 +6,11 @@ DUT's stated lines within U of its sensor model's truth (the rigid fixture)."""
 from __future__ import annotations
 
 import json
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import pytest
+from pypdf import PdfReader
 
 from app.cli import main
 from app.io.hdf5 import read_recording
@@ -16,6 +18,7 @@ from app.records.batch import read_batch
 
 pytestmark = pytest.mark.integration
 
+NS = {"dcc": "https://ptb.de/dcc"}
 STAND = Path(__file__).parents[3] / "sim" / "stand-fixture4.toml"
 ITEMS = ["--customer", "ACME Ltd",
          "--customer-address", "1 Test Street, 00-001 Testtown",
@@ -57,9 +60,18 @@ def test_four_duts_give_four_verdicts_and_four_certificates_each_verifying(
         if line.startswith("certificate ")
     }
     assert len(numbers) == 4  # each its own number
-    for run in runs:
+    for member, run in zip(batch.members, runs, strict=True):
         pdf = run / "certificate.pdf"
         assert pdf.exists() and (run / "certificate.xml").exists()
+        # the customer reads where on the fixture the DUT was and that the run was shared
+        said = f"position {member.position} of the fixture"
+        text = " ".join(page.extract_text() for page in PdfReader(pdf).pages)
+        assert said in " ".join(text.split()) and batch.batch_id in text.replace("\n", "")
+        dcc = ET.parse(run / "certificate.xml").getroot()
+        (statement,) = dcc.iterfind(".//dcc:statement[@refType='vib_fixturePosition']", NS)
+        declared = statement.find("dcc:declaration/dcc:content", NS)
+        assert declared is not None and said in str(declared.text)
+        assert "with 3 other DUTs" in str(declared.text)
         assert main(["verify", str(pdf), "--run", str(run), "--trust", str(pki.ca)]) == 0
         verified = capsys.readouterr().out
         assert "certificate verified" in verified

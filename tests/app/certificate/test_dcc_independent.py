@@ -154,3 +154,23 @@ def test_the_demo(
         assert main(argv) == 0, argv
     (pdf,) = (demo / "runs").glob("*/certificate.pdf")
     check(independent, pdf, pdf.parent)
+
+
+def test_the_certificates_of_a_several_dut_run(
+    independent: Independent, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Issue 36: each member's certificate of a run of several DUTs (`certificate --batch`),
+    with its statement of the fixture position, passes the independent validator and reads
+    back as its own run."""
+    monkeypatch.chdir(tmp_path)
+    stand = ROOT / "sim" / "stand-fixture4.toml"
+    duts = ["--dut", "A=SN-1", "--dut", "B=SN-2"]
+    argv = ["run", "--stand", str(stand), *duts, "--technician", "A. Tech", "--tolerance", "5"]
+    assert main(argv) == 0
+    (batch,) = [p for p in (tmp_path / "runs").iterdir() if (p / "batch.json").exists()]
+    assert main(["certificate", "--batch", batch.name, "--customer", "ACME Ltd", *ITEMS]) == 0
+    members = [p for p in (tmp_path / "runs").iterdir() if (p / "certificate.pdf").exists()]
+    assert len(members) == 2
+    for run in members:
+        check(independent, run / "certificate.pdf", run)
+        assert b'refType="vib_fixturePosition"' in (run / "certificate.xml").read_bytes()
