@@ -295,6 +295,7 @@ def compute_results(
     extra_warnings: Sequence[str] = (),
     cmc: Cmc | None = None,
     resonance: bool = False,
+    transverse: bool = False,
 ) -> Results:
     """Sensitivity, characteristic, phase and uncertainty per line from an estimate.
 
@@ -305,13 +306,17 @@ def compute_results(
     A line outside the reference's calibrated range without an extrapolation term is not
     stated (`not_stated_line`). `resonance`: search the mounted resonance in the response
     (`resonance_search`). Raises AnalysisError for a dead channel, or for a reference
-    frequency outside the reference's calibrated range.
+    frequency outside the reference's calibrated range. `transverse`: the DUT channel is a
+    triaxial sensor's cross axis (its signal the transverse one, small by design): exempt
+    from the dead-channel refusal (the reference's still applies).
     """
     warnings = list(extra_warnings)
     labels = [f"{f:g} Hz" for f in plan.nominal_frequencies_hz]
     if estimate.nonlinear is not None:  # issue 32 point 4
         warnings.extend(nonlinear.warnings(estimate.nonlinear, labels, estimate.relative_type_a))
     for channel, snr in (("reference", estimate.reference_snr_db), ("DUT", estimate.dut_snr_db)):
+        if transverse and channel == "DUT":
+            continue
         alive = snr > DEAD_SNR_DB
         if not median(snr) > DEAD_SNR_DB:  # hum alone can light up a few lines
             raise AnalysisError(

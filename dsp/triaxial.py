@@ -210,15 +210,46 @@ def triaxial_result(
     runs: Mapping[str, Mapping[str, Results]],
     budget: Budget,
     table_transverse: Budget,
+    budgets: Mapping[tuple[str, str], Budget] | None = None,
 ) -> TriaxialResult:
     """The triaxial result of three orientations' runs: `runs[orientation][channel]` is the
     dsp.calibration.Results of channel (x, y, z) against the reference with the exciter along
-    `orientation`; `budget` the runs' type B budget; `table_transverse` the stated transverse
-    motion of the table (magnitude components, fraction of the axial acceleration).
+    `orientation`; `budget` the runs' type B budget, or each run's own in `budgets[(o, j)]`
+    (its measured per-channel terms; the shared kinds, which cancel in a ratio, must then be
+    the same in all: InputRefused naming the run otherwise); `table_transverse` the stated
+    transverse motion of the table (magnitude components, fraction of the axial acceleration).
     InputRefused names the orientation and channel of an inconsistent input."""
     check_keys(runs)
-    lines = {(o, j): ChannelLines.from_results(runs[o][j], budget) for o in AXES for j in AXES}
+    own = {(Axis(o), Axis(j)): b for (o, j), b in (budgets or {}).items()}
+    if own:
+        _check_shared(own)
+    lines = {
+        (o, j): ChannelLines.from_results(runs[o][j], own.get((o, j), budget))
+        for o in AXES
+        for j in AXES
+    }
     return triaxial_from_lines(lines, budget, table_transverse)
+
+
+def _shared_part(budget: Budget) -> list[Component]:
+    return [c for c in budget.components if _shared(c, c.quantity)]
+
+
+def _check_shared(budgets: Mapping[tuple[Axis, Axis], Budget]) -> None:
+    """InputRefused when two runs' budgets differ in a shared kind (SHARED_KINDS: those
+    cancel in T[j, k] only when they are the same stand's)."""
+    first = budgets.get((Axis.X, Axis.X))
+    if first is None:
+        return
+    base = _shared_part(first)
+    for (o, j), budget in budgets.items():
+        if _shared_part(budget) != base:
+            raise InputRefused(
+                f"triaxial: orientation {o.value!r}, channel {j.value!r}: its budget's shared "
+                "terms (reference, amplifier, DAQ gain, temperature; phase: reference, "
+                "amplifier, channel match, skew) differ from orientation 'x', channel 'x' "
+                "(one stand for the three orientations)"
+            )
 
 
 # ---- the propagation ---------------------------------------------------------------------
@@ -266,6 +297,11 @@ def _relative_terms(ch: ChannelLines, i: int, budget: Budget) -> list[tuple[floa
     return out
 
 
+def _own(ch: ChannelLines, budget: Budget) -> Budget:
+    """The channel's own run budget, else the one the combination is given."""
+    return ch.budget if ch.budget is not None else budget
+
+
 def _table_terms(table: Budget, f: float) -> list[tuple[float, float]]:
     return [(c.standard_uncertainty_at(f), c.dof) for c in table.at(f, Quantity.MAGNITUDE)]
 
@@ -290,11 +326,11 @@ def _axis_inputs(
     """The inputs of (Re T_k, Im T_k, Re T_l, Im T_l) of one axis at line i."""
     inputs = _Inputs()
     zero = np.zeros(2)
-    for u, dof, quad in _relative_terms(m_k, i, budget):
+    for u, dof, quad in _relative_terms(m_k, i, _own(m_k, budget)):
         inputs.add(np.concatenate([u * _unit(t_k, quad), zero]), dof)
-    for u, dof, quad in _relative_terms(m_l, i, budget):
+    for u, dof, quad in _relative_terms(m_l, i, _own(m_l, budget)):
         inputs.add(np.concatenate([zero, u * _unit(t_l, quad)]), dof)
-    for u, dof, quad in _relative_terms(m_j, i, budget):  # S[j, j] divides both ratios
+    for u, dof, quad in _relative_terms(m_j, i, _own(m_j, budget)):  # S[j, j] divides both
         inputs.add(-u * np.concatenate([_unit(t_k, quad), _unit(t_l, quad)]), dof)
     f = float(m_j.frequency_hz[i])
     for u, dof in _table_terms(table, f):  # each orientation's own transverse table motion

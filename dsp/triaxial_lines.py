@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from enum import StrEnum
 
 import numpy as np
@@ -56,6 +56,9 @@ class ChannelLines:
     reference_index: int
     coverage_probability: float = 0.9545
     phase_stated: bool = True
+    # the run's own type B budget (its measured per-channel terms included: the ADC's
+    # resolution, hum); None: the budget the combination is given
+    budget: Budget | None = field(default=None, compare=False, repr=False)
 
     @classmethod
     def from_results(cls, results: Results, budget: Budget) -> ChannelLines:
@@ -102,6 +105,7 @@ class ChannelLines:
             reference_index=index[0],
             coverage_probability=results.coverage_probability,
             phase_stated=results.phase_corrected_for_skew,
+            budget=budget,
         )
 
 

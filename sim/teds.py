@@ -1,9 +1,12 @@
 """The TEDS memory of the simulated stand's DUT (IEEE 1451.4, Template 25), so reading a
 sensor's identity and nominal sensitivity, and writing a new calibration, are tested without
-hardware. The memory holds bits, exactly as a sensor's EEPROM; writes are counted."""
+hardware. The memory holds bits, exactly as a sensor's EEPROM; writes are counted. On a
+fixture of several DUTs (issue 36) every position's sensor has its own memory
+(`position_teds`), each with its own serial number."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from datetime import date
 
 from hardware.teds import (
@@ -61,3 +64,18 @@ class TedsMemory:
             raise TedsError(f"TEDS write refused: {exc}") from None
         self._bits = tuple(bits)
         self.writes += 1
+
+
+def position_serial(seed: int, index: int) -> int:
+    """The TEDS serial number of the simulated sensor at the fixture's `index`-th DUT channel
+    (0: the first, the same number a single-DUT stand's sensor has for `seed`)."""
+    return 10_000 + seed % 10_000 + 100_000 * index
+
+
+def position_teds(sensors: Mapping[str, SensorModel], seed: int) -> dict[str, TedsMemory]:
+    """Every DUT channel's TEDS memory ("dut.<position>" -> its sensor's catalogue TEDS, a
+    serial number of its own: `position_serial`), in the channels' order."""
+    return {
+        channel: TedsMemory(catalogue_teds(sensor, position_serial(seed, index)))
+        for index, (channel, sensor) in enumerate(sensors.items())
+    }

@@ -9,15 +9,18 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, field, fields
 from datetime import date
 from enum import StrEnum
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from app.certificate.validated import ValidationClaim
 from app.errors import Refusal
 from app.records.run_record import DutIdentity, RunRecord
 from app.records.run_start import RunStart
+
+if TYPE_CHECKING:
+    from dsp.triaxial import TriaxialResult
 
 MANDATORY = (
     ("customer", "--customer"),
@@ -131,6 +134,9 @@ class CertificateInfo:
     instruments: tuple[UsedInstrument, ...] = ()
     conditions_from: str = ""  # where the mounting was offered from ("model X")
     template: str = ""  # the run template chosen (its remembered mounting is offered first)
+    # issue 36 point 3: a triaxial sensor's certificate (its section in the PDF and the DCC;
+    # app.certificate.triaxial_issue), issued on its x orientation's x channel run
+    triaxial: TriaxialResult | None = field(default=None, compare=False, repr=False)
 
     def merged(self, defaults: dict[str, Any]) -> CertificateInfo:
         """Options win; empty ones take the default."""

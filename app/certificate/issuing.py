@@ -38,6 +38,7 @@ from app.certificate.leftovers import (
 )
 from app.certificate.load import StoredRun, load_stored_run, load_sweep
 from app.certificate.pdf import write_pdf
+from app.certificate.triaxial_dcc import with_triaxial
 from app.files import FileExistsRefusal, _fsync_dir, write_with
 from app.records.register import Issued, Register, RegisterError, locked_register
 from app.records.run_folder import (
@@ -343,7 +344,7 @@ def _dcc_of(run: StoredRun, info: CertificateInfo) -> bytes | None:
     """The run's DCC XML (validated), or None when the stand file names no laboratory country
     (the PDF is still issued; the CLI says why there is no DCC). CertificateError otherwise."""
     try:
-        return build_dcc(run, info, complete_dcc)  # with issue 35's items
+        return build_dcc(run, info, with_triaxial(complete_dcc, info))  # issue 35's items
     except DccNotApplicable:
         return None
     except DccError as exc:

@@ -38,8 +38,9 @@ class StoredRun:
     budget: Budget = field(default_factory=Budget)
 
 
-def load_stored_run(path: str | Path) -> StoredRun:
-    """A complete run, or CertificateError saying why not."""
+def load_stored_run(path: str | Path, *, certifiable: bool = True) -> StoredRun:
+    """A complete run, or CertificateError saying why not; `certifiable=False` skips
+    `check_certifiable` (a triaxial sensor's cross channel: app.certificate.triaxial)."""
     path = Path(path)
     try:
         record = load_run(path)
@@ -62,7 +63,8 @@ def load_stored_run(path: str | Path) -> StoredRun:
     except ValueError as exc:
         raise CertificateError(f"{path}: {exc}") from None
     run = StoredRun(path, record, start, results, budget)
-    check_certifiable(run)
+    if certifiable:
+        check_certifiable(run)
     return run
 
 

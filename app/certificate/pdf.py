@@ -45,6 +45,7 @@ from app.certificate.pdf_marks import MarkedParagraph, MarkedTable, MarkedText
 from app.certificate.pdf_page import numbered_canvas
 from app.certificate.printed import Item, printed_lines, table_cells
 from app.certificate.statements import warnings_section
+from app.certificate.triaxial_pdf import triaxial_section
 from app.records.db.units import STANDARD_GRAVITY_MS2
 from app.records.run_record import RunRecord
 from app.records.seal import named_chain_head, named_seal
@@ -244,6 +245,7 @@ def write_pdf(
         story += _sweep_section(sweep)
     story += _budget_section(run, results)
     story += warnings_section(results, HEAD, SMALL)
+    story += triaxial_section(info.triaxial) if info.triaxial is not None else []
     statements = _statements(results, info, p_percent) + _overrides_section(record)
     story += _sign_off(info, record, statements + validation_statement(info))
     document = SimpleDocTemplate(

@@ -227,3 +227,17 @@ def extension(result: TriaxialResult) -> Extension:
         add_triaxial(results, result)
 
     return extend
+
+
+def with_triaxial(base: Extension, info: CertificateInfo) -> Extension:
+    """`base`, followed by the triaxial section when `info` carries a TriaxialResult."""
+    result = info.triaxial
+    if result is None:
+        return base
+    section = extension(result)
+
+    def extend(admin: ET.Element, measurement: ET.Element, given: CertificateInfo) -> None:
+        base(admin, measurement, given)
+        section(admin, measurement, given)
+
+    return extend

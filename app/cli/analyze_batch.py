@@ -31,7 +31,7 @@ def cmd_analyze_batch(args: argparse.Namespace, recording_path: Path) -> int:
     """Analyse every DUT channel of the batch recording at `recording_path`."""
     from app.io.hdf5 import RecordingError, read_recording
     from app.procedure.analysis import analyze
-    from app.procedure.batch_files import batch_channels
+    from app.procedure.batch_files import batch_channels, channel_skew_s
     from app.records.batch import BatchError, read_batch
 
     for flag, given in (
@@ -57,9 +57,15 @@ def cmd_analyze_batch(args: argparse.Namespace, recording_path: Path) -> int:
         note = "its member run's budget"
         if own is not None and own.exists():
             stored = read_recording(own, stored=True)  # its budget, and the truth it names
-            recording = dataclasses.replace(recording, budget=stored.budget, truth=stored.truth)
+            recording = dataclasses.replace(
+                recording, budget=stored.budget, truth=stored.truth, chain=stored.chain
+            )  # its chain: its own channel's skew
         else:
             note = "the batch recording's budget (the member's run folder is not beside it)"
+            skew = channel_skew_s(recording_path, channel)
+            if skew is not None:  # the channel's own delay, as its member run used it
+                chain = dataclasses.replace(recording.chain, skew_s=skew)
+                recording = dataclasses.replace(recording, chain=chain)
         analysis = analyze(
             recording,
             estimator=_estimator(args, folder.parent / member.run_id if member else None),

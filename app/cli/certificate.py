@@ -22,6 +22,8 @@ def cmd_certificate(args: argparse.Namespace) -> int:
 
     if args.batch is not None:
         return certificates_of_batch(args)
+    if args.triaxial is not None:
+        return certificate_of_triaxial(args)
     if args.run is None:
         raise UsageError("certificate: give a run folder, or --batch BATCH")
     if args.out is not None and not is_run_folder(args.out.parent):  # a run's own: see issue()
@@ -136,11 +138,62 @@ def certificates_of_batch(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def batch_folder(text: str) -> Path:
-    """A batch by folder, or by id under ./runs (UsageError naming --batch)."""
+def certificate_of_triaxial(args: argparse.Namespace) -> int:
+    """`certificate --triaxial BX BY BZ`: one certificate of a triaxial sensor from its three
+    orientation batches (app.certificate.triaxial_issue), issued by the certificate service on
+    the x orientation's x channel run with the triaxial section in the PDF and the DCC."""
+    import dataclasses
+
+    from app.certificate.triaxial_issue import triaxial_result_of, triaxial_runs
+
+    for flag, given in (("run", args.run), ("--batch", args.batch), ("--sweep", args.sweep)):
+        if given:
+            raise UsageError(f"{flag}: --triaxial names its three batches only")
+    runs = triaxial_runs([batch_folder(text, "--triaxial") for text in args.triaxial])
+    result = triaxial_result_of(runs)
+    request = issue_request(args, runs.main_run, specification_of(args))
+    info = dataclasses.replace(
+        request.info,
+        triaxial=result,
+        dut_type=request.info.dut_type or "triaxial accelerometer",
+    )
+    outcome = issue_certificate_of(dataclasses.replace(request, info=info))
+    print(
+        f"triaxial {runs.position}={runs.serial}: orientations "
+        + ", ".join(f"{o} {b}" for o, b in sorted(runs.batches.items()))
+    )
+    _print_outcome(outcome)
+    return EXIT_OK
+
+
+def specification_of(args: argparse.Namespace) -> Any:
+    """The specification the options name (--spec-kind, --spec-id, --spec-tolerances), or
+    None; CertificateError when one is given without the other."""
+    from app.certificate.info import CertificateError, Specification, SpecKind
+
+    if not (args.spec_kind or args.spec_id or args.spec_tolerances):
+        return None
+    if not (args.spec_kind and args.spec_id):
+        raise CertificateError(
+            "specification (--spec-kind, --spec-id): give its kind and its document"
+        )
+    return Specification(
+        SpecKind(args.spec_kind), " ".join(args.spec_id.split()), args.spec_tolerances or ""
+    )
+
+
+def issue_certificate_of(request: Any) -> Any:
+    """The certificate service's issue of `request` (app.certificate.service)."""
+    from app.certificate.service import issue_certificate
+
+    return issue_certificate(request)
+
+
+def batch_folder(text: str, flag: str = "--batch") -> Path:
+    """A batch by folder, or by id under ./runs (UsageError naming `flag`)."""
     from app.records.batch import is_batch_folder
 
     for candidate in (Path(text), Path("runs") / text):
         if is_batch_folder(candidate):
             return candidate
-    raise UsageError(f"--batch: {text!r} is not a batch folder (nor ./runs/{text})")
+    raise UsageError(f"{flag}: {text!r} is not a batch folder (nor ./runs/{text})")

@@ -137,6 +137,12 @@ def _add_run_options(r: argparse.ArgumentParser) -> None:
         "the stand file's [[fixture.position]] and the DUT's serial; on the simulated stand "
         "the catalogue model at a position (default: the bare --dut MODEL, else piezo)",
     )
+    r.add_argument(
+        "--orientation",
+        choices=("x", "y", "z"),
+        help="a triaxial DUT (issue 36): --dut POSITION=SERIAL names a position with axes; "
+        "this run has the sensor's axis x, y or z along the exciter (one run per orientation)",
+    )
     _run_option(r, "dut_id", default=None)
     _run_option(r, "technician")
     _run_option(r, "nominal_mv_per_ms2")
@@ -330,6 +336,14 @@ def build_parser() -> argparse.ArgumentParser:
         "its id under the runs folder ./runs), each its own number",
     )
     c.add_argument(
+        "--triaxial",
+        nargs=3,
+        metavar="BATCH",
+        help="a triaxial sensor (issue 36): its three orientation runs' batches (folders, or "
+        "ids under ./runs; x, y, z in any order) make one certificate with the three axes, "
+        "the sensitivity matrix and the transverse sensitivities",
+    )
+    c.add_argument(
         "--out",
         type=Path,
         help="PDF to write (default: <run>/certificate.pdf; an amendment: the next free "
@@ -440,12 +454,24 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--stand", type=Path, help="stand configuration (default: simulated)")
         p.add_argument("--dut", type=dut_name, default="piezo", help="simulated DUT")
         numeric_option(p, "--seed", SEED, "simulated stand: random seed", default=0)
+        p.add_argument(
+            "--channel",
+            metavar="CHANNEL",
+            help="one DUT input of the stand file's fixture, e.g. dut.B (default: the DUT channel)",
+        )
 
     v = sub.add_parser("verify", help="check a certificate PDF (or its DCC): signatures, DCC, run")
     v.add_argument("pdf", type=Path, help="certificate PDF, or its DCC (.xml) alone")
     v.add_argument("--run", type=Path, help="the run folder it certifies (manifest and numbers)")
     v.add_argument("--trust", type=Path, help="the CA certificate (PEM or DER) to trust")
     v.add_argument("--validation-report", type=Path, help="the validation report PDF it names")
+    v.add_argument(
+        "--triaxial",
+        nargs=3,
+        metavar="BATCH",
+        help="a triaxial certificate: its three orientation batches, the section recomputed "
+        "from their nine runs and compared with the DCC value by value",
+    )
     v.add_argument(
         "--db",
         metavar="URL",

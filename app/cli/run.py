@@ -17,7 +17,7 @@ from app.formatting import resonance_text
 if TYPE_CHECKING:
     from app.procedure.batch import MemberChoice
     from app.procedure.options import RunOptions
-    from app.procedure.service import PreparedRun, RunService
+    from app.procedure.service import BatchOutcome, PreparedRun, RunService
 
 
 def run_options(args: argparse.Namespace) -> RunOptions:
@@ -101,6 +101,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     prepared = service.prepare(options)
     for note in prepared.notes:
         print(note, file=sys.stderr)
+    if args.orientation is not None:
+        return run_orientation(service, prepared, members, args)
     if members:
         return run_batch(service, prepared, members, args)
     progress = None if args.json else TerminalProgress(sorted(levels) if levels else None)
@@ -143,6 +145,27 @@ def run_levels(
     return int(status)
 
 
+def run_orientation(
+    service: RunService,
+    prepared: PreparedRun,
+    members: list[MemberChoice],
+    args: argparse.Namespace,
+) -> int:
+    """`accelcal run --dut T=SN --orientation x|y|z`: a triaxial DUT in one orientation (its
+    three channels, app.procedure.triaxial), then which orientation to mount next."""
+    from app.procedure.triaxial import next_message, run_triaxial
+
+    if len(members) != 1:
+        raise UsageError("--orientation: give the triaxial DUT once, --dut POSITION=SERIAL")
+    if args.dut_model:
+        raise UsageError("--dut-model: a triaxial DUT's simulated sensor is sim/triaxial.py's")
+    progress = None if args.json else TerminalProgress(None)
+    batch = run_triaxial(service, prepared, members[0], args.orientation, listener=progress)
+    if progress is not None:
+        progress.close()
+    return _print_batch(batch, args, next_message(members[0].position, args.orientation))
+
+
 def run_batch(
     service: RunService,
     prepared: PreparedRun,
@@ -155,6 +178,12 @@ def run_batch(
     batch = service.run_batch(prepared, members, listener=progress)
     if progress is not None:
         progress.close()
+    return _print_batch(batch, args)
+
+
+def _print_batch(batch: BatchOutcome, args: argparse.Namespace, note: str = "") -> int:
+    """A batch's members as a single run's each (or JSON), then the batch, then `note`
+    (stderr with --json); its exit status."""
     if args.json:
         print(
             json.dumps(
@@ -172,6 +201,8 @@ def run_batch(
                 indent=2,
             )
         )
+        if note:
+            print(note, file=sys.stderr)
         return int(batch.exit_status)
     for member, outcome in batch.outcomes:
         if outcome.index_note:
@@ -179,4 +210,6 @@ def run_batch(
         print(f"--- position {member.position}: DUT {member.serial}")
         print_run_end(outcome.record, outcome.results, args.out / str(outcome.record.run_id))
     print(f"batch {batch.batch_id}: {len(batch.outcomes)} DUTs in {batch.folder}")
+    if note:
+        print(note)
     return int(batch.exit_status)

@@ -1,5 +1,9 @@
 """`accelcal teds`: decode a TEDS file, read a sensor's TEDS, write a run's result to it.
 
+`--channel dut.<position>` names one DUT input of the stand file's fixture (several DUTs in one
+run, issue 36): on a real stand read through hardware.nidaq.read_teds_channels, on the
+simulated one each position's sensor has its own TEDS. Without it: the stand's one DUT channel.
+
 Writing names the sensor on the port (serial and model from its TEDS) and refuses one that is
 not the run's DUT (the records' TEDS identity of the run's sensor, else the run's serial)
 unless --yes-different-sensor REASON, which is logged and, with records, audited."""
@@ -25,7 +29,7 @@ def cmd_teds(args: argparse.Namespace) -> int:
             for line in teds_io.describe(decode(read_ted_file(args.file))):
                 print(line)
             return EXIT_OK
-        port = teds_io.open_port(args.stand, args.dut, args.seed)
+        port = teds_io.open_port(args.stand, args.dut, args.seed, args.channel)
         if args.teds_command == "read":
             print(f"TEDS on {port.description}:")
             for line in teds_io.describe(decode(port.read())):

@@ -22,9 +22,45 @@ def cmd_verify(args: argparse.Namespace) -> int:
         print(note, file=sys.stderr)
     print("\n".join(report.lines()))
     code = EXIT_OK if report.ok else EXIT_BAD_INPUT
+    if args.triaxial is not None:
+        code = max(code, _triaxial(args))
     if args.validation_report is not None:
         code = max(code, _validation_report(args))
     return code
+
+
+def _triaxial(args: argparse.Namespace) -> int:
+    """--triaxial BX BY BZ: the certificate's triaxial section (its DCC) recomputed from the
+    three orientation batches (each batch's seal, each of the nine runs' manifest and seal
+    checked as a certificate loads them) and compared value by value; a FAIL line naming
+    each difference, exit 2."""
+    from app.certificate.info import CertificateError
+    from app.certificate.triaxial_issue import (
+        dcc_of,
+        section_differences,
+        triaxial_result_of,
+        triaxial_runs,
+    )
+    from app.cli.certificate import batch_folder
+
+    try:
+        runs = triaxial_runs([batch_folder(text, "--triaxial") for text in args.triaxial])
+        result = triaxial_result_of(runs)
+        differences = section_differences(dcc_of(args.pdf), result)
+    except CertificateError as exc:
+        print(f"FAIL triaxial section: {exc}")
+        return EXIT_BAD_INPUT
+    if args.run is not None and args.run.resolve() != runs.main_run.resolve():
+        differences.append(f"--run {args.run} is not the x orientation's x run {runs.main_run}")
+    if differences:
+        for text in differences:
+            print(f"FAIL triaxial section: {text}")
+        return EXIT_BAD_INPUT
+    print(
+        "ok   triaxial section: equal to the nine runs of batches "
+        + ", ".join(f"{o} {b}" for o, b in sorted(runs.batches.items()))
+    )
+    return EXIT_OK
 
 
 def _validation_report(args: argparse.Namespace) -> int:

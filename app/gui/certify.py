@@ -12,6 +12,7 @@ builds the request, calls and shows.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import html
 import logging
@@ -34,7 +35,7 @@ from app.certificate.service import (
 )
 from app.gui.certificate_dialog import CertificateDialog, run_identity
 from app.records.db.errors import RecordsInputError
-from app.records.run_folder import RunIntegrityError
+from app.records.run_folder import RunIntegrityError, load_run
 from app.records.run_record import RunRecord
 
 log = logging.getLogger(__name__)
@@ -107,6 +108,88 @@ def ask(
     if answer != QMessageBox.StandardButton.Yes:
         return None
     return issue(window, folder, dialog.info(), replaces=replaces, reason=reason)
+
+
+def ask_batch(window: Any, batch_id: str, members: list[Any]) -> list[Path]:
+    """Certificates for the complete DUTs `members` (app.gui.batch_view.MemberRow) of batch
+    `batch_id` in one confirmation: the fields asked once (the first member's defaults; each
+    certificate takes its own run's serial), then the certificate service once per member, as
+    `accelcal certificate --batch` does (each its own number, the two-person rule each). The
+    PDFs issued; a member refused is said and the others are still issued."""
+    records = []
+    for member in members:
+        try:
+            records.append((member, load_run(member.folder)))
+        except (RunIntegrityError, ValueError) as exc:
+            QMessageBox.warning(window, "Certificate refused", f"{member.position}: {exc}")
+    if not records:
+        return []
+    first = records[0][1]
+    url = records_in_use(request(window, records[0][0].folder, CertificateInfo()))
+    dialog = CertificateDialog(
+        window,
+        first,
+        dict(window.records.certificate_defaults(first)),
+        prepared_by=window.setup_tab.technician.text().strip()
+        or _prepared_default(records[0][0].folder),
+        check=functools.partial(check_signatories, url) if url is not None else None,
+        template=chosen_template(window),
+    )
+    named = ", ".join(f"{m.position} {m.serial}" for m, _ in records)
+    dialog.setWindowTitle(f"Certificates of batch {batch_id}")
+    dialog.title.setText(
+        f"<b>Certificates of the {len(records)} DUTs of batch {html.escape(batch_id)}</b>: "
+        f"{html.escape(named)}"
+    )
+    serial = dialog.edits["dut_serial"]
+    serial.clear()
+    serial.setEnabled(False)
+    serial.setPlaceholderText("each DUT's own serial, from its run")
+    window.certificate_dialog_open = dialog
+    try:
+        if dialog.exec() != QDialog.DialogCode.Accepted:
+            return []
+    finally:
+        window.certificate_dialog_open = None
+    where = " and enter them in the register" if url is not None else ""
+    answer = QMessageBox.question(
+        window,
+        "Issue the certificates?",
+        f"Issue {len(records)} certificates, one per DUT ({named}){where}?",
+    )
+    if answer != QMessageBox.StandardButton.Yes:
+        return []
+    info = dataclasses.replace(dialog.info(), dut_serial=None)
+    return issue_batch(window, [(m.position, m.folder) for m, _ in records], info)
+
+
+def issue_batch(window: Any, members: list[tuple[str, Path]], info: CertificateInfo) -> list[Path]:
+    """Issue a certificate per member (position, run folder) through the certificate service
+    with `info`; the PDFs issued. Each refusal is said (the others are issued)."""
+    window.records.wait_jobs()  # the runs' own indexing (records thread) first: no race
+    issued: list[Path] = []
+    lines: list[str] = []
+    refused: list[str] = []
+    for position, folder in members:
+        try:
+            outcome = issue_certificate(request(window, folder, info))
+        except (RecordsInputError, CertificateError, RunIntegrityError, ValueError, OSError) as exc:
+            refused.append(f"position {position}: no certificate: {exc}")
+            continue
+        log.info("certificate %s of %s written: %s", outcome.number, folder.name, outcome.pdf)
+        window.last_certificate = outcome.number
+        issued.append(outcome.pdf)
+        lines += [f"position {position}: certificate {outcome.number}: {outcome.pdf}"]
+        lines += outcome.notes
+    window.run_tab.messages.setText("<br/>".join(html.escape(t) for t in [*lines, *refused]))
+    if refused:
+        QMessageBox.warning(
+            window,
+            "Certificates refused",
+            f"{len(refused)} of {len(members)} certificates refused:\n" + "\n".join(refused),
+        )
+    window.register_tab.refresh()
+    return issued
 
 
 def chosen_template(window: Any) -> str:

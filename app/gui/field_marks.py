@@ -140,6 +140,11 @@ class FieldMarks:
             self._own.pop(widget, None)
         self._show(widget, self._own.get(widget))
 
+    def forget(self, widget: QWidget) -> None:
+        """Mark `widget` no more (its row is removed: a fixture's position, another stand)."""
+        for table in (self.notes, self._styles, self._tips, self._own):
+            table.pop(widget, None)  # type: ignore[attr-defined]
+
     def show_problems(self, problems: list[str]) -> None:
         """Mark each field named by the checks' `problems`; clear the others."""
         by_field: dict[QWidget, list[str]] = {}

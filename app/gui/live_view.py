@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -129,11 +129,20 @@ def period_view(reference: np.ndarray, dut: np.ndarray, plan: Plan, columns: int
 def block_view(
     samples: np.ndarray, channels: tuple[str, ...], plan: Plan, columns: int
 ) -> PeriodView:
-    """`period_view` of a block as read (channels in `channels` order)."""
+    """`period_view` of a block as read (channels in `channels` order): the reference and
+    the run's own DUT ("dut", or in a run of several DUTs the first "dut.<position>")."""
     names = list(channels)
     return period_view(
-        samples[names.index("reference")], samples[names.index("dut")], plan, columns
+        samples[names.index("reference")], samples[names.index(own_dut(names))], plan, columns
     )
+
+
+def own_dut(channels: Sequence[str]) -> str:
+    """The DUT channel a run's own estimate reads: "dut", else the first "dut.<position>"
+    (app.procedure.stand_io's rule)."""
+    if "dut" in channels:
+        return "dut"
+    return next((n for n in channels if n.startswith("dut.")), "dut")
 
 
 def characteristic(results: Results) -> Characteristic:

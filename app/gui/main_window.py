@@ -24,6 +24,7 @@ from PySide6.QtWidgets import QMainWindow, QMessageBox, QTabWidget
 from app.certificate import CertificateInfo
 from app.gui import certify
 from app.gui.actions import WindowActions
+from app.gui.batch_view import MemberRow, member_rows
 from app.gui.records_link import RecordsLink
 from app.gui.reference_view import ask_override, mark_refusal
 from app.gui.register_tab import RegisterTab
@@ -105,7 +106,9 @@ class MainWindow(QMainWindow):
         self.run_tab.ended.connect(self._on_done)
         self.results_tab.export_button.clicked.connect(self.export_results)
         self.results_tab.certificate_button.clicked.connect(self.certificate_action)
-        self.runs_tab.open_requested.connect(self.open_run)
+        self.results_tab.batch_certificate_button.clicked.connect(self.batch_certificate_action)
+        self.results_tab.members.member_chosen.connect(self.open_member)
+        self.runs_tab.open_requested.connect(self.open_stored)
         self.records.changed.connect(self.setup_tab.show_reference)
         self.run_finished.connect(self._index_run)
         self.window_actions = WindowActions(self)  # menus and shortcuts (Ctrl+R, Ctrl+., Esc, ...)
@@ -166,6 +169,7 @@ class MainWindow(QMainWindow):
         if self.run_tab.worker is not None:
             return
         self.results_tab.clear("No results yet: the next sensor's run shows here.")
+        self.results_tab.show_batch("", [])
         self.run_tab.clear()
         self.run_tab.state.setText("idle")
         self.last_finished, self.last_certificate = None, None
@@ -190,7 +194,8 @@ class MainWindow(QMainWindow):
             log.log(logging.WARNING if prepared.request.overrides else logging.INFO, "%s", note)
         ranges: dict[str, float] = {c.name: c.range_v for c in setup.config.inputs}
         said = "; ".join(prepared.notes) or None
-        if not self.run_tab.begin(setup.service, prepared, ranges, said):
+        members = setup.fixture.members()  # a stand with a fixture: its DUTs in one run
+        if not self.run_tab.begin(setup.service, prepared, ranges, said, members):
             return
         self.prepared = prepared
         setup.last_request = prepared.request
@@ -230,6 +235,13 @@ class MainWindow(QMainWindow):
         self.setup_tab.set_running(False)
         if finished is None:  # the worker ended without a result (its error is shown)
             return
+        batch = self.run_tab.batch
+        if batch is not None:  # several DUTs: a row each, the first complete one shown
+            self.show_batch(batch)
+            for _, member in batch.members:
+                self.run_finished.emit(member)  # each indexed as its sensor's calibration
+            return
+        self.results_tab.show_batch("", [])
         run_id = finished.record.run_id
         if finished.status == RunStatus.COMPLETE and run_id:
             self.open_run(self.options.out / str(run_id), switch=False)
@@ -254,6 +266,36 @@ class MainWindow(QMainWindow):
         self.records.finish_later(self.setup_tab.service, prepared, finished, indexed)
 
     # --- results, runs and certificates -------------------------------------------------
+
+    def show_batch(self, batch: Any) -> None:
+        """The DUTs of a finished batch (BatchFinished) in the Results tab, the first complete
+        one's results shown under them."""
+        rows = member_rows(batch, self.options.out)
+        self.results_tab.show_batch(batch.batch_id, rows)
+        complete = [i for i, row in enumerate(rows) if row.complete]
+        if complete:
+            self.results_tab.members.choose(complete[0])
+            self.tabs.setCurrentIndex(RESULTS_TAB)
+        else:
+            self.results_tab.clear(f"<b>Batch {html.escape(batch.batch_id)}</b>: no DUT complete.")
+
+    def open_member(self, row: MemberRow) -> None:
+        """A DUT of the batch chosen in the Results tab: its run shown as a single run's."""
+        if row.folder is None:
+            self.results_tab.clear(html.escape(f"{row.position} {row.serial}: {row.verdict}"))
+            return
+        self.open_run(row.folder, switch=False)
+
+    def open_stored(self, folder: Path) -> bool:
+        """A run opened from the Runs tab: shown alone (no batch listed)."""
+        self.results_tab.show_batch("", [])
+        return self.open_run(folder)
+
+    @Slot()
+    def batch_certificate_action(self) -> list[Path]:
+        """Certificates for every complete DUT of the batch shown, in one confirmation."""
+        table = self.results_tab.members
+        return certify.ask_batch(self, table.batch_id, table.certifiable)
 
     def open_run(self, folder: Path, *, switch: bool = True) -> bool:
         """Show the stored run `folder` in the Results tab after verifying it; only a

@@ -36,6 +36,8 @@ MINOR_TICKS_HZ = (2, 5, 20, 50, 200, 500, 2000, 5000, 20000)
 REF_COLOUR, DUT_COLOUR = "#4a9ee0", "#d62728"
 LEGEND_BRUSH = (0, 0, 0, 200)  # the legend readable over the traces it names
 LEFT_AXIS_PX = 62  # width of each live plot's y axis: label and "-100.5" tick text
+# the deviation curves of a run of several DUTs, one colour per member in the fixture's order
+MEMBER_COLOURS = ("#2c3e50", "#d35400", "#16a085", "#8e44ad", "#c0392b", "#2980b9", "#7f8c8d")
 
 
 def hz_label(frequency_hz: float) -> str:
@@ -156,6 +158,9 @@ class LivePlots:
             # no grid: a grid is drawn by the axes over the whole plot, so every new curve
             # would repaint (and re-render the text of) all eight axes
         self._ranges: dict[int, tuple[float, float]] = {}  # x range set per plot
+        # a run of several DUTs: each member's deviation curve by its position (`members`)
+        self.member_curves: dict[str, pg.PlotDataItem] = {}
+        self._member_legend: pg.LegendItem | None = None
 
     @property
     def plots(self) -> tuple[pg.PlotItem, ...]:
@@ -182,7 +187,52 @@ class LivePlots:
         for plot in self.plots:
             plot.setYRange(0, 1, padding=0)  # the first data sets its own range
         self._ranges.clear()
+        self.members({})
         self.widget.show_chart(False)
+
+    def members(self, labels: dict[str, str]) -> None:
+        """One deviation curve per member of a run of several DUTs, `labels` {position: what
+        the legend says} in the fixture's order ({}: a single run, none). Made before the
+        run's first period (`RunTab.opened`), so the legend never re-lays the plots mid-run;
+        the first member's U and phase stay the single run's error bars and phase curve."""
+        for curve in self.member_curves.values():
+            self.sens_plot.removeItem(curve)  # and from its legend
+        self.member_curves = {}
+        self.sens_curve.setVisible(not labels)
+        if self._member_legend is not None:
+            self._member_legend.clear()
+            self._member_legend.setVisible(bool(labels))
+        if not labels:
+            return
+        self._member_legend = self.sens_plot.addLegend(offset=(-10, 10), brush=LEGEND_BRUSH)
+        self._member_legend.setVisible(True)
+        for i, (position, label) in enumerate(labels.items()):
+            colour = MEMBER_COLOURS[i % len(MEMBER_COLOURS)]
+            self.member_curves[position] = self.sens_plot.plot(
+                pen=pg.mkPen(colour, width=2),
+                symbol="o",
+                symbolSize=5,
+                symbolBrush=colour,
+                name=label,
+            )
+
+    def show_member(self, position: str, view: EstimateView) -> None:
+        """The deviation of the member at `position` (its curve, `members`), the y axis
+        following every member's curve."""
+        curve = self.member_curves.get(position)
+        if curve is None:
+            return
+        c = view.characteristic
+        curve.setData(c.frequency_hz, c.deviation_percent)
+        lows, highs = [view.deviation_range[0]], [view.deviation_range[1]]
+        for other in self.member_curves.values():
+            y = other.getData()[1]
+            if y is not None and len(y):
+                lows.append(float(np.nanmin(y)))
+                highs.append(float(np.nanmax(y)))
+        self._lines_x(c.frequency_hz)
+        if c.frequency_hz.size:
+            follow_y(self.sens_plot, min(lows), max(highs))
 
     def prepare(self, plan: Plan) -> None:
         """Show the charts with the x ranges of `plan` before its first period, so the

@@ -19,6 +19,7 @@ from PySide6.QtWidgets import (
 )
 
 from app import formatting as fmt
+from app.gui.batch_view import BatchTable, MemberRow
 from app.gui.plots import ChartStack, draw_bands, frequency_axis
 from app.gui.verdict_view import VerdictView, verdict_of
 from app.records.run_record import RunRecord
@@ -68,6 +69,10 @@ class ResultsTab(QWidget):
         self.record: RunRecord | None = None
         self.folder: Path | None = None
         layout = QVBoxLayout(self)
+        # a run of several DUTs: a row per DUT; the one chosen is shown below (issue 36)
+        self.members = BatchTable()
+        compact_rows(self.members)
+        layout.addWidget(self.members)
         self.verdict = VerdictView()
         layout.addWidget(self.verdict)
         self.summary = wrapping_label("No results yet.")
@@ -113,8 +118,22 @@ class ResultsTab(QWidget):
         self.certificate_button = QPushButton("Certificate ...")
         self.certificate_button.setToolTip("Issue the certificate of the run shown here")
         buttons.addWidget(self.certificate_button)
+        self.batch_certificate_button = QPushButton("Certificates for all DUTs ...")
+        self.batch_certificate_button.setToolTip(
+            "Issue a certificate for each complete DUT of the run, in one confirmation"
+        )
+        self.batch_certificate_button.setVisible(False)
+        buttons.addWidget(self.batch_certificate_button)
         layout.addLayout(buttons)
         self.clear("No results yet.")
+
+    def show_batch(self, batch_id: str, rows: list[MemberRow]) -> None:
+        """The DUTs of batch `batch_id` ([]: a single run, none listed)."""
+        self.members.show_rows(batch_id, rows)
+        certifiable = len(self.members.certifiable)
+        self.batch_certificate_button.setVisible(bool(rows))
+        self.batch_certificate_button.setEnabled(certifiable > 0)
+        self.batch_certificate_button.setText(f"Certificates for all {certifiable} DUTs ...")
 
     def clear(self, message: str) -> None:
         """Nothing shown, nothing to export or certify; `message` (rich text) says why."""

@@ -12,10 +12,10 @@ from __future__ import annotations
 import gc
 import html
 import logging
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from PySide6.QtCore import Qt, QTimer, Signal
@@ -31,7 +31,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from app.gui.live_view import EstimateView, PeriodView, block_view, estimate_view
+from app.gui.live_view import EstimateView, PeriodView, block_view, estimate_view, own_dut
 from app.gui.plots import FRAME_HZ, LivePlots
 from app.gui.results_tab import wrapping_label
 from app.gui.table_items import shown_unit
@@ -51,6 +51,9 @@ from app.procedure import (
 from app.procedure.service import PreparedRun, RunService
 from dsp.calibration import Results
 from dsp.multisine import Plan
+
+if TYPE_CHECKING:
+    from app.procedure.batch import MemberChoice
 
 log = logging.getLogger(__name__)
 
@@ -98,6 +101,10 @@ class LiveFrame:
     view: PeriodView | None = None  # the block's, made by the worker (None: made at drawing)
     estimate: PeriodEstimate | None = None
     estimate_view: EstimateView | None = None  # the estimate's, as `view`
+    # a run of several DUTs: the first member's position (its estimates come with it, or
+    # with no member) and the latest estimate of each member not drawn yet, by position
+    lead: str = ""
+    members: dict[str, tuple[PeriodEstimate, EstimateView | None]] = field(default_factory=dict)
     state: str | None = None
     equalisation: str | None = None
     progress: tuple[float, str] | None = None  # (fraction of the phase done, what it says)
@@ -124,7 +131,11 @@ class LiveFrame:
                     done = min(self.phase_blocks, n)
                     self.progress = (done / n, f"background: period {done} of {n}")
             elif isinstance(event, PeriodEstimate):
-                self.estimate, self.estimate_view = event, view
+                member = event.member or self.lead
+                if member:
+                    self.members[member] = (event, view)
+                if member == self.lead:  # the run's own DUT: coherence, U and phase
+                    self.estimate, self.estimate_view = event, view
             elif isinstance(event, StateChanged):
                 self.state = f"{event.state}: {event.message}" if event.message else event.state
                 self.phase, self.phase_blocks = event.state, 0
@@ -206,6 +217,10 @@ class RunTab(QWidget):
         self.out: Path | None = None  # the runs root of the run going or last run
         self.frame = LiveFrame()
         self.ranges_v: dict[str, float] = {}  # input range (V) of each metered channel
+        # a run of several DUTs: the legend of each member's curve by position, in the
+        # fixture's order ({}: one DUT), and how the batch ended (BatchFinished, None)
+        self.labels: dict[str, str] = {}
+        self.batch: Any = None
         layout = QVBoxLayout(self)
         top = QHBoxLayout()
         self.state = ElidedLabel("idle")
@@ -255,17 +270,26 @@ class RunTab(QWidget):
         prepared: PreparedRun,
         ranges_v: Mapping[str, float],
         note: str | None,
+        members: Sequence[MemberChoice] = (),
     ) -> bool:
         """Open the stand and start the `prepared` run (the run service's) on a worker, both
         off this thread; `ranges_v` the input range (V) of each metered channel, `note` a word
-        to show. False when a run is going already; a run that cannot be opened ends as
-        Start's refusal did (`end`: a message box, the reason shown, `ended` with None)."""
+        to show; `members` the DUTs of a run of several on the stand's fixture (the service's
+        `start_batch`; each one's deviation drawn, `batch` set when it ends). False when a run
+        is going already; a run that cannot be opened ends as Start's refusal did (`end`: a
+        message box, the reason shown, `ended` with None)."""
         if self.worker is not None:
             return False
         self.out = prepared.request.out
         # the stand opened and the plan made on the worker's thread: a second at 51.2 kS/s
         # that the window's thread does not wait for (`RunWorker.opening`)
-        self._start(RunWorker.opening(lambda: service.start(prepared)), ranges_v, None)
+        if members:
+            opening = BatchOpening(service, prepared, tuple(members))
+            worker = RunWorker.opening(opening.open, opening.end)
+            labels = {m.position: f"{m.position} · {m.serial}" for m in opening.ordered()}
+        else:
+            worker, labels = RunWorker.opening(lambda: service.start(prepared)), {}
+        self._start(worker, ranges_v, None, labels)
         self.state.setText("opening the stand ...")
         if note:
             self.messages.setText(html.escape(note))
@@ -277,7 +301,11 @@ class RunTab(QWidget):
         self._start(RunWorker(procedure, stand), ranges_v, procedure)
 
     def _start(
-        self, worker: RunWorker, ranges_v: Mapping[str, float], procedure: Any | None
+        self,
+        worker: RunWorker,
+        ranges_v: Mapping[str, float],
+        procedure: Any | None,
+        labels: Mapping[str, str] | None = None,
     ) -> None:
         """Start `worker` from an empty tab (`procedure`: the run's, when it is open already).
         While it runs, the objects older than the run are frozen out of Python's garbage
@@ -286,7 +314,8 @@ class RunTab(QWidget):
         self.clear()
         self.state.setText("starting ...")
         self.ranges_v = dict(ranges_v)
-        self.frame = LiveFrame()
+        self.labels, self.batch = dict(labels or {}), None
+        self.frame = LiveFrame(lead=next(iter(self.labels), ""))
         if procedure is not None:
             self.opened(procedure)
         else:  # the run waits for its plots to be painted once it has opened (`opened`)
@@ -301,6 +330,7 @@ class RunTab(QWidget):
         period, the progress with its phases' steps."""
         self.frame.plan, self.frame.steps = procedure.plan, PhaseSteps.of(procedure)
         self.live.prepare(procedure.plan)
+        self.live.members(self.labels)  # each DUT's curve and legend before the first paint
         if self.worker is not None:  # painted now, while the run waits for it (RunWorker)
             self.live.graphics.viewport().repaint()
             self.worker.view_ready.set()
@@ -360,6 +390,7 @@ class RunTab(QWidget):
         """The worker is done: the run ended, or it could not be opened (said as Start said
         it: a message box and the reason under the plots)."""
         refusal = worker.refusal
+        self.batch = worker.ended
         self.finish(worker.finished)
         if refusal is not None:
             text = f"{type(refusal).__name__}: {refusal}"
@@ -403,13 +434,16 @@ class RunTab(QWidget):
                 peak = (
                     view.peaks_v[name]
                     if view is not None
-                    else float(np.max(np.abs(block.samples[names.index(name)])))
+                    else float(np.max(np.abs(block.samples[names.index(shown_dut(name, names))])))
                 )
                 self.show_meter(name, int(100 * peak / self.ranges_v[name]))
         estimate, frame.estimate = frame.estimate, None
         shown, frame.estimate_view = frame.estimate_view, None
         if estimate is not None:
             self.show_characteristic(shown or estimate_view(estimate.results))
+        members, frame.members = frame.members, {}
+        for position, (member_estimate, member_view) in members.items():
+            self.live.show_member(position, member_view or estimate_view(member_estimate.results))
 
     def show_meter(self, name: str, fill: int) -> None:
         """The meter of channel `name` at `fill` % of its range (red from 95 %)."""
@@ -468,3 +502,34 @@ class RunTab(QWidget):
         for bar in self.meters.values():
             bar.setValue(0)
             bar.setStyleSheet("")
+
+
+def shown_dut(name: str, channels: Sequence[str]) -> str:
+    """The channel a meter named `name` shows: the run's own DUT for "dut" (`own_dut`)."""
+    return own_dut(channels) if name == "dut" else name
+
+
+class BatchOpening:
+    """A run of several DUTs as a RunWorker opens and ends it, on its thread: the run
+    service's `start_batch`, then the batch's `end` once the stand is closed."""
+
+    def __init__(
+        self, service: RunService, prepared: PreparedRun, members: tuple[MemberChoice, ...]
+    ) -> None:
+        self.service, self.prepared, self.members = service, prepared, members
+        self.opened: Any = None  # app.procedure.batch.OpenedBatch
+
+    def ordered(self) -> list[MemberChoice]:
+        """The members in the fixture's order (the first is the run's own DUT)."""
+        from app.procedure.batch import ordered
+
+        fixture = self.prepared.config.fixture
+        return list(self.members) if fixture is None else ordered(fixture, self.members)
+
+    def open(self) -> tuple[Any, Any]:
+        self.opened = self.service.start_batch(self.prepared, self.members)
+        return self.opened.procedure, self.opened.stand
+
+    def end(self, finished: Finished, listener: Any) -> Any:
+        """The other members estimated and sealed, the batch folder (BatchFinished)."""
+        return self.opened.end(finished, listener)

@@ -87,27 +87,29 @@ class SerialEntry(QObject):
 
     sensor_changed = Signal(object)
 
-    def __init__(self, setup: Any, link: Any, marks: FieldMarks) -> None:
+    def __init__(self, setup: Any, link: Any, marks: FieldMarks, field: Any = None) -> None:
         super().__init__(setup)
         self.setup, self.link, self.marks = setup, link, marks
+        # the serial field it looks up: the single DUT's, or a fixture position's
+        self.field = field if field is not None else setup.dut_id
         self.sensor: Any = None
         self._looked_up: str | None = None
         self._busy = False
-        setup.dut_id.editingFinished.connect(self.look_up)
-        setup.dut_id.textEdited.connect(self._edited)
+        self.field.editingFinished.connect(self.look_up)
+        self.field.textEdited.connect(self._edited)
 
     def _edited(self, _text: str) -> None:
         """Typing again forgets the last look-up (the fields it filled stay until next sensor)."""
         had = self.sensor is not None
         self._looked_up = None
         self.sensor = None
-        self.marks.note(self.setup.dut_id, None)
+        self.marks.note(self.field, None)
         if had:
             self.sensor_changed.emit(None)
 
     def reset(self) -> None:
         self._looked_up, self.sensor = None, None
-        self.marks.note(self.setup.dut_id, None)
+        self.marks.note(self.field, None)
         self.sensor_changed.emit(None)
 
     def take(self, sensor: Any, how: str) -> None:
@@ -117,7 +119,7 @@ class SerialEntry(QObject):
 
     def look_up(self) -> Any:
         """The sensor on record for the serial typed (None: unknown or no records)."""
-        serial = self.setup.dut_id.text().strip()
+        serial = self.field.text().strip()
         if self._busy or serial == self._looked_up:
             return self.sensor
         had = self.sensor is not None
@@ -125,11 +127,11 @@ class SerialEntry(QObject):
         if had:
             self.sensor_changed.emit(None)
         if not serial:
-            self.marks.note(self.setup.dut_id, None)
+            self.marks.note(self.field, None)
             return None
         if self.link.lab is None:
             self.marks.note(
-                self.setup.dut_id,
+                self.field,
                 f"not checked: {self.link.describe()}; the run is stored under this serial",
                 WARNING,
             )
@@ -139,7 +141,7 @@ class SerialEntry(QObject):
             sensor = self.link.sensor(serial)
             if sensor is None:
                 self.marks.note(
-                    self.setup.dut_id,
+                    self.field,
                     f"{serial} is not in the records: nothing filled in; register it, or the run "
                     "is stored under this serial only",
                     WARNING,
@@ -147,7 +149,7 @@ class SerialEntry(QObject):
                 if self.offer_registration(serial):
                     sensor = self.link.sensor(serial)
         except RecordsInputError as exc:
-            self.marks.note(self.setup.dut_id, f"records: {exc}", WARNING)
+            self.marks.note(self.field, f"records: {exc}", WARNING)
             sensor = None
         finally:
             self._busy = False
@@ -206,7 +208,7 @@ class SerialEntry(QObject):
             w.preset.setCurrentText(resolved.preset)
         due = f", due {sensor.due_date}" if sensor.due_date else ""
         self.marks.note(
-            w.dut_id,
+            self.field,
             f"from the records{f' ({how})' if how else ''}: {model.maker} {model.model}, "
             f"owner {sensor.owner.name}{due}; "
             f"nominal {model.nominal_sensitivity:g} {shown_unit(model.unit)}, tolerance "

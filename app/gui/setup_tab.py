@@ -32,6 +32,7 @@ from PySide6.QtWidgets import (
 
 from app.gui import field_marks
 from app.gui.actions import START, with_key
+from app.gui.fixture_entry import FixtureEntry
 from app.gui.form_area import FormArea
 from app.gui.plan_cache import PlanCache
 from app.gui.quantity_edit import QuantityEdit
@@ -129,6 +130,9 @@ class SetupTab(QWidget):
         self.plan_defaults = self.plan_settings()
         self.field_marks = field_marks.install(self)  # bad input marked at its field
         self.serial_entry = SerialEntry(self, records, self.field_marks)
+        self.fixture = FixtureEntry(self, records, self.field_marks)  # issue 36: its DUTs
+        self.dut_form.addRow(self.fixture.widget)
+        self.fixture.show_for(self)
         self.serial_entry.sensor_changed.connect(self.templates.show_for)
         self.mode.currentTextChanged.connect(self._mode_changed)
         self._mode_changed(self.mode.currentText())
@@ -190,6 +194,7 @@ class SetupTab(QWidget):
         form.addRow("", self.teds.button)
         form.addRow("Nominal sensitivity", self.nominal)
         form.addRow("Tolerance of the characteristic", self.tolerance)
+        self.dut_form = form  # the fixture's positions go under it (`_show_fixture`)
         # a field narrower than this goes under its label (WrapLongRows) instead of being
         # squeezed beside it: the reference text, a serial and its note stay readable
         narrowest = FIELD_MIN_CHARS * self.fontMetrics().averageCharWidth()
@@ -361,6 +366,7 @@ class SetupTab(QWidget):
         """Nothing of the last sensor: no serial, no look-up, the plan as the tab opened."""
         self.dut_id.clear()
         self.serial_entry.reset()
+        self.fixture.reset()
         self.apply_plan(self.plan_defaults)
         self.last_request = None
         self.field_marks.note(self.reference_label, None)
@@ -407,8 +413,8 @@ class SetupTab(QWidget):
         return RunOptions(
             stand_file=self.stand_file,
             dut=self.dut.currentText(),
-            dut_id=self.dut_id.text().strip() or None,
-            dut_spec=self.serial_entry.spec,
+            dut_id=(self.dut_id.text().strip() or None) if not self.fixture.active else None,
+            dut_spec=self.serial_entry.spec if not self.fixture.active else None,
             technician=self.technician.text().strip() or None,
             nominal_mv_per_ms2=self.nominal.value() or None,
             tolerance_percent=self.tolerance.value() or None,
@@ -477,6 +483,7 @@ class SetupTab(QWidget):
         self.config, self.stand_file = config, path
         self.service = RunService(path, config=config)
         self.stand_label.setText(f"{config.source} ({config.backend})")
+        self.fixture.show_for(self)
         self.show_reference()
         self.settings.setValue("stand_file", str(path or ""))
         self.validate()
@@ -492,6 +499,7 @@ class SetupTab(QWidget):
         """The preview of the plan that will run (the run service's: the stand file's [plan]
         applied) and its checks beside the fields; Start only when nothing fails."""
         problems: list[str] = self.field_errors()  # a refused quantity field: its reason
+        problems += self.fixture.problems(self.mode.currentText())  # its DUTs, if any
         warnings: list[str] = []
         pending = ""  # work in progress (not an error): Start waits for it
         self.preview = None
@@ -558,6 +566,7 @@ class SetupTab(QWidget):
         """The plan and TEDS worker pools end (the window closes)."""
         self.plans.close()
         self.teds.close()
+        self.fixture.close()
 
 
 def describe_preview(preview: PlanPreview, limits: Any) -> str:

@@ -31,13 +31,29 @@ class TedsRead:
     sensitivity_mv_per_ms2: float | None
 
 
-def read_teds(stand_file: Path | None, dut: str, seed: int) -> TedsRead:
-    """Read and decode the DUT's TEDS (worker thread). TedsError / ConfigError / HardwareError
-    say why it failed."""
+def read_teds(stand_file: Path | None, dut: str, seed: int, position: Any = None) -> TedsRead:
+    """Read and decode the DUT's TEDS (worker thread): the stand's DUT channel, or with
+    `position` (an app.stand.fixture.FixturePosition) that position's input (on the simulated
+    stand, a simulated DUT of its own: seed offset by the position's name). TedsError /
+    ConfigError / HardwareError say why it failed."""
     from app.stand import teds as teds_io
     from hardware.teds import decode
 
-    teds = decode(teds_io.open_port(stand_file, dut, seed).read())
+    port = teds_io.open_port(stand_file, dut, seed)
+    if position is not None:
+        if port.sim is not None:
+            from app.stand.simulated import open_simulated
+
+            offset = sum(ord(c) for c in position.name)
+            port = teds_io.TedsPort(
+                f"simulated stand, DUT {dut!r} at {position.name}",
+                sim=open_simulated(dut, seed + offset),
+            )
+        else:
+            port = teds_io.TedsPort(
+                f"DUT input {position.physical}", physical_channel=position.physical
+            )
+    teds = decode(port.read())
     a = teds.accelerometer
     return TedsRead(teds.basic.identity, a.sensitivity_mv_per_ms2 if a is not None else None)
 
@@ -45,9 +61,13 @@ def read_teds(stand_file: Path | None, dut: str, seed: int) -> TedsRead:
 class TedsEntry(QObject):
     """The button and its read, one at a time."""
 
-    def __init__(self, setup: Any, link: Any) -> None:
+    def __init__(
+        self, setup: Any, link: Any, field: Any = None, entry: Any = None, position: Any = None
+    ) -> None:
         super().__init__(setup)
         self.setup, self.link = setup, link
+        # the serial field and its look-up (None: the single DUT's), the fixture position
+        self._field, self._entry, self.position = field, entry, position
         self.button = QPushButton("Read TEDS")
         self.button.setToolTip("Identify the DUT by its TEDS (IEEE 1451.4) and look it up")
         self.button.clicked.connect(self.read)
@@ -56,6 +76,16 @@ class TedsEntry(QObject):
         self._timer = QTimer(self, interval=50)
         self._timer.timeout.connect(self._poll)
         self.last: TedsRead | None = None
+
+    @property
+    def field(self) -> Any:
+        """The serial field the read fills."""
+        return self._field if self._field is not None else self.setup.dut_id
+
+    @property
+    def entry(self) -> Any:
+        """The field's look-up (app.gui.sensor_entry.SerialEntry)."""
+        return self._entry if self._entry is not None else self.setup.serial_entry
 
     @property
     def busy(self) -> bool:
@@ -69,9 +99,9 @@ class TedsEntry(QObject):
         self.last = None
         self.button.setEnabled(False)
         self.button.setText("Reading TEDS ...")
-        w.field_marks.note(w.dut_id, None)
+        w.field_marks.note(self.field, None)
         self._future = self._pool.submit(
-            read_teds, w.stand_file, w.dut.currentText(), int(w.options.seed)
+            read_teds, w.stand_file, w.dut.currentText(), int(w.options.seed), self.position
         )
         self._timer.start()
 
@@ -97,7 +127,7 @@ class TedsEntry(QObject):
         except Exception as exc:  # TEDS, stand file or hardware: said, entry by hand
             log.warning("TEDS not read: %s", exc)
             self.setup.field_marks.note(
-                self.setup.dut_id,
+                self.field,
                 f"TEDS not read: {exc}; type or scan the serial instead",
                 WARNING,
             )
@@ -116,7 +146,7 @@ class TedsEntry(QObject):
         lab = self.link.lab
         if lab is None:
             w.field_marks.note(
-                w.dut_id,
+                self.field,
                 f"TEDS identity {read.identity}{nominal}; {self.link.describe()}: type the serial",
                 WARNING,
             )
@@ -126,13 +156,13 @@ class TedsEntry(QObject):
             sensor = self.link.sensor(serial)  # with its model and owner
         except RecordsInputError as exc:
             w.field_marks.note(
-                w.dut_id,
+                self.field,
                 f"{exc}{nominal}; nothing filled in: type the serial or register the sensor",
                 WARNING,
             )
             return
-        w.dut_id.setText(sensor.serial)
-        w.serial_entry.take(sensor, f"TEDS identity {read.identity}")
+        self.field.setText(sensor.serial)
+        self.entry.take(sensor, f"TEDS identity {read.identity}")
 
     def close(self) -> None:
         self._pool.shutdown(wait=False, cancel_futures=True)

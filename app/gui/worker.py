@@ -121,6 +121,9 @@ class RunWorker:
     (procedure, stand) and may take a second (the plan, the input ranges, the stand's drivers),
     which the window's thread must not wait for. An `Opened` event is queued once it has; a
     refusal (ValueError, HardwareError) is kept in `refusal` and the worker ends without a run.
+    `ending(finished, listener)`, when given, is called on the worker's thread after the stand
+    is closed (a batch's other DUTs estimated and sealed: `OpenedBatch.end`); what it returns
+    is kept in `ended` before `finished` is set.
     """
 
     def __init__(self, procedure: Procedure | None, stand: Any) -> None:
@@ -130,6 +133,8 @@ class RunWorker:
         self.refusal: Exception | None = None  # why the run could not be opened
         self.state: State | None = None  # the run's phase as its last StateChanged said
         self._opener: Callable[[], tuple[Procedure, Any]] | None = None
+        self._ending: Callable[[Finished, Callable[[Event], None]], Any] | None = None
+        self.ended: Any = None  # what `ending` returned (a batch's BatchFinished)
         self._stop: tuple[str, bool] | None = None  # (reason, emergency) asked before opening
         self._events: collections.deque[Any] = collections.deque(maxlen=MAX_QUEUED)
         self._lock = threading.Lock()
@@ -147,10 +152,15 @@ class RunWorker:
         self.thread = threading.Thread(target=self._run, name="calibration-run", daemon=True)
 
     @classmethod
-    def opening(cls, opener: Callable[[], tuple[Procedure, Any]]) -> RunWorker:
-        """A worker that opens its run itself (see the class)."""
+    def opening(
+        cls,
+        opener: Callable[[], tuple[Procedure, Any]],
+        ending: Callable[[Finished, Callable[[Event], None]], Any] | None = None,
+    ) -> RunWorker:
+        """A worker that opens its run itself, and ends it with `ending` (see the class)."""
         worker = cls(None, None)
         worker._opener = opener
+        worker._ending = ending
         return worker
 
     def start(self) -> None:
@@ -269,4 +279,9 @@ class RunWorker:
                 self.stand.close()
             except Exception:
                 log.exception("closing the stand failed")
+        if self._ending is not None:
+            try:
+                self.ended = self._ending(finished, self._on_event)
+            except Exception:  # the run's own record stands; the others' end is logged
+                log.exception("the run's end (the other DUTs of the batch) failed")
         self.finished = finished

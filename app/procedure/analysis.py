@@ -54,13 +54,15 @@ def analyze(
     tolerance_percent: float | None = None,
     tolerances: Tolerances | None = None,
     mcm_trials: int | None = None,
+    transverse: bool = False,
 ) -> Analysis:
     """Analyse whole periods (default) or, with `segments`, the seed's L equal segments.
 
     The results carry the overall verdict (app.procedure.verdict) against `tolerances`; by
     default those of the simulated DUT the recording's truth names, else `tolerance_percent`
     alone. `rule="seed"` adds the blocking SEED_RULE_WARNING (k from t(L-1) is not GUM);
-    `mcm_trials` validates every line's GUM interval by JCGM 101 Monte Carlo (`with_mcm`)."""
+    `mcm_trials` validates every line's GUM interval by JCGM 101 Monte Carlo (`with_mcm`);
+    `transverse`: a triaxial sensor's cross channel (no dead-channel refusal of the DUT's)."""
     return analyze_chains(
         recording,
         [recording.chain],
@@ -71,6 +73,7 @@ def analyze(
         tolerance_percent=tolerance_percent,
         tolerances=tolerances,
         mcm_trials=mcm_trials,
+        transverse=transverse,
     )[0]
 
 
@@ -85,6 +88,7 @@ def analyze_chains(
     tolerance_percent: float | None = None,
     tolerances: Tolerances | None = None,
     mcm_trials: int | None = None,
+    transverse: bool = False,
 ) -> list[Analysis]:
     """As `analyze`, once per reference chain of `chains` (e.g. the stored and a corrected
     calibration table: app.procedure.impact): the recording is read and estimated once (the
@@ -149,6 +153,7 @@ def analyze_chains(
             tolerance_percent=tolerance_percent,
             extra_warnings=warnings,
             cmc=recording.cmc,
+            transverse=transverse,
         )
         if mcm_trials is not None:
             results = with_mcm(results, estimate, budget, probability, mcm_trials)

@@ -20,6 +20,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -40,8 +41,10 @@ from app.procedure.batch_files import (
     write_batch_recording,
     write_member_truth,
 )
+from app.procedure.batch_skew import member_skews, skew_tolerance_s
 from app.procedure.errors import PreflightError
 from app.procedure.events import Event, PeriodEstimate
+from app.procedure.ranging import RangePlan, member_ranges
 from app.procedure.request import RequestError, RunIdentity, RunRequest
 from app.records.batch import Batch, BatchMember, seal_batch
 from app.records.run_folder import RunFolder, new_run_id
@@ -52,9 +55,13 @@ from app.stand.config import StandConfig
 from app.stand.dut import DutSpec
 from app.stand.fixture import Fixture, FixturePosition
 from app.stand.simulated import catalogue_spec, reference_sensitivity_mv_per_ms2
-from dsp.calibration import AnalysisError, Results
+from dsp.calibration import AnalysisError, ReferenceChain, Results
 from dsp.spectral import Estimate
 from dsp.uncertainty import Budget
+from hardware.interfaces import DaqStatus
+
+if TYPE_CHECKING:
+    from app.stand.open import Stand
 
 log = logging.getLogger(__name__)
 
@@ -83,9 +90,14 @@ class Member:
     terms: Budget  # its position's type B components
     warnings: tuple[str, ...] = ()
     writer: RecordingWriter | None = None
+    skew_s: float | None = None  # its channel's sampling delay (s), once the DAQ is configured
+    axis: str | None = None  # a triaxial DUT's channel (x, y, z; app.procedure.triaxial)
+    transverse: bool = False  # that channel is not along the exciter: its signal is small
 
     @property
     def channel(self) -> str:
+        if self.axis is not None:
+            return f"dut.{self.position.name}.{self.axis}"
         return self.position.channel
 
 
@@ -123,7 +135,7 @@ def check_members(config: StandConfig, choices: Sequence[MemberChoice]) -> Fixtu
         if position.axes:
             raise RequestError(
                 f"--dut {choice.position}={choice.serial}: a triaxial position (three inputs); "
-                "its calibration is the triaxial procedure's"
+                "run it once per orientation with --orientation x|y|z"
             )
         if choice.position in positions:
             raise RequestError(f"--dut: position {choice.position!r} given twice")
@@ -267,7 +279,45 @@ class BatchRun:
         )
         return dataclasses.replace(self.identity, dut=dut)
 
+    def member_chain(self, procedure: Procedure, member: Member) -> ReferenceChain:
+        """The run's reference chain with this member's own channel delay (its phase's skew
+        correction; the run's when not known yet)."""
+        chain = procedure.stand.chain
+        if member.skew_s is None:
+            return chain
+        return dataclasses.replace(chain, skew_s=member.skew_s)
+
     # --- BatchHooks -----------------------------------------------------------------------
+
+    def member_ranges(self, procedure: Procedure, ranges: RangePlan) -> dict[str, float]:
+        """Each member's DUT channel's +-range (V) from its own nominal sensitivity's
+        predicted peak (app.procedure.ranging.member_ranges), as a single run picks its DUT's
+        ("dut": the first member's, the run's own phases read it); logged."""
+        chosen = member_ranges(
+            ranges,
+            procedure.plan,
+            {m.channel: m.spec.nominal_mv_per_ms2 for m in self.members},
+            procedure.stand.chain.dut_gain,
+        )
+        for channel, value in chosen.items():
+            procedure.ctx.log(f"input range {channel}: +-{value:g} V (its own DUT's nominal)")
+        return {**chosen, "dut": chosen[self.lead.channel]}
+
+    def configured(self, procedure: Procedure, status: DaqStatus) -> None:
+        """Each member's own channel delay (app.procedure.batch_skew: the driver's, checked
+        against the stand file's; PreflightError naming the position), logged; the run's own
+        chain (its first DUT's) takes the first member's."""
+        config = procedure.stand.config
+        skews = member_skews(
+            [m.position for m in self.members],
+            status.skews_s,
+            config.skew_s,
+            skew_tolerance_s(config),
+        )
+        for member in self.members:
+            member.skew_s = skews[member.channel].skew_s
+            procedure.ctx.log(skews[member.channel].line())
+        procedure.use_chain(self.member_chain(procedure, self.lead))
 
     def config_stored(self, start: RunStart) -> None:
         """Each other member's config.json (its identity and batch link) and stand.toml."""
@@ -291,7 +341,7 @@ class BatchRun:
             writer = RecordingWriter(
                 member.folder.recording,
                 procedure.plan,
-                stand.chain,
+                self.member_chain(procedure, member),
                 member_budget(stand.budget, self.lead.position, member.terms),
                 with_drive=True,
                 ranges_v={**io.ranges, "dut": io.ranges[member.channel]},
@@ -338,6 +388,7 @@ class BatchRun:
                 abort_reason=reason,
                 dut=self.member_identity(member).dut,
                 budget=tuple(budget.to_list()) if budget is not None else finished.record.budget,
+                reference_chain=self.member_chain(procedure, member).to_dict(),
             )
             copy_log(self.lead.folder.path, member.folder)
             record = member.folder.finish(record, results)
@@ -364,6 +415,7 @@ class BatchRun:
             # and per-point conformity): the same setting for every DUT of the run
             tolerance_percent=settings.tolerance_percent,
             tolerances=member.spec.tolerances(procedure.plan.reference_frequency_hz),
+            transverse=member.transverse,
         )
         results = analysis.results
         if member.warnings:
@@ -420,18 +472,40 @@ def refuse_mode(request: RunRequest) -> None:
         raise RequestError("--mode: several DUTs in one run take the multisine only")
 
 
-def execute_batch(
+@dataclass
+class OpenedBatch:
+    """A batch opened and not run yet (`open_batch`): the first DUT's procedure (to `run()`,
+    on any thread: a face's worker), the stand (to close after the run), and the rest of the
+    batch for `end`."""
+
+    procedure: Procedure
+    stand: Stand
+    run: BatchRun
+    choices: tuple[MemberChoice, ...]  # in the fixture's order: the first is the procedure's
+
+    def end(self, finished: Finished, listener: Listener | None = None) -> BatchFinished:
+        """The run has ended (`finished`, the stand closed): every other member estimated,
+        its folder finished and sealed, then the batch folder (BatchRun.finish)."""
+        others = self.run.finish(self.procedure, finished, listener)
+        return BatchFinished(
+            self.run.batch_id,
+            self.run.folder,
+            tuple(zip(self.choices, (finished, *others), strict=True)),
+        )
+
+
+def open_batch(
     request: RunRequest,
     choices: Sequence[MemberChoice],
     listener: Listener | None = None,
     *,
     config: StandConfig,
-) -> BatchFinished:
-    """Run the DUTs `choices` on the stand's fixture in one excitation (`request`: the run's
+) -> OpenedBatch:
+    """Open the DUTs `choices` on the stand's fixture for one excitation (`request`: the run's
     settings; its DUT the simulated default model): refused before anything moves
-    (RequestError, PreflightError naming the option or key) as a single run is, else every
-    member's run folder and the batch folder written, whatever the end."""
-    from app.procedure.run import _graceful_signals, prepare, request_plan, with_stand_plan
+    (RequestError, PreflightError naming the option or key) as a single run is, else the
+    stand open and every member's run folder and the batch folder made."""
+    from app.procedure.run import prepare, request_plan, with_stand_plan
 
     refuse_mode(request)
     fixture = check_members(config, choices)
@@ -490,13 +564,28 @@ def execute_batch(
         procedure.batch = run
         for text in first_warnings:
             procedure.ctx.warn(text)
-        with _graceful_signals(procedure):
-            finished = procedure.run()
-    finally:
+    except BaseException:
         stand.close()
-    others = run.finish(procedure, finished, listener)
-    return BatchFinished(
-        batch_id,
-        folder,
-        tuple(zip((c for c, _, _, _ in planned), (finished, *others), strict=True)),
-    )
+        raise
+    return OpenedBatch(procedure, stand, run, tuple(c for c, _, _, _ in planned))
+
+
+def execute_batch(
+    request: RunRequest,
+    choices: Sequence[MemberChoice],
+    listener: Listener | None = None,
+    *,
+    config: StandConfig,
+) -> BatchFinished:
+    """Run the DUTs `choices` on the stand's fixture in one excitation (`open_batch`, then the
+    run with the signals handled on the main thread, then `OpenedBatch.end`): every member's
+    run folder and the batch folder written, whatever the end."""
+    from app.procedure.run import _graceful_signals
+
+    opened = open_batch(request, choices, listener, config=config)
+    try:
+        with _graceful_signals(opened.procedure):
+            finished = opened.procedure.run()
+    finally:
+        opened.stand.close()
+    return opened.end(finished, listener)

@@ -19,6 +19,9 @@ from app.records.run_folder import RunFolder
 from dsp.uncertainty import Budget
 from hardware.interfaces import is_dut_channel
 
+# a batch recording's DUT channel's own skew (s), as its member run's chain states it
+SKEW_ATTR = "skew_s"
+
 if TYPE_CHECKING:
     from app.procedure import Procedure
 
@@ -46,12 +49,13 @@ def write_member_truth(
 
 
 def copy_marks(lead: Path, target: Path) -> None:
-    """The run's marks on a member's recording: settle and acquired periods, mode, ranges."""
+    """The run's marks on a member's recording: settle and acquired periods, mode, the
+    reference's and drive's ranges (its DUT channel's range is its own, kept)."""
     with h5py.File(lead, "r") as src, h5py.File(target, "r+") as dst:
         for key in ("settle_periods", "acquired_periods", "mode"):
             if key in src.attrs:
                 dst.attrs[key] = src.attrs[key]
-        for name in ("reference", "dut", "drive"):
+        for name in ("reference", "drive"):  # its DUT's: its own channel's, as recorded
             if name in src["signals"] and name in dst["signals"]:
                 dst["signals"][name].attrs["range_v"] = src["signals"][name].attrs["range_v"]
 
@@ -137,17 +141,38 @@ def write_batch_recording(
     every other member's DUT channel beside it (`others`: channel, recording); no truth (each
     member's own recording holds its DUT's)."""
     channel, path = lead
+    if not path.exists():  # refused before its recording opened: no signals to join
+        return
+    others = [(name, member) for name, member in others if member.exists()]
     shutil.copyfile(path, target)
     target.chmod(0o644)
     with h5py.File(target, "r+") as f:
         signals = f["signals"]
         signals.move("dut", channel)
+        signals[channel].attrs[SKEW_ATTR] = _stored_skew(path)
         for name, member in others:
             with h5py.File(member, "r") as src:
                 src.copy(src["signals/dut"], signals, name=name)
+            signals[name].attrs[SKEW_ATTR] = _stored_skew(member)
         if "truth" in f:
             del f["truth"]
         f.attrs["batch_channels"] = ",".join([channel, *(name for name, _ in others)])
+
+
+def _stored_skew(path: Path) -> float:
+    """The skew (s) a member's recording's chain corrects its phase with (NaN: unknown)."""
+    skew = read_recording(path, stored=True).chain.skew_s
+    return float("nan") if skew is None else float(skew)
+
+
+def channel_skew_s(path: str | Path, channel: str) -> float | None:
+    """A batch recording's DUT channel's own sampling delay (s) as its member run used it;
+    None when the recording does not say (written before issue 36's per-channel delays)."""
+    with h5py.File(path, "r") as f:
+        value = f["signals"][channel].attrs.get(SKEW_ATTR) if channel in f["signals"] else None
+    if value is None or not np.isfinite(value):
+        return None
+    return float(value)
 
 
 def batch_channels(path: str | Path) -> tuple[str, ...]:

@@ -37,7 +37,7 @@ from app.procedure.errors import (
 from app.procedure.events import Event, Finished, InputRanges, Listener, State
 from app.procedure.identification import Identification
 from app.procedure.preflight import PreflightReport, check_preflight
-from app.procedure.ranging import run_resolution, with_resolution
+from app.procedure.ranging import RangePlan, run_resolution, with_resolution
 from app.procedure.record_run import RecordRun
 from app.procedure.request import RunIdentity
 from app.procedure.settings import RunSettings
@@ -50,12 +50,12 @@ from app.records.run_record import RunRecord, StandInfo
 from app.records.run_start import CONFIG_NAME, BatchLink, RunStart
 from app.stand.open import Stand
 from app.stand.response import ResponseStore
-from dsp.calibration import AnalysisError
+from dsp.calibration import AnalysisError, ReferenceChain
 from dsp.multisine import Plan
 from dsp.spectral import RECORD_ESTIMATORS
 from dsp.uncertainty import Budget
 from hardware.errors import AmplifierFaultError, HardwareError, OverloadError
-from hardware.interfaces import DaqConfig
+from hardware.interfaces import DaqConfig, DaqStatus
 
 log = logging.getLogger(__name__)
 run_log = logging.getLogger("accelcal.run")  # the lines of run.log, as they are written
@@ -78,6 +78,13 @@ class BatchHooks(Protocol):
 
     def open_writers(self, procedure: Procedure) -> None:
         """The recording is open: open the other members' (`procedure.io.member_writers`)."""
+
+    def member_ranges(self, procedure: Procedure, ranges: RangePlan) -> dict[str, float]:
+        """Each DUT channel's +-range (V) from its own DUT's predicted peak ("dut": the
+        run's own DUT channel's)."""
+
+    def configured(self, procedure: Procedure, status: DaqStatus) -> None:
+        """The DAQ is configured (`status`: its skews): each member's own channel delay."""
 
 
 class Procedure:
@@ -162,7 +169,10 @@ class Procedure:
         self.notes.fade_in_s = report.fade_in_s
         self._ranges_text = report.ranges_text()
         if report.ranges is not None and self.settings.mode != Mode.STEPPED_SINE:
-            self.io.set_ranges(report.ranges.run_ranges)  # stepped sine: per line
+            ranges = report.ranges.run_ranges  # stepped sine: per line
+            if self.batch is not None:  # several DUTs: each DUT channel's own (issue 36)
+                ranges = {**ranges, **self.batch.member_ranges(self, report.ranges)}
+            self.io.set_ranges(ranges)
 
     def run(self) -> Finished:
         """The whole run, to its end (complete or aborted): the drive at 0 V afterwards."""
@@ -390,6 +400,8 @@ class Procedure:
                 f"the DAQ runs at {status.actual_sample_rate_hz:g} Hz instead of "
                 f"{plan.sample_rate_hz:g} Hz: choose a sample rate the board can divide exactly"
             )
+        if self.batch is not None:  # several DUTs: each channel's own delay (issue 36)
+            self.batch.configured(self, status)
         amplifier = self.stand.measuring_amplifier
         if amplifier is not None:
             ref = self.stand.config.reference
@@ -419,6 +431,12 @@ class Procedure:
             self._write_truth()
             if self.batch is not None:
                 self.batch.open_writers(self)
+
+    def use_chain(self, chain: ReferenceChain) -> None:
+        """The run's reference chain from now on (a several-DUT run's first DUT: its own
+        channel's skew, known once the DAQ is configured), for every part of the run."""
+        stand = dataclasses.replace(self.stand, chain=chain)
+        self.stand = self.io.stand = self.ctx.stand = stand
 
     def _write_truth(self) -> None:
         """The simulated stand's true DUT sensitivity and phase at every line (/truth), at the

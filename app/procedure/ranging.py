@@ -21,7 +21,7 @@ Units: V, Hz, m/s^2.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
@@ -233,6 +233,32 @@ def plan_ranges(
         dict(limits),
         config.converter.bits,
     )
+
+
+def member_ranges(
+    ranges: RangePlan,
+    plan: Plan,
+    nominals_mv_per_ms2: Mapping[str, float | None],
+    dut_gain: float,
+    *,
+    level_scale: float = 1.0,
+) -> dict[str, float]:
+    """Each DUT channel's +-range (V) of a run of several DUTs (issue 36), by channel name
+    ("dut.<position>" -> its DUT's nominal sensitivity, mV/(m/s^2); None: not known): picked
+    as the run's own DUT channel's is (`plan_ranges`, a multisine's whole-plan peak), from its
+    own predicted peak among the ranges the DUT inputs may use. A DUT without a nominal, or a
+    run whose ranges are not chosen (no offered ranges), takes the run's DUT range."""
+    run_dut = ranges.run_ranges["dut"]
+    allowed = ranges.allowed_v.get("dut", ())
+    peak_ms2 = plan.predicted_peaks().acceleration_ms2 * level_scale
+    out: dict[str, float] = {}
+    for channel, nominal in nominals_mv_per_ms2.items():
+        if nominal is None or not ranges.chosen or not allowed or not nominal > 0:
+            out[channel] = run_dut
+            continue
+        peak_v = peak_ms2 * nominal * 1e-3 * dut_gain
+        out[channel] = choose_range(peak_v, allowed, PREDICTED_HEADROOM) or max(allowed)
+    return out
 
 
 def ranges_by_name(inputs: Sequence[InputChannel]) -> dict[str, float]:

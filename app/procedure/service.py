@@ -51,7 +51,7 @@ if TYPE_CHECKING:
     from collections.abc import Sequence
 
     from app.procedure import Finished, Listener, Procedure
-    from app.procedure.batch import MemberChoice
+    from app.procedure.batch import MemberChoice, OpenedBatch
     from app.procedure.sweep import Sweep
     from app.stand.config import StandConfig
     from app.stand.dut import DutSpec
@@ -413,6 +413,19 @@ class RunService:
         outcomes = tuple((member, self.finish(prepared, one)) for member, one in finished.members)
         status = max((o.exit_status for _, o in outcomes), default=ExitStatus.OK)
         return BatchOutcome(finished.batch_id, finished.folder, outcomes, status)
+
+    def start_batch(
+        self,
+        prepared: PreparedRun,
+        members: Sequence[MemberChoice],
+        listener: Listener | None = None,
+    ) -> OpenedBatch:
+        """Open a batch (app.procedure.batch.open_batch) for a face that runs it on a worker
+        thread of its own (the GUI): `procedure.run()`, close the stand, `end(finished)`, then
+        `finish` each member's Finished (indexed as in `run_batch`)."""
+        from app.procedure.batch import open_batch
+
+        return open_batch(prepared.request, members, listener, config=prepared.config)
 
     def sweep(
         self, prepared: PreparedRun, levels: list[float], listener: Listener | None = None

@@ -149,8 +149,9 @@ class StandIO:
         """The named input channels' +-ranges (V) from the next DAQ configuration on (the
         overload check follows them)."""
         if self.dut_name != "dut" and "dut" in ranges:  # several DUTs: the DUT range on each
-            dut = ranges["dut"]
-            ranges = {**ranges, **{n: dut for n in self.channel_index if is_dut_channel(n)}}
+            dut = ranges["dut"]  # DUT channel the ranges do not name (named ones: their own)
+            spread = {n: dut for n in self.channel_index if is_dut_channel(n) and n not in ranges}
+            ranges = {**ranges, **spread, self.dut_name: dut}
         self.inputs = with_ranges(self.inputs, ranges)
         self.ranges = self._named_ranges()
 
@@ -176,6 +177,8 @@ class StandIO:
         self.set_ranges(ranges)
         if self.writer is not None:
             self.writer.widen_ranges(self.ranges)
+        for name, writer in self.member_writers.items():  # each other DUT: its own channel's
+            writer.widen_ranges({**self.ranges, "dut": self.ranges[name]})
         plan = self.segment.plan
         self.stand.daq.configure(
             DaqConfig(

@@ -79,6 +79,18 @@ class FixturePosition:
     mass_limit_kg: float | None = None
     relative_motion: MotionTable = MotionTable()
     relative_motion_phase_deg: MotionTable = MotionTable()
+    # its input's stated sampling delay after the reference (s; None: [daq] skew_s holds)
+    skew_s: float | None = None
+    # a triaxial position: the table's acceleration along a transverse axis of the sensor per
+    # axial acceleration (exciter's transverse motion, mounting alignment), standard
+    # uncertainty, percent, at frequencies (Hz); dsp.triaxial's `table_transverse`
+    transverse_motion: MotionTable = MotionTable()
+
+    def transverse_budget(self) -> Budget:
+        """The stated transverse motion as magnitude components (fractions)."""
+        return Budget(
+            tuple(_segments(f"table transverse motion {self.name}", self.transverse_motion, 0.01))
+        )
 
     @property
     def channels(self) -> tuple[str, ...]:
@@ -355,7 +367,23 @@ def _position(entry: Any, index: int) -> FixturePosition:
             if "relative_motion_phase_deg" in entry
             else MotionTable()
         ),
+        skew_s=_skew(entry.get("skew_s"), f"{where}.skew_s"),
+        transverse_motion=(
+            _table(entry["transverse_motion"], f"{where}.transverse_motion")
+            if "transverse_motion" in entry
+            else MotionTable()
+        ),
     )
+
+
+def _skew(value: Any, where: str) -> float | None:
+    """A position's stated sampling delay (s), 0 to 1 ms as [daq] skew_s; None: not stated."""
+    if value is None:
+        return None
+    skew = _number(value, where, minimum=0.0)
+    if skew >= 1e-3:
+        raise FixtureError(f"{where}: must be between 0 and 1 ms, got {skew:g} s")
+    return skew
 
 
 def parse_fixture(

@@ -113,7 +113,11 @@ def open_stand(
 
             fixture_g = 1000 * config.fixture.mass_kg if config.fixture is not None else 0.0
             sim = FixtureStand(
-                duts, fixture=fixture_motion(config.raw), fixture_mass_g=fixture_g, **common
+                duts,
+                fixture=fixture_motion(config.raw),
+                fixture_mass_g=fixture_g,
+                multiplexed=True,  # each DUT channel its own delay, as on the real board
+                **common,
             )
         else:
             sim = SimulatedStand(sensor if sensor is not None else dut, **common)

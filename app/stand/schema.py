@@ -98,5 +98,7 @@ POSITION_KEYS = frozenset(
         "mass_limit_kg",
         "relative_motion",
         "relative_motion_phase_deg",
+        "skew_s",  # its input's stated sampling delay after the reference (s; multiplexed DAQ)
+        "transverse_motion",  # a triaxial position's table transverse motion (issue 36 pt 3)
     }
 )

@@ -9,6 +9,7 @@ functions that need it.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -116,6 +117,14 @@ def open_simulated(dut: str, seed: int = 0) -> SimulatedStand:
     from sim.stand import SimulatedStand
 
     return SimulatedStand(dut, seed=seed)
+
+
+def open_simulated_fixture(duts: Mapping[str, str], seed: int = 0) -> Any:
+    """The simulated stand with the catalogue DUTs `duts` on a fixture (input channel
+    "dut.<position>" -> catalogue name; sim.fixture_stand.FixtureStand, each its own TEDS)."""
+    from sim.fixture_stand import FixtureStand
+
+    return FixtureStand(duts, seed=seed)
 
 
 def catalogue_entries() -> dict[str, Any]:

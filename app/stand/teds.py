@@ -7,9 +7,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
+from hardware.interfaces import InputChannel
 from hardware.teds import Teds, TedsError, encode
+
+if TYPE_CHECKING:
+    from app.stand.config import StandConfig
 
 
 @dataclass(frozen=True)
@@ -17,18 +21,26 @@ class TedsPort:
     """Where the DUT's TEDS is: the simulated stand's memory, or an NI physical channel."""
 
     description: str
-    sim: Any = None  # a sim.stand.SimulatedStand
+    sim: Any = None  # a sim.stand.SimulatedStand (sim.fixture_stand.FixtureStand: `channel`)
     physical_channel: str | None = None
+    channel: InputChannel | None = None  # a several-DUT stand's DUT input ("dut.<position>")
 
     def read(self) -> tuple[int, ...]:
         if self.sim is not None:
+            if self.channel is not None:
+                return tuple(self.sim.read_teds_channel(self.channel.name))
             return tuple(self.sim.read_teds())
+        if self.channel is not None:  # one channel of the stand's inputs, as a run reads them
+            return _channel_bits(self.channel)
         from hardware.nidaq import read_teds_bits
 
         return read_teds_bits(str(self.physical_channel))
 
     def write(self, bits: tuple[int, ...]) -> None:
         if self.sim is not None:
+            if self.channel is not None:
+                self.sim.write_teds_channel(self.channel.name, bits)
+                return
             self.sim.write_teds(bits)
             return
         from hardware.nidaq import write_teds_bits
@@ -36,18 +48,62 @@ class TedsPort:
         write_teds_bits(str(self.physical_channel), bits)
 
 
-def open_port(stand_file: Path | None, dut: str = "piezo", seed: int = 0) -> TedsPort:
+def _channel_bits(channel: InputChannel) -> tuple[int, ...]:
+    """The TEDS bits of one DUT input through hardware.nidaq.read_teds_channels; TedsError
+    with the reason when the channel has none."""
+    from hardware.nidaq import read_teds_channels
+    from hardware.teds import bits_from_bytes
+
+    found = read_teds_channels([channel])[channel.name]
+    if found.data is None:
+        raise TedsError(f"TEDS on {channel.name} ({found.physical}): {found.reason}")
+    return bits_from_bytes(found.data)
+
+
+def fixture_channel(config: StandConfig, name: str) -> InputChannel:
+    """The fixture's DUT input `name` ("dut.<position>", or an axis "dut.<position>.x") with
+    [daq.dut]'s settings; ValueError naming --channel and the stand's DUT channels."""
+    fixture = config.fixture
+    dut = next((c for c in config.inputs if c.name == "dut"), None)
+    if fixture is None or dut is None:
+        raise ValueError(
+            f"--channel {name}: the stand file {config.source} has no [fixture] table "
+            "(its one DUT channel is read without --channel)"
+        )
+    inputs = {c.name: c for c in fixture.inputs(dut)}
+    if name not in inputs:
+        raise ValueError(
+            f"--channel {name!r}: not a DUT channel of the fixture ({', '.join(inputs)})"
+        )
+    return inputs[name]
+
+
+def open_port(
+    stand_file: Path | None, dut: str = "piezo", seed: int = 0, channel: str | None = None
+) -> TedsPort:
     """The DUT channel's TEDS on the stand a stand file names (the simulated stand without one,
-    or when the file says backend "sim")."""
+    or when the file says backend "sim"); `channel`: one DUT input of its fixture
+    ("dut.<position>"; the simulated fixture: `dut` at every position, each its own TEDS)."""
     from app.stand import config as stand_config
 
     config = stand_config.load(stand_file)
+    if channel is not None and channel != "dut":
+        named = fixture_channel(config, channel)
+        if config.backend == "sim":
+            from app.stand.simulated import open_simulated_fixture
+
+            assert config.fixture is not None
+            dut_input = next(c for c in config.inputs if c.name == "dut")
+            duts = {c.name: dut for c in config.fixture.inputs(dut_input)}
+            sim = open_simulated_fixture(duts, seed)
+            return TedsPort(f"simulated stand, {channel} DUT {dut!r}", sim=sim, channel=named)
+        return TedsPort(f"{config.device} {channel} {named.physical}", channel=named)
     if config.backend == "sim":
         from app.stand.simulated import open_simulated
 
         return TedsPort(f"simulated stand, DUT {dut!r}", sim=open_simulated(dut, seed))
-    channel = next(c for c in config.inputs if c.name == "dut")
-    return TedsPort(f"{config.device} {channel.physical}", physical_channel=channel.physical)
+    own = next(c for c in config.inputs if c.name == "dut")
+    return TedsPort(f"{config.device} {own.physical}", physical_channel=own.physical)
 
 
 def describe(teds: Teds) -> list[str]:

@@ -333,6 +333,7 @@ def create_app(store: Store, config: WebConfig) -> Starlette:
             history=history,
             chart=history_svg(history),
             rows=store.sensor_certificates(serial),
+            shared=store.shared_runs(serial),
         )
 
     def verify(request: Request) -> Response:

@@ -42,6 +42,7 @@ from app.records.db.models import (
     User,
 )
 from app.records.db.reviews import Review, as_review
+from app.web.shared import SharedRun, shared_runs
 
 SEARCH_LIMIT = 200  # register rows on one page
 STATUS_WORDS = {"issued": "valid", "replaced": "amended", "withdrawn": "withdrawn"}
@@ -336,6 +337,11 @@ class Store:
     def history(self, serial: str) -> History:
         """A sensor's calibrations and drift (Lab.history); RecordsError when unknown."""
         return self.lab.history(serial)
+
+    def shared_runs(self, serial: str) -> list[SharedRun]:
+        """The runs sensor `serial` shared with other DUTs (staff only: app.web.shared)."""
+        with self._session() as s:
+            return shared_runs(s, serial)
 
     def sensor_certificates(self, serial: str) -> list[CertificateRow]:
         """The certificates of sensor `serial`, newest first."""

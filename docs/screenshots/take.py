@@ -1,7 +1,10 @@
 """Screenshots of every tab: a records database with two customers' sensors, their history,
 run templates and a certificate register (issued, amended, withdrawn), one simulated run of a
 registered sensor from its template, its certificate issued through the register, each tab
-grabbed, and the certificate dialog of that run.
+grabbed, and the certificate dialog of that run; then four registered sensors in one run on the
+simulated four-position fixture with its physics (sim/stand-fixture4-physics.toml, issue 36:
+the off-axis positions' rocking shows in their deviations at the top lines): its Setup, Run and Results
+tabs grabbed as 8-batch-setup, 9-batch-run and 10-batch-results.
 
     xvfb-run -s "-screen 0 1920x1080x24" env QT_QPA_PLATFORM=xcb \
         python docs/screenshots/take.py [WIDTHxHEIGHT]        # default 1366x768
@@ -30,6 +33,8 @@ from app.records.db.models import Run, Stand
 from app.web.users import add_user
 
 HERE = Path(__file__).resolve().parent
+ROOT = HERE.parents[1]
+BATCH = {"A": "SN-2101", "B": "SN-2102", "C": "SN-2103", "D": "SN-2104"}  # position: serial
 
 
 def records(url: str) -> None:
@@ -59,6 +64,8 @@ def records(url: str) -> None:
     lab.add_sensor("SN-1042", model="352C33", owner="ACME Ltd")
     lab.add_sensor("SN-1043", model="352C33", owner="ACME Ltd", interval_months=24)
     lab.add_sensor("BK-2210", model="4533-B", owner="Vibration Labs GmbH")
+    for serial in BATCH.values():  # a customer's batch of one model, four at a time
+        lab.add_sensor(serial, model="352C33", owner="ACME Ltd")
     history = [
         ("SN-1042", date(2022, 11, 2), 10.22, 0.06),
         ("SN-1042", date(2023, 11, 6), 10.25, 0.06),
@@ -148,6 +155,66 @@ def certificate_dialog(window: Any, folder: Path, width: int, height: int) -> Pa
     return path
 
 
+def run_and_wait(window: Any, count: int) -> None:
+    """Start the run the Setup tab describes once it may, and wait for its `count` members'
+    ends (1: a single run)."""
+    loop = QEventLoop()
+    ended: list[Any] = []
+
+    def one(finished: Any) -> None:
+        ended.append(finished)
+        if len(ended) == count:
+            QTimer.singleShot(300, loop.quit)
+
+    window.run_finished.connect(one)
+    while not window.setup_tab.start_button.isEnabled():
+        QCoreApplication.processEvents(QEventLoop.ProcessEventsFlag.AllEvents, 50)
+    window.start_run()
+    loop.exec()
+    window.records.wait_jobs()
+
+
+def batch_shots(work: Path, url: str, width: int, height: int) -> list[Path]:
+    """Four DUTs in one run on the simulated fixture: the Setup tab with their serials (looked
+    up in the records), the Run tab with each one's deviation, the Results tab with a verdict
+    per DUT, grabbed after the run."""
+    from app.gui.main_window import MainWindow
+
+    window = MainWindow(
+        stand_file=ROOT / "sim" / "stand-fixture4-physics.toml",
+        out=work / "batch-runs",
+        paced=False,
+        seed=4,
+        db=url,
+    )
+    window.setGeometry(0, 0, width, height)
+    window.show()
+    window.records.wait()
+    setup = window.setup_tab
+    setup.technician.setText("A. Tech")
+    rows = {row.position.name: row for row in setup.fixture.rows}
+    for position, serial in BATCH.items():
+        rows[position].serial.setText(serial)
+        rows[position].serial.editingFinished.emit()
+    window.wait_for_plans()  # the piezo preset's 25 lines, 10 Hz to 2.5 kHz
+    shots = []
+    for index, name in ((0, "8-batch-setup"),):
+        window.tabs.setCurrentIndex(index)
+        for _ in range(5):
+            QCoreApplication.processEvents()
+        shots.append(HERE / f"{name}-{width}x{height}.png")
+        window.grab().save(str(shots[-1]))
+    run_and_wait(window, len(BATCH))
+    for index, name in ((1, "9-batch-run"), (2, "10-batch-results")):
+        window.tabs.setCurrentIndex(index)
+        for _ in range(5):
+            QCoreApplication.processEvents()
+        shots.append(HERE / f"{name}-{width}x{height}.png")
+        window.grab().save(str(shots[-1]))
+    window.close()
+    return shots
+
+
 def main() -> int:
     size = sys.argv[1] if len(sys.argv) > 1 else "1366x768"
     width, height = (int(v) for v in size.split("x"))
@@ -168,13 +235,7 @@ def main() -> int:
     setup.dut_id.editingFinished.emit()
     setup.templates.choose("5 lines, quick")
     window.wait_for_plans()
-    loop = QEventLoop()
-    window.run_finished.connect(lambda _f: QTimer.singleShot(300, loop.quit))
-    while not setup.start_button.isEnabled():
-        QCoreApplication.processEvents(QEventLoop.ProcessEventsFlag.AllEvents, 50)
-    window.start_run()
-    loop.exec()
-    window.records.wait_jobs()
+    run_and_wait(window, 1)
     folder = window.results_tab.folder
     assert folder is not None, "the run did not complete"
     print(certificate_dialog(window, folder, width, height))
@@ -201,6 +262,9 @@ def main() -> int:
         window.grab().save(str(path))
         print(path)
     window.close()
+    qt_app.processEvents()
+    for path in batch_shots(work, url, width, height):
+        print(path)
     qt_app.processEvents()
     return 0
 
