@@ -1,18 +1,25 @@
-"""The stated fixture terms over the simulated fixture's truth, per position and line (issue 36
-point 2): the non-circular check before the coverage run. The truth is sim.fixture's physics
+"""The stated fixture terms against the simulated fixture's truth, per position and line (issue
+36 point 2): the non-circular check before the coverage run. The truth is sim.fixture's physics
 (rocking, bending, crosstalk from [simulation.fixture]); the stated terms are the stand file's
 `relative_motion` (standard uncertainty, percent) and `relative_motion_phase_deg` per
 [[fixture.position]], log-log interpolated between their rows and held flat outside (the
-design's reading), and [fixture]'s `crosstalk_db`. A stated term must bound the truth at every
-line: printed as stated / true (>= 1), the smallest also over a dense grid between the lines.
+design's reading), and [fixture]'s `crosstalk_db`.
 
-Without --stand the built-in four-position block FB-4 is checked with the terms
-sim.fixture.stated_terms states for it (--margin); --write PATH writes that block's
-[fixture], [[fixture.position]] and [simulation.fixture] tables as TOML for a stand file.
+A fixture whose mounting scatters (mounting_offset_mm, rocking_scatter, crosstalk_scatter: the
+block differs per run) is stated as a lab states it: the root mean square of each position's
+motion over 50 mountings of its own (sim.fixture.characterised_terms, another seed than the
+runs'); the check prints it against the rms over the runs' own 400 mountings (the seeds of
+bench/coverage_fixture.py's two blocks) and wants every ratio within 0.8-1.25 where the motion
+is above 0.01 % (0.01 deg). A fixed fixture (no scatter) is a bias: its stated term must bound
+the truth at every line (stated / true >= 1, also on a dense grid between the lines).
+
+Without --stand the built-in four-position block FB-4 is checked with the terms its lab's
+characterisation states (--margin times the rms); --write PATH writes that block's [fixture],
+[[fixture.position]] and [simulation.fixture] tables as TOML for a stand file.
 No wall time is measured: every figure is a model's value, the same on any machine.
 
-Run: python bench/fixture_terms.py [--stand FILE] [--write PATH] [--margin 1.5] [--smoke]
-Exit status 1 when a stated term is below the truth at a line.
+Run: python bench/fixture_terms.py [--stand FILE] [--write PATH] [--margin 1.0] [--smoke]
+Exit status 1 when a stated term fails its check at a line.
 """
 
 from __future__ import annotations
@@ -33,28 +40,12 @@ from dsp import iso266  # noqa: E402
 from sim.fixture import (  # noqa: E402
     FixtureModel,
     PositionGeometry,
+    characterised_terms,
     interpolated,
     relative_motion_truth,
-    stated_terms,
 )
 
 LINES_HZ = iso266.nominal_frequencies(10.0, 20_000.0)
-# the stated rows' nodes (ISO 266 frequencies): denser where the rocking modes bend the curve
-NODES_HZ = (
-    10.0,
-    100.0,
-    1000.0,
-    2000.0,
-    3150.0,
-    5000.0,
-    6300.0,
-    8000.0,
-    10_000.0,
-    12_500.0,
-    16_000.0,
-    20_000.0,
-)
-
 # The four-position block FB-4: A on the axis (stacked over the back-to-back reference: ratio 1,
 # the control), B and C at 20 mm on opposite sides (opposite relative motions: the rocking, not
 # a gain, moves them), D at 35 mm across the rocking's other axis (the largest: the one the ISO
@@ -84,19 +75,50 @@ SIMULATION: dict[str, Any] = {
     "crosstalk_db": -90.0,
     "crosstalk_flat_db": -106.0,
     "crosstalk_reference_hz": 10_000.0,
+    # the mountings (sim.fixture, "Mountings"): a DUT's connector and cable put its centre of
+    # mass 1.5 mm off its stud, the block's contact on the armature scatters the rocking
+    # stiffness by 6 % (the frequencies by 3 %), the cables' routing the capacitive crosstalk
+    "mounting_offset_mm": 1.5,
+    "rocking_scatter": 0.06,
+    "crosstalk_scatter": 0.5,
 }
-STATED_CROSSTALK_DB = -80.0
+BLOCK_MASS_G = 120.0  # [fixture] mass_kg
+DUT_MASS_G = 10.0  # the simulated piezo DUT's (sim.models.SensorModel.mass_g)
+MOUNTINGS = 50  # the lab's characterisation: mountings measured
+# the runs' seeds (bench/coverage_fixture.py's two blocks): their mountings, the check's truth
+RUN_SEEDS = (*range(1, 201), *range(10_001, 10_201))
 
 
 def built_in(margin: float) -> tuple[FixtureModel, dict[str, dict[str, Any]], float]:
-    """FB-4's model, its positions' stated rows (by sim.fixture.stated_terms) and crosstalk."""
+    """FB-4's model, its positions' stated rows and crosstalk as the lab characterises them
+    (sim.fixture.characterised_terms: 50 mountings, at every ISO 266 line 10 Hz-20 kHz)."""
     geometry = [PositionGeometry(n, d * 1e-3, az) for n, _, d, az in POSITIONS]
     model = FixtureModel.from_table(SIMULATION, geometry)
+    terms, crosstalk_db = characterised_terms(
+        model, _masses(), BLOCK_MASS_G, LINES_HZ, mountings=MOUNTINGS, margin=margin
+    )
     stated = {
         t.position: {"relative_motion": t.magnitude, "relative_motion_phase_deg": t.phase}
-        for t in stated_terms(model, NODES_HZ, margin=margin)
+        for t in terms
     }
-    return model, stated, STATED_CROSSTALK_DB
+    return model, stated, crosstalk_db
+
+
+def _masses() -> dict[str, float]:
+    return {name: DUT_MASS_G for name, *_ in POSITIONS}
+
+
+def run_rms(model: FixtureModel, frequency_hz: np.ndarray) -> dict[str, tuple[Any, Any]]:
+    """Per position the root mean square over the runs' mountings (RUN_SEEDS) of the
+    magnitude's deviation (percent) and the phase (degrees): what the stated u should be."""
+    out = {}
+    mounts = [model.mounted(seed, _masses(), BLOCK_MASS_G) for seed in RUN_SEEDS]
+    for name in model.positions:
+        ratios = np.array([m.motion_ratio(name, frequency_hz) for m in mounts])
+        magnitude = np.sqrt(np.mean((100.0 * (np.abs(ratios) - 1.0)) ** 2, axis=0))
+        phase = np.sqrt(np.mean(np.degrees(np.angle(ratios)) ** 2, axis=0))
+        out[name] = (magnitude, phase)
+    return out
 
 
 def from_stand(path: Path) -> tuple[FixtureModel, dict[str, dict[str, Any]], float]:
@@ -114,7 +136,9 @@ def from_stand(path: Path) -> tuple[FixtureModel, dict[str, dict[str, Any]], flo
     return model, stated, float(data["fixture"]["crosstalk_db"])
 
 
-def toml_text(model: FixtureModel, stated: dict[str, dict[str, Any]], margin: float) -> str:
+def toml_text(
+    model: FixtureModel, stated: dict[str, dict[str, Any]], crosstalk_db: float, margin: float
+) -> str:
     """FB-4's tables for a stand file (the lead merges them into the example stand file)."""
 
     def rows(values: Any) -> str:
@@ -124,16 +148,17 @@ def toml_text(model: FixtureModel, stated: dict[str, dict[str, Any]], margin: fl
         return "[" + ", ".join(map(_float, v)) + "]" if isinstance(v, list) else _float(v)
 
     out = [
-        "# Written by bench/fixture_terms.py --write (sim/fixture.py's stated_terms, margin "
-        f"{margin:g}):",
-        "# the stated terms bound the simulated truth at every line 10 Hz-20 kHz (the bench",
-        "# prints stated / true). Positions: distance from the reference axis, azimuth from the",
-        "# block's x axis (sim.fixture.PositionGeometry).",
+        "# Written by bench/fixture_terms.py --write (sim/fixture.py's characterised_terms,",
+        f"# margin {margin:g}): the lab's standard uncertainties from {MOUNTINGS} mountings of the",
+        "# block with its DUTs (the rms of each position's motion against the axis, at every",
+        "# ISO 266 line 10 Hz-20 kHz; the bench prints them against the runs' own mountings).",
+        "# Positions: distance from the reference axis, azimuth from the block's x axis",
+        "# (sim.fixture.PositionGeometry).",
         "[fixture]",
         'name = "four-position block FB-4 (simulated)"',
         "mass_kg = 0.120",
         "mass_limit_kg = 0.400",
-        f"crosstalk_db = {_float(STATED_CROSSTALK_DB)}",
+        f"crosstalk_db = {_float(crosstalk_db)}",
     ]
     for name, physical, distance, azimuth in POSITIONS:
         out += [
@@ -158,6 +183,8 @@ def check(
     """Print stated / true per position and line; whether every stated term bounds its truth."""
     f = np.asarray(lines, dtype=np.float64)
     dense = np.geomspace(f[0], f[-1], 4000)
+    if model.scatter is not None:
+        return against_mountings(model, stated, crosstalk_db, f)
     truth = relative_motion_truth(model, f)
     truth_dense = relative_motion_truth(model, dense)
     bounded = True
@@ -209,6 +236,48 @@ def check(
     return bounded
 
 
+def against_mountings(
+    model: FixtureModel, stated: dict[str, dict[str, Any]], crosstalk_db: float, f: np.ndarray
+) -> bool:
+    """A fixture whose mounting scatters: the stated standard uncertainty per position and line
+    against the root mean square over the runs' mountings (stated / rms near 1: the lab's 50
+    mountings estimate it within about 10 %); whether every ratio is within 0.8-1.25."""
+    rms = run_rms(model, f)
+    fair = True
+    for name, (magnitude, phase) in rms.items():
+        rows = stated.get(name, {})
+        s_mag = interpolated(rows["relative_motion"], f)
+        phase_rows = rows.get("relative_motion_phase_deg")
+        s_phase = interpolated(phase_rows, f) if phase_rows else np.zeros_like(f)
+        print(f"\nposition {name}: stated u against the rms over {len(RUN_SEEDS)} run mountings")
+        print(
+            f"{'f Hz':>8} {'rms %':>10} {'stated %':>10} {'ratio':>8} "
+            f"{'rms deg':>10} {'stated deg':>10} {'ratio':>8}"
+        )
+        for i, line in enumerate(f):
+            r_mag = _ratio(s_mag[i], magnitude[i])
+            r_phase = _ratio(s_phase[i], phase[i])
+            print(
+                f"{line:8g} {magnitude[i]:10.3g} {s_mag[i]:10.3g} {r_mag:8.3g} "
+                f"{phase[i]:10.3g} {s_phase[i]:10.3g} {r_phase:8.3g}"
+            )
+            # below the floors (the lab's resolution) the ratio says nothing
+            if magnitude[i] > 0.01 and not 0.8 <= r_mag <= 1.25:
+                fair = False
+            if phase[i] > 0.01 and not 0.8 <= r_phase <= 1.25:
+                fair = False
+    channels = ["reference", *(f"dut.{name}" for name in model.positions)]
+    off = ~np.eye(len(channels), dtype=bool)
+    coupling = [
+        np.abs(model.mounted(seed, _masses(), BLOCK_MASS_G).crosstalk(f, channels)[:, off]).max()
+        for seed in RUN_SEEDS
+    ]
+    true_db = 20 * math.log10(math.sqrt(float(np.mean(np.square(coupling)))))
+    print(f"\ncrosstalk: stated {crosstalk_db:g} dB, rms over the run mountings {true_db:.1f} dB")
+    print(f"every stated u within 0.8-1.25 of the runs' rms: {'yes' if fair else 'NO'}")
+    return fair
+
+
 def _float(x: float) -> str:
     """A TOML float (never an integer literal): 10.0, 0.0058, 2.5e-05."""
     text = f"{float(x):.6g}"
@@ -229,7 +298,7 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--stand", type=Path, help="a stand file with [fixture] and its physics")
     parser.add_argument("--write", type=Path, help="write FB-4's tables (TOML) here")
-    parser.add_argument("--margin", type=float, default=1.5, help="stated / largest truth")
+    parser.add_argument("--margin", type=float, default=1.0, help="stated / the lab's rms")
     parser.add_argument("--smoke", action="store_true", help="three lines only")
     args = parser.parse_args()
     if args.stand:
@@ -237,11 +306,11 @@ def main() -> int:
     else:
         model, stated, crosstalk_db = built_in(args.margin)
     if args.write:
-        args.write.write_text(toml_text(model, stated, args.margin), encoding="utf-8")
+        args.write.write_text(toml_text(model, stated, crosstalk_db, args.margin), encoding="utf-8")
         print(f"wrote {args.write}")
     lines = (10.0, 1000.0, 10_000.0) if args.smoke else LINES_HZ
     bounded = check(model, stated, crosstalk_db, lines)
-    print(f"\nevery stated term bounds the truth: {'yes' if bounded else 'NO'}")
+    print(f"\nevery stated term passes its check: {'yes' if bounded else 'NO'}")
     return 0 if bounded else 1
 
 

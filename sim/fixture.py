@@ -68,11 +68,29 @@ Stated as the total magnitude `crosstalk_db` at `crosstalk_reference_hz` and the
 g_flat^2 + g_cap^2 = 10^(crosstalk_db / 10); C[i, i] = 1. Every pair couples alike (a
 conservative multiplexer: the budget's term is stated per other channel).
 
+Mountings (optional; `mounting_offset_mm`, `rocking_scatter`, `crosstalk_scatter`). A lab's
+block is not the same from batch to batch: it is taken off the armature to mount the DUTs and
+bolted on again. Three things change with it, drawn per run from the run's seed (`mounted`):
+- the centre of mass. The table's eccentricity is the block's with its DUTs' centres of mass
+  on their studs; a mounted DUT's centre of mass (its side connector, the cable's first metres
+  up to the clamp) is off its stud by `mounting_offset_mm`, at the azimuth where the thread
+  stops at the mounting torque: uniform over the circle, one per DUT. The moment of each DUT
+  (its mass times that offset) adds to the block's; over the total mass (block + DUTs) it is
+  the run's eccentricity, magnitude and azimuth. A sum of a few fixed-length vectors at random
+  angles: neither normal nor known to the analysis.
+- the rocking stiffness: the contact of the block's base on the armature (surface condition,
+  torque of the centre bolt) scales it by exp(rocking_scatter Z), Z standard normal; both
+  rocking frequencies by its square root (the inertia is the same).
+- the cables' routing: the capacitive crosstalk's part by exp(crosstalk_scatter Z).
+The stated terms a lab derives from such mountings: `characterised_terms` (the lab's own
+mountings, never the runs': another seed).
+
 Units: frequencies Hz, distances m (mm in the table), angles degrees, ratios dimensionless.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import itertools
 import math
@@ -100,6 +118,9 @@ KEYS: dict[str, tuple[bool, str]] = {
     "crosstalk_db": (True, "channel-to-channel coupling at crosstalk_reference_hz, dB"),
     "crosstalk_flat_db": (True, "its frequency-independent part, dB (below crosstalk_db)"),
     "crosstalk_reference_hz": (True, "the frequency crosstalk_db holds at, Hz"),
+    "mounting_offset_mm": (False, "a mounted DUT's centre of mass off its stud's axis, mm"),
+    "rocking_scatter": (False, "log-sd of the rocking stiffness from mounting to mounting"),
+    "crosstalk_scatter": (False, "log-sd of the capacitive crosstalk from mounting to mounting"),
 }
 
 
@@ -111,6 +132,17 @@ class PositionGeometry:
     name: str
     distance_m: float
     azimuth_deg: float = 0.0
+
+
+@dataclass(frozen=True)
+class MountingScatter:
+    """How one mounting of the block with its DUTs differs from the next (module docstring,
+    "Mountings"): a DUT's centre of mass off its stud (m), the rocking stiffness' and the
+    capacitive crosstalk's log standard deviations (dimensionless)."""
+
+    mounting_offset_m: float = 0.0
+    rocking_scatter: float = 0.0
+    crosstalk_scatter: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -145,6 +177,7 @@ class FixtureModel:
     bending: Mode | None = None
     bending_participation: float = 0.0
     block_radius_m: float = 0.05
+    scatter: MountingScatter | None = None  # None: every mounting alike (no draw)
     # motion ratios already computed, by (position, the frequencies' digest): the simulated
     # stand asks for the same DFT bins every period
     _ratios: dict[tuple[str, bytes], np.ndarray] = field(
@@ -201,6 +234,7 @@ class FixtureModel:
             bending=bending,
             bending_participation=participation,
             block_radius_m=radius_mm * 1e-3,
+            scatter=_scatter(table),
         )
 
     @classmethod
@@ -223,6 +257,52 @@ class FixtureModel:
             azimuth = _number(entry, "azimuth_deg", -360.0, 360.0, 0.0, where=where)
             positions.append(PositionGeometry(entry["name"], distance * 1e-3, azimuth))
         return cls.from_table(table, positions)
+
+    def mounted(
+        self, seed: int, masses_g: Mapping[str, float], block_mass_g: float
+    ) -> FixtureModel:
+        """This fixture as mounted for one run (module docstring, "Mountings"): the
+        eccentricity, the rocking frequencies and the capacitive crosstalk drawn from `seed`
+        for the DUTs of `masses_g` (position -> g) on a block of `block_mass_g` (g); itself
+        when the table states no mounting scatter."""
+        if self.scatter is None:
+            return self
+        rng = np.random.default_rng(np.random.SeedSequence([int(seed), 36, 2]))
+        return self._draw(rng, masses_g, block_mass_g)
+
+    def _draw(
+        self, rng: np.random.Generator, masses_g: Mapping[str, float], block_mass_g: float
+    ) -> FixtureModel:
+        """One mounting drawn with `rng` (see `mounted`)."""
+        scatter = self.scatter
+        assert scatter is not None
+        unknown = sorted(set(masses_g) - set(self.positions))
+        if unknown:
+            self.geometry(unknown[0])  # InputRefused naming it
+        phi_e = math.radians(self.eccentricity_azimuth_deg)
+        total_g = block_mass_g + sum(masses_g.values())
+        # g m: the nominal load's centre of mass (the table's eccentricity), then each DUT's
+        moment = np.array([math.cos(phi_e), math.sin(phi_e)]) * self.eccentricity_m * total_g
+        for position in sorted(masses_g):
+            # where the stud's thread stops at the mounting torque: any azimuth alike
+            turn = rng.uniform(0.0, 2.0 * math.pi)
+            offset = scatter.mounting_offset_m * np.array([math.cos(turn), math.sin(turn)])
+            moment += masses_g[position] * offset
+        e = moment / total_g if total_g > 0 else moment * 0.0
+        stiffness = math.exp(scatter.rocking_scatter * rng.standard_normal())
+        coupling = math.exp(scatter.crosstalk_scatter * rng.standard_normal())
+        total = 10.0 ** (self.crosstalk_db / 20.0)
+        flat = 10.0 ** (self.crosstalk_flat_db / 20.0)
+        capacitive = math.sqrt(max(total**2 - flat**2, 0.0)) * coupling
+        return dataclasses.replace(
+            self,
+            rocking_x=Mode(self.rocking_x.frequency_hz * math.sqrt(stiffness), self.rocking_x.q),
+            rocking_y=Mode(self.rocking_y.frequency_hz * math.sqrt(stiffness), self.rocking_y.q),
+            eccentricity_m=float(np.hypot(*e)),
+            eccentricity_azimuth_deg=math.degrees(math.atan2(e[1], e[0])),
+            crosstalk_db=10.0 * math.log10(flat**2 + capacitive**2),
+            scatter=None,
+        )
 
     def geometry(self, position: str) -> PositionGeometry:
         """The position named `position`; InputRefused naming it and the known ones."""
@@ -356,6 +436,63 @@ def stated_terms(
     return terms
 
 
+LAB_SEED = 16_063  # the lab's characterisation mountings (not a run's seed: runs use [seed, 36, 2])
+
+
+def characterised_terms(
+    model: FixtureModel,
+    masses_g: Mapping[str, float],
+    block_mass_g: float,
+    nodes_hz: Sequence[float],
+    *,
+    mountings: int = 50,
+    margin: float = 1.0,
+    seed: int = LAB_SEED,
+    floor_percent: float = 0.005,
+    floor_deg: float = 0.003,
+) -> tuple[list[StatedTerm], float]:
+    """What a lab states for a fixture whose mounting scatters (`model.scatter`): it mounts the
+    block `mountings` times with the DUTs of `masses_g` (g per position) and measures each
+    position's motion against the axis at the nodes (Hz; its calibration lines). Per position
+    and node the standard uncertainty is the root mean square over the mountings (about zero:
+    the lab does not correct the mean) of the magnitude's deviation (percent, |ratio| - 1) and
+    of the phase (degrees), times `margin`, rounded up to two digits, never below the floors
+    (its resolution); the crosstalk the root mean square of the largest coupling over the nodes,
+    in dB rounded up to a whole dB. Returns (terms, crosstalk_db)."""
+    if mountings < 2:
+        raise ValueError("characterised_terms: needs at least two mountings")
+    if model.scatter is None:
+        raise ValueError("characterised_terms: the fixture states no mounting scatter")
+    f = np.asarray(sorted(float(x) for x in nodes_hz), dtype=np.float64)
+    rng = np.random.default_rng(np.random.SeedSequence([int(seed), 36, 3]))
+    names = list(model.positions)
+    magnitude = np.zeros((len(names), f.size))
+    phase = np.zeros((len(names), f.size))
+    coupling = np.zeros(mountings)
+    channels = ["reference", *(f"dut.{n}" for n in names)]
+    off = ~np.eye(len(channels), dtype=bool)
+    for k in range(mountings):
+        mount = model._draw(rng, masses_g, block_mass_g)
+        for i, name in enumerate(names):
+            ratio = mount.motion_ratio(name, f)
+            magnitude[i] += (100.0 * (np.abs(ratio) - 1.0)) ** 2
+            phase[i] += np.degrees(np.angle(ratio)) ** 2
+        coupling[k] = np.abs(mount.crosstalk(f, channels)[:, off]).max()
+    terms = []
+    for i, name in enumerate(names):
+        u_mag = np.maximum(margin * np.sqrt(magnitude[i] / mountings), floor_percent)
+        u_phase = np.maximum(margin * np.sqrt(phase[i] / mountings), floor_deg)
+        terms.append(
+            StatedTerm(
+                name,
+                tuple((float(x), _round_up(float(v))) for x, v in zip(f, u_mag, strict=True)),
+                tuple((float(x), _round_up(float(v))) for x, v in zip(f, u_phase, strict=True)),
+            )
+        )
+    crosstalk_db = math.ceil(20.0 * math.log10(margin * math.sqrt(np.mean(coupling**2))))
+    return terms, float(crosstalk_db)
+
+
 def interpolated(rows: Sequence[tuple[float, float]], frequency_hz: np.ndarray) -> np.ndarray:
     """A stated table's value at the frequencies (Hz): log-log interpolated between its rows,
     held flat outside them (the design's reading of `relative_motion`)."""
@@ -370,6 +507,18 @@ def _round_up(value: float) -> float:
         return 0.0
     scale = 10.0 ** (math.floor(math.log10(value)) - 1)
     return math.ceil(value / scale - 1e-9) * scale
+
+
+def _scatter(table: Mapping[str, Any]) -> MountingScatter | None:
+    """The table's mounting scatter; None when it states none."""
+    keys = ("mounting_offset_mm", "rocking_scatter", "crosstalk_scatter")
+    if not any(k in table for k in keys):
+        return None
+    return MountingScatter(
+        mounting_offset_m=_number(table, "mounting_offset_mm", 0.0, 100.0, 0.0) * 1e-3,
+        rocking_scatter=_number(table, "rocking_scatter", 0.0, 1.0, 0.0),
+        crosstalk_scatter=_number(table, "crosstalk_scatter", 0.0, 3.0, 0.0),
+    )
 
 
 def _positions(positions: Sequence[PositionGeometry]) -> dict[str, PositionGeometry]:

@@ -148,6 +148,13 @@ class FixtureStand(SimulatedStand):
         super().__init__(next(iter(self.duts.values())), **kwargs)  # type: ignore[arg-type]
         self.fixture: FixtureMotion = fixture or RigidFixture()
         self.fixture_mass_g = float(fixture_mass_g)
+        mounted = getattr(self.fixture, "mounted", None)
+        if mounted is not None:  # this run's mounting of the block (sim.fixture: per seed)
+            masses: dict[str, float] = {}  # g per position (a triaxial's three channels add)
+            for name, sensor in self.duts.items():
+                position = name.split(".")[1]
+                masses[position] = masses.get(position, 0.0) + sensor.mass_g
+            self.fixture = mounted(self.seed, masses, self.fixture_mass_g)
         self.multiplexed = multiplexed
         # each DUT's own noise streams (sensor, converter), apart from the single-DUT ones
         streams = np.random.SeedSequence([self.seed, 36]).spawn(2 * len(self.duts))

@@ -24,7 +24,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from app.io.hdf5 import RecordingError, RecordingWriter, read_recording, software_version
+from app.io.hdf5 import (
+    Recording,
+    RecordingError,
+    RecordingWriter,
+    read_recording,
+    software_version,
+)
 from app.io.vocabulary import Backend, Mode, RunStatus
 from app.procedure import Finished, Listener, Procedure
 from app.procedure.batch_files import (
@@ -244,6 +250,8 @@ class BatchRun:
         self.others = others
         self.identity = identity
         self.started_utc = datetime.now(UTC).isoformat(timespec="seconds")
+        # a member's recording as own_budget left it, by channel, until _results takes it
+        self._budgeted: dict[str, Recording] = {}
 
     @property
     def members(self) -> list[Member]:
@@ -360,7 +368,8 @@ class BatchRun:
             if status == RunStatus.COMPLETE:
                 try:
                     copy_marks(lead_recording, member.folder.recording)
-                    own_budget(procedure, member.folder.recording)
+                    # as stored, its own budget in it: the analysis need not read it again
+                    self._budgeted[member.channel] = own_budget(procedure, member.folder.recording)
                     estimate, results = self._results(procedure, member)
                 except (RecordingError, AnalysisError, ValueError) as exc:  # this DUT only
                     log.warning("batch %s: %s not analysed: %s", self.batch_id, member.channel, exc)
@@ -388,13 +397,17 @@ class BatchRun:
         return out
 
     def _results(self, procedure: Procedure, member: Member) -> tuple[Estimate, Results]:
-        """(estimate, results) of a member's recording with the run's estimator and rules,
-        the verdict against its own specification, its position's warnings added."""
+        """(estimate, results) of a member's recording (own_budget's, else read from its file)
+        with the run's estimator and rules, the verdict against its own specification, its
+        position's warnings added."""
+        recording = self._budgeted.pop(member.channel, None)
+        if recording is None:
+            recording = read_recording(member.folder.recording)
         from app.procedure.analysis import analyze
 
         settings = procedure.settings
         analysis = analyze(
-            read_recording(member.folder.recording),
+            recording,
             estimator=str(settings.estimator),
             probability=settings.probability,
             rule=str(settings.rule),

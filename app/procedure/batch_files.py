@@ -4,6 +4,7 @@ run.log, and the batch folder's all-channel recording."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import shutil
 from collections.abc import Sequence
@@ -13,7 +14,7 @@ from typing import TYPE_CHECKING, Any
 import h5py
 import numpy as np
 
-from app.io.hdf5 import RecordingWriter, Truth, read_recording
+from app.io.hdf5 import Recording, RecordingWriter, Truth, read_recording
 from app.records.run_folder import RunFolder
 from dsp.uncertainty import Budget
 from hardware.interfaces import is_dut_channel
@@ -59,12 +60,14 @@ def copy_marks(lead: Path, target: Path) -> None:
                 dst["signals"][name].attrs["range_v"] = src["signals"][name].attrs["range_v"]
 
 
-def own_budget(procedure: Procedure, path: Path) -> None:
+def own_budget(procedure: Procedure, path: Path) -> Recording:
     """A member's budget as the run makes its own (app.procedure.record_run): the stand's
     budget with its position's terms (stored when its recording opened), plus the mains hum
     from its own channel's background periods (the first periods read, drive at 0 V) and each
     line's resolution term from its own amplitudes and ranges; its "too few LSB" warnings
-    (the lines it does not state) stored with it."""
+    (the lines it does not state) stored with it. Returns the recording as read_recording
+    would read it now (its budget and warnings from the very text stored: the analysis need
+    not read the file again)."""
     from app.procedure.background import BackgroundLevels, budget_with_background
     from app.procedure.ranging import run_resolution, with_resolution
     from dsp.spectral import SpectralAccumulator, period_spectrum
@@ -104,9 +107,13 @@ def own_budget(procedure: Procedure, path: Path) -> None:
         plan, amplitudes, levels.noise(), recording.ranges_v, procedure.stand.config.converter
     )
     budget, too_few = with_resolution(budget, resolution)
+    text = json.dumps(budget.to_list())
     with h5py.File(path, "r+") as f:
-        f["config"].attrs["budget"] = json.dumps(budget.to_list())
+        f["config"].attrs["budget"] = text
         f["config"].attrs["resolution_warnings"] = json.dumps(list(too_few))
+    return dataclasses.replace(
+        recording, budget=Budget.from_list(json.loads(text)), resolution_warnings=tuple(too_few)
+    )
 
 
 def stored_budget(path: Path) -> Budget | None:
