@@ -82,7 +82,10 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=10)
     parser.add_argument("--first", type=int, default=100)
+    parser.add_argument("--smoke", action="store_true", help="one seed (CI: runs to its end)")
     args = parser.parse_args(argv)
+    if args.smoke:
+        args.seeds = 1
     if not 1 <= args.seeds <= 1000:
         parser.error("--seeds: between 1 and 1000")
     logging.basicConfig(level=logging.WARNING, format="%(message)s")
