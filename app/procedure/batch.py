@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -539,58 +539,35 @@ def open_batch(
         duts=duts,
         extra_budget=first_terms,
     )
-
-    def members() -> list[Member]:
-        return [
-            Member(
-                fixture.position(choice.position),
-                choice.serial,
-                (choice.model or request.dut) if config.backend == Backend.SIM else None,
-                spec,
-                RunFolder.create(request.out, choice.serial),
-                terms,
-                warnings,
-            )
-            for choice, spec, terms, warnings in planned
-        ]
-
-    run = attach_batch(
-        procedure, stand, request, config, fixture, (len(planned), members), first_warnings
-    )
-    return OpenedBatch(procedure, stand, run, tuple(c for c, _, _, _ in planned))
-
-
-def attach_batch(
-    procedure: Procedure,
-    stand: Stand,
-    request: RunRequest,
-    config: StandConfig,
-    fixture: Fixture,
-    members: tuple[int, Callable[[], list[Member]]],
-    warnings: Sequence[str],
-) -> BatchRun:
-    """The batch folder for `members` (their count, and the call that makes them with their run
-    folders) and the members attached to `procedure` (its first member's folder and batch link,
-    `warnings` raised); `stand` closed if that fails (open_batch, and
-    app.procedure.triaxial.open_triaxial)."""
-    count, make = members
     try:
-        batch_id, folder = new_batch_folder(Path(request.out), count)
-        made = make()
-        for member in made:
+        batch_id, folder = new_batch_folder(Path(request.out), len(planned))
+        members = []
+        for choice, spec, terms, warnings in planned:
+            members.append(
+                Member(
+                    fixture.position(choice.position),
+                    choice.serial,
+                    (choice.model or request.dut) if config.backend == Backend.SIM else None,
+                    spec,
+                    RunFolder.create(request.out, choice.serial),
+                    terms,
+                    warnings,
+                )
+            )
+        for member in members:
             member.folder.records_chain_head = request.records_chain_head
         run = BatchRun(
-            batch_id, folder, fixture, made[0], made[1:], procedure.identity, config.backend
+            batch_id, folder, fixture, members[0], members[1:], procedure.identity, config.backend
         )
-        procedure.folder = made[0].folder
-        procedure.batch_link = run.link(made[0])
+        procedure.folder = members[0].folder
+        procedure.batch_link = run.link(members[0])
         procedure.batch = run
-        for text in warnings:
+        for text in first_warnings:
             procedure.ctx.warn(text)
     except BaseException:
         stand.close()
         raise
-    return run
+    return OpenedBatch(procedure, stand, run, tuple(c for c, _, _, _ in planned))
 
 
 def execute_batch(

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -24,12 +25,13 @@ import numpy as np
 from app.io.vocabulary import Backend
 from app.procedure.batch import (
     BatchFinished,
+    BatchRun,
     Member,
     MemberChoice,
     OpenedBatch,
     _member_spec,
-    attach_batch,
     listener_for,
+    new_batch_folder,
     refuse_mode,
 )
 from app.procedure.errors import PreflightError
@@ -149,9 +151,9 @@ def open_triaxial(
         procedure.identity = dataclasses.replace(
             procedure.identity, dut=dataclasses.replace(stated, catalogue=None)
         )
-
-    def members() -> list[Member]:
-        return [
+    try:
+        batch_id, folder = new_batch_folder(Path(request.out), 3)
+        members = [
             Member(
                 position,
                 choice.serial,
@@ -165,12 +167,23 @@ def open_triaxial(
             )
             for a in axes
         ]
-
-    run = attach_batch(procedure, stand, request, config, fixture, (len(axes), members), warnings)
+        for member in members:
+            member.folder.records_chain_head = request.records_chain_head
+        run = BatchRun(
+            batch_id, folder, fixture, members[0], members[1:], procedure.identity, config.backend
+        )
+        procedure.folder = members[0].folder
+        procedure.batch_link = run.link(members[0])
+        procedure.batch = run
+        for text in warnings:
+            procedure.ctx.warn(text)
+    except BaseException:
+        stand.close()
+        raise
     member_choices = tuple(
         MemberChoice(f"{position.name}.{a}", choice.serial, choice.model) for a in axes
     )
-    log.info("triaxial %s orientation %s: batch %s", choice.serial, orientation, run.batch_id)
+    log.info("triaxial %s orientation %s: batch %s", choice.serial, orientation, batch_id)
     return OpenedBatch(procedure, stand, run, member_choices)
 
 
