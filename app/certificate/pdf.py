@@ -21,7 +21,7 @@ from typing import Any
 from reportlab.lib import colors
 from reportlab.lib.enums import TA_CENTER, TA_RIGHT
 from reportlab.lib.pagesizes import A4
-from reportlab.lib.styles import ParagraphStyle, getSampleStyleSheet
+from reportlab.lib.styles import ParagraphStyle
 from reportlab.lib.units import mm
 from reportlab.platypus import (
     CondPageBreak,
@@ -40,7 +40,17 @@ from app import formatting as fmt
 from app.certificate.attach import embed
 from app.certificate.info import CertificateInfo
 from app.certificate.load import StoredRun
-from app.certificate.pdf_charts import FONT, FONT_BOLD, GRID, chart
+from app.certificate.pdf_charts import (
+    BODY,
+    FONT,
+    FONT_BOLD,
+    GRID,
+    HEAD,
+    HEAD_KEEP,
+    SMALL,
+    STYLES,
+    chart,
+)
 from app.certificate.pdf_marks import MarkedParagraph, MarkedTable, MarkedText
 from app.certificate.pdf_page import numbered_canvas
 from app.certificate.printed import Item, printed_lines, table_cells
@@ -54,18 +64,6 @@ from dsp.calibration import Results
 from dsp.characteristic import characteristic
 from dsp.uncertainty import Quantity
 
-STYLES = getSampleStyleSheet()
-BODY = ParagraphStyle("body", parent=STYLES["BodyText"], fontName=FONT, fontSize=9, leading=11.5)
-SMALL = ParagraphStyle("small", parent=BODY, fontSize=7.5, leading=9.5)
-HEAD = ParagraphStyle(
-    "head",
-    parent=STYLES["Heading2"],
-    fontName=FONT_BOLD,
-    fontSize=11.5,
-    spaceBefore=8,
-    spaceAfter=3,
-)
-HEAD_KEEP = ParagraphStyle("head_keep", parent=HEAD, keepWithNext=1)
 TITLE = ParagraphStyle(
     "title", parent=STYLES["Title"], fontName=FONT_BOLD, fontSize=17, alignment=TA_CENTER
 )

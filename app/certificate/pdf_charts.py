@@ -11,6 +11,7 @@ from importlib import resources
 
 from reportlab.graphics.shapes import Drawing, Group, Line, Polygon, PolyLine, Rect, String
 from reportlab.lib import colors
+from reportlab.lib.styles import ParagraphStyle, getSampleStyleSheet
 from reportlab.lib.units import mm
 from reportlab.pdfbase import pdfmetrics
 from reportlab.pdfbase.ttfonts import TTFont
@@ -35,6 +36,20 @@ def _register_fonts() -> None:
 
 _register_fonts()
 GRID = colors.Color(0.75, 0.75, 0.75)
+
+# the certificate's paragraph styles (the PDF and its sections: pdf, triaxial_pdf)
+STYLES = getSampleStyleSheet()
+BODY = ParagraphStyle("body", parent=STYLES["BodyText"], fontName=FONT, fontSize=9, leading=11.5)
+SMALL = ParagraphStyle("small", parent=BODY, fontSize=7.5, leading=9.5)
+HEAD = ParagraphStyle(
+    "head",
+    parent=STYLES["Heading2"],
+    fontName=FONT_BOLD,
+    fontSize=11.5,
+    spaceBefore=8,
+    spaceAfter=3,
+)
+HEAD_KEEP = ParagraphStyle("head_keep", parent=HEAD, keepWithNext=1)
 BAND = colors.Color(0.78, 0.86, 0.97)
 INK = colors.Color(0.1, 0.25, 0.55)
 

@@ -14,11 +14,11 @@ from typing import Any
 
 from reportlab.lib import colors
 from reportlab.lib.pagesizes import A4
-from reportlab.lib.styles import ParagraphStyle, getSampleStyleSheet
+from reportlab.lib.styles import ParagraphStyle
 from reportlab.lib.units import mm
 from reportlab.platypus import KeepTogether, Paragraph, SimpleDocTemplate, Spacer, Table, TableStyle
 
-from app.certificate.pdf_charts import FONT, FONT_BOLD, GRID
+from app.certificate.pdf_charts import BODY, FONT, FONT_BOLD, GRID, HEAD_KEEP, SMALL
 from app.certificate.pdf_page import numbered_canvas
 from app.certificate.triaxial import (
     SECTION_TITLE,
@@ -30,20 +30,7 @@ from app.certificate.triaxial import (
 )
 from dsp.triaxial import TriaxialResult
 
-_STYLES = getSampleStyleSheet()
-BODY = ParagraphStyle(
-    "tri_body", parent=_STYLES["BodyText"], fontName=FONT, fontSize=9, leading=11.5
-)
-SMALL = ParagraphStyle("tri_small", parent=BODY, fontSize=7.5, leading=9.5)
-HEAD = ParagraphStyle(
-    "tri_head",
-    parent=_STYLES["Heading2"],
-    fontName=FONT_BOLD,
-    fontSize=11.5,
-    spaceBefore=8,
-    spaceAfter=3,
-    keepWithNext=1,
-)
+HEAD = HEAD_KEEP  # a section's heads stay with what follows
 SUBHEAD = ParagraphStyle("tri_subhead", parent=HEAD, fontSize=10, spaceBefore=6)
 MATRIX_NOTE = (
     "S[j, o]: the output of channel j per m/s² along the sensor's axis o (column o measured "
