@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import atexit
+import gc
 import os
 import shutil
 import tempfile
@@ -78,6 +79,27 @@ def _records_key(tmp_path_factory: pytest.TempPathFactory) -> Iterator[None]:
         patch.delenv("ACCELCAL_RECORDS_KEY_PASSWORD", raising=False)
         patch.delenv("ACCELCAL_TRUST", raising=False)
         yield
+
+
+@pytest.fixture(autouse=True)
+def _qt_garbage_collected_on_the_main_thread(request: pytest.FixtureRequest) -> Iterator[None]:
+    """A test with Qt objects (qtbot, qapp) runs with automatic garbage collection off, and its
+    garbage is collected here, on the main thread, when it ends. Otherwise a cycle holding a Qt
+    object is left for the next collection, which may start in any thread that allocates (a
+    web request's, a run's) and free the object there: the process then crashes or hangs (CI
+    saw a worker killed by SIGSEGV inside a collection started by a web test's request
+    thread). The window does the same while open: app/gui/collector.py."""
+    if not {"qtbot", "qapp"} & set(request.fixturenames):
+        yield
+        return
+    was_enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        gc.collect()
+        if was_enabled:
+            gc.enable()
 
 
 @pytest.fixture(autouse=True)

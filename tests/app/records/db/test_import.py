@@ -40,8 +40,10 @@ def _writable_copy(source: Path, target: Path) -> Path:
 
 
 def test_import_indexes_verified_runs_once_and_lists_the_rest(
-    engine: Engine, runs_root: Path, tmp_path: Path
+    engine: Engine, runs_root: Path, tmp_path: Path, qapp: object
 ) -> None:
+    # qapp: the drift chart below is drawn with Qt in this process (tests/conftest.py collects
+    # its garbage on the main thread)
     lab = seed_lab(Lab(engine, actor="t"), {"SN-1": "ACME Ltd"})
     root = tmp_path / "runs"
     for folder in sorted(runs_root.iterdir()):
