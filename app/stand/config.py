@@ -24,7 +24,8 @@ Sections (units in the names):
     [dut_channel] gain (V/V between DUT and DAQ)
     [[component]] the type B budget (dsp.uncertainty.Component fields, with `kind`: the
                   ISO 16063-21 Annex A component(s) it states, dsp.annex_a, and `law`,
-                  `law_frequency_hz`, `law_exponent` for terms growing with frequency)
+                  `law_frequency_hz`, `law_exponent` for terms growing with frequency, or
+                  `table`: [Hz, value] rows, one value per band, dsp.budget_table)
     [[cmc]]       the laboratory's CMC per band (dsp.cmc: min_frequency_hz, max_frequency_hz,
                   magnitude_percent, phase_deg); without it no PASS, no certificate (issue 32)
     [simulation]  simulated stand only: which components it draws its deviations from
