@@ -89,7 +89,7 @@ def _show_batch(folder: Path, as_json: bool) -> int:
     for member in batch.members:
         check = inspect_run(folder.parent / member.run_id)
         record = check.record
-        row = {
+        row: dict[str, str | bool | None] = {
             "position": member.position,
             "channel": member.channel,
             "serial": member.serial,
