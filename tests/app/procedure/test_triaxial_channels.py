@@ -183,3 +183,34 @@ def test_resonance_is_searched_on_the_main_axis_not_on_a_cross_channel(
     for member in members[1:]:
         assert "resonance" not in _results(runs / member.run_id)["results"]
     assert printed.count("resonance: not searched on a cross channel") == 2
+
+
+def test_the_impact_of_a_corrected_reference_reanalyses_a_cross_channel_as_run(
+    orientation_x: tuple[Path, str],
+) -> None:
+    """ISO/IEC 17025 7.10 (accelcal impact): a cross channel's run is re-analysed with the
+    stored and a corrected table as the run analysed it: no verdict before or after, so no
+    verdict 'changes' (a mutant analysing it as a main axis gives one)."""
+    from datetime import UTC, datetime
+
+    from app.procedure.impact import CorrectedTable, Task, reanalyse
+    from app.records.run_folder import MANIFEST_NAME, sha256_of
+
+    runs, _ = orientation_x
+    cross = runs / read_batch(_batch(runs)).members[1].run_id
+    chain = read_recording(cross / "recording.h5").chain
+    table = CorrectedTable(
+        tuple(float(f) for f in chain.frequencies_hz),
+        tuple(1.01 * float(s) for s in chain.sensitivity_mv_per_ms2),  # the reference +1 %
+        tuple(0.005 for _ in chain.frequencies_hz),
+        None,
+    )
+    task = Task(
+        cross.name, str(cross), sha256_of(cross / MANIFEST_NAME), datetime.now(UTC), "TRI-1",
+        None, (),
+    )  # fmt: skip
+    impact = reanalyse(task, "SIM-0001", table)
+    assert impact.uses_reference and impact.problem is None, impact.problem
+    assert impact.old_verdict is None and impact.new_verdict is None
+    assert not impact.verdict_changed
+    assert impact.new_sensitivity == pytest.approx(impact.old_sensitivity * 1.01, rel=1e-6)
