@@ -9,8 +9,9 @@ How the README is read (`readme_commands`):
 - Its comment (`  # ...` after the code, and the deeper-indented `# ...` lines right below it)
   says how it ends, in square brackets; without a bracket it ends with exit status 0:
     `[exit N]`                  exit status N, and no traceback on stderr
-    `[exit N, VERDICT]`         the same, and the output says `VERDICT: VERDICT`
-                                (PASS, FAIL or INDETERMINATE)
+    `[exit N, VERDICT]`         the same, and the output's last verdict is `VERDICT: VERDICT`
+                                (PASS, FAIL or INDETERMINATE; a triaxial cross channel's
+                                "VERDICT: none" is none of them)
     `[hardware, exit N]`        needs a real stand: on this machine (no NI-DAQmx driver, no
                                 VISA library) it fails cleanly with exit status N, no traceback
     `[server]`                  serves until stopped: started, its page fetched (HTTP 200),
@@ -24,12 +25,13 @@ How the README is read (`readme_commands`):
   here-string, `$VAR`).
 - `export NAME=VALUE` sets NAME for the commands after it, as in one shell session.
 
-Where it runs: a fresh temporary folder as the working directory (with `examples` linked to
-the repository's), its own data directory (`ACCELCAL_DATA_DIR`, XDG data, state and config
-homes, the log), no `ACCELCAL_DB`, this virtual environment's `accelcal` first on PATH, Qt
-offscreen. So the README runs without records until its own `accelcal db upgrade` and with
-them from there on (the records walkthrough), and the first command is the GUI's headless
-line: opening the GUI first changes nothing any later command accepts.
+Where it runs: a fresh temporary folder as the working directory (with `examples` and `sim`
+linked to the repository's: the README names their stand files), its own data directory
+(`ACCELCAL_DATA_DIR`, XDG data, state and config homes, the log), no `ACCELCAL_DB`, this
+virtual environment's `accelcal` first on PATH, Qt offscreen. So the README runs without
+records until its own `accelcal db upgrade` and with them from there on (the records
+walkthrough), and the first command is the GUI's headless line: opening the GUI first changes
+nothing any later command accepts.
 """
 
 from __future__ import annotations
@@ -257,6 +259,7 @@ def fresh_home(tmp_path: Path) -> Iterator[tuple[Path, dict[str, str]]]:
     work = tmp_path / "work"
     work.mkdir()
     (work / "examples").symlink_to(ROOT / "examples")
+    (work / "sim").symlink_to(ROOT / "sim")  # the simulated stands' files (stand-triaxial.toml)
     home = tmp_path / "home"
     env = {
         k: v
@@ -355,7 +358,7 @@ def _run(command: Command, work: Path, env: dict[str, str], last_run: str | None
     assert done.returncode == command.exit_status, said
     assert "Traceback" not in done.stderr, said
     if command.verdict is not None:
-        verdicts = re.findall(r"^VERDICT: (\w+)", output, re.MULTILINE)
+        verdicts = re.findall(rf"^VERDICT: ({'|'.join(VERDICTS)})\b", output, re.MULTILINE)
         assert verdicts and verdicts[-1] == command.verdict, said
     folders = RUN_FOLDER.findall(done.stdout)
     return folders[-1] if folders else last_run

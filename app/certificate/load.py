@@ -71,7 +71,17 @@ def load_stored_run(path: str | Path, *, certifiable: bool = True) -> StoredRun:
 def check_certifiable(run: StoredRun) -> None:
     """CertificateError when the run's budget has an implausible component or lacks ISO
     16063-21 Annex A components (named), the run states no CMC (issue 32 point 1), or a warning
-    of the run blocks the certificate (each named): results for review only."""
+    of the run blocks the certificate (each named): results for review only; or the run is a
+    triaxial sensor's cross channel (its sensitivity a transverse one: the triaxial
+    certificate states it, issue 36 point 3)."""
+    link = run.start.batch
+    if link is not None and link.transverse:
+        raise CertificateError(
+            f"{run.path}: no certificate: channel {link.channel} is a cross channel of the "
+            f"triaxial DUT's orientation {link.orientation} run (a transverse sensitivity, no "
+            "verdict); its figures go on the triaxial certificate: accelcal certificate "
+            "--triaxial BATCH_X BATCH_Y BATCH_Z"
+        )
     refused = implausible_components(run.budget)
     if refused:
         raise CertificateError(

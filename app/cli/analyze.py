@@ -9,7 +9,7 @@ import sys
 from app.cli.exits import EXIT_OK, UsageError
 from app.cli.options import output_target, writable_folder
 from app.cli.printers import csv_with_status, print_results
-from app.cli.readers import load_recording, recorded_estimator
+from app.cli.readers import load_recording, recorded_estimator, recorded_transverse
 from app.files import FileExistsRefusal, write_new
 
 NO_BUDGET_WARNING = (
@@ -58,6 +58,7 @@ def cmd_analyze(args: argparse.Namespace) -> int:
         rule="seed" if args.seed_rule else "gum",
         tolerance_percent=args.tolerance,
         mcm_trials=args.mcm,
+        transverse=recorded_transverse(args.file),  # a triaxial cross channel's run: as run
     )
     results = analysis.results
     status = analysis.status or "unknown"  # a CSV recording carries no status

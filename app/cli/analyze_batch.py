@@ -14,6 +14,7 @@ from typing import Any
 
 from app.cli.exits import EXIT_OK, UsageError
 from app.cli.printers import print_results
+from app.cli.readers import recorded_transverse
 
 
 def batch_recording(path: Path) -> Path | None:
@@ -49,13 +50,18 @@ def cmd_analyze_batch(args: argparse.Namespace, recording_path: Path) -> int:
     except BatchError as exc:
         raise RecordingError(str(exc)) from None
     members = {m.channel: m for m in batch.members}
+    lead = batch.members[0].channel if batch.members else None
     out = []
     for channel in batch_channels(recording_path):
         recording = read_recording(recording_path, stored=True, dut_channel=channel)
         member = members.get(channel)
         own = folder.parent / member.run_id / "recording.h5" if member else None
         note = "its member run's budget"
+        # a triaxial orientation's cross channel (dut.<p>.<axis> not the first member's):
+        # as its member run stored it, else from the batch's order
+        transverse = _cross_channel(channel, lead)
         if own is not None and own.exists():
+            transverse = recorded_transverse(own)
             stored = read_recording(own, stored=True)  # its budget, and the truth it names
             recording = dataclasses.replace(
                 recording, budget=stored.budget, truth=stored.truth, chain=stored.chain
@@ -74,9 +80,23 @@ def cmd_analyze_batch(args: argparse.Namespace, recording_path: Path) -> int:
             rule="seed" if args.seed_rule else "gum",
             tolerance_percent=args.tolerance,
             mcm_trials=args.mcm,
+            transverse=transverse,
         )
         out.append((channel, member, note, analysis))
     return _report(args, batch.batch_id, str(recording_path), out)
+
+
+def _cross_channel(channel: str, lead: str | None) -> bool:
+    """Whether `channel` of a batch recording whose first member's channel is `lead` is a
+    triaxial sensor's cross channel: both channels of one triaxial position
+    ("dut.<position>.<axis>", issue 36 point 3), not the first (the axis along the exciter)."""
+    if lead is None or channel == lead:
+        return False
+    own, first = channel.split("."), lead.split(".")
+    axes = ("x", "y", "z")
+    return (
+        len(own) == len(first) == 3 and own[1] == first[1] and own[2] in axes and first[2] in axes
+    )
 
 
 def _report(args: argparse.Namespace, batch_id: str | None, source: str, out: list) -> int:

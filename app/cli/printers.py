@@ -108,6 +108,10 @@ def print_results(results: Results, source: str = "", status: str | None = None)
         print(f"VERDICT: {results.verdict}")
         for reason in results.verdict_reasons:
             print(f"  - {reason}")
+    elif results.verdict_reasons:  # none given, and why (a triaxial sensor's cross channel)
+        print("VERDICT: none")
+        for reason in results.verdict_reasons:
+            print(f"  - {reason}")
 
 
 class TerminalProgress:

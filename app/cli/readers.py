@@ -211,3 +211,18 @@ def recorded_estimator(args: argparse.Namespace) -> Estimator:
         return AnalysisSettings.from_dict(start.settings).estimator
     except (OSError, ValueError):  # no readable config.json (or its settings): none named
         return RECORDING_ESTIMATOR
+
+
+def recorded_transverse(path: Path) -> bool:
+    """Whether the run folder `path` names (a run folder, or its recording) is a triaxial
+    sensor's cross channel, as its config.json's batch link stores it (issue 36 point 3): it
+    is then analysed as the run analysed it (no dead-channel refusal, no verdict). False for
+    any other file (a CSV, TDMS, a recording outside a run folder)."""
+    from app.records.run_folder import is_run_folder
+    from app.records.run_start import RunStart
+
+    folder = path if path.is_dir() else path.parent
+    if not is_run_folder(folder):
+        return False
+    link = RunStart.read(folder).batch  # RunStartError (exit 2) naming the file: unreadable
+    return link is not None and link.transverse

@@ -209,6 +209,13 @@ def _print_batch(batch: BatchOutcome, args: argparse.Namespace, note: str = "") 
             print(outcome.index_note, file=sys.stderr)
         print(f"--- position {member.position}: DUT {member.serial}")
         print_run_end(outcome.record, outcome.results, args.out / str(outcome.record.run_id))
+        if args.resonance and outcome.results is not None:
+            from app.procedure.analysis import CROSS_CHANNEL_REASON
+
+            if CROSS_CHANNEL_REASON in outcome.results.verdict_reasons:
+                print("resonance: not searched on a cross channel (a transverse sensitivity)")
+            else:
+                print(resonance_text(outcome.results.resonance))
     print(f"batch {batch.batch_id}: {len(batch.outcomes)} DUTs in {batch.folder}")
     if note:
         print(note)

@@ -77,6 +77,7 @@ def _list_runs(root: Path, runs: list[Path], as_json: bool) -> int:
 def _show_batch(folder: Path, as_json: bool) -> int:
     """A batch folder (several DUTs in one run): its seal checked, each member's run with its
     verified state and verdict."""
+    from app.cli.readers import recorded_transverse
     from app.records.batch import BatchError, read_batch
     from app.records.run_folder import inspect_run
 
@@ -88,17 +89,18 @@ def _show_batch(folder: Path, as_json: bool) -> int:
     for member in batch.members:
         check = inspect_run(folder.parent / member.run_id)
         record = check.record
-        rows.append(
-            {
-                "position": member.position,
-                "channel": member.channel,
-                "serial": member.serial,
-                "run_id": member.run_id,
-                "state": str(check.state),
-                "verdict": str(record.verdict) if record is not None and record.verdict else None,
-                "seal_sha256": member.seal_sha256,
-            }
-        )
+        row: dict[str, str | bool | None] = {
+            "position": member.position,
+            "channel": member.channel,
+            "serial": member.serial,
+            "run_id": member.run_id,
+            "state": str(check.state),
+            "verdict": str(record.verdict) if record is not None and record.verdict else None,
+            "seal_sha256": member.seal_sha256,
+        }
+        if member.channel.count(".") == 2:  # a triaxial DUT's channel: its axis's role
+            row["transverse"] = recorded_transverse(folder.parent / member.run_id)
+        rows.append(row)
     if as_json:
         print(
             json.dumps(
@@ -115,8 +117,10 @@ def _show_batch(folder: Path, as_json: bool) -> int:
     print(f"batch {batch.batch_id}: {batch.status}, {len(rows)} DUTs on {batch.fixture}")
     print(f"started {batch.started_utc}")
     for r in rows:
-        print(
-            f"  {r['position']:<6} {r['serial']:<16} {r['run_id']}  {r['state']:<9} "
-            f"{r['verdict'] or ''}".rstrip()
-        )
+        where = r["position"]
+        verdict = r["verdict"] or ""
+        if "transverse" in r:  # a triaxial DUT: its channels' axes, the cross ones no verdict
+            where = str(r["channel"]).removeprefix("dut.")
+            verdict = "cross channel, no verdict" if r["transverse"] else verdict
+        print(f"  {where:<6} {r['serial']:<16} {r['run_id']}  {r['state']:<9} {verdict}".rstrip())
     return EXIT_OK

@@ -44,6 +44,14 @@ class Analysis:
     status: RunStatus | None = None  # the recording's; None: CSV, in memory
 
 
+#: The verdict reason of a triaxial sensor's cross channel (`transverse`): it carries none.
+CROSS_CHANNEL_REASON = (
+    "no verdict: a triaxial sensor's cross channel (not along the exciter) measures a "
+    "transverse sensitivity, not its axis's main sensitivity; the triaxial certificate states "
+    "it as a transverse sensitivity ratio with its U"
+)
+
+
 def analyze(
     recording: Recording,
     *,
@@ -55,6 +63,7 @@ def analyze(
     tolerances: Tolerances | None = None,
     mcm_trials: int | None = None,
     transverse: bool = False,
+    resonance: bool = False,
 ) -> Analysis:
     """Analyse whole periods (default) or, with `segments`, the seed's L equal segments.
 
@@ -62,7 +71,9 @@ def analyze(
     default those of the simulated DUT the recording's truth names, else `tolerance_percent`
     alone. `rule="seed"` adds the blocking SEED_RULE_WARNING (k from t(L-1) is not GUM);
     `mcm_trials` validates every line's GUM interval by JCGM 101 Monte Carlo (`with_mcm`);
-    `transverse`: a triaxial sensor's cross channel (no dead-channel refusal of the DUT's)."""
+    `transverse`: a triaxial sensor's cross channel (no dead-channel refusal of the DUT's, no
+    tolerance and no verdict: CROSS_CHANNEL_REASON); `resonance`: search the mounted
+    resonance in the response (dsp.resonance; not on a cross channel)."""
     return analyze_chains(
         recording,
         [recording.chain],
@@ -74,6 +85,7 @@ def analyze(
         tolerances=tolerances,
         mcm_trials=mcm_trials,
         transverse=transverse,
+        resonance=resonance,
     )[0]
 
 
@@ -89,6 +101,7 @@ def analyze_chains(
     tolerances: Tolerances | None = None,
     mcm_trials: int | None = None,
     transverse: bool = False,
+    resonance: bool = False,
 ) -> list[Analysis]:
     """As `analyze`, once per reference chain of `chains` (e.g. the stored and a corrected
     calibration table: app.procedure.impact): the recording is read and estimated once (the
@@ -150,14 +163,20 @@ def analyze_chains(
             budget,
             probability=probability,
             rule=rule,
-            tolerance_percent=tolerance_percent,
+            tolerance_percent=None if transverse else tolerance_percent,
             extra_warnings=warnings,
             cmc=recording.cmc,
+            resonance=resonance and not transverse,
             transverse=transverse,
         )
         if mcm_trials is not None:
             results = with_mcm(results, estimate, budget, probability, mcm_trials)
-        results = with_verdict(results, tolerances, recording.status)
+        if transverse:  # no tolerance applies to a transverse sensitivity
+            results = dataclasses.replace(
+                results, verdict=None, verdict_reasons=(CROSS_CHANNEL_REASON,)
+            )
+        else:
+            results = with_verdict(results, tolerances, recording.status)
         out.append(Analysis(estimate, results, recording.status))
     return out
 

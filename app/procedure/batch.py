@@ -416,6 +416,7 @@ class BatchRun:
             tolerance_percent=settings.tolerance_percent,
             tolerances=member.spec.tolerances(procedure.plan.reference_frequency_hz),
             transverse=member.transverse,
+            resonance=settings.resonance,  # --resonance: every member's, as the first's
         )
         results = analysis.results
         if member.warnings:

@@ -151,16 +151,24 @@ def reanalyse(task: Task, serial: str, table: CorrectedTable) -> RunImpact:
         if check.record is None:
             return RunImpact(task, True, "; ".join(check.problems) or f"{check.state}")
         record = check.record
-        if not uses_reference(record, RunStart.read(folder), serial):
+        start = RunStart.read(folder)
+        if not uses_reference(record, start, serial):
             return RunImpact(task, False)
         recording = read_for_analysis(folder, check=check)  # verified above: not again
-        return _compare(task, record, recording, table)
+        # a triaxial sensor's cross channel is analysed as its run was (no verdict: issue 36)
+        transverse = start.batch is not None and start.batch.transverse
+        return _compare(task, record, recording, table, transverse=transverse)
     except (OSError, ValueError) as exc:  # refusals included: named, never a traceback
         return RunImpact(task, True, f"{folder}: {exc}")
 
 
 def _compare(
-    task: Task, record: RunRecord, recording: Recording, table: CorrectedTable
+    task: Task,
+    record: RunRecord,
+    recording: Recording,
+    table: CorrectedTable,
+    *,
+    transverse: bool = False,
 ) -> RunImpact:
     """Old (stored table) and new (corrected table) analyses of one verified recording."""
     settings = record.analysis
@@ -173,6 +181,7 @@ def _compare(
         probability=settings.probability,
         rule=settings.rule,
         tolerances=tolerances,
+        transverse=transverse,
     )
     old, new = analyze_chains(  # read and estimated once: the chain enters the results only
         recording, [recording.chain, table.chain(recording.chain)], **options

@@ -11,6 +11,12 @@ three orientations' batches make one certificate (app.certificate.triaxial_issue
 channels share the position's terms (its crosstalk ratio the main axis's). The runs name no
 catalogue model (the simulated sensor is sim/triaxial.py's): the certificate takes
 --dut-model.
+
+A cross channel carries no verdict (its sensitivity is a transverse one: the certificate's
+ratio), and its run's config.json batch link says so (`orientation`, `transverse`), so that
+`accelcal analyze` of that run analyses it as the run did. Each channel's input range is the
+smallest that holds its own predicted peak: the main axis's from the nominal, a cross
+channel's from TRANSVERSE_BOUND of it (TriaxialRun.member_ranges).
 """
 
 from __future__ import annotations
@@ -35,19 +41,74 @@ from app.procedure.batch import (
     refuse_mode,
 )
 from app.procedure.errors import PreflightError
-from app.procedure.request import RequestError, RunRequest
+from app.procedure.ranging import RangePlan, member_ranges
+from app.procedure.request import RequestError, RunIdentity, RunRequest
 from app.records.run_folder import RunFolder
+from app.records.run_start import BatchLink
 from app.stand.config import StandConfig
-from app.stand.fixture import AXES, FixturePosition
+from app.stand.fixture import AXES, Fixture, FixturePosition
 from app.stand.simulated import reference_sensitivity_mv_per_ms2
 
 if TYPE_CHECKING:
-    from app.procedure import Listener
+    from app.procedure import Listener, Procedure
     from app.procedure.service import BatchOutcome, PreparedRun, RunService
 
 log = logging.getLogger(__name__)
 
 TRIAXIAL_SIM_MODEL = "triaxial@"  # sim.fixture_stand's triaxial DUT: "triaxial@<orientation>"
+#: A cross channel's predicted peak per the main axis's (fraction): the largest transverse
+#: sensitivity a triaxial accelerometer's data sheet usually states (<= 5 %); the table's own
+#: transverse motion (under 1 % of the axial on a stand fit for it) and the crosstalk are
+#: within the range's headroom (app.procedure.ranging.PREDICTED_HEADROOM, 2.5x).
+TRANSVERSE_BOUND = 0.05
+
+
+class TriaxialRun(BatchRun):
+    """A triaxial DUT's three channels in one orientation (a BatchRun whose first member is
+    the channel along the exciter): each channel's batch link names the orientation and
+    whether it is a cross channel, and each channel's input range is its own."""
+
+    def __init__(
+        self,
+        batch_id: str,
+        folder: Path,
+        fixture: Fixture,
+        members: list[Member],
+        identity: RunIdentity,
+        backend: Backend,
+        orientation: str,
+    ):
+        super().__init__(batch_id, folder, fixture, members[0], members[1:], identity, backend)
+        self.orientation = orientation
+
+    def link(self, member: Member) -> BatchLink:
+        """The channel's config.json "batch" object: the batch's, with the orientation and
+        whether this channel is a cross one (stored, so a later analysis knows it)."""
+        return dataclasses.replace(
+            super().link(member), orientation=self.orientation, transverse=member.transverse
+        )
+
+    def member_ranges(self, procedure: Procedure, ranges: RangePlan) -> dict[str, float]:
+        """Each channel's +-range (V): the smallest offered that holds its own predicted
+        peak (app.procedure.ranging.member_ranges), the main axis's from the DUT's nominal
+        sensitivity, a cross channel's from TRANSVERSE_BOUND of it; logged. Without a
+        nominal every channel takes the run's DUT range."""
+        nominal = self.lead.spec.nominal_mv_per_ms2
+        predicted = {
+            m.channel: None
+            if nominal is None
+            else nominal * (TRANSVERSE_BOUND if m.transverse else 1.0)
+            for m in self.members
+        }
+        chosen = member_ranges(ranges, procedure.plan, predicted, procedure.stand.chain.dut_gain)
+        for m in self.members:
+            why = (
+                f"its predicted transverse peak, {100 * TRANSVERSE_BOUND:g} % of the nominal"
+                if m.transverse
+                else "its DUT's nominal"
+            )
+            procedure.ctx.log(f"input range {m.channel}: +-{chosen[m.channel]:g} V ({why})")
+        return {**chosen, "dut": chosen[self.lead.channel]}
 
 
 def triaxial_position(config: StandConfig, choice: MemberChoice) -> FixturePosition:
@@ -169,8 +230,8 @@ def open_triaxial(
         ]
         for member in members:
             member.folder.records_chain_head = request.records_chain_head
-        run = BatchRun(
-            batch_id, folder, fixture, members[0], members[1:], procedure.identity, config.backend
+        run = TriaxialRun(
+            batch_id, folder, fixture, members, procedure.identity, config.backend, orientation
         )
         procedure.folder = members[0].folder
         procedure.batch_link = run.link(members[0])

@@ -42,22 +42,31 @@ class BatchLink:
     """A run that is one DUT of several in one excitation (issue 36): the batch, this DUT's
     position, its channel in the batch recording, the position's distance from the reference
     axis (mm) and every member. config.json's optional "batch" object (absent in a
-    single-DUT run, whose file is as before)."""
+    single-DUT run, whose file is as before). A triaxial DUT's channel (issue 36 point 3)
+    adds the run's `orientation` (its axis along the exciter: x, y or z) and whether this
+    channel is `transverse` (a cross channel: analysed without the dead-channel refusal and
+    without a verdict, app.procedure.analysis); absent for a single-axis DUT."""
 
     batch_id: str
     position: str
     channel: str
     distance_mm: float
     members: tuple[BatchMemberLink, ...]
+    orientation: str | None = None
+    transverse: bool = False
 
     def to_dict(self) -> dict[str, Any]:
-        return {
+        data: dict[str, Any] = {
             "batch_id": self.batch_id,
             "position": self.position,
             "channel": self.channel,
             "distance_mm": self.distance_mm,
             "members": [m.to_dict() for m in self.members],
         }
+        if self.orientation is not None:
+            data["orientation"] = self.orientation
+            data["transverse"] = self.transverse
+        return data
 
     @classmethod
     def from_dict(cls, data: Any, name: str = CONFIG_NAME) -> BatchLink:
@@ -69,12 +78,18 @@ class BatchLink:
                 )
                 for m in data["members"]
             )
+            orientation = data.get("orientation")
+            transverse = data.get("transverse", False)
+            if not isinstance(transverse, bool):
+                raise ValueError(f"transverse: true or false, got {transverse!r}")
             return cls(
                 str(data["batch_id"]),
                 str(data["position"]),
                 str(data["channel"]),
                 float(data["distance_mm"]),
                 members,
+                None if orientation is None else str(orientation),
+                transverse,
             )
         except (KeyError, TypeError, ValueError) as exc:
             raise RunStartError(f"{name}: batch: not a batch link ({exc})") from None

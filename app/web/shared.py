@@ -81,7 +81,7 @@ def shared_runs(session: Session, serial: str) -> list[SharedRun]:
         others = tuple(
             SharedMember(dut_id, positions.get(run_id, ""))
             for run_id, dut_id in members.get(str(run.batch_id), [])
-            if run_id != run.run_id
+            if run_id != run.run_id and dut_id != serial  # a triaxial's channels: its own
         )
         started = run.started_utc
         out.append(

@@ -163,6 +163,10 @@ class RunIndex(SensorRecords):
             )
         started = utc(datetime.fromisoformat(record.started_utc))
         link = RunStart.read(folder).batch  # one DUT of several in one run: its batch
+        if link is not None and link.transverse:
+            # a triaxial sensor's cross channel: a transverse sensitivity, not a calibration
+            # of the sensor's (issue 36 point 3); indexed, outside its history and drift
+            reference = {}
         return Run(
             run_id=str(record.run_id),
             manifest_sha256=manifest,
