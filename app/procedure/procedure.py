@@ -14,6 +14,7 @@ import json
 import logging
 import math
 import sys
+from contextlib import nullcontext
 from datetime import UTC, datetime
 from typing import Any, Protocol
 
@@ -23,6 +24,7 @@ from app.io.hdf5 import DiskFullError, RecordingWriter, Truth, software_version
 from app.io.vocabulary import Mode, RunStatus
 from app.procedure.acquisition import Acquisition
 from app.procedure.background import Background, budget_with_background
+from app.procedure.batch_live import live_members
 from app.procedure.context import RunContext, RunNotes
 from app.procedure.equalisation import Equalisation, Equalised
 from app.procedure.errors import (
@@ -237,7 +239,8 @@ class Procedure:
             SteppedSine(self.ctx, background, self.memory.recall(), self.memory.describe).run()
             return
         if self.settings.estimator in RECORD_ESTIMATORS:  # lpm: bursts, one record each
-            RecordRun(self.ctx, background, self.memory).run()
+            with live_members(self, record=True) or nullcontext() as members:
+                RecordRun(self.ctx, background, self.memory, members).run()
             self.io.fade_out()
             return
         equalised = self._equalise(background.noise())
@@ -252,7 +255,8 @@ class Procedure:
         )
         budget = self._with_resolution(budget, equalised.settled.lines, background.noise())
         self.notes.budget = budget
-        Acquisition(self.ctx, budget, equalised.reusable_blocks).run()
+        with live_members(self) or nullcontext() as members:
+            Acquisition(self.ctx, budget, equalised.reusable_blocks, members).run()
         self.io.fade_out()
 
     def _equalise(self, noise: np.ndarray) -> Equalised:
