@@ -83,6 +83,12 @@ def test_a_batch_run_draws_each_duts_own_live_curve_and_meter(qtbot, tmp_path):
         assert bar.value() > 0, name
     assert tab.meters["dut.C"].format().startswith("C · SN-3 %p % of ±")
     assert tab.live.sens_curve.isVisible() is False
+    # the run's own DUT's U (error bars) is not drawn over every DUT's curve; its phase and
+    # traces say whose they are
+    assert not tab.live.sens_err.isVisible()
+    assert tab.live.phase_plot.titleLabel.text == "Phase (A · SN-1)"
+    names = [label.text for _, label in tab.live.wave_plot.legend.items]
+    assert names == ["reference", "DUT A · SN-1"]
 
 
 def _results(deviations: list[float]):
