@@ -164,6 +164,7 @@ class LivePlots:
         self._ranges: dict[int, tuple[float, float]] = {}  # x range set per plot
         # a run of several DUTs: each member's deviation curve by its position (`members`)
         self.member_curves: dict[str, pg.PlotDataItem] = {}
+        self._labels: dict[str, str] = {}  # what `members` last made them for
         self._member_legend: pg.LegendItem | None = None
 
     @property
@@ -191,7 +192,8 @@ class LivePlots:
         for plot in self.plots:
             plot.setYRange(0, 1, padding=0)  # the first data sets its own range
         self._ranges.clear()
-        self.members({})
+        for curve in self.member_curves.values():  # kept for the next run of the same DUTs
+            curve.setData([], [])
         self.widget.show_chart(False)
 
     def members(self, labels: dict[str, str]) -> None:
@@ -200,7 +202,11 @@ class LivePlots:
         run's first period (`RunTab.opened`), so the legend never re-lays the plots mid-run;
         the first member's phase stays the single run's phase curve (its title names it); its
         U is on the Results tab (error bars of one DUT over every DUT's curve would read as
-        theirs). The legend at the top left: the characteristic rises to the right."""
+        theirs). The legend at the top left: the characteristic rises to the right. The same
+        labels again: the curves kept (made once: about 4 ms of the GUI thread each)."""
+        if labels == self._labels and (self.member_curves or not labels):
+            return
+        self._labels = dict(labels)
         for curve in self.member_curves.values():
             self.sens_plot.removeItem(curve)  # and from its legend
         self.member_curves = {}

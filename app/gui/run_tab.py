@@ -323,6 +323,9 @@ class RunTab(QWidget):
         # its curve is; one DUT: the reference's and the DUT's
         members = {f"dut.{position}": label for position, label in self.labels.items()}
         self.set_meters({"reference": "reference", **members} if members else dict(METERED_NAMES))
+        # each DUT's curve and legend made here, before the worker starts to compete for the
+        # interpreter (in `opened` they stalled the window's thread tens of ms)
+        self.live.members(self.labels)
         if procedure is not None:
             self.opened(procedure)
         else:  # the run waits for its plots to be painted once it has opened (`opened`)
@@ -337,7 +340,6 @@ class RunTab(QWidget):
         period, the progress with its phases' steps."""
         self.frame.plan, self.frame.steps = procedure.plan, PhaseSteps.of(procedure)
         self.live.prepare(procedure.plan)
-        self.live.members(self.labels)  # each DUT's curve and legend before the first paint
         if self.worker is not None:  # painted now, while the run waits for it (RunWorker)
             self.live.graphics.viewport().repaint()
             self.worker.view_ready.set()

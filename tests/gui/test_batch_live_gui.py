@@ -132,3 +132,30 @@ def test_each_member_estimate_in_the_runs_own_event_draws_its_own_curve(qtbot):
     tab.draw()
     assert list(tab.live.member_curves["C"].getData()[1]) == pytest.approx([1.0, 2.0, 0.0, 3.0])
     assert list(tab.live.member_curves["B"].getData()[1]) == pytest.approx([1.0, 2.0, 0.0, 3.0])
+
+
+def test_member_curves_are_kept_for_the_same_duts_and_gone_for_one(qtbot):
+    from app.gui.plots import LivePlots
+
+    plots = LivePlots()
+    qtbot.addWidget(plots.widget)
+    labels = {"A": "A · SN-1", "B": "B · SN-2"}
+    plots.members(labels)
+    made = dict(plots.member_curves)
+    plots.member_curves["B"].setData([10.0, 100.0], [0.1, 0.2])
+    plots.clear()  # the next run of the same DUTs: the same curves, emptied
+    plots.members(dict(labels))
+    assert plots.member_curves == made
+    assert all(made[p] is plots.member_curves[p] for p in made)
+    assert plots.member_curves["B"].getData()[1] is None or not len(
+        plots.member_curves["B"].getData()[1]
+    )
+    assert plots.sens_plot.titleLabel.text.endswith(", per DUT")
+    plots.members({"A": "A · SN-9"})  # other DUTs: made anew
+    assert list(plots.member_curves) == ["A"] and plots.member_curves["A"] is not made["A"]
+    assert [label.text for _, label in plots.sens_plot.legend.items] == ["A · SN-9"]
+    plots.members({})  # one DUT: its own curve, U and titles as ever
+    assert plots.member_curves == {}
+    assert plots.sens_curve.isVisible() and plots.sens_err.isVisible()
+    assert plots.phase_plot.titleLabel.text == "Phase"
+    assert [label.text for _, label in plots.wave_plot.legend.items] == ["reference", "DUT"]
