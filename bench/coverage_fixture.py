@@ -3,14 +3,18 @@
 For each block of seeds (block b: seeds b * 10000 + 1 .. + N), one unpaced batch of four piezo
 DUTs at the positions A-D of a fixture stand file (default sim/stand-fixture4-physics.toml: the
 block's rocking, bending and crosstalk from sim/fixture.py, its mounting drawn per run from the
-seed; the budget's terms the stand file's stated ones), a fresh stand response per run. Per
-position and line: how many runs stated the line, and the fraction whose sensitivity lies
-within its expanded uncertainty U of the DUT's own truth (its sensor model's sensitivity: the
-fixture's motion is an error of the comparison, not of the DUT), the phase likewise. Prints the
-table per block and pooled, and every line outside 93-97.5 % with the stated relative-motion u
-there against the root mean square of the true one over the runs' mountings (the term to look
-at when a line misses). Coverage is a count: the same on any machine. The wall time per run is
-printed only with `uptime`'s load average.
+seed), a fresh stand response per run. The stand itself runs at its nominal values (no draws
+from the stand file's [simulation] map: those come from the budget the analysis states); each
+member's truth is, as in bench/coverage_true.py, a realisation of sim/true_stand.py's own table
+(its seed from the run's seed and the position) put on the member's recorded DUT channel, then
+the member analysed as `accelcal analyze` analyses it (its run's estimator, its budget with the
+position's terms). Per position and line: how many runs stated the line, and the fraction whose
+sensitivity lies within its expanded uncertainty U of the DUT's own truth (its sensor model's
+sensitivity: the fixture's motion and the true stand's deviations are errors of the comparison,
+not of the DUT), the phase likewise. Prints the table per block and pooled, and every line
+outside 93-97.5 % with the stated relative-motion u there against the root mean square of the
+true one over the runs' mountings (the term to look at when a line misses). Coverage is a count:
+the same on any machine. The wall time per run is printed only with `uptime`'s load average.
 
 A 95 % coverage's binomial standard deviation over 200 runs is 1.5 %; a line is flagged on the
 pooled runs of all blocks, each block's figure shown beside it.
@@ -22,6 +26,7 @@ Run: python bench/coverage_fixture.py [--runs N] [--blocks B] [--periods P] [--s
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import logging
 import math
 import os
@@ -40,10 +45,13 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from app.io.hdf5 import read_recording  # noqa: E402
+from app.procedure.analysis import analyze  # noqa: E402
 from app.procedure.batch import MemberChoice, execute_batch  # noqa: E402
 from app.procedure.request import RunRequest  # noqa: E402
+from app.records.run_start import RunStart  # noqa: E402
 from app.stand import config as stand_config  # noqa: E402
 from sim.fixture import FixtureModel  # noqa: E402
+from sim.true_stand import TrueStand  # noqa: E402
 
 log = logging.getLogger("coverage_fixture")
 LOW, HIGH = 0.93, 0.975  # the issue's band for the coverage of U at every line
@@ -133,13 +141,14 @@ def one_run(
         out=folder,
         seed=seed,
         stored_response=False,
+        sim_systematic=False,  # the truth of the stand's own terms: the true stand, below
         **extra,  # type: ignore[arg-type]
     )
     choices = [MemberChoice(p, f"S{seed}-{p}") for p in positions]
     start = time.perf_counter()
     batch = execute_batch(request, choices, config=config)
     walls.append(time.perf_counter() - start)
-    for choice, finished in batch.members:
+    for index, (choice, finished) in enumerate(batch.members):
         if finished.results is None:
             log.warning(
                 "seed %d %s: %s %s",
@@ -149,6 +158,7 @@ def one_run(
                 finished.abort_reason,
             )
             continue
+        lines = true_stand_lines(folder / str(finished.record.run_id), member_seed(seed, index))
         recording = read_recording(folder / str(finished.record.run_id) / "recording.h5")
         truth = recording.truth
         assert truth is not None
@@ -157,12 +167,12 @@ def one_run(
         if fixture is not None:
             masses = {p: DUT_MASS_G for p in positions}
             mount = fixture.mounted(seed, masses, block_g)
-            f = np.array([ln.frequency_hz for ln in finished.results.lines])
+            f = np.array([ln.frequency_hz for ln in lines])
             ratio = mount.motion_ratio(choice.position, f)
             motion = 100.0 * (np.abs(ratio) - 1.0)
         for i, (line, value, phase) in enumerate(
             zip(
-                finished.results.lines,
+                lines,
                 truth.sensitivity_mv_per_ms2,
                 truth.phase_deg,
                 strict=True,
@@ -182,6 +192,25 @@ def one_run(
     shutil.rmtree(folder, ignore_errors=True)
     for name, tally in counted.items():
         tallies[name].add(tally)
+
+
+def member_seed(seed: int, index: int) -> int:
+    """The true stand's seed for member `index` of the run of `seed` (none of
+    bench/coverage_true.py's seeds, which stay under 10^6)."""
+    return 1_000_000 + 16 * seed + index
+
+
+def true_stand_lines(run: Path, true_seed: int) -> list:  # type: ignore[type-arg]
+    """The member run's lines analysed as `accelcal analyze` analyses it (its estimator), with
+    the true stand of `true_seed` put on its recorded DUT channel."""
+    recording = read_recording(run / "recording.h5")
+    true = TrueStand.draw(true_seed)
+    recording = dataclasses.replace(
+        recording, dut_v=true.apply(recording.dut_v, recording.sample_rate_hz)
+    )
+    estimator = RunStart.read(run).settings.get("estimator")
+    kwargs = {"estimator": str(estimator)} if estimator else {}
+    return list(analyze(recording, **kwargs).results.lines)
 
 
 def stated_motion(stand: Path) -> dict[str, list[list[float]]]:

@@ -341,12 +341,14 @@ class Budget:
     @classmethod
     def from_list(cls, entries: Iterable[Mapping[str, Any]]) -> Budget:
         """Budget from a list of component dicts; errors name the entry (1-based) and key."""
+        from dsp.budget_table import expand_table
+
         items = list(entries)
         comps = []
         for i, entry in enumerate(items, start=1):
-            try:
-                comps.append(Component.from_dict(entry))
-            except ValueError as exc:
+            try:  # a `table` entry: one component per row (dsp.budget_table)
+                comps += [Component.from_dict(e) for e in expand_table(entry)]
+            except (ValueError, TypeError) as exc:
                 raise ValueError(f"budget entry {i} of {len(items)}: {exc}") from exc
         return cls(tuple(comps))
 

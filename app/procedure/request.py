@@ -137,6 +137,9 @@ class RunRequest:
     paced: bool = False
     faults: tuple[Fault, ...] = ()
     sim_hum: tuple[DrivenHum, ...] = ()  # simulated stand: hum only while driven
+    # simulated stand: draw its deviations from its stand file's [simulation] map (False: at
+    # its nominal values, for a benchmark that puts a truth of its own on the recording)
+    sim_systematic: bool = True
     exact_mains_bins: bool = False  # keep lines on mains harmonics (default: moved one bin)
     out: Path = Path("runs")
     dut_mass_g: float | None = None  # None: the DUT spec's, on the simulated stand its catalogue's

@@ -96,6 +96,7 @@ def prepare(
         budget=budget,
         driven_hum=request.sim_hum,
         duts=duts,
+        systematic=request.sim_systematic,
     )
     try:
         procedure = Procedure(
