@@ -1,8 +1,8 @@
 """What the other DUTs' live estimates cost a several-DUT run (issue 36 point 4: the Run tab
 shows each DUT live; app.procedure.batch_live): one unpaced batch of N piezo DUTs on
 sim/stand-fixture4.toml per estimator, run twice in the same process with the same seed: once
-as the product runs it, once with the members' live estimates switched off (the baseline: the
-batch as it ran before them; its members are estimated only at the end).
+as the window runs it (`Procedure.batch_live`: each other DUT estimated after every period),
+once without (the baseline: the CLI's batch, its members estimated only at the end).
 
 Prints, per estimator:
 - the run thread's CPU time (`time.thread_time`: what the run computed, which the machine's
@@ -11,8 +11,8 @@ Prints, per estimator:
   member), against the period's length: the share of real time a paced run spends on them;
 - the live estimates sent (a count) and the largest |last live deviation - stored deviation|
   over the members' lines (%): the live curves end where the stored results are.
-Wall times with `uptime`'s load average (re-measure at idle); CPU times and counts are the
-figures.
+A first batch of each estimator, not counted, takes the imports and caches. Wall times with
+`uptime`'s load average (re-measure at idle); CPU times and counts are the figures.
 
 Run: python bench/batch_live.py [--duts N] [--periods P] [--smoke]
 (--smoke: two DUTs, two periods, the lpm only)
@@ -49,12 +49,10 @@ class Timed:
 
 
 @contextmanager
-def timed_members(timed: Timed, enabled: bool) -> Any:
-    """Count the CPU of LiveMembers.add/estimates (`enabled`), or switch the live members off
-    (the baseline: `live_members` gives None, as for one DUT)."""
-    from app.procedure import batch_live, procedure
+def timed_members(timed: Timed) -> Any:
+    """Count the CPU of LiveMembers.add/estimates."""
+    from app.procedure import batch_live
 
-    original = procedure.live_members
     add, estimates = batch_live.LiveMembers.add, batch_live.LiveMembers.estimates
 
     def timed_add(self: Any, *args: Any) -> None:
@@ -69,15 +67,11 @@ def timed_members(timed: Timed, enabled: bool) -> Any:
         timed.estimates += 1
         return out
 
-    if enabled:
-        batch_live.LiveMembers.add = timed_add  # type: ignore[method-assign]
-        batch_live.LiveMembers.estimates = timed_estimates  # type: ignore[method-assign]
-    else:
-        procedure.live_members = lambda *a, **k: None  # type: ignore[assignment]
+    batch_live.LiveMembers.add = timed_add  # type: ignore[method-assign]
+    batch_live.LiveMembers.estimates = timed_estimates  # type: ignore[method-assign]
     try:
         yield
     finally:
-        procedure.live_members = original
         batch_live.LiveMembers.add, batch_live.LiveMembers.estimates = add, estimates
 
 
@@ -93,8 +87,10 @@ class Run:
 
 
 def one_batch(out: Path, estimator: str, duts: int, periods: int, live: bool) -> Run:
-    """One batch of `duts` DUTs (seed 7), timed; the last live estimates against the stored."""
-    from app.procedure.batch import MemberChoice, execute_batch
+    """One batch of `duts` DUTs (seed 7) as the window runs it (open, the run, the stand
+    closed, the end; `live`: the others estimated live), timed; the last live estimates
+    against the stored."""
+    from app.procedure.batch import MemberChoice, open_batch
     from app.procedure.events import PeriodEstimate
     from app.procedure.request import RunRequest
     from app.stand import config as stand_config
@@ -111,9 +107,15 @@ def one_batch(out: Path, estimator: str, duts: int, periods: int, live: bool) ->
     choices = [MemberChoice(p, f"BENCH-{p}") for p in POSITIONS[:duts]]
     events: list[Any] = []
     timed = Timed()
-    with timed_members(timed, live):
+    with timed_members(timed):
         wall, cpu = time.perf_counter(), time.thread_time()
-        finished = execute_batch(request, choices, events.append, config=config)
+        opened = open_batch(request, choices, events.append, config=config)
+        opened.procedure.batch_live = live
+        try:
+            ended = opened.procedure.run()
+        finally:
+            opened.stand.close()
+        finished = opened.end(ended, events.append)
         cpu_s, wall_s = time.thread_time() - cpu, time.perf_counter() - wall
     statuses = {str(one.status) for _, one in finished.members}
     if statuses != {"complete"}:
@@ -160,6 +162,8 @@ def main(argv: list[str] | None = None) -> int:
         "abs(live - stored) deviation |"
     )
     print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+    for estimator in estimators:  # a first batch of each, not counted: imports and caches
+        one_batch(work / f"{estimator}-warm", estimator, 2, args.periods, True)
     for estimator in estimators:
         off = one_batch(work / f"{estimator}-off", estimator, args.duts, args.periods, False)
         on = one_batch(work / f"{estimator}-on", estimator, args.duts, args.periods, True)

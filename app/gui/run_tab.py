@@ -556,7 +556,9 @@ class BatchOpening:
         return list(self.members) if fixture is None else ordered(fixture, self.members)
 
     def open(self) -> tuple[Any, Any]:
+        """The batch opened; its other DUTs estimated live too (the tab draws each one)."""
         self.opened = self.service.start_batch(self.prepared, self.members)
+        self.opened.procedure.batch_live = True
         return self.opened.procedure, self.opened.stand
 
     def end(self, finished: Finished, listener: Any) -> Any:

@@ -3,13 +3,17 @@ each DUT's live deviation).
 
 The run's own DUT (the first member) is estimated live as a single run's is
 (app.procedure.acquisition). Each other member is estimated here from the same periods: its own
-accumulator on the pair (reference, dut.<position>), the run's estimator, the run's reference
+accumulator (with the LPM its own record) on the pair (reference, dut.<position>), the run's
+estimator, the run's reference
 chain with its own channel delay, and the stand's budget with its own position's terms (not yet
 its own background and resolution terms: its stored results, made at the end from its own
 recording, have them). Its results go out in the run's own `PeriodEstimate` (`members`), so a
-listener that reads only the run's own estimate (the CLI's progress line) sees nothing new, and
-a single-DUT run's events are unchanged. A member whose estimate cannot be made (a dead channel,
-say) is left out and logged once: a live view never ends the run; its stored analysis says why.
+listener that reads only the run's own estimate sees nothing new, and a single-DUT run's events
+are unchanged. Only a face that draws them asks for them (`Procedure.batch_live`: the GUI's Run
+tab); the CLI's batch runs as before (bench/batch_live.py: the LPM's members cost the run's
+thread about 70 ms of CPU per member and 2 s period). A member whose estimate cannot be made
+(a dead channel, say) is left out and logged once: a live view never ends the run; its stored
+analysis says why.
 """
 
 from __future__ import annotations
@@ -51,10 +55,11 @@ class LiveMember:
 def live_members(procedure: Procedure, *, record: bool = False) -> LiveMembers | None:
     """The other DUTs of `procedure`'s run as its acquisition estimates them live (`record`:
     the LPM's one record, app.procedure.record_run; else the accumulated periods). None: a
-    single-DUT run."""
+    single-DUT run, or a run of several whose face does not draw them (`Procedure.batch_live`
+    off: the CLI's; their estimates would cost the run's thread CPU for nobody)."""
     run: Any = procedure.batch
     others = getattr(run, "others", None)
-    if not others:
+    if not others or not procedure.batch_live:
         return None
     from app.procedure.batch import member_budget
 

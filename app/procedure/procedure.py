@@ -119,6 +119,9 @@ class Procedure:
         self._preflight: PreflightReport | None = None  # computed once (`preflight_report`)
         self.batch_link: BatchLink | None = None  # one DUT of several (config.json "batch")
         self.batch: BatchHooks | None = None  # the other DUTs of the run
+        # several DUTs: estimate the others live too, in each PeriodEstimate's `members` (a
+        # face that draws them asks for it, the GUI's Run tab; off, the CLI's run costs none)
+        self.batch_live = False
 
     # --- control (thread-safe) ------------------------------------------------------------
 

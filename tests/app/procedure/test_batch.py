@@ -147,27 +147,11 @@ def test_the_live_estimates_say_which_dut_they_belong_to(batch) -> None:
     assert members == {"A", "B", "C", "D"}
 
 
-def test_each_live_estimate_carries_the_other_duts_live_estimates(batch) -> None:
-    """The run's own estimate after each period carries B, C and D's (issue 36 point 4: the
-    Run tab draws every DUT live); the last of each is its stored results' deviation."""
-    finished, events = batch
-    live = [e for e in events if isinstance(e, PeriodEstimate) and e.member == "A"]
-    assert len(live) >= 4  # one per period acquired (periods 4)
-    for event in live:
-        assert [m.position for m in event.members] == ["B", "C", "D"]
-        assert [m.channel for m in event.members] == ["dut.B", "dut.C", "dut.D"]
-    last = {m.position: m.results for m in live[-1].members}
-    stored = {choice.position: one.results for choice, one in finished.members}
-    for position in "BCD":
-        shown = [ln.deviation_percent for ln in last[position].lines]
-        assert shown == pytest.approx(
-            [ln.deviation_percent for ln in stored[position].lines], rel=1e-9, abs=1e-12
-        ), position
-    # each its own DUT's, not the run's own: the DUTs differ from one another
-    lead = [ln.deviation_percent for ln in live[-1].results.lines]
-    assert [ln.deviation_percent for ln in last["B"].lines] != pytest.approx(lead, abs=1e-6)
-    # the members' own end-of-run estimates carry no others
-    assert all(not e.members for e in events if isinstance(e, PeriodEstimate) and e.member != "A")
+def test_a_batch_run_without_a_face_drawing_them_estimates_no_member_live(batch) -> None:
+    """The CLI's batch (`execute_batch`) sends its live estimates as before: none carries the
+    other DUTs' (app.procedure.batch_live runs only for a face that draws them)."""
+    _, events = batch
+    assert all(not e.members for e in events if isinstance(e, PeriodEstimate))
 
 
 def test_a_single_run_on_the_fixture_stand_stores_what_it_did_before(tmp_path: Path) -> None:
