@@ -32,7 +32,7 @@ def _rows(where: str, table: Any) -> list[tuple[float, float]]:
     """The table's (Hz, value) rows, checked: at least one, frequencies rising and > 0."""
     if not isinstance(table, Sequence) or isinstance(table, str) or not table:
         raise ValueError(f"{where}: table must be a non-empty list of [frequency_hz, value] rows")
-    rows = []
+    rows: list[tuple[float, float]] = []
     for i, row in enumerate(table, start=1):
         if (
             not isinstance(row, Sequence)
