@@ -491,8 +491,9 @@ class RunTab(QWidget):
 
     def show_characteristic(self, view: EstimateView) -> None:
         """The characteristic so far and its lowest coherence, from a view made off this
-        thread."""
-        self.coherence.setText(view.coherence)
+        thread (several DUTs: the first one's, named)."""
+        lead = next(iter(self.labels.values()), "")
+        self.coherence.setText(f"{lead}: {view.coherence}" if lead else view.coherence)
         self.live.show_characteristic(view)
 
     def finish(self, finished: Finished | None) -> None:

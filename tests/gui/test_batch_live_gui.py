@@ -89,6 +89,7 @@ def test_a_batch_run_draws_each_duts_own_live_curve_and_meter(qtbot, tmp_path):
     assert tab.live.phase_plot.titleLabel.text == "Phase (A · SN-1)"
     names = [label.text for _, label in tab.live.wave_plot.legend.items]
     assert names == ["reference", "DUT A · SN-1"]
+    assert tab.coherence.text().startswith("A · SN-1: ")
 
 
 def _results(deviations: list[float]):
