@@ -19,6 +19,10 @@ tab's own path). Both windows are measured the same way, in the same process:
   and the run worker's own CPU time within the longest gap (its thread's CPU clock: what it
   computed while the window waited; the load does not inflate it, it only adds wall time).
 
+`--duts N` (2-4) runs N DUTs at once on the four-position fixture (sim/stand-fixture4.toml's,
+serials BENCH-1 ..): the Run tab then draws every DUT's curve and meter live, each other DUT
+estimated on the run worker after every period as the run's own (issue 36 point 4).
+
 The run worker shortens the GIL's switch interval (`app.gui.worker.GIL_SWITCH_S`);
 `--gil-switch-ms 5` measures the same run with CPython's default, for a before/after.
 
@@ -28,7 +32,7 @@ same timers. The ratios live/idle are the figures that survive a loaded machine;
 an idle machine. The load average is printed at the start and at the end.
 
 Run:   QT_QPA_PLATFORM=offscreen python bench/gui_responsiveness.py [--seconds 10] [--smoke]
-       ... [--gil-switch-ms 5] [--trace stalls.txt]
+       ... [--gil-switch-ms 5] [--trace stalls.txt] [--duts 4]
        xvfb-run -a env QT_QPA_PLATFORM=xcb python bench/gui_responsiveness.py   (an X server)
 --smoke: a short run of 1 s periods (CI: checks the script runs, not the figures).
 Exit 0 when the targets are met (always in smoke mode), 1 when not, 2 on a bad option.
@@ -67,6 +71,7 @@ TARGET_RATE, TARGET_STALL_MS = 30.0, 50.0  # SPEC s.12
 HEARTBEAT_MS = 2
 TRACE_AFTER_S = 0.05  # --trace: a main-thread gap this long dumps every thread's stack
 WIDTH, HEIGHT = 1366, 768  # px, the smallest screen the window is made for
+FIXTURE_STAND = "stand-fixture4.toml"  # --duts: the simulated stand with positions A-D
 
 
 @dataclass(frozen=True)
@@ -218,10 +223,11 @@ def wait(seconds: float) -> None:
     loop.exec()
 
 
-def stand_file(folder: Path, period_samples: int) -> Path:
+def stand_file(folder: Path, period_samples: int, duts: int = 1) -> Path:
     """The simulated stand's file with a [plan] at FS and `period_samples` (the preset's
-    lines)."""
-    text = resources.files("sim").joinpath("stand.toml").read_text(encoding="utf-8")
+    lines); with `duts` > 1 the four-position fixture's stand."""
+    name = "stand.toml" if duts == 1 else FIXTURE_STAND
+    text = resources.files("sim").joinpath(name).read_text(encoding="utf-8")
     path = folder / "stand-51k2.toml"
     path.write_text(
         f"{text}\n[plan]\nsample_rate_hz = {FS:.1f}\nperiod_samples = {period_samples}\n",
@@ -251,6 +257,18 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--smoke", action="store_true", help="a short run (CI)")
     parser.add_argument(
+        "--periods",
+        type=int,
+        help="periods the run acquires (default: the Setup tab's, 1 with the LPM); more keep "
+        "the run acquiring, each period's estimates drawn live, within --seconds",
+    )
+    parser.add_argument(
+        "--duts",
+        type=int,
+        default=1,
+        help="DUTs in the run (1-4; 2-4 on the four-position fixture, each drawn live)",
+    )
+    parser.add_argument(
         "--gil-switch-ms",
         type=float,
         default=1e3 * run_worker.GIL_SWITCH_S,
@@ -271,6 +289,10 @@ def main(argv: list[str] | None = None) -> int:
             parser.error(f"--{name.replace('_', '-')}: must be > 0 s")
     if args.period_samples < 2:
         parser.error("--period-samples: must be at least 2")
+    if not 1 <= args.duts <= 4:
+        parser.error("--duts: must be within 1 .. 4 (the fixture's positions)")
+    if args.periods is not None and not 1 <= args.periods <= 1000:
+        parser.error("--periods: must be within 1 .. 1000")
     if not 0.01 <= args.gil_switch_ms <= 5:
         parser.error("--gil-switch-ms: must be within 0.01 .. 5 ms (CPython's default)")
     run_worker.GIL_SWITCH_S = 1e-3 * args.gil_switch_ms
@@ -280,13 +302,19 @@ def main(argv: list[str] | None = None) -> int:
     # never the user's data or records: stored responses and runs in a folder of its own
     os.environ["ACCELCAL_DATA_DIR"] = str(work / "data")
     window = MainWindow(
-        stand_file=stand_file(work, args.period_samples),
+        stand_file=stand_file(work, args.period_samples, args.duts),
         out=work / "runs",
         paced=True,
         db=f"sqlite:///{work / 'none.sqlite'}",
     )
     window.records.wait()
     window.wait_for_plans()
+    if args.duts > 1:  # a serial at each of the first N positions, as the operator types it
+        for i, row in enumerate(window.setup_tab.fixture.rows[: args.duts], start=1):
+            row.serial.setText(f"BENCH-{i}")
+            row.serial.editingFinished.emit()
+    if args.periods is not None:
+        window.setup_tab.periods.setValue(args.periods)
     problems = window.setup_tab.validate()
     if problems:
         print(f"the plan cannot run: {'; '.join(problems)}", file=sys.stderr)
@@ -324,7 +352,9 @@ def main(argv: list[str] | None = None) -> int:
     period_s = args.period_samples / FS
     print(
         f"live run: paced simulated stand, 2 x {FS:g} S/s (and the drive), periods of "
-        f"{args.period_samples} samples ({period_s:g} s), the piezo preset's lines; "
+        f"{args.period_samples} samples ({period_s:g} s), the piezo preset's lines, "
+        f"{args.duts} DUT(s){' on ' + FIXTURE_STAND if args.duts > 1 else ''}, "
+        f"{window.setup_tab.periods.value()} period(s) acquired; "
         f"{args.seconds:g} s live after {args.idle_seconds:g} s idle"
         f"{' (smoke)' if args.smoke else ''}"
     )

@@ -130,11 +130,16 @@ def block_view(
     samples: np.ndarray, channels: tuple[str, ...], plan: Plan, columns: int
 ) -> PeriodView:
     """`period_view` of a block as read (channels in `channels` order): the reference and
-    the run's own DUT ("dut", or in a run of several DUTs the first "dut.<position>")."""
+    the run's own DUT ("dut", or in a run of several DUTs the first "dut.<position>"); in a
+    run of several DUTs the peaks (V) of every channel too, by name (each DUT's meter)."""
     names = list(channels)
-    return period_view(
+    view = period_view(
         samples[names.index("reference")], samples[names.index(own_dut(names))], plan, columns
     )
+    if "dut" in names or not samples.shape[-1]:
+        return view
+    peaks = {name: float(np.max(np.abs(row))) for name, row in zip(names, samples, strict=True)}
+    return dataclasses.replace(view, peaks_v={**peaks, **view.peaks_v})
 
 
 def own_dut(channels: Sequence[str]) -> str:

@@ -36,8 +36,12 @@ MINOR_TICKS_HZ = (2, 5, 20, 50, 200, 500, 2000, 5000, 20000)
 REF_COLOUR, DUT_COLOUR = "#4a9ee0", "#d62728"
 LEGEND_BRUSH = (0, 0, 0, 200)  # the legend readable over the traces it names
 LEFT_AXIS_PX = 62  # width of each live plot's y axis: label and "-100.5" tick text
-# the deviation curves of a run of several DUTs, one colour per member in the fixture's order
-MEMBER_COLOURS = ("#2c3e50", "#d35400", "#16a085", "#8e44ad", "#c0392b", "#2980b9", "#7f8c8d")
+# the deviation curves of a run of several DUTs, one colour and symbol per member in the
+# fixture's order (told apart where they overlap, and without colour)
+# (light enough on the plots' black background)
+MEMBER_COLOURS = ("#5dade2", "#f39c12", "#48c9b0", "#c39bd3", "#f1948a", "#f7dc6f", "#d5dbdb")
+MEMBER_SYMBOLS = ("o", "s", "t", "d", "+", "x", "star")
+DEVIATION_TITLE = "Sensitivity deviation from reference frequency"
 
 
 def hz_label(frequency_hz: float) -> str:
@@ -137,7 +141,7 @@ class LivePlots:
         )
         g.nextRow()
         self.sens_plot = g.addPlot(
-            title="Sensitivity deviation from reference frequency",
+            title=DEVIATION_TITLE,
             labels={"left": "%", "bottom": "Hz"},
         )
         frequency_axis(self.sens_plot)
@@ -160,6 +164,7 @@ class LivePlots:
         self._ranges: dict[int, tuple[float, float]] = {}  # x range set per plot
         # a run of several DUTs: each member's deviation curve by its position (`members`)
         self.member_curves: dict[str, pg.PlotDataItem] = {}
+        self._labels: dict[str, str] = {}  # what `members` last made them for
         self._member_legend: pg.LegendItem | None = None
 
     @property
@@ -187,34 +192,55 @@ class LivePlots:
         for plot in self.plots:
             plot.setYRange(0, 1, padding=0)  # the first data sets its own range
         self._ranges.clear()
-        self.members({})
+        for curve in self.member_curves.values():  # kept for the next run of the same DUTs
+            curve.setData([], [])
         self.widget.show_chart(False)
 
     def members(self, labels: dict[str, str]) -> None:
         """One deviation curve per member of a run of several DUTs, `labels` {position: what
         the legend says} in the fixture's order ({}: a single run, none). Made before the
         run's first period (`RunTab.opened`), so the legend never re-lays the plots mid-run;
-        the first member's U and phase stay the single run's error bars and phase curve."""
+        the first member's phase stays the single run's phase curve (its title names it); its
+        U is on the Results tab (error bars of one DUT over every DUT's curve would read as
+        theirs). The legend at the top left: the characteristic rises to the right. The same
+        labels again: the curves kept (made once: about 4 ms of the GUI thread each)."""
+        if labels == self._labels and (self.member_curves or not labels):
+            return
+        self._labels = dict(labels)
         for curve in self.member_curves.values():
             self.sens_plot.removeItem(curve)  # and from its legend
         self.member_curves = {}
         self.sens_curve.setVisible(not labels)
+        self.sens_err.setVisible(not labels)
+        self.sens_plot.setTitle(f"{DEVIATION_TITLE}, per DUT" if labels else DEVIATION_TITLE)
+        lead = next(iter(labels.values()), "")
+        self.phase_plot.setTitle(f"Phase ({lead})" if labels else "Phase")
+        self._name_dut(f"DUT {lead}" if labels else "DUT")  # the traces of the run's own DUT
         if self._member_legend is not None:
             self._member_legend.clear()
             self._member_legend.setVisible(bool(labels))
         if not labels:
             return
-        self._member_legend = self.sens_plot.addLegend(offset=(-10, 10), brush=LEGEND_BRUSH)
+        if self._member_legend is None:
+            self._member_legend = self.sens_plot.addLegend(offset=(10, 10), brush=LEGEND_BRUSH)
         self._member_legend.setVisible(True)
         for i, (position, label) in enumerate(labels.items()):
             colour = MEMBER_COLOURS[i % len(MEMBER_COLOURS)]
             self.member_curves[position] = self.sens_plot.plot(
                 pen=pg.mkPen(colour, width=2),
-                symbol="o",
-                symbolSize=5,
+                symbol=MEMBER_SYMBOLS[i % len(MEMBER_SYMBOLS)],
+                symbolSize=7,
                 symbolBrush=colour,
+                symbolPen=pg.mkPen(colour),
                 name=label,
             )
+
+    def _name_dut(self, text: str) -> None:
+        """The legend's name of the DUT's trace and spectrum."""
+        for plot, curve in ((self.wave_plot, self.wave_dut), (self.spec_plot, self.spec_dut)):
+            for sample, label in plot.legend.items:
+                if sample.item is curve and label.text != text:
+                    label.setText(text)
 
     def show_member(self, position: str, view: EstimateView) -> None:
         """The deviation of the member at `position` (its curve, `members`), the y axis
@@ -224,14 +250,14 @@ class LivePlots:
             return
         c = view.characteristic
         curve.setData(c.frequency_hz, c.deviation_percent)
-        lows, highs = [view.deviation_range[0]], [view.deviation_range[1]]
+        lows, highs = [], []  # every member's deviation (their U is on the Results tab)
         for other in self.member_curves.values():
             y = other.getData()[1]
             if y is not None and len(y):
                 lows.append(float(np.nanmin(y)))
                 highs.append(float(np.nanmax(y)))
         self._lines_x(c.frequency_hz)
-        if c.frequency_hz.size:
+        if c.frequency_hz.size and lows:
             follow_y(self.sens_plot, min(lows), max(highs))
 
     def prepare(self, plan: Plan) -> None:
@@ -297,12 +323,14 @@ class LivePlots:
         c, logf = view.characteristic, view.log_frequency
         f, dev, phase = c.frequency_hz, c.deviation_percent, c.phase_deg
         self.sens_curve.setData(f, dev)
-        self.sens_err.setData(x=logf, y=dev, height=2 * c.deviation_expanded_percent)
+        if not self.member_curves:  # (setData would show the bars `members` hid)
+            self.sens_err.setData(x=logf, y=dev, height=2 * c.deviation_expanded_percent)
         self.phase_curve.setData(f, phase)
         self.phase_err.setData(x=logf, y=phase, height=2 * c.phase_expanded_deg)
         self._lines_x(f)
         if f.size:
-            follow_y(self.sens_plot, *view.deviation_range)
+            if not self.member_curves:  # several DUTs: the y axis follows their curves
+                follow_y(self.sens_plot, *view.deviation_range)
             follow_y(self.phase_plot, *view.phase_range)
 
 

@@ -63,7 +63,8 @@ STOP_STYLE = (  # flat colours (a border makes Qt draw the background as given)
     "QPushButton:disabled { background: #e5e7e9; color: #a6acaf; font-weight: normal;"
     " border: 1px solid #ccd1d1; }"
 )
-METERED = ("reference", "dut")  # the input channels with a level meter
+METERED = ("reference", "dut")  # the input channels with a level meter (one DUT)
+METERED_NAMES = {name: name for name in METERED}
 OPENING_S = 5.0  # s a run still opening is given to open before it is stopped (closing)
 METER_STYLE = "QProgressBar::chunk {background: %s}"  # the meter's colour: red near full
 
@@ -102,9 +103,10 @@ class LiveFrame:
     estimate: PeriodEstimate | None = None
     estimate_view: EstimateView | None = None  # the estimate's, as `view`
     # a run of several DUTs: the first member's position (its estimates come with it, or
-    # with no member) and the latest estimate of each member not drawn yet, by position
+    # with no member) and the latest results of each member not drawn yet, by position (the
+    # others' come in the first member's estimate, and each one's stored results at the end)
     lead: str = ""
-    members: dict[str, tuple[PeriodEstimate, EstimateView | None]] = field(default_factory=dict)
+    members: dict[str, tuple[Results, EstimateView | None]] = field(default_factory=dict)
     state: str | None = None
     equalisation: str | None = None
     progress: tuple[float, str] | None = None  # (fraction of the phase done, what it says)
@@ -118,10 +120,11 @@ class LiveFrame:
         for item in events:
             event: Any = item
             view: Any = None  # the worker's view of a period or an estimate
+            member_views: Mapping[str, EstimateView] = {}  # the other DUTs' (worker's)
             if isinstance(item, ShownPeriod):
                 event, view = item.block, item.view
             elif isinstance(item, ShownEstimate):
-                event, view = item.estimate, item.view
+                event, view, member_views = item.estimate, item.view, item.members
             if isinstance(event, PeriodBlock):
                 if event.state != State.FADING_OUT:  # keep showing the last steady period
                     self.block, self.view = event, view
@@ -133,9 +136,11 @@ class LiveFrame:
             elif isinstance(event, PeriodEstimate):
                 member = event.member or self.lead
                 if member:
-                    self.members[member] = (event, view)
+                    self.members[member] = (event.results, view)
                 if member == self.lead:  # the run's own DUT: coherence, U and phase
                     self.estimate, self.estimate_view = event, view
+                for other in event.members:  # the other DUTs after the same period
+                    self.members[other.position] = (other.results, member_views.get(other.position))
             elif isinstance(event, StateChanged):
                 self.state = f"{event.state}: {event.message}" if event.message else event.state
                 self.phase, self.phase_blocks = event.state, 0
@@ -243,13 +248,11 @@ class RunTab(QWidget):
         layout.addLayout(details)
         self.ranges_label = ElidedLabel("")  # the input ranges the run uses (issue 32)
         layout.addWidget(self.ranges_label)
-        meters = QHBoxLayout()
-        self.meters: dict[str, QProgressBar] = {}
-        for name in METERED:
-            bar = QProgressBar(maximum=100, format=f"{name} %p % of range")
-            meters.addWidget(bar)
-            self.meters[name] = bar
-        layout.addLayout(meters)
+        self.meter_row = QHBoxLayout()
+        self.meters: dict[str, QProgressBar] = {}  # a level meter per metered input channel
+        self.meter_names: dict[str, str] = {}  # what each meter calls its channel
+        self.set_meters(METERED_NAMES)
+        layout.addLayout(self.meter_row)
         self.live = LivePlots()
         layout.addWidget(self.live.widget, 1)
         self.messages = wrapping_label("")
@@ -316,6 +319,13 @@ class RunTab(QWidget):
         self.ranges_v = dict(ranges_v)
         self.labels, self.batch = dict(labels or {}), None
         self.frame = LiveFrame(lead=next(iter(self.labels), ""))
+        # a run of several DUTs: the reference's meter and each DUT's channel's, named as
+        # its curve is; one DUT: the reference's and the DUT's
+        members = {f"dut.{position}": label for position, label in self.labels.items()}
+        self.set_meters({"reference": "reference", **members} if members else dict(METERED_NAMES))
+        # each DUT's curve and legend made here, before the worker starts to compete for the
+        # interpreter (in `opened` they stalled the window's thread tens of ms)
+        self.live.members(self.labels)
         if procedure is not None:
             self.opened(procedure)
         else:  # the run waits for its plots to be painted once it has opened (`opened`)
@@ -330,7 +340,6 @@ class RunTab(QWidget):
         period, the progress with its phases' steps."""
         self.frame.plan, self.frame.steps = procedure.plan, PhaseSteps.of(procedure)
         self.live.prepare(procedure.plan)
-        self.live.members(self.labels)  # each DUT's curve and legend before the first paint
         if self.worker is not None:  # painted now, while the run waits for it (RunWorker)
             self.live.graphics.viewport().repaint()
             self.worker.view_ready.set()
@@ -430,25 +439,45 @@ class RunTab(QWidget):
             # the range the block was read on (the run picks it), else the one it started on
             self.ranges_v.update(block.ranges_v)
             names = list(block.channels)
-            for name in METERED:
-                peak = (
-                    view.peaks_v[name]
-                    if view is not None
-                    else float(np.max(np.abs(block.samples[names.index(shown_dut(name, names))])))
-                )
-                self.show_meter(name, int(100 * peak / self.ranges_v[name]))
+            for name in self.meters:
+                peak = view.peaks_v.get(name) if view is not None else None
+                if peak is None and shown_dut(name, names) in names:
+                    row = block.samples[names.index(shown_dut(name, names))]
+                    peak = float(np.max(np.abs(row))) if row.size else 0.0
+                if peak is not None:
+                    self.show_meter(name, int(100 * peak / self.range_v(name)))
         estimate, frame.estimate = frame.estimate, None
         shown, frame.estimate_view = frame.estimate_view, None
         if estimate is not None:
             self.show_characteristic(shown or estimate_view(estimate.results))
         members, frame.members = frame.members, {}
-        for position, (member_estimate, member_view) in members.items():
-            self.live.show_member(position, member_view or estimate_view(member_estimate.results))
+        for position, (member_results, member_view) in members.items():
+            self.live.show_member(position, member_view or estimate_view(member_results))
+
+    def set_meters(self, shown: Mapping[str, str]) -> None:
+        """A level meter per input channel, `shown` {channel: what its meter calls it}, in
+        that order (the row made anew only when they change)."""
+        if list(shown.items()) == list(self.meter_names.items()):
+            return
+        for bar in self.meters.values():
+            self.meter_row.removeWidget(bar)
+            bar.deleteLater()
+        self.meters, self.meter_names = {}, dict(shown)
+        for name, text in shown.items():
+            bar = QProgressBar(maximum=100, format=f"{text} %p % of range")
+            bar.setToolTip(f"{text}: the input channel {name}'s peak in % of its range")
+            self.meter_row.addWidget(bar)
+            self.meters[name] = bar
+
+    def range_v(self, name: str) -> float:
+        """The +-range (V) channel `name` is read on (a DUT channel the run has not said yet:
+        the DUT range it started on)."""
+        return self.ranges_v.get(name) or self.ranges_v.get("dut") or 1.0
 
     def show_meter(self, name: str, fill: int) -> None:
         """The meter of channel `name` at `fill` % of its range (red from 95 %)."""
         bar = self.meters[name]
-        shown = f"{name} %p % of ±{self.ranges_v[name]:g} V"
+        shown = f"{self.meter_names.get(name, name)} %p % of ±{self.range_v(name):g} V"
         if bar.format() != shown:
             bar.setFormat(shown)
         bar.setValue(min(fill, 100))
@@ -462,8 +491,9 @@ class RunTab(QWidget):
 
     def show_characteristic(self, view: EstimateView) -> None:
         """The characteristic so far and its lowest coherence, from a view made off this
-        thread."""
-        self.coherence.setText(view.coherence)
+        thread (several DUTs: the first one's, named)."""
+        lead = next(iter(self.labels.values()), "")
+        self.coherence.setText(f"{lead}: {view.coherence}" if lead else view.coherence)
         self.live.show_characteristic(view)
 
     def finish(self, finished: Finished | None) -> None:
@@ -527,7 +557,9 @@ class BatchOpening:
         return list(self.members) if fixture is None else ordered(fixture, self.members)
 
     def open(self) -> tuple[Any, Any]:
+        """The batch opened; its other DUTs estimated live too (the tab draws each one)."""
         self.opened = self.service.start_batch(self.prepared, self.members)
+        self.opened.procedure.batch_live = True
         return self.opened.procedure, self.opened.stand
 
     def end(self, finished: Finished, listener: Any) -> Any:

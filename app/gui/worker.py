@@ -16,7 +16,7 @@ import importlib
 import logging
 import sys
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -84,10 +84,13 @@ class ShownPeriod:
 
 @dataclass(frozen=True)
 class ShownEstimate:
-    """A live estimate as queued for the GUI: the event and its view (None: see ShownPeriod)."""
+    """A live estimate as queued for the GUI: the event and its view (None: see ShownPeriod),
+    and in a run of several DUTs the view of each other DUT's estimate the event carries, by
+    position (`PeriodEstimate.members`; empty: not made, the tab makes them)."""
 
     estimate: PeriodEstimate
     view: EstimateView | None
+    members: Mapping[str, EstimateView] = dataclasses.field(default_factory=dict)
 
 
 def warm_imports() -> threading.Thread:
@@ -227,7 +230,8 @@ class RunWorker:
                 view = block_view(event.samples, event.channels, procedure.plan, self.columns)
                 return ShownPeriod(event, view)
             if isinstance(event, PeriodEstimate):
-                return ShownEstimate(event, estimate_view(event.results))
+                members = {m.position: estimate_view(m.results) for m in event.members}
+                return ShownEstimate(event, estimate_view(event.results), members)
         except Exception:
             if not self._view_failed:
                 log.exception("the live view of a %s could not be made", type(event).__name__)

@@ -7,6 +7,7 @@ import dataclasses
 
 import numpy as np
 
+from app.procedure.batch_live import LiveMembers
 from app.procedure.context import RunContext
 from app.procedure.events import Progress, State
 from app.procedure.stopping import Stop, StoppingRule, target_not_met
@@ -21,10 +22,17 @@ class Acquisition:
     """Accumulate the multisine's periods (first the ones settled at the final drive), publish
     results from MIN_PERIODS on, stop by the run's `StoppingRule`."""
 
-    def __init__(self, ctx: RunContext, budget: Budget, reusable_blocks: list[np.ndarray]):
+    def __init__(
+        self,
+        ctx: RunContext,
+        budget: Budget,
+        reusable_blocks: list[np.ndarray],
+        members: LiveMembers | None = None,
+    ):
         self.ctx = ctx
         self.budget = budget
         self.pending = list(reusable_blocks)
+        self.members = members  # a run of several DUTs: the others' live estimates
 
     def run(self) -> None:
         ctx, s, plan = self.ctx, self.ctx.settings, self.ctx.plan
@@ -41,13 +49,16 @@ class Acquisition:
         while True:
             block = self.pending.pop(0) if self.pending else io.read(State.ACQUIRING)
             accumulator.add_period(*io.split_channels(block))
+            if self.members is not None:
+                self.members.add(block)
             count = accumulator.periods
             if io.writer is not None:
                 io.writer.set_acquired_periods(count)
             if count < MIN_PERIODS[s.estimator]:  # no honest type A yet (dsp.spectral)
                 continue
             estimate = accumulator.estimate(s.estimator)
-            results = ctx.publish(estimate, self.budget)
+            others = self.members.estimates() if self.members is not None else ()
+            results = ctx.publish(estimate, self.budget, others)
             acquired_s = io.excited_s - started
             worst_a = float(np.nanmax(estimate.relative_type_a))
             ctx.emit(

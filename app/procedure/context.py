@@ -11,7 +11,14 @@ from typing import Any
 import numpy as np
 
 from app.procedure.errors import ProcedureError
-from app.procedure.events import Event, PeriodEstimate, State, StateChanged, WarningRaised
+from app.procedure.events import (
+    Event,
+    MemberEstimate,
+    PeriodEstimate,
+    State,
+    StateChanged,
+    WarningRaised,
+)
 from app.procedure.ranging import RangePlan
 from app.procedure.settings import RunSettings
 from app.procedure.stand_io import StandIO
@@ -64,8 +71,11 @@ class RunContext:
         self.log(f"warning: {text}")
         self.emit(WarningRaised(text))
 
-    def publish(self, estimate: Estimate, budget: Budget) -> Results:
-        """Results of an estimate over the whole plan: checked, kept and sent to listeners."""
+    def publish(
+        self, estimate: Estimate, budget: Budget, members: tuple[MemberEstimate, ...] = ()
+    ) -> Results:
+        """Results of an estimate over the whole plan: checked, kept and sent to listeners
+        (with `members`: the other DUTs' of a run of several, after the same period)."""
         s = self.settings
         results = compute_results(
             estimate,
@@ -81,7 +91,7 @@ class RunContext:
         )
         self.check_plausible(results)
         self.notes.results = results
-        self.emit(PeriodEstimate(estimate.periods, estimate, results))
+        self.emit(PeriodEstimate(estimate.periods, estimate, results, members=members))
         return results
 
     def check_plausible(self, results: Results) -> None:

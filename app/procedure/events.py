@@ -70,6 +70,17 @@ class EqualisationStep:
 
 
 @dataclass(frozen=True)
+class MemberEstimate:
+    """The live results of another DUT of a run of several (issue 36) after the same period
+    as the run's own: its position, its input channel ("dut.<position>") and its results
+    (app.procedure.batch_live; the stand's budget with its position's terms)."""
+
+    position: str
+    channel: str
+    results: Results
+
+
+@dataclass(frozen=True)
 class PeriodEstimate:
     """The live estimate after another acquired period."""
 
@@ -77,6 +88,9 @@ class PeriodEstimate:
     estimate: Estimate
     results: Results
     member: str = ""  # several DUTs in one run (issue 36): the DUT's position; "": the one DUT
+    # the run's own estimate in a run of several DUTs: the other DUTs' after the same period
+    # (in the fixture's order; a DUT whose estimate could not be made is left out); () alone
+    members: tuple[MemberEstimate, ...] = ()
 
 
 @dataclass(frozen=True)

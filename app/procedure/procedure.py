@@ -14,6 +14,7 @@ import json
 import logging
 import math
 import sys
+from contextlib import nullcontext
 from datetime import UTC, datetime
 from typing import Any, Protocol
 
@@ -23,6 +24,7 @@ from app.io.hdf5 import DiskFullError, RecordingWriter, Truth, software_version
 from app.io.vocabulary import Mode, RunStatus
 from app.procedure.acquisition import Acquisition
 from app.procedure.background import Background, budget_with_background
+from app.procedure.batch_live import live_members
 from app.procedure.context import RunContext, RunNotes
 from app.procedure.equalisation import Equalisation, Equalised
 from app.procedure.errors import (
@@ -117,6 +119,9 @@ class Procedure:
         self._preflight: PreflightReport | None = None  # computed once (`preflight_report`)
         self.batch_link: BatchLink | None = None  # one DUT of several (config.json "batch")
         self.batch: BatchHooks | None = None  # the other DUTs of the run
+        # several DUTs: estimate the others live too, in each PeriodEstimate's `members` (a
+        # face that draws them asks for it, the GUI's Run tab; off, the CLI's run costs none)
+        self.batch_live = False
 
     # --- control (thread-safe) ------------------------------------------------------------
 
@@ -237,7 +242,8 @@ class Procedure:
             SteppedSine(self.ctx, background, self.memory.recall(), self.memory.describe).run()
             return
         if self.settings.estimator in RECORD_ESTIMATORS:  # lpm: bursts, one record each
-            RecordRun(self.ctx, background, self.memory).run()
+            with live_members(self, record=True) or nullcontext() as members:
+                RecordRun(self.ctx, background, self.memory, members).run()
             self.io.fade_out()
             return
         equalised = self._equalise(background.noise())
@@ -252,7 +258,8 @@ class Procedure:
         )
         budget = self._with_resolution(budget, equalised.settled.lines, background.noise())
         self.notes.budget = budget
-        Acquisition(self.ctx, budget, equalised.reusable_blocks).run()
+        with live_members(self) or nullcontext() as members:
+            Acquisition(self.ctx, budget, equalised.reusable_blocks, members).run()
         self.io.fade_out()
 
     def _equalise(self, noise: np.ndarray) -> Equalised:

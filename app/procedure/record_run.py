@@ -21,6 +21,7 @@ import numpy as np
 
 from app.procedure.acquisition import report_target_not_met, with_driven_hum
 from app.procedure.background import BackgroundLevels, budget_with_background
+from app.procedure.batch_live import LiveMembers
 from app.procedure.context import RunContext
 from app.procedure.equalisation import CHECK_LEVEL, play_check_burst, stored_refusal
 from app.procedure.errors import PreflightError, ProcedureError
@@ -45,10 +46,18 @@ Period = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 class RecordRun:
     """The LPM run's phases after the background; results end in the context's notes."""
 
-    def __init__(self, ctx: RunContext, background: BackgroundLevels, memory: StandMemory):
+    def __init__(
+        self,
+        ctx: RunContext,
+        background: BackgroundLevels,
+        memory: StandMemory,
+        members: LiveMembers | None = None,
+    ):
         self.ctx = ctx
         self.background = background
         self.memory = memory
+        self.members = members  # a run of several DUTs: the others' live estimates
+        self.block: np.ndarray | None = None  # the last period as read (every channel)
         plan = ctx.plan
         fade_s = ctx.notes.fade_in_s  # as the run's preflight picked and checked it
         if fade_s is None:  # no preflight made (a phase run on its own): picked here
@@ -87,7 +96,7 @@ class RecordRun:
     def _read(self, state: State) -> Period:
         """One period: reference, DUT, the drive as played and as recorded (V)."""
         io = self.ctx.io
-        block = io.read(state)
+        block = self.block = io.read(state)
         ref, dut = io.split_channels(block)
         index = io.channel_index
         recorded = block[index["drive"]] if "drive" in index else io.played  # as the writer's
@@ -280,6 +289,7 @@ class RecordRun:
         )
         with LiveRecord(plan, target=s.target_type_a) as live:
             live.add(*first)
+            self._members_add(first)
             self._acquire(rule, live, record.estimate, budget)
 
     def _acquire(
@@ -300,10 +310,13 @@ class RecordRun:
                 io.writer.set_acquired_periods(count)
             acquired_s = io.excited_s - started
             if estimate is not None:
-                results = ctx.publish(estimate, budget)
+                others = self.members.estimates() if self.members is not None else ()
+                results = ctx.publish(estimate, budget, others)
                 worst_a = float(np.nanmax(estimate.relative_type_a))
                 last = (count, worst_a)
                 live.measured(worst_a)
+                if self.members is not None:  # their records on the same checkpoints
+                    self.members.follow(worst_a, live.last)
                 shown, text = worst_a, f"record of {count} period(s), worst type A"
                 text += f" {100 * worst_a:.3f} %"
                 stop = rule.decide(count, worst_a, acquired_s, period_s)
@@ -335,8 +348,15 @@ class RecordRun:
                 elif stop is Stop.TIME_BOUND:
                     report_target_not_met(ctx, rule, results, estimate, acquired_s)
                 return
-            live.add(*self._read(State.ACQUIRING))
+            period = self._read(State.ACQUIRING)
+            live.add(*period)
+            self._members_add(period)
             estimate = live.estimate().estimate if live.due else None
+
+    def _members_add(self, period: Period) -> None:
+        """The other DUTs of a run of several: the period just read joins their records."""
+        if self.members is not None and self.block is not None:
+            self.members.add(self.block, period[2], period[3])
 
 
 def last_period(rule: StoppingRule, period_s: float, first_s: float) -> int | None:

@@ -180,6 +180,9 @@ def test_a_single_dut_run_draws_no_member_curves(qtbot, tmp_path):
     _ = _run(qtbot, w, 1)
     assert w.run_tab.live.member_curves == {} and w.run_tab.batch is None
     assert w.run_tab.live.sens_curve.isVisible()
+    assert w.run_tab.live.sens_err.isVisible()  # its U drawn, as before several DUTs
+    assert w.run_tab.live.phase_plot.titleLabel.text == "Phase"
+    assert list(w.run_tab.meters) == ["reference", "dut"]
     x, _y = w.run_tab.live.sens_curve.getData()
     assert x is not None and len(x) == 4
     assert not w.results_tab.members.isVisibleTo(w.results_tab)

@@ -147,6 +147,13 @@ def test_the_live_estimates_say_which_dut_they_belong_to(batch) -> None:
     assert members == {"A", "B", "C", "D"}
 
 
+def test_a_batch_run_without_a_face_drawing_them_estimates_no_member_live(batch) -> None:
+    """The CLI's batch (`execute_batch`) sends its live estimates as before: none carries the
+    other DUTs' (app.procedure.batch_live runs only for a face that draws them)."""
+    _, events = batch
+    assert all(not e.members for e in events if isinstance(e, PeriodEstimate))
+
+
 def test_a_single_run_on_the_fixture_stand_stores_what_it_did_before(tmp_path: Path) -> None:
     out = tmp_path / "runs"
     argv = ["run", "--stand", str(STAND), "--dut", "piezo", "--dut-id", "SN-1", "--periods", "3"]
