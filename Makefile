@@ -85,7 +85,8 @@ browser:
 # pytest-xdist 3.8 a worker that crashes under loadgroup leaves the run waiting for ever at
 # its end (pytest-xdist issues 1323 and 1378; CI hung so at 99 % after a worker's SIGSEGV),
 # where load reports the crashed test as failed and goes on. A test that runs past
-# faulthandler_timeout (pyproject.toml) has every thread's stack printed and its worker ended.
+# faulthandler_timeout (pyproject.toml, 30 min) has every thread's stack printed and its worker
+# ended.
 PYTEST_PARALLEL := -n $(TEST_WORKERS) --dist load
 
 test: $(STAMP) xvfb browser
