@@ -202,19 +202,9 @@ def plan_members(
     out: list[tuple[MemberChoice, DutSpec, Budget, tuple[str, ...]]] = []
     for choice in members:
         position = fixture.position(choice.position)
-        over = position.over_limit_hz(frequencies_hz)
-        if over and len(over) == len(frequencies_hz):
-            raise PreflightError(
-                f"fixture.position {position.name!r} relative_motion: its stated relative "
-                "motion alone exceeds the ISO 16063-21 limit at every line of the plan"
-            )
-        warnings: tuple[str, ...] = ()
-        if over:
-            lines = ", ".join(f"{f:g}" for f in over)
-            warnings = (
-                f"fixture position {position.name}: its stated relative motion alone exceeds "
-                f"the ISO 16063-21 limit at {lines} Hz",
-            )
+        refusal, warnings = position.limit_check(frequencies_hz)
+        if refusal is not None:
+            raise PreflightError(refusal)
         ratio = _crosstalk_ratio(specs, position.channel, reference_mv_per_ms2)
         terms = position.budget(fixture.crosstalk_db, ratio)
         out.append((choice, specs[position.channel], terms, warnings))

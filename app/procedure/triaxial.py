@@ -173,18 +173,9 @@ def open_triaxial(
     problems = fixture.mass_problems({position.name: (spec.mass_g or 0.0) / 1000.0})
     if problems:
         raise PreflightError("; ".join(problems))
-    over = position.over_limit_hz(frequencies)
-    if over and len(over) == len(frequencies):
-        raise PreflightError(
-            f"fixture.position {position.name!r} relative_motion: its stated relative "
-            "motion alone exceeds the ISO 16063-21 limit at every line of the plan"
-        )
-    warnings: tuple[str, ...] = ()
-    if over:
-        warnings = (
-            f"fixture position {position.name}: its stated relative motion alone exceeds "
-            f"the ISO 16063-21 limit at {', '.join(f'{f:g}' for f in over)} Hz",
-        )
+    refusal, warnings = position.limit_check(frequencies)
+    if refusal is not None:
+        raise PreflightError(refusal)
     table = config.reference.sensitivity_mv_per_ms2
     reference_mv = 0.0
     if table:

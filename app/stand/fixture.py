@@ -161,6 +161,24 @@ class FixturePosition:
                 out.append(float(f))
         return out
 
+    def limit_check(self, frequencies_hz: Sequence[float]) -> tuple[str | None, tuple[str, ...]]:
+        """(why the plan is refused at this position, or None; the warnings of the lines it
+        affects): refused when the stated relative motion alone makes U exceed the ISO 16063-21
+        limit at every line of the plan, else a warning naming the lines where it does."""
+        over = self.over_limit_hz(frequencies_hz)
+        if over and len(over) == len(frequencies_hz):
+            return (
+                f"fixture.position {self.name!r} relative_motion: its stated relative "
+                "motion alone exceeds the ISO 16063-21 limit at every line of the plan"
+            ), ()
+        if not over:
+            return None, ()
+        lines = ", ".join(f"{f:g}" for f in over)
+        return None, (
+            f"fixture position {self.name}: its stated relative motion alone exceeds "
+            f"the ISO 16063-21 limit at {lines} Hz",
+        )
+
 
 @dataclass(frozen=True)
 class Fixture:

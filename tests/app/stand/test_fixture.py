@@ -160,6 +160,18 @@ def test_the_iso_limit_check_names_the_lines_the_stated_motion_alone_exceeds() -
     loud = _with_fixture(POSITION_A.replace("[10000.0, 1.0]", "[10000.0, 5.0]")).fixture
     assert loud is not None
     assert loud.position("A").over_limit_hz([160.0, 8000.0, 10000.0]) == [8000.0, 10000.0]
+    # the plan with lines the motion leaves alone: a warning naming the others
+    assert position.limit_check([160.0, 10000.0]) == (None, ())
+    refusal, warnings = loud.position("A").limit_check([160.0, 8000.0, 10000.0])
+    assert refusal is None
+    assert warnings == (
+        "fixture position A: its stated relative motion alone exceeds the ISO 16063-21 limit "
+        "at 8000, 10000 Hz",
+    )
+    # every line of the plan over: refused, no warnings
+    refusal, warnings = loud.position("A").limit_check([8000.0, 10000.0])
+    assert warnings == () and refusal is not None
+    assert "fixture.position 'A' relative_motion" in refusal and "every line" in refusal
 
 
 def test_the_daq_needs_a_reference_and_a_dut_channel_of_either_kind() -> None:
