@@ -87,6 +87,8 @@ browser:
 # where load reports the crashed test as failed and goes on. A test that runs past
 # faulthandler_timeout (pyproject.toml, 30 min) has every thread's stack printed and its worker
 # ended.
+TEST_WORKERS ?= 3
+FAST_WORKERS ?= 2
 PYTEST_PARALLEL := -n $(TEST_WORKERS) --dist load
 
 test: $(STAMP) xvfb browser
