@@ -21,6 +21,9 @@ pooled runs of all blocks, each block's figure shown beside it.
 
 Run: python bench/coverage_fixture.py [--runs N] [--blocks B] [--periods P] [--stand FILE]
 [--smoke]   (--smoke: two runs in one block, one period; figures not meaningful)
+     python bench/coverage_fixture.py --pool OUT0 OUT1   (pools the printed outputs of runs of
+     different blocks, e.g. two processes at once: the pooled table, each cell's Clopper-Pearson
+     95 % interval, the cells outside the band)
 """
 
 from __future__ import annotations
@@ -274,6 +277,64 @@ def _at(rows: list[list[float]], frequency_hz: float) -> float:
     return float(np.exp(np.interp(x, np.log(f[:, 0]), np.log(f[:, 1]))))
 
 
+def _read_tables(path: Path) -> dict[tuple[str, float], tuple[int, int, int]]:
+    """A printed run's per-block table: (position, line Hz) -> (runs, within U, phase within)."""
+    import re
+
+    out: dict[tuple[str, float], tuple[int, int, int]] = {}
+    position = None
+    row = re.compile(r"\s+([\d.]+)\s+(\d+)\s+([\d.]+)\s+([\d.]+)\s+([\d.]+)\s")
+    for text in path.read_text(encoding="utf-8").splitlines():
+        head = re.match(r"position (\w+):", text)
+        if head:
+            position = head.group(1)
+            continue
+        found = row.match(text + " ")
+        if found and position is not None:
+            n = int(found.group(2))
+            key = (position, float(found.group(1)))
+            out[key] = (n, round(float(found.group(4)) * n), round(float(found.group(5)) * n))
+    return out
+
+
+def pool(paths: list[Path]) -> int:
+    """The pooled coverage of the runs whose printed output `paths` are (one block each: their
+    seeds must differ), with each pooled cell's Clopper-Pearson 95 % interval; how many cells
+    lie outside the band."""
+    from scipy.stats import beta
+
+    tables = [_read_tables(p) for p in paths]
+    keys = sorted(set.intersection(*(set(t) for t in tables)))
+    outside, excluded = [], []
+    print(f"pooled over {', '.join(str(p) for p in paths)}: magnitude (phase) per position")
+    positions = sorted({k[0] for k in keys})
+    print(f"{'f Hz':>8} " + " ".join(f"{p:>15}" for p in positions))
+    for f in sorted({k[1] for k in keys}):
+        cells = []
+        for position in positions:
+            counts = [t[(position, f)] for t in tables if (position, f) in t]
+            n = sum(c[0] for c in counts)
+            shares = []
+            for q, name in ((1, "magnitude"), (2, "phase")):
+                hits = sum(c[q] for c in counts)
+                share = hits / n
+                lo = 0.0 if hits == 0 else float(beta.ppf(0.025, hits, n - hits + 1))
+                hi = 1.0 if hits == n else float(beta.ppf(0.975, hits + 1, n - hits))
+                if not LOW <= share <= HIGH:
+                    outside.append(f"{position} {f:g} Hz {name}: {share:.3f} [{lo:.3f}, {hi:.3f}]")
+                if hi < LOW or lo > HIGH:
+                    excluded.append(f"{position} {f:g} Hz {name}")
+                shares.append(share)
+            cells.append(f"{shares[0]:.3f} ({shares[1]:.3f})")
+        print(f"{f:8g} " + " ".join(f"{c:>15}" for c in cells))
+    total = 2 * len(keys)
+    print(f"\ncells {total}; outside {LOW:.1%}-{HIGH:.1%}: {len(outside)} (interval in brackets)")
+    for line in outside:
+        print(f"  {line}")
+    print(f"cells whose 95 % interval lies outside the band: {len(excluded)} {excluded}")
+    return len(outside)
+
+
 def _interrupt(signum: int, frame: object) -> None:
     raise KeyboardInterrupt
 
@@ -290,7 +351,16 @@ def main() -> int:
         "--max-hz", type=float, default=10_000.0, help="the plan's top line (<= 2500: the preset)"
     )
     parser.add_argument("--smoke", action="store_true")
+    parser.add_argument(
+        "--pool", type=Path, nargs="+", help="pool the printed outputs of runs of other blocks"
+    )
     args = parser.parse_args()
+    if args.pool:
+        missing = [p for p in args.pool if not p.is_file()]
+        if missing:
+            print(f"--pool: {missing[0]} is not a file", file=sys.stderr)
+            return 2
+        return 1 if pool(args.pool) else 0
     runs, blocks, periods = (2, 1, 1) if args.smoke else (args.runs, args.blocks, args.periods)
     if runs < 1 or blocks < 1:
         print("--runs and --blocks: at least 1", file=sys.stderr)
