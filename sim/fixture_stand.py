@@ -32,6 +32,7 @@ from sim.stand import SimulatedStand, catalogue_sensor
 from sim.teds import position_teds
 from sim.triaxial import (
     AXIS_NAMES,
+    MASS_G,
     Mounting,
     TableTransverse,
     TriaxialSensor,
@@ -50,7 +51,7 @@ def channel_delays(config: DaqConfig, interval_s: float) -> dict[str, float]:
 
 
 TRIAXIAL_MODEL = "triaxial@"  # "triaxial@x": the example triaxial sensor, its x axis along
-TRIAXIAL_MASS_G = 15.0  # the exciter's (one sensor: each of its three channels counts a third)
+TRIAXIAL_MASS_G = MASS_G  # one sensor: each of its three channels counts a third
 TILT_MAX_RAD = math.radians(0.05)  # the mounting's misalignment, uniform in a disc
 TABLE = TableTransverse(ratio=0.0005, rocking_hz=4000.0, rocking_q=8.0)
 

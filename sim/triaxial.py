@@ -93,6 +93,9 @@ class TriaxialSensor:
         return out
 
 
+MASS_G = 15.0  # the example sensor's mass, g (on the exciter: each channel counts a third)
+
+
 def example_sensor() -> TriaxialSensor:
     """A triaxial sensor like a small IEPE cube: about 10 mV/(m/s^2), resonances 22-30 kHz,
     transverse 1-4 % at various angles, each axis with its own phase."""

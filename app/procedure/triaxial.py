@@ -47,7 +47,7 @@ from app.records.run_folder import RunFolder
 from app.records.run_start import BatchLink
 from app.stand.config import StandConfig
 from app.stand.fixture import AXES, Fixture, FixturePosition
-from app.stand.simulated import reference_sensitivity_mv_per_ms2
+from app.stand.simulated import reference_sensitivity_mv_per_ms2, triaxial_spec
 
 if TYPE_CHECKING:
     from app.procedure import Listener, Procedure
@@ -169,7 +169,14 @@ def open_triaxial(
     assert fixture is not None
     request = with_stand_plan(request, config.plan)
     frequencies = [float(f) for f in request_plan(request).frequencies_hz]
-    spec = _member_spec(request, dataclasses.replace(choice, model=None), config.backend)
+    if config.backend == Backend.SIM:  # the simulated triaxial sensor's own data sheet
+        spec = triaxial_spec().with_options(
+            serial=choice.serial,
+            nominal_mv_per_ms2=request.nominal_mv_per_ms2,
+            tolerance_percent=request.tolerance_percent,
+        )
+    else:
+        spec = _member_spec(request, dataclasses.replace(choice, model=None), config.backend)
     problems = fixture.mass_problems({position.name: (spec.mass_g or 0.0) / 1000.0})
     if problems:
         raise PreflightError("; ".join(problems))
@@ -198,6 +205,8 @@ def open_triaxial(
         duts=duts,
         extra_budget=terms,
     )
+    # the main axis's verdict against the sensor's data sheet (the request's is its --dut's)
+    procedure.tolerances = spec.tolerances(procedure.plan.reference_frequency_hz)
     stated = procedure.identity.dut
     if stated is not None:  # not the catalogue model the stand's checks used: no such model
         procedure.identity = dataclasses.replace(

@@ -52,6 +52,7 @@ __all__ = [
     "CATALOGUE_TOLERANCES",
     "EXCITERS",
     "FAULT_KINDS",
+    "TRIAXIAL_DATA_SHEET",
     "DrivenHum",
     "catalogue_entries",
     "catalogue_spec",
@@ -60,6 +61,7 @@ __all__ = [
     "parse_faults",
     "parse_sim_hum",
     "plan_preset_for",
+    "triaxial_spec",
 ]
 
 
@@ -67,6 +69,37 @@ def reference_sensitivity_mv_per_ms2() -> float:
     """The simulated reference standard's nominal sensitivity, mV/(m/s^2), before its
     conditioning amplifier (the stand file's reference gain)."""
     return float(StandModel().reference.sensitivity_mv_per_ms2)
+
+
+# the simulated triaxial sensor's data sheet (sim/triaxial.py's example; each axis alike, as a
+# triaxial data sheet states one nominal): 10 mV/(m/s^2) +-10 %, frequency response +-10 %
+# 0.5 Hz-5 kHz, phase +-10 degrees 10 Hz-5 kHz
+TRIAXIAL_DATA_SHEET: dict[str, Any] = {
+    "nominal_mv_per_ms2": 10.0,
+    "sensitivity_percent": 10.0,
+    "characteristic": (Band(0.5, 5000.0, 10.0),),
+    "phase": (Band(10.0, 5000.0, 10.0),),
+}
+
+
+def triaxial_spec() -> DutSpec:
+    """The simulated triaxial sensor's data sheet, for each of its main axes (not the
+    catalogue piezo's: its axes are 9.7-10.6 mV/(m/s^2))."""
+    from sim.triaxial import MASS_G
+
+    sheet = TRIAXIAL_DATA_SHEET
+    return DutSpec(
+        model="simulated triaxial (sim/triaxial.py's example)",
+        manufacturer="simulated",
+        kind="piezoelectric, triaxial",
+        description="a small IEPE cube: three axes, resonances 22-30 kHz",
+        nominal_mv_per_ms2=sheet["nominal_mv_per_ms2"],
+        sensitivity_percent=sheet["sensitivity_percent"],
+        characteristic=sheet["characteristic"],
+        phase=sheet["phase"],
+        mass_g=MASS_G,
+        source="data sheet of the simulated triaxial sensor",
+    )
 
 
 def catalogue_spec(name: str | None) -> DutSpec:
