@@ -12,8 +12,9 @@ per third-octave band (dsp.budget_table): the root mean square over 20 000 reali
 rounded down to two digits: the U the stand states for its best device, as the file's lower
 band is.
 
-Run: python bench/stand_terms.py [--check FILE | --write FILE]   (prints the blocks; --check:
-exit 1 unless FILE holds them as printed; --write: puts them between FILE's markers)
+Run: python bench/stand_terms.py [--check FILE | --write FILE | --smoke]
+(prints the blocks; --check: exit 1 unless FILE holds them as printed; --write: puts them
+between FILE's markers; --smoke: 500 draws, printed only, figures not meaningful)
 """
 
 from __future__ import annotations
@@ -77,10 +78,10 @@ def _g(x: float) -> str:
     return f"{float(f'{x:.2g}'):g}" if x else "0.0"
 
 
-def component_block() -> tuple[str, list[dict[str, object]]]:
+def component_block(draws: int = DRAWS) -> tuple[str, list[dict[str, object]]]:
     """The [[component]] tables (TOML) and the entries they are."""
     f = np.array(LINES_HZ)
-    terms = characterised_terms(f, tuple(dict.fromkeys(t for t, *_ in TABLES)), draws=DRAWS)
+    terms = characterised_terms(f, tuple(dict.fromkeys(t for t, *_ in TABLES)), draws=draws)
     entries, text = [], [f"{BEGIN} (the stand's terms above 2 kHz; do not edit by hand)"]
     for term, quantity, kind, name in TABLES:
         magnitude, phase = terms[term]
@@ -103,7 +104,7 @@ def component_block() -> tuple[str, list[dict[str, object]]]:
             'distribution = "standard"',
             f'quantity = "{quantity}"',
             f"min_frequency_hz = {FROM_HZ}",
-            f"# Hz, standard uncertainty ({unit}): rms of {DRAWS} draws, seed {LAB_SEED}",
+            f"# Hz, standard uncertainty ({unit}): rms of {draws} draws, seed {LAB_SEED}",
             "table = [" + ", ".join(f"[{fi:g}.0, {_g(v)}]" for fi, v in rows) + "]",
             f'note = "{term.value}: sim/true_stand.py characterised (bench/stand_terms.py)"',
             "",
@@ -132,11 +133,11 @@ def cmc_block(budget: Budget) -> str:
     return "\n".join(out)
 
 
-def blocks(stand: Path) -> str:
+def blocks(stand: Path, draws: int = DRAWS) -> str:
     """Both blocks as the stand file holds them (the CMC from its budget with the tables)."""
     from app.stand import config as stand_config
 
-    text, entries = component_block()
+    text, entries = component_block(draws)
     names = tuple(name for *_, name in TABLES)
     own = [c for c in stand_config.load(stand).budget.components if not c.name.startswith(names)]
     budget = Budget((*own, *Budget.from_list(entries).components))
@@ -156,8 +157,12 @@ def main() -> int:
     parser.add_argument("--check", type=Path, help="a stand file that must hold the blocks")
     parser.add_argument("--write", type=Path, help="put the blocks between FILE's markers")
     parser.add_argument("--stand", type=Path, default=ROOT / "sim" / "stand-fixture4-physics.toml")
+    parser.add_argument("--smoke", action="store_true", help="500 draws, print only")
     args = parser.parse_args()
     stand = args.check or args.write or args.stand
+    if args.smoke:  # the code path, not the figures
+        print(blocks(stand, draws=500), end="")
+        return 0
     expected = blocks(stand)
     print(expected, end="")
     if args.write is not None:
