@@ -61,6 +61,7 @@ from PySide6.QtCore import QEventLoop, Qt, QTimer
 from PySide6.QtWidgets import QApplication
 
 from app.gui import worker as run_worker
+from app.gui.collector import collected_on_gui_thread
 from app.gui.main_window import MainWindow
 from app.gui.plots import FRAME_HZ
 
@@ -298,131 +299,138 @@ def main(argv: list[str] | None = None) -> int:
     run_worker.GIL_SWITCH_S = 1e-3 * args.gil_switch_ms
     load_start = load()
     app = QApplication.instance() or QApplication(sys.argv[:1])
-    work = Path(tempfile.mkdtemp(prefix="bench-gui-"))
-    # never the user's data or records: stored responses and runs in a folder of its own
-    os.environ["ACCELCAL_DATA_DIR"] = str(work / "data")
-    window = MainWindow(
-        stand_file=stand_file(work, args.period_samples, args.duts),
-        out=work / "runs",
-        paced=True,
-        db=f"sqlite:///{work / 'none.sqlite'}",
-    )
-    window.records.wait()
-    window.wait_for_plans()
-    if args.duts > 1:  # a serial at each of the first N positions, as the operator types it
-        for i, row in enumerate(window.setup_tab.fixture.rows[: args.duts], start=1):
-            row.serial.setText(f"BENCH-{i}")
-            row.serial.editingFinished.emit()
-    if args.periods is not None:
-        window.setup_tab.periods.setValue(args.periods)
-    problems = window.setup_tab.validate()
-    if problems:
-        print(f"the plan cannot run: {'; '.join(problems)}", file=sys.stderr)
-        return 2
-    window.resize(WIDTH, HEIGHT)
-    window.show()
-    tab = window.run_tab
-    window.tabs.setCurrentWidget(tab)
-    wait(0.5)  # laid out and painted once
-    trace = args.trace.open("w", encoding="utf-8") if args.trace else None
-    probe = Probe(window, trace)
-    wait(args.idle_seconds)
-    idle = probe.take()
-    ended: list[Any] = []
-    tab.ended.connect(ended.append)
-    wall, cpu = time.perf_counter(), time.thread_time()
-    window.start_run()  # as the operator's click
-    start_wall_ms = 1e3 * (time.perf_counter() - wall)
-    start_cpu_ms = 1e3 * (time.thread_time() - cpu)
-    if tab.worker is None:
-        print(f"the run did not start: {tab.messages.text()}", file=sys.stderr)
-        return 2
-    probe.start()
-    wait(args.seconds)
-    live = probe.take()
-    tab.stop()  # as the operator: the run fades out and ends aborted through the tab's path
-    deadline = time.perf_counter() + 60.0
-    while not ended and time.perf_counter() < deadline:
-        wait(0.05)
-    load_end = load()
-    probe.heartbeat.stop()
-    if trace is not None:
-        faulthandler.cancel_dump_traceback_later()
-        trace.close()
-    period_s = args.period_samples / FS
-    print(
-        f"live run: paced simulated stand, 2 x {FS:g} S/s (and the drive), periods of "
-        f"{args.period_samples} samples ({period_s:g} s), the piezo preset's lines, "
-        f"{args.duts} DUT(s){' on ' + FIXTURE_STAND if args.duts > 1 else ''}, "
-        f"{window.setup_tab.periods.value()} period(s) acquired; "
-        f"{args.seconds:g} s live after {args.idle_seconds:g} s idle"
-        f"{' (smoke)' if args.smoke else ''}"
-    )
-    print(
-        f"Qt platform: {QApplication.platformName()}; window {WIDTH} x {HEIGHT} px; "
-        f"frame timer {FRAME_HZ} Hz, heartbeat {HEARTBEAT_MS} ms"
-    )
-    print("| figure | idle window (baseline) | live run | live / idle | target |")
-    print("| --- | --- | --- | --- | --- |")
-    print(
-        f"| updates per second (frame-timer slots) | {idle.updates_per_s:.1f} | "
-        f"{live.updates_per_s:.1f} | {ratio(live.updates_per_s, idle.updates_per_s)} | "
-        f">= {TARGET_RATE:g} |"
-    )
-    print(
-        f"| longest main-thread gap (stall) | {idle.longest_gap_ms:.1f} ms | "
-        f"{live.longest_gap_ms:.1f} ms | {ratio(live.longest_gap_ms, idle.longest_gap_ms)} | "
-        f"< {TARGET_STALL_MS:g} ms |"
-    )
-    print(
-        f"| p99 main-thread gap | {idle.p99_gap_ms:.1f} ms | {live.p99_gap_ms:.1f} ms | "
-        f"{ratio(live.p99_gap_ms, idle.p99_gap_ms)} | |"
-    )
-    print(
-        f"| frame-slot GUI CPU, longest | {idle.slot_cpu_max_ms:.2f} ms | "
-        f"{live.slot_cpu_max_ms:.2f} ms | | |"
-    )
-    print(
-        f"longest live stall: {live.longest_gap_ms:.1f} ms, in the run's phase "
-        f"'{live.longest_phase}', ended {live.longest_at_s:.2f} s after Start returned (the Run "
-        f"tab saying {live.longest_state!r}); the run worker's CPU within it "
-        f"{live.longest_worker_cpu_ms:.1f} ms, the GUI thread's own "
-        f"{live.longest_main_cpu_ms:.1f} ms"
-    )
-    print(
-        "longest stall per phase: "
-        + ", ".join(f"{phase} {ms:.1f} ms" for phase, ms in live.phases.items())
-    )
-    print(
-        f"GIL switch interval during the run: {1e3 * sys.getswitchinterval():g} ms "
-        f"(CPython's default 5 ms)"
-    )
-    print(
-        f"new periods drawn: {live.periods_drawn} in {live.seconds:.1f} s; Start click on the "
-        f"main thread: {start_wall_ms:.0f} ms wall, {start_cpu_ms:.0f} ms CPU"
-    )
-    print(
-        f"load average (1, 5, 15 min) at start {load_start}; at end {load_end}; "
-        f"{os.cpu_count()} cores"
-    )
-    finished = ended[0] if ended else None
-    print(
-        f"run ended: {finished.status if finished else 'not within 60 s'}"
-        f"{f' ({finished.abort_reason})' if finished else ''}; Run tab: {tab.state.text()}"
-    )
-    rate_ok = live.updates_per_s >= TARGET_RATE
-    stall_ok = live.longest_gap_ms < TARGET_STALL_MS
-    met = rate_ok and stall_ok
-    print(
-        f"targets (>= {TARGET_RATE:g} updates/s, longest stall < {TARGET_STALL_MS:g} ms): "
-        f"{'PASS' if met else 'FAIL'}: {live.updates_per_s:.1f} updates/s "
-        f"{'pass' if rate_ok else 'FAIL'}, longest stall {live.longest_gap_ms:.1f} ms "
-        f"{'pass' if stall_ok else 'FAIL'}"
-        + ("" if met else " (judge on an idle machine: the ratios above are the load-free part)")
-    )
-    window.close()
-    app.processEvents()
-    return 0 if met or args.smoke else 1
+    # as `accelcal gui` runs the window: cyclic garbage collected on this thread only
+    with collected_on_gui_thread():
+        work = Path(tempfile.mkdtemp(prefix="bench-gui-"))
+        # never the user's data or records: stored responses and runs in a folder of its own
+        os.environ["ACCELCAL_DATA_DIR"] = str(work / "data")
+        window = MainWindow(
+            stand_file=stand_file(work, args.period_samples, args.duts),
+            out=work / "runs",
+            paced=True,
+            db=f"sqlite:///{work / 'none.sqlite'}",
+        )
+        window.records.wait()
+        window.wait_for_plans()
+        if args.duts > 1:  # a serial at each of the first N positions, as the operator types it
+            for i, row in enumerate(window.setup_tab.fixture.rows[: args.duts], start=1):
+                row.serial.setText(f"BENCH-{i}")
+                row.serial.editingFinished.emit()
+        if args.periods is not None:
+            window.setup_tab.periods.setValue(args.periods)
+        problems = window.setup_tab.validate()
+        if problems:
+            print(f"the plan cannot run: {'; '.join(problems)}", file=sys.stderr)
+            return 2
+        window.resize(WIDTH, HEIGHT)
+        window.show()
+        tab = window.run_tab
+        window.tabs.setCurrentWidget(tab)
+        wait(0.5)  # laid out and painted once
+        trace = args.trace.open("w", encoding="utf-8") if args.trace else None
+        probe = Probe(window, trace)
+        wait(args.idle_seconds)
+        idle = probe.take()
+        ended: list[Any] = []
+        tab.ended.connect(ended.append)
+        wall, cpu = time.perf_counter(), time.thread_time()
+        window.start_run()  # as the operator's click
+        start_wall_ms = 1e3 * (time.perf_counter() - wall)
+        start_cpu_ms = 1e3 * (time.thread_time() - cpu)
+        if tab.worker is None:
+            print(f"the run did not start: {tab.messages.text()}", file=sys.stderr)
+            return 2
+        probe.start()
+        wait(args.seconds)
+        live = probe.take()
+        tab.stop()  # as the operator: the run fades out and ends aborted through the tab's path
+        deadline = time.perf_counter() + 60.0
+        while not ended and time.perf_counter() < deadline:
+            wait(0.05)
+        load_end = load()
+        probe.heartbeat.stop()
+        if trace is not None:
+            faulthandler.cancel_dump_traceback_later()
+            trace.close()
+        period_s = args.period_samples / FS
+        print(
+            f"live run: paced simulated stand, 2 x {FS:g} S/s (and the drive), periods of "
+            f"{args.period_samples} samples ({period_s:g} s), the piezo preset's lines, "
+            f"{args.duts} DUT(s){' on ' + FIXTURE_STAND if args.duts > 1 else ''}, "
+            f"{window.setup_tab.periods.value()} period(s) acquired; "
+            f"{args.seconds:g} s live after {args.idle_seconds:g} s idle"
+            f"{' (smoke)' if args.smoke else ''}"
+        )
+        print(
+            f"Qt platform: {QApplication.platformName()}; window {WIDTH} x {HEIGHT} px; "
+            f"frame timer {FRAME_HZ} Hz, heartbeat {HEARTBEAT_MS} ms"
+        )
+        print("| figure | idle window (baseline) | live run | live / idle | target |")
+        print("| --- | --- | --- | --- | --- |")
+        print(
+            f"| updates per second (frame-timer slots) | {idle.updates_per_s:.1f} | "
+            f"{live.updates_per_s:.1f} | {ratio(live.updates_per_s, idle.updates_per_s)} | "
+            f">= {TARGET_RATE:g} |"
+        )
+        print(
+            f"| longest main-thread gap (stall) | {idle.longest_gap_ms:.1f} ms | "
+            f"{live.longest_gap_ms:.1f} ms | {ratio(live.longest_gap_ms, idle.longest_gap_ms)} | "
+            f"< {TARGET_STALL_MS:g} ms |"
+        )
+        print(
+            f"| p99 main-thread gap | {idle.p99_gap_ms:.1f} ms | {live.p99_gap_ms:.1f} ms | "
+            f"{ratio(live.p99_gap_ms, idle.p99_gap_ms)} | |"
+        )
+        print(
+            f"| frame-slot GUI CPU, longest | {idle.slot_cpu_max_ms:.2f} ms | "
+            f"{live.slot_cpu_max_ms:.2f} ms | | |"
+        )
+        print(
+            f"longest live stall: {live.longest_gap_ms:.1f} ms, in the run's phase "
+            f"'{live.longest_phase}', ended {live.longest_at_s:.2f} s after Start returned "
+            f"(the Run "
+            f"tab saying {live.longest_state!r}); the run worker's CPU within it "
+            f"{live.longest_worker_cpu_ms:.1f} ms, the GUI thread's own "
+            f"{live.longest_main_cpu_ms:.1f} ms"
+        )
+        print(
+            "longest stall per phase: "
+            + ", ".join(f"{phase} {ms:.1f} ms" for phase, ms in live.phases.items())
+        )
+        print(
+            f"GIL switch interval during the run: {1e3 * sys.getswitchinterval():g} ms "
+            f"(CPython's default 5 ms)"
+        )
+        print(
+            f"new periods drawn: {live.periods_drawn} in {live.seconds:.1f} s; Start click on the "
+            f"main thread: {start_wall_ms:.0f} ms wall, {start_cpu_ms:.0f} ms CPU"
+        )
+        print(
+            f"load average (1, 5, 15 min) at start {load_start}; at end {load_end}; "
+            f"{os.cpu_count()} cores"
+        )
+        finished = ended[0] if ended else None
+        print(
+            f"run ended: {finished.status if finished else 'not within 60 s'}"
+            f"{f' ({finished.abort_reason})' if finished else ''}; Run tab: {tab.state.text()}"
+        )
+        rate_ok = live.updates_per_s >= TARGET_RATE
+        stall_ok = live.longest_gap_ms < TARGET_STALL_MS
+        met = rate_ok and stall_ok
+        print(
+            f"targets (>= {TARGET_RATE:g} updates/s, longest stall < {TARGET_STALL_MS:g} ms): "
+            f"{'PASS' if met else 'FAIL'}: {live.updates_per_s:.1f} updates/s "
+            f"{'pass' if rate_ok else 'FAIL'}, longest stall {live.longest_gap_ms:.1f} ms "
+            f"{'pass' if stall_ok else 'FAIL'}"
+            + (
+                ""
+                if met
+                else " (judge on an idle machine: the ratios above are the load-free part)"
+            )
+        )
+        window.close()
+        app.processEvents()
+        return 0 if met or args.smoke else 1
 
 
 if __name__ == "__main__":
