@@ -41,6 +41,7 @@ import time
 from collections import defaultdict
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -161,10 +162,9 @@ def one_run(
                 finished.abort_reason,
             )
             continue
-        lines = true_stand_lines(folder / str(finished.record.run_id), member_seed(seed, index))
-        recording = read_recording(folder / str(finished.record.run_id) / "recording.h5")
-        truth = recording.truth
-        assert truth is not None
+        lines, truth = true_stand_lines(
+            folder / str(finished.record.run_id), member_seed(seed, index)
+        )
         tally = counted[choice.position]
         motion = None
         if fixture is not None:
@@ -203,17 +203,20 @@ def member_seed(seed: int, index: int) -> int:
     return 1_000_000 + 16 * seed + index
 
 
-def true_stand_lines(run: Path, true_seed: int) -> list:  # type: ignore[type-arg]
+def true_stand_lines(run: Path, true_seed: int) -> tuple[list, Any]:  # type: ignore[type-arg]
     """The member run's lines analysed as `accelcal analyze` analyses it (its estimator), with
-    the true stand of `true_seed` put on its recorded DUT channel."""
+    the true stand of `true_seed` put on its recorded DUT channel; and the DUT's truth the
+    recording names (its sensor model's sensitivity and phase per line)."""
     recording = read_recording(run / "recording.h5")
+    truth = recording.truth
+    assert truth is not None
     true = TrueStand.draw(true_seed)
     recording = dataclasses.replace(
         recording, dut_v=true.apply(recording.dut_v, recording.sample_rate_hz)
     )
     estimator = RunStart.read(run).settings.get("estimator")
     kwargs = {"estimator": str(estimator)} if estimator else {}
-    return list(analyze(recording, **kwargs).results.lines)
+    return list(analyze(recording, **kwargs).results.lines), truth
 
 
 def stated_motion(stand: Path) -> dict[str, list[list[float]]]:
